@@ -1,0 +1,31 @@
+"""The simplest team: both defenders chase the ball."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from soccer_drill.skills import Command, Skill
+from soccer_drill.state import DrillView
+
+
+class Chasers:
+    """Both defenders run for the ball at a fraction ``speed`` of their top speed.
+
+    Args:
+        speed: fraction of the defenders' top speed, in (0, 1].
+    """
+
+    def __init__(self, speed: float = 1.0) -> None:
+        if not 0.0 < speed <= 1.0:
+            raise ValueError(f"speed must be in (0, 1], got {speed!r}")
+        self.speed = speed
+        self._players: tuple[str, ...] = ()
+
+    def reset(self, view: DrillView, rng: np.random.Generator) -> None:
+        self._players = view.players
+
+    def act(self, view: DrillView) -> Mapping[str, Command]:
+        command = Command(Skill.INTERCEPT, speed=self.speed)
+        return dict.fromkeys(self._players, command)

@@ -1,0 +1,186 @@
+"""What the AEC, parallel and holder environments share: setup, spaces, checks, one cycle."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, Literal
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+
+from soccer_drill.config import DrillConfig
+from soccer_drill.drill import Drill
+from soccer_drill.features import feature_bounds, features, kinematic_bounds, kinematics
+from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS, Command, Skill
+from soccer_drill.state import PLAYER_NAMES, DrillView
+from soccer_drill.support import SupportPlayer
+from soccer_drill.teams import Team, TeamDriver, make_team
+
+ObsType = Literal["features", "kinematic"]
+IllegalAction = Literal["raise", "default"]
+
+_ATTACKER_HOLDER_MASK = np.array([1, 1, 1, 0, 0], dtype=np.int8)
+_ATTACKER_OFF_BALL_MASK = np.array([0, 0, 0, 1, 1], dtype=np.int8)
+_DEFENDER_MASK = np.ones(len(DEFENDER_ACTIONS), dtype=np.int8)
+for _mask in (_ATTACKER_HOLDER_MASK, _ATTACKER_OFF_BALL_MASK, _DEFENDER_MASK):
+    _mask.flags.writeable = False
+_DEFAULT_ATTACKER_ACTION = {True: 0, False: 3}  # holder: HOLD; off the ball: GET_OPEN
+_DEFAULT_DEFENDER_ACTION = 0  # INTERCEPT
+
+
+def make_config(config: DrillConfig | Mapping[str, Any] | None, max_cycles: int | None) -> DrillConfig:
+    """Resolve the ``config`` and ``max_cycles`` arguments into one :class:`DrillConfig`."""
+    if config is None:
+        config = DrillConfig()
+    elif isinstance(config, Mapping):
+        config = DrillConfig.from_dict(dict(config))
+    elif not isinstance(config, DrillConfig):
+        raise TypeError(f"config must be a DrillConfig, a dict or None, got {type(config).__name__}")
+    if max_cycles is not None and max_cycles != config.max_cycles:
+        config = DrillConfig.from_dict({**config.to_dict(), "max_cycles": max_cycles})
+    return config
+
+
+class DrillCore:
+    """One drill, its scripted team and support players, spaces and action checks.
+
+    Args:
+        opponent: team id (see :func:`soccer_drill.teams.team_ids`), a :class:`Team`
+            instance, or ``None`` for no scripted team (the defenders are agents).
+        opponent_params: keyword parameters for the team factory.
+        config: drill parameters.
+        obs_type: ``"features"`` (the 9 features) or ``"kinematic"`` (26 values).
+        illegal_action: ``"raise"`` (a masked action is an error) or ``"default"``
+            (it is replaced by the role's default: HOLD, GET_OPEN or INTERCEPT).
+        scripted_attackers: attackers driven by :class:`SupportPlayer`.
+    """
+
+    def __init__(
+        self,
+        opponent: str | Team | None,
+        opponent_params: Mapping[str, Any] | None,
+        config: DrillConfig,
+        obs_type: ObsType = "features",
+        illegal_action: IllegalAction = "raise",
+        scripted_attackers: tuple[int, ...] = (),
+    ) -> None:
+        if obs_type not in ("features", "kinematic"):
+            raise ValueError(f"obs_type must be 'features' or 'kinematic', got {obs_type!r}")
+        if illegal_action not in ("raise", "default"):
+            raise ValueError(
+                f"illegal_action must be 'raise' or 'default', got {illegal_action!r}"
+            )
+        self.config = config
+        self.drill = Drill(config)
+        self.obs_type = obs_type
+        self.illegal_action = illegal_action
+        self.team_name: str | None
+        if opponent is None:
+            if opponent_params:
+                raise ValueError("opponent_params given but opponent is None")
+            self.team, self.team_name = None, None
+        elif isinstance(opponent, str):
+            self.team, self.team_name = make_team(opponent, **dict(opponent_params or {})), opponent
+        elif isinstance(opponent, Team):
+            self.team, self.team_name = opponent, type(opponent).__name__
+        else:
+            raise TypeError(
+                f"opponent must be a team id, a Team instance or None, got {opponent!r}"
+            )
+        scripted = set(scripted_attackers) | ({2, 3} if self.team is not None else set())
+        self.agent_indices = tuple(i for i in range(4) if i not in scripted)
+        self.scripted_attackers = tuple(sorted(scripted_attackers))
+        self.support = SupportPlayer()
+        self._driver = (
+            TeamDriver(self.team, self.team_name or "", PLAYER_NAMES[2:]) if self.team else None
+        )
+        self.view = DrillView(self.drill, PLAYER_NAMES[2:])
+        if obs_type == "features":
+            low, high = feature_bounds(config)
+            self._observe = features
+            self._obs_args: tuple = (config, low, high)
+        else:
+            low, high = kinematic_bounds(config)
+            self._observe = kinematics
+            self._obs_args = (low, high)
+        self.obs_box = spaces.Box(low, high, dtype=np.float32)
+        self.np_random, _ = seeding.np_random()
+
+    # -------------------------------------------------------------- episodes
+    def seed(self, seed: int | None) -> None:
+        if seed is not None:
+            self.np_random, _ = seeding.np_random(seed)
+
+    def reset(self) -> None:
+        self.drill.reset(self.np_random)
+        # Children draw from their own streams so a team's draws never shift the physics noise.
+        support_seed, team_seed = self.np_random.integers(2**63, size=2)
+        self.support.reset(np.random.default_rng(int(support_seed)))
+        if self._driver is not None:
+            self._driver.reset(self.view, np.random.default_rng(int(team_seed)))
+
+    def advance(self, commands: list[Command | None]) -> None:
+        """One cycle; ``commands`` holds the agents' commands, ``None`` for the others."""
+        state, cfg = self.drill.state, self.config
+        for i in self.scripted_attackers:
+            if commands[i] is None:
+                commands[i] = self.support.command(state, i, cfg)
+        if self._driver is not None:
+            for i, command in self._driver.act(self.view):
+                commands[i] = command
+        self.drill.step(commands, self.np_random)  # type: ignore[arg-type]
+
+    # ---------------------------------------------------------- observations
+    def observe(self, index: int) -> np.ndarray:
+        return self._observe(self.drill.state, index, *self._obs_args)
+
+    def mask(self, index: int) -> np.ndarray:
+        if index >= 2:
+            return _DEFENDER_MASK
+        return _ATTACKER_HOLDER_MASK if self.drill.state.holder == index else _ATTACKER_OFF_BALL_MASK
+
+    # --------------------------------------------------------------- actions
+    def command_for(self, agent: str, index: int, action: object) -> Command:
+        """Check ``action`` of ``agent`` and turn it into a command."""
+        actions = ATTACKER_ACTIONS if index < 2 else DEFENDER_ACTIONS
+        if isinstance(action, np.ndarray) and action.shape == ():
+            action = action.item()
+        if isinstance(action, bool) or not isinstance(action, int | np.integer):
+            raise TypeError(
+                f"action for {agent!r} must be an integer in [0, {len(actions) - 1}] "
+                f"({_names(actions)}), got {action!r} of type {type(action).__name__}"
+            )
+        a = int(action)
+        if not 0 <= a < len(actions):
+            raise ValueError(
+                f"action {a} for {agent!r} is out of range; allowed: 0..{len(actions) - 1} "
+                f"({_names(actions)})"
+            )
+        mask = self.mask(index)
+        if not mask[a]:
+            if self.illegal_action == "default":
+                a = (
+                    _DEFAULT_ATTACKER_ACTION[self.drill.state.holder == index]
+                    if index < 2
+                    else _DEFAULT_DEFENDER_ACTION
+                )
+            else:
+                legal = [f"{i}={actions[i].name}" for i in np.flatnonzero(mask)]
+                raise ValueError(
+                    f"action {a} ({actions[a].name}) is masked for {agent!r} at cycle "
+                    f"{self.drill.state.cycle}; legal actions now: {legal}"
+                )
+        return _COMMANDS[actions[a]]
+
+
+def _names(actions: tuple[Skill, ...]) -> str:
+    return ", ".join(f"{i}={s.name}" for i, s in enumerate(actions))
+
+
+_COMMANDS = {skill: Command(skill) for skill in Skill if skill is not Skill.MOVE_TO}
+
+
+def action_spaces() -> tuple[spaces.Discrete, spaces.Discrete]:
+    """Fresh (attacker, defender) action spaces."""
+    return spaces.Discrete(len(ATTACKER_ACTIONS)), spaces.Discrete(len(DEFENDER_ACTIONS))

@@ -1,0 +1,213 @@
+"""The drill's physics and rules: one call to :meth:`Drill.step` is one cycle.
+
+Players and ball are pymunk bodies. Each cycle every player's :class:`Command`
+becomes a desired velocity (acceleration- and speed-capped); the holder keeps
+the ball at a control point just ahead of it with a small kick per cycle, or
+kicks it away; then the world advances ``substeps`` fixed physics steps. Players
+collide with each other and with walls just outside the region; the ball
+collides with nothing and rolls with damping, so leaving the region ends the
+episode. Possession, tackles and the outcome are decided after the physics.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Literal
+
+import numpy as np
+import pymunk
+
+from soccer_drill.config import DrillConfig
+from soccer_drill.skills import BALL_SKILLS, CONTROL, KICK, Command, execute
+from soccer_drill.state import BALL, DrillState
+
+Outcome = Literal["success", "interception", "out", "timeout"]
+OUTCOMES: tuple[Outcome, ...] = ("success", "interception", "out", "timeout")
+
+_PLAYER_CATEGORY, _WALL_CATEGORY = 0b01, 0b10
+_PLAYER_MASS = 75.0
+
+
+class Drill:
+    """The 2v2 drill without any API around it: physics, possession and outcome.
+
+    Args:
+        config: the drill's parameters.
+
+    After :meth:`reset`, :attr:`state` is the current :class:`DrillState`;
+    :attr:`outcome` becomes one of :data:`OUTCOMES` when the episode ends, and
+    :attr:`attacker_reward` is then the attackers' reward.
+    """
+
+    def __init__(self, config: DrillConfig | None = None) -> None:
+        self.config = config or DrillConfig()
+        cfg = self.config
+        self._dt = cfg.cycle_seconds
+        self._sub_dt = cfg.cycle_seconds / cfg.substeps
+        self._roll = cfg.ball_damping**cfg.cycle_seconds  # speed kept per cycle
+        self._space = pymunk.Space()
+        self._players: list[pymunk.Body] = []
+        for _ in range(4):
+            body = pymunk.Body(_PLAYER_MASS, math.inf)  # no spin: players only translate
+            shape = pymunk.Circle(body, cfg.player_radius)
+            shape.elasticity = 0.0
+            shape.friction = 0.0
+            shape.filter = pymunk.ShapeFilter(
+                categories=_PLAYER_CATEGORY, mask=_PLAYER_CATEGORY | _WALL_CATEGORY
+            )
+            self._space.add(body, shape)
+            self._players.append(body)
+        self._ball = pymunk.Body(0.45, pymunk.moment_for_circle(0.45, 0.0, 0.11))
+        ball_shape = pymunk.Circle(self._ball, 0.11)
+        ball_shape.filter = pymunk.ShapeFilter(categories=0, mask=0)  # touches nothing
+        self._space.add(self._ball, ball_shape)
+        lo, hi = -cfg.wall_margin, cfg.field_size + cfg.wall_margin
+        corners = [(lo, lo), (hi, lo), (hi, hi), (lo, hi)]
+        for a, b in zip(corners, corners[1:] + corners[:1], strict=True):
+            wall = pymunk.Segment(self._space.static_body, a, b, 0.1)
+            wall.elasticity = 0.0
+            wall.filter = pymunk.ShapeFilter(categories=_WALL_CATEGORY, mask=_PLAYER_CATEGORY)
+            self._space.add(wall)
+        self._top_speed = (
+            cfg.attacker_speed, cfg.attacker_speed, cfg.defender_speed, cfg.defender_speed,
+        )
+        self.state: DrillState
+        self.outcome: Outcome | None = None
+        self.attacker_reward = 0.0
+
+    # ------------------------------------------------------------------ reset
+    def reset(self, rng: np.random.Generator) -> DrillState:
+        """Place the players with seeded jitter and give the ball to a random attacker."""
+        cfg = self.config
+        starts = (*cfg.attacker_starts, *cfg.defender_starts)
+        jitter = rng.uniform(-cfg.start_jitter, cfg.start_jitter, size=(4, 2))
+        pos = []
+        for body, (x, y), (jx, jy) in zip(self._players, starts, jitter, strict=True):
+            p = (float(x + jx), float(y + jy))
+            body.position = p
+            body.velocity = (0.0, 0.0)
+            pos.append(p)
+        holder = int(rng.integers(2))
+        ball = (pos[holder][0], pos[holder][1] - cfg.ball_offset)
+        self._ball.position = ball
+        self._ball.velocity = (0.0, 0.0)
+        pos.append(ball)
+        self.outcome = None
+        self.attacker_reward = 0.0
+        self.state = DrillState(tuple(pos), ((0.0, 0.0),) * 5, holder, 0)
+        return self.state
+
+    # ------------------------------------------------------------------- step
+    def step(self, commands: Sequence[Command], rng: np.random.Generator) -> DrillState:
+        """Advance one cycle with one command per player (index order)."""
+        if self.outcome is not None:
+            raise RuntimeError("the episode has ended; call reset() first")
+        cfg, state, dt = self.config, self.state, self._dt
+        holder, passer, lockout_until = state.holder, state.passer, state.lockout_until
+        ball_velocity: tuple[float, float] | None = None
+        accel = cfg.player_acceleration * dt
+        for i, (body, command) in enumerate(zip(self._players, commands, strict=True)):
+            motion = execute(state, i, command, cfg, rng)
+            vx0, vy0 = state.vel[i]
+            dvx, dvy = motion.vx - vx0, motion.vy - vy0
+            dv = math.hypot(dvx, dvy)
+            if dv > accel:
+                dvx, dvy = dvx * accel / dv, dvy * accel / dv
+            vx, vy = vx0 + dvx, vy0 + dvy
+            body.velocity = (vx, vy)
+            if i != holder or command.skill not in BALL_SKILLS:
+                continue
+            if motion.ball == KICK:
+                ball_velocity = (motion.bx, motion.by)
+                holder, passer, lockout_until = -1, i, state.cycle + 1 + cfg.pass_lockout_cycles
+            elif motion.ball == CONTROL:
+                # A small kick that puts the ball at the control point after this cycle,
+                # turning it round the player by at most _MAX_TURN so it stays controlled.
+                px, py = state.pos[i]
+                bx, by = state.pos[BALL]
+                ux, uy = _turn_toward(bx - px, by - py, motion.bx, motion.by)
+                cx = px + vx * dt + ux * cfg.ball_offset
+                cy = py + vy * dt + uy * cfg.ball_offset
+                ball_velocity = ((cx - bx) / dt, (cy - by) / dt)
+        if ball_velocity is None:  # rolling freely
+            bvx, bvy = state.vel[BALL]
+            ball_velocity = (bvx * self._roll, bvy * self._roll)
+        self._ball.velocity = _capped(ball_velocity, cfg.ball_max_speed)
+
+        step = self._space.step
+        for _ in range(cfg.substeps):
+            step(self._sub_dt)
+
+        pos, vel = [], []
+        for i, body in enumerate((*self._players, self._ball)):
+            p, v = body.position, body.velocity
+            pos.append((p.x, p.y))
+            cap = cfg.ball_max_speed if i == BALL else self._top_speed[i]
+            v = _capped((v.x, v.y), cap)
+            if v != (body.velocity.x, body.velocity.y):
+                body.velocity = v
+            vel.append(v)
+        cycle = state.cycle + 1
+        new = DrillState(tuple(pos), tuple(vel), holder, cycle, passer, lockout_until)
+        new.holder = self._possession(new, rng)
+        self.state = new
+        self._judge(new)
+        return new
+
+    def _possession(self, s: DrillState, rng: np.random.Generator) -> int:
+        """Who holds the ball after this cycle's physics (at most one player)."""
+        cfg = self.config
+        bx, by = s.pos[BALL]
+        bvx, bvy = s.vel[BALL]
+        in_control = []
+        for i in range(4):
+            if i == s.passer and s.cycle < s.lockout_until:
+                continue
+            px, py = s.pos[i]
+            dist = math.hypot(px - bx, py - by)
+            if dist <= cfg.control_radius:
+                vx, vy = s.vel[i]
+                if math.hypot(bvx - vx, bvy - vy) <= cfg.control_speed:
+                    in_control.append((dist, i))
+        in_control.sort()
+        holder = s.holder
+        if holder >= 0 and all(i != holder for _, i in in_control):
+            holder = -1  # the holder lost touch with the ball
+        if holder >= 0:
+            for _, i in in_control:
+                if (i >= 2) != (holder >= 2) and rng.random() < cfg.tackle_probability:
+                    return i  # a tackle
+            return holder
+        return in_control[0][1] if in_control else -1
+
+    def _judge(self, s: DrillState) -> None:
+        cfg = self.config
+        bx, by = s.pos[BALL]
+        if s.holder >= 2:
+            self.outcome, self.attacker_reward = "interception", cfg.reward_failure
+        elif s.holder >= 0 and by <= 0.0 and 0.0 <= bx <= cfg.field_size:
+            self.outcome, self.attacker_reward = "success", cfg.success_reward(bx)
+        elif not (0.0 <= bx <= cfg.field_size and 0.0 <= by <= cfg.field_size):
+            self.outcome, self.attacker_reward = "out", cfg.reward_failure
+        elif s.cycle >= cfg.max_cycles:
+            self.outcome, self.attacker_reward = "timeout", cfg.reward_timeout
+
+
+_MAX_TURN = math.radians(40.0)  # the ball's turn round its holder per cycle
+
+
+def _turn_toward(fx: float, fy: float, tx: float, ty: float) -> tuple[float, float]:
+    """Unit vector from direction f toward direction t, rotated by at most _MAX_TURN."""
+    a = math.atan2(fy, fx) if (fx or fy) else math.atan2(ty, tx)
+    b = math.atan2(ty, tx)
+    delta = (b - a + math.pi) % (2 * math.pi) - math.pi
+    a += max(-_MAX_TURN, min(_MAX_TURN, delta))
+    return math.cos(a), math.sin(a)
+
+
+def _capped(v: tuple[float, float], cap: float) -> tuple[float, float]:
+    speed = math.hypot(v[0], v[1])
+    if speed <= cap:
+        return v
+    return v[0] * cap / speed, v[1] * cap / speed

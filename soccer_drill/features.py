@@ -1,0 +1,133 @@
+"""Observations: the paper's 9 features and a richer egocentric kinematic vector.
+
+The 9 features are keepaway-style distances and angles seen from one player
+("self"), its teammate ("mate") and its two opponents. For the ball holder they
+are the ILPSS state.
+
+| index | feature | unit | range |
+|-------|---------|------|-------|
+| 0 | distance self to mate | m | [0, 55] |
+| 1 | distance self to the nearer opponent | m | [0, 55] |
+| 2 | distance self to the other opponent | m | [0, 55] |
+| 3 | distance mate to its nearest opponent | m | [0, 55] |
+| 4 | passing-lane angle: min over opponents of angle(mate, self, opponent) | deg | [0, 180] |
+| 5 | distance self to the goal line (``y``) | m | [0, 37] |
+| 6 | signed lateral offset of self from the line centre (``x - size/2``) | m | [-18.5, 18.5] |
+| 7 | distance mate to the goal line | m | [0, 37] |
+| 8 | dribbling-lane angle: min over opponents of angle(goal direction, self->opponent) | deg | [0, 180] |
+
+Ranges follow from the region (35 m) plus the wall margin (1 m) players cannot
+pass; values are clipped into them so observations always lie in the space.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from soccer_drill.config import DrillConfig
+from soccer_drill.state import BALL, DrillState
+
+FEATURE_NAMES: tuple[str, ...] = (
+    "dist_mate",
+    "dist_opp_near",
+    "dist_opp_far",
+    "mate_dist_opp",
+    "pass_angle",
+    "dist_goal",
+    "lateral",
+    "mate_dist_goal",
+    "dribble_angle",
+)
+
+
+def feature_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Lower and upper bounds of the 9 features (float32)."""
+    span = cfg.field_size + 2 * cfg.wall_margin
+    diag = math.ceil(span * math.sqrt(2))
+    half = cfg.field_size / 2 + cfg.wall_margin
+    top = cfg.field_size + cfg.wall_margin
+    low = np.array([0, 0, 0, 0, 0, 0, -half, 0, 0], dtype=np.float32)
+    high = np.array([diag, diag, diag, diag, 180, top, half, top, 180], dtype=np.float32)
+    return low, high
+
+
+def _angle(ax: float, ay: float, bx: float, by: float) -> float:
+    """Unsigned angle between vectors a and b, degrees."""
+    na, nb = math.hypot(ax, ay), math.hypot(bx, by)
+    if na < 1e-9 or nb < 1e-9:
+        return 180.0
+    c = max(-1.0, min(1.0, (ax * bx + ay * by) / (na * nb)))
+    return math.degrees(math.acos(c))
+
+
+def features(
+    state: DrillState, player: int, cfg: DrillConfig, low: np.ndarray, high: np.ndarray
+) -> np.ndarray:
+    """The 9 features of ``player`` (see the module table), clipped to the bounds."""
+    pos = state.pos
+    sx, sy = pos[player]
+    mate = player ^ 1
+    mx, my = pos[mate]
+    o1, o2 = (2, 3) if player < 2 else (0, 1)
+    (ax, ay), (bx, by) = pos[o1], pos[o2]
+    da, db = math.hypot(ax - sx, ay - sy), math.hypot(bx - sx, by - sy)
+    near, far = (da, db) if da <= db else (db, da)
+    mate_opp = min(math.hypot(ax - mx, ay - my), math.hypot(bx - mx, by - my))
+    pass_angle = min(
+        _angle(mx - sx, my - sy, ax - sx, ay - sy), _angle(mx - sx, my - sy, bx - sx, by - sy)
+    )
+    dribble_angle = min(_angle(0.0, -1.0, ax - sx, ay - sy), _angle(0.0, -1.0, bx - sx, by - sy))
+    raw = (
+        math.hypot(mx - sx, my - sy), near, far, mate_opp, pass_angle,
+        sy, sx - cfg.field_size / 2, my, dribble_angle,
+    )
+    return np.clip(np.array(raw, dtype=np.float32), low, high)
+
+
+KINEMATIC_SIZE = 26
+
+
+def kinematic_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of the egocentric kinematic observation (see :func:`kinematics`)."""
+    span = cfg.field_size + 2 * cfg.wall_margin
+    top_speed = max(cfg.attacker_speed, cfg.defender_speed)
+    pos_hi, vel_hi = span, max(cfg.ball_max_speed, top_speed)
+    high = np.array(
+        [span, span, top_speed, top_speed] + [pos_hi, pos_hi, vel_hi, vel_hi] * 4 + [1.0] * 6,
+        dtype=np.float32,
+    )
+    low = -high
+    low[:2] = -cfg.wall_margin
+    low[-6:] = 0.0
+    return low, high
+
+
+def kinematics(
+    state: DrillState, player: int, low: np.ndarray, high: np.ndarray
+) -> np.ndarray:
+    """Egocentric kinematic observation of ``player`` (26 values).
+
+    ``[x, y, vx, vy]`` of self, then for mate, opponent 0, opponent 1 and ball
+    their position and velocity relative to self (metres, m/s), then six flags:
+    self holds, mate holds, an opponent holds, ball loose, self is an attacker,
+    the passer lock-out applies to self.
+    """
+    pos, vel = state.pos, state.vel
+    sx, sy = pos[player]
+    svx, svy = vel[player]
+    values = [sx, sy, svx, svy]
+    others = (player ^ 1, *((2, 3) if player < 2 else (0, 1)), BALL)
+    for j in others:
+        values += [pos[j][0] - sx, pos[j][1] - sy, vel[j][0] - svx, vel[j][1] - svy]
+    h = state.holder
+    values += [
+        float(h == player),
+        float(h == player ^ 1),
+        float(h >= 0 and (h >= 2) != (player >= 2)),
+        float(h < 0),
+        float(player < 2),
+        float(state.passer == player and state.cycle < state.lockout_until),
+    ]
+    return np.clip(np.array(values, dtype=np.float32), low, high)

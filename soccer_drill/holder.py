@@ -1,0 +1,186 @@
+"""The ball holder's view of the drill as a Gymnasium environment (an SMDP)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from soccer_drill.config import DrillConfig
+from soccer_drill.core import DrillCore, make_config
+from soccer_drill.skills import HOLDER_ACTIONS, Command
+from soccer_drill.state import PLAYER_NAMES
+from soccer_drill.teams import Team
+
+_HOLDER_COMMANDS = tuple(Command(skill) for skill in HOLDER_ACTIONS)
+
+
+class HolderEnv(gym.Env):
+    """The drill as seen by whichever attacker holds the ball: keepaway's SMDP.
+
+    Only the ball holder decides; its teammate runs a fixed stochastic support
+    behaviour (:class:`~soccer_drill.support.SupportPlayer`) and the defenders
+    are a scripted team. One :meth:`step` applies the holder's action for a cycle
+    and then runs cycles until an attacker holds the ball again (the next
+    decision) or the episode ends.
+
+    ## Action space
+
+    ``Discrete(3)``: 0 ``HOLD`` (shield the ball), 1 ``PASS`` (to the teammate),
+    2 ``DRIBBLE`` (toward the goal line) -- the paper's three basic options.
+
+    ## Observation space
+
+    ``Box(9,)`` float32: the 9 features of the holder (units and bounds in
+    :mod:`soccer_drill.features`).
+
+    ## Rewards
+
+    Zero until the episode ends; then success pays 1.0 at the centre of the goal
+    line falling linearly to 0.5 at its ends, and an interception, the ball
+    leaving the region or a timeout pays -1 (configurable in ``DrillConfig``).
+
+    ## Episode end
+
+    ``terminated`` on success, interception or out; ``truncated`` when
+    ``max_cycles`` cycles have passed (timeout).
+
+    ## Info
+
+    | key | meaning |
+    |-----|---------|
+    | ``duration`` | cycles this step took (>= 1): the SMDP sojourn time |
+    | ``cycles`` | cycles since reset |
+    | ``outcome`` | ``None`` while running, else ``"success"``, ``"interception"``, ``"out"`` or ``"timeout"`` |
+    | ``holder`` | name of the attacker whose decision is next (``None`` at the end) |
+
+    ## Arguments
+
+    | argument | default | meaning |
+    |----------|---------|---------|
+    | ``opponent`` | ``"chasers"`` | team id or a ``Team`` instance |
+    | ``opponent_params`` | ``None`` | keyword parameters of the team factory |
+    | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
+    | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
+    | ``render_mode`` | ``None`` | ``"human"`` or ``"rgb_array"`` |
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+
+    def __init__(
+        self,
+        opponent: str | Team = "chasers",
+        opponent_params: Mapping[str, Any] | None = None,
+        max_cycles: int | None = None,
+        config: DrillConfig | Mapping[str, Any] | None = None,
+        render_mode: str | None = None,
+    ) -> None:
+        if opponent is None:
+            raise ValueError("HolderEnv needs a scripted opponent team (a team id or Team)")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be None or one of {self.metadata['render_modes']}, "
+                f"got {render_mode!r}"
+            )
+        self.config = make_config(config, max_cycles)
+        self._core = DrillCore(
+            opponent, opponent_params, self.config, "features", scripted_attackers=(0, 1)
+        )
+        self.observation_space = self._core.obs_box
+        self.action_space = spaces.Discrete(len(HOLDER_ACTIONS))
+        self.render_mode = render_mode
+        self.caption: str | None = None
+        """Extra text drawn on rendered frames (e.g. the active option)."""
+        self._renderers: dict = {}
+        self._frames: list[np.ndarray] | None = None
+
+    @property
+    def drill_state(self):
+        """The current :class:`~soccer_drill.state.DrillState`."""
+        return self._core.drill.state
+
+    def record_frames(self, frames: list[np.ndarray] | None) -> None:
+        """Append an ``rgb_array`` frame to ``frames`` after every cycle (``None`` stops)."""
+        self._frames = frames
+        if frames is not None:
+            frames.append(self._draw("rgb_array"))
+
+    def reset(
+        self, *, seed: int | None = None, options: dict | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        self._core.seed(seed)
+        self._core.reset()
+        self._after_cycle()
+        holder = self._core.drill.state.holder
+        return self._core.observe(holder), {
+            "duration": 0, "cycles": 0, "outcome": None, "holder": PLAYER_NAMES[holder],
+        }
+
+    def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        drill = self._core.drill
+        if drill.outcome is not None:
+            raise RuntimeError("step() called after the episode ended; call reset()")
+        if isinstance(action, np.ndarray) and action.shape == ():
+            action = action.item()
+        if isinstance(action, bool) or not isinstance(action, int | np.integer) or not (
+            0 <= action < len(HOLDER_ACTIONS)
+        ):
+            raise ValueError(
+                f"action must be an integer in 0..{len(HOLDER_ACTIONS) - 1} "
+                f"(0=HOLD, 1=PASS, 2=DRIBBLE), got {action!r}"
+            )
+        holder = drill.state.holder
+        commands: list = [None] * 4
+        commands[holder] = _HOLDER_COMMANDS[int(action)]
+        start = drill.state.cycle
+        self._core.advance(commands)
+        self._after_cycle()
+        while drill.outcome is None and drill.state.holder not in (0, 1):
+            self._core.advance([None] * 4)
+            self._after_cycle()
+        s = drill.state
+        info = {
+            "duration": s.cycle - start,
+            "cycles": s.cycle,
+            "outcome": drill.outcome,
+            "holder": PLAYER_NAMES[s.holder] if drill.outcome is None else None,
+        }
+        if drill.outcome is None:
+            return self._core.observe(s.holder), 0.0, False, False, info
+        # At the end, observe from the attacker who last had the ball (or attacker_0).
+        last = holder if s.holder not in (0, 1) else s.holder
+        obs = self._core.observe(last)
+        truncated = drill.outcome == "timeout"
+        return obs, float(drill.attacker_reward), not truncated, truncated, info
+
+    def _after_cycle(self) -> None:
+        if self.render_mode == "human":
+            self._draw("human")
+        if self._frames is not None:
+            self._frames.append(self._draw("rgb_array"))
+
+    def _draw(self, mode: str) -> np.ndarray | None:
+        from soccer_drill.render import Renderer
+
+        renderer = self._renderers.get(mode)
+        if renderer is None:
+            renderer = self._renderers[mode] = Renderer(
+                self.config, mode, self.metadata["render_fps"]
+            )
+        drill = self._core.drill
+        return renderer.draw(drill.state, drill.outcome, self.caption)
+
+    def render(self) -> np.ndarray | None:
+        """The current frame (``rgb_array``) or draw it in the window (``human``)."""
+        if self.render_mode is None:
+            return None
+        return self._draw(self.render_mode)
+
+    def close(self) -> None:
+        for renderer in self._renderers.values():
+            renderer.close()
+        self._renderers = {}

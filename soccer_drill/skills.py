@@ -1,0 +1,256 @@
+"""The skills vocabulary shared by agents' actions, the support player and scripted teams.
+
+A player is driven each cycle by one :class:`Command`. The drill turns it into a
+desired velocity and, for the ball holder, a ball action (keep the ball at a
+control point, or kick it). The functions here are pure: they read a
+:class:`~soccer_drill.state.DrillState` and return a :class:`Motion`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import TYPE_CHECKING, NamedTuple
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from soccer_drill.config import DrillConfig
+    from soccer_drill.state import DrillState
+
+
+class Skill(IntEnum):
+    """Every skill a player can be commanded to execute for one cycle."""
+
+    HOLD = 0
+    """Holder: shield the ball, keeping the body between it and the nearest defender."""
+    PASS = 1
+    """Holder: kick the ball to the teammate (noisy, aimed to arrive slowly)."""
+    DRIBBLE = 2
+    """Holder: run toward the goal line with the ball, steering around defenders."""
+    GET_OPEN = 3
+    """Off-ball: move to a support spot beside and ahead of the ball, away from defenders."""
+    GO_TO_BALL = 4
+    """Off-ball: run to the earliest reachable point on the ball's path."""
+    INTERCEPT = 5
+    """Defender: run to the ball (or to where a rolling ball can be reached first)."""
+    MARK = 6
+    """Defender: stand in the passing lane between the ball and the free attacker."""
+    GUARD_LINE = 7
+    """Defender: guard the goal line, level with the ball, ``GUARD_DEPTH`` metres up."""
+    MOVE_TO = 8
+    """Anyone: run to ``Command.target``."""
+
+
+BALL_SKILLS = frozenset({Skill.HOLD, Skill.PASS, Skill.DRIBBLE})
+"""Skills only the attacker holding the ball may use."""
+
+ATTACKER_ACTIONS: tuple[Skill, ...] = (
+    Skill.HOLD, Skill.PASS, Skill.DRIBBLE, Skill.GET_OPEN, Skill.GO_TO_BALL,
+)
+"""An attacker agent's discrete actions, in index order."""
+
+DEFENDER_ACTIONS: tuple[Skill, ...] = (Skill.INTERCEPT, Skill.MARK, Skill.GUARD_LINE)
+"""A defender agent's discrete actions, in index order."""
+
+HOLDER_ACTIONS: tuple[Skill, ...] = (Skill.HOLD, Skill.PASS, Skill.DRIBBLE)
+"""The ball holder's actions: the paper's three basic options."""
+
+GUARD_DEPTH = 2.5
+"""Distance from the goal line at which ``GUARD_LINE`` stands, in metres."""
+
+
+@dataclass(frozen=True, slots=True)
+class Command:
+    """What one player does for one cycle.
+
+    Args:
+        skill: the skill to execute.
+        target: ``(x, y)`` in metres; required for ``MOVE_TO``, ignored otherwise.
+        speed: fraction of the player's top speed to use, in ``(0, 1]``.
+    """
+
+    skill: Skill
+    target: tuple[float, float] | None = None
+    speed: float = 1.0
+
+
+class Motion(NamedTuple):
+    """A skill's output: the desired velocity and what happens to the ball."""
+
+    vx: float
+    vy: float
+    ball: int
+    """``NO_BALL``, ``CONTROL`` (keep it ``ball_offset`` ahead along (bx, by)) or ``KICK``."""
+    bx: float = 0.0
+    by: float = 0.0
+
+
+NO_BALL, CONTROL, KICK = 0, 1, 2
+_ARRIVE_SECONDS = 0.3  # slow down this long before a target, so players do not orbit it
+_HOLD_EDGE = 3.0  # a shielding holder stops backing away this close to a touchline
+_LEAD_SECONDS = 1.5  # how far ahead a defender aims at a dribbling holder
+
+
+def _unit(x: float, y: float) -> tuple[float, float]:
+    n = math.hypot(x, y)
+    return (x / n, y / n) if n > 1e-9 else (0.0, -1.0)
+
+
+def seek(px: float, py: float, tx: float, ty: float, vmax: float) -> tuple[float, float]:
+    """Velocity toward ``(tx, ty)``, at most ``vmax``, slowing on arrival."""
+    dx, dy = tx - px, ty - py
+    dist = math.hypot(dx, dy)
+    if dist < 1e-6:
+        return 0.0, 0.0
+    speed = min(vmax, dist / _ARRIVE_SECONDS)
+    return dx / dist * speed, dy / dist * speed
+
+
+def ball_interception_point(
+    state: DrillState, player: int, vmax: float, cfg: DrillConfig
+) -> tuple[float, float]:
+    """Earliest point of the rolling ball's path that ``player`` can reach in time."""
+    bx, by = state.pos[4]
+    bvx, bvy = state.vel[4]
+    px, py = state.pos[player]
+    if state.holder >= 0 and state.holder != player:
+        # Aim where a carried ball will be when we get there, so chasers do not trail.
+        hvx, hvy = state.vel[state.holder]
+        lead = min(math.hypot(bx - px, by - py) / vmax, _LEAD_SECONDS) if vmax > 0 else 0.0
+        return bx + hvx * lead, by + hvy * lead
+    if math.hypot(bvx, bvy) < 1.0 or state.holder >= 0:
+        return bx, by
+    k = -math.log(max(cfg.ball_damping, 1e-6))
+    x = y = 0.0
+    for step in range(1, 31):
+        t = step * cfg.cycle_seconds
+        travelled = (1.0 - math.exp(-k * t)) / k if k > 0 else t
+        x, y = bx + bvx * travelled, by + bvy * travelled
+        if math.hypot(x - px, y - py) <= vmax * t + cfg.control_radius:
+            return x, y
+    return x, y
+
+
+def support_spot(state: DrillState, player: int, cfg: DrillConfig) -> tuple[float, float]:
+    """Where an off-ball attacker gets open: wide of the ball and a little ahead of it."""
+    size = cfg.field_size
+    bx, by = state.pos[4]
+    px, _ = state.pos[player]
+    side = 1.0 if px >= bx else -1.0
+    if not 3.0 <= bx + side * 11.0 <= size - 3.0:
+        side = -side
+    tx = min(max(bx + side * 11.0, 2.0), size - 2.0)
+    ty = min(max(by - 3.0, 2.0), size - 2.0)
+    # Step away from a defender standing on the spot.
+    for d in state.opponents_of(player):
+        dx, dy = tx - state.pos[d][0], ty - state.pos[d][1]
+        dist = math.hypot(dx, dy)
+        if dist < 5.0:
+            ux, uy = _unit(dx, dy)
+            tx += ux * (5.0 - dist)
+            ty += uy * (5.0 - dist)
+    return min(max(tx, 1.0), size - 1.0), min(max(ty, 1.0), size - 1.0)
+
+
+def dribble_heading(state: DrillState, player: int, cfg: DrillConfig) -> tuple[float, float]:
+    """Unit heading toward the goal line that keeps clear of defenders and touchlines."""
+    px, py = state.pos[player]
+    size = cfg.field_size
+    best, best_score = (0.0, -1.0), -math.inf
+    for deg in range(-70, 71, 10):
+        a = math.radians(deg)
+        hx, hy = math.sin(a), -math.cos(a)
+        score = math.cos(a)
+        for d in state.opponents_of(player):
+            rx, ry = state.pos[d][0] - px, state.pos[d][1] - py
+            ahead = rx * hx + ry * hy
+            if 0.0 < ahead < 12.0:
+                clearance = abs(rx * hy - ry * hx)
+                score -= 2.0 * max(0.0, 1.0 - clearance / 4.0) * (1.0 - ahead / 12.0)
+        ex = px + hx * 4.0
+        if not 1.0 <= ex <= size - 1.0:
+            score -= 3.0
+        if score > best_score:
+            best, best_score = (hx, hy), score
+    return best
+
+
+def shield_direction(state: DrillState, player: int) -> tuple[float, float]:
+    """Unit direction away from the nearest opponent: where a shielded ball is kept."""
+    px, py = state.pos[player]
+    nearest = min(
+        state.opponents_of(player),
+        key=lambda d: math.hypot(state.pos[d][0] - px, state.pos[d][1] - py),
+    )
+    return _unit(px - state.pos[nearest][0], py - state.pos[nearest][1])
+
+
+def pass_velocity(
+    state: DrillState, player: int, cfg: DrillConfig, rng: np.random.Generator
+) -> tuple[float, float]:
+    """Noisy kick velocity that brings the ball to the teammate at about arrival speed."""
+    bx, by = state.pos[4]
+    mate = state.teammate_of(player)
+    mx, my = state.pos[mate]
+    mvx, mvy = state.vel[mate]
+    k = -math.log(max(cfg.ball_damping, 1e-6))
+    dist = math.hypot(mx - bx, my - by)
+    lead = dist / max(cfg.pass_arrival_speed + k * dist, 1e-6)  # rough travel time
+    tx, ty = mx + mvx * lead, my + mvy * lead
+    dist = math.hypot(tx - bx, ty - by)
+    speed = min(cfg.pass_arrival_speed + k * dist, cfg.ball_max_speed)
+    angle = math.atan2(ty - by, tx - bx) + math.radians(cfg.kick_angle_noise) * rng.normal()
+    speed = min(max(speed * (1.0 + cfg.kick_speed_noise * rng.normal()), 0.0), cfg.ball_max_speed)
+    return speed * math.cos(angle), speed * math.sin(angle)
+
+
+def execute(
+    state: DrillState,
+    player: int,
+    command: Command,
+    cfg: DrillConfig,
+    rng: np.random.Generator,
+) -> Motion:
+    """Turn ``command`` for ``player`` into a :class:`Motion` for this cycle."""
+    skill = command.skill
+    px, py = state.pos[player]
+    is_attacker = player < 2
+    top = cfg.attacker_speed if is_attacker else cfg.defender_speed
+    vmax = top * command.speed
+    if skill is Skill.DRIBBLE:
+        hx, hy = dribble_heading(state, player, cfg)
+        v = cfg.dribble_speed * command.speed
+        return Motion(hx * v, hy * v, CONTROL, hx, hy)
+    if skill is Skill.HOLD:
+        sx, sy = shield_direction(state, player)
+        v = cfg.hold_speed * command.speed
+        vx, vy = sx * v, sy * v
+        # Shielding backs away from pressure, but never over a touchline.
+        lo, hi = _HOLD_EDGE, cfg.field_size - _HOLD_EDGE
+        if (px < lo and vx < 0) or (px > hi and vx > 0):
+            vx = 0.0
+        if (py < lo and vy < 0) or (py > hi and vy > 0):
+            vy = 0.0
+        return Motion(vx, vy, CONTROL, sx, sy)
+    if skill is Skill.PASS:
+        kx, ky = pass_velocity(state, player, cfg, rng)
+        return Motion(0.0, 0.0, KICK, kx, ky)
+    if skill is Skill.GET_OPEN:
+        tx, ty = support_spot(state, player, cfg)
+    elif skill in (Skill.GO_TO_BALL, Skill.INTERCEPT):
+        tx, ty = ball_interception_point(state, player, vmax, cfg)
+    elif skill is Skill.MARK:
+        bx, by = state.pos[4]
+        free = state.free_opponent_of(player)
+        fx, fy = state.pos[free]
+        tx, ty = fx + 0.35 * (bx - fx), fy + 0.35 * (by - fy)
+    elif skill is Skill.GUARD_LINE:
+        tx = min(max(state.pos[4][0], 4.0), cfg.field_size - 4.0)
+        ty = GUARD_DEPTH
+    else:  # MOVE_TO
+        assert command.target is not None
+        tx, ty = command.target
+    vx, vy = seek(px, py, tx, ty, vmax)
+    return Motion(vx, vy, NO_BALL)

@@ -1,0 +1,136 @@
+"""Immutable snapshots of the drill, and the read-only view handed to scripted teams."""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from soccer_drill.config import DrillConfig
+
+PLAYER_NAMES: tuple[str, str, str, str] = ("attacker_0", "attacker_1", "defender_0", "defender_1")
+"""Player names in index order; index 4 is the ball in :attr:`DrillState.pos`."""
+ATTACKERS: tuple[int, int] = (0, 1)
+DEFENDERS: tuple[int, int] = (2, 3)
+BALL = 4
+
+
+class DrillState:
+    """One cycle's snapshot: plain tuples, so it can be shared without copying.
+
+    Attributes:
+        pos: ``(x, y)`` of the four players then the ball, metres.
+        vel: their velocities, m/s.
+        holder: index of the player in possession, or -1 for a loose ball.
+        cycle: cycles elapsed since reset.
+        passer: index of the last player who passed, or -1.
+        lockout_until: the passer cannot regain the ball before this cycle.
+    """
+
+    __slots__ = ("cycle", "holder", "lockout_until", "passer", "pos", "vel")
+
+    def __init__(
+        self,
+        pos: tuple[tuple[float, float], ...],
+        vel: tuple[tuple[float, float], ...],
+        holder: int,
+        cycle: int,
+        passer: int = -1,
+        lockout_until: int = 0,
+    ) -> None:
+        self.pos = pos
+        self.vel = vel
+        self.holder = holder
+        self.cycle = cycle
+        self.passer = passer
+        self.lockout_until = lockout_until
+
+    @staticmethod
+    def opponents_of(player: int) -> tuple[int, int]:
+        """Indices of ``player``'s two opponents."""
+        return DEFENDERS if player < 2 else ATTACKERS
+
+    @staticmethod
+    def teammate_of(player: int) -> int:
+        """Index of ``player``'s teammate."""
+        return player ^ 1
+
+    def free_opponent_of(self, player: int) -> int:
+        """The opponent without the ball (or, for a loose ball, the one farther from it)."""
+        a, b = self.opponents_of(player)
+        if self.holder == a:
+            return b
+        if self.holder == b:
+            return a
+        bx, by = self.pos[BALL]
+        da = math.hypot(self.pos[a][0] - bx, self.pos[a][1] - by)
+        db = math.hypot(self.pos[b][0] - bx, self.pos[b][1] - by)
+        return a if da > db else b
+
+    def distance(self, i: int, j: int) -> float:
+        """Distance between bodies ``i`` and ``j`` (4 is the ball), metres."""
+        return math.hypot(self.pos[i][0] - self.pos[j][0], self.pos[i][1] - self.pos[j][1])
+
+
+def _frozen(values: object) -> np.ndarray:
+    array = np.array(values, dtype=np.float64)
+    array.flags.writeable = False
+    return array
+
+
+class DrillView:
+    """A live, read-only window on the drill, handed to scripted teams.
+
+    ``view.state`` is always the current :class:`DrillState`; the array properties
+    are fresh read-only copies, so a team cannot change the drill by writing to them.
+    """
+
+    __slots__ = ("_drill", "players")
+
+    def __init__(self, drill: object, players: tuple[str, ...]) -> None:
+        self._drill = drill
+        self.players = players
+        """Names of the players the team drives."""
+
+    @property
+    def state(self) -> DrillState:
+        """The current snapshot."""
+        return self._drill.state  # type: ignore[attr-defined]
+
+    @property
+    def config(self) -> DrillConfig:
+        """The drill's configuration."""
+        return self._drill.config  # type: ignore[attr-defined]
+
+    @property
+    def cycle(self) -> int:
+        """Cycles elapsed since reset."""
+        return self.state.cycle
+
+    @property
+    def positions(self) -> np.ndarray:
+        """``(4, 2)`` player positions in :data:`PLAYER_NAMES` order, metres (read-only)."""
+        return _frozen(self.state.pos[:4])
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """``(4, 2)`` player velocities, m/s (read-only)."""
+        return _frozen(self.state.vel[:4])
+
+    @property
+    def ball_position(self) -> np.ndarray:
+        """``(2,)`` ball position, metres (read-only)."""
+        return _frozen(self.state.pos[BALL])
+
+    @property
+    def ball_velocity(self) -> np.ndarray:
+        """``(2,)`` ball velocity, m/s (read-only)."""
+        return _frozen(self.state.vel[BALL])
+
+    @property
+    def holder(self) -> str | None:
+        """Name of the player in possession, or ``None`` for a loose ball."""
+        h = self.state.holder
+        return PLAYER_NAMES[h] if h >= 0 else None

@@ -1,0 +1,48 @@
+"""The fixed stochastic support behaviour of an attacker that is not an agent."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from soccer_drill.config import DrillConfig
+from soccer_drill.skills import Command, Skill, support_spot
+from soccer_drill.state import BALL, DrillState
+
+_RESAMPLE_CYCLES = 10  # how often the support spot's random offset changes
+_OFFSET_STD = 2.0  # metres
+
+
+class SupportPlayer:
+    """Chases a loose ball it is nearer to, otherwise gets open with a random offset.
+
+    The offset (normal, ``_OFFSET_STD`` m per axis) is redrawn every
+    ``_RESAMPLE_CYCLES`` cycles from the generator given at :meth:`reset`, so the
+    teammate is not perfectly predictable but the episode stays seeded.
+    """
+
+    def __init__(self) -> None:
+        self._rng: np.random.Generator | None = None
+        self._offset = (0.0, 0.0)
+
+    def reset(self, rng: np.random.Generator) -> None:
+        self._rng = rng
+        self._offset = (0.0, 0.0)
+
+    def command(self, state: DrillState, player: int, cfg: DrillConfig) -> Command:
+        """This cycle's command for attacker ``player`` (which does not hold the ball)."""
+        assert self._rng is not None, "reset() first"
+        if state.cycle % _RESAMPLE_CYCLES == 0:
+            dx, dy = self._rng.normal(0.0, _OFFSET_STD, size=2)
+            self._offset = (float(dx), float(dy))
+        if state.holder < 0:
+            mate = player ^ 1
+            mate_locked = state.passer == mate and state.cycle < state.lockout_until
+            if mate_locked or state.distance(player, BALL) <= state.distance(mate, BALL):
+                return Command(Skill.GO_TO_BALL)
+        x, y = support_spot(state, player, cfg)
+        size = cfg.field_size
+        target = (
+            min(max(x + self._offset[0], 1.0), size - 1.0),
+            min(max(y + self._offset[1], 1.0), size - 1.0),
+        )
+        return Command(Skill.MOVE_TO, target)
