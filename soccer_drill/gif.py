@@ -32,7 +32,7 @@ def save_gif(frames: Sequence[np.ndarray], path: str | os.PathLike, fps: int = 1
     tmp = path.with_name(f".{path.name}.tmp")
     images[0].save(
         tmp, format="GIF", save_all=True, append_images=images[1:],
-        duration=int(round(1000 / fps)), loop=0,
+        duration=round(1000 / fps), loop=0,
     )
     os.replace(tmp, path)
     return path

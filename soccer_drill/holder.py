@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, ClassVar
 
 import gymnasium as gym
 import numpy as np
@@ -68,7 +68,7 @@ class HolderEnv(gym.Env):
     | ``render_mode`` | ``None`` | ``"human"`` or ``"rgb_array"`` |
     """
 
-    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+    metadata: ClassVar[dict] = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
 
     def __init__(
         self,

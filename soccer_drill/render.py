@@ -35,7 +35,7 @@ class Renderer:
 
     def __init__(self, config: DrillConfig, mode: str, fps: int = 10) -> None:
         self.config, self.mode, self.fps = config, mode, fps
-        side = int(round((config.field_size + 2 * MARGIN) * SCALE))
+        side = round((config.field_size + 2 * MARGIN) * SCALE)
         self.size = (side, side + 24)  # a strip for the caption
         pygame.font.init()
         self._font = pygame.font.Font(None, 20)
@@ -46,7 +46,7 @@ class Renderer:
     def _px(self, x: float, y: float) -> tuple[int, int]:
         """Field metres to pixels (y up on the field, down on screen)."""
         top = self.config.field_size + MARGIN
-        return int(round((x + MARGIN) * SCALE)), int(round((top - y) * SCALE)) + 24
+        return round((x + MARGIN) * SCALE), round((top - y) * SCALE) + 24
 
     def draw(
         self, state: DrillState, outcome: str | None = None, caption: str | None = None
@@ -66,7 +66,7 @@ class Renderer:
             w = 1.0 - abs((a + b) / 2 - size / 2) / (size / 2)
             colour = tuple(int(e + (c - e) * w) for c, e in zip(_GOAL_CENTRE, _GOAL_EDGE, strict=True))
             pygame.draw.line(s, colour, self._px(a, 0), self._px(b, 0), 4)
-        r = max(2, int(round(cfg.player_radius * SCALE)))
+        r = max(2, round(cfg.player_radius * SCALE))
         for i in range(4):
             centre = self._px(*state.pos[i])
             pygame.draw.circle(s, _ATTACKER if i < 2 else _DEFENDER, centre, r)
