@@ -72,6 +72,8 @@ class Drill:
         self._top_speed = (
             cfg.attacker_speed, cfg.attacker_speed, cfg.defender_speed, cfg.defender_speed,
         )
+        self._bodies = (*self._players, self._ball)
+        self._caps = (*self._top_speed, cfg.ball_max_speed)
         self.state: DrillState
         self.outcome: Outcome | None = None
         self.attacker_reward = 0.0
@@ -140,14 +142,14 @@ class Drill:
             step(self._sub_dt)
 
         pos, vel = [], []
-        for i, body in enumerate((*self._players, self._ball)):
-            p, v = body.position, body.velocity
-            pos.append((p.x, p.y))
-            cap = cfg.ball_max_speed if i == BALL else self._top_speed[i]
-            v = _capped((v.x, v.y), cap)
-            if v != (body.velocity.x, body.velocity.y):
-                body.velocity = v
-            vel.append(v)
+        for body, cap in zip(self._bodies, self._caps, strict=True):
+            px, py = body.position
+            vx, vy = body.velocity
+            pos.append((px, py))
+            if vx * vx + vy * vy > cap * cap:  # a collision pushed it past its cap
+                vx, vy = _capped((vx, vy), cap)
+                body.velocity = (vx, vy)
+            vel.append((vx, vy))
         cycle = state.cycle + 1
         new = DrillState(tuple(pos), tuple(vel), holder, cycle, passer, lockout_until)
         new.holder = self._possession(new, rng)

@@ -53,13 +53,16 @@ def feature_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
     return low, high
 
 
-def _angle(ax: float, ay: float, bx: float, by: float) -> float:
-    """Unsigned angle between vectors a and b, degrees."""
-    na, nb = math.hypot(ax, ay), math.hypot(bx, by)
+def _angle(ax: float, ay: float, na: float, bx: float, by: float) -> float:
+    """Unsigned angle between vector a (of norm ``na``) and vector b, degrees."""
+    nb = math.hypot(bx, by)
     if na < 1e-9 or nb < 1e-9:
         return 180.0
-    c = max(-1.0, min(1.0, (ax * bx + ay * by) / (na * nb)))
-    return math.degrees(math.acos(c))
+    c = (ax * bx + ay * by) / (na * nb)
+    return _DEGREES * math.acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
+
+
+_DEGREES = 180.0 / math.pi
 
 
 def features(
@@ -68,22 +71,19 @@ def features(
     """The 9 features of ``player`` (see the module table), clipped to the bounds."""
     pos = state.pos
     sx, sy = pos[player]
-    mate = player ^ 1
-    mx, my = pos[mate]
+    mx, my = pos[player ^ 1]
     o1, o2 = (2, 3) if player < 2 else (0, 1)
-    (ax, ay), (bx, by) = pos[o1], pos[o2]
-    da, db = math.hypot(ax - sx, ay - sy), math.hypot(bx - sx, by - sy)
+    ax, ay = pos[o1][0] - sx, pos[o1][1] - sy  # opponents relative to self
+    bx, by = pos[o2][0] - sx, pos[o2][1] - sy
+    ux, uy = mx - sx, my - sy  # mate relative to self
+    da, db, dm = math.hypot(ax, ay), math.hypot(bx, by), math.hypot(ux, uy)
     near, far = (da, db) if da <= db else (db, da)
-    mate_opp = min(math.hypot(ax - mx, ay - my), math.hypot(bx - mx, by - my))
-    pass_angle = min(
-        _angle(mx - sx, my - sy, ax - sx, ay - sy), _angle(mx - sx, my - sy, bx - sx, by - sy)
-    )
-    dribble_angle = min(_angle(0.0, -1.0, ax - sx, ay - sy), _angle(0.0, -1.0, bx - sx, by - sy))
-    raw = (
-        math.hypot(mx - sx, my - sy), near, far, mate_opp, pass_angle,
-        sy, sx - cfg.field_size / 2, my, dribble_angle,
-    )
-    return np.clip(np.array(raw, dtype=np.float32), low, high)
+    mate_opp = min(math.hypot(ax - ux, ay - uy), math.hypot(bx - ux, by - uy))
+    pass_angle = min(_angle(ux, uy, dm, ax, ay), _angle(ux, uy, dm, bx, by))
+    dribble_angle = min(_angle(0.0, -1.0, 1.0, ax, ay), _angle(0.0, -1.0, 1.0, bx, by))
+    raw = (dm, near, far, mate_opp, pass_angle, sy, sx - cfg.field_size / 2, my, dribble_angle)
+    out = np.array(raw, dtype=np.float32)
+    return np.clip(out, low, high, out=out)
 
 
 KINEMATIC_SIZE = 26

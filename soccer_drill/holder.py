@@ -105,7 +105,7 @@ class HolderEnv(gym.Env):
     def record_frames(self, frames: list[np.ndarray] | None) -> None:
         """Append an ``rgb_array`` frame to ``frames`` after every cycle (``None`` stops)."""
         self._frames = frames
-        if frames is not None:
+        if frames is not None and hasattr(self._core.drill, "state"):  # mid-episode: draw now
             frames.append(self._draw("rgb_array"))
 
     def reset(

@@ -8,6 +8,7 @@ control point, or kick it). The functions here are pure: they read a
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from enum import IntEnum
@@ -122,15 +123,22 @@ def ball_interception_point(
         return bx + hvx * lead, by + hvy * lead
     if math.hypot(bvx, bvy) < 1.0 or state.holder >= 0:
         return bx, by
-    k = -math.log(max(cfg.ball_damping, 1e-6))
     x = y = 0.0
-    for step in range(1, 31):
-        t = step * cfg.cycle_seconds
-        travelled = (1.0 - math.exp(-k * t)) / k if k > 0 else t
+    reach = cfg.control_radius
+    for t, travelled in _roll_table(cfg.ball_damping, cfg.cycle_seconds):
         x, y = bx + bvx * travelled, by + bvy * travelled
-        if math.hypot(x - px, y - py) <= vmax * t + cfg.control_radius:
+        r = vmax * t + reach
+        if (x - px) ** 2 + (y - py) ** 2 <= r * r:
             return x, y
     return x, y
+
+
+@functools.cache
+def _roll_table(damping: float, cycle: float) -> tuple[tuple[float, float], ...]:
+    """``(t, distance per unit initial speed)`` of a rolling ball, every 2 cycles for 3 s."""
+    k = -math.log(max(damping, 1e-6))
+    times = [step * cycle for step in range(1, round(3.0 / cycle) + 1, 2)]
+    return tuple((t, (1.0 - math.exp(-k * t)) / k if k > 0 else t) for t in times)
 
 
 def support_spot(state: DrillState, player: int, cfg: DrillConfig) -> tuple[float, float]:

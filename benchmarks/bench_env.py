@@ -1,0 +1,142 @@
+"""Environment throughput against the bare physics floor, measured in one run.
+
+    python benchmarks/bench_env.py [--cycles 20000] [--repeats 3]
+
+Prints a markdown table: AEC cycles per second through ``soccer_drill.env()`` (scripted
+defenders, random legal attacker actions, observations read with ``last()`` as users do),
+parallel-env cycles per second, holder decisions per second (random policy), and the
+bare pymunk cost of the same bodies and sub-steps, with the ratio per cycle.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import time
+
+import numpy as np
+import pymunk
+
+import soccer_drill
+from soccer_drill.drill import Drill
+
+
+class RandomLegal:
+    """Uniformly random legal actions, drawn in advance so user code costs almost nothing."""
+
+    def __init__(self, seed: int = 0, size: int = 1 << 20) -> None:
+        self._u = np.random.default_rng(seed).random(size).tolist()
+        self._k = 0
+        self._legal: dict[bytes, list[int]] = {}
+
+    def __call__(self, mask: np.ndarray) -> int:
+        key = mask.tobytes()
+        legal = self._legal.get(key)
+        if legal is None:
+            legal = self._legal[key] = np.flatnonzero(mask).tolist()
+        self._k = (self._k + 1) % len(self._u)
+        return legal[int(self._u[self._k] * len(legal))]
+
+
+def aec_cycles_per_second(cycles: int, opponent: str = "chasers") -> float:
+    env = soccer_drill.env(opponent=opponent)
+    pick = RandomLegal()
+    done_cycles, seed = 0, 0
+    start = time.perf_counter()
+    while done_cycles < cycles:
+        env.reset(seed=seed)
+        seed += 1
+        for agent in env.agent_iter():
+            obs, _, term, trunc, _ = env.last()
+            if term or trunc:
+                env.step(None)
+                continue
+            env.step(pick(obs["action_mask"]))
+            if agent == env.possible_agents[-1]:
+                done_cycles += 1
+    return done_cycles / (time.perf_counter() - start)
+
+
+def parallel_cycles_per_second(cycles: int, opponent: str = "chasers") -> float:
+    env = soccer_drill.parallel_env(opponent=opponent)
+    pick = RandomLegal()
+    done_cycles, seed = 0, 0
+    start = time.perf_counter()
+    while done_cycles < cycles:
+        obs, _ = env.reset(seed=seed)
+        seed += 1
+        while env.agents:
+            actions = {a: pick(obs[a]["action_mask"]) for a in env.agents}
+            obs, *_ = env.step(actions)
+            done_cycles += 1
+    return done_cycles / (time.perf_counter() - start)
+
+
+def holder_rates(decisions: int, opponent: str = "chasers") -> tuple[float, float]:
+    """(decisions per second, cycles per second) of the holder env with a random policy."""
+    env = soccer_drill.HolderEnv(opponent=opponent)
+    pick, mask = RandomLegal(), np.ones(3, dtype=np.int8)
+    done, cycles, seed = 0, 0, 0
+    start = time.perf_counter()
+    while done < decisions:
+        env.reset(seed=seed)
+        seed += 1
+        finished = False
+        while not finished:
+            _, _, term, trunc, info = env.step(pick(mask))
+            done += 1
+            cycles += info["duration"]
+            finished = term or trunc
+    elapsed = time.perf_counter() - start
+    return done / elapsed, cycles / elapsed
+
+
+def physics_cycles_per_second(cycles: int) -> float:
+    """The floor: the drill's own pymunk space (4 players, ball, walls), stepped bare."""
+    drill = Drill()
+    drill.reset(np.random.default_rng(0))
+    space: pymunk.Space = drill._space
+    cfg = drill.config
+    dt = cfg.cycle_seconds / cfg.substeps
+    bodies = [*drill._players, drill._ball]
+    rng = np.random.default_rng(0)
+    velocities = rng.uniform(-3, 3, size=(cycles, len(bodies), 2)).tolist()
+    start = time.perf_counter()
+    for c in range(cycles):
+        for body, v in zip(bodies, velocities[c], strict=True):  # one velocity set per cycle
+            body.velocity = v
+        for _ in range(cfg.substeps):
+            space.step(dt)
+    return cycles / (time.perf_counter() - start)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cycles", type=int, default=20000)
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    best: dict[str, float] = {}
+    for _ in range(args.repeats):  # interleaved repeats, best of each: robust to noise
+        for name, value in (
+            ("physics", physics_cycles_per_second(args.cycles)),
+            ("aec", aec_cycles_per_second(args.cycles)),
+            ("parallel", parallel_cycles_per_second(args.cycles)),
+        ):
+            best[name] = max(best.get(name, 0.0), value)
+        decisions, holder_cycles = holder_rates(args.cycles // 2)
+        best["holder"] = max(best.get("holder", 0.0), decisions)
+        best["holder_cycles"] = max(best.get("holder_cycles", 0.0), holder_cycles)
+    phys = best["physics"]
+    print(f"python {platform.python_version()}, pymunk {pymunk.version}, {platform.machine()}")
+    print("| measure | per second | us per cycle | x physics floor |")
+    print("|---|---|---|---|")
+    print(f"| bare pymunk cycle (10 sub-steps, same bodies) | {phys:,.0f} | {1e6 / phys:.1f} | 1.0 |")
+    for key, label in (("aec", "AEC cycle via env(), chasers, 2 agent turns"),
+                       ("parallel", "parallel_env cycle, chasers"),
+                       ("holder_cycles", "holder env cycle (random policy)")):
+        print(f"| {label} | {best[key]:,.0f} | {1e6 / best[key]:.1f} | {phys / best[key]:.2f} |")
+    print(f"| holder decisions (random policy) | {best['holder']:,.0f} | - | - |")
+
+
+if __name__ == "__main__":
+    main()

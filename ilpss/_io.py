@@ -1,0 +1,277 @@
+"""Small, safe persistence helpers shared by the ``ilpss`` modules.
+
+Everything ``ilpss`` saves (kernel models, policies, option libraries, checkpoints) is an
+``.npz`` archive of plain numeric arrays plus one JSON record, written atomically:
+
+* :func:`atomic_write_bytes` writes to a temporary file in the destination directory,
+  ``fsync`` s it and renames it over the destination with :func:`os.replace`, so a crash
+  leaves either the old file or the new one, never half of one.
+* :func:`save_npz_atomic` stores ``arrays`` and a JSON ``meta`` record (which must name
+  its ``"schema"``, e.g. ``"ilpss.kernels/1"``) together with a SHA-256 digest of both.
+* :func:`load_npz` reads such a file **without ever unpickling** (``allow_pickle=False``)
+  and refuses, with a :class:`ValueError` saying what is wrong, anything that is not
+  exactly what the caller expects: a truncated or corrupt archive, a missing or
+  malformed JSON record, another schema version, a digest mismatch (arrays or record
+  modified after saving), missing arrays, or arrays of the wrong shape or dtype.
+
+Shape templates
+---------------
+``required`` maps an array name to ``(shape_template, dtype_kinds)``. A template is a
+tuple with one entry per axis: an ``int`` (that exact length), a ``str`` (a symbol that
+must have the same length wherever it appears, e.g. ``("K", "d")`` and
+``("K", "d", "d")``), or ``None`` (any length). ``dtype_kinds`` is a string of accepted
+:attr:`numpy.dtype.kind` codes: ``"f"`` for floats, ``"iu"`` for integers, ``"b"`` for
+booleans, ``"U"`` for strings.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import secrets
+import zipfile
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["atomic_write_bytes", "load_npz", "save_npz_atomic"]
+
+#: Name of the archive member that holds the JSON record.
+META_KEY = "__meta__"
+#: Version of the container layout (the JSON wrapper below), independent of any schema.
+CONTAINER = "ilpss.npz/1"
+
+ShapeTemplate = tuple[int | str | None, ...]
+
+
+def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically.
+
+    The bytes go to a new temporary file in the same directory (same file system, so the
+    final rename is atomic), are flushed and ``fsync`` ed, and the file is renamed over
+    ``path`` with :func:`os.replace`. The directory is then ``fsync`` ed where the
+    platform allows it, so the rename itself survives a crash. On any error the
+    temporary file is removed and ``path`` is left untouched.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Destination; its directory must exist.
+    data : bytes
+        The complete new contents.
+    """
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    tmp = directory / f".{path.name}.{os.getpid()}.{secrets.token_hex(6)}.tmp"
+    # O_EXCL: never clobber another writer's temporary; mode 0o666 lets the umask decide
+    # the permissions, as for any ordinary new file.
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
+    _fsync_directory(directory)
+
+
+def _fsync_directory(directory: Path) -> None:
+    """Persist a rename in ``directory``; a no-op where directories cannot be opened."""
+    try:
+        dir_fd = os.open(directory, os.O_RDONLY)
+    except OSError:  # e.g. Windows
+        return
+    try:
+        os.fsync(dir_fd)
+    except OSError:
+        pass
+    finally:
+        os.close(dir_fd)
+
+
+def _canonical_json(meta: Mapping[str, Any]) -> str:
+    return json.dumps(meta, allow_nan=False, sort_keys=True, separators=(",", ":"))
+
+
+def _digest(arrays: Mapping[str, np.ndarray], meta: Mapping[str, Any]) -> str:
+    """SHA-256 over the canonical JSON of ``meta`` and the names, dtypes, shapes and bytes
+    of ``arrays`` in name order (JSON floats round-trip exactly, so this is reproducible)."""
+    h = hashlib.sha256(_canonical_json(meta).encode())
+    for name in sorted(arrays):
+        a = np.ascontiguousarray(arrays[name])
+        h.update(json.dumps([name, a.dtype.str, list(a.shape)]).encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def save_npz_atomic(
+    path: str | os.PathLike[str], arrays: Mapping[str, Any], meta: Mapping[str, Any]
+) -> None:
+    """Save numeric ``arrays`` and a JSON ``meta`` record to ``path`` atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Destination, written exactly as given (no ``.npz`` suffix is appended).
+    arrays : mapping of str to array_like
+        The arrays. Object arrays are refused: they could only be read back by
+        unpickling, which :func:`load_npz` never does.
+    meta : mapping
+        JSON-serialisable record (strict JSON: no NaN or infinity). Must contain a string
+        ``"schema"`` naming the format and its version, e.g. ``"ilpss.kernels/1"``.
+
+    Raises
+    ------
+    ValueError
+        If ``meta`` has no string ``"schema"``, is not strict JSON, an array name is
+        reserved or not a string, or an array has dtype ``object``.
+    """
+    if not isinstance(meta.get("schema"), str):
+        raise ValueError("meta must contain a string 'schema', e.g. 'ilpss.kernels/1'")
+    converted: dict[str, np.ndarray] = {}
+    for name, value in arrays.items():
+        if not isinstance(name, str) or name == META_KEY:
+            raise ValueError(f"invalid array name {name!r} (must be a str other than {META_KEY!r})")
+        a = np.asarray(value)
+        if a.dtype.hasobject:
+            raise ValueError(f"array {name!r} has dtype object, which cannot be saved safely")
+        converted[name] = a
+    try:
+        record = json.dumps(
+            {"container": CONTAINER, "sha256": _digest(converted, meta), "meta": dict(meta)},
+            allow_nan=False,
+            sort_keys=True,
+        )
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"meta is not serialisable as strict JSON: {exc}") from exc
+    buffer = io.BytesIO()
+    np.savez(buffer, **converted, **{META_KEY: np.array(record)})
+    atomic_write_bytes(path, buffer.getvalue())
+
+
+def load_npz(
+    path: str | os.PathLike[str],
+    schema: str,
+    required: Mapping[str, tuple[ShapeTemplate, str]],
+) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """Load and check a file written by :func:`save_npz_atomic`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    schema : str
+        The exact schema the caller understands (``meta["schema"]`` must equal it).
+    required : mapping of str to (shape_template, dtype_kinds)
+        Arrays that must be present, with their shape template and accepted dtype kinds
+        (see the module docstring). Other arrays in the file are returned unchecked.
+
+    Returns
+    -------
+    arrays : dict of str to numpy.ndarray
+        All arrays of the file, fully read into memory.
+    meta : dict
+        The JSON record given to :func:`save_npz_atomic`.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        If the file is not a complete, unmodified archive of this schema with the
+        required arrays; the message names the file and the problem.
+    """
+    where = os.fspath(path)
+    try:
+        loaded = np.load(path, allow_pickle=False)
+    except (FileNotFoundError, IsADirectoryError, PermissionError):
+        raise
+    except _READ_ERRORS as exc:
+        raise _unreadable(where, exc) from exc
+    if not isinstance(loaded, np.lib.npyio.NpzFile):
+        raise ValueError(f"{where}: not an .npz archive (a single .npy array?)")
+    try:
+        with loaded as archive:
+            # Read every member now: the zip CRC check of a damaged member only fires on read.
+            arrays = {name: archive[name] for name in archive.files}
+    except _READ_ERRORS as exc:
+        raise _unreadable(where, exc) from exc
+
+    record_array = arrays.pop(META_KEY, None)
+    if record_array is None or record_array.dtype.kind != "U" or record_array.ndim != 0:
+        raise ValueError(f"{where}: missing or malformed {META_KEY!r} record")
+    try:
+        record = json.loads(str(record_array))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{where}: the {META_KEY!r} record is not valid JSON: {exc}") from exc
+    if (
+        not isinstance(record, dict)
+        or record.get("container") != CONTAINER
+        or not isinstance(record.get("meta"), dict)
+        or not isinstance(record.get("sha256"), str)
+    ):
+        raise ValueError(f"{where}: unknown container layout (expected {CONTAINER!r})")
+    meta: dict[str, Any] = record["meta"]
+    if meta.get("schema") != schema:
+        raise ValueError(
+            f"{where}: wrong schema {meta.get('schema')!r}, expected {schema!r}"
+        )
+    if _digest(arrays, meta) != record["sha256"]:
+        raise ValueError(
+            f"{where}: content checksum mismatch; the arrays or the record were modified "
+            "after saving"
+        )
+    _check_required(arrays, required, where)
+    return arrays, meta
+
+
+_READ_ERRORS = (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile)
+
+
+def _unreadable(where: str, exc: BaseException) -> ValueError:
+    return ValueError(
+        f"{where}: not a readable .npz archive (truncated, corrupt, or containing pickled "
+        f"objects): {type(exc).__name__}: {exc}"
+    )
+
+
+def _check_required(
+    arrays: Mapping[str, np.ndarray],
+    required: Mapping[str, tuple[ShapeTemplate, str]],
+    where: str,
+) -> None:
+    """Check presence, dtype kind and shape (with consistent symbols) of ``required``."""
+    bound: dict[str, tuple[int, str]] = {}
+    for name, (template, kinds) in required.items():
+        if name not in arrays:
+            raise ValueError(f"{where}: missing array {name!r}")
+        a = arrays[name]
+        if a.dtype.kind not in kinds:
+            raise ValueError(
+                f"{where}: array {name!r} has dtype {a.dtype} (kind {a.dtype.kind!r}), "
+                f"expected kind {kinds!r}"
+            )
+        shown = "(" + ", ".join("*" if t is None else str(t) for t in template) + ")"
+        if a.ndim != len(template):
+            raise ValueError(f"{where}: array {name!r} has shape {a.shape}, expected {shown}")
+        for axis, (size, want) in enumerate(zip(a.shape, template, strict=True)):
+            if isinstance(want, int) and size != want:
+                raise ValueError(f"{where}: array {name!r} has shape {a.shape}, expected {shown}")
+            if isinstance(want, str):
+                if want in bound and bound[want][0] != size:
+                    other_size, other = bound[want]
+                    raise ValueError(
+                        f"{where}: array {name!r} axis {axis} has length {size}, but {want} = "
+                        f"{other_size} from array {other!r}"
+                    )
+                bound.setdefault(want, (size, name))

@@ -1,0 +1,849 @@
+"""Kernel model of ILPSS: a Gaussian mixture with shared components over bags of states.
+
+The paper (section 4, step 3, eqs. 1-4) pools the states of the successful traces of each
+task instance ``i`` into a *bag of states* and fits
+
+    log P[D; theta] = sum_i sum_{s in bag i} log sum_k p_k^i N(s; mu_k, Sigma_k)
+
+by EM, where the means ``mu_k`` and full covariances ``Sigma_k`` are shared by every
+instance and only the mixture weights ``p_k^i`` belong to instance ``i``. In the M-step
+the means and covariances use all states pooled (weighted by their responsibilities) and
+the weights of instance ``i`` use only instance ``i``'s states. The components are the
+*kernels* of the option library; :meth:`SharedKernelModel.membership` is the kernel
+membership ``K(s, mu_k)`` in [0, 1] that gates when an option may start and continue.
+
+Data contract: one 2-D float array ``(n_states, n_features)`` per task instance, passed
+as a ``list``. With a single instance the model is an ordinary full-covariance Gaussian
+mixture and reproduces ``sklearn.mixture.GaussianMixture`` from the same start (tested;
+scikit-learn is not a dependency of :mod:`ilpss`).
+
+Example
+-------
+>>> model = SharedKernelModel(n_components=5, random_state=0).fit(bags)  # doctest: +SKIP
+>>> model.membership(state)           # (5,) values in [0, 1]           # doctest: +SKIP
+>>> model.save("kernels.npz"); SharedKernelModel.load("kernels.npz")   # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+import os
+import warnings
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Self
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.special import chdtrc
+
+from ilpss import _gmm_numerics as num
+from ilpss._io import load_npz, save_npz_atomic
+
+__all__ = [
+    "SCHEMA",
+    "KernelConvergenceWarning",
+    "SharedKernelModel",
+    "select_n_components",
+    "validate_bags",
+]
+
+#: Schema (name/version) of the files written by :meth:`SharedKernelModel.save`.
+SCHEMA = "ilpss.kernels/1"
+#: Lloyd iterations after k-means++ seeding: cheap, and they move seeds (often outlying
+#: states) to cluster centres, which gives EM a much better start.
+_LLOYD_ITERS = 10
+
+Array = NDArray[np.float64]
+
+
+class KernelConvergenceWarning(UserWarning):
+    """EM reached ``max_iter`` before the mean log-likelihood settled within ``tol``."""
+
+
+class NotFittedError(RuntimeError):
+    """A method that needs a fitted model was called before :meth:`SharedKernelModel.fit`."""
+
+
+# --------------------------------------------------------------------------- validation
+
+
+def validate_bags(bags: Sequence[ArrayLike], n_features: int | None = None) -> list[Array]:
+    """Check and convert bags of states to a list of C-contiguous float64 arrays.
+
+    Parameters
+    ----------
+    bags : sequence of array_like
+        One 2-D array ``(n_states, n_features)`` per task instance. A bag may have zero
+        states (shape ``(0, n_features)``).
+    n_features : int, optional
+        Required number of features (that of a fitted model).
+
+    Returns
+    -------
+    list of numpy.ndarray
+
+    Raises
+    ------
+    ValueError
+        If ``bags`` is not a non-empty sequence, a bag is not 2-D numeric, the bags do not
+        share one feature count, or a value is NaN or infinite. The message names the
+        instance index.
+    """
+    if isinstance(bags, np.ndarray) and bags.ndim == 2:
+        raise ValueError(
+            "bags must be a list of 2-D arrays, one per task instance; got a single 2-D "
+            "array: wrap it in a list ([X]) if it is the bag of one instance"
+        )
+    if isinstance(bags, str | bytes) or not isinstance(bags, Iterable):
+        raise ValueError(f"bags must be a list of 2-D arrays, got {type(bags).__name__}")
+    bags = list(bags)
+    if not bags:
+        raise ValueError("bags is empty: give at least one task instance's bag of states")
+    out: list[Array] = []
+    for i, bag in enumerate(bags):
+        try:
+            a = np.ascontiguousarray(bag, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(
+                f"instance {i}: cannot convert to a float array (n_states, n_features): {exc}"
+            ) from exc
+        if a.ndim != 2:
+            raise ValueError(
+                f"instance {i}: expected a 2-D array (n_states, n_features), got shape "
+                f"{a.shape}; an instance without states is np.empty((0, n_features))"
+            )
+        want = n_features if n_features is not None else (out[0].shape[1] if out else None)
+        if a.shape[1] == 0:
+            raise ValueError(f"instance {i}: states have no features (shape {a.shape})")
+        if want is not None and a.shape[1] != want:
+            source = "the model" if n_features is not None else "instance 0"
+            raise ValueError(
+                f"instance {i}: has {a.shape[1]} features but {source} has {want}; all "
+                "bags must describe states with the same features"
+            )
+        finite = np.isfinite(a)
+        if not finite.all():
+            row = int(np.argwhere(~finite)[0, 0])
+            raise ValueError(
+                f"instance {i}: contains NaN or infinite values (first at state {row}); "
+                "only finite values are allowed"
+            )
+        out.append(a)
+    return out
+
+
+def _as_states(X: ArrayLike, n_features: int) -> tuple[Array, bool]:
+    """``X`` as a (n, d) float array; ``True`` if a single 1-D state was given."""
+    a = np.asarray(X, dtype=np.float64)
+    single = a.ndim == 1
+    if single:
+        a = a[None, :]
+    if a.ndim != 2 or a.shape[1] != n_features:
+        raise ValueError(
+            f"expected a state of shape ({n_features},) or states of shape "
+            f"(n, {n_features}), got shape {np.shape(X)}"
+        )
+    if not np.isfinite(a).all():
+        raise ValueError("states contain NaN or infinite values; only finite values are allowed")
+    return a, single
+
+
+def _check_int(name: str, value: Any, minimum: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
+        raise ValueError(f"{name} must be an int >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def _check_float(name: str, value: Any) -> float:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, numbers.Real)
+        or not math.isfinite(value)
+        or value < 0
+    ):
+        raise ValueError(f"{name} must be a finite float >= 0, got {value!r}")
+    return float(value)
+
+
+# --------------------------------------------------------------------------- the model
+
+
+@dataclass
+class _Fit:
+    """Parameters and diagnostics of one EM run, in standardised units."""
+
+    weights: Array
+    means: Array
+    covariances: Array
+    prec_chol: Array
+    trace: list[float]  # mean log-likelihood of parameters after 0, 1, ..., n_iter M-steps
+    n_iter: int
+    converged: bool
+
+
+class SharedKernelModel:
+    """Gaussian mixture whose components are shared by task instances (ILPSS kernels).
+
+    Means and full covariances are shared by all instances; each instance has its own
+    mixture weights (paper eqs. 1-4). The interface follows scikit-learn's
+    ``GaussianMixture``.
+
+    Parameters
+    ----------
+    n_components : int, default 5
+        Number of kernels K (the paper uses 5). See :func:`select_n_components`.
+    reg_covar : float, default 1e-6
+        Added to the diagonal of every covariance, **in standardised units** (a fraction
+        of each feature's variance), so it means the same whatever the feature units.
+        It keeps covariances positive definite for duplicated states, fewer states than
+        dimensions, or constant features.
+    tol : float, default 1e-4
+        EM stops when the mean (per state) log-likelihood changes by less than ``tol``.
+    max_iter : int, default 200
+        Maximum number of EM iterations per start; 0 keeps the initial parameters.
+    n_init : int, default 3
+        Number of k-means++ starts; the fit with the highest final log-likelihood is kept.
+        Ignored (one start) when ``fit`` is given ``init_params``.
+    random_state : int, numpy.random.Generator or None
+        Seed of the k-means++ starts. The same int gives bit-identical fits.
+
+    Attributes
+    ----------
+    weights_ : ndarray (n_instances, K)
+        Mixture weights ``p_k^i`` of each instance (rows sum to 1).
+    means_ : ndarray (K, d)
+        Kernel centres in original feature units.
+    covariances_ : ndarray (K, d, d)
+        Kernel covariances in original feature units.
+    std_means_, std_covariances_, std_precisions_cholesky_ : ndarray
+        The same in standardised units, with ``P @ P.T = inv(Sigma)`` (used internally).
+    feature_mean_, feature_scale_ : ndarray (d,)
+        The scaler: ``z = (x - feature_mean_) / feature_scale_``.
+    converged_ : bool
+        Whether the kept EM run converged within ``max_iter``.
+    n_iter_ : int
+        EM iterations (M-steps) of the kept run.
+    lower_bound_ : float
+        Mean log-likelihood per state of the training bags under the fitted model, in
+        original units (equals ``score(bags)``).
+    log_likelihood_trace_ : list of float
+        Mean log-likelihood after 0, 1, ..., ``n_iter_`` M-steps (original units); EM
+        never decreases it. ``log_likelihood_trace_[-1] == lower_bound_``.
+    n_features_in_, n_instances_ : int
+    n_states_per_instance_ : ndarray (n_instances,) of int
+        Number of training states of each instance.
+
+    Notes
+    -----
+    *Standardisation.* Features are standardised (pooled mean and population standard
+    deviation) before EM so that distances, ``reg_covar`` and the k-means++ seeding do
+    not depend on feature units (metres against radians). A constant feature (zero
+    variance up to rounding) gets scale 1: it is only centred, never divided by zero, and
+    its variance in every kernel is ``reg_covar``.
+
+    *Instances without states.* Allowed, so that instance indices stay aligned with the
+    policies they come from even when a policy produced no successful trace. Such an
+    instance contributes nothing to the likelihood, its weights stay uniform (``1/K``:
+    there is nothing to estimate them from), it is left out of the parameter count of
+    :meth:`bic` and of the mean weights used when ``instance=None``.
+
+    *Initialisation.* Greedy k-means++ seeding on the pooled standardised states, a few
+    Lloyd iterations, then means, covariances and (pooled) weights of the hard
+    assignment; the first M-step makes the weights instance-specific. ``fit`` can
+    instead start from given parameters (``init_params``), e.g. the previous model's
+    kernels in the lifelong loop.
+    """
+
+    def __init__(
+        self,
+        n_components: int = 5,
+        *,
+        reg_covar: float = 1e-6,
+        tol: float = 1e-4,
+        max_iter: int = 200,
+        n_init: int = 3,
+        random_state: int | np.random.Generator | None = None,
+    ) -> None:
+        self.n_components = n_components
+        self.reg_covar = reg_covar
+        self.tol = tol
+        self.max_iter = max_iter
+        self.n_init = n_init
+        self.random_state = random_state
+
+    def __repr__(self) -> str:
+        return (
+            f"SharedKernelModel(n_components={self.n_components!r}, reg_covar="
+            f"{self.reg_covar!r}, tol={self.tol!r}, max_iter={self.max_iter!r}, n_init="
+            f"{self.n_init!r}, random_state={self.random_state!r})"
+        )
+
+    def _check_hyperparameters(self) -> None:
+        _check_int("n_components", self.n_components, 1)
+        _check_float("reg_covar", self.reg_covar)
+        _check_float("tol", self.tol)
+        _check_int("max_iter", self.max_iter, 0)
+        _check_int("n_init", self.n_init, 1)
+
+    # ----------------------------------------------------------------------- fitting
+
+    def fit(
+        self, bags: Sequence[ArrayLike], init_params: Mapping[str, ArrayLike] | None = None
+    ) -> Self:
+        """Fit the kernels to bags of states by EM.
+
+        Parameters
+        ----------
+        bags : list of array_like
+            One ``(n_states, n_features)`` array per task instance (see
+            :func:`validate_bags`); an instance may have no states.
+        init_params : mapping, optional
+            Start EM from these parameters, in **original feature units**, instead of
+            k-means++ (one start, no randomness):
+
+            - ``"means"`` (K, d), required;
+            - ``"covariances"`` (K, d, d), optional: else the covariances of the states
+              nearest to each mean;
+            - ``"weights"`` (K,) or (n_instances, K), optional: else the fractions of
+              states nearest to each mean.
+
+        Returns
+        -------
+        self
+
+        Raises
+        ------
+        ValueError
+            On invalid hyperparameters, bags (see :func:`validate_bags`) or
+            ``init_params``, or fewer states in total than components.
+
+        Warns
+        -----
+        KernelConvergenceWarning
+            If the kept run did not converge within ``max_iter`` iterations.
+        """
+        self._check_hyperparameters()
+        arrays = validate_bags(bags)
+        n_states = np.array([a.shape[0] for a in arrays], dtype=np.int64)
+        total = int(n_states.sum())
+        if total < self.n_components:
+            raise ValueError(
+                f"fewer states in total ({total}) than components ({self.n_components}); "
+                "collect more successful traces or lower n_components"
+            )
+        pooled = np.concatenate(arrays, axis=0)
+        ends = np.cumsum(n_states)
+        slices = [slice(int(e - n), int(e)) for e, n in zip(ends, n_states, strict=True)]
+        feature_mean, feature_scale = _fit_scaler(pooled)
+        Z = (pooled - feature_mean) / feature_scale
+
+        if init_params is not None:
+            starts = [self._start_from_params(Z, slices, init_params, feature_mean, feature_scale)]
+            n_runs = 1
+        else:
+            starts, n_runs = [], self.n_init
+        rng = np.random.default_rng(self.random_state)
+        best: _Fit | None = None
+        for run in range(n_runs):
+            start = starts[run] if starts else self._start_kmeans(Z, slices, rng)
+            result = self._run_em(Z, slices, *start)
+            # Strictly greater: ties keep the earlier run.
+            if best is None or result.trace[-1] > best.trace[-1]:
+                best = result
+        assert best is not None
+
+        self._set_state(
+            weights=best.weights,
+            std_means=best.means,
+            std_covariances=best.covariances,
+            feature_mean=feature_mean,
+            feature_scale=feature_scale,
+            n_states_per_instance=n_states,
+            prec_chol=best.prec_chol,
+        )
+        offset = self._log_jacobian()
+        self.log_likelihood_trace_ = [float(v + offset) for v in best.trace]
+        self.lower_bound_ = self.log_likelihood_trace_[-1]
+        self.n_iter_ = best.n_iter
+        self.converged_ = best.converged
+        if not best.converged and self.max_iter > 0:
+            change = abs(best.trace[-1] - best.trace[-2])
+            warnings.warn(
+                f"EM did not converge within max_iter={self.max_iter} iterations (best of "
+                f"{n_runs} start(s); last change of the mean log-likelihood {change:.3g}, "
+                f"tol={self.tol}); increase max_iter or tol, or check for degenerate data",
+                KernelConvergenceWarning,
+                stacklevel=2,
+            )
+        return self
+
+    def _start_kmeans(
+        self, Z: Array, slices: list[slice], rng: np.random.Generator
+    ) -> tuple[Array, Array, Array]:
+        centres = num.kmeans_plusplus(Z, self.n_components, rng)
+        centres = num.lloyd(Z, centres, _LLOYD_ITERS)
+        return self._hard_moments(Z, slices, centres)
+
+    def _hard_moments(
+        self, Z: Array, slices: list[slice], centres: Array
+    ) -> tuple[Array, Array, Array]:
+        """Weights, means and covariances of the assignment of states to nearest centres."""
+        resp = np.zeros((Z.shape[0], self.n_components))
+        resp[np.arange(Z.shape[0]), num.nearest(Z, centres)] = 1.0
+        pooled_weights, means, covariances = num.m_step(
+            Z, [slice(0, Z.shape[0])], resp, self.reg_covar
+        )
+        # Pooled weights for every instance: before EM nothing is instance-specific, and a
+        # weight of ~0 would be nearly a fixed point of EM.
+        weights = np.repeat(pooled_weights, len(slices), axis=0)
+        return weights, means, covariances
+
+    def _start_from_params(
+        self,
+        Z: Array,
+        slices: list[slice],
+        init_params: Mapping[str, ArrayLike],
+        feature_mean: Array,
+        feature_scale: Array,
+    ) -> tuple[Array, Array, Array]:
+        """Standardised starting parameters from user parameters in original units."""
+        K, d, n_inst = self.n_components, Z.shape[1], len(slices)
+        unknown = set(init_params) - {"means", "covariances", "weights"}
+        if unknown:
+            raise ValueError(
+                f"init_params: unknown keys {sorted(unknown)}; allowed: 'means', "
+                "'covariances', 'weights'"
+            )
+        if "means" not in init_params:
+            raise ValueError("init_params: 'means' (n_components, n_features) is required")
+
+        def get(key: str, shapes: list[tuple[int, ...]]) -> Array:
+            a = np.asarray(init_params[key], dtype=np.float64)
+            if a.shape not in shapes:
+                raise ValueError(
+                    f"init_params[{key!r}] has shape {a.shape}, expected "
+                    + " or ".join(str(s) for s in shapes)
+                )
+            if not np.isfinite(a).all():
+                raise ValueError(f"init_params[{key!r}] contains NaN or infinite values")
+            return a
+
+        means = (get("means", [(K, d)]) - feature_mean) / feature_scale
+        if "covariances" not in init_params or "weights" not in init_params:
+            weights, _, covariances = self._hard_moments(Z, slices, means)
+        if "covariances" in init_params:
+            cov = get("covariances", [(K, d, d)])
+            if not np.allclose(cov, cov.transpose(0, 2, 1), rtol=1e-8, atol=0.0):
+                raise ValueError("init_params['covariances'] must be symmetric")
+            covariances = cov / np.outer(feature_scale, feature_scale)
+        if "weights" in init_params:
+            w = get("weights", [(K,), (n_inst, K)])
+            w = np.broadcast_to(w, (n_inst, K)).copy()
+            if (w < 0).any() or not np.allclose(w.sum(axis=1), 1.0, rtol=0.0, atol=1e-6):
+                raise ValueError("init_params['weights'] must be >= 0 with rows summing to 1")
+            weights = w / w.sum(axis=1, keepdims=True)
+        return weights, means, covariances
+
+    def _run_em(
+        self, Z: Array, slices: list[slice], weights: Array, means: Array, covariances: Array
+    ) -> _Fit:
+        """EM from the given start, in scikit-learn's order (E, M, then the test on tol).
+
+        The tested likelihood is that of the parameters before the M-step, as in
+        scikit-learn, so that both stop after the same number of M-steps; the likelihood
+        of the final parameters is computed once more at the end.
+        """
+        n = Z.shape[0]
+        prec_chol = num.precision_cholesky(covariances)
+        trace: list[float] = []
+        previous = -np.inf
+        converged = False
+        n_iter = 0
+        for n_iter in range(1, self.max_iter + 1):  # noqa: B007 (n_iter is used after the loop)
+            total, resp = num.e_step(Z, slices, _safe_log(weights), means, prec_chol)
+            current = total / n
+            trace.append(current)
+            weights, means, covariances = num.m_step(Z, slices, resp, self.reg_covar)
+            prec_chol = num.precision_cholesky(covariances)
+            if abs(current - previous) < self.tol:
+                converged = True
+                break
+            previous = current
+        trace.append(num.log_likelihood(Z, slices, _safe_log(weights), means, prec_chol) / n)
+        return _Fit(weights, means, covariances, prec_chol, trace, n_iter, converged)
+
+    def _set_state(
+        self,
+        *,
+        weights: Array,
+        std_means: Array,
+        std_covariances: Array,
+        feature_mean: Array,
+        feature_scale: Array,
+        n_states_per_instance: NDArray[np.int64],
+        prec_chol: Array | None = None,
+    ) -> None:
+        """Set the learned attributes from the standardised parameters and the scaler."""
+        self.weights_ = weights
+        self.std_means_ = std_means
+        self.std_covariances_ = std_covariances
+        self.std_precisions_cholesky_ = (
+            num.precision_cholesky(std_covariances) if prec_chol is None else prec_chol
+        )
+        self.feature_mean_ = feature_mean
+        self.feature_scale_ = feature_scale
+        self.means_ = std_means * feature_scale + feature_mean
+        self.covariances_ = std_covariances * np.outer(feature_scale, feature_scale)
+        self.n_states_per_instance_ = n_states_per_instance
+        self.n_features_in_ = int(std_means.shape[1])
+        self.n_instances_ = int(weights.shape[0])
+
+    # ----------------------------------------------------------------------- inference
+
+    def _check_fitted(self) -> None:
+        if not hasattr(self, "std_precisions_cholesky_"):
+            raise NotFittedError(
+                "this SharedKernelModel is not fitted yet; call fit(bags) or load(path) first"
+            )
+
+    def _log_jacobian(self) -> float:
+        """``log |dz/dx|``: converts standardised log densities to original units."""
+        return float(-np.log(self.feature_scale_).sum())
+
+    def _standardise(self, X: ArrayLike) -> tuple[Array, bool]:
+        self._check_fitted()
+        a, single = _as_states(X, self.n_features_in_)
+        return (a - self.feature_mean_) / self.feature_scale_, single
+
+    def _log_weights(self, instance: int | None) -> Array:
+        """Log weights of ``instance``, or of the mean of the instances that had states."""
+        if instance is None:
+            with_data = self.n_states_per_instance_ > 0
+            return _safe_log(self.weights_[with_data].mean(axis=0))
+        if (
+            isinstance(instance, bool)
+            or not isinstance(instance, numbers.Integral)
+            or not 0 <= instance < self.n_instances_
+        ):
+            raise ValueError(
+                f"instance must be None or an int in [0, {self.n_instances_}), got {instance!r}"
+            )
+        return _safe_log(self.weights_[int(instance)])
+
+    def sq_mahalanobis(self, X: ArrayLike) -> Array:
+        """Squared Mahalanobis distance of states to every kernel centre.
+
+        Parameters
+        ----------
+        X : array_like (n, d) or (d,)
+
+        Returns
+        -------
+        ndarray (n, K), or (K,) for a single state.
+        """
+        Z, single = self._standardise(X)
+        d2 = num.sq_mahalanobis(Z, self.std_means_, self.std_precisions_cholesky_)
+        return d2[0] if single else d2
+
+    def membership(self, X: ArrayLike) -> Array:
+        """Kernel membership ``K(s, mu_k)`` in [0, 1] of states in every kernel.
+
+        ``K(s, mu_k) = P[chi2_d >= D_k(s)^2]``, the chi-square tail probability (``d``
+        degrees of freedom, ``d`` = number of features) of the squared Mahalanobis
+        distance ``D_k(s)^2 = (s - mu_k)^T Sigma_k^{-1} (s - mu_k)``. If ``s`` is drawn
+        from kernel ``k`` then ``D_k(s)^2 ~ chi2_d``, so ``K(s, mu_k)`` is the probability
+        that a state of the kernel lies farther from its centre than ``s``: 1 at the
+        centre, 0.5 at the median distance, 0.05 on the 95 % ellipsoid, and uniform on
+        [0, 1] for states drawn from the kernel, in any dimension.
+
+        Why not ``exp(-D^2 / 2)``: in ``d`` dimensions a typical in-kernel state has
+        ``D^2`` near ``d``, so for the drill's 9 features ``exp(-9 / 2) = 0.011`` (and
+        its mean over the kernel is ``2^(-d/2) = 0.044``): options gated by it would
+        almost never start and would stop at once. The tail probability at ``D^2 = d``
+        is 0.44 for ``d = 9``.
+
+        Parameters
+        ----------
+        X : array_like (n, d) or (d,)
+            States in original feature units.
+
+        Returns
+        -------
+        ndarray (n, K), or (K,) for a single state.
+        """
+        d2 = self.sq_mahalanobis(X)
+        return chdtrc(float(self.n_features_in_), d2)
+
+    def responsibilities(self, X: ArrayLike, instance: int | None = None) -> Array:
+        """Posterior probability of each kernel for states (rows sum to 1).
+
+        Parameters
+        ----------
+        X : array_like (n, d) or (d,)
+        instance : int, optional
+            Use this instance's weights; by default the mean weights of the instances that
+            had states.
+
+        Returns
+        -------
+        ndarray (n, K), or (K,) for a single state.
+        """
+        Z, single = self._standardise(X)
+        log_prob = num.estimate_log_gaussian_prob(Z, self.std_means_, self.std_precisions_cholesky_)
+        log_prob += self._log_weights(instance)
+        num.logsumexp_rows(log_prob)  # log_prob now holds the posteriors
+        return log_prob[0] if single else log_prob
+
+    def score_samples(self, X: ArrayLike, instance: int | None = None) -> Array | float:
+        """Log density of states under the mixture, in original feature units.
+
+        Parameters
+        ----------
+        X : array_like (n, d) or (d,)
+        instance : int, optional
+            As in :meth:`responsibilities`.
+
+        Returns
+        -------
+        ndarray (n,), or a float for a single state.
+        """
+        Z, single = self._standardise(X)
+        log_prob = num.estimate_log_gaussian_prob(Z, self.std_means_, self.std_precisions_cholesky_)
+        log_prob += self._log_weights(instance)
+        out = num.logsumexp_rows(log_prob) + self._log_jacobian()
+        return float(out[0]) if single else out
+
+    def _total_log_likelihood(self, bags: Sequence[ArrayLike]) -> tuple[float, int]:
+        """Total log-likelihood (original units) of bags and their number of states."""
+        self._check_fitted()
+        arrays = validate_bags(bags, self.n_features_in_)
+        if len(arrays) != self.n_instances_:
+            raise ValueError(
+                f"expected {self.n_instances_} bags (one per fitted instance), got {len(arrays)}"
+            )
+        n = sum(a.shape[0] for a in arrays)
+        if n == 0:
+            raise ValueError("the bags hold no states")
+        ends = np.cumsum([a.shape[0] for a in arrays])
+        slices = [slice(int(e - a.shape[0]), int(e)) for e, a in zip(ends, arrays, strict=True)]
+        Z = (np.concatenate(arrays, axis=0) - self.feature_mean_) / self.feature_scale_
+        total = num.log_likelihood(
+            Z, slices, _safe_log(self.weights_), self.std_means_, self.std_precisions_cholesky_
+        )
+        return total + n * self._log_jacobian(), n
+
+    def score(self, bags: Sequence[ArrayLike]) -> float:
+        """Mean log-likelihood per state of bags (one per fitted instance), original units."""
+        total, n = self._total_log_likelihood(bags)
+        return total / n
+
+    def n_parameters(self) -> int:
+        """Free parameters: shared means and covariances, K - 1 weights per instance.
+
+        Instances without training states have no estimated weights and are not counted.
+        The scaler (2 d numbers) is the same for every K and is left out.
+        """
+        self._check_fitted()
+        K, d = self.std_means_.shape
+        n_weighted = int((self.n_states_per_instance_ > 0).sum())
+        return K * d + K * d * (d + 1) // 2 + n_weighted * (K - 1)
+
+    def bic(self, bags: Sequence[ArrayLike]) -> float:
+        """Bayesian information criterion ``-2 log L + p log N`` of bags (lower is better)."""
+        total, n = self._total_log_likelihood(bags)
+        return -2.0 * total + self.n_parameters() * math.log(n)
+
+    # ----------------------------------------------------------------------- persistence
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write the fitted model to ``path`` (an ``.npz`` archive) atomically.
+
+        The archive holds plain arrays and a JSON record (schema ``"ilpss.kernels/1"``,
+        hyperparameters, fit diagnostics) with a checksum; see :mod:`ilpss._io`. A
+        ``random_state`` that is not an int or None (a Generator) is recorded as None.
+        """
+        self._check_fitted()
+        seed = self.random_state
+        seed = int(seed) if isinstance(seed, numbers.Integral) else None
+        meta = {
+            "schema": SCHEMA,
+            "hyperparameters": {
+                "n_components": int(self.n_components),
+                "reg_covar": float(self.reg_covar),
+                "tol": float(self.tol),
+                "max_iter": int(self.max_iter),
+                "n_init": int(self.n_init),
+                "random_state": seed,
+            },
+            "fit": {
+                "converged": bool(self.converged_),
+                "n_iter": int(self.n_iter_),
+                "lower_bound": float(self.lower_bound_),
+            },
+        }
+        arrays = {
+            "weights": self.weights_,
+            "std_means": self.std_means_,
+            "std_covariances": self.std_covariances_,
+            "feature_mean": self.feature_mean_,
+            "feature_scale": self.feature_scale_,
+            "n_states_per_instance": self.n_states_per_instance_.astype(np.int64),
+            "log_likelihood_trace": np.asarray(self.log_likelihood_trace_, dtype=np.float64),
+        }
+        save_npz_atomic(path, arrays, meta)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> SharedKernelModel:
+        """Read a model written by :meth:`save`; never unpickles.
+
+        Raises
+        ------
+        FileNotFoundError
+            If ``path`` does not exist.
+        ValueError
+            If the file is truncated or corrupt, modified after saving, of another schema
+            version, lacks an array or a field, or holds arrays of the wrong shape, dtype
+            or values (non-finite, weights not summing to 1, covariances not positive
+            definite); the message says which.
+        """
+        required = {
+            "weights": (("I", "K"), "f"),
+            "std_means": (("K", "d"), "f"),
+            "std_covariances": (("K", "d", "d"), "f"),
+            "feature_mean": (("d",), "f"),
+            "feature_scale": (("d",), "f"),
+            "n_states_per_instance": (("I",), "iu"),
+            "log_likelihood_trace": ((None,), "f"),
+        }
+        arrays, meta = load_npz(path, SCHEMA, required)
+        where = os.fspath(path)
+
+        def field(record: Any, name: str, key: str, kinds: tuple[type, ...]) -> Any:
+            if not isinstance(record, dict) or key not in record:
+                raise ValueError(f"{where}: missing field {name}.{key}")
+            value = record[key]
+            if not isinstance(value, kinds) or (isinstance(value, bool) and bool not in kinds):
+                raise ValueError(f"{where}: field {name}.{key} has invalid value {value!r}")
+            return value
+
+        hp = meta.get("hyperparameters")
+        model = cls(
+            field(hp, "hyperparameters", "n_components", (int,)),
+            reg_covar=field(hp, "hyperparameters", "reg_covar", (int, float)),
+            tol=field(hp, "hyperparameters", "tol", (int, float)),
+            max_iter=field(hp, "hyperparameters", "max_iter", (int,)),
+            n_init=field(hp, "hyperparameters", "n_init", (int,)),
+            random_state=field(hp, "hyperparameters", "random_state", (int, type(None))),
+        )
+        fit_info = meta.get("fit")
+        converged = field(fit_info, "fit", "converged", (bool,))
+        n_iter = field(fit_info, "fit", "n_iter", (int,))
+        lower_bound = field(fit_info, "fit", "lower_bound", (int, float))
+        try:
+            model._check_hyperparameters()
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from exc
+
+        weights = arrays["weights"].astype(np.float64)
+        n_inst, K = weights.shape
+        d = arrays["std_means"].shape[1]
+        trace = arrays["log_likelihood_trace"].astype(np.float64)
+        counts = arrays["n_states_per_instance"].astype(np.int64)
+        problems = []
+        if K != model.n_components:
+            problems.append(f"{K} components in the arrays but n_components={model.n_components}")
+        if n_inst == 0 or d == 0:
+            problems.append(f"empty model ({n_inst} instances, {d} features)")
+        floats = [arrays[k] for k in required if arrays[k].dtype.kind == "f"]
+        if not all(np.isfinite(a).all() for a in floats):
+            problems.append("non-finite values")
+        if (weights < 0).any() or not np.allclose(weights.sum(axis=1), 1.0, atol=1e-9, rtol=0):
+            problems.append("weights are not probabilities (rows >= 0 summing to 1)")
+        if (arrays["feature_scale"] <= 0).any():
+            problems.append("feature_scale must be > 0")
+        if (counts < 0).any() or counts.sum() < K:
+            problems.append("n_states_per_instance must be >= 0 with a total >= n_components")
+        if trace.shape[0] != n_iter + 1:
+            problems.append(f"log_likelihood_trace has {trace.shape[0]} values for n_iter={n_iter}")
+        cov = arrays["std_covariances"].astype(np.float64)
+        if not np.allclose(cov, cov.transpose(0, 2, 1), rtol=1e-10, atol=0.0):
+            problems.append("covariances are not symmetric")
+        if problems:
+            raise ValueError(f"{where}: invalid kernel model: " + "; ".join(problems))
+        try:
+            prec_chol = num.precision_cholesky(cov)
+        except ValueError as exc:
+            raise ValueError(f"{where}: invalid kernel model: {exc}") from exc
+
+        model._set_state(
+            weights=weights,
+            std_means=arrays["std_means"].astype(np.float64),
+            std_covariances=cov,
+            feature_mean=arrays["feature_mean"].astype(np.float64),
+            feature_scale=arrays["feature_scale"].astype(np.float64),
+            n_states_per_instance=counts,
+            prec_chol=prec_chol,
+        )
+        model.converged_ = converged
+        model.n_iter_ = n_iter
+        model.lower_bound_ = float(lower_bound)
+        model.log_likelihood_trace_ = [float(v) for v in trace]
+        return model
+
+
+def _safe_log(a: Array) -> Array:
+    """``log`` that maps an exact zero weight to ``-inf`` without a warning."""
+    with np.errstate(divide="ignore"):
+        return np.log(a)
+
+
+def _fit_scaler(X: Array) -> tuple[Array, Array]:
+    """Per-feature mean and scale; constant features get scale 1 (documented above).
+
+    A feature counts as constant when its variance is within rounding of zero, with
+    scikit-learn's bound ``n eps var + (n eps mean)^2``: the mean of n equal values is not
+    always exactly that value, so the computed variance of a constant may be ~1e-33.
+    """
+    n = X.shape[0]
+    mean = X.mean(axis=0)
+    var = X.var(axis=0)
+    eps = np.finfo(np.float64).eps
+    constant = var <= n * eps * var + (n * mean * eps) ** 2
+    scale = np.sqrt(var)
+    scale[constant] = 1.0
+    return mean, scale
+
+
+def select_n_components(
+    bags: Sequence[ArrayLike], candidates: Iterable[int] = range(1, 9), **kwargs: Any
+) -> tuple[int, dict[int, float]]:
+    """Choose the number of kernels by BIC.
+
+    Parameters
+    ----------
+    bags : list of array_like
+        Bags of states, as for :meth:`SharedKernelModel.fit`.
+    candidates : iterable of int, default 1..8
+        Numbers of components to try.
+    **kwargs
+        Other arguments of :class:`SharedKernelModel` (``random_state``, ``n_init``, ...).
+
+    Returns
+    -------
+    best_k : int
+        The candidate with the lowest BIC (the smallest such on ties).
+    bics : dict of int to float
+        BIC of each candidate.
+    """
+    if "n_components" in kwargs:
+        raise ValueError("give the numbers of components as candidates, not n_components")
+    arrays = validate_bags(bags)
+    bics: dict[int, float] = {}
+    for k in sorted(set(candidates)):
+        bics[k] = SharedKernelModel(n_components=k, **kwargs).fit(arrays).bic(arrays)
+    if not bics:
+        raise ValueError("candidates is empty")
+    best_k = min(bics, key=lambda k: (bics[k], k))
+    return best_k, bics

@@ -1,0 +1,923 @@
+"""Kernel options ``o_k^i = <K_k, K_k, pi_i>`` and the option library across trials.
+
+Option semantics
+----------------
+Option ``o_k^i`` pairs kernel ``k`` of the current kernel model with frozen policy
+``pi_i`` (paper section 4, step 4; DESIGN.md "ILPSS as we implement it", item 4):
+
+* **Initiation.** At a decision state ``s`` the option may be chosen with probability
+  ``c * K_k(s)``, where ``c`` is the option's *scale* (1 when created) and ``K_k(s)`` in
+  [0, 1] is the kernel membership. Availability is sampled once per decision, for all
+  options at once (:meth:`OptionLibrary.available`); the learner then chooses among the
+  primitives and the available options.
+* **Execution.** Once started, the option acts at its start state and at every later
+  decision it reaches: it takes ``pi_i``'s greedy choice at ``s`` (ties broken by the
+  caller's generator). ``pi_i`` may itself have learnt to choose options: such a choice
+  is a *pointer* to that option's policy, so the greedy choice of the pointed policy at
+  the same ``s`` is taken instead, and so on. Pointers are followed by option id through
+  the library's registry of every option id ever issued, so they stay valid after the
+  pointed option is pruned or its kernel retired. Only the running option's kernel
+  governs termination; a pointed option's kernel is not consulted (it may no longer
+  exist) and its availability is not sampled. At most ``max_depth`` policies are
+  consulted per decision (the running option's own policy is depth 1); the policy at
+  depth ``max_depth`` takes its best *primitive* action, so execution always ends and
+  a cycle of pointers cannot loop.
+* **Termination.** After each step that does not end the episode, the option continues
+  at the new decision state ``s'`` with probability ``K_k(s')`` (the scale is not
+  applied) and stops otherwise. So an option runs for at least one decision, and in a
+  region where ``K_k ~ p`` it runs for ``1 / (1 - p)`` decisions on average.
+
+Discounting and pruning (paper section 6)
+-----------------------------------------
+After each trial, :meth:`OptionLibrary.end_trial` is told which options the *learnt*
+policy used (normally: the options chosen while rolling out the final greedy policy,
+see :func:`ilpss.smdp.options_used`). Every option that was offered in the trial and not
+used has its scale multiplied by ``discount`` (< 1); an option whose scale falls below
+``prune_threshold`` is pruned: it leaves the active set for good, and its
+(kernel id, policy id) pair is remembered so that a refit never recreates it. Options
+reached only through pointers of a used option do not count as used.
+
+Identity across refits
+----------------------
+Every kernel carries a stable *kernel id*; an option's identity is the pair
+(kernel id, policy id), and its stable *option id* is issued once for that pair. When
+:meth:`OptionLibrary.refit` replaces the kernel model (step 5 of Algorithm 1, after
+every trial):
+
+1. Old and new kernels are compared by the Bhattacharyya distance between their
+   Gaussians (means and covariances in original feature units; the distance is
+   invariant to any affine change of units, so standardisation does not matter).
+2. A minimum-cost one-to-one assignment (Hungarian algorithm,
+   :func:`scipy.optimize.linear_sum_assignment`) pairs old and new kernels; a pair is
+   a *match* only if its distance is at most ``max_match_distance`` (default 3.0, i.e.
+   a Bhattacharyya coefficient of at least ``exp(-3) ~ 0.05``; ``None`` accepts every
+   assigned pair).
+3. A matched new kernel inherits the old kernel id, so each of its options keeps its
+   option id, scale and usage counts (or stays pruned).
+4. An unmatched new kernel (a new region, or more kernels than before) gets a fresh
+   kernel id; its options are new, with scale 1.
+5. An unmatched old kernel is retired: its options leave the active set (their ids
+   remain resolvable as pointers, and their policies are kept).
+6. New policies are appended with the next policy ids and get one new option (scale 1)
+   with every current kernel.
+
+Policy ids are positions in the lifelong sequence of frozen policies ``pi_0, pi_1, ...``;
+policies are never removed, because later policies may point to them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from ilpss._io import load_npz, save_npz_atomic
+from ilpss.policy import FrozenPolicy, greedy_choice
+from ilpss.tiles import TileCoder
+
+__all__ = [
+    "LIBRARY_SCHEMA",
+    "KernelModel",
+    "OptionInfo",
+    "OptionLibrary",
+    "RefitReport",
+    "TrialReport",
+    "bhattacharyya_distance",
+    "kernel_distances",
+    "match_kernels",
+]
+
+LIBRARY_SCHEMA = "ilpss.options/1"
+_KERNELS_FILE = "kernels.npz"
+_LIBRARY_FILE = "library.npz"
+
+
+@runtime_checkable
+class KernelModel(Protocol):
+    """What the library needs from a fitted kernel model (e.g. ``SharedKernelModel``)."""
+
+    n_components: int
+    means_: np.ndarray
+    covariances_: np.ndarray
+
+    def membership(self, X: np.ndarray) -> np.ndarray:  # pragma: no cover - protocol
+        ...
+
+
+# --------------------------------------------------------------------------- matching
+def _logdet_pd(cov: np.ndarray) -> tuple[np.ndarray, float]:
+    """Cholesky factor and log-determinant of a covariance.
+
+    A covariance that is not numerically positive definite (a degenerate kernel) gets a
+    tiny ridge relative to its own diagonal, so that it still has a distance; well
+    conditioned covariances are used exactly (keeping the distance affine-invariant).
+    """
+    try:
+        chol = np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        diag = np.diag(cov).copy()
+        floor = max(float(diag.max()), 1e-300) * 1e-12
+        ridged = cov + np.diag(np.maximum(diag, floor) * 1e-9 + floor)
+        try:
+            chol = np.linalg.cholesky(ridged)
+        except np.linalg.LinAlgError:
+            raise ValueError("kernel covariance is not positive semi-definite") from None
+    return chol, 2.0 * float(np.log(np.diag(chol)).sum())
+
+
+def bhattacharyya_distance(
+    mean1: np.ndarray, cov1: np.ndarray, mean2: np.ndarray, cov2: np.ndarray
+) -> float:
+    """Bhattacharyya distance between two Gaussians.
+
+    ``D = 1/8 (m1 - m2)' S^-1 (m1 - m2) + 1/2 ln(det S / sqrt(det S1 det S2))`` with
+    ``S = (S1 + S2) / 2``. Zero for identical Gaussians, symmetric, and invariant to an
+    invertible affine change of coordinates (so feature units do not matter).
+    """
+    m1, m2 = np.asarray(mean1, float), np.asarray(mean2, float)
+    s1, s2 = np.asarray(cov1, float), np.asarray(cov2, float)
+    _, logdet1 = _logdet_pd(s1)
+    _, logdet2 = _logdet_pd(s2)
+    chol, logdet_s = _logdet_pd((s1 + s2) / 2.0)
+    z = np.linalg.solve(chol, m1 - m2)
+    return float(z @ z / 8.0 + 0.5 * (logdet_s - 0.5 * (logdet1 + logdet2)))
+
+
+def kernel_distances(old: KernelModel, new: KernelModel) -> np.ndarray:
+    """Bhattacharyya distances, shape (K_old, K_new), between two models' kernels."""
+    om, oc = _kernel_params(old)
+    nm, nc = _kernel_params(new)
+    if om.shape[1] != nm.shape[1]:
+        raise ValueError(
+            f"kernel models have different dimensions ({om.shape[1]} and {nm.shape[1]})"
+        )
+    out = np.empty((om.shape[0], nm.shape[0]))
+    for i in range(om.shape[0]):
+        for j in range(nm.shape[0]):
+            out[i, j] = bhattacharyya_distance(om[i], oc[i], nm[j], nc[j])
+    return out
+
+
+def match_kernels(
+    old: KernelModel, new: KernelModel, max_distance: float | None = 3.0
+) -> dict[int, tuple[int, float]]:
+    """Match the kernels of ``new`` to those of ``old``.
+
+    Returns
+    -------
+    dict
+        ``{new_index: (old_index, distance)}`` for every matched pair: the minimum-cost
+        one-to-one assignment on :func:`kernel_distances`, keeping pairs whose distance
+        is at most ``max_distance`` (all assigned pairs if ``None``).
+    """
+    dist = kernel_distances(old, new)
+    rows, cols = linear_sum_assignment(dist)
+    out: dict[int, tuple[int, float]] = {}
+    for i, j in zip(rows, cols, strict=True):
+        if max_distance is None or dist[i, j] <= max_distance:
+            out[int(j)] = (int(i), float(dist[i, j]))
+    return out
+
+
+def _kernel_params(model: KernelModel) -> tuple[np.ndarray, np.ndarray]:
+    means = np.asarray(getattr(model, "means_", None), dtype=np.float64)
+    covs = np.asarray(getattr(model, "covariances_", None), dtype=np.float64)
+    if means.ndim != 2 or covs.shape != (means.shape[0], means.shape[1], means.shape[1]):
+        raise ValueError(
+            "kernel model must have means_ of shape (K, d) and covariances_ of shape "
+            f"(K, d, d); got {means.shape} and {covs.shape}"
+        )
+    if not (np.isfinite(means).all() and np.isfinite(covs).all()):
+        raise ValueError("kernel model means_/covariances_ contain NaN or infinity")
+    return means, covs
+
+
+# --------------------------------------------------------------------------- reports
+@dataclass(frozen=True)
+class OptionInfo:
+    """Public description of one active option."""
+
+    option_id: int
+    kernel_id: int
+    kernel_index: int
+    policy_id: int
+    scale: float
+    uses: int
+    trial_uses: int
+
+
+@dataclass(frozen=True)
+class TrialReport:
+    """What :meth:`OptionLibrary.end_trial` did."""
+
+    used: tuple[int, ...]
+    discounted: tuple[int, ...]
+    pruned: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class RefitReport:
+    """What :meth:`OptionLibrary.refit` did (kernel ids are stable ids, not indices)."""
+
+    matched: dict[int, tuple[int, float]]  # new kernel index -> (old kernel index, distance)
+    kept_kernel_ids: tuple[int, ...]
+    new_kernel_ids: tuple[int, ...]
+    retired_kernel_ids: tuple[int, ...]
+    new_policy_ids: tuple[int, ...]
+    kept_option_ids: tuple[int, ...]
+    new_option_ids: tuple[int, ...]
+    retired_option_ids: tuple[int, ...]
+
+
+# --------------------------------------------------------------------------- library
+class OptionLibrary:
+    """The options ``o_k^i`` of one kernel model and all frozen policies learnt so far.
+
+    Parameters
+    ----------
+    kernel_model : KernelModel
+        A fitted model with ``membership``, ``n_components``, ``means_``, ``covariances_``.
+    policies : sequence of FrozenPolicy
+        Policies ``pi_0 .. pi_{n-1}``; policy id = position. In a fresh library they
+        must not refer to options (there are none yet); use :meth:`refit` to add
+        policies learnt with options.
+    discount : float, default 0.5
+        Factor in (0, 1) applied to the scale of every offered, unused option per trial.
+    prune_threshold : float, default 0.1
+        Options whose scale falls below this are pruned.
+    max_depth : int, default 4
+        Maximum number of policies consulted when following pointers.
+    max_match_distance : float or None, default 3.0
+        Largest Bhattacharyya distance at which a refit kernel inherits an old identity.
+
+    Attributes
+    ----------
+    option_ids : numpy.ndarray of int64
+        Active option ids, increasing; this is the order in which a learner offers them.
+    scales, uses, trial_uses : numpy.ndarray
+        Per active option, aligned with ``option_ids``.
+    kernel_ids : numpy.ndarray of int64, shape (K,)
+        Stable id of each kernel of ``kernel_model``.
+    policies : tuple of FrozenPolicy
+    registry : mapping of int to (kernel_id, policy_id)
+        Every option id ever issued (for pointers), active or not.
+    pruned : frozenset of (kernel_id, policy_id)
+    refit_report : RefitReport or None
+        Set on libraries made by :meth:`refit`.
+    """
+
+    def __init__(
+        self,
+        kernel_model: KernelModel,
+        policies: Sequence[FrozenPolicy],
+        *,
+        discount: float = 0.5,
+        prune_threshold: float = 0.1,
+        max_depth: int = 4,
+        max_match_distance: float | None = 3.0,
+    ) -> None:
+        self._set_params(discount, prune_threshold, max_depth, max_match_distance)
+        policies = tuple(policies)
+        self._check_model(kernel_model, policies)
+        self._check_policies(policies, registry={})
+        K = int(kernel_model.n_components)
+        pairs = [(k, p) for k in range(K) for p in range(len(policies))]
+        self._install(
+            kernel_model=kernel_model,
+            kernel_ids=np.arange(K, dtype=np.int64),
+            policies=policies,
+            registry={i: (k, p) for i, (k, p) in enumerate(pairs)},
+            option_ids=np.arange(len(pairs), dtype=np.int64),
+            scales=np.ones(len(pairs)),
+            uses=np.zeros(len(pairs), dtype=np.int64),
+            trial_uses=np.zeros(len(pairs), dtype=np.int64),
+            pruned=frozenset(),
+            next_option_id=len(pairs),
+            next_kernel_id=K,
+        )
+        self.refit_report: RefitReport | None = None
+
+    # ------------------------------------------------------------ construction
+    def _set_params(
+        self,
+        discount: float,
+        prune_threshold: float,
+        max_depth: int,
+        max_match_distance: float | None,
+    ) -> None:
+        if not 0.0 < discount < 1.0:
+            raise ValueError(f"discount must be in (0, 1), got {discount}")
+        if not 0.0 <= prune_threshold < 1.0:
+            raise ValueError(f"prune_threshold must be in [0, 1), got {prune_threshold}")
+        if isinstance(max_depth, bool) or not isinstance(max_depth, int | np.integer):
+            raise TypeError("max_depth must be an int")
+        if max_depth < 1:
+            raise ValueError(f"max_depth must be >= 1, got {max_depth}")
+        if max_match_distance is not None and not max_match_distance >= 0:
+            raise ValueError(f"max_match_distance must be >= 0 or None, got {max_match_distance}")
+        self.discount = float(discount)
+        self.prune_threshold = float(prune_threshold)
+        self.max_depth = int(max_depth)
+        self.max_match_distance = None if max_match_distance is None else float(max_match_distance)
+
+    @staticmethod
+    def _check_model(model: KernelModel, policies: Sequence[FrozenPolicy]) -> None:
+        if not callable(getattr(model, "membership", None)):
+            raise TypeError("kernel_model must have a membership(X) method")
+        means, _ = _kernel_params(model)
+        K = getattr(model, "n_components", None)
+        if isinstance(K, bool) or not isinstance(K, int | np.integer) or K != means.shape[0]:
+            raise ValueError(
+                f"kernel_model.n_components ({K!r}) must equal the number of means "
+                f"({means.shape[0]})"
+            )
+        for i, pol in enumerate(policies):
+            if pol.tile_coder.n_features != means.shape[1]:
+                raise ValueError(
+                    f"policy {i} has {pol.tile_coder.n_features} features but the kernels "
+                    f"have {means.shape[1]}"
+                )
+
+    @staticmethod
+    def _check_policies(
+        policies: Sequence[FrozenPolicy], registry: Mapping[int, tuple[int, int]]
+    ) -> None:
+        if not policies:
+            return
+        n_primitive = None
+        for i, pol in enumerate(policies):
+            if not isinstance(pol, FrozenPolicy):
+                raise TypeError(
+                    f"policy {i} must be a FrozenPolicy (use LinearPolicy.freeze()), "
+                    f"got {type(pol).__name__}"
+                )
+            if n_primitive is None:
+                n_primitive = pol.n_primitive
+            elif pol.n_primitive != n_primitive:
+                raise ValueError(
+                    f"policy {i} has {pol.n_primitive} primitive actions, policy 0 has "
+                    f"{n_primitive}"
+                )
+            for oid in pol.option_ids:
+                if oid not in registry:
+                    raise ValueError(
+                        f"policy {i} refers to unknown option id {oid}; policies learnt "
+                        "with options must be added to the library that issued them "
+                        "(OptionLibrary.refit)"
+                    )
+
+    def _install(
+        self,
+        *,
+        kernel_model: KernelModel,
+        kernel_ids: np.ndarray,
+        policies: tuple[FrozenPolicy, ...],
+        registry: dict[int, tuple[int, int]],
+        option_ids: np.ndarray,
+        scales: np.ndarray,
+        uses: np.ndarray,
+        trial_uses: np.ndarray,
+        pruned: frozenset[tuple[int, int]],
+        next_option_id: int,
+        next_kernel_id: int,
+    ) -> None:
+        self.kernel_model = kernel_model
+        self.n_kernels = int(kernel_model.n_components)
+        self.n_features = int(np.asarray(kernel_model.means_).shape[1])
+        self.kernel_ids = np.asarray(kernel_ids, dtype=np.int64)
+        self.policies = policies
+        self.registry = dict(registry)
+        self.option_ids = np.asarray(option_ids, dtype=np.int64)
+        self.scales = np.asarray(scales, dtype=np.float64)
+        self.uses = np.asarray(uses, dtype=np.int64)
+        self.trial_uses = np.asarray(trial_uses, dtype=np.int64)
+        self.pruned = frozenset(pruned)
+        self._next_option_id = int(next_option_id)
+        self._next_kernel_id = int(next_kernel_id)
+        self.n_primitive = policies[0].n_primitive if policies else None
+        self._reindex()
+
+    def _reindex(self) -> None:
+        kindex = {int(kid): k for k, kid in enumerate(self.kernel_ids)}
+        self._position = {int(oid): j for j, oid in enumerate(self.option_ids)}
+        self.option_kernel = np.array(
+            [kindex[self.registry[int(o)][0]] for o in self.option_ids], dtype=np.int64
+        )
+        self.option_policy = np.array(
+            [self.registry[int(o)][1] for o in self.option_ids], dtype=np.int64
+        )
+
+    # ------------------------------------------------------------------ queries
+    def __len__(self) -> int:
+        return int(self.option_ids.shape[0])
+
+    def __contains__(self, option_id: object) -> bool:
+        return isinstance(option_id, int | np.integer) and int(option_id) in self._position
+
+    def options(self) -> list[OptionInfo]:
+        """Description of every active option, in offering order."""
+        return [
+            OptionInfo(
+                option_id=int(o),
+                kernel_id=int(self.kernel_ids[self.option_kernel[j]]),
+                kernel_index=int(self.option_kernel[j]),
+                policy_id=int(self.option_policy[j]),
+                scale=float(self.scales[j]),
+                uses=int(self.uses[j]),
+                trial_uses=int(self.trial_uses[j]),
+            )
+            for j, o in enumerate(self.option_ids)
+        ]
+
+    def position(self, option_id: int) -> int:
+        """Index of active option ``option_id`` in :attr:`option_ids`."""
+        try:
+            return self._position[int(option_id)]
+        except (KeyError, TypeError, ValueError):
+            if isinstance(option_id, int | np.integer) and int(option_id) in self.registry:
+                raise KeyError(
+                    f"option id {option_id} is not active (pruned or its kernel retired)"
+                ) from None
+            raise KeyError(f"unknown option id {option_id!r}") from None
+
+    def scale(self, option_id: int) -> float:
+        """Current scale ``c`` of active option ``option_id``."""
+        return float(self.scales[self.position(option_id)])
+
+    def _check_state(self, state: np.ndarray) -> np.ndarray:
+        x = np.asarray(state, dtype=np.float64)
+        if x.shape != (self.n_features,):
+            raise ValueError(f"state must have shape ({self.n_features},), got {x.shape}")
+        if not np.isfinite(x).all():
+            raise ValueError(f"state contains NaN or infinite values: {x}")
+        return x
+
+    def membership(self, state: np.ndarray) -> np.ndarray:
+        """Kernel memberships ``K_k(s)`` in [0, 1] of one state, shape (K,)."""
+        x = self._check_state(state)
+        m = np.asarray(self.kernel_model.membership(x), dtype=np.float64).reshape(-1)
+        if m.shape != (self.n_kernels,):
+            raise ValueError(
+                f"kernel_model.membership returned {m.size} values for one state, "
+                f"expected {self.n_kernels}"
+            )
+        if not np.isfinite(m).all():
+            raise ValueError("kernel_model.membership returned NaN or infinity")
+        return np.clip(m, 0.0, 1.0)
+
+    def initiation_probabilities(
+        self, state: np.ndarray, membership: np.ndarray | None = None
+    ) -> np.ndarray:
+        """``c * K_k(s)`` for every active option, shape (n_options,)."""
+        m = self.membership(state) if membership is None else membership
+        return np.minimum(self.scales * m[self.option_kernel], 1.0)
+
+    def available(
+        self,
+        state: np.ndarray,
+        rng: np.random.Generator,
+        membership: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Sample which options may start at ``state``: mask of shape (n_options,).
+
+        Draws exactly ``n_options`` uniforms from ``rng``. Pass ``membership`` (from
+        :meth:`membership`) to avoid evaluating the kernels twice at one state.
+        """
+        p = self.initiation_probabilities(state, membership)
+        return rng.random(p.shape[0]) < p
+
+    def continuation_probability(
+        self, option_id: int, state: np.ndarray, membership: np.ndarray | None = None
+    ) -> float:
+        """``K_k(s)`` of active option ``option_id`` (its scale does not apply)."""
+        j = self.position(option_id)
+        m = self.membership(state) if membership is None else membership
+        return float(m[self.option_kernel[j]])
+
+    def continues(
+        self,
+        option_id: int,
+        state: np.ndarray,
+        rng: np.random.Generator,
+        membership: np.ndarray | None = None,
+    ) -> bool:
+        """Sample whether running option ``option_id`` continues at ``state`` (one draw)."""
+        return bool(rng.random() < self.continuation_probability(option_id, state, membership))
+
+    # ---------------------------------------------------------------- execution
+    def policy_of(self, option_id: int) -> int:
+        """Policy id of any option ever issued (active or not)."""
+        try:
+            return self.registry[int(option_id)][1]
+        except (KeyError, TypeError, ValueError):
+            raise KeyError(f"unknown option id {option_id!r}") from None
+
+    def resolve(
+        self,
+        option_id: int,
+        state: np.ndarray,
+        rng: np.random.Generator,
+        tiles: dict[TileCoder, np.ndarray] | None = None,
+    ) -> tuple[int, tuple[int, ...]]:
+        """Primitive action option ``option_id`` takes at ``state``, following pointers.
+
+        Parameters
+        ----------
+        option_id : int
+            Any option id ever issued.
+        state : array_like, shape (n_features,)
+        rng : numpy.random.Generator
+            Breaks ties between equal action values.
+        tiles : dict, optional
+            Cache ``{tile_coder: active tiles of state}``, filled as needed.
+
+        Returns
+        -------
+        action : int
+            A primitive action.
+        path : tuple of int
+            Ids of the policies consulted, the option's own first.
+        """
+        x = self._check_state(state)
+        if tiles is None:
+            tiles = {}
+        pid = self.policy_of(option_id)
+        path = [pid]
+        for depth in range(1, self.max_depth + 1):
+            pol = self.policies[pid]
+            active = tiles.get(pol.tile_coder)
+            if active is None:
+                active = tiles[pol.tile_coder] = pol.tile_coder.active(x)
+            q = pol.q_from_tiles(active)
+            if depth == self.max_depth:
+                # At the bound: best primitive of this policy.
+                return greedy_choice(q[: pol.n_primitive], rng), tuple(path)
+            c = greedy_choice(q, rng)
+            if c < pol.n_primitive:
+                return c, tuple(path)
+            pid = self.policy_of(pol.option_ids[c - pol.n_primitive])
+            path.append(pid)
+        raise AssertionError("unreachable")  # pragma: no cover
+
+    def act(
+        self,
+        option_id: int,
+        state: np.ndarray,
+        rng: np.random.Generator,
+        tiles: dict[TileCoder, np.ndarray] | None = None,
+    ) -> int:
+        """Primitive action of option ``option_id`` at ``state`` (see :meth:`resolve`)."""
+        return self.resolve(option_id, state, rng, tiles)[0]
+
+    # -------------------------------------------------------- usage, discounting
+    def record_use(self, option_id: int, n: int = 1) -> None:
+        """Count ``n`` starts of active option ``option_id`` (statistics only)."""
+        j = self.position(option_id)
+        self.uses[j] += n
+        self.trial_uses[j] += n
+
+    def end_trial(self, used: Iterable[int], offered: Iterable[int] | None = None) -> TrialReport:
+        """Apply discounting and pruning at the end of a trial.
+
+        Parameters
+        ----------
+        used : iterable of int
+            Option ids the learnt policy used in this trial. Ids that are no longer
+            active are ignored; ids never issued raise ``KeyError``.
+        offered : iterable of int, optional
+            Option ids offered to the learner in this trial (default: all active).
+            Only offered options are discounted.
+
+        Returns
+        -------
+        TrialReport
+            The used, discounted and pruned option ids.
+        """
+        used_set = {self._known(o) for o in used}
+        if offered is None:
+            offered_set = {int(o) for o in self.option_ids}
+        else:
+            offered_set = {self._known(o) for o in offered}
+        discounted: list[int] = []
+        keep = np.ones(len(self), dtype=bool)
+        for j, oid in enumerate(int(o) for o in self.option_ids):
+            if oid in offered_set and oid not in used_set:
+                self.scales[j] *= self.discount
+                discounted.append(oid)
+                if self.scales[j] < self.prune_threshold:
+                    keep[j] = False
+        pruned_ids = tuple(int(o) for o in self.option_ids[~keep])
+        self.pruned = self.pruned | {self.registry[o] for o in pruned_ids}
+        self.option_ids = self.option_ids[keep]
+        self.scales = self.scales[keep]
+        self.uses = self.uses[keep]
+        self.trial_uses = np.zeros(int(keep.sum()), dtype=np.int64)
+        self._reindex()
+        return TrialReport(
+            used=tuple(sorted(used_set)), discounted=tuple(discounted), pruned=pruned_ids
+        )
+
+    def _known(self, option_id: object) -> int:
+        if not isinstance(option_id, int | np.integer) or int(option_id) not in self.registry:
+            raise KeyError(f"unknown option id {option_id!r}")
+        return int(option_id)
+
+    # ------------------------------------------------------------------- refit
+    def refit(
+        self, kernel_model: KernelModel, new_policies: Sequence[FrozenPolicy] = ()
+    ) -> OptionLibrary:
+        """A new library on ``kernel_model`` with ``new_policies`` appended.
+
+        Kernel and option identities carry over by the rule in the module docstring.
+        ``self`` is left unchanged. The result's :attr:`refit_report` says what happened.
+        """
+        new_policies = tuple(new_policies)
+        policies = self.policies + new_policies
+        self._check_model(kernel_model, policies)
+        self._check_policies(policies, self.registry)
+        if self.n_primitive is not None and new_policies:
+            if new_policies[0].n_primitive != self.n_primitive:
+                raise ValueError("new policies have a different number of primitive actions")
+
+        matched = match_kernels(self.kernel_model, kernel_model, self.max_match_distance)
+        next_kid = self._next_kernel_id
+        kernel_ids = np.empty(int(kernel_model.n_components), dtype=np.int64)
+        new_kids: list[int] = []
+        for j in range(kernel_ids.shape[0]):
+            if j in matched:
+                kernel_ids[j] = self.kernel_ids[matched[j][0]]
+            else:
+                kernel_ids[j] = next_kid
+                new_kids.append(next_kid)
+                next_kid += 1
+        kept_kids = tuple(int(self.kernel_ids[matched[j][0]]) for j in sorted(matched))
+        retired_kids = tuple(sorted(set(map(int, self.kernel_ids)) - set(kept_kids)))
+
+        by_pair = {self.registry[int(o)]: j for j, o in enumerate(self.option_ids)}
+        registry = dict(self.registry)
+        next_oid = self._next_option_id
+        ids, scales, uses, trial_uses = [], [], [], []
+        kept_oids, new_oids = [], []
+        # Kept options first, in id order, then new ones: ids stay increasing.
+        pairs = [(int(kid), p) for kid in kernel_ids for p in range(len(policies))]
+        for pair in sorted(pairs, key=lambda pr: (pr not in by_pair, pr)):
+            if pair in self.pruned:
+                continue
+            if pair in by_pair:
+                j = by_pair[pair]
+                oid = int(self.option_ids[j])
+                ids.append(oid)
+                scales.append(self.scales[j])
+                uses.append(self.uses[j])
+                trial_uses.append(self.trial_uses[j])
+                kept_oids.append(oid)
+            else:
+                oid = next_oid
+                next_oid += 1
+                registry[oid] = pair
+                ids.append(oid)
+                scales.append(1.0)
+                uses.append(0)
+                trial_uses.append(0)
+                new_oids.append(oid)
+        order = np.argsort(ids, kind="stable")
+        lib = object.__new__(OptionLibrary)
+        lib._set_params(
+            self.discount, self.prune_threshold, self.max_depth, self.max_match_distance
+        )
+        lib._install(
+            kernel_model=kernel_model,
+            kernel_ids=kernel_ids,
+            policies=policies,
+            registry=registry,
+            option_ids=np.asarray(ids, dtype=np.int64)[order],
+            scales=np.asarray(scales, dtype=np.float64)[order],
+            uses=np.asarray(uses, dtype=np.int64)[order],
+            trial_uses=np.asarray(trial_uses, dtype=np.int64)[order],
+            pruned=self.pruned,
+            next_option_id=next_oid,
+            next_kernel_id=next_kid,
+        )
+        lib.refit_report = RefitReport(
+            matched=dict(matched),
+            kept_kernel_ids=kept_kids,
+            new_kernel_ids=tuple(new_kids),
+            retired_kernel_ids=retired_kids,
+            new_policy_ids=tuple(range(len(self.policies), len(policies))),
+            kept_option_ids=tuple(kept_oids),
+            new_option_ids=tuple(new_oids),
+            retired_option_ids=tuple(sorted(set(map(int, self.option_ids)) - set(kept_oids))),
+        )
+        return lib
+
+    # ------------------------------------------------------------- persistence
+    def save(self, directory: str | os.PathLike[str]) -> None:
+        """Save the library into ``directory`` (created if needed).
+
+        Writes ``kernels.npz`` (by the kernel model's own ``save``), one
+        ``policy_<id>.npz`` per policy, then ``library.npz`` last: options, scales,
+        counts, ids, the registry, the pruned pairs, the parameters, and the SHA-256 of
+        every other file, so that a load detects files mixed from different saves.
+        Every file is written atomically.
+        """
+        save = getattr(self.kernel_model, "save", None)
+        if not callable(save):
+            raise TypeError(
+                f"the kernel model ({type(self.kernel_model).__name__}) has no save(path) "
+                "method, so the library cannot be saved"
+            )
+        root = Path(directory)
+        root.mkdir(parents=True, exist_ok=True)
+        save(root / _KERNELS_FILE)
+        digests = {_KERNELS_FILE: _sha256(root / _KERNELS_FILE)}
+        for pid, pol in enumerate(self.policies):
+            name = f"policy_{pid}.npz"
+            pol.save(root / name)
+            digests[name] = _sha256(root / name)
+        reg = sorted(self.registry.items())
+        pruned = sorted(self.pruned)
+        arrays = {
+            "kernel_ids": self.kernel_ids,
+            "option_ids": self.option_ids,
+            "scales": self.scales,
+            "uses": self.uses,
+            "trial_uses": self.trial_uses,
+            "registry_option_ids": np.array([o for o, _ in reg], dtype=np.int64),
+            "registry_kernel_ids": np.array([k for _, (k, _) in reg], dtype=np.int64),
+            "registry_policy_ids": np.array([p for _, (_, p) in reg], dtype=np.int64),
+            "pruned_kernel_ids": np.array([k for k, _ in pruned], dtype=np.int64),
+            "pruned_policy_ids": np.array([p for _, p in pruned], dtype=np.int64),
+        }
+        meta = {
+            "schema": LIBRARY_SCHEMA,
+            "n_policies": len(self.policies),
+            "discount": self.discount,
+            "prune_threshold": self.prune_threshold,
+            "max_depth": self.max_depth,
+            "max_match_distance": self.max_match_distance,
+            "next_option_id": self._next_option_id,
+            "next_kernel_id": self._next_kernel_id,
+            "files": digests,
+        }
+        save_npz_atomic(root / _LIBRARY_FILE, arrays, meta)
+
+    @classmethod
+    def load(
+        cls,
+        directory: str | os.PathLike[str],
+        kernel_loader: Callable[[Path], KernelModel] | None = None,
+    ) -> OptionLibrary:
+        """Load a library saved by :meth:`save`.
+
+        Parameters
+        ----------
+        directory : path
+        kernel_loader : callable, optional
+            ``path -> kernel model``; default ``ilpss.kernels.SharedKernelModel.load``.
+
+        Raises
+        ------
+        ValueError
+            If any file is missing its schema, was modified, or does not belong to the
+            same save, or the contents are inconsistent.
+        """
+        root = Path(directory)
+        lib_path = root / _LIBRARY_FILE
+        required = {
+            "kernel_ids": (("K",), "iu"),
+            "option_ids": (("n",), "iu"),
+            "scales": (("n",), "f"),
+            "uses": (("n",), "iu"),
+            "trial_uses": (("n",), "iu"),
+            "registry_option_ids": (("r",), "iu"),
+            "registry_kernel_ids": (("r",), "iu"),
+            "registry_policy_ids": (("r",), "iu"),
+            "pruned_kernel_ids": (("q",), "iu"),
+            "pruned_policy_ids": (("q",), "iu"),
+        }
+        arrays, meta = load_npz(lib_path, LIBRARY_SCHEMA, required)
+        where = os.fspath(lib_path)
+        files = meta.get("files")
+        n_policies = meta.get("n_policies")
+        if not isinstance(files, dict) or not isinstance(n_policies, int) or n_policies < 0:
+            raise ValueError(f"{where}: malformed meta record")
+        expected = {_KERNELS_FILE} | {f"policy_{p}.npz" for p in range(n_policies)}
+        if set(files) != expected:
+            raise ValueError(
+                f"{where}: meta lists files {sorted(files)}, expected {sorted(expected)}"
+            )
+        for name, digest in files.items():
+            path = root / name
+            if not path.is_file():
+                raise ValueError(f"{root}: missing file {name}")
+            if _sha256(path) != digest:
+                raise ValueError(
+                    f"{path}: content differs from the file saved with {where} "
+                    "(modified, or from another save)"
+                )
+        if kernel_loader is None:
+            from ilpss.kernels import SharedKernelModel
+
+            kernel_loader = SharedKernelModel.load
+        model = kernel_loader(root / _KERNELS_FILE)
+        policies = tuple(FrozenPolicy.load(root / f"policy_{p}.npz") for p in range(n_policies))
+        registry = {
+            int(o): (int(k), int(p))
+            for o, k, p in zip(
+                arrays["registry_option_ids"],
+                arrays["registry_kernel_ids"],
+                arrays["registry_policy_ids"],
+                strict=True,
+            )
+        }
+        pruned = frozenset(
+            (int(k), int(p))
+            for k, p in zip(arrays["pruned_kernel_ids"], arrays["pruned_policy_ids"], strict=True)
+        )
+        try:
+            lib = object.__new__(cls)
+            lib._set_params(
+                meta.get("discount"),  # type: ignore[arg-type]
+                meta.get("prune_threshold"),  # type: ignore[arg-type]
+                meta.get("max_depth"),  # type: ignore[arg-type]
+                meta.get("max_match_distance"),
+            )
+            cls._check_model(model, policies)
+            cls._check_policies(policies, registry)
+            cls._check_loaded(arrays, registry, pruned, n_policies, meta, model)
+            lib._install(
+                kernel_model=model,
+                kernel_ids=arrays["kernel_ids"],
+                policies=policies,
+                registry=registry,
+                option_ids=arrays["option_ids"],
+                scales=arrays["scales"].astype(np.float64),
+                uses=arrays["uses"].astype(np.int64),
+                trial_uses=arrays["trial_uses"].astype(np.int64),
+                pruned=pruned,
+                next_option_id=meta["next_option_id"],
+                next_kernel_id=meta["next_kernel_id"],
+            )
+        except (TypeError, KeyError) as exc:
+            raise ValueError(f"{where}: inconsistent library: {exc}") from exc
+        except ValueError as exc:
+            raise ValueError(f"{where}: inconsistent library: {exc}") from exc
+        lib.refit_report = None
+        return lib
+
+    @staticmethod
+    def _check_loaded(
+        arrays: Mapping[str, np.ndarray],
+        registry: Mapping[int, tuple[int, int]],
+        pruned: frozenset[tuple[int, int]],
+        n_policies: int,
+        meta: Mapping[str, Any],
+        model: KernelModel,
+    ) -> None:
+        kernel_ids = [int(k) for k in arrays["kernel_ids"]]
+        if len(kernel_ids) != int(model.n_components) or len(set(kernel_ids)) != len(kernel_ids):
+            raise ValueError("kernel ids do not match the kernel model")
+        if len(registry) != arrays["registry_option_ids"].shape[0]:
+            raise ValueError("duplicate option ids in the registry")
+        oids = [int(o) for o in arrays["option_ids"]]
+        if oids != sorted(set(oids)):
+            raise ValueError("active option ids must be unique and increasing")
+        for o in oids:
+            if o not in registry:
+                raise ValueError(f"active option {o} is not in the registry")
+            kid, pid = registry[o]
+            if kid not in kernel_ids:
+                raise ValueError(f"active option {o} refers to a kernel id not in the model")
+            if (kid, pid) in pruned:
+                raise ValueError(f"active option {o} is marked as pruned")
+        for _, pid in registry.values():
+            if not 0 <= pid < n_policies:
+                raise ValueError(f"registry refers to policy {pid} of {n_policies}")
+        scales = arrays["scales"]
+        if not (np.isfinite(scales).all() and (scales > 0).all() and (scales <= 1).all()):
+            raise ValueError("scales must be finite and in (0, 1]")
+        if (arrays["uses"] < 0).any() or (arrays["trial_uses"] < 0).any():
+            raise ValueError("usage counts must be non-negative")
+        next_o, next_k = meta.get("next_option_id"), meta.get("next_kernel_id")
+        if not isinstance(next_o, int) or not isinstance(next_k, int):
+            raise ValueError("next_option_id/next_kernel_id must be ints")
+        if registry and next_o <= max(registry):
+            raise ValueError("next_option_id must exceed every issued option id")
+        if kernel_ids and next_k <= max(kernel_ids):
+            raise ValueError("next_kernel_id must exceed every kernel id")
+
+    def __repr__(self) -> str:
+        return (
+            f"OptionLibrary(n_kernels={self.n_kernels}, n_policies={len(self.policies)}, "
+            f"n_options={len(self)}, pruned={len(self.pruned)})"
+        )
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()

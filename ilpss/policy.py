@@ -1,0 +1,324 @@
+"""Linear action-value functions over tiles, and frozen policies.
+
+A policy's *choices* are the primitive actions ``0 .. n_primitive - 1`` followed by the
+options that were offered to it when it was learnt, identified by their stable option
+ids (``option_ids``). Choice ``n_primitive + j`` is option ``option_ids[j]``. Keeping the
+ids, not positions in some library, is what lets a policy learnt in one trial be
+executed later as an option whose greedy choices point to older policies
+(see :mod:`ilpss.options`).
+
+* :class:`LinearPolicy` is the learner's mutable ``Q(s, c) = sum(weights[c, tiles(s)])``.
+* :class:`FrozenPolicy` is an immutable snapshot (read-only weights), which is what
+  options execute and what is saved. :meth:`LinearPolicy.freeze` makes one.
+
+Ties between equal action values are broken uniformly at random with a caller-supplied
+:class:`numpy.random.Generator`, as keepaway's ``argmaxQ`` does, so behaviour is
+reproducible from a seed. Saved files are ``.npz`` archives without pickles plus a JSON
+record (schema ``ilpss.policy/1``), written atomically; see :mod:`ilpss._io`.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+
+import numpy as np
+
+from ilpss._io import load_npz, save_npz_atomic
+from ilpss.tiles import TileCoder
+
+__all__ = ["POLICY_SCHEMA", "FrozenPolicy", "LinearPolicy", "greedy_choice"]
+
+POLICY_SCHEMA = "ilpss.policy/1"
+
+
+def greedy_choice(q: np.ndarray, rng: np.random.Generator, mask: np.ndarray | None = None) -> int:
+    """Index of the largest value in ``q`` (among ``mask``), ties broken by ``rng``.
+
+    Parameters
+    ----------
+    q : numpy.ndarray, shape (n,)
+    rng : numpy.random.Generator
+        Used only when several choices tie, so a run without ties draws nothing.
+    mask : numpy.ndarray of bool, shape (n,), optional
+        Allowed choices; at least one must be allowed.
+
+    Returns
+    -------
+    int
+    """
+    if mask is not None:
+        if not mask.any():
+            raise ValueError("no choice is allowed by the mask")
+        q = np.where(mask, q, -np.inf)
+    best = q.max()
+    ties = np.flatnonzero(q == best)
+    if ties.shape[0] == 1:
+        return int(ties[0])
+    return int(ties[rng.integers(ties.shape[0])])
+
+
+def _check_option_ids(option_ids: Sequence[int] | np.ndarray) -> tuple[int, ...]:
+    ids = np.asarray(option_ids)
+    if ids.size and (ids.ndim != 1 or ids.dtype.kind not in "iu"):
+        raise ValueError(f"option_ids must be a 1-D sequence of ints, got {option_ids!r}")
+    out = tuple(int(i) for i in ids.reshape(-1))
+    if any(i < 0 for i in out):
+        raise ValueError(f"option ids must be non-negative, got {out}")
+    if len(set(out)) != len(out):
+        raise ValueError(f"option ids must be unique, got {out}")
+    return out
+
+
+class _LinearQ:
+    """Shared read-only behaviour of mutable and frozen linear action values."""
+
+    tile_coder: TileCoder
+    n_primitive: int
+    option_ids: tuple[int, ...]
+    weights: np.ndarray
+
+    def _init(
+        self,
+        tile_coder: TileCoder,
+        n_primitive: int,
+        option_ids: Sequence[int] | np.ndarray,
+        weights: np.ndarray | None,
+        initial_value: float,
+    ) -> None:
+        if not isinstance(tile_coder, TileCoder):
+            raise TypeError(f"tile_coder must be a TileCoder, got {type(tile_coder).__name__}")
+        if isinstance(n_primitive, bool) or not isinstance(n_primitive, int | np.integer):
+            raise TypeError("n_primitive must be an int")
+        if n_primitive < 1:
+            raise ValueError(f"n_primitive must be >= 1, got {n_primitive}")
+        self.tile_coder = tile_coder
+        self.n_primitive = int(n_primitive)
+        self.option_ids = _check_option_ids(option_ids)
+        shape = (self.n_choices, tile_coder.n_weights)
+        if weights is None:
+            if not np.isfinite(initial_value):
+                raise ValueError("initial_value must be finite")
+            # Keepaway initialises weights so that every Q starts at initial_value.
+            w = np.full(shape, float(initial_value) / tile_coder.n_active)
+        else:
+            w = np.array(weights, dtype=np.float64)  # always a private copy
+            if w.shape != shape:
+                raise ValueError(f"weights must have shape {shape}, got {w.shape}")
+            if not np.isfinite(w).all():
+                raise ValueError("weights contain NaN or infinite values")
+        self.weights = w
+        self._choice_of = {oid: self.n_primitive + j for j, oid in enumerate(self.option_ids)}
+
+    # ------------------------------------------------------------ structure
+    @property
+    def n_choices(self) -> int:
+        """Number of choices: primitives plus options."""
+        return self.n_primitive + len(self.option_ids)
+
+    def is_option(self, choice: int) -> bool:
+        """Whether choice index ``choice`` is an option (not a primitive)."""
+        self._check_choice(choice)
+        return choice >= self.n_primitive
+
+    def option_id(self, choice: int) -> int:
+        """Stable option id of choice ``choice`` (which must be an option)."""
+        if not self.is_option(choice):
+            raise ValueError(f"choice {choice} is a primitive action, not an option")
+        return self.option_ids[choice - self.n_primitive]
+
+    def choice_of_option(self, option_id: int) -> int:
+        """Choice index of option ``option_id``; ``KeyError`` if the policy lacks it."""
+        try:
+            return self._choice_of[int(option_id)]
+        except KeyError:
+            raise KeyError(
+                f"unknown option id {option_id}; this policy knows {self.option_ids}"
+            ) from None
+
+    def _check_choice(self, choice: int) -> None:
+        if not 0 <= choice < self.n_choices:
+            raise ValueError(f"choice {choice} out of range [0, {self.n_choices})")
+
+    # -------------------------------------------------------------- values
+    def q_from_tiles(self, active: np.ndarray) -> np.ndarray:
+        """Action values of every choice given the active tiles of a state."""
+        return np.take(self.weights, active, axis=1).sum(axis=1)
+
+    def q_values(self, state: np.ndarray) -> np.ndarray:
+        """Action values of every choice at ``state``, shape (n_choices,)."""
+        return self.q_from_tiles(self.tile_coder.active(state))
+
+    def greedy(
+        self,
+        state: np.ndarray,
+        rng: np.random.Generator,
+        mask: np.ndarray | None = None,
+        primitive_only: bool = False,
+    ) -> int:
+        """Greedy choice at ``state``, ties broken by ``rng``.
+
+        Parameters
+        ----------
+        state : array_like, shape (n_features,)
+        rng : numpy.random.Generator
+        mask : numpy.ndarray of bool, shape (n_choices,), optional
+            Allowed choices (e.g. primitives plus the options that may start here).
+        primitive_only : bool, default False
+            Restrict the choice to primitive actions.
+        """
+        q = self.q_values(state)
+        mask = self._mask(mask, primitive_only)
+        return greedy_choice(q, rng, mask)
+
+    def epsilon_greedy(
+        self,
+        state: np.ndarray,
+        rng: np.random.Generator,
+        epsilon: float,
+        mask: np.ndarray | None = None,
+    ) -> int:
+        """With probability ``epsilon`` a uniform allowed choice, else the greedy one."""
+        if not 0.0 <= epsilon <= 1.0:
+            raise ValueError(f"epsilon must be in [0, 1], got {epsilon}")
+        mask = self._mask(mask, False)
+        if rng.random() < epsilon:
+            allowed = np.arange(self.n_choices) if mask is None else np.flatnonzero(mask)
+            return int(allowed[rng.integers(allowed.shape[0])])
+        return greedy_choice(self.q_values(state), rng, mask)
+
+    def _mask(self, mask: np.ndarray | None, primitive_only: bool) -> np.ndarray | None:
+        if mask is not None:
+            mask = np.asarray(mask, dtype=bool)
+            if mask.shape != (self.n_choices,):
+                raise ValueError(f"mask must have shape ({self.n_choices},), got {mask.shape}")
+        if primitive_only:
+            prim = np.zeros(self.n_choices, dtype=bool)
+            prim[: self.n_primitive] = True
+            mask = prim if mask is None else mask & prim
+        return mask
+
+    # --------------------------------------------------------- persistence
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Save weights, option ids and tile coder atomically (no pickles)."""
+        arrays = {
+            "weights": self.weights,
+            "option_ids": np.asarray(self.option_ids, dtype=np.int64),
+            **self.tile_coder.to_arrays(),
+        }
+        meta = {"schema": POLICY_SCHEMA, "n_primitive": self.n_primitive}
+        save_npz_atomic(path, arrays, meta)
+
+    @staticmethod
+    def _read(path: str | os.PathLike[str]) -> tuple[TileCoder, int, np.ndarray, np.ndarray]:
+        required = {
+            "weights": (("C", "W"), "f"),
+            "option_ids": ((None,), "iu"),
+            "tiles_low": (("d",), "f"),
+            "tiles_high": (("d",), "f"),
+            "tiles_widths": (("d",), "f"),
+            "tiles_n_tilings": ((), "iu"),
+        }
+        arrays, meta = load_npz(path, POLICY_SCHEMA, required)
+        where = os.fspath(path)
+        n_primitive = meta.get("n_primitive")
+        if isinstance(n_primitive, bool) or not isinstance(n_primitive, int) or n_primitive < 1:
+            raise ValueError(f"{where}: invalid n_primitive {n_primitive!r}")
+        try:
+            coder = TileCoder.from_arrays(arrays)
+        except (ValueError, TypeError) as exc:
+            raise ValueError(f"{where}: invalid tile coder: {exc}") from exc
+        return coder, n_primitive, arrays["option_ids"], arrays["weights"]
+
+    def __repr__(self) -> str:
+        return (
+            f"{type(self).__name__}(n_primitive={self.n_primitive}, "
+            f"option_ids={self.option_ids}, n_weights={self.tile_coder.n_weights})"
+        )
+
+
+class LinearPolicy(_LinearQ):
+    """Mutable linear action-value function ``Q(s, c) = sum_i weights[c, tiles(s)_i]``.
+
+    Parameters
+    ----------
+    tile_coder : TileCoder
+    n_primitive : int
+        Number of primitive actions (the environment's ``Discrete(n)``).
+    option_ids : sequence of int, default ()
+        Stable ids of the options offered while learning, in choice order.
+    weights : array_like, shape (n_choices, n_weights), optional
+        Initial weights (copied). Default: every Q equal to ``initial_value``.
+    initial_value : float, default 0.0
+    """
+
+    def __init__(
+        self,
+        tile_coder: TileCoder,
+        n_primitive: int,
+        option_ids: Sequence[int] | np.ndarray = (),
+        weights: np.ndarray | None = None,
+        initial_value: float = 0.0,
+    ) -> None:
+        self._init(tile_coder, n_primitive, option_ids, weights, initial_value)
+
+    def update(self, active: np.ndarray, choice: int, step: float) -> None:
+        """Add ``step`` to the weights of ``choice`` at tiles ``active``.
+
+        ``step`` is already ``alpha / n_active * delta``. Tiles of one state are unique
+        (one per feature and tiling), so fancy-index addition is exact.
+        """
+        self.weights[choice, active] += step
+
+    def freeze(self) -> FrozenPolicy:
+        """An immutable copy of the current policy."""
+        return FrozenPolicy(self.tile_coder, self.n_primitive, self.option_ids, self.weights)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> LinearPolicy:
+        """Load a policy saved by :meth:`save` (of either class) as a mutable one."""
+        coder, n_primitive, option_ids, weights = cls._read(path)
+        try:
+            return cls(coder, n_primitive, option_ids, weights)
+        except (ValueError, TypeError) as exc:
+            raise ValueError(f"{os.fspath(path)}: {exc}") from exc
+
+
+class FrozenPolicy(_LinearQ):
+    """Immutable snapshot of a :class:`LinearPolicy` (same parameters as its ``__init__``).
+
+    The weights array is a private read-only copy; attributes cannot be reassigned.
+    """
+
+    def __init__(
+        self,
+        tile_coder: TileCoder,
+        n_primitive: int,
+        option_ids: Sequence[int] | np.ndarray = (),
+        weights: np.ndarray | None = None,
+    ) -> None:
+        self._init(tile_coder, n_primitive, option_ids, weights, 0.0)
+        self.weights.flags.writeable = False
+        self._frozen = True
+
+    def __setattr__(self, name: str, value: object) -> None:
+        if getattr(self, "_frozen", False):
+            raise AttributeError(f"FrozenPolicy is immutable; cannot set {name!r}")
+        super().__setattr__(name, value)
+
+    def freeze(self) -> FrozenPolicy:
+        """Already frozen: returns ``self``."""
+        return self
+
+    def thaw(self) -> LinearPolicy:
+        """A mutable copy (e.g. to continue learning from this policy)."""
+        return LinearPolicy(self.tile_coder, self.n_primitive, self.option_ids, self.weights)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> FrozenPolicy:
+        """Load a policy saved by :meth:`save` (of either class) as a frozen one."""
+        coder, n_primitive, option_ids, weights = cls._read(path)
+        try:
+            return cls(coder, n_primitive, option_ids, weights)
+        except (ValueError, TypeError) as exc:
+            raise ValueError(f"{os.fspath(path)}: {exc}") from exc

@@ -1,0 +1,170 @@
+"""Bad input gets a clear error saying what was wrong and what is allowed."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import soccer_drill
+from soccer_drill.config import DrillConfig
+from soccer_drill.skills import Command, Skill
+from soccer_drill.teams import TeamError
+
+
+def _first_turn(opponent="chasers"):
+    env = soccer_drill.env(opponent=opponent)
+    env.reset(seed=0)
+    agent = env.agent_selection
+    mask = env.observe(agent)["action_mask"]
+    return env, agent, mask
+
+
+def test_masked_action_names_agent_action_and_legal_ones():
+    env, agent, mask = _first_turn()
+    masked = int(np.flatnonzero(mask == 0)[0])
+    with pytest.raises(ValueError, match=rf"action {masked} \(\w+\) is masked for '{agent}'") as err:
+        env.step(masked)
+    for legal in np.flatnonzero(mask):
+        assert f"{legal}=" in str(err.value)
+
+
+def test_masked_action_default_mode_replaces_it():
+    env = soccer_drill.env(opponent="chasers", illegal_action="default")
+    env.reset(seed=0)
+    mask = env.observe(env.agent_selection)["action_mask"]
+    env.step(int(np.flatnonzero(mask == 0)[0]))  # no error
+
+
+@pytest.mark.parametrize("action", [5, -1, 99])
+def test_out_of_range_action(action):
+    env, agent, _ = _first_turn()
+    with pytest.raises(ValueError, match=rf"action {action} for '{agent}' is out of range; allowed: 0..4"):
+        env.step(action)
+
+
+@pytest.mark.parametrize("action", [1.5, "1", [1], True])
+def test_wrong_action_type(action):
+    env, agent, _ = _first_turn()
+    with pytest.raises(TypeError, match=f"action for '{agent}' must be an integer"):
+        env.step(action)
+
+
+def test_numpy_integer_actions_are_accepted():
+    env, agent, mask = _first_turn()
+    env.step(np.int64(np.flatnonzero(mask)[0]))
+
+
+def test_parallel_missing_or_extra_agents():
+    env = soccer_drill.parallel_env(opponent="chasers")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="one action per live agent"):
+        env.step({"attacker_0": 0})
+    with pytest.raises(ValueError, match="one action per live agent"):
+        env.step({"attacker_0": 0, "attacker_1": 3, "defender_0": 0})
+
+
+def test_step_before_reset():
+    with pytest.raises(RuntimeError, match="before reset"):
+        soccer_drill.env().step(0)
+    with pytest.raises(RuntimeError, match="before reset"):
+        soccer_drill.parallel_env().step({})
+
+
+def test_unknown_team_lists_known_ones():
+    with pytest.raises(ValueError, match=r"unknown opponent team 'nobody'; known teams: \[.*'chasers'"):
+        soccer_drill.env(opponent="nobody")
+
+
+def test_bad_team_parameters():
+    with pytest.raises(ValueError, match="bad parameters .* for team 'chasers'"):
+        soccer_drill.env(opponent="chasers", opponent_params={"colour": "red"})
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("field_size", -1.0, "field_size must be > 0"),
+        ("max_cycles", 0, "max_cycles must be an integer >= 1"),
+        ("substeps", 2.5, "substeps must be an integer >= 1"),
+        ("ball_damping", 1.5, r"ball_damping must lie in \[0, 1\]"),
+        ("tackle_probability", -0.1, r"tackle_probability must lie in \[0, 1\]"),
+        ("attacker_speed", math.nan, "attacker_speed must be finite"),
+        ("ball_offset", 2.0, "ball_offset must be smaller than control_radius"),
+        ("attacker_starts", ((1.0, 1.0), (50.0, 1.0)), "attacker_starts must be two"),
+    ],
+)
+def test_invalid_configuration(field, value, message):
+    with pytest.raises(ValueError, match=message):
+        DrillConfig(**{field: value})
+
+
+def test_unknown_configuration_key_and_keyword():
+    with pytest.raises(ValueError, match=r"unknown DrillConfig field\(s\) \['speed'\]"):
+        soccer_drill.env(config={"speed": 3})
+    with pytest.raises(TypeError, match="unexpected keyword"):
+        soccer_drill.env(colour="red")
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"obs_type": "pixels"}, "obs_type must be 'features' or 'kinematic'"),
+        ({"render_mode": "ansi"}, "render_mode must be None or one of"),
+        ({"illegal_action": "ignore"}, "illegal_action must be 'raise' or 'default'"),
+        ({"max_cycles": 0}, "max_cycles must be an integer >= 1"),
+    ],
+)
+def test_invalid_environment_arguments(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        soccer_drill.env(**kwargs)
+
+
+def test_holder_env_rejects_bad_actions():
+    env = soccer_drill.HolderEnv(opponent="chasers")
+    env.reset(seed=0)
+    for bad in (3, -1, 0.5, None):
+        with pytest.raises(ValueError, match=r"integer in 0..2 \(0=HOLD, 1=PASS, 2=DRIBBLE\)"):
+            env.step(bad)
+
+
+class _Team:
+    """A configurable misbehaving team."""
+
+    def __init__(self, act):
+        self._act = act
+
+    def reset(self, view, rng):
+        self.players = view.players
+
+    def act(self, view):
+        return self._act(self.players)
+
+
+def _boom(players):
+    raise KeyError("lost my tactics board")
+
+
+@pytest.mark.parametrize(
+    ("act", "message"),
+    [
+        (_boom, r"team '_Team' raised in act\(\) at cycle 0: KeyError"),
+        (lambda p: {"attacker_0": Command(Skill.INTERCEPT)},
+         r"exactly the players it drives \['defender_0', 'defender_1'\], got \['attacker_0'\]"),
+        (lambda p: dict.fromkeys(p, Command(Skill.MOVE_TO, (math.nan, 1.0))),
+         "MOVE_TO needs a finite"),
+        (lambda p: dict.fromkeys(p, Command(Skill.DRIBBLE)), "not allowed for a scripted defender"),
+        (lambda p: dict.fromkeys(p, "run"), "expected a Command, got 'run'"),
+        (lambda p: dict.fromkeys(p, Command(Skill.MARK, speed=2.0)), r"speed must be in \(0, 1\]"),
+    ],
+)
+def test_misbehaving_team_is_named(act, message):
+    env = soccer_drill.HolderEnv(opponent=_Team(act))
+    env.reset(seed=0)
+    with pytest.raises(TeamError, match=message):
+        env.step(0)
+    # The drill stays usable: a new episode with a good team works.
+    good = soccer_drill.HolderEnv(opponent="chasers")
+    good.reset(seed=0)
+    good.step(0)

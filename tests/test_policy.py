@@ -1,0 +1,200 @@
+"""Tests of ilpss.policy: linear action values, greedy choice, freezing, save/load."""
+
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ilpss.policy import FrozenPolicy, LinearPolicy, greedy_choice
+from ilpss.tiles import TileCoder
+
+
+def coder() -> TileCoder:
+    return TileCoder([0.0, -1.0], [10.0, 1.0], [1.0, 0.5], n_tilings=8)
+
+
+def trained_policy(seed: int = 0, option_ids: tuple[int, ...] = (7, 3)) -> LinearPolicy:
+    c = coder()
+    rng = np.random.default_rng(seed)
+    return LinearPolicy(c, 3, option_ids, weights=rng.normal(size=(3 + len(option_ids), c.n_weights)))
+
+
+def test_shapes_and_choice_mapping() -> None:
+    pol = trained_policy()
+    assert pol.weights.shape == (5, pol.tile_coder.n_weights)
+    assert pol.n_choices == 5
+    assert not pol.is_option(2) and pol.is_option(3)
+    assert pol.option_id(3) == 7 and pol.option_id(4) == 3
+    assert pol.choice_of_option(3) == 4
+    with pytest.raises(KeyError, match="unknown option id 99"):
+        pol.choice_of_option(99)
+    with pytest.raises(ValueError, match="primitive"):
+        pol.option_id(0)
+    with pytest.raises(ValueError, match="out of range"):
+        pol.is_option(5)
+
+
+def test_q_values_are_sums_of_active_weights() -> None:
+    pol = trained_policy()
+    s = np.array([3.3, 0.2])
+    a = pol.tile_coder.active(s)
+    np.testing.assert_allclose(pol.q_values(s), pol.weights[:, a].sum(axis=1))
+
+
+def test_initial_value() -> None:
+    pol = LinearPolicy(coder(), 3, initial_value=0.7)
+    np.testing.assert_allclose(pol.q_values(np.array([5.0, 0.0])), 0.7)
+
+
+def test_greedy_ties_broken_by_seeded_generator() -> None:
+    q = np.array([1.0, 3.0, 3.0, 0.0, 3.0])
+    picks = [greedy_choice(q, np.random.default_rng(s)) for s in range(300)]
+    assert set(picks) == {1, 2, 4}
+    counts = np.bincount(picks, minlength=5)[[1, 2, 4]]
+    assert counts.min() > 70  # roughly uniform over the ties
+    again = [greedy_choice(q, np.random.default_rng(s)) for s in range(300)]
+    assert picks == again
+    # No tie: no random draw at all.
+    rng = np.random.default_rng(0)
+    state = rng.bit_generator.state
+    assert greedy_choice(np.array([0.0, 2.0, 1.0]), rng) == 1
+    assert rng.bit_generator.state == state
+
+
+def test_greedy_with_mask_and_primitive_only() -> None:
+    pol = trained_policy()
+    s = np.array([4.0, 0.5])
+    q = pol.q_values(s)
+    rng = np.random.default_rng(0)
+    assert pol.greedy(s, rng) == int(q.argmax())
+    mask = np.array([True, False, True, False, False])
+    assert pol.greedy(s, rng, mask) == [0, 2][int(q[[0, 2]].argmax())]
+    assert pol.greedy(s, rng, primitive_only=True) == int(q[:3].argmax())
+    with pytest.raises(ValueError, match="no choice"):
+        greedy_choice(q, rng, np.zeros(5, dtype=bool))
+    with pytest.raises(ValueError, match="mask"):
+        pol.greedy(s, rng, np.ones(3, dtype=bool))
+
+
+def test_epsilon_greedy_frequencies() -> None:
+    pol = trained_policy()
+    s = np.array([4.0, 0.5])
+    best = int(pol.q_values(s).argmax())
+    rng = np.random.default_rng(1)
+    n = 4000
+    picks = np.array([pol.epsilon_greedy(s, rng, 0.2) for _ in range(n)])
+    # P(best) = 0.8 + 0.2 / 5 = 0.84.
+    assert abs((picks == best).mean() - 0.84) < 0.03
+    with pytest.raises(ValueError, match="epsilon"):
+        pol.epsilon_greedy(s, rng, 1.5)
+
+
+def test_freeze_is_an_immutable_copy() -> None:
+    pol = trained_policy()
+    frozen = pol.freeze()
+    assert isinstance(frozen, FrozenPolicy)
+    before = frozen.weights.copy()
+    pol.update(pol.tile_coder.active(np.array([1.0, 0.0])), 0, 5.0)
+    np.testing.assert_array_equal(frozen.weights, before)
+    with pytest.raises(ValueError, match="read-only"):
+        frozen.weights[0, 0] = 1.0
+    with pytest.raises(AttributeError, match="immutable"):
+        frozen.weights = np.zeros_like(before)  # type: ignore[misc]
+    with pytest.raises(AttributeError, match="immutable"):
+        frozen.option_ids = ()  # type: ignore[misc]
+    assert frozen.freeze() is frozen
+    thawed = frozen.thaw()
+    thawed.update(thawed.tile_coder.active(np.array([1.0, 0.0])), 0, 1.0)
+    np.testing.assert_array_equal(frozen.weights, before)
+
+
+@pytest.mark.parametrize("cls", [FrozenPolicy, LinearPolicy])
+def test_save_load_round_trip_acts_identically(tmp_path: Path, cls: type) -> None:
+    pol = trained_policy(3).freeze()
+    # Force ties in some states so that tie-breaking is exercised too.
+    w = pol.weights.copy()
+    w[1] = w[0]
+    pol = FrozenPolicy(pol.tile_coder, 3, pol.option_ids, w)
+    path = tmp_path / "pol.npz"
+    pol.save(path)
+    loaded = cls.load(path)
+    assert isinstance(loaded, cls)
+    assert loaded.option_ids == pol.option_ids and loaded.n_primitive == 3
+    assert loaded.tile_coder == pol.tile_coder
+    np.testing.assert_array_equal(loaded.weights, pol.weights)
+    states = np.random.default_rng(0).uniform([0, -1], [10, 1], size=(300, 2))
+    r1, r2 = np.random.default_rng(9), np.random.default_rng(9)
+    a1 = [pol.greedy(s, r1) for s in states]
+    a2 = [loaded.greedy(s, r2) for s in states]
+    assert a1 == a2
+
+
+def test_wrong_shapes_and_ids_rejected() -> None:
+    c = coder()
+    with pytest.raises(ValueError, match="shape"):
+        LinearPolicy(c, 3, (), weights=np.zeros((4, c.n_weights)))
+    with pytest.raises(ValueError, match="NaN"):
+        LinearPolicy(c, 3, (), weights=np.full((3, c.n_weights), np.nan))
+    with pytest.raises(ValueError, match="unique"):
+        LinearPolicy(c, 3, (1, 1))
+    with pytest.raises(ValueError, match="non-negative"):
+        LinearPolicy(c, 3, (-1,))
+    with pytest.raises(ValueError, match="n_primitive"):
+        LinearPolicy(c, 0)
+    with pytest.raises(TypeError, match="TileCoder"):
+        LinearPolicy("coder", 3)  # type: ignore[arg-type]
+    pol = LinearPolicy(c, 3)
+    with pytest.raises(ValueError, match="shape"):
+        pol.q_values(np.zeros(3))
+    with pytest.raises(ValueError, match="NaN"):
+        pol.q_values(np.array([np.nan, 0.0]))
+
+
+def test_tampered_and_foreign_files_rejected(tmp_path: Path) -> None:
+    pol = trained_policy().freeze()
+    path = tmp_path / "pol.npz"
+    pol.save(path)
+    data = path.read_bytes()
+
+    # Truncated file.
+    bad = tmp_path / "truncated.npz"
+    bad.write_bytes(data[: len(data) // 2])
+    with pytest.raises(ValueError, match="truncated|readable"):
+        FrozenPolicy.load(bad)
+
+    # Weights modified after saving (rewrite one member, keep the JSON record).
+    tampered = tmp_path / "tampered.npz"
+    with zipfile.ZipFile(path) as zin, zipfile.ZipFile(tampered, "w") as zout:
+        for item in zin.infolist():
+            content = zin.read(item.filename)
+            if item.filename == "weights.npy":
+                arr = np.load(path)["weights"].copy()
+                arr[0, 0] += 1.0
+                import io
+
+                buf = io.BytesIO()
+                np.save(buf, arr)
+                content = buf.getvalue()
+            zout.writestr(item, content)
+    with pytest.raises(ValueError, match="checksum"):
+        FrozenPolicy.load(tampered)
+
+    # A pickle-bearing npz written by someone else.
+    evil = tmp_path / "evil.npz"
+    np.savez(evil, weights=np.array([object()], dtype=object))
+    with pytest.raises(ValueError):
+        FrozenPolicy.load(evil)
+
+    # Another schema.
+    from ilpss._io import save_npz_atomic
+
+    other = tmp_path / "other.npz"
+    save_npz_atomic(other, {"x": np.zeros(2)}, {"schema": "ilpss.kernels/1"})
+    with pytest.raises(ValueError, match="schema"):
+        FrozenPolicy.load(other)
+
+    with pytest.raises(FileNotFoundError):
+        FrozenPolicy.load(tmp_path / "missing.npz")
