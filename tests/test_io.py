@@ -157,9 +157,18 @@ def test_load_refuses_bad_files(tmp_path: Path) -> None:
     [
         ({"w": np.zeros((3, 2)), "t": np.zeros(1)}, "missing array 'c'"),
         ({"w": np.zeros((3, 2)), "c": np.zeros(3), "t": np.zeros(1)}, r"'c' has dtype float64"),
-        ({"w": np.zeros(6), "c": np.zeros(3, int), "t": np.zeros(1)}, r"'w' has shape \(6,\), expected \(K, d\)"),
-        ({"w": np.zeros((3, 2)), "c": np.zeros(4, int), "t": np.zeros(1)}, "'c' axis 0 has length 4, but K = 3"),
-        ({"w": np.zeros((3, 2)), "c": np.zeros(3, int), "t": np.zeros((1, 1))}, r"'t' has shape \(1, 1\)"),
+        (
+            {"w": np.zeros(6), "c": np.zeros(3, int), "t": np.zeros(1)},
+            r"'w' has shape \(6,\), expected \(K, d\)",
+        ),
+        (
+            {"w": np.zeros((3, 2)), "c": np.zeros(4, int), "t": np.zeros(1)},
+            "'c' axis 0 has length 4, but K = 3",
+        ),
+        (
+            {"w": np.zeros((3, 2)), "c": np.zeros(3, int), "t": np.zeros((1, 1))},
+            r"'t' has shape \(1, 1\)",
+        ),
     ],
 )
 def test_load_checks_required_arrays(tmp_path: Path, arrays, match: str) -> None:

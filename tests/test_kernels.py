@@ -44,7 +44,12 @@ def planted(
     rng = np.random.default_rng(seed)
     if weights is None:
         weights = np.array(
-            [[0.7, 0.1, 0.1, 0.1], [0.1, 0.6, 0.1, 0.2], [0.25, 0.25, 0.25, 0.25], [0.05, 0.05, 0.3, 0.6]]
+            [
+                [0.7, 0.1, 0.1, 0.1],
+                [0.1, 0.6, 0.1, 0.2],
+                [0.25, 0.25, 0.25, 0.25],
+                [0.05, 0.05, 0.3, 0.6],
+            ]
         )[:, :n_components]
         weights = weights / weights.sum(axis=1, keepdims=True)
     units = np.geomspace(0.01, 100.0, D)
@@ -327,7 +332,10 @@ def test_responsibilities_and_score_samples(planted_fit) -> None:
         ([np.zeros((2, 2, 2))], "instance 0: expected a 2-D array"),
         ([np.zeros((4, 0))], "instance 0: states have no features"),
         ([[[1.0, 2.0], [3.0]]], "instance 0: cannot convert"),
-        ([np.zeros((1, 3)), np.zeros((1, 3))], r"fewer states in total \(2\) than components \(3\)"),
+        (
+            [np.zeros((1, 3)), np.zeros((1, 3))],
+            r"fewer states in total \(2\) than components \(3\)",
+        ),
         ([np.empty((0, 3))], r"fewer states in total \(0\)"),
     ],
 )
@@ -355,8 +363,14 @@ def test_invalid_hyperparameters(kwargs, match: str) -> None:
     ("init", "match"),
     [
         ({"weights": np.ones(2) / 2}, "'means'.* is required"),
-        ({"means": np.zeros((3, 2))}, r"init_params\['means'\] has shape \(3, 2\), expected \(2, 2\)"),
-        ({"means": np.zeros((2, 2)), "covariances": np.ones((2, 2, 2)) + [[0, 1], [0, 0]]}, "symmetric"),
+        (
+            {"means": np.zeros((3, 2))},
+            r"init_params\['means'\] has shape \(3, 2\), expected \(2, 2\)",
+        ),
+        (
+            {"means": np.zeros((2, 2)), "covariances": np.array([[[1.0, 1.0], [0.0, 1.0]]] * 2)},
+            "symmetric",
+        ),
         ({"means": np.zeros((2, 2)), "weights": np.array([0.9, 0.3])}, "rows summing to 1"),
         ({"means": np.zeros((2, 2)), "extra": 1}, "unknown keys"),
         ({"means": np.full((2, 2), np.nan)}, "NaN"),
@@ -403,7 +417,10 @@ def test_empty_instance_is_allowed_with_uniform_weights() -> None:
 def test_degenerate_data_is_regularised(case: str) -> None:
     rng = np.random.default_rng(0)
     if case == "duplicate_states":
-        bags, k = [np.tile(rng.normal(size=(1, D)), (50, 1)), np.tile(rng.normal(size=(2, D)), (20, 1))], 3
+        bags, k = (
+            [np.tile(rng.normal(size=(1, D)), (50, 1)), np.tile(rng.normal(size=(2, D)), (20, 1))],
+            3,
+        )
     elif case == "fewer_states_than_dims":
         bags, k = [rng.normal(size=(4, D)), rng.normal(size=(3, D))], 2
     elif case == "constant_feature":
@@ -495,17 +512,33 @@ def test_damaged_or_foreign_files_are_refused(planted_fit, tmp_path: Path) -> No
     buffer = io.BytesIO()
     np.savez(buffer, **data)
     refused("checksum mismatch", data=buffer.getvalue())
-    refused(r"wrong schema 'ilpss.kernels/2', expected 'ilpss.kernels/1'", meta={**meta, "schema": "ilpss.kernels/2"})
+    refused(
+        r"wrong schema 'ilpss.kernels/2', expected 'ilpss.kernels/1'",
+        meta={**meta, "schema": "ilpss.kernels/2"},
+    )
     refused("missing array 'weights'", drop=("weights",))
     refused(r"array 'std_means' has shape \(4, 9, 1\)", arrays={"std_means": np.zeros((4, 9, 1))})
-    refused(r"'std_covariances' axis 1 has length 9, but d = 8", arrays={"std_means": np.zeros((4, 8))})
-    refused("array 'n_states_per_instance' has dtype float64", arrays={"n_states_per_instance": np.ones(4)})
+    refused(
+        r"'std_covariances' axis 1 has length 9, but d = 8", arrays={"std_means": np.zeros((4, 8))}
+    )
+    refused(
+        "array 'n_states_per_instance' has dtype float64",
+        arrays={"n_states_per_instance": np.ones(4)},
+    )
     refused("weights are not probabilities", arrays={"weights": np.full((4, 4), 0.3)})
     refused("non-finite", arrays={"feature_mean": np.full(D, np.nan)})
     refused("not positive definite", arrays={"std_covariances": -np.tile(np.eye(D), (4, 1, 1))})
-    refused("missing field hyperparameters.tol", meta={**meta, "hyperparameters": {
-        k: v for k, v in meta["hyperparameters"].items() if k != "tol"}})
-    refused("n_components", meta={**meta, "hyperparameters": {**meta["hyperparameters"], "n_components": 3}})
+    refused(
+        "missing field hyperparameters.tol",
+        meta={
+            **meta,
+            "hyperparameters": {k: v for k, v in meta["hyperparameters"].items() if k != "tol"},
+        },
+    )
+    refused(
+        "n_components",
+        meta={**meta, "hyperparameters": {**meta["hyperparameters"], "n_components": 3}},
+    )
     with pytest.raises(FileNotFoundError):
         SharedKernelModel.load(tmp_path / "missing.npz")
     with pytest.raises(NotFittedError):

@@ -1,0 +1,394 @@
+"""Tests of ilpss.smdp: SMDP Sarsa / Q-learning over primitives and kernel options."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from synthetic_smdp import (
+    FAST,
+    SLOW,
+    FunctionKernels,
+    IntervalKernels,
+    NoDurationEnv,
+    ScriptedChain,
+    ZoneCorridor,
+    constant_kernels,
+    optimal_action,
+    optimal_value,
+)
+from test_options import binomial_ok, constant_policy
+
+from ilpss.options import OptionLibrary
+from ilpss.smdp import EpisodeResult, SmdpLearner, options_used
+from ilpss.tiles import TileCoder
+
+GAMMA = 0.9
+
+
+def corridor_coder() -> TileCoder:
+    return TileCoder([0.0], [9.0], [1.0], n_tilings=4)
+
+
+def chain_coder(length: int) -> TileCoder:
+    # Width 0.5 with one tiling: the integer states of a chain share no tile.
+    return TileCoder([0.0], [float(length)], [0.5], n_tilings=1)
+
+
+def greedy_primitive(learner: SmdpLearner, x: float, rng: np.random.Generator) -> int:
+    """The primitive the greedy learner would take at ``x`` (options resolved), counting
+    only options that could start there (K > 0)."""
+    s = np.array([x])
+    q = learner.q.q_values(s)
+    mask = np.ones(learner.n_choices, dtype=bool)
+    lib = learner.library
+    if lib is not None and len(lib):
+        mask[learner.n_primitive:] = lib.membership(s)[lib.option_kernel] > 0
+    c = int(np.argmax(np.where(mask, q, -np.inf)))
+    if c < learner.n_primitive:
+        return c
+    return lib.act(learner.option_ids[c - learner.n_primitive], s, rng)  # type: ignore[union-attr]
+
+
+def interior_points() -> list[float]:
+    return [n + f for n in range(9) for f in (0.3, 0.5, 0.7)]
+
+
+def is_optimal_episode(res: EpisodeResult, cost: float = 0.05) -> bool:
+    """Whether the episode's discounted return is the optimal value of its start."""
+    best = optimal_value(res.trace[0, 0], GAMMA, cost)
+    return bool(res.success and abs(res.discounted_return - best) < 1e-9)
+
+
+def set_q(learner: SmdpLearner, x: float, choice: int, value: float) -> None:
+    a = learner.tile_coder.active(np.array([x]))
+    learner.q.weights[choice, a] = value / a.shape[0]
+
+
+# ------------------------------------------------------------------ convergence
+@pytest.mark.parametrize("method", ["sarsa", "q"])
+def test_converges_to_the_optimal_policy_without_options(method: str) -> None:
+    env = ZoneCorridor()
+    learner = SmdpLearner(
+        3, corridor_coder(), gamma=GAMMA, method=method, initial_value=1.0, seed=0
+    )
+    curve = learner.train(env, 2000, seed=10)
+    rng = np.random.default_rng(0)
+    assert all(greedy_primitive(learner, x, rng) == optimal_action(x) for x in interior_points())
+    evaluation = learner.evaluate(env, 300, seed=99)
+    assert np.mean([is_optimal_episode(r) for r in evaluation]) >= 0.9
+    # The learnt values approach the hand-computed optimum at cell centres.
+    for n in range(9):
+        v = learner.q.q_values(np.array([n + 0.5])).max()
+        assert v == pytest.approx(optimal_value(n + 0.5, GAMMA, 0.05), abs=0.15)
+    # It learnt: late episodes succeed far more often than early ones.
+    early = np.mean([r.success for r in curve[:100]])
+    late = np.mean([r.success for r in curve[-200:]])
+    assert late > 0.95 and late > early
+
+
+def test_durations_are_discounted_per_cycle() -> None:
+    """With no per-cycle cost only gamma ** duration separates fast from slow actions."""
+    env = ZoneCorridor(cost=0.0)
+    learner = SmdpLearner(3, corridor_coder(), gamma=GAMMA, initial_value=1.0, seed=1)
+    learner.train(env, 2000, seed=3)
+    rng = np.random.default_rng(0)
+    # In the last cell both reach the goal within the step, whose reward is not
+    # discounted by its own duration: a true tie when cost = 0, so it is left out.
+    points = [x for x in interior_points() if x < 8]
+    assert all(greedy_primitive(learner, x, rng) == optimal_action(x) for x in points)
+    env_eval = ZoneCorridor(cost=0.0)
+    evaluation = learner.evaluate(env_eval, 300, seed=9)
+    assert np.mean([is_optimal_episode(r, cost=0.0) for r in evaluation]) >= 0.9
+    # Blind to durations (no "duration" in info: 1 cycle assumed), slow steps look as
+    # good as fast ones, and the learnt policy wastes cycles.
+    blind = SmdpLearner(3, corridor_coder(), gamma=GAMMA, initial_value=1.0, seed=1)
+    blind.train(NoDurationEnv(ZoneCorridor(cost=0.0)), 2000, seed=3)
+    evaluation = blind.evaluate(env_eval, 300, seed=9)
+    assert np.mean([is_optimal_episode(r, cost=0.0) for r in evaluation]) < 0.5
+
+
+@pytest.mark.parametrize("intra_option", [False, True])
+def test_converges_with_options(intra_option: bool) -> None:
+    coder = corridor_coder()
+    good = constant_policy(1, coder=coder)  # the fast action of zone B
+    bad = constant_policy(0, coder=coder)  # the fatal action of zone B
+    lib = OptionLibrary(IntervalKernels([(3, 6)], inside=0.9), [good, bad])
+    env = ZoneCorridor()
+    learner = SmdpLearner(
+        3, coder, lib, gamma=GAMMA, initial_value=1.0, intra_option=intra_option, seed=0
+    )
+    assert learner.option_ids == (0, 1)
+    learner.train(env, 2000, seed=4)
+    rng = np.random.default_rng(0)
+    assert all(greedy_primitive(learner, x, rng) == optimal_action(x) for x in interior_points())
+    evaluation = learner.evaluate(env, 300, seed=99)
+    assert np.mean([is_optimal_episode(r) for r in evaluation]) >= 0.9
+    # The bad option is never used by the learnt policy.
+    assert 1 not in options_used(evaluation)
+    # Options only start inside their kernel (K = 0 outside [3, 6)).
+    for res in evaluation:
+        for run in res.option_runs:
+            assert 3 <= res.trace[run.start_decision, 0] < 6
+    assert lib.options()[0].uses + lib.options()[1].uses > 0
+
+
+def test_good_option_is_used_and_discounting_follows() -> None:
+    coder = corridor_coder()
+    good = constant_policy(1, coder=coder)
+    bad = constant_policy(0, coder=coder)
+    lib = OptionLibrary(IntervalKernels([(3, 6)], inside=0.9), [good, bad])
+    # Prefer options a priori (as after a transfer) so that the greedy policy keeps them.
+    learner = SmdpLearner(3, coder, lib, gamma=GAMMA, method="q", seed=2)
+    learner.q.weights[3:] += 1.0 / coder.n_active
+    learner.train(ZoneCorridor(), 1500, seed=5)
+    used = options_used(learner.evaluate(ZoneCorridor(), 200, seed=7))
+    assert used == {0}
+    report = lib.end_trial(used)
+    assert report.discounted == (1,) and lib.scale(0) == 1.0 and lib.scale(1) == 0.5
+
+
+# ------------------------------------------------------------------ exact update
+@pytest.mark.parametrize("method", ["sarsa", "q"])
+def test_option_update_spans_start_to_termination(method: str) -> None:
+    rewards = [0.5, -0.2, 1.0, 0.3, 0.0, 2.0]
+    durations = [2, 1, 3, 1, 1, 1]
+    env = ScriptedChain(rewards, durations)
+    coder = chain_coder(len(rewards))
+    # Kernel: K = 1 for x < 3, 0 from x = 3: the option runs at x = 0, 1, 2 and stops at 3.
+    model = FunctionKernels([lambda s: 1.0 if s[0] < 3 else 0.0], [[1.0]], [[[1.0]]])
+    lib = OptionLibrary(model, [constant_policy(2, coder=coder)])
+    alpha, gamma = 0.5, 0.8
+    learner = SmdpLearner(3, coder, lib, alpha=alpha, epsilon=0.0, gamma=gamma, method=method,
+                          seed=0)
+    set_q(learner, 0.0, 3, 5.0)  # the option is the greedy choice at x = 0
+    set_q(learner, 3.0, 1, 0.7)  # the best choice at x = 3 (where the option is unavailable)
+    set_q(learner, 3.0, 0, 0.2)
+    res = learner.run_episode(env, learn=True)
+    assert env.actions[:3] == [2, 2, 2]  # the option's policy acted
+    assert res.options_chosen == [0]
+    run = res.option_runs[0]
+    assert (run.start_decision, run.n_decisions, run.cycles) == (0, 3, 6)
+    assert not run.ended_by_episode and not run.explored
+    R = 0.5 + gamma**2 * -0.2 + gamma**3 * 1.0
+    D = 2 + 1 + 3
+    target = R + gamma**D * 0.7
+    q0 = learner.q.q_values(np.array([0.0]))[3]
+    assert q0 == pytest.approx(5.0 + alpha * (target - 5.0), abs=1e-12)
+    # The states inside the option got no update of their own.
+    for x in (1.0, 2.0):
+        np.testing.assert_array_equal(learner.q.q_values(np.array([x])), 0.0)
+    assert res.cycles == sum(durations) and res.decisions == 6
+    assert res.total_reward == pytest.approx(sum(rewards))
+    np.testing.assert_array_equal(res.trace[:, 0], np.arange(6.0))
+
+
+def test_primitive_updates_and_terminal_target() -> None:
+    rewards = [1.0, 2.0]
+    durations = [3, 2]
+    env = ScriptedChain(rewards, durations)
+    coder = chain_coder(2)
+    alpha, gamma = 0.25, 0.5
+    learner = SmdpLearner(3, coder, alpha=alpha, epsilon=0.0, gamma=gamma, seed=0)
+    set_q(learner, 0.0, 1, 1.0)
+    set_q(learner, 1.0, 2, 4.0)
+    learner.run_episode(env)
+    assert env.actions == [1, 2]
+    # Sarsa: Q(0, 1) <- 1 + a (1 + g^3 * 4 - 1); the last update's target is the reward.
+    assert learner.q.q_values(np.array([0.0]))[1] == pytest.approx(1 + alpha * gamma**3 * 4.0)
+    assert learner.q.q_values(np.array([1.0]))[2] == pytest.approx(4 + alpha * (2.0 - 4.0))
+
+
+def test_learn_false_leaves_weights_alone() -> None:
+    learner = SmdpLearner(3, corridor_coder(), seed=0, initial_value=0.3)
+    before = learner.q.weights.copy()
+    learner.run_episode(ZoneCorridor(), learn=False, seed=1)
+    np.testing.assert_array_equal(learner.q.weights, before)
+
+
+# ------------------------------------------------------------ option statistics
+def _forced_option_runs(k: float, c_scale_trials: int, n_episodes: int, seed: int):
+    coder = chain_coder(400)
+    lib = OptionLibrary(constant_kernels([k]), [constant_policy(0, coder=coder)])
+    for _ in range(c_scale_trials):
+        lib.end_trial(used=[])  # scale 0.5 ** trials
+    env = ScriptedChain([0.0] * 400, [1] * 400)
+    learner = SmdpLearner(3, coder, lib, epsilon=0.0, seed=seed)
+    learner.q.weights[3] = 1.0  # the option is preferred whenever it is available
+    return lib, [learner.run_episode(env, learn=False) for _ in range(n_episodes)]
+
+
+def test_option_termination_and_initiation_frequencies_in_episodes() -> None:
+    k = 0.7
+    lib, results = _forced_option_runs(k, c_scale_trials=1, n_episodes=20, seed=3)
+    runs = [r for res in results for r in res.option_runs if not r.ended_by_episode]
+    lengths = np.array([r.n_decisions for r in runs])
+    # Run length is geometric: P(length = 1) = 1 - K; mean 1 / (1 - K).
+    assert binomial_ok(int((lengths == 1).sum()), lengths.size, 1 - k)
+    assert lengths.mean() == pytest.approx(1 / (1 - k), rel=0.1)
+    # At each choice point the option starts with probability c * K = 0.5 * 0.7.
+    n_choices = sum(len(res.choices) for res in results)
+    n_starts = sum(len(res.options_chosen) for res in results)
+    assert binomial_ok(n_starts, n_choices, 0.5 * k)
+
+
+def test_pruned_option_is_never_offered_again() -> None:
+    lib, _ = _forced_option_runs(0.9, c_scale_trials=0, n_episodes=0, seed=0)
+    coder = lib.policies[0].tile_coder
+    learner = SmdpLearner(3, coder, lib, epsilon=0.0, seed=0)
+    learner.q.weights[3] = 1.0
+    for _ in range(4):
+        lib.end_trial(used=[])
+    assert len(lib) == 0
+    res = learner.run_episode(ScriptedChain([0.0] * 50, [1] * 50), learn=False)
+    assert res.options_chosen == []
+
+
+# ------------------------------------------------------------------ reproducibility
+def _curve(seed: int, with_options: bool) -> tuple[list[float], list[int], np.ndarray]:
+    coder = corridor_coder()
+    lib = None
+    if with_options:
+        lib = OptionLibrary(IntervalKernels([(3, 6)], inside=0.9),
+                            [constant_policy(1, coder=coder)])
+    learner = SmdpLearner(3, coder, lib, gamma=GAMMA, epsilon=0.1, seed=seed)
+    results = learner.train(ZoneCorridor(), 150, seed=21)
+    return ([r.total_reward for r in results], [r.decisions for r in results],
+            learner.q.weights.copy())
+
+
+@pytest.mark.parametrize("with_options", [False, True])
+def test_same_seed_same_learning_curve(with_options: bool) -> None:
+    r1, d1, w1 = _curve(7, with_options)
+    r2, d2, w2 = _curve(7, with_options)
+    assert r1 == r2 and d1 == d2
+    np.testing.assert_array_equal(w1, w2)
+    r3, d3, _ = _curve(8, with_options)
+    assert (r3, d3) != (r1, d1)
+
+
+def test_from_policy_rolls_out_identically() -> None:
+    coder = corridor_coder()
+    lib = OptionLibrary(IntervalKernels([(3, 6)], inside=0.9), [constant_policy(1, coder=coder)])
+    learner = SmdpLearner(3, coder, lib, gamma=GAMMA, seed=0)
+    learner.train(ZoneCorridor(), 200, seed=1)
+    frozen = learner.freeze()
+    a = SmdpLearner.from_policy(frozen, lib, seed=5).evaluate(ZoneCorridor(), 30, seed=2)
+    b = SmdpLearner.from_policy(frozen, lib, seed=5).evaluate(ZoneCorridor(), 30, seed=2)
+    assert [r.choices for r in a] == [r.choices for r in b]
+    with pytest.raises(ValueError, match="library"):
+        SmdpLearner.from_policy(frozen, None)
+    other = OptionLibrary(IntervalKernels([(0, 1)]), [])
+    with pytest.raises(KeyError, match="unknown option id"):
+        SmdpLearner.from_policy(frozen, other)
+
+
+# ------------------------------------------------------------------ episode records
+def test_episode_result_fields_and_outcomes() -> None:
+    learner = SmdpLearner(3, corridor_coder(), gamma=GAMMA, seed=0)
+    env = ZoneCorridor(start_high=0.5, max_cycles=6)
+    # Always the slow action of zone A: 3 cycles per step -> timeout after 2 steps.
+    learner.q.weights[1] = 1.0
+    res = learner.run_episode(env, learn=False, seed=0)
+    assert res.truncated and not res.terminated
+    assert res.outcome == "timeout" and not res.success
+    assert res.decisions == 2 and res.cycles == 6
+    assert res.trace.shape == (2, 1) and res.trace[1, 0] == pytest.approx(res.trace[0, 0] + 1)
+    assert res.final_observation[0] == pytest.approx(res.trace[0, 0] + 2)
+    assert res.choices == [1, 1] and res.explored == [False, False]
+
+
+def test_works_without_duration_or_outcome_in_info() -> None:
+    learner = SmdpLearner(3, corridor_coder(), gamma=GAMMA, seed=0)
+    results = learner.train(NoDurationEnv(ZoneCorridor()), 20, seed=0)
+    for res in results:
+        assert res.cycles == res.decisions and res.outcome is None
+        assert res.success == (res.terminated and res.total_reward > 0 and not res.truncated) \
+            or not res.success
+
+
+def test_bootstrap_on_truncation_option() -> None:
+    env = ZoneCorridor(start_high=0.5, max_cycles=3)
+    for flag, expected in [(False, -1.0 - 0.15), (True, -1.0 - 0.15 + GAMMA**3 * 2.0)]:
+        learner = SmdpLearner(3, corridor_coder(), alpha=1.0, epsilon=0.0, gamma=GAMMA,
+                              bootstrap_on_truncation=flag, seed=0)
+        learner.q.weights[1] = 2.0 / learner.tile_coder.n_active  # Q(., slow) = 2 everywhere
+        res = learner.run_episode(env, seed=0)
+        assert res.truncated and res.decisions == 1
+        x0 = np.array([res.trace[0, 0]])
+        assert learner.q.q_values(x0)[1] == pytest.approx(expected)
+
+
+# ------------------------------------------------------------------ intra-option
+def test_intra_option_updates_consistent_options_only() -> None:
+    env = ScriptedChain([1.0, 0.0], [1, 1])
+    coder = chain_coder(2)
+    model = constant_kernels([0.5])
+    lib = OptionLibrary(model, [constant_policy(1, coder=coder), constant_policy(0, coder=coder)])
+    learner = SmdpLearner(3, coder, lib, alpha=1.0, epsilon=0.0, gamma=1.0, method="q",
+                          intra_option=True, seed=0)
+    set_q(learner, 0.0, 1, 0.1)  # primitive 1 is the greedy choice at x = 0 (options: 0)
+    learner.run_episode(env)
+    q0 = learner.q.q_values(np.array([0.0]))
+    # Option 0 (policy takes 1) is consistent with the primitive taken: updated to
+    # r + K Q(s', o) + (1 - K) max Q(s') = 1 + 0 (all values at x = 1 are 0 then).
+    assert q0[3] == pytest.approx(1.0)
+    assert q0[4] == 0.0  # option 1's policy would take 0: not updated
+    assert q0[1] == pytest.approx(1.0)  # the primitive's own SMDP update
+
+
+# ------------------------------------------------------------------ bad inputs
+class NanEnv(ZoneCorridor):
+    def step(self, action: int):
+        obs, r, term, trunc, info = super().step(action)
+        return np.full_like(obs, np.nan), r, term, trunc, info
+
+
+class BadDurationEnv(ZoneCorridor):
+    def __init__(self, duration: object) -> None:
+        super().__init__()
+        self.duration = duration
+
+    def step(self, action: int):
+        obs, r, term, trunc, info = super().step(action)
+        return obs, r, term, trunc, {**info, "duration": self.duration}
+
+
+def test_bad_inputs_give_clear_errors() -> None:
+    coder = corridor_coder()
+    with pytest.raises(ValueError, match="alpha"):
+        SmdpLearner(3, coder, alpha=0.0)
+    with pytest.raises(ValueError, match="epsilon"):
+        SmdpLearner(3, coder, epsilon=2.0)
+    with pytest.raises(ValueError, match="gamma"):
+        SmdpLearner(3, coder, gamma=1.5)
+    with pytest.raises(ValueError, match="method"):
+        SmdpLearner(3, coder, method="td")
+    with pytest.raises(TypeError, match="TileCoder"):
+        SmdpLearner(3, None)  # type: ignore[arg-type]
+    lib2 = OptionLibrary(IntervalKernels([(0, 3)], n_features=2),
+                         [constant_policy(0, coder=TileCoder([0, 0], [9, 1], [1, 1], 2))])
+    with pytest.raises(ValueError, match="features"):
+        SmdpLearner(3, coder, lib2)
+    lib4 = OptionLibrary(IntervalKernels([(0, 3)]), [constant_policy(0, n_primitive=4)])
+    with pytest.raises(ValueError, match="primitive"):
+        SmdpLearner(3, coder, lib4)
+
+    learner = SmdpLearner(3, coder, seed=0)
+    wrong_actions = ZoneCorridor()
+    wrong_actions.action_space = gym.spaces.Discrete(4)
+    with pytest.raises(ValueError, match="Discrete"):
+        learner.run_episode(wrong_actions)
+    with pytest.raises(ValueError, match="shape"):
+        learner.run_episode(ZoneCorridor(n_features=2))
+    with pytest.raises(ValueError, match="NaN"):
+        learner.run_episode(NanEnv(start_high=0.5), seed=0)
+    for bad in (0, 1.5, "2", True):
+        with pytest.raises(ValueError, match="duration"):
+            learner.run_episode(BadDurationEnv(bad), seed=0)
+    with pytest.raises(ValueError, match="n_episodes"):
+        learner.train(ZoneCorridor(), -1)
+    capped = SmdpLearner(3, coder, seed=0, max_decisions=3)
+    capped.q.weights[0] = 1.0  # the fast action of zone A: more than 3 steps to the goal
+    with pytest.raises(RuntimeError, match="max_decisions"):
+        capped.run_episode(ZoneCorridor(start_high=0.5), learn=False, seed=0)
