@@ -78,7 +78,7 @@ def test_unknown_team_lists_known_ones():
 
 
 def test_bad_team_parameters():
-    with pytest.raises(ValueError, match="bad parameters .* for team 'chasers'"):
+    with pytest.raises(ValueError, match=r"bad parameters .* for team 'chasers'"):
         soccer_drill.env(opponent="chasers", opponent_params={"colour": "red"})
 
 
