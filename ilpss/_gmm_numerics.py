@@ -27,14 +27,17 @@ __all__ = [
     "nearest",
     "precision_cholesky",
     "sq_mahalanobis",
+    "stack_components",
 ]
 
 Array = NDArray[np.float64]
 
 _LOG_2PI = float(np.log(2.0 * np.pi))
-#: Rows per block in the E-step: bounds the (rows, K * d) temporary to a few MB and keeps
-#: it in cache, which is faster than one big temporary for large bags.
-CHUNK = 4096
+#: Rows per block. Blocks keep temporaries in cache and bound memory for large bags, and
+#: keep every matrix product below OpenBLAS's multithreading threshold (about 2.6e5
+#: multiply-adds): threading such small products gains little, and when other processes
+#: load the CPUs it made an EM iteration 2-6 times slower in our measurements.
+CHUNK = 1024
 #: Floor on component counts, as in scikit-learn: keeps empty components finite.
 EPS_COUNT = 10.0 * np.finfo(np.float64).eps
 
@@ -56,15 +59,12 @@ def precision_cholesky(covariances: Array) -> Array:
         if info == 0:
             inverse, info = lapack.dtrtri(chol, lower=1)
         if info != 0:
-            raise ValueError(
-                f"covariance of component {k} is not positive definite; the data are "
-                "degenerate for this model: increase reg_covar or use fewer components"
-            )
+            raise ValueError(f"covariance of component {k} is not positive definite")
         out[k] = inverse.T
     return out
 
 
-def _stacked(means: Array, prec_chol: Array) -> tuple[Array, Array, Array]:
+def stack_components(means: Array, prec_chol: Array) -> tuple[Array, Array, Array]:
     """Precisions side by side (d, K*d), their offsets (K*d,), and a block-sum matrix.
 
     ``(z @ P_all - b)**2 @ S`` gives all K squared Mahalanobis distances of ``z`` with two
@@ -77,9 +77,18 @@ def _stacked(means: Array, prec_chol: Array) -> tuple[Array, Array, Array]:
     return p_all, b, block_sum
 
 
-def sq_mahalanobis(Z: Array, means: Array, prec_chol: Array) -> Array:
-    """Squared Mahalanobis distance of every row of ``Z`` to every component (n, K)."""
-    p_all, b, block_sum = _stacked(means, prec_chol)
+def sq_mahalanobis(
+    Z: Array,
+    means: Array,
+    prec_chol: Array,
+    stacked: tuple[Array, Array, Array] | None = None,
+) -> Array:
+    """Squared Mahalanobis distance of every row of ``Z`` to every component (n, K).
+
+    ``stacked`` is :func:`stack_components` of ``means`` and ``prec_chol`` if the caller
+    has it already (a fitted model keeps it: it matters when scoring single states).
+    """
+    p_all, b, block_sum = stack_components(means, prec_chol) if stacked is None else stacked
     out = np.empty((Z.shape[0], means.shape[0]))
     for start in range(0, Z.shape[0], CHUNK):
         y = Z[start : start + CHUNK] @ p_all
@@ -94,10 +103,15 @@ def _log_det_half(prec_chol: Array) -> Array:
     return np.log(np.diagonal(prec_chol, axis1=1, axis2=2)).sum(axis=1)
 
 
-def estimate_log_gaussian_prob(Z: Array, means: Array, prec_chol: Array) -> Array:
+def estimate_log_gaussian_prob(
+    Z: Array,
+    means: Array,
+    prec_chol: Array,
+    stacked: tuple[Array, Array, Array] | None = None,
+) -> Array:
     """``log N(z; mu_k, Sigma_k)`` for every row and component (n, K)."""
     d = means.shape[1]
-    out = sq_mahalanobis(Z, means, prec_chol)
+    out = sq_mahalanobis(Z, means, prec_chol, stacked)
     out *= -0.5
     out += _log_det_half(prec_chol) - 0.5 * d * _LOG_2PI
     return out
@@ -177,7 +191,10 @@ def m_step(
     n_components = resp.shape[1]
     d = Z.shape[1]
     nk = resp.sum(axis=0) + EPS_COUNT
-    means = (resp.T @ Z) / nk[:, None]
+    means = np.zeros((n_components, d))
+    for start in range(0, Z.shape[0], CHUNK):
+        means += resp[start : start + CHUNK].T @ Z[start : start + CHUNK]
+    means /= nk[:, None]
     # Centred two-pass form, as scikit-learn (no cancellation for components far from the
     # origin), accumulated over row blocks that stay in cache.
     covariances = np.zeros((n_components, d, d))
@@ -231,8 +248,12 @@ def kmeans_plusplus(Z: Array, n_components: int, rng: np.random.Generator) -> Ar
 
 def nearest(Z: Array, centres: Array) -> NDArray[np.intp]:
     """Index of the nearest centre (Euclidean) of every row of ``Z``."""
-    d2 = (centres**2).sum(axis=1) - 2.0 * (Z @ centres.T)
-    return np.argmin(d2, axis=1)
+    sq_norms = (centres**2).sum(axis=1)
+    labels = np.empty(Z.shape[0], dtype=np.intp)
+    for start in range(0, Z.shape[0], CHUNK):
+        d2 = sq_norms - 2.0 * (Z[start : start + CHUNK] @ centres.T)
+        labels[start : start + CHUNK] = np.argmin(d2, axis=1)
+    return labels
 
 
 def lloyd(Z: Array, centres: Array, max_iter: int) -> Array:
@@ -240,10 +261,11 @@ def lloyd(Z: Array, centres: Array, max_iter: int) -> Array:
     centres = centres.copy()
     labels = nearest(Z, centres)
     for _ in range(max_iter):
-        one_hot = np.zeros((Z.shape[0], centres.shape[0]))
-        one_hot[np.arange(Z.shape[0]), labels] = 1.0
-        counts = one_hot.sum(axis=0)
-        sums = one_hot.T @ Z
+        n_centres = centres.shape[0]
+        counts = np.bincount(labels, minlength=n_centres)
+        sums = np.column_stack(
+            [np.bincount(labels, weights=Z[:, j], minlength=n_centres) for j in range(Z.shape[1])]
+        )
         filled = counts > 0
         centres[filled] = sums[filled] / counts[filled, None]
         new_labels = nearest(Z, centres)

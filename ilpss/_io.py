@@ -223,9 +223,7 @@ def load_npz(
         raise ValueError(f"{where}: unknown container layout (expected {CONTAINER!r})")
     meta: dict[str, Any] = record["meta"]
     if meta.get("schema") != schema:
-        raise ValueError(
-            f"{where}: wrong schema {meta.get('schema')!r}, expected {schema!r}"
-        )
+        raise ValueError(f"{where}: wrong schema {meta.get('schema')!r}, expected {schema!r}")
     if _digest(arrays, meta) != record["sha256"]:
         raise ValueError(
             f"{where}: content checksum mismatch; the arrays or the record were modified "

@@ -44,6 +44,7 @@ from ilpss._io import load_npz, save_npz_atomic
 __all__ = [
     "SCHEMA",
     "KernelConvergenceWarning",
+    "NotFittedError",
     "SharedKernelModel",
     "select_n_components",
     "validate_bags",
@@ -438,6 +439,10 @@ class SharedKernelModel:
             if not np.allclose(cov, cov.transpose(0, 2, 1), rtol=1e-8, atol=0.0):
                 raise ValueError("init_params['covariances'] must be symmetric")
             covariances = cov / np.outer(feature_scale, feature_scale)
+            try:
+                num.precision_cholesky(covariances)
+            except ValueError as exc:
+                raise ValueError(f"init_params['covariances']: {exc}") from exc
         if "weights" in init_params:
             w = get("weights", [(K,), (n_inst, K)])
             w = np.broadcast_to(w, (n_inst, K)).copy()
@@ -456,7 +461,7 @@ class SharedKernelModel:
         of the final parameters is computed once more at the end.
         """
         n = Z.shape[0]
-        prec_chol = num.precision_cholesky(covariances)
+        prec_chol = _data_precision_cholesky(covariances)
         trace: list[float] = []
         previous = -np.inf
         converged = False
@@ -466,7 +471,7 @@ class SharedKernelModel:
             current = total / n
             trace.append(current)
             weights, means, covariances = num.m_step(Z, slices, resp, self.reg_covar)
-            prec_chol = num.precision_cholesky(covariances)
+            prec_chol = _data_precision_cholesky(covariances)
             if abs(current - previous) < self.tol:
                 converged = True
                 break
@@ -497,6 +502,7 @@ class SharedKernelModel:
         self.means_ = std_means * feature_scale + feature_mean
         self.covariances_ = std_covariances * np.outer(feature_scale, feature_scale)
         self.n_states_per_instance_ = n_states_per_instance
+        self._stacked = num.stack_components(std_means, self.std_precisions_cholesky_)
         self.n_features_in_ = int(std_means.shape[1])
         self.n_instances_ = int(weights.shape[0])
 
@@ -544,7 +550,7 @@ class SharedKernelModel:
         ndarray (n, K), or (K,) for a single state.
         """
         Z, single = self._standardise(X)
-        d2 = num.sq_mahalanobis(Z, self.std_means_, self.std_precisions_cholesky_)
+        d2 = num.sq_mahalanobis(Z, self.std_means_, self.std_precisions_cholesky_, self._stacked)
         return d2[0] if single else d2
 
     def membership(self, X: ArrayLike) -> Array:
@@ -591,7 +597,9 @@ class SharedKernelModel:
         ndarray (n, K), or (K,) for a single state.
         """
         Z, single = self._standardise(X)
-        log_prob = num.estimate_log_gaussian_prob(Z, self.std_means_, self.std_precisions_cholesky_)
+        log_prob = num.estimate_log_gaussian_prob(
+            Z, self.std_means_, self.std_precisions_cholesky_, self._stacked
+        )
         log_prob += self._log_weights(instance)
         num.logsumexp_rows(log_prob)  # log_prob now holds the posteriors
         return log_prob[0] if single else log_prob
@@ -610,7 +618,9 @@ class SharedKernelModel:
         ndarray (n,), or a float for a single state.
         """
         Z, single = self._standardise(X)
-        log_prob = num.estimate_log_gaussian_prob(Z, self.std_means_, self.std_precisions_cholesky_)
+        log_prob = num.estimate_log_gaussian_prob(
+            Z, self.std_means_, self.std_precisions_cholesky_, self._stacked
+        )
         log_prob += self._log_weights(instance)
         out = num.logsumexp_rows(log_prob) + self._log_jacobian()
         return float(out[0]) if single else out
@@ -695,7 +705,7 @@ class SharedKernelModel:
         save_npz_atomic(path, arrays, meta)
 
     @classmethod
-    def load(cls, path: str | os.PathLike[str]) -> SharedKernelModel:
+    def load(cls, path: str | os.PathLike[str]) -> Self:
         """Read a model written by :meth:`save`; never unpickles.
 
         Raises
@@ -791,6 +801,17 @@ class SharedKernelModel:
         model.lower_bound_ = float(lower_bound)
         model.log_likelihood_trace_ = [float(v) for v in trace]
         return model
+
+
+def _data_precision_cholesky(covariances: Array) -> Array:
+    """:func:`num.precision_cholesky` of covariances estimated from data, with a hint."""
+    try:
+        return num.precision_cholesky(covariances)
+    except ValueError as exc:
+        raise ValueError(
+            f"{exc}: the data are degenerate for this model (e.g. duplicated states with "
+            "reg_covar=0); increase reg_covar or use fewer components"
+        ) from exc
 
 
 def _safe_log(a: Array) -> Array:

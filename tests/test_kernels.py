@@ -371,6 +371,10 @@ def test_invalid_hyperparameters(kwargs, match: str) -> None:
             {"means": np.zeros((2, 2)), "covariances": np.array([[[1.0, 1.0], [0.0, 1.0]]] * 2)},
             "symmetric",
         ),
+        (
+            {"means": np.zeros((2, 2)), "covariances": -np.array([np.eye(2)] * 2)},
+            r"init_params\['covariances'\]: covariance of component 0 is not positive definite",
+        ),
         ({"means": np.zeros((2, 2)), "weights": np.array([0.9, 0.3])}, "rows summing to 1"),
         ({"means": np.zeros((2, 2)), "extra": 1}, "unknown keys"),
         ({"means": np.full((2, 2), np.nan)}, "NaN"),
@@ -547,3 +551,9 @@ def test_damaged_or_foreign_files_are_refused(planted_fit, tmp_path: Path) -> No
 
 def test_schema_constant() -> None:
     assert SCHEMA == "ilpss.kernels/1"
+
+
+def test_degenerate_data_without_regularisation_is_refused() -> None:
+    bags = [np.tile(np.arange(float(D)), (10, 1))]
+    with pytest.raises(ValueError, match="not positive definite: the data are degenerate"):
+        SharedKernelModel(1, reg_covar=0.0).fit(bags)
