@@ -270,6 +270,8 @@ class OptionLibrary:
     pruned : frozenset of (kernel_id, policy_id)
     refit_report : RefitReport or None
         Set on libraries made by :meth:`refit`.
+    version : int
+        Incremented whenever the active set changes (pruning), for caches.
     """
 
     def __init__(
@@ -404,6 +406,8 @@ class OptionLibrary:
         self._reindex()
 
     def _reindex(self) -> None:
+        # Bumped whenever the active set changes, so learners can cache positions.
+        self.version = getattr(self, "version", 0) + 1
         kindex = {int(kid): k for k, kid in enumerate(self.kernel_ids)}
         self._position = {int(oid): j for j, oid in enumerate(self.option_ids)}
         self.option_kernel = np.array(
@@ -445,6 +449,10 @@ class OptionLibrary:
                     f"option id {option_id} is not active (pruned or its kernel retired)"
                 ) from None
             raise KeyError(f"unknown option id {option_id!r}") from None
+
+    def positions(self, option_ids: Iterable[int]) -> np.ndarray:
+        """Positions of ``option_ids`` in :attr:`option_ids`; -1 for inactive ids."""
+        return np.array([self._position.get(int(o), -1) for o in option_ids], dtype=np.int64)
 
     def scale(self, option_id: int) -> float:
         """Current scale ``c`` of active option ``option_id``."""

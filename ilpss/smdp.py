@@ -78,6 +78,8 @@ class EpisodeResult:
     ----------
     total_reward : float
         Undiscounted sum of rewards.
+    discounted_return : float
+        ``sum_i gamma ** (cycles before step i) * r_i`` with the learner's ``gamma``.
     cycles : int
         Sum of step durations.
     decisions : int
@@ -102,6 +104,7 @@ class EpisodeResult:
     """
 
     total_reward: float
+    discounted_return: float
     cycles: int
     decisions: int
     outcome: str | None
@@ -211,7 +214,7 @@ class SmdpLearner:
         self.max_decisions = int(max_decisions)
         self.rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         self._step = self.alpha / tile_coder.n_active
-        self._lib_version: tuple[int, ...] | None = None
+        self._lib_version: tuple[int, int] | None = None
         self._lib_pos = np.zeros(0, dtype=np.int64)
         self._lib_ok = np.zeros(0, dtype=bool)
 
@@ -230,8 +233,7 @@ class SmdpLearner:
         """
         if policy.option_ids and library is None:
             raise ValueError("this policy chooses options; pass the library that issued them")
-        learner = cls(policy.n_primitive, policy.tile_coder, None, **kwargs)
-        learner.library = library
+        learner = cls(policy.n_primitive, policy.tile_coder, library, **kwargs)
         if library is not None:
             for oid in policy.option_ids:
                 library.policy_of(oid)  # KeyError for ids the library never issued
@@ -257,10 +259,10 @@ class SmdpLearner:
         """Map this learner's options to the library's current active positions."""
         lib = self.library
         assert lib is not None
-        version = tuple(int(o) for o in lib.option_ids)
+        version = (id(lib), lib.version)
         if version == self._lib_version:
             return
-        pos = np.array([lib._position.get(o, -1) for o in self.option_ids], dtype=np.int64)
+        pos = lib.positions(self.option_ids)
         self._lib_ok = pos >= 0
         self._lib_pos = np.where(self._lib_ok, pos, 0)
         self._lib_version = version
@@ -275,6 +277,9 @@ class SmdpLearner:
         lib = self.library
         assert lib is not None
         self._sync_library()
+        if not self._lib_ok.any():  # every offered option was pruned or retired
+            mask[self.n_primitive :] = False
+            return mask, membership
         m = lib.membership(state) if membership is None else membership
         avail = lib.available(state, self.rng, membership=m)
         mask[self.n_primitive :] = self._lib_ok & avail[self._lib_pos]
@@ -307,7 +312,7 @@ class SmdpLearner:
             )
 
     def _observation(self, obs: Any) -> np.ndarray:
-        x = np.asarray(obs, dtype=np.float64)
+        x = np.array(obs, dtype=np.float64)  # a copy: envs may reuse their buffers
         if x.shape != (self.tile_coder.n_features,):
             raise ValueError(
                 f"observation must have shape ({self.tile_coder.n_features},), got {x.shape}"
@@ -414,6 +419,7 @@ class SmdpLearner:
         options_chosen: list[int] = []
         runs: list[OptionRun] = []
         total_reward = 0.0
+        discounted_return = 0.0
         last_reward = 0.0
         cycles = 0
         info: dict[str, Any] = {}
@@ -452,6 +458,7 @@ class SmdpLearner:
                     self._intra_option_update(active, s, m, action, choice, reward, d, next_s)
                 ret += disc * reward
                 disc *= self.gamma**d
+                discounted_return += self.gamma**cycles * reward
                 total_reward += reward
                 last_reward = reward
                 cycles += d
@@ -502,6 +509,7 @@ class SmdpLearner:
         d_feat = self.tile_coder.n_features
         return EpisodeResult(
             total_reward=total_reward,
+            discounted_return=discounted_return,
             cycles=cycles,
             decisions=len(trace),
             outcome=outcome,

@@ -37,6 +37,8 @@ import gymnasium as gym
 import numpy as np
 
 from ilpss._io import load_npz, save_npz_atomic
+from ilpss.policy import FrozenPolicy
+from ilpss.tiles import TileCoder
 
 FAST = {0: 0, 1: 1, 2: 2}  # zone -> fast action
 SLOW = {0: 1, 1: 2, 2: 0}
@@ -129,11 +131,21 @@ class ZoneCorridor(gym.Env):
         self.cycles += duration
         reward = -self.cost * duration
         if self.x >= LENGTH:
-            return self._obs(), reward + 1.0, True, False, {"duration": duration,
-                                                           "outcome": "success"}
+            return (
+                self._obs(),
+                reward + 1.0,
+                True,
+                False,
+                {"duration": duration, "outcome": "success"},
+            )
         if self.cycles >= self.max_cycles:
-            return self._obs(), reward - 1.0, False, True, {"duration": duration,
-                                                           "outcome": "timeout"}
+            return (
+                self._obs(),
+                reward - 1.0,
+                False,
+                True,
+                {"duration": duration, "outcome": "timeout"},
+            )
         return self._obs(), reward, False, False, {"duration": duration, "outcome": None}
 
 
@@ -222,8 +234,10 @@ class IntervalKernels:
 
     def permuted(self, perm: list[int]) -> IntervalKernels:
         return IntervalKernels(
-            self.intervals[perm].tolist(), self.inside[perm].tolist(),
-            self.outside[perm].tolist(), self.n_features,
+            self.intervals[perm].tolist(),
+            self.inside[perm].tolist(),
+            self.outside[perm].tolist(),
+            self.n_features,
         )
 
     def save(self, path: str | os.PathLike[str]) -> None:
@@ -240,8 +254,12 @@ class IntervalKernels:
             "tests.interval_kernels/1",
             {"intervals": (("K", 2), "f"), "inside": (("K",), "f"), "outside": (("K",), "f")},
         )
-        return cls(arrays["intervals"].tolist(), arrays["inside"].tolist(),
-                   arrays["outside"].tolist(), int(meta["n_features"]))
+        return cls(
+            arrays["intervals"].tolist(),
+            arrays["inside"].tolist(),
+            arrays["outside"].tolist(),
+            int(meta["n_features"]),
+        )
 
 
 def constant_kernels(values: list[float], n_features: int = 1) -> FunctionKernels:
@@ -250,3 +268,75 @@ def constant_kernels(values: list[float], n_features: int = 1) -> FunctionKernel
     means = np.arange(K, dtype=np.float64)[:, None] * np.ones((K, n_features)) * 10.0
     covs = np.tile(np.eye(n_features), (K, 1, 1))
     return FunctionKernels([lambda x, v=v: v for v in values], means, covs)
+
+
+class ScriptedChain(gym.Env):
+    """Deterministic chain: the state is the step count ``x``; step ``i`` (from ``x = i``)
+    pays ``rewards[i]`` and lasts ``durations[i]`` cycles whatever the action; the episode
+    terminates after ``len(rewards)`` steps (outcome ``"success"``). For exact checks of
+    the SMDP update."""
+
+    def __init__(self, rewards: list[float], durations: list[int], n_features: int = 1) -> None:
+        assert len(rewards) == len(durations)
+        self.rewards = list(rewards)
+        self.durations = list(durations)
+        high = np.full(n_features, float(len(rewards)))
+        self.observation_space = gym.spaces.Box(np.zeros(n_features), high, dtype=np.float64)
+        self.action_space = gym.spaces.Discrete(3)
+        self.n_features = n_features
+        self.x = 0
+        self.actions: list[int] = []
+
+    def _obs(self) -> np.ndarray:
+        return np.full(self.n_features, float(self.x))
+
+    def reset(self, *, seed: int | None = None, options: dict | None = None):
+        super().reset(seed=seed)
+        self.x = 0
+        self.actions = []
+        return self._obs(), {}
+
+    def step(self, action: int):
+        self.actions.append(int(action))
+        i = self.x
+        self.x += 1
+        done = self.x >= len(self.rewards)
+        info = {"duration": self.durations[i], "outcome": "success" if done else None}
+        return self._obs(), float(self.rewards[i]), done, False, info
+
+
+# --------------------------------------------------------------------------- helpers
+Z999 = 3.29  # two-sided 99.9 % normal quantile
+
+
+def binomial_ok(hits: int, n: int, p: float) -> bool:
+    """Whether hits/n is within the 99.9 % normal-approximation interval of p."""
+    sd = np.sqrt(p * (1 - p) / n)
+    return abs(hits / n - p) <= Z999 * sd + 1e-12
+
+
+def coder1() -> TileCoder:
+    return TileCoder([0.0], [9.0], [1.0], n_tilings=4)
+
+
+def constant_policy(
+    action: int,
+    option_ids: tuple[int, ...] = (),
+    prefer: int | None = None,
+    n_primitive: int = 3,
+    coder: TileCoder | None = None,
+) -> FrozenPolicy:
+    """A policy whose greedy choice is ``prefer`` (a choice index) or ``action`` everywhere.
+
+    Primitive values are 3, 2, 1 ... starting from ``action``, so the best primitive is
+    ``action`` even when an option choice is preferred.
+    """
+    coder = coder or coder1()
+    n_choices = n_primitive + len(option_ids)
+    q = np.zeros(n_choices)
+    for rank, a in enumerate([action] + [a for a in range(n_primitive) if a != action]):
+        q[a] = 3.0 - rank
+    if prefer is not None:
+        q[prefer] = 10.0
+    w = np.repeat(q[:, None] / coder.n_active, coder.n_weights, axis=1)
+    return FrozenPolicy(coder, n_primitive, option_ids, w)

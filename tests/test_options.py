@@ -7,7 +7,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from synthetic_smdp import FunctionKernels, IntervalKernels, constant_kernels
+from synthetic_smdp import (
+    FunctionKernels,
+    IntervalKernels,
+    binomial_ok,
+    constant_kernels,
+    constant_policy,
+)
 
 from ilpss.options import (
     OptionLibrary,
@@ -15,38 +21,7 @@ from ilpss.options import (
     kernel_distances,
     match_kernels,
 )
-from ilpss.policy import FrozenPolicy
 from ilpss.tiles import TileCoder
-
-Z999 = 3.29  # two-sided 99.9 % normal quantile
-
-
-def binomial_ok(hits: int, n: int, p: float) -> bool:
-    """Whether hits/n is within the 99.9 % normal-approximation interval of p."""
-    sd = np.sqrt(p * (1 - p) / n)
-    return abs(hits / n - p) <= Z999 * sd + 1e-12
-
-
-def coder1() -> TileCoder:
-    return TileCoder([0.0], [9.0], [1.0], n_tilings=4)
-
-
-def constant_policy(action: int, option_ids: tuple[int, ...] = (), prefer: int | None = None,
-                    n_primitive: int = 3, coder: TileCoder | None = None) -> FrozenPolicy:
-    """A policy whose greedy choice is ``prefer`` (a choice index) or ``action`` everywhere.
-
-    Primitive values are 3, 2, 1 ... starting from ``action``, so the best primitive is
-    ``action`` even when an option choice is preferred.
-    """
-    coder = coder or coder1()
-    n_choices = n_primitive + len(option_ids)
-    q = np.zeros(n_choices)
-    for rank, a in enumerate([action] + [a for a in range(n_primitive) if a != action]):
-        q[a] = 3.0 - rank
-    if prefer is not None:
-        q[prefer] = 10.0
-    w = np.repeat(q[:, None] / coder.n_active, coder.n_weights, axis=1)
-    return FrozenPolicy(coder, n_primitive, option_ids, w)
 
 
 # --------------------------------------------------------------------------- building
@@ -57,7 +32,12 @@ def test_build_k_by_n_options() -> None:
     np.testing.assert_array_equal(lib.option_ids, np.arange(6))
     infos = lib.options()
     assert [(o.kernel_id, o.policy_id) for o in infos] == [
-        (0, 0), (0, 1), (0, 2), (1, 0), (1, 1), (1, 2)
+        (0, 0),
+        (0, 1),
+        (0, 2),
+        (1, 0),
+        (1, 1),
+        (1, 2),
     ]
     assert all(o.scale == 1.0 and o.uses == 0 for o in infos)
     assert 3 in lib and 6 not in lib
@@ -80,7 +60,7 @@ def test_build_rejects_bad_inputs() -> None:
         OptionLibrary(model, [constant_policy(0)], max_depth=0)
     bad = IntervalKernels([(0, 3)])
     bad.means_ = np.zeros((2, 1))
-    with pytest.raises(ValueError, match="means_|n_components"):
+    with pytest.raises(ValueError, match=r"means_|n_components"):
         OptionLibrary(bad, [constant_policy(0)])
 
 
@@ -373,7 +353,7 @@ def test_load_rejects_tampered_or_mixed_files(tmp_path: Path) -> None:
     other.save(tmp_path / "b")
     # A policy file from another save.
     (tmp_path / "a" / "policy_1.npz").write_bytes((tmp_path / "b" / "policy_1.npz").read_bytes())
-    with pytest.raises(ValueError, match="another save|modified"):
+    with pytest.raises(ValueError, match=r"another save|modified"):
         OptionLibrary.load(tmp_path / "a", kernel_loader=IntervalKernels.load)
     # Missing file.
     lib.save(tmp_path / "c")
@@ -406,8 +386,7 @@ def test_save_needs_a_saveable_kernel_model(tmp_path: Path) -> None:
 
 # ------------------------------------------------------------- with the real kernels
 def _clusters(rng: np.random.Generator, centres: np.ndarray, n: int) -> np.ndarray:
-    return np.concatenate([c + rng.normal(scale=1.0, size=(n, centres.shape[1]))
-                           for c in centres])
+    return np.concatenate([c + rng.normal(scale=1.0, size=(n, centres.shape[1])) for c in centres])
 
 
 @pytest.fixture(scope="module")
@@ -467,3 +446,24 @@ def test_real_kernel_membership_gives_multi_step_options(real_model) -> None:
     states = centres[0] + rng.normal(size=(2000, 9))
     conts = np.array([lib.membership(x)[k] for x in states])
     assert 0.4 < conts.mean() < 0.6  # uniform on [0, 1] for states drawn from the kernel
+
+
+def test_discounting_accumulates_across_permuted_refits() -> None:
+    """An option unused for four trials is pruned even though the kernels are refit
+    (and reordered) between every trial; used options keep their scale."""
+    intervals = [(0, 3), (3, 6), (6, 9)]
+    lib = OptionLibrary(IntervalKernels(intervals), [constant_policy(0)])
+    perms = [[1, 2, 0], [2, 0, 1], [0, 2, 1], [1, 0, 2]]
+    history = []
+    for trial, perm in enumerate(perms, start=1):
+        report = lib.end_trial(used=[0, 1])  # option 2 (kernel (6, 9)) never used
+        history.append(report)
+        if trial < 4:
+            assert lib.scale(2) == 0.5**trial
+        lib = lib.refit(IntervalKernels([intervals[i] for i in perm]))
+        assert lib.refit_report is not None and lib.refit_report.new_kernel_ids == ()
+    assert [r.pruned for r in history] == [(), (), (), (2,)]
+    assert list(lib.option_ids) == [0, 1] and lib.scale(0) == lib.scale(1) == 1.0
+    assert (2, 0) in lib.pruned
+    # The pruned pair is not recreated by later refits.
+    assert 2 not in lib.refit(IntervalKernels(intervals))

@@ -19,7 +19,9 @@ def coder() -> TileCoder:
 def trained_policy(seed: int = 0, option_ids: tuple[int, ...] = (7, 3)) -> LinearPolicy:
     c = coder()
     rng = np.random.default_rng(seed)
-    return LinearPolicy(c, 3, option_ids, weights=rng.normal(size=(3 + len(option_ids), c.n_weights)))
+    return LinearPolicy(
+        c, 3, option_ids, weights=rng.normal(size=(3 + len(option_ids), c.n_weights))
+    )
 
 
 def test_shapes_and_choice_mapping() -> None:
@@ -162,7 +164,7 @@ def test_tampered_and_foreign_files_rejected(tmp_path: Path) -> None:
     # Truncated file.
     bad = tmp_path / "truncated.npz"
     bad.write_bytes(data[: len(data) // 2])
-    with pytest.raises(ValueError, match="truncated|readable"):
+    with pytest.raises(ValueError, match=r"truncated|readable"):
         FrozenPolicy.load(bad)
 
     # Weights modified after saving (rewrite one member, keep the JSON record).

@@ -92,7 +92,7 @@ def test_float32_observation_accepted() -> None:
 )
 def test_bad_states_rejected(state: np.ndarray) -> None:
     coder = drill_coder()
-    with pytest.raises(ValueError, match="shape|NaN"):
+    with pytest.raises(ValueError, match=r"shape|NaN"):
         coder.active(state)
 
 

@@ -1,0 +1,151 @@
+"""Learning-curve figures (matplotlib, Agg canvas, no display).
+
+The figure is drawn on a :class:`matplotlib.figure.Figure` with an explicit
+:class:`~matplotlib.backends.backend_agg.FigureCanvasAgg`; pyplot and the global backend
+are never touched, so importing this module is safe in headless jobs and in processes
+that use another backend. Files are written atomically (temporary file in the
+destination directory, then :func:`os.replace`, via :func:`ilpss._io.atomic_write_bytes`).
+"""
+
+from __future__ import annotations
+
+import io
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from numpy.typing import ArrayLike
+
+from ilpss._io import atomic_write_bytes
+from ilpss.metrics import mean_curve_band, smooth
+
+__all__ = ["plot_learning_curves"]
+
+
+def _x_for(name: str, n: int, x: Mapping[str, ArrayLike] | ArrayLike | None) -> np.ndarray:
+    """x coordinates of method ``name``: 1..n by default, else from ``x``."""
+    if x is None:
+        return np.arange(1, n + 1, dtype=float)
+    xs = x.get(name) if isinstance(x, Mapping) else x
+    if xs is None:
+        raise ValueError(f"x has no entry for method {name!r}")
+    xs = np.asarray(xs, dtype=float)
+    if xs.shape != (n,) or not np.all(np.isfinite(xs)):
+        raise ValueError(f"x for method {name!r} must be {n} finite values, got shape {xs.shape}")
+    return xs
+
+
+def plot_learning_curves(
+    curves: Mapping[str, ArrayLike],
+    path: str | os.PathLike[str],
+    *,
+    title: str,
+    xlabel: str = "episode",
+    ylabel: str = "mean reward",
+    window: int = 1,
+    band: bool = True,
+    markers: Mapping[str, float] | None = None,
+    x: Mapping[str, ArrayLike] | ArrayLike | None = None,
+    n_boot: int = 2000,
+    confidence: float = 0.95,
+    seed: int = 0,
+    dpi: int = 150,
+) -> Path:
+    """Plot mean learning curves over seeds with bootstrap bands and save a PNG.
+
+    Each seed's curve is first smoothed by a trailing mean over ``window`` episodes
+    (:func:`ilpss.metrics.smooth`, expanding edges); then the mean over seeds is drawn with
+    a pointwise percentile-bootstrap band (:func:`ilpss.metrics.mean_curve_band`, resampling
+    seeds). One colour per method; the legend gives each method's number of seeds.
+
+    Parameters
+    ----------
+    curves : mapping of str to array_like
+        Method name -> rewards of shape ``(n_seeds, n_episodes)`` (a 1-D array is one
+        seed). Methods may have different lengths. Insertion order sets colours and legend.
+    path : str or os.PathLike
+        Destination PNG; missing parent directories are created. Written atomically.
+    title, xlabel, ylabel : str
+        Labels. When ``window > 1`` the y label gets the suffix
+        ``"(trailing mean over W)"``.
+    window : int
+        Trailing-mean window (default 1: no smoothing).
+    band : bool
+        Draw the bootstrap band (default True; skipped for single-seed methods).
+    markers : mapping of str to float, optional
+        Labelled vertical reference lines, label -> x position (e.g. where the opponent
+        changes or an option library is extracted).
+    x : array_like or mapping of str to array_like, optional
+        x coordinates, e.g. the episode numbers of evaluation points; a single array is
+        used for every method. Default: ``1..n_episodes``.
+    n_boot, confidence, seed : int, float, int
+        Bootstrap replicates, band coverage and resampling seed (deterministic output).
+    dpi : int
+        Resolution of the PNG.
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+
+    Raises
+    ------
+    ValueError
+        No methods, invalid curves (NaN, empty, wrong ndim), ``window`` longer than a
+        curve, or ``x`` of the wrong length.
+    """
+    if not curves:
+        raise ValueError("curves is empty: nothing to plot")
+    path = Path(path)
+
+    fig = Figure(figsize=(7.0, 4.5), layout="constrained")
+    FigureCanvasAgg(fig)  # explicit Agg canvas: no display, no pyplot state
+    ax = fig.add_subplot()
+    palette = [f"C{i}" for i in range(10)]
+
+    for i, (name, raw) in enumerate(curves.items()):
+        arr = np.asarray(raw, dtype=float)
+        if arr.ndim == 1:
+            arr = arr[None, :]
+        sm = smooth(arr, window)  # validates: 2-D, finite, non-empty, window <= n
+        n_seeds, n_eps = sm.shape
+        xs = _x_for(name, n_eps, x)
+        colour = palette[i % len(palette)]
+        label = f"{name} (n={n_seeds} seed{'s' if n_seeds != 1 else ''})"
+        if band and n_seeds >= 2:
+            mean, low, high = mean_curve_band(sm, n_boot=n_boot, confidence=confidence, seed=seed)
+            ax.fill_between(xs, low, high, color=colour, alpha=0.2, linewidth=0)
+        else:
+            mean = sm.mean(axis=0)
+        ax.plot(xs, mean, color=colour, linewidth=1.5, label=label)
+
+    for label, pos in (markers or {}).items():
+        ax.axvline(pos, color="0.4", linestyle="--", linewidth=0.8)
+        ax.annotate(
+            label,
+            xy=(pos, 1.0),
+            xycoords=("data", "axes fraction"),
+            xytext=(-2, -4),
+            textcoords="offset points",
+            rotation=90,
+            ha="right",
+            va="top",
+            fontsize=8,
+            color="0.3",
+        )
+
+    ax.set_title(title)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel + (f" (trailing mean over {window})" if window > 1 else ""))
+    ax.grid(True, alpha=0.3)
+    legend_title = f"mean, {confidence * 100:g}% bootstrap band" if band else "mean"
+    ax.legend(title=legend_title, fontsize=8, title_fontsize=8, loc="best")
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_bytes(path, buf.getvalue())
+    return path
