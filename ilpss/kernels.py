@@ -868,3 +868,50 @@ def select_n_components(
         raise ValueError("candidates is empty")
     best_k = min(bics, key=lambda k: (bics[k], k))
     return best_k, bics
+
+
+UNIFORM_SCHEMA = "ilpss.uniform_kernel/1"
+
+
+class UniformKernel:
+    """One kernel covering the whole state space: membership 1 everywhere.
+
+    The ablation "whole past policies as options, without kernels": options built on it
+    may start anywhere (with probability equal to their scale) and never terminate
+    before the episode ends. It has the attributes the option library needs
+    (``n_components``, ``means_``, ``covariances_``) so that refits always match it
+    with itself.
+
+    Parameters
+    ----------
+    n_features : int
+        Dimension of the states.
+    """
+
+    n_components = 1
+
+    def __init__(self, n_features: int) -> None:
+        self.n_features_in_ = _check_int("n_features", n_features, 1)
+        self.means_ = np.zeros((1, self.n_features_in_))
+        self.covariances_ = np.eye(self.n_features_in_)[None]
+
+    def membership(self, X: ArrayLike) -> Array:
+        """Ones: shape (n, 1) for a 2-D batch, (1,) for a single state."""
+        X, single = _as_states(X, self.n_features_in_)
+        out = np.ones((X.shape[0], 1))
+        return out[0] if single else out
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Save atomically (``.npz`` + JSON record, schema ``ilpss.uniform_kernel/1``)."""
+        save_npz_atomic(
+            path, {}, {"schema": UNIFORM_SCHEMA, "n_features": self.n_features_in_}
+        )
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> UniformKernel:
+        """Load a file written by :meth:`save` (refuses any other schema)."""
+        _, meta = load_npz(path, UNIFORM_SCHEMA, {})
+        n = meta.get("n_features")
+        if not isinstance(n, int) or n < 1:
+            raise ValueError(f"{os.fspath(path)}: malformed n_features {n!r}")
+        return cls(n)

@@ -1,0 +1,398 @@
+"""The lifelong loop of ILPSS (paper Algorithm 1), with atomic checkpoints.
+
+For every new task instance (here: a new opponent team):
+
+1. learn a policy by SMDP learning over the primitives and the current options
+   (Algorithm 1, line 7);
+2. roll the learnt policy out greedily; keep the states of the successful episodes
+   as this instance's *bag of states* (lines 2-4), and tell the option library which
+   options the learnt policy used, so unused ones are discounted and pruned (paper
+   section 6);
+3. freeze the policy and add it to the input policies (line 8);
+4. refit the shared kernels on all bags (line 5) and rebuild the option library
+   from them and all policies, keeping option identities across the refit (line 6).
+
+Everything random in a trial is seeded from ``(seed, trial index)``, so a run
+resumed from the checkpoint of trial ``t`` ends identical to an uninterrupted one.
+The loop talks to environments only through the Gymnasium API.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field, fields
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from ilpss._io import atomic_write_bytes, load_npz, save_npz_atomic
+from ilpss.kernels import SharedKernelModel, UniformKernel
+from ilpss.options import OptionLibrary
+from ilpss.policy import FrozenPolicy
+from ilpss.smdp import EpisodeResult, SmdpLearner, options_used
+from ilpss.tiles import TileCoder
+
+CHECKPOINT_SCHEMA = "ilpss.lifelong/1"
+OptionSource = Literal["kernels", "whole_policies", "none"]
+
+
+@dataclass(frozen=True)
+class LearnerConfig:
+    """SMDP learner hyper-parameters (keepaway's defaults)."""
+
+    alpha: float = 0.125
+    """Step size, spread over the active tiles."""
+    epsilon: float = 0.01
+    """Exploration rate of epsilon-greedy."""
+    gamma: float = 1.0
+    """Discount per cycle; a step of ``d`` cycles is discounted by ``gamma ** d``."""
+    method: str = "sarsa"
+    """``"sarsa"`` or ``"q"`` (Q-learning)."""
+    intra_option: bool = False
+    """Also apply intra-option updates."""
+    initial_value: float = 0.0
+    """Initial action value of every choice."""
+    n_tilings: int = 32
+    """One-dimensional tilings per feature."""
+    tile_widths: tuple[float, ...] | None = None
+    """Tile width per feature, in its units; ``None``: a tenth of each feature's range."""
+
+
+@dataclass(frozen=True)
+class LifelongConfig:
+    """How ILPSS extracts structure after each trial."""
+
+    n_kernels: int = 5
+    """Shared kernels fitted after every trial (the paper uses 5)."""
+    train_episodes: int = 300
+    """Learning episodes per task instance."""
+    rollout_episodes: int = 50
+    """Greedy rollouts of the learnt policy: its traces and the options it uses."""
+    options: OptionSource = "kernels"
+    """``"kernels"`` (ILPSS), ``"whole_policies"`` (ablation: past policies as options
+    that start anywhere and never stop) or ``"none"`` (learning anew every time)."""
+    discount: float = 0.5
+    """Factor applied to the scale of an option the learnt policy did not use."""
+    prune_threshold: float = 0.1
+    """Options whose scale falls below this are pruned."""
+    max_match_distance: float | None = 3.0
+    """Largest Bhattacharyya distance at which a refit kernel keeps an old identity."""
+    max_depth: int = 4
+    """Policies consulted at most when following option pointers."""
+    kernel_n_init: int = 3
+    """EM restarts per fit."""
+    kernel_max_iter: int = 200
+    """EM iterations at most per restart."""
+    kernel_reg_covar: float = 1e-6
+    """Added to the diagonal of every (standardised) covariance."""
+    learner: LearnerConfig = field(default_factory=LearnerConfig)
+    """The SMDP learner's hyper-parameters."""
+
+    def __post_init__(self) -> None:
+        for name in ("n_kernels", "train_episodes", "rollout_episodes", "max_depth",
+                     "kernel_n_init", "kernel_max_iter"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < (
+                0 if name.endswith("episodes") else 1
+            ):
+                raise ValueError(f"LifelongConfig.{name} must be a positive integer, got {value!r}")
+        if self.options not in ("kernels", "whole_policies", "none"):
+            raise ValueError(
+                "LifelongConfig.options must be 'kernels', 'whole_policies' or 'none', "
+                f"got {self.options!r}"
+            )
+        if not 0.0 < self.discount < 1.0:
+            raise ValueError(f"LifelongConfig.discount must lie in (0, 1), got {self.discount!r}")
+        if not 0.0 <= self.prune_threshold < 1.0:
+            raise ValueError(
+                f"LifelongConfig.prune_threshold must lie in [0, 1), got {self.prune_threshold!r}"
+            )
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready dict."""
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, values: dict[str, Any]) -> LifelongConfig:
+        """Inverse of :meth:`to_dict`; unknown keys are refused by name."""
+        values = dict(values)
+        _refuse_unknown(cls, values)
+        learner = dict(values.pop("learner", {}))
+        _refuse_unknown(LearnerConfig, learner)
+        if learner.get("tile_widths") is not None:
+            learner["tile_widths"] = tuple(float(w) for w in learner["tile_widths"])
+        return cls(**values, learner=LearnerConfig(**learner))
+
+
+def _refuse_unknown(cls: type, values: dict[str, Any]) -> None:
+    known = {f.name for f in fields(cls)}
+    unknown = sorted(set(values) - known)
+    if unknown:
+        raise ValueError(f"unknown {cls.__name__} field(s) {unknown}; allowed: {sorted(known)}")
+
+
+@dataclass(frozen=True)
+class TrialRecord:
+    """What one trial (one task instance) produced."""
+
+    name: str
+    """The instance's name (e.g. the opponent team)."""
+    rewards: tuple[float, ...]
+    """Reward of every learning episode: the learning curve."""
+    rollout_success_rate: float
+    """Share of successful greedy rollouts of the learnt policy."""
+    rollout_mean_reward: float
+    """Mean reward of those rollouts."""
+    bag_size: int
+    """States kept from the successful rollouts."""
+    options_offered: int
+    """Options the learner could use in this trial."""
+    options_used: tuple[int, ...]
+    """Option ids the learnt policy used in its greedy rollouts."""
+    options_pruned: tuple[int, ...]
+    """Option ids pruned at the end of this trial."""
+    library_size: int
+    """Active options after the refit that closes the trial."""
+
+
+def trial_seeds(seed: int, trial: int) -> tuple[int, int, int, int]:
+    """Independent seeds (learner, learning env, rollout env, kernels) of one trial."""
+    child = np.random.SeedSequence([seed, trial]).generate_state(4, dtype=np.uint32)
+    return tuple(int(s) for s in child)  # type: ignore[return-value]
+
+
+class LifelongLearner:
+    """ILPSS across a sequence of task instances (Algorithm 1).
+
+    Parameters
+    ----------
+    config : LifelongConfig
+    observation_space : gymnasium.spaces.Box
+        The shared state space (1-D, finite bounds): sets the tile coder's range.
+    n_primitive : int
+        Number of primitive actions (``Discrete(n)``).
+    seed : int
+        Seeds every trial (see :func:`trial_seeds`).
+
+    Attributes
+    ----------
+    policies : list of FrozenPolicy
+        The input policies ``pi_0 .. pi_n`` learnt so far.
+    bags : list of numpy.ndarray
+        One bag of states per instance (possibly empty).
+    library : OptionLibrary or None
+        The current options (``None`` before the first extraction, or without options).
+    kernel_model : SharedKernelModel, UniformKernel or None
+    records : list of TrialRecord
+    """
+
+    def __init__(
+        self, config: LifelongConfig, observation_space: Any, n_primitive: int, seed: int = 0
+    ) -> None:
+        self.config = config
+        self.n_primitive = int(n_primitive)
+        self.seed = int(seed)
+        lc = config.learner
+        self.tile_coder = TileCoder.from_space(
+            observation_space,
+            None if lc.tile_widths is None else np.asarray(lc.tile_widths, dtype=float),
+            lc.n_tilings,
+        )
+        self.policies: list[FrozenPolicy] = []
+        self.bags: list[np.ndarray] = []
+        self.library: OptionLibrary | None = None
+        self.kernel_model: SharedKernelModel | UniformKernel | None = None
+        self.records: list[TrialRecord] = []
+
+    @property
+    def n_trials(self) -> int:
+        """Trials completed."""
+        return len(self.records)
+
+    # ------------------------------------------------------------------ learning
+    def make_learner(self, seed: int, with_options: bool = True) -> SmdpLearner:
+        """A fresh SMDP learner offered the current options (or none)."""
+        lc = self.config.learner
+        library = self.library if with_options and self.config.options != "none" else None
+        return SmdpLearner(
+            self.n_primitive, self.tile_coder, library, alpha=lc.alpha, epsilon=lc.epsilon,
+            gamma=lc.gamma, method=lc.method, intra_option=lc.intra_option,
+            initial_value=lc.initial_value, seed=seed,
+        )
+
+    def learn(
+        self,
+        env: Any,
+        *,
+        trial: int | None = None,
+        with_options: bool = True,
+        callback: Callable[[int, EpisodeResult], None] | None = None,
+    ) -> tuple[SmdpLearner, list[EpisodeResult]]:
+        """Learn on ``env`` for ``train_episodes``, without changing the lifelong state.
+
+        ``trial`` (default: the next trial index) chooses the seeds, so learning with
+        and without options on the same trial sees the same environment seeds.
+        """
+        index = self.n_trials if trial is None else trial
+        learner_seed, env_seed, _, _ = trial_seeds(self.seed, index)
+        learner = self.make_learner(learner_seed, with_options)
+        results = learner.train(
+            env, self.config.train_episodes, seed=env_seed, callback=callback
+        )
+        return learner, results
+
+    def run_trial(
+        self,
+        env: Any,
+        name: str,
+        callback: Callable[[int, EpisodeResult], None] | None = None,
+    ) -> TrialRecord:
+        """One full trial: learn, roll out, extract (Algorithm 1, one iteration)."""
+        learner, results = self.learn(env, callback=callback)
+        return self.extract(env, name, learner, results)
+
+    def extract(
+        self, env: Any, name: str, learner: SmdpLearner, results: list[EpisodeResult]
+    ) -> TrialRecord:
+        """Close a trial: traces, discounting, the new policy, the refit."""
+        cfg = self.config
+        _, _, rollout_seed, kernel_seed = trial_seeds(self.seed, self.n_trials)
+        rollouts = learner.evaluate(env, cfg.rollout_episodes, seed=rollout_seed)
+        successes = [r for r in rollouts if r.success]
+        d = self.tile_coder.n_features
+        bag = (
+            np.concatenate([np.asarray(r.trace, dtype=float) for r in successes])
+            if successes else np.zeros((0, d))
+        )
+        offered = tuple(int(o) for o in learner.option_ids)
+        used = tuple(sorted(options_used(rollouts))) if offered else ()
+        pruned: tuple[int, ...] = ()
+        if self.library is not None and offered:
+            pruned = self.library.end_trial(used, offered).pruned
+        self.policies.append(learner.freeze())
+        self.bags.append(bag)
+        self._refit(kernel_seed)
+        record = TrialRecord(
+            name=name,
+            rewards=tuple(float(r.total_reward) for r in results),
+            rollout_success_rate=len(successes) / max(len(rollouts), 1),
+            rollout_mean_reward=float(np.mean([r.total_reward for r in rollouts]))
+            if rollouts else 0.0,
+            bag_size=len(bag),
+            options_offered=len(offered),
+            options_used=used,
+            options_pruned=pruned,
+            library_size=0 if self.library is None else len(self.library),
+        )
+        self.records.append(record)
+        return record
+
+    def _refit(self, kernel_seed: int) -> None:
+        """Refit the kernels on all bags and rebuild the library (identities kept)."""
+        cfg = self.config
+        if cfg.options == "none":
+            return
+        if cfg.options == "whole_policies":
+            model: SharedKernelModel | UniformKernel = UniformKernel(self.tile_coder.n_features)
+        else:
+            if sum(len(b) for b in self.bags) < cfg.n_kernels * 2:
+                return  # too few successful states to fit: keep the options we have
+            model = SharedKernelModel(
+                cfg.n_kernels, reg_covar=cfg.kernel_reg_covar, max_iter=cfg.kernel_max_iter,
+                n_init=cfg.kernel_n_init, random_state=kernel_seed,
+            ).fit(self.bags)
+        if self.library is None:
+            # Policies learnt before any options existed never point to options.
+            self.library = OptionLibrary(
+                model, self.policies, discount=cfg.discount,
+                prune_threshold=cfg.prune_threshold, max_depth=cfg.max_depth,
+                max_match_distance=cfg.max_match_distance,
+            )
+        else:
+            known = len(self.library.policies)
+            self.library = self.library.refit(model, self.policies[known:])
+        self.kernel_model = model
+
+    # --------------------------------------------------------------- checkpoints
+    def save(self, directory: str | os.PathLike[str]) -> Path:
+        """Write a checkpoint of the whole lifelong state into ``directory``, atomically.
+
+        The checkpoint is built in a fresh sibling folder ``<directory>/trial_<n>`` and
+        published by rewriting the small file ``<directory>/LATEST`` atomically, so a
+        crash at any point leaves the previous checkpoint intact and current.
+        """
+        root = Path(directory)
+        root.mkdir(parents=True, exist_ok=True)
+        target = root / f"trial_{self.n_trials:04d}"
+        building = root / f".building_{self.n_trials:04d}"
+        shutil.rmtree(building, ignore_errors=True)
+        building.mkdir()
+        for i, policy in enumerate(self.policies):
+            policy.save(building / f"policy_{i}.npz")
+        if self.library is not None:
+            self.library.save(building / "library")
+        save_npz_atomic(
+            building / "bags.npz",
+            {f"bag_{i}": b for i, b in enumerate(self.bags)},
+            {"schema": CHECKPOINT_SCHEMA + "/bags", "n_bags": len(self.bags)},
+        )
+        state = {
+            "schema": CHECKPOINT_SCHEMA,
+            "seed": self.seed,
+            "n_primitive": self.n_primitive,
+            "config": self.config.to_dict(),
+            "kernel": None if self.kernel_model is None else type(self.kernel_model).__name__,
+            "records": [asdict(r) for r in self.records],
+        }
+        atomic_write_bytes(building / "state.json", json.dumps(state, indent=1).encode())
+        shutil.rmtree(target, ignore_errors=True)
+        os.replace(building, target)
+        atomic_write_bytes(root / "LATEST", target.name.encode())
+        return target
+
+    @classmethod
+    def load(
+        cls, directory: str | os.PathLike[str], observation_space: Any
+    ) -> LifelongLearner:
+        """Restore the checkpoint that ``<directory>/LATEST`` names."""
+        root = Path(directory)
+        try:
+            name = (root / "LATEST").read_text().strip()
+        except FileNotFoundError:
+            raise FileNotFoundError(f"no checkpoint in {root} (no LATEST file)") from None
+        if not name.startswith("trial_") or "/" in name:
+            raise ValueError(f"{root / 'LATEST'}: malformed checkpoint name {name!r}")
+        ckpt = root / name
+        try:
+            state = json.loads((ckpt / "state.json").read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ValueError(f"{ckpt / 'state.json'}: unreadable checkpoint state: {exc}") from exc
+        if state.get("schema") != CHECKPOINT_SCHEMA:
+            raise ValueError(
+                f"{ckpt}: schema {state.get('schema')!r} is not {CHECKPOINT_SCHEMA!r}"
+            )
+        learner = cls(
+            LifelongConfig.from_dict(state["config"]), observation_space,
+            state["n_primitive"], state["seed"],
+        )
+        learner.records = [
+            TrialRecord(**{**r, **{k: tuple(r[k]) for k in
+                                   ("rewards", "options_used", "options_pruned")}})
+            for r in state["records"]
+        ]
+        n = len(learner.records)
+        arrays, _ = load_npz(
+            ckpt / "bags.npz", CHECKPOINT_SCHEMA + "/bags",
+            {f"bag_{i}": ((None, learner.tile_coder.n_features), "f") for i in range(n)},
+        )
+        learner.bags = [arrays[f"bag_{i}"] for i in range(n)]
+        learner.policies = [FrozenPolicy.load(ckpt / f"policy_{i}.npz") for i in range(n)]
+        if (ckpt / "library").exists():
+            loader = UniformKernel.load if state["kernel"] == "UniformKernel" else None
+            learner.library = OptionLibrary.load(ckpt / "library", kernel_loader=loader)
+            learner.kernel_model = learner.library.kernel_model
+        return learner
