@@ -502,23 +502,32 @@ def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[f
     return low, high
 
 
-def _percentile_interval(replicates: FloatArray, confidence: float) -> tuple[float, float]:
+def _percentile_interval(
+    replicates: FloatArray,
+    confidence: float,
+    undefined: tuple[float, float] = (-math.inf, math.inf),
+) -> tuple[float, float]:
     """Percentile-bootstrap interval of 1-D ``replicates``.
 
     Linear interpolation between order statistics when every replicate is finite; with
     infinite replicates (e.g. "threshold never reached") the conservative order statistics
-    (lower / higher) are used, since interpolating towards ``inf`` is meaningless. ``nan``
-    bounds if any replicate is ``nan`` (the statistic is undefined on some resample).
+    (lower / higher) are used, since interpolating towards ``inf`` is meaningless.
+    Undefined (``nan``) replicates -- a ratio on a resample where it has no value -- count
+    as the least favourable value on each side: ``undefined[0]`` when computing the lower
+    bound, ``undefined[1]`` for the upper one, so the interval is conservative (it widens,
+    up to the whole range once more than ``(1 - confidence) / 2`` of replicates are
+    undefined). ``(nan, nan)`` if every replicate is undefined.
     """
-    if np.isnan(replicates).any():
-        return math.nan, math.nan
     alpha = 1.0 - confidence
     lo_q, hi_q = alpha / 2.0, 1.0 - alpha / 2.0
+    nan = np.isnan(replicates)
+    if nan.all():
+        return math.nan, math.nan
     if np.all(np.isfinite(replicates)):
         lo, hi = np.quantile(replicates, [lo_q, hi_q])
-    else:
-        lo = np.quantile(replicates, lo_q, method="lower")
-        hi = np.quantile(replicates, hi_q, method="higher")
+        return float(lo), float(hi)
+    lo = np.quantile(np.where(nan, undefined[0], replicates), lo_q, method="lower")
+    hi = np.quantile(np.where(nan, undefined[1], replicates), hi_q, method="higher")
     return float(lo), float(hi)
 
 
@@ -617,6 +626,12 @@ class MetricEstimate:
     confidence: float = 0.95
 
 
+_UNDEFINED_NOTE = (
+    "; bootstrap resamples on which the ratio is undefined count as 0 for the lower "
+    "bound and inf for the upper bound (conservative)"
+)
+
+
 def _mean_curve_times(
     arr: FloatArray, weights: FloatArray, threshold: float, window: int
 ) -> FloatArray:
@@ -651,7 +666,10 @@ def compare(
     ``n_seeds`` seed indices with replacement (``np.random.default_rng(seed)``) and
     applies them to *both* arrays, so pairs stay together and between-seed variation
     common to both methods cancels in the differences. The same replicates serve every
-    metric. Intervals are percentile intervals (see ``_percentile_interval``).
+    metric. Intervals are percentile intervals (see ``_percentile_interval``); for the
+    two ratios, resamples on which the ratio is undefined (``nan``: baseline area 0, or
+    neither method reaching the threshold) count as 0 for the lower bound and ``inf`` for
+    the upper bound, which can only widen the interval.
 
     Point estimates:
 
@@ -725,8 +743,14 @@ def compare(
     weights = _resample_counts(n_seeds, n_boot, seed) / n_seeds  # (n_boot, n_seeds)
     out: dict[str, MetricEstimate] = {}
 
-    def add(name: str, value: float, reps: FloatArray, definition: str) -> None:
-        low, high = _percentile_interval(reps, confidence)
+    def add(
+        name: str,
+        value: float,
+        reps: FloatArray,
+        definition: str,
+        undefined: tuple[float, float] = (-math.inf, math.inf),
+    ) -> None:
+        low, high = _percentile_interval(reps, confidence, undefined)
         out[name] = MetricEstimate(name, float(value), low, high, n_seeds, definition, confidence)
 
     def add_mean(name: str, per_seed: FloatArray, definition: str) -> None:
@@ -776,7 +800,8 @@ def compare(
         ratio_reps,
         f"ratio of mean areas: mean over seeds of sum(transfer - ({floor:g})) / mean over "
         f"seeds of sum(baseline - ({floor:g})), areas above the reward floor {floor:g}; "
-        "nan if the baseline area is 0; > 1 favours transfer",
+        "nan if the baseline area is 0; > 1 favours transfer" + _UNDEFINED_NOTE,
+        (0.0, math.inf),
     )
 
     if threshold is not None:
@@ -786,12 +811,12 @@ def compare(
         tt_reps = _mean_curve_times(t, weights, threshold, window)
         tb_reps = _mean_curve_times(b, weights, threshold, window)
         crit = (
-            f"first episode number t (1-based, episodes played; window <= t) at which the "
-            f"trailing mean over {window} episodes of the seed-mean curve is >= {threshold:g}; "
+            f"first episode number t (1-based = episodes played, t >= {window}) at which the "
+            f"mean of episodes t-{window}+1..t of the seed-mean curve is >= {threshold:g}; "
             "inf if never"
         )
-        add("time_to_threshold_transfer", tt, tt_reps, crit + ", transfer")
-        add("time_to_threshold_baseline", tb, tb_reps, crit + ", baseline")
+        add("time_to_threshold_transfer", tt, tt_reps, "transfer: " + crit)
+        add("time_to_threshold_baseline", tb, tb_reps, "baseline: " + crit)
         with np.errstate(divide="ignore", invalid="ignore"):
             # IEEE: finite/inf = 0, inf/finite = inf, inf/inf = nan (neither reaches it).
             ratio_t = tt_reps / tb_reps
@@ -801,7 +826,8 @@ def compare(
             ratio_t,
             "time_to_threshold_transfer / time_to_threshold_baseline (seed-mean curves); "
             "< 1 favours transfer; 0 if only transfer reaches the threshold, inf if only "
-            "baseline does, nan if neither",
+            "baseline does, nan if neither" + _UNDEFINED_NOTE,
+            (0.0, math.inf),
         )
         for label, arr in (("transfer", t), ("baseline", b)):
             times = _first_crossing(smooth(arr, window, edges="valid"), threshold, window)
@@ -823,10 +849,13 @@ def compare(
 
 # --------------------------------------------------------------------------- reporting
 def _fmt(x: float) -> str:
+    x = float(x)
     if math.isnan(x):
         return "n/a"
     if math.isinf(x):
         return "inf" if x > 0 else "-inf"
+    if x.is_integer() and abs(x) < 1e15:
+        return str(int(x))
     if abs(x) >= 1000:
         return f"{x:.1f}"
     return f"{x:.4g}"

@@ -93,7 +93,7 @@ def test_corrupt_checkpoint_is_refused(tmp_path):
     state = tmp_path / "trial_0001" / "state.json"
     record = json.loads(state.read_text())
     state.write_text(json.dumps({**record, "schema": "ilpss.lifelong/0"}))
-    with pytest.raises(ValueError, match="schema 'ilpss.lifelong/0'"):
+    with pytest.raises(ValueError, match=r"schema 'ilpss\.lifelong/0'"):
         LifelongLearner.load(tmp_path, _corridors()[0].observation_space)
     with pytest.raises(FileNotFoundError, match="no checkpoint"):
         LifelongLearner.load(tmp_path / "elsewhere", _corridors()[0].observation_space)
