@@ -76,7 +76,7 @@ class LifelongConfig:
     """``"kernels"`` (ILPSS), ``"whole_policies"`` (ablation: past policies as options
     that start anywhere and never stop) or ``"none"`` (learning anew every time)."""
     discount: float = 0.5
-    """Factor applied to the scale of an option the learnt policy did not use."""
+    """Factor applied to the scale of an option the learnt policy did not use (1: none)."""
     prune_threshold: float = 0.1
     """Options whose scale falls below this are pruned."""
     max_match_distance: float | None = 3.0
@@ -105,8 +105,8 @@ class LifelongConfig:
                 "LifelongConfig.options must be 'kernels', 'whole_policies' or 'none', "
                 f"got {self.options!r}"
             )
-        if not 0.0 < self.discount < 1.0:
-            raise ValueError(f"LifelongConfig.discount must lie in (0, 1), got {self.discount!r}")
+        if not 0.0 < self.discount <= 1.0:
+            raise ValueError(f"LifelongConfig.discount must lie in (0, 1], got {self.discount!r}")
         if not 0.0 <= self.prune_threshold < 1.0:
             raise ValueError(
                 f"LifelongConfig.prune_threshold must lie in [0, 1), got {self.prune_threshold!r}"

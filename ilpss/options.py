@@ -248,7 +248,8 @@ class OptionLibrary:
         must not refer to options (there are none yet); use :meth:`refit` to add
         policies learnt with options.
     discount : float, default 0.5
-        Factor in (0, 1) applied to the scale of every offered, unused option per trial.
+        Factor in (0, 1] applied to the scale of every offered, unused option per trial
+        (1: no discounting, so nothing is ever pruned).
     prune_threshold : float, default 0.1
         Options whose scale falls below this are pruned.
     max_depth : int, default 4
@@ -313,8 +314,8 @@ class OptionLibrary:
         max_depth: int,
         max_match_distance: float | None,
     ) -> None:
-        if not 0.0 < discount < 1.0:
-            raise ValueError(f"discount must be in (0, 1), got {discount}")
+        if not 0.0 < discount <= 1.0:  # 1.0: no discounting (the library only grows)
+            raise ValueError(f"discount must be in (0, 1], got {discount}")
         if not 0.0 <= prune_threshold < 1.0:
             raise ValueError(f"prune_threshold must be in [0, 1), got {prune_threshold}")
         if isinstance(max_depth, bool) or not isinstance(max_depth, int | np.integer):

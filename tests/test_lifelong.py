@@ -116,8 +116,8 @@ def test_config_round_trip_and_validation():
         LifelongConfig.from_dict({"kernels": 5})
     with pytest.raises(ValueError, match="options must be 'kernels', 'whole_policies' or 'none'"):
         LifelongConfig(options="all")
-    with pytest.raises(ValueError, match=r"discount must lie in \(0, 1\)"):
-        LifelongConfig(discount=1.0)
+    with pytest.raises(ValueError, match=r"discount must lie in \(0, 1\]"):
+        LifelongConfig(discount=1.5)
 
 
 def test_tiny_loop_on_the_drill():

@@ -55,7 +55,7 @@ def test_build_rejects_bad_inputs() -> None:
     with pytest.raises(ValueError, match="features"):
         OptionLibrary(IntervalKernels([(0, 3)], n_features=2), [constant_policy(0)])
     with pytest.raises(ValueError, match="discount"):
-        OptionLibrary(model, [constant_policy(0)], discount=1.0)
+        OptionLibrary(model, [constant_policy(0)], discount=1.5)
     with pytest.raises(ValueError, match="max_depth"):
         OptionLibrary(model, [constant_policy(0)], max_depth=0)
     bad = IntervalKernels([(0, 3)])
@@ -467,3 +467,11 @@ def test_discounting_accumulates_across_permuted_refits() -> None:
     assert (2, 0) in lib.pruned
     # The pruned pair is not recreated by later refits.
     assert 2 not in lib.refit(IntervalKernels(intervals))
+
+
+def test_no_discounting_keeps_every_option() -> None:
+    model = constant_kernels([0.3, 0.8])
+    lib = OptionLibrary(model, [constant_policy(0)], discount=1.0, prune_threshold=0.1)
+    for _ in range(10):
+        lib.end_trial(used=())
+    assert len(lib) == 2 and np.all(lib.scales == 1.0)
