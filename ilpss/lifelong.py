@@ -323,7 +323,8 @@ class LifelongLearner:
 
         The checkpoint is built in a fresh sibling folder ``<directory>/trial_<n>`` and
         published by rewriting the small file ``<directory>/LATEST`` atomically, so a
-        crash at any point leaves the previous checkpoint intact and current.
+        crash at any point leaves the previous checkpoint intact and current. Older
+        checkpoints are removed once the new one is published.
         """
         root = Path(directory)
         root.mkdir(parents=True, exist_ok=True)
@@ -352,6 +353,10 @@ class LifelongLearner:
         shutil.rmtree(target, ignore_errors=True)
         os.replace(building, target)
         atomic_write_bytes(root / "LATEST", target.name.encode())
+        # Only now that LATEST names the new checkpoint may older ones go.
+        for old in root.glob("trial_*"):
+            if old.name < target.name:
+                shutil.rmtree(old, ignore_errors=True)
         return target
 
     @classmethod

@@ -1,0 +1,177 @@
+"""Experiment configuration: frozen dataclasses, saved as JSON beside every result."""
+
+from __future__ import annotations
+
+import importlib
+import json
+from dataclasses import asdict, dataclass, field, fields, replace
+from typing import Any, Literal
+
+import numpy as np
+
+from ilpss.lifelong import LearnerConfig, LifelongConfig
+
+PAPER_TEAMS = ("interceptors_press", "interceptors_cover", "interceptor_guard", "goal_guards")
+"""The paper's four opponent teams, in its order (ids of the ``opponents`` package)."""
+DRILL_ENV_ID = "soccer_drill:soccer_drill/Holder-v0"
+"""The holder environment, imported by ``gymnasium.make`` (``ilpss`` never imports it)."""
+DRILL_TILE_WIDTHS = (3.0, 3.0, 3.0, 3.0, 10.0, 3.0, 3.0, 3.0, 10.0)
+"""Keepaway's tile widths for the drill's 9 features: 3 m for distances, 10 degrees for angles."""
+METHODS = ("ilpss", "scratch", "whole_policies", "prq", "ilpss_no_discount")
+"""Every method the runner knows."""
+Protocol = Literal["A", "B", "C"]
+
+
+@dataclass(frozen=True)
+class Task:
+    """One task instance: an opponent team for the drill."""
+
+    name: str
+    """A label for tables and plots."""
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    """Keyword arguments of ``gymnasium.make`` (e.g. ``opponent``, ``opponent_params``)."""
+
+
+@dataclass(frozen=True)
+class Stream:
+    """An ordered sequence of task instances; methods are compared on the targets."""
+
+    name: str
+    """A label, e.g. ``"held_out=goal_guards"``."""
+    tasks: tuple[Task, ...]
+    """The instances in the order the lifelong learner meets them."""
+    first_target: int
+    """Index of the first task whose learning curves are compared."""
+
+
+@dataclass(frozen=True)
+class ExperimentConfig:
+    """Everything that defines a run of protocol A, B or C.
+
+    The defaults reproduce the paper's Figure 3 (protocol A) with 30 seeds.
+    """
+
+    protocol: Protocol = "A"
+    """A: teams 1-3 then the held-out team 4. B: every team held out in turn, in the
+    paper's order and in ``n_shuffles`` shuffled orders. C: a long stream of teams from
+    the parametric family."""
+    n_seeds: int = 30
+    """Independent repetitions (paired across methods)."""
+    first_seed: int = 0
+    """Seeds are ``first_seed .. first_seed + n_seeds - 1``."""
+    methods: tuple[str, ...] = ("ilpss", "scratch", "whole_policies", "prq")
+    """Methods to run; see :data:`METHODS`."""
+    env_id: str = DRILL_ENV_ID
+    """Gymnasium id of the holder environment."""
+    teams: tuple[str, ...] = PAPER_TEAMS
+    """Protocols A and B: the teams; in A the last one is held out."""
+    n_shuffles: int = 1
+    """Protocol B: shuffled source orders per held-out team (besides the paper's)."""
+    stream_length: int = 20
+    """Protocol C: opponents in the stream."""
+    sampler: str = "opponents.parametric:sample_opponents"
+    """Protocol C: ``module:function(n, seed) -> list of parameter dicts``."""
+    sampler_team: str = "parametric"
+    """Protocol C: the team id that takes the sampled parameters."""
+    lifelong: LifelongConfig = field(
+        default_factory=lambda: LifelongConfig(
+            train_episodes=300, learner=LearnerConfig(tile_widths=DRILL_TILE_WIDTHS)
+        )
+    )
+    """The lifelong learner's configuration (shared by every method)."""
+    prq_psi: float = 1.0
+    """PRQ-learning: initial probability of following the reused policy."""
+    prq_upsilon: float = 0.95
+    """PRQ-learning: per-decision decay of that probability."""
+    prq_delta_tau: float = 0.05
+    """PRQ-learning: growth of the softmax temperature per episode."""
+    executor: Literal["local", "ray"] = "local"
+    """Where seeds run: local processes or a Ray cluster."""
+    workers: int = 2
+    """Parallel seeds."""
+
+    def __post_init__(self) -> None:
+        if self.protocol not in ("A", "B", "C"):
+            raise ValueError(f"protocol must be 'A', 'B' or 'C', got {self.protocol!r}")
+        unknown = sorted(set(self.methods) - set(METHODS))
+        if unknown or not self.methods:
+            raise ValueError(f"unknown method(s) {unknown}; allowed: {list(METHODS)}")
+        if "prq" in self.methods and "scratch" not in self.methods:
+            raise ValueError("method 'prq' reuses the policies of 'scratch': add 'scratch'")
+        for name in ("n_seeds", "workers", "stream_length"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        if not isinstance(self.n_shuffles, int) or self.n_shuffles < 0:
+            raise ValueError(f"n_shuffles must be an integer >= 0, got {self.n_shuffles!r}")
+        if self.protocol in ("A", "B") and len(self.teams) < 2:
+            raise ValueError(f"protocols A and B need at least 2 teams, got {self.teams!r}")
+        if self.executor not in ("local", "ray"):
+            raise ValueError(f"executor must be 'local' or 'ray', got {self.executor!r}")
+        if ":" not in self.sampler:
+            raise ValueError(f"sampler must be 'module:function', got {self.sampler!r}")
+
+    @property
+    def seeds(self) -> range:
+        return range(self.first_seed, self.first_seed + self.n_seeds)
+
+    def streams(self, seed: int) -> list[Stream]:
+        """The task streams of this protocol for one seed."""
+        if self.protocol == "A":
+            tasks = tuple(_team(t) for t in self.teams)
+            return [Stream(f"held_out={self.teams[-1]}", tasks, len(tasks) - 1)]
+        if self.protocol == "B":
+            rng = np.random.default_rng([seed, 0xB])
+            streams = []
+            for held in self.teams:
+                sources = [t for t in self.teams if t != held]
+                orders = [sources] + [list(rng.permutation(sources)) for _ in range(self.n_shuffles)]
+                for k, order in enumerate(orders):
+                    tasks = tuple(_team(t) for t in (*order, held))
+                    label = f"held_out={held}" + ("" if k == 0 else f",shuffle={k}")
+                    streams.append(Stream(label, tasks, len(tasks) - 1))
+            return streams
+        module, _, function = self.sampler.partition(":")
+        sample = getattr(importlib.import_module(module), function)
+        specs = sample(self.stream_length, seed)
+        tasks = tuple(
+            Task(f"{self.sampler_team}_{i}", {"opponent": self.sampler_team, "opponent_params": p})
+            for i, p in enumerate(specs)
+        )
+        return [Stream("parametric_stream", tasks, 1)]
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready dict."""
+        return asdict(self)
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), indent=2, sort_keys=True)
+
+    @classmethod
+    def from_dict(cls, values: dict[str, Any]) -> ExperimentConfig:
+        """Inverse of :meth:`to_dict`; unknown keys are refused by name."""
+        values = dict(values)
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(values) - known)
+        if unknown:
+            raise ValueError(
+                f"unknown ExperimentConfig field(s) {unknown}; allowed: {sorted(known)}"
+            )
+        if "lifelong" in values:
+            values["lifelong"] = LifelongConfig.from_dict(values["lifelong"])
+        for name in ("methods", "teams"):
+            if name in values:
+                values[name] = tuple(values[name])
+        return cls(**values)
+
+    def with_overrides(self, **changes: Any) -> ExperimentConfig:
+        """A copy with some fields changed (``lifelong`` takes a dict of its fields)."""
+        if isinstance(changes.get("lifelong"), dict):
+            changes["lifelong"] = LifelongConfig.from_dict(
+                {**self.lifelong.to_dict(), **changes["lifelong"]}
+            )
+        return replace(self, **changes)
+
+
+def _team(team: str) -> Task:
+    return Task(team, {"opponent": team})
