@@ -1,0 +1,155 @@
+"""Drill-specific pictures: kernels drawn on the field, and a GIF of the agent with its options.
+
+The drill's 9 features include the holder's position: feature 6 is its lateral
+offset from the line centre and feature 5 its distance to the goal line, so each
+kernel, projected on those two features, is an ellipse on the field.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ilpss.lifelong import LifelongLearner
+from ilpss.options import OptionLibrary
+from ilpss.smdp import SmdpLearner
+
+FIELD = 35.0
+LATERAL, GOAL_DISTANCE = 6, 5  # feature indices of the holder's position
+PRIMITIVE_NAMES = ("HOLD", "PASS", "DRIBBLE")
+
+
+def _save_figure(fig: Any, path: str | os.PathLike[str]) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp.png")
+    fig.savefig(tmp, dpi=110, bbox_inches="tight")
+    os.replace(tmp, path)
+    return path
+
+
+def plot_kernels_on_field(
+    learner: LifelongLearner, path: str | os.PathLike[str], task_names: list[str] | None = None
+) -> Path:
+    """Each kernel as 1- and 2-sigma ellipses on the field, the bags of states as dots,
+    and the active options of each kernel (policy and scale) in the legend."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.patches import Ellipse
+
+    model = learner.kernel_model
+    if model is None or not hasattr(model, "means_"):
+        raise ValueError("the learner has no fitted kernel model yet")
+    names = task_names or [r.name for r in learner.records]
+    fig, ax = plt.subplots(figsize=(6.4, 6.4))
+    ax.add_patch(plt.Rectangle((0, 0), FIELD, FIELD, color="#2e783c", zorder=0))
+    ax.plot([0, FIELD], [0, 0], color="white", lw=4, zorder=1)
+    for i, bag in enumerate(learner.bags):
+        if len(bag):
+            ax.scatter(bag[:, LATERAL] + FIELD / 2, bag[:, GOAL_DISTANCE], s=3, alpha=0.35,
+                       label=f"states, {names[i] if i < len(names) else i}", zorder=2)
+    library: OptionLibrary | None = learner.library
+    colours = plt.cm.tab10.colors
+    for k in range(model.n_components):
+        idx = [LATERAL, GOAL_DISTANCE]
+        mean = model.means_[k, idx] + np.array([FIELD / 2, 0.0])
+        cov = model.covariances_[k][np.ix_(idx, idx)]
+        values, vectors = np.linalg.eigh(cov)
+        angle = np.degrees(np.arctan2(vectors[1, -1], vectors[0, -1]))
+        options = ""
+        if library is not None:
+            kid = int(library.kernel_ids[k])
+            active = [
+                f"pi{library.registry[int(o)][1]}:{s:.2f}"
+                for o, s in zip(library.option_ids, library.scales, strict=True)
+                if library.registry[int(o)][0] == kid
+            ]
+            options = f" options {', '.join(active) or 'none'}"
+        for n_sigma, style in ((1, "-"), (2, ":")):
+            w, h = 2 * n_sigma * np.sqrt(np.maximum(values[::-1], 1e-12))
+            ax.add_patch(Ellipse(mean, w, h, angle=angle, fill=False, lw=2, ls=style,
+                                 color=colours[k % 10], zorder=3,
+                                 label=f"kernel {k}{options}" if n_sigma == 1 else None))
+        ax.annotate(str(k), mean, color="white", weight="bold", ha="center", va="center",
+                    zorder=4)
+    ax.set_xlim(-1, FIELD + 1)
+    ax.set_ylim(-1, FIELD + 1)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m): holder's position across the field")
+    ax.set_ylabel("y (m): holder's distance to the goal line")
+    ax.set_title("ILPSS kernels projected on the holder's position")
+    ax.legend(loc="upper left", fontsize=6, bbox_to_anchor=(1.01, 1.0))
+    out = _save_figure(fig, path)
+    plt.close(fig)
+    return out
+
+
+def write_agent_gif(
+    learner: LifelongLearner,
+    env: Any,
+    path: str | os.PathLike[str],
+    seed: int = 0,
+    fps: int = 10,
+    policy_index: int = -1,
+) -> dict[str, Any]:
+    """Roll out a learnt policy greedily on ``env`` (a drill holder env made with
+    ``render_mode="rgb_array"``) and write a GIF captioned with the active option."""
+    from PIL import Image, ImageDraw
+
+    policy = learner.policies[policy_index]
+    agent = SmdpLearner.from_policy(policy, learner.library, epsilon=0.0, seed=seed)
+    frames: list[np.ndarray] = []
+    starts: list[int] = []
+    actions: list[int] = []
+
+    class _Recorder:  # notes where each decision's frames start, and its action
+        def __init__(self, inner: Any) -> None:
+            self.inner = inner
+            self.observation_space, self.action_space = inner.observation_space, inner.action_space
+
+        def reset(self, **kw: Any) -> Any:
+            out = self.inner.reset(**kw)
+            self.inner.unwrapped.record_frames(frames)
+            return out
+
+        def step(self, action: int) -> Any:
+            starts.append(len(frames))
+            actions.append(int(action))
+            return self.inner.step(action)
+
+    result = agent.run_episode(_Recorder(env), learn=False, seed=seed)
+    env.unwrapped.record_frames(None)
+    starts.append(len(frames))
+    names = [r.name for r in learner.records]
+    labels = [f"{PRIMITIVE_NAMES[a]} (primitive)" for a in actions]
+    lib = learner.library
+    for run in result.option_runs:
+        kernel_id, policy_id = lib.registry[run.option_id] if lib is not None else (-1, -1)
+        origin = names[policy_id] if 0 <= policy_id < len(names) else f"pi{policy_id}"
+        for d in range(run.start_decision, run.start_decision + run.n_decisions):
+            labels[d] = f"option {run.option_id}: kernel {kernel_id}, policy from {origin}"
+    images = []
+    for d, label in enumerate(labels):
+        for frame in frames[0 if d == 0 else starts[d]:starts[d + 1]]:
+            image = Image.fromarray(frame)
+            draw = ImageDraw.Draw(image)
+            draw.rectangle((0, image.height - 18, image.width, image.height), fill=(20, 20, 20))
+            draw.text((6, image.height - 15), f"{PRIMITIVE_NAMES[actions[d]]} <- {label}",
+                      fill=(255, 255, 255))
+            images.append(image)
+    if not images:
+        raise RuntimeError("the episode produced no frames")
+    images += [images[-1]] * 5
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp.gif")
+    images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:],
+                   duration=round(1000 / fps), loop=0)
+    os.replace(tmp, path)
+    return {"outcome": result.outcome, "reward": result.total_reward,
+            "options": [run.option_id for run in result.option_runs], "frames": len(images)}
