@@ -16,7 +16,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/soccer-drill-gif --team chasers --policy lane --seed 1 -o results/demo/episode.gif
+	$(BIN)/ilpss-demo --out results/demo
 
 test: $(STAMP)
 	$(BIN)/ruff check .
