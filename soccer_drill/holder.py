@@ -23,9 +23,12 @@ class HolderEnv(gym.Env):
 
     Only the ball holder decides; its teammate runs a fixed stochastic support
     behaviour (:class:`~soccer_drill.support.SupportPlayer`) and the defenders
-    are a scripted team. One :meth:`step` applies the holder's action for a cycle
-    and then runs cycles until an attacker holds the ball again (the next
-    decision) or the episode ends.
+    are a scripted team. One :meth:`step` applies the holder's action -- for
+    ``decision_cycles`` cycles (0.4 s by default) for HOLD and DRIBBLE, for one kick
+    for PASS -- and then runs cycles until an attacker holds the ball again (the
+    next decision) or the episode ends. Basic options of a few cycles, rather than
+    keepaway's one cycle, make the drill learnable in hundreds of episodes rather
+    than thousands (see ``docs/learning.md``).
 
     ## Action space
 
@@ -66,6 +69,7 @@ class HolderEnv(gym.Env):
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``render_mode`` | ``None`` | ``"human"`` or ``"rgb_array"`` |
+    | ``decision_cycles`` | ``4`` | cycles a ``HOLD`` or ``DRIBBLE`` lasts (fewer if possession changes); ``PASS`` lasts until an attacker controls the ball |
     """
 
     metadata: ClassVar[dict] = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
@@ -77,7 +81,13 @@ class HolderEnv(gym.Env):
         max_cycles: int | None = None,
         config: DrillConfig | Mapping[str, Any] | None = None,
         render_mode: str | None = None,
+        decision_cycles: int = 4,
     ) -> None:
+        if not isinstance(decision_cycles, int) or isinstance(decision_cycles, bool) or not (
+            1 <= decision_cycles <= 50
+        ):
+            raise ValueError(f"decision_cycles must be an integer in 1..50, got {decision_cycles!r}")
+        self.decision_cycles = decision_cycles
         if opponent is None:
             raise ValueError("HolderEnv needs a scripted opponent team (a team id or Team)")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -134,11 +144,17 @@ class HolderEnv(gym.Env):
                 f"(0=HOLD, 1=PASS, 2=DRIBBLE), got {action!r}"
             )
         holder = drill.state.holder
-        commands: list = [None] * 4
-        commands[holder] = _HOLDER_COMMANDS[int(action)]
+        command = _HOLDER_COMMANDS[int(action)]
         start = drill.state.cycle
-        self._core.advance(commands)
-        self._after_cycle()
+        # HOLD and DRIBBLE last up to `decision_cycles` cycles while the holder keeps the ball.
+        repeats = 1 if int(action) == 1 else self.decision_cycles
+        for _ in range(repeats):
+            commands: list = [None] * 4
+            commands[holder] = command
+            self._core.advance(commands)
+            self._after_cycle()
+            if drill.outcome is not None or drill.state.holder != holder:
+                break
         while drill.outcome is None and drill.state.holder not in (0, 1):
             self._core.advance([None] * 4)
             self._after_cycle()

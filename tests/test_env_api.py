@@ -114,3 +114,20 @@ def test_holder_env_info_and_duration():
             break
     assert outcome in {"success", "interception", "out", "timeout"}
     assert trunc == (outcome == "timeout")
+
+
+def test_holder_decision_cycles():
+    for cycles in (1, 4):
+        env = soccer_drill.HolderEnv(opponent="chasers", decision_cycles=cycles)
+        env.reset(seed=0)
+        durations = []
+        for _ in range(30):
+            _, _, term, trunc, info = env.step(0)  # HOLD
+            durations.append(info["duration"])
+            if term or trunc:
+                break
+        assert max(durations) <= cycles
+        assert durations[0] == cycles  # nobody reaches the holder in the first cycles
+    for bad in (0, 51, 2.5, True):
+        with pytest.raises(ValueError, match="decision_cycles must be an integer in 1..50"):
+            soccer_drill.HolderEnv(opponent="chasers", decision_cycles=bad)
