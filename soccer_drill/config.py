@@ -33,11 +33,11 @@ class DrillConfig:
     """Players are stopped by walls this far outside the region; the ball is not."""
     attacker_speed: float = 6.0
     """Top running speed of an attacker without the ball."""
-    dribble_speed: float = 4.2
+    dribble_speed: float = 4.6
     """Top speed of an attacker running with the ball (dribbling)."""
     hold_speed: float = 1.5
     """Top speed of the holder while shielding the ball (``HOLD``)."""
-    defender_speed: float = 5.2
+    defender_speed: float = 4.6
     """Top running speed of a defender."""
     player_acceleration: float = 20.0
     """Acceleration cap of every player, m/s^2."""
