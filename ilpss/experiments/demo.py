@@ -1,6 +1,6 @@
 """The README's main job: a small protocol A, its figure, the kernels and a GIF.
 
-    ilpss-demo [--seeds 6] [--episodes 150] [--out results/demo]
+    ilpss-demo [--seeds 6] [--episodes 300] [--out results/demo]
 
 Runs ILPSS over the paper's teams 1-3, then learns against the held-out team 4 with
 the extracted options and anew (plus the two reuse baselines), on a budget that
@@ -28,7 +28,7 @@ from ilpss.lifelong import LifelongLearner
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="ilpss-demo", description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=6)
-    parser.add_argument("--episodes", type=int, default=150)
+    parser.add_argument("--episodes", type=int, default=300)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="results/demo")
     args = parser.parse_args(argv)

@@ -90,8 +90,7 @@ def verdict(estimates: dict[str, Any]) -> str:
 
 def _figure(curves: dict[str, np.ndarray], path: Path, title: str) -> Path:
     named = {f"{LABELS.get(m, m)}": c for m, c in curves.items()}
-    plot_learning_curves(named, path, title=title, window=SMOOTHING,
-                         ylabel=f"reward per episode (moving average of {SMOOTHING})")
+    plot_learning_curves(named, path, title=title, window=SMOOTHING, ylabel="reward per episode")
     return path
 
 
