@@ -48,9 +48,16 @@ def collect(results: list[dict[str, Any]]) -> dict[str, dict[str, dict[int, np.n
     }
 
 
+def windows(n_episodes: int) -> tuple[int, int, int]:
+    """(jumpstart, asymptote, smoothing) episode counts, shortened for short curves."""
+    return (min(JUMPSTART_EPISODES, n_episodes), min(ASYMPTOTE_EPISODES, n_episodes),
+            min(SMOOTHING, n_episodes))
+
+
 def threshold_for(baseline: np.ndarray) -> float:
     """The time-to-threshold level (see :data:`THRESHOLD_SHARE`)."""
-    asym = float(np.mean(baseline[:, -ASYMPTOTE_EPISODES:]))
+    _, last, _ = windows(baseline.shape[1])
+    asym = float(np.mean(baseline[:, -last:]))
     return -1.0 + THRESHOLD_SHARE * (asym + 1.0)
 
 
@@ -58,13 +65,13 @@ def compare_to_scratch(curves: dict[str, np.ndarray], seed: int = 0) -> dict[str
     """Taylor & Stone metrics of every method against learning anew."""
     base = curves["scratch"]
     threshold = threshold_for(base)
+    first, last, window = windows(base.shape[1])
     out = {}
     for method, c in curves.items():
         if method == "scratch":
             continue
         out[method] = metrics.compare(
-            c, base, first=JUMPSTART_EPISODES, last=ASYMPTOTE_EPISODES, threshold=threshold,
-            window=SMOOTHING, seed=seed,
+            c, base, first=first, last=last, threshold=threshold, window=window, seed=seed
         )
     return out
 
@@ -90,7 +97,8 @@ def verdict(estimates: dict[str, Any]) -> str:
 
 def _figure(curves: dict[str, np.ndarray], path: Path, title: str) -> Path:
     named = {f"{LABELS.get(m, m)}": c for m, c in curves.items()}
-    plot_learning_curves(named, path, title=title, window=SMOOTHING, ylabel="reward per episode")
+    window = windows(next(iter(curves.values())).shape[1])[2]
+    plot_learning_curves(named, path, title=title, window=window, ylabel="reward per episode")
     return path
 
 
@@ -123,7 +131,9 @@ def write_report(
             fig = _figure(curves, out / f"curves_{s:02d}.png",
                           f"{stream}: learning against the held-out opponent")
             lines += [f"## {stream}", "", f"![learning curves]({fig.name})", ""]
-            if "scratch" in curves:
+            if "scratch" in curves and len(curves["scratch"]) < 2:
+                lines += ["Transfer metrics need at least 2 seeds.", ""]
+            elif "scratch" in curves:
                 for method, est in compare_to_scratch(curves).items():
                     lines += [f"### {LABELS.get(method, method)} vs learning anew", "",
                               f"**Verdict:** {verdict(est)}.", "",
@@ -147,8 +157,9 @@ def _protocol_c(table: dict, out: Path, results: list[dict[str, Any]]) -> list[s
     rows = ["| opponent | jumpstart (ILPSS - anew) | 95% CI |", "|---|---:|---|"]
     values, lows, highs, tasks = [], [], [], sorted(methods["ilpss"])
     for t in tasks:
-        est = metrics.compare(methods["ilpss"][t], methods["scratch"][t], first=JUMPSTART_EPISODES,
-                              last=ASYMPTOTE_EPISODES, threshold=None, window=SMOOTHING)
+        first, last, window = windows(methods["scratch"][t].shape[1])
+        est = metrics.compare(methods["ilpss"][t], methods["scratch"][t], first=first,
+                              last=last, threshold=None, window=window)
         js = est["jumpstart"]
         values.append(js.value)
         lows.append(js.low)
@@ -164,7 +175,7 @@ def _protocol_c(table: dict, out: Path, results: list[dict[str, Any]]) -> list[s
                  fmt="o-", capsize=3)
     ax1.axhline(0, color="grey", lw=1)
     ax1.set_xlabel("opponent index in the stream")
-    ax1.set_ylabel(f"jumpstart (first {JUMPSTART_EPISODES} episodes)")
+    ax1.set_ylabel("jumpstart (first episodes)")
     for method, runs in sizes.items():
         mean = np.mean(np.asarray(runs, dtype=float), axis=0)
         ax2.plot(np.arange(1, len(mean) + 1), mean, marker="o", label=LABELS[method])

@@ -1,0 +1,91 @@
+"""The experiment runner end to end on a tiny budget: results, resume, report, config."""
+
+from __future__ import annotations
+
+import json
+import shutil
+
+import pytest
+
+from ilpss.experiments.cli import main as cli_main
+from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.report import write_report
+from ilpss.experiments.run import run_experiment
+
+
+def _tiny(**changes) -> ExperimentConfig:
+    cfg = ExperimentConfig(n_seeds=2, workers=1, **changes)
+    return cfg.with_overrides(lifelong={"train_episodes": 6, "rollout_episodes": 3, "n_kernels": 2})
+
+
+def test_protocol_a_runs_resumes_identically_and_reports(tmp_path):
+    cfg = _tiny()
+    first = run_experiment(cfg, tmp_path, progress=False)
+    assert [r["seed"] for r in first] == [0, 1]
+    for result in first:
+        assert set(result["methods"]) == {"ilpss", "scratch", "whole_policies", "prq"}
+        for method in result["methods"].values():
+            assert list(method["curves"]) == ["3"] and len(method["curves"]["3"]) == 6
+    # An interrupted seed: its result is gone and its last trial's checkpoint too.
+    seed_dir = tmp_path / "seed_001" / "stream_00"
+    (seed_dir / "result.json").unlink()
+    ilpss_dir = seed_dir / "ilpss"
+    latest = (ilpss_dir / "LATEST").read_text()
+    shutil.rmtree(ilpss_dir)  # lose the lifelong state entirely for one method
+    again = run_experiment(cfg, tmp_path, progress=False)
+    assert again == first and latest
+    report = write_report(cfg, again, tmp_path)
+    text = report.read_text()
+    assert "**Verdict:**" in text and "| jumpstart |" in text
+    assert (tmp_path / "curves_00.png").stat().st_size > 0
+
+
+def test_a_different_configuration_is_refused_in_the_same_folder(tmp_path):
+    run_experiment(_tiny(methods=("scratch",)), tmp_path, progress=False)
+    with pytest.raises(ValueError, match="different configuration"):
+        run_experiment(_tiny(methods=("ilpss", "scratch")), tmp_path, progress=False)
+    # Where seeds run does not matter.
+    run_experiment(_tiny(methods=("scratch",)).with_overrides(workers=2), tmp_path, progress=False)
+
+
+def test_protocols_b_and_c_build_their_streams():
+    b = ExperimentConfig(protocol="B", n_shuffles=1)
+    streams = b.streams(seed=0)
+    assert len(streams) == 8  # 4 held-out teams x (paper order + 1 shuffle)
+    assert {s.tasks[-1].name for s in streams} == set(b.teams)
+    assert streams == b.streams(seed=0) and streams != b.streams(seed=1)
+    c = ExperimentConfig(protocol="C", stream_length=21)
+    (stream,) = c.streams(seed=0)
+    assert len(stream.tasks) == 21 and stream.first_target == 1
+    assert all(t.env_kwargs["opponent"] == "parametric" for t in stream.tasks)
+
+
+def test_protocol_c_reports_library_size(tmp_path):
+    cfg = _tiny(protocol="C", stream_length=3, methods=("ilpss", "scratch", "ilpss_no_discount"))
+    results = run_experiment(cfg, tmp_path, progress=False)
+    report = write_report(cfg, results, tmp_path).read_text()
+    assert "Jumpstart on each new opponent" in report
+    assert (tmp_path / "stream.png").exists()
+
+
+def test_configuration_round_trip_and_errors(tmp_path):
+    cfg = _tiny(protocol="B")
+    assert ExperimentConfig.from_dict(json.loads(cfg.to_json())) == cfg
+    with pytest.raises(ValueError, match=r"unknown method\(s\) \['magic'\]"):
+        ExperimentConfig(methods=("magic",))
+    with pytest.raises(ValueError, match="reuses the policies of 'scratch'"):
+        ExperimentConfig(methods=("ilpss", "prq"))
+    with pytest.raises(ValueError, match=r"unknown ExperimentConfig field\(s\) \['seeds'\]"):
+        ExperimentConfig.from_dict({"seeds": 3})
+    with pytest.raises(ValueError, match="protocol must be"):
+        ExperimentConfig(protocol="D")
+
+
+def test_cli_runs_and_writes_report(tmp_path, capsys):
+    out = tmp_path / "run"
+    code = cli_main(["--protocol", "A", "--seeds", "1", "--episodes", "4", "--rollouts", "2",
+                     "--methods", "ilpss", "scratch", "--workers", "1", "--quiet", "--out", str(out)])
+    assert code == 0
+    assert (out / "report.md").exists() and (out / "config.json").exists()
+    saved = json.loads((out / "config.json").read_text())
+    assert saved["n_seeds"] == 1 and saved["lifelong"]["train_episodes"] == 4
