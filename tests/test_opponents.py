@@ -11,6 +11,7 @@ from opponents import PAPER_TEAMS, sample_opponents
 from opponents.calibrate import calibrate, criteria, write_markdown
 from opponents.cli import main as list_teams
 from soccer_drill.holder import HolderEnv
+from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.state import BALL
 
 
@@ -93,4 +94,4 @@ def test_calibration_table_and_criteria(tmp_path):
     assert len(lines) == 3 and all(("met" in line) for line in lines)
     path = write_markdown(cells, 3, tmp_path / "opponents.md", gifs={})
     text = path.read_text()
-    assert text.count("| interceptors_press |") == 6  # one row per fixed rule
+    assert text.count("| interceptors_press |") == len(HOLDER_POLICIES)  # a row per fixed rule
