@@ -1,30 +1,46 @@
 """Calibration of the drill: every team against every fixed holder rule.
 
     soccer-drill-calibrate [--episodes 500] [--out docs/opponents.md] [--gifs docs/gifs]
+                           [--sampled 20] [--sampled-episodes 100] [--workers 2]
 
-For each team, success rate (95% Wilson interval) and mean reward (95% t interval)
-over seeded episodes of each fixed holder rule of :mod:`soccer_drill.policies`, the
-three criteria the drill is tuned for, and a small GIF of each team.
+For each team (the paper's four and ``chasers``): success rate (95% Wilson interval),
+mean reward (95% t interval) and the outcomes over seeded episodes of each fixed
+holder rule of :mod:`soccer_drill.policies`; the three criteria the drill is tuned
+for, with their measured figures; optionally the same for members of the parametric
+family drawn by :func:`opponents.sample_opponents`; and a small GIF of each team.
+Episode ``i`` of every cell uses seed ``i``, so cells are paired and the run is
+reproducible.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-from collections.abc import Sequence
+import time
+from collections import Counter
+from collections.abc import Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from scipy import stats
 
 from opponents import PAPER_TEAMS
-from soccer_drill.gif import write_episode_gif
+from opponents.parametric import sample_opponents, spec_label
+from soccer_drill.gif import record_episode, save_gif
 from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
+from soccer_drill.teams import describe
 
 TEAMS = (*PAPER_TEAMS, "chasers")
+"""Teams in the main table, in the paper's order, then ``chasers``."""
+
+GIF_FPS = 8
+"""GIF frame rate: 0.125 s per 0.1 s cycle, slightly slowed down, and small files."""
+_GIF_SEARCH = 40  # seeds tried to find an episode the team's best rule wins
+_OUTCOMES = ("success", "interception", "out", "timeout")
 
 
 @dataclass(frozen=True)
@@ -38,6 +54,7 @@ class Cell:
     mean_reward: float
     reward_low: float
     reward_high: float
+    outcomes: Mapping[str, int] = field(default_factory=dict)
 
     @property
     def success_rate(self) -> float:
@@ -45,129 +62,390 @@ class Cell:
 
     @property
     def success_interval(self) -> tuple[float, float]:
-        ci = stats.binomtest(self.successes, self.episodes).proportion_ci(method="wilson")
-        return ci.low, ci.high
+        """95% Wilson score interval of the success rate."""
+        return wilson_interval(self.successes, self.episodes)
 
 
-def evaluate(team: str, rule: str, episodes: int, first_seed: int = 0) -> Cell:
-    """Play ``episodes`` seeded episodes of ``rule`` against ``team``."""
-    env = HolderEnv(opponent=team)
+def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
+    """Wilson score interval of a binomial proportion (95% by default)."""
+    if n <= 0:
+        return 0.0, 1.0
+    p = successes / n
+    denom = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    return max(0.0, float(centre - half)), min(1.0, float(centre + half))
+
+
+def evaluate(
+    team: str,
+    rule: str,
+    episodes: int,
+    first_seed: int = 0,
+    params: Mapping[str, Any] | None = None,
+    label: str | None = None,
+) -> Cell:
+    """Play ``episodes`` seeded episodes of ``rule`` against ``team`` (with ``params``)."""
+    env = HolderEnv(opponent=team, opponent_params=params)
     policy = HOLDER_POLICIES[rule]
     rng = np.random.default_rng(first_seed)
     rewards = np.empty(episodes)
-    wins = 0
+    outcomes: Counter[str] = Counter()
     for i in range(episodes):
-        obs, _ = env.reset(seed=first_seed + i)
+        obs, info = env.reset(seed=first_seed + i)
         done, total = False, 0.0
         while not done:
             obs, reward, term, trunc, info = env.step(policy(obs, rng))
             total += reward
             done = term or trunc
-        wins += info["outcome"] == "success"
+        outcomes[info["outcome"]] += 1
         rewards[i] = total
-    half = stats.t.ppf(0.975, episodes - 1) * rewards.std(ddof=1) / np.sqrt(episodes)
+    env.close()
     mean = float(rewards.mean())
-    return Cell(team, rule, wins, episodes, mean, mean - half, mean + half)
+    half = (
+        float(stats.t.ppf(0.975, episodes - 1) * rewards.std(ddof=1) / np.sqrt(episodes))
+        if episodes > 1 else float("nan")
+    )
+    return Cell(
+        label or team, rule, outcomes["success"], episodes, mean, mean - half, mean + half,
+        {k: outcomes[k] for k in _OUTCOMES},
+    )
 
 
-def _evaluate(args: tuple[str, str, int]) -> Cell:
+def _evaluate(args: tuple) -> Cell:
     return evaluate(*args)
 
 
 def calibrate(
-    episodes: int, teams: Sequence[str] = TEAMS, workers: int = 2
+    episodes: int,
+    teams: Sequence[str] = TEAMS,
+    workers: int = 2,
+    rules: Sequence[str] | None = None,
 ) -> dict[tuple[str, str], Cell]:
-    """Every (team, rule) cell, in parallel processes."""
-    jobs = [(t, r, episodes) for t in teams for r in HOLDER_POLICIES]
-    with ProcessPoolExecutor(workers) as pool:
-        cells = list(pool.map(_evaluate, jobs))
+    """Every (team, rule) cell, in ``workers`` processes (1: in this process)."""
+    rules = list(rules or HOLDER_POLICIES)
+    return _run([(t, r, episodes) for t in teams for r in rules], workers)
+
+
+def calibrate_family(
+    n: int, seed: int, episodes: int, workers: int = 2, rules: Sequence[str] | None = None
+) -> tuple[dict[tuple[str, str], Cell], dict[str, dict[str, Any]]]:
+    """Cells for ``n`` members of the parametric family, labelled ``p00``, ``p01``, ..."""
+    rules = list(rules or HOLDER_POLICIES)
+    members = {f"p{i:02d}": params for i, params in enumerate(sample_opponents(n, seed))}
+    jobs = [
+        ("parametric", r, episodes, 0, params, label)
+        for label, params in members.items() for r in rules
+    ]
+    return _run(jobs, workers), members
+
+
+def _run(jobs: list[tuple], workers: int) -> dict[tuple[str, str], Cell]:
+    if workers <= 1:
+        cells = [_evaluate(job) for job in jobs]
+    else:
+        with ProcessPoolExecutor(workers) as pool:
+            cells = list(pool.map(_evaluate, jobs))
     return {(c.team, c.rule): c for c in cells}
 
 
-def criteria(cells: dict[tuple[str, str], Cell], teams: Sequence[str] = PAPER_TEAMS) -> list[str]:
+def _teams_and_rules(cells: Mapping[tuple[str, str], Cell]) -> tuple[list[str], list[str]]:
+    teams = list(dict.fromkeys(t for t, _ in cells))
+    rules = list(dict.fromkeys(r for _, r in cells))
+    return teams, rules
+
+
+def best_rules(cells: Mapping[tuple[str, str], Cell]) -> dict[str, str]:
+    """The rule with the highest mean reward against each team (ties: the first rule)."""
+    teams, rules = _teams_and_rules(cells)
+    return {t: max(rules, key=lambda r: cells[(t, r)].mean_reward) for t in teams}
+
+
+def criteria(
+    cells: Mapping[tuple[str, str], Cell], teams: Sequence[str] = PAPER_TEAMS
+) -> list[str]:
     """The three calibration criteria, each with its measured figures and verdict."""
-    rules = [r for r in HOLDER_POLICIES if r != "random"]
-    worst_random = max(cells[(t, "random")].success_rate for t in teams)
-    best = {t: max(rules, key=lambda r: cells[(t, r)].success_rate) for t in teams}
-    weakest = min(cells[(t, best[t])].success_rate for t in teams)
-    rankings = {
-        t: tuple(sorted(rules, key=lambda r: -cells[(t, r)].mean_reward)) for t in teams
-    }
+    _, all_rules = _teams_and_rules(cells)
+    rules = [r for r in all_rules if r != "random"]
+    rate = {(t, r): cells[(t, r)].success_rate for t in teams for r in all_rules}
+    # 1. Random play seldom succeeds.
+    worst_random = max(teams, key=lambda t: rate[(t, "random")])
+    ok1 = all(rate[(t, "random")] < 0.25 for t in teams)
+    # 2. Some fixed rule succeeds in at least a third of the episodes against each team.
+    top = {t: max(rules, key=lambda r: rate[(t, r)]) for t in teams}
+    ok2 = all(rate[(t, top[t])] >= 1 / 3 for t in teams)
+    robust = max(rules, key=lambda r: min(rate[(t, r)] for t in teams))
+    robust_low = min(rate[(t, robust)] for t in teams)
+    # 3. The rules rank differently against different teams; the best response differs.
+    rankings = {t: tuple(sorted(rules, key=lambda r: -cells[(t, r)].mean_reward)) for t in teams}
+    best = {t: rankings[t][0] for t in teams}
+    ok3 = len(set(rankings.values())) > 1 and len(set(best.values())) > 1
+
+    def verdict(ok: bool) -> str:
+        return "**met**" if ok else "**NOT met**"
+
     return [
-        f"1. The random holder succeeds in less than a quarter of episodes against every "
-        f"paper team: highest random success rate {worst_random:.1%} -> "
-        f"{'met' if worst_random < 0.25 else 'NOT met'}.",
+        "1. The random holder succeeds in less than a quarter of episodes against every "
+        "paper team: "
+        + ", ".join(f"{t} {rate[(t, 'random')]:.1%}" for t in teams)
+        + f" (highest: {worst_random}, Wilson upper bound "
+        f"{cells[(worst_random, 'random')].success_interval[1]:.1%}) -> {verdict(ok1)}.",
         "2. Some fixed rule succeeds in at least a third of episodes against every paper "
-        "team: the best rule per team reaches "
-        + ", ".join(f"{t} {best[t]} {cells[(t, best[t])].success_rate:.1%}" for t in teams)
-        + f" -> {'met' if weakest >= 1 / 3 else 'NOT met'} (lowest {weakest:.1%}).",
+        "team: the most successful rule per team is "
+        + ", ".join(f"{t} {top[t]} {rate[(t, top[t])]:.1%}" for t in teams)
+        + f" -> {verdict(ok2)}. A single rule does so against all four: {robust} "
+        f"(lowest {robust_low:.1%}) -> {'yes' if robust_low >= 1 / 3 else 'no'}.",
         "3. The ranking of the fixed rules (by mean reward) is not the same against all four "
-        f"teams: {len(set(rankings.values()))} distinct rankings; best rule by mean reward "
-        + ", ".join(f"{t}: {rankings[t][0]}" for t in teams)
-        + f" -> {'met' if len(set(rankings.values())) > 1 else 'NOT met'}.",
+        f"teams: {len(set(rankings.values()))} distinct rankings, and the best rule is "
+        + ", ".join(f"{best[t]} against {t}" for t in teams)
+        + f" ({len(set(best.values()))} distinct best responses) -> {verdict(ok3)}.",
     ]
+
+
+def _first_line(obj: object) -> str:
+    doc = (getattr(obj, "__doc__", None) or "").strip()
+    return doc.splitlines()[0] if doc else ""
+
+
+def _matrix(
+    cells: Mapping[tuple[str, str], Cell],
+    teams: Sequence[str],
+    labels: Mapping[str, str] | None = None,
+) -> list[str]:
+    _, rules = _teams_and_rules(cells)
+    labels = labels or {}
+    best = best_rules(cells)
+    lines = [
+        "| team | " + " | ".join(rules) + " | best rule |",
+        "|---|" + "---:|" * len(rules) + "---|",
+    ]
+    for t in teams:
+        row = []
+        for r in rules:
+            text = f"{cells[(t, r)].success_rate:.0%}"
+            row.append(f"**{text}**" if r == best[t] else text)
+        name = f"{t} ({labels[t]})" if t in labels else t
+        lines.append(f"| {name} | " + " | ".join(row) + f" | {best[t]} |")
+    return lines
 
 
 def write_markdown(
-    cells: dict[tuple[str, str], Cell], episodes: int, path: str | os.PathLike[str],
-    gifs: dict[str, str],
+    cells: Mapping[tuple[str, str], Cell],
+    episodes: int,
+    path: str | os.PathLike[str],
+    gifs: Mapping[str, tuple[str, str, int, str]] | Mapping[str, str],
+    family: tuple[Mapping[tuple[str, str], Cell], Mapping[str, Mapping[str, Any]]] | None = None,
+    command: str | None = None,
+    timing: str | None = None,
 ) -> Path:
-    """``docs/opponents.md``: the table, the criteria and the GIFs."""
-    teams = sorted({t for t, _ in cells}, key=TEAMS.index)
+    """Write ``docs/opponents.md``: teams, rules, criteria, tables, family and GIFs.
+
+    ``gifs`` maps a team to its GIF path relative to ``path`` (or to a tuple
+    ``(relative path, rule, seed, outcome)``).
+    """
+    teams, rules = _teams_and_rules(cells)
+    paper = [t for t in PAPER_TEAMS if t in teams]
+    command = command or f"soccer-drill-calibrate --episodes {episodes}"
+    took = f" {timing}" if timing else ""
     lines = [
         "# Opponent teams and the calibrated drill",
         "",
-        f"Command: `soccer-drill-calibrate --episodes {episodes}` (seeds 0..{episodes - 1} for "
-        "every cell; the holder environment with its defaults). Success rate with a 95% Wilson "
-        "interval; mean reward with a 95% t interval.",
+        "Generated by",
         "",
-        "## Criteria",
+        "```bash",
+        command,
+        "```",
         "",
-        *criteria(cells),
+        f"on the holder environment with its defaults (`HolderEnv(opponent=team)`).{took} "
+        f"Every cell plays episodes with seeds 0..{episodes - 1}, so all rules meet the same "
+        "starting positions. Success rate with a 95% Wilson interval; mean reward with a 95% "
+        "t interval; outcomes are counts of success / interception / out / timeout.",
         "",
-        "## Table",
+        "## The teams",
         "",
-        "| team | rule | success rate [95% CI] | mean reward [95% CI] |",
-        "|---|---|---|---|",
+        "All are settings of `opponents.parametric.ParametricTeam` (except `chasers`); each "
+        "class docstring gives the full behaviour and settings. List the installed teams with "
+        "`soccer-drill-teams`.",
+        "",
+        "| id | description |",
+        "|---|---|",
     ]
     for t in teams:
-        for r in HOLDER_POLICIES:
+        lines.append(f"| `{t}` | {describe(t)} |")
+    if "chasers" in teams and "interceptors_press" in teams:
+        lines += [
+            "",
+            "`chasers` is a minimal stand-alone implementation of the behaviour of "
+            "`interceptors_press`; their rows agree exactly, a check of the family against "
+            "independent code.",
+        ]
+    lines += [
+        "",
+        "## The fixed holder rules",
+        "",
+        "From `soccer_drill.policies`; each reads only the holder's 9 features.",
+        "",
+        "| rule | what it does |",
+        "|---|---|",
+    ]
+    for r in rules:
+        lines.append(f"| `{r}` | {_first_line(HOLDER_POLICIES[r])} |")
+    if paper:
+        lines += ["", "## Criteria", "", *criteria(cells, paper)]
+    lines += [
+        "",
+        "## Success rates",
+        "",
+        "Best rule (highest mean reward) in bold. Shielding (`HOLD`) cannot be tackled "
+        "but does not advance: rules that shield whenever pressed (`keepaway`, `lane`) let "
+        "the press run out the clock or pin the holder against a touchline, while rules "
+        "that dribble until a defender is close and then pass succeed often. How close "
+        "is close enough, and whether to shield when the way is blocked, differs from "
+        "team to team (the last column).",
+        "",
+        *_matrix(cells, teams),
+        "",
+        "## Full table",
+        "",
+        "| team | rule | success rate [95% CI] | mean reward [95% CI] | outcomes s/i/o/t |",
+        "|---|---|---|---|---|",
+    ]
+    for t in teams:
+        for r in rules:
             c = cells[(t, r)]
             lo, hi = c.success_interval
+            outs = "/".join(str(c.outcomes.get(k, 0)) for k in _OUTCOMES)
             lines.append(
                 f"| {t} | {r} | {c.success_rate:.1%} [{lo:.1%}, {hi:.1%}] | "
-                f"{c.mean_reward:+.3f} [{c.reward_low:+.3f}, {c.reward_high:+.3f}] |"
+                f"{c.mean_reward:+.3f} [{c.reward_low:+.3f}, {c.reward_high:+.3f}] | {outs} |"
             )
-    lines += ["", "## The teams", ""]
-    for t in teams:
-        if t in gifs:
-            lines += [f"### {t}", "", f"![{t}]({gifs[t]})", ""]
+    if family is not None:
+        fcells, members = family
+        fteams, _ = _teams_and_rules(fcells)
+        n_eps = next(iter(fcells.values())).episodes
+        best = best_rules(fcells)
+        lines += [
+            "",
+            "## The parametric family",
+            "",
+            f"{len(members)} members drawn by `opponents.sample_opponents({len(members)}, "
+            f"seed=0)`, {n_eps} episodes per cell, for a lifelong stream "
+            "(`HolderEnv(opponent=\"parametric\", opponent_params=params)`). Labels: I = "
+            "interceptor, G = guard, then the coordination of two interceptors and `-dN` "
+            "for a reaction delay of N cycles. The best rule changes from member to member: "
+            f"{len(set(best.values()))} distinct best rules among {len(members)} members.",
+            "",
+            *_matrix(fcells, fteams, {k: spec_label(v) for k, v in members.items()}),
+            "",
+            "<details><summary>parameters of each member</summary>",
+            "",
+            "| member | label | parameters |",
+            "|---|---|---|",
+        ]
+        for label, params in members.items():
+            lines.append(f"| {label} | {spec_label(params)} | `{dict(params)}` |")
+        lines += ["", "</details>"]
+    if gifs:
+        lines += ["", "## What the teams look like", ""]
+        for t in teams:
+            if t not in gifs:
+                continue
+            entry = gifs[t]
+            if isinstance(entry, str):
+                lines += [f"### {t}", "", f"![{t}]({entry})", ""]
+            else:
+                rel, rule, seed, outcome = entry
+                lines += [
+                    f"### {t}",
+                    "",
+                    f"Holder rule `{rule}` (the best against this team), seed {seed}: {outcome}.",
+                    "",
+                    f"![{t}]({rel})",
+                    "",
+                ]
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = out.with_name(f".{out.name}.tmp")
-    tmp.write_text("\n".join(lines) + "\n")
+    tmp.write_text("\n".join(lines).rstrip() + "\n")
     os.replace(tmp, out)
     return out
 
 
+def write_team_gif(team: str, rule: str, path: str | os.PathLike[str]) -> tuple[int, str]:
+    """A GIF of ``rule`` against ``team``: the first seed (from 1) that ``rule`` wins.
+
+    Returns ``(seed, outcome)``. Frames are kept as rendered; at ``GIF_FPS`` and at
+    most ``max_cycles`` frames, a GIF is well under 1 MB.
+    """
+    env = HolderEnv(opponent=team, render_mode="rgb_array")
+    policy = HOLDER_POLICIES[rule]
+    chosen = 1
+    for seed in range(1, _GIF_SEARCH + 1):
+        obs, info = env.reset(seed=seed)
+        rng = np.random.default_rng(seed)
+        done = False
+        while not done:
+            obs, _, term, trunc, info = env.step(policy(obs, rng))
+            done = term or trunc
+        if info["outcome"] == "success":
+            chosen = seed
+            break
+    try:
+        frames, info = record_episode(env, policy, chosen)
+    finally:
+        env.close()
+    save_gif(frames, path, GIF_FPS)
+    return chosen, info["outcome"]
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="soccer-drill-calibrate", description=__doc__.splitlines()[0])
-    parser.add_argument("--episodes", type=int, default=500)
-    parser.add_argument("--workers", type=int, default=2)
+    """Command-line entry point ``soccer-drill-calibrate``."""
+    parser = argparse.ArgumentParser(
+        prog="soccer-drill-calibrate", description=__doc__.splitlines()[0]
+    )
+    parser.add_argument("--episodes", type=int, default=500, help="episodes per cell")
+    parser.add_argument("--workers", type=int, default=2, help="worker processes")
     parser.add_argument("--out", default="docs/opponents.md")
-    parser.add_argument("--gifs", default="docs/gifs", help="folder for one GIF per team ('' for none)")
+    parser.add_argument(
+        "--gifs", default="docs/gifs", help="folder for one GIF per team ('' for none)"
+    )
+    parser.add_argument(
+        "--sampled", type=int, default=0,
+        help="also tabulate this many members of the parametric family (seed 0)",
+    )
+    parser.add_argument("--sampled-episodes", type=int, default=100, help="episodes per family cell")
     args = parser.parse_args(argv)
-    if args.episodes < 2:
-        parser.error("--episodes must be at least 2")
+    if args.episodes < 2 or (args.sampled and args.sampled_episodes < 2):
+        parser.error("--episodes and --sampled-episodes must be at least 2")
+    if args.sampled < 0:
+        parser.error("--sampled must be >= 0")
+    start = time.perf_counter()
     cells = calibrate(args.episodes, workers=args.workers)
-    gifs = {}
+    family = (
+        calibrate_family(args.sampled, 0, args.sampled_episodes, args.workers)
+        if args.sampled else None
+    )
+    gifs: dict[str, tuple[str, str, int, str]] = {}
     if args.gifs:
         out_dir = Path(args.out).parent
+        best = best_rules(cells)
         for team in TEAMS:
             path = Path(args.gifs) / f"{team}.gif"
-            write_episode_gif(path, team=team, seed=1, policy="lane", fps=8)
-            gifs[team] = os.path.relpath(path, out_dir)
-    print(write_markdown(cells, args.episodes, args.out, gifs).read_text())
+            seed, outcome = write_team_gif(team, best[team], path)
+            gifs[team] = (os.path.relpath(path, out_dir), best[team], seed, outcome)
+    command = f"soccer-drill-calibrate --episodes {args.episodes}"
+    if args.sampled:
+        command += f" --sampled {args.sampled} --sampled-episodes {args.sampled_episodes}"
+    if args.out != "docs/opponents.md":
+        command += f" --out {args.out}"
+    if args.gifs != "docs/gifs":
+        command += f" --gifs '{args.gifs}'"
+    seconds = time.perf_counter() - start
+    timing = f"It took {seconds / 60:.1f} min with {args.workers} worker process(es)."
+    path = write_markdown(cells, args.episodes, args.out, gifs, family, command, timing)
+    for line in criteria(cells):
+        print(line)
+    print(f"wrote {path} in {seconds:.0f} s")
     return 0
 
 

@@ -11,7 +11,7 @@ from soccer_drill.state import DrillView
 
 
 class Chasers:
-    """Both defenders run for the ball at a fraction ``speed`` of their top speed.
+    """Both defenders chase the ball (at speed 1, the same as interceptors_press).
 
     Args:
         speed: fraction of the defenders' top speed, in (0, 1].

@@ -33,7 +33,9 @@ class InterceptorsPress(_PaperTeam):
     timely pass beats them.
 
     Settings: ``roles=("interceptor", "interceptor")``, ``coordination="press"``,
-    ``speed=1.0``, no reaction delay. No randomness of its own.
+    ``speed=1.0``, no reaction delay. No randomness of its own. It behaves exactly as
+    :class:`~opponents.chasers.Chasers` at full speed, an independent minimal
+    implementation that cross-checks the family (``tests/test_opponents.py``).
     """
 
     DEFAULTS: ClassVar[dict[str, Any]] = {

@@ -163,7 +163,9 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
 
     ## Episode end
 
-    Success, interception and out terminate; timeout truncates. Every agent then
+    Success, interception and out terminate; timeout truncates. The outcome is judged
+    after each cycle in that order (interception, success, out, timeout), so a defender
+    who wins the ball on the last cycle makes it an interception, not a timeout. Every agent then
     has ``terminations`` (or ``truncations``) set, receives ``infos[agent] ==
     {"outcome": ..., "cycles": ...}``, must be stepped with ``None`` and is
     removed, so ``agents`` is empty at the end.

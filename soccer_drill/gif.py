@@ -2,7 +2,7 @@
 
 Command line::
 
-    soccer-drill-gif --team chasers --seed 0 --policy keepaway --fps 10 -o episode.gif
+    soccer-drill-gif --team chasers --seed 0 --policy pass_first --fps 10 -o episode.gif
 """
 
 from __future__ import annotations
@@ -64,7 +64,7 @@ def write_episode_gif(
     path: str | os.PathLike,
     team: str = "chasers",
     seed: int = 0,
-    policy: str | HolderPolicy = "keepaway",
+    policy: str | HolderPolicy = "pass_first",
     fps: int = 10,
     **env_kwargs,
 ) -> dict:
@@ -84,7 +84,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--team", default="chasers", help="opponent team id")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--policy", default="keepaway", choices=sorted(HOLDER_POLICIES))
+    parser.add_argument("--policy", default="pass_first", choices=sorted(HOLDER_POLICIES))
     parser.add_argument("--fps", type=int, default=10)
     parser.add_argument("-o", "--output", default="episode.gif")
     args = parser.parse_args(argv)

@@ -58,6 +58,34 @@ def pass_first(obs: np.ndarray, rng: np.random.Generator) -> int:
     return DRIBBLE
 
 
+def _pressure_rule(obs: np.ndarray, pressure: float, shield: bool) -> int:
+    """Dribble until the nearer defender is within ``pressure`` metres; then pass if the
+    lane is open (> 30 deg) and the teammate free (> 5 m); otherwise shield the ball if
+    ``shield`` and the dribbling lane is blocked (< 30 deg), else keep dribbling."""
+    if obs[_DIST_OPP] > pressure:
+        return DRIBBLE
+    if obs[_PASS_ANGLE] > 30.0 and obs[_MATE_OPP] > 5.0:
+        return PASS
+    if shield and obs[_DRIBBLE_ANGLE] < 30.0:
+        return HOLD
+    return DRIBBLE
+
+
+def late_pass(obs: np.ndarray, rng: np.random.Generator) -> int:
+    """Dribble until a defender is within 3 m, then pass if the lane is open, else dribble on."""
+    return _pressure_rule(obs, 3.0, shield=False)
+
+
+def early_pass(obs: np.ndarray, rng: np.random.Generator) -> int:
+    """Dribble until a defender is within 6 m, then pass if the lane is open, else dribble on."""
+    return _pressure_rule(obs, 6.0, shield=False)
+
+
+def shield_pass(obs: np.ndarray, rng: np.random.Generator) -> int:
+    """Dribble until a defender is within 2 m, then pass if open, else shield if the way is blocked."""
+    return _pressure_rule(obs, 2.0, shield=True)
+
+
 HOLDER_POLICIES: dict[str, HolderPolicy] = {
     "random": random_policy,
     "dribble": always_dribble,
@@ -65,6 +93,9 @@ HOLDER_POLICIES: dict[str, HolderPolicy] = {
     "keepaway": keepaway_rule,
     "lane": lane_rule,
     "pass_first": pass_first,
+    "late_pass": late_pass,
+    "early_pass": early_pass,
+    "shield_pass": shield_pass,
 }
 """Fixed holder policies by name."""
 

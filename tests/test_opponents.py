@@ -7,12 +7,23 @@ import math
 import numpy as np
 import pytest
 
-from opponents import PAPER_TEAMS, sample_opponents
-from opponents.calibrate import calibrate, criteria, write_markdown
+from opponents import PAPER_TEAMS, ParametricTeam, sample_opponents
+from opponents.calibrate import (
+    Cell,
+    calibrate,
+    calibrate_family,
+    criteria,
+    wilson_interval,
+    write_markdown,
+    write_team_gif,
+)
+from opponents.calibrate import main as calibrate_main
 from opponents.cli import main as list_teams
 from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
+from soccer_drill.skills import Skill, ball_interception_point
 from soccer_drill.state import BALL
+from soccer_drill.teams import make_team
 
 
 def _cycles(team: str, action: int, episodes: int = 8, **params):
@@ -88,10 +99,142 @@ def test_cli_lists_every_team(capsys):
         assert team in out
 
 
+
+# ------------------------------------------------------------------ calibration
 def test_calibration_table_and_criteria(tmp_path):
     cells = calibrate(episodes=3, teams=PAPER_TEAMS, workers=1)
     lines = criteria(cells)
     assert len(lines) == 3 and all(("met" in line) for line in lines)
     path = write_markdown(cells, 3, tmp_path / "opponents.md", gifs={})
     text = path.read_text()
-    assert text.count("| interceptors_press |") == len(HOLDER_POLICIES)  # a row per fixed rule
+    full_rows = [r for r in text.splitlines() if r.startswith("| interceptors_press | ")
+                 and "[" in r]
+    assert len(full_rows) == len(HOLDER_POLICIES)  # a row per fixed rule in the full table
+    assert "## Criteria" in text and "## Success rates" in text
+
+
+def _cell(team, rule, successes, reward, n=100):
+    return Cell(team, rule, successes, n, reward, reward - 0.1, reward + 0.1)
+
+
+def test_criteria_verdicts_follow_the_figures():
+    def cells(random_wins, best_wins, same_ranking):
+        out = {}
+        for k, team in enumerate(PAPER_TEAMS):
+            order = ("a", "b") if same_ranking or k % 2 else ("b", "a")
+            out[(team, "random")] = _cell(team, "random", random_wins, -0.9)
+            out[(team, order[0])] = _cell(team, order[0], best_wins, 0.2)
+            out[(team, order[1])] = _cell(team, order[1], 10, -0.5)
+        return out
+
+    good = criteria(cells(random_wins=5, best_wins=60, same_ranking=False))
+    assert all("**met**" in line for line in good)
+    bad = criteria(cells(random_wins=30, best_wins=20, same_ranking=True))
+    assert all("**NOT met**" in line for line in bad)
+
+
+def test_wilson_interval_matches_scipy():
+    from scipy import stats
+
+    for k, n in ((0, 10), (3, 10), (250, 500), (500, 500)):
+        ci = stats.binomtest(k, n).proportion_ci(method="wilson")
+        assert wilson_interval(k, n) == pytest.approx((ci.low, ci.high), abs=1e-12)
+
+
+def test_calibration_command_writes_the_page(tmp_path, capsys):
+    out = tmp_path / "docs" / "opponents.md"
+    assert calibrate_main(["--episodes", "2", "--workers", "1", "--out", str(out),
+                           "--gifs", "", "--sampled", "2", "--sampled-episodes", "2"]) == 0
+    text = out.read_text()
+    assert "soccer-drill-calibrate --episodes 2 --sampled 2" in text
+    assert "## The parametric family" in text and "| p01 (" in text
+    assert "met" in capsys.readouterr().out
+
+
+def test_family_cells_are_labelled_and_paired():
+    cells, members = calibrate_family(2, seed=0, episodes=2, workers=1, rules=["dribble"])
+    assert set(members) == {"p00", "p01"}
+    assert set(cells) == {("p00", "dribble"), ("p01", "dribble")}
+    assert members["p00"] == sample_opponents(2, seed=0)[0]
+
+
+def test_team_gif_is_small(tmp_path):
+    seed, outcome = write_team_gif("interceptors_cover", "shield_pass", tmp_path / "t.gif")
+    assert outcome == "success" and seed >= 1
+    assert 0 < (tmp_path / "t.gif").stat().st_size < 1_500_000
+
+
+# ------------------------------------------------------------- the family itself
+def _trajectory(opponent, params=None, seed=0, action=2):
+    env = HolderEnv(opponent=opponent, opponent_params=params)
+    env.reset(seed=seed)
+    states, done = [], False
+    while not done:
+        _, _, term, trunc, _ = env.step(action)
+        states.append(env.drill_state.pos)
+        done = term or trunc
+    return states
+
+
+@pytest.mark.parametrize("team", PAPER_TEAMS)
+def test_paper_teams_are_settings_of_the_family(team):
+    instance = make_team(team)
+    assert isinstance(instance, ParametricTeam)
+    params = instance.params()
+    for seed in (0, 1):  # the same behaviour, cycle for cycle, through the family's id
+        assert _trajectory(team, seed=seed) == _trajectory("parametric", params, seed=seed)
+
+
+def test_goal_guards_are_seeded_and_sortie_at_the_stated_rate():
+    assert _trajectory("goal_guards", seed=5, action=0) == _trajectory(
+        "goal_guards", seed=5, action=0)
+    # One-cycle sorties, no reach: the number of sorties is Binomial(cycles on the line, p).
+    env = HolderEnv(opponent="parametric", opponent_params={
+        "roles": ["guard", "guard"], "press_probability": 0.1, "sortie_cycles": 1,
+        "guard_reach": 0.0})
+    team = env._core.team
+    sorties = trials = 0
+    for seed in range(10):
+        env.reset(seed=seed)
+        done = False
+        while not done:
+            _, _, term, trunc, info = env.step(0)
+            done = term or trunc
+        sorties += team.sorties
+        trials += 2 * info["cycles"] - team.sorties  # guard-cycles spent on the line
+    rate = sorties / trials
+    assert abs(rate - 0.1) < 3 * math.sqrt(0.1 * 0.9 / trials)
+
+
+def test_reaction_delay_acts_on_the_state_of_cycles_ago():
+    env = HolderEnv(opponent="chasers", decision_cycles=1)  # one cycle per DRIBBLE step
+    env.reset(seed=0)
+    view, cfg = env._core.view, env.config
+    late = ParametricTeam(reaction_delay=3)
+    late.reset(view, np.random.default_rng(0))
+    seen = []
+    for t in range(25):
+        seen.append(view.state)
+        command = late.act(view)["defender_0"]
+        assert command.skill is Skill.MOVE_TO
+        old = seen[max(t - 3, 0)]
+        assert command.target == ball_interception_point(old, 2, cfg.defender_speed, cfg)
+        _, _, term, trunc, info = env.step(2)
+        assert info["duration"] == 1 and not (term or trunc)
+
+
+def test_family_rejects_bad_parameters_by_name():
+    for bad, message in (
+        ({"roles": ["keeper", "guard"]}, "roles must be two of"),
+        ({"coordination": "zonal"}, "coordination must be one of"),
+        ({"speed": 1.5}, "speed must be in"),
+        ({"reaction_delay": -1}, "reaction_delay must be an integer"),
+        ({"press_probability": 2.0}, "press_probability must lie in"),
+    ):
+        with pytest.raises(ValueError, match=message):
+            HolderEnv(opponent="parametric", opponent_params=bad)
+
+
+def test_press_team_matches_the_independent_chasers():
+    for seed in (0, 3):
+        assert _trajectory("interceptors_press", seed=seed) == _trajectory("chasers", seed=seed)

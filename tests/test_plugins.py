@@ -84,3 +84,51 @@ def test_register_for_notebooks():
         soccer_drill.register("idle_for_test", Idle)
     with pytest.raises(ValueError, match="team id must be a non-empty identifier"):
         soccer_drill.register("no spaces", Idle)
+
+
+@pytest.mark.parametrize(
+    ("behaviour", "message"),
+    [
+        ("raise", r"team 'sloppy' raised in act\(\) at cycle 0: RuntimeError\('no plan'\)"),
+        ("foreign", r"team 'sloppy' must return a mapping with exactly the players it drives "
+                    r"\['defender_0', 'defender_1'\], got \['attacker_1', 'defender_0'\]"),
+        ("nan", r"team 'sloppy', player 'defender_1', cycle 0: MOVE_TO needs a finite"),
+    ],
+)
+def test_misbehaving_plugin_is_named_by_its_id(tmp_path, monkeypatch, behaviour, message):
+    (tmp_path / "sloppy_teams.py").write_text(textwrap.dedent('''
+        import math
+        from soccer_drill import Command, Skill
+
+        class Sloppy:
+            """Misbehaves on purpose."""
+
+            def __init__(self, behaviour):
+                self.behaviour = behaviour
+
+            def reset(self, view, rng):
+                self.players = view.players
+
+            def act(self, view):
+                if self.behaviour == "raise":
+                    raise RuntimeError("no plan")
+                if self.behaviour == "foreign":
+                    return {"defender_0": Command(Skill.INTERCEPT),
+                            "attacker_1": Command(Skill.INTERCEPT)}
+                return {"defender_0": Command(Skill.INTERCEPT),
+                        "defender_1": Command(Skill.MOVE_TO, (math.inf, 3.0))}
+    '''))
+    info = tmp_path / "sloppy_teams-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: sloppy-teams\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("[soccer_drill.opponents]\nsloppy = sloppy_teams:Sloppy\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    teams.refresh()
+    try:
+        env = soccer_drill.HolderEnv(opponent="sloppy", opponent_params={"behaviour": behaviour})
+        env.reset(seed=0)
+        with pytest.raises(teams.TeamError, match=message):
+            env.step(2)
+    finally:
+        monkeypatch.undo()
+        teams.refresh()

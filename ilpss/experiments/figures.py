@@ -37,24 +37,26 @@ def plot_kernels_on_field(
     """Each kernel as 1- and 2-sigma ellipses on the field, the bags of states as dots,
     and the active options of each kernel (policy and scale) in the legend."""
     import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.patches import Ellipse
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Ellipse, Rectangle
 
     model = learner.kernel_model
     if model is None or not hasattr(model, "means_"):
         raise ValueError("the learner has no fitted kernel model yet")
     names = task_names or [r.name for r in learner.records]
-    fig, ax = plt.subplots(figsize=(6.4, 6.4))
-    ax.add_patch(plt.Rectangle((0, 0), FIELD, FIELD, color="#2e783c", zorder=0))
+    # An explicit Agg figure: no pyplot, so a notebook's backend is left alone.
+    fig = Figure(figsize=(6.4, 6.4))
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    ax.add_patch(Rectangle((0, 0), FIELD, FIELD, color="#2e783c", zorder=0))
     ax.plot([0, FIELD], [0, 0], color="white", lw=4, zorder=1)
     for i, bag in enumerate(learner.bags):
         if len(bag):
             ax.scatter(bag[:, LATERAL] + FIELD / 2, bag[:, GOAL_DISTANCE], s=3, alpha=0.35,
                        label=f"states, {names[i] if i < len(names) else i}", zorder=2)
     library: OptionLibrary | None = learner.library
-    colours = plt.cm.tab10.colors
+    colours = matplotlib.colormaps["tab10"].colors
     for k in range(model.n_components):
         idx = [LATERAL, GOAL_DISTANCE]
         mean = model.means_[k, idx] + np.array([FIELD / 2, 0.0])
@@ -84,9 +86,7 @@ def plot_kernels_on_field(
     ax.set_ylabel("y (m): holder's distance to the goal line")
     ax.set_title("ILPSS kernels projected on the holder's position")
     ax.legend(loc="upper left", fontsize=6, bbox_to_anchor=(1.01, 1.0))
-    out = _save_figure(fig, path)
-    plt.close(fig)
-    return out
+    return _save_figure(fig, path)
 
 
 def write_agent_gif(

@@ -147,10 +147,8 @@ def write_report(
 
 def _protocol_c(table: dict, out: Path, results: list[dict[str, Any]]) -> list[str]:
     """Jumpstart on every new opponent, and the option library's size over the stream."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
     (methods,) = table.values()
     lines = ["## Jumpstart on each new opponent of the stream", ""]
@@ -170,7 +168,9 @@ def _protocol_c(table: dict, out: Path, results: list[dict[str, Any]]) -> list[s
         for method in ("ilpss", "ilpss_no_discount"):
             if method in res["methods"]:
                 sizes[method].append(res["methods"][method]["library_size"])
-    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4))
+    fig = Figure(figsize=(11, 4))
+    FigureCanvasAgg(fig)
+    ax1, ax2 = fig.subplots(1, 2)
     ax1.errorbar(tasks, values, yerr=[np.subtract(values, lows), np.subtract(highs, values)],
                  fmt="o-", capsize=3)
     ax1.axhline(0, color="grey", lw=1)
@@ -185,7 +185,6 @@ def _protocol_c(table: dict, out: Path, results: list[dict[str, Any]]) -> list[s
     fig.tight_layout()
     tmp = out / ".stream.tmp.png"
     fig.savefig(tmp, dpi=120)
-    plt.close(fig)
     os.replace(tmp, out / "stream.png")
     lines += ["![stream](stream.png)", "", *rows, ""]
     for method, runs in sizes.items():

@@ -1,0 +1,141 @@
+"""README.md tells the truth: its Python blocks run, and its shell commands exist.
+
+Every fenced ``python`` block runs in a fresh namespace, in an empty temporary working
+directory, with the team registry isolated (blocks may register teams). Shell blocks
+(``bash``/``sh``/``shell``/``console``) are not run: each command must be a make target
+of the Makefile or a console script of ``[project.scripts]``; a console script's
+arguments are parsed by its own argument parser (which then stops it), so a renamed
+flag or a wrong choice fails here without running an experiment.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import inspect
+import re
+import shlex
+import time
+import tomllib
+from importlib.metadata import entry_points
+from pathlib import Path
+
+import pytest
+
+import soccer_drill.teams as teams
+
+ROOT = Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
+FENCE = re.compile(r"^```([\w-]*)[^\n]*\n(.*?)^```[ \t]*$", re.MULTILINE | re.DOTALL)
+SHELL = {"bash", "sh", "shell", "console"}
+BLOCK_SECONDS = 60  # a README example a newcomer copies should finish in well under this
+
+
+def _blocks(languages: set[str]) -> list[tuple[int, str]]:
+    """(first line number, code) of every fenced block in one of ``languages``."""
+    text = README.read_text(encoding="utf-8")
+    return [
+        (text.count("\n", 0, m.start()) + 2, m.group(2))
+        for m in FENCE.finditer(text)
+        if m.group(1).lower() in languages
+    ]
+
+
+PYTHON_BLOCKS = _blocks({"python", "py"})
+
+
+def _commands() -> list[tuple[int, list[str]]]:
+    """(line number, argv) of every command line in the shell blocks, comments removed."""
+    out = []
+    for first, code in _blocks(SHELL):
+        pending, start = "", first
+        for offset, line in enumerate(code.splitlines()):
+            if not pending:
+                start = first + offset
+            line = line.removeprefix("$ ")
+            if line.rstrip().endswith("\\"):
+                pending += line.rstrip()[:-1] + " "
+                continue
+            argv = shlex.split(pending + line, comments=True)
+            pending = ""
+            if argv:
+                out.append((start, argv))
+    return out
+
+
+COMMANDS = _commands()
+
+
+def _make_targets() -> set[str]:
+    text = (ROOT / "Makefile").read_text(encoding="utf-8")
+    targets = set()
+    for m in re.finditer(r"^([A-Za-z0-9_.\- ]+?)\s*::?(?!=)", text, re.MULTILINE):
+        targets.update(t for t in m.group(1).split() if not t.startswith("."))
+    return targets
+
+
+def _project_scripts() -> dict[str, str]:
+    with (ROOT / "pyproject.toml").open("rb") as f:
+        return tomllib.load(f)["project"].get("scripts", {})
+
+
+def test_readme_has_code_to_check():
+    assert PYTHON_BLOCKS, "README.md has no ```python blocks"
+    assert COMMANDS, "README.md has no shell commands"
+
+
+@pytest.mark.parametrize("code", [c for _, c in PYTHON_BLOCKS],
+                         ids=[f"line{n}" for n, _ in PYTHON_BLOCKS])
+def test_python_block_runs(code, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    teams.team_ids()  # discover the installed teams, then isolate the registry
+    monkeypatch.setattr(teams, "_registry", dict(teams._registry))
+    start = time.perf_counter()
+    exec(compile(code, str(README), "exec"), {"__name__": "__readme__"})
+    elapsed = time.perf_counter() - start
+    assert elapsed < BLOCK_SECONDS, f"README block took {elapsed:.0f} s: use a smaller budget"
+
+
+class _Parsed(Exception):
+    """Raised instead of running a console script once its arguments parsed."""
+
+
+@pytest.mark.parametrize("argv", [a for _, a in COMMANDS],
+                         ids=[f"line{n}:{' '.join(a[:2])}" for n, a in COMMANDS])
+def test_shell_command_exists(argv, monkeypatch):
+    command, args = argv[0], argv[1:]
+    if command == "make":
+        targets = _make_targets()
+        wanted = [a for a in args if not a.startswith("-") and "=" not in a]
+        assert wanted, "a bare `make` in README.md: name the target"
+        missing = sorted(set(wanted) - targets)
+        assert not missing, f"make target(s) {missing} not in the Makefile ({sorted(targets)})"
+        return
+    scripts = _project_scripts()
+    assert command in scripts, (
+        f"README.md runs {command!r}, which is neither a make target nor a console script "
+        f"of [project.scripts] ({sorted(scripts)})"
+    )
+    installed = entry_points(group="console_scripts", name=command)
+    assert installed, f"{command} is in pyproject.toml but not installed: pip install -e ."
+    module_name, _, function = scripts[command].partition(":")
+    module = importlib.import_module(module_name)
+    assert "argparse" in inspect.getsource(module), (
+        f"{command} does not use argparse; teach this test how to check it without running it"
+    )
+    original = argparse.ArgumentParser.parse_args
+
+    def parse_then_stop(self, *a, **kw):
+        raise _Parsed(original(self, *a, **kw))
+
+    monkeypatch.setattr(argparse.ArgumentParser, "parse_args", parse_then_stop)
+    try:
+        getattr(module, function)(args)
+    except _Parsed:
+        return
+    except SystemExit as exc:
+        pytest.fail(
+            f"README.md: `{' '.join(argv)}` is refused by {command}'s parser "
+            f"(exit status {exc.code}; its message is in the captured stderr)"
+        )
+    pytest.fail(f"{command} returned without parsing its arguments")
