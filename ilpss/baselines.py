@@ -233,18 +233,22 @@ class PrqLearner:
 
     @property
     def alpha(self) -> float:
+        """Step size, spread over the active tiles."""
         return self._smdp.alpha
 
     @property
     def epsilon(self) -> float:
+        """Exploration rate."""
         return self._smdp.epsilon
 
     @property
     def gamma(self) -> float:
+        """Discount per cycle."""
         return self._smdp.gamma
 
     @property
     def bootstrap_on_truncation(self) -> bool:
+        """Whether a timeout bootstraps from the next state."""
         return self._smdp.bootstrap_on_truncation
 
     def freeze(self) -> FrozenPolicy:

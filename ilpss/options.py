@@ -107,6 +107,7 @@ class KernelModel(Protocol):
     covariances_: np.ndarray
 
     def membership(self, X: np.ndarray) -> np.ndarray:  # pragma: no cover - protocol
+        """Kernel memberships of the state(s) ``X``, in [0, 1]."""
         ...
 
 

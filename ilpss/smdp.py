@@ -249,6 +249,7 @@ class SmdpLearner:
 
     @property
     def n_choices(self) -> int:
+        """Primitives plus offered options."""
         return self.q.n_choices
 
     def freeze(self) -> FrozenPolicy:

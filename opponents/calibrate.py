@@ -58,6 +58,7 @@ class Cell:
 
     @property
     def success_rate(self) -> float:
+        """Share of successful episodes."""
         return self.successes / self.episodes
 
     @property
@@ -182,6 +183,7 @@ def criteria(
     ok3 = len(set(rankings.values())) > 1 and len(set(best.values())) > 1
 
     def verdict(ok: bool) -> str:
+        """'met' or 'NOT met'."""
         return "**met**" if ok else "**NOT met**"
 
     return [

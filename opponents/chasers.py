@@ -24,8 +24,10 @@ class Chasers:
         self._players: tuple[str, ...] = ()
 
     def reset(self, view: DrillView, rng: np.random.Generator) -> None:
+        """Remember the players to drive."""
         self._players = view.players
 
     def act(self, view: DrillView) -> Mapping[str, Command]:
+        """INTERCEPT for both defenders."""
         command = Command(Skill.INTERCEPT, speed=self.speed)
         return dict.fromkeys(self._players, command)

@@ -9,6 +9,7 @@ from soccer_drill.teams import available_teams
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """List the installed teams, one per line."""
     parser = argparse.ArgumentParser(prog="soccer-drill-teams", description=__doc__.split(":")[1].strip())
     parser.parse_args(argv)
     teams = available_teams()

@@ -166,6 +166,7 @@ class ParametricTeam:
 
     # ------------------------------------------------------------------ protocol
     def reset(self, view: DrillView, rng: np.random.Generator) -> None:
+        """Start an episode: sorties and the delay buffer are reset; ``rng`` feeds the sorties."""
         if len(view.players) != 2:
             raise ValueError(f"this team drives two defenders, got players {view.players!r}")
         self._players = tuple(view.players)
@@ -177,6 +178,7 @@ class ParametricTeam:
         self.sorties = 0
 
     def act(self, view: DrillView) -> dict[str, Command]:
+        """One command per defender, from the (possibly delayed) state."""
         if self._rng is None:
             raise RuntimeError("reset() first")
         current = view.state

@@ -109,10 +109,12 @@ class DrillCore:
 
     # -------------------------------------------------------------- episodes
     def seed(self, seed: int | None) -> None:
+        """Reseed the drill's generator (``None`` keeps the current stream)."""
         if seed is not None:
             self.np_random, _ = seeding.np_random(seed)
 
     def reset(self) -> None:
+        """Start an episode: place the players, seed the support player and the team."""
         self.drill.reset(self.np_random)
         # Children draw from their own streams so a team's draws never shift the physics noise.
         support_seed, team_seed = self.np_random.integers(2**63, size=2)
@@ -133,9 +135,11 @@ class DrillCore:
 
     # ---------------------------------------------------------- observations
     def observe(self, index: int) -> np.ndarray:
+        """Observation (features or kinematic) of player ``index``."""
         return self._observe(self.drill.state, index, *self._obs_args)
 
     def mask(self, index: int) -> np.ndarray:
+        """Action mask of player ``index`` (read-only int8)."""
         if index >= 2:
             return _DEFENDER_MASK
         return _ATTACKER_HOLDER_MASK if self.drill.state.holder == index else _ATTACKER_OFF_BALL_MASK

@@ -208,6 +208,7 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
         self.agents: list[str] = []
 
     def reset(self, seed: int | None = None, options: dict | None = None) -> None:
+        """Start an episode; ``seed`` reseeds the drill (see the class docstring)."""
         self._core.seed(seed)
         self._core.reset()
         self.agents = self.possible_agents[:]
@@ -224,11 +225,13 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
             self.render()
 
     def observe(self, agent: str) -> dict[str, np.ndarray]:
+        """The observation dict (features and action mask) of ``agent``."""
         if not self._has_reset:
             raise RuntimeError("observe() called before reset()")
         return self._observation(agent)
 
     def step(self, action: int | None) -> None:
+        """Act for the selected agent (AEC) or for all live agents (parallel); see the class docstring."""
         if not self._has_reset:
             raise RuntimeError("step() called before reset()")
         agent = self.agent_selection
@@ -303,6 +306,7 @@ class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
     def reset(
         self, seed: int | None = None, options: dict | None = None
     ) -> tuple[dict[str, dict], dict[str, dict]]:
+        """Start an episode; ``seed`` reseeds the drill (see the class docstring)."""
         self._core.seed(seed)
         self._core.reset()
         self.agents = self.possible_agents[:]
@@ -312,6 +316,7 @@ class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
         return {a: self._observation(a) for a in self.agents}, {a: {} for a in self.agents}
 
     def step(self, actions: Mapping[str, int]):
+        """Act for the selected agent (AEC) or for all live agents (parallel); see the class docstring."""
         if not self._has_reset:
             raise RuntimeError("step() called before reset()")
         if not self.agents:

@@ -121,6 +121,7 @@ class HolderEnv(gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start an episode; the observation is the 9 features of the attacker given the ball."""
         super().reset(seed=seed)
         self._core.seed(seed)
         self._core.reset()
@@ -131,6 +132,7 @@ class HolderEnv(gym.Env):
         }
 
     def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """Apply the holder's action and run to its next decision or the end (see the class docstring)."""
         drill = self._core.drill
         if drill.outcome is not None:
             raise RuntimeError("step() called after the episode ended; call reset()")
@@ -197,6 +199,7 @@ class HolderEnv(gym.Env):
         return self._draw(self.render_mode)
 
     def close(self) -> None:
+        """Close any window opened by human rendering."""
         for renderer in self._renderers.values():
             renderer.close()
         self._renderers = {}

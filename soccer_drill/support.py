@@ -25,6 +25,7 @@ class SupportPlayer:
         self._offset = (0.0, 0.0)
 
     def reset(self, rng: np.random.Generator) -> None:
+        """Start an episode, drawing from ``rng`` from now on."""
         self._rng = rng
         self._offset = (0.0, 0.0)
 

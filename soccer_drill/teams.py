@@ -50,6 +50,7 @@ class _Entry:
     entry_point: Any = None  # importlib.metadata.EntryPoint, loaded on first use
 
     def load(self, team_id: str) -> Callable[..., Team]:
+        """The team factory (importing the entry point on first use)."""
         if self.factory is not None:
             return self.factory
         try:
@@ -152,6 +153,7 @@ class TeamDriver:
         self._indices = tuple(PLAYER_NAMES.index(p) for p in players)
 
     def reset(self, view: DrillView, rng: np.random.Generator) -> None:
+        """Reset the team, naming it in any error it raises."""
         try:
             self.team.reset(view, rng)
         except Exception as exc:

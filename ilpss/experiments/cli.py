@@ -51,6 +51,7 @@ def build_config(args: argparse.Namespace) -> ExperimentConfig:
 
 
 def parser() -> argparse.ArgumentParser:
+    """The command-line parser of ``ilpss-experiment``."""
     p = argparse.ArgumentParser(
         prog="ilpss-experiment", description=__doc__.splitlines()[0],
         formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__,
@@ -72,6 +73,7 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the experiment and write its report."""
     args = parser().parse_args(argv)
     cfg = build_config(args)
     results = run_experiment(cfg, args.out, progress=not args.quiet)

@@ -113,6 +113,7 @@ class ExperimentConfig:
 
     @property
     def seeds(self) -> range:
+        """The seeds of this run."""
         return range(self.first_seed, self.first_seed + self.n_seeds)
 
     def streams(self, seed: int) -> list[Stream]:
@@ -145,6 +146,7 @@ class ExperimentConfig:
         return asdict(self)
 
     def to_json(self) -> str:
+        """Pretty JSON of :meth:`to_dict`, keys sorted."""
         return json.dumps(self.to_dict(), indent=2, sort_keys=True)
 
     @classmethod

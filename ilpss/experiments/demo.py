@@ -26,6 +26,7 @@ from ilpss.lifelong import LifelongLearner
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the small protocol A and write its report, kernels picture and GIF."""
     parser = argparse.ArgumentParser(prog="ilpss-demo", description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=6)
     parser.add_argument("--episodes", type=int, default=300)

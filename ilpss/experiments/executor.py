@@ -13,6 +13,7 @@ class Executor(Protocol):
     """Runs ``fn`` on every item, in any order, and returns results in item order."""
 
     def map(self, fn: Callable[[Any], Any], items: Sequence[Any], desc: str = "") -> list[Any]:
+        """``[fn(item) for item in items]``, computed in parallel, in item order."""
         ...
 
 
@@ -23,6 +24,7 @@ class LocalExecutor:
         self.workers, self.progress = workers, progress
 
     def map(self, fn: Callable[[Any], Any], items: Sequence[Any], desc: str = "") -> list[Any]:
+        """``[fn(item) for item in items]``, computed in parallel, in item order."""
         results: list[Any] = [None] * len(items)
         bar = tqdm(total=len(items), desc=desc, disable=not self.progress)
         if self.workers == 1 or len(items) <= 1:
@@ -61,6 +63,7 @@ class RayExecutor:
         self.workers, self.progress = workers, progress
 
     def map(self, fn: Callable[[Any], Any], items: Sequence[Any], desc: str = "") -> list[Any]:
+        """``[fn(item) for item in items]``, computed in parallel, in item order."""
         ray = self._ray
         remote = ray.remote(num_cpus=1)(fn)
         refs = [remote.remote(item) for item in items]
@@ -75,6 +78,7 @@ class RayExecutor:
         return results
 
     def shutdown(self) -> None:
+        """Stop the Ray instance this executor started or joined."""
         self._ray.shutdown()
 
 

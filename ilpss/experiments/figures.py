@@ -113,11 +113,13 @@ def write_agent_gif(
             self.observation_space, self.action_space = inner.observation_space, inner.action_space
 
         def reset(self, **kw: Any) -> Any:
+            """Reset and start recording frames."""
             out = self.inner.reset(**kw)
             self.inner.unwrapped.record_frames(frames)
             return out
 
         def step(self, action: int) -> Any:
+            """Note where this decision's frames start, then step."""
             starts.append(len(frames))
             actions.append(int(action))
             return self.inner.step(action)

@@ -52,6 +52,7 @@ def _evaluate(env: gym.Env, act, n: int) -> np.ndarray:
 
 
 def learn_and_evaluate(job: tuple[str, int, int, int]) -> dict[str, Any]:
+    """Learn on one team with one seed, then evaluate the greedy policy."""
     team, seed, episodes, n_eval = job
     env = gym.make(DRILL_ENV_ID, opponent=team, disable_env_checker=True)
     coder = TileCoder.from_space(env.observation_space, np.asarray(DRILL_TILE_WIDTHS))
@@ -63,6 +64,7 @@ def learn_and_evaluate(job: tuple[str, int, int, int]) -> dict[str, Any]:
 
 
 def rule_rewards(job: tuple[str, str, str, int]) -> dict[str, Any]:
+    """Rewards of one fixed rule against one team on the evaluation seeds."""
     team, spec, name, n_eval = job
     rule = _rules(spec)[name]
     env = gym.make(DRILL_ENV_ID, opponent=team, disable_env_checker=True)
@@ -80,6 +82,7 @@ def _summary(rewards: np.ndarray) -> tuple[float, float, float, float, float, fl
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Run the comparison and write its markdown table."""
     p = argparse.ArgumentParser(prog="ilpss-holder-learning", description=__doc__.splitlines()[0])
     p.add_argument("--teams", nargs="+", default=list(PAPER_TEAMS))
     p.add_argument("--episodes", type=int, default=1000)
