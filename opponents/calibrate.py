@@ -67,15 +67,12 @@ class Cell:
         return wilson_interval(self.successes, self.episodes)
 
 
-def wilson_interval(successes: int, n: int, z: float = 1.959963984540054) -> tuple[float, float]:
-    """Wilson score interval of a binomial proportion (95% by default)."""
+def wilson_interval(successes: int, n: int) -> tuple[float, float]:
+    """95% Wilson score interval of a binomial proportion (scipy's; (0, 1) when n = 0)."""
     if n <= 0:
         return 0.0, 1.0
-    p = successes / n
-    denom = 1.0 + z * z / n
-    centre = (p + z * z / (2 * n)) / denom
-    half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return max(0.0, float(centre - half)), min(1.0, float(centre + half))
+    ci = stats.binomtest(int(successes), int(n)).proportion_ci(method="wilson")
+    return float(ci.low), float(ci.high)
 
 
 def evaluate(
