@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import os
 from collections.abc import Sequence
+from typing import Self
 
 import numpy as np
 
@@ -209,6 +210,15 @@ class _LinearQ:
         meta = {"schema": POLICY_SCHEMA, "n_primitive": self.n_primitive}
         save_npz_atomic(path, arrays, meta)
 
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> Self:
+        """Load a policy saved by :meth:`save` (of either class) as one of this class."""
+        coder, n_primitive, option_ids, weights = cls._read(path)
+        try:
+            return cls(coder, n_primitive, option_ids, weights)
+        except (ValueError, TypeError) as exc:
+            raise ValueError(f"{os.fspath(path)}: {exc}") from exc
+
     @staticmethod
     def _read(path: str | os.PathLike[str]) -> tuple[TileCoder, int, np.ndarray, np.ndarray]:
         required = {
@@ -274,15 +284,6 @@ class LinearPolicy(_LinearQ):
         """An immutable copy of the current policy."""
         return FrozenPolicy(self.tile_coder, self.n_primitive, self.option_ids, self.weights)
 
-    @classmethod
-    def load(cls, path: str | os.PathLike[str]) -> LinearPolicy:
-        """Load a policy saved by :meth:`save` (of either class) as a mutable one."""
-        coder, n_primitive, option_ids, weights = cls._read(path)
-        try:
-            return cls(coder, n_primitive, option_ids, weights)
-        except (ValueError, TypeError) as exc:
-            raise ValueError(f"{os.fspath(path)}: {exc}") from exc
-
 
 class FrozenPolicy(_LinearQ):
     """Immutable snapshot of a :class:`LinearPolicy` (same parameters as its ``__init__``).
@@ -313,12 +314,3 @@ class FrozenPolicy(_LinearQ):
     def thaw(self) -> LinearPolicy:
         """A mutable copy (e.g. to continue learning from this policy)."""
         return LinearPolicy(self.tile_coder, self.n_primitive, self.option_ids, self.weights)
-
-    @classmethod
-    def load(cls, path: str | os.PathLike[str]) -> FrozenPolicy:
-        """Load a policy saved by :meth:`save` (of either class) as a frozen one."""
-        coder, n_primitive, option_ids, weights = cls._read(path)
-        try:
-            return cls(coder, n_primitive, option_ids, weights)
-        except (ValueError, TypeError) as exc:
-            raise ValueError(f"{os.fspath(path)}: {exc}") from exc
