@@ -89,6 +89,21 @@ def plot_kernels_on_field(
     return _save_figure(fig, path)
 
 
+def greedy_episodes(
+    learner: LifelongLearner, env: Any, seeds: range | list[int], policy_index: int = -1
+) -> list[dict[str, Any]]:
+    """Play a learnt policy greedily, as :func:`write_agent_gif` does but without frames,
+    once per seed: ``[{"seed", "outcome", "reward", "options"}]`` (option ids run)."""
+    policy = learner.policies[policy_index]
+    out = []
+    for seed in seeds:
+        agent = SmdpLearner.from_policy(policy, learner.library, epsilon=0.0, seed=seed)
+        result = agent.run_episode(env, learn=False, seed=seed)
+        out.append({"seed": seed, "outcome": result.outcome, "reward": result.total_reward,
+                    "options": [run.option_id for run in result.option_runs]})
+    return out
+
+
 def write_agent_gif(
     learner: LifelongLearner,
     env: Any,
