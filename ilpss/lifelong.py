@@ -56,6 +56,10 @@ class LearnerConfig:
     """Also apply intra-option updates."""
     initial_value: float = 0.0
     """Initial action value of every choice."""
+    option_initial_value: float | None = None
+    """Initial value of every option's Q (``None``: ``initial_value``)."""
+    trace_decay: float = 0.0
+    """``lambda`` of the eligibility traces over choice points (0: one-step updates)."""
     n_tilings: int = 32
     """One-dimensional tilings per feature."""
     tile_widths: tuple[float, ...] | None = None
@@ -221,7 +225,8 @@ class LifelongLearner:
         return SmdpLearner(
             self.n_primitive, self.tile_coder, library, alpha=lc.alpha, epsilon=lc.epsilon,
             gamma=lc.gamma, method=lc.method, intra_option=lc.intra_option,
-            initial_value=lc.initial_value, seed=seed,
+            initial_value=lc.initial_value, option_initial_value=lc.option_initial_value,
+            trace_decay=lc.trace_decay, seed=seed,
         )
 
     def learn(

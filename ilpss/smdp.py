@@ -30,6 +30,14 @@ truncated episode (time limit) is treated as terminal by default, because the dr
 its failure reward at the time limit, which makes the limit part of the task; pass
 ``bootstrap_on_truncation=True`` for environments where truncation is not.
 
+With ``trace_decay = lambda > 0`` the error ``delta`` of each choice point's update is
+also applied to the earlier choice points of the episode, weighted by their
+eligibility (Sarsa(lambda); Watkins's Q(lambda) for ``method="q"``, whose traces are cut
+after an exploratory choice). A choice point enters with eligibility 1, and after a
+choice of duration ``D`` every eligibility is multiplied by ``gamma ** D * lambda`` and
+dropped below 0.01. Keepaway learns with ``lambda = 0``; a positive ``lambda`` carries
+the drill's end-of-episode reward back along the ~15 decisions of an episode at once.
+
 With ``intra_option=True`` every primitive step also updates, one step at a time, the
 primitive action taken and every *other* offered option whose policy would have taken
 the same action at that state (intra-option Q-learning, Sutton, Precup and Singh 1999):
@@ -56,6 +64,8 @@ from ilpss.policy import FrozenPolicy, LinearPolicy, greedy_choice
 from ilpss.tiles import KEEPAWAY_ALPHA, TileCoder
 
 __all__ = ["EpisodeResult", "OptionRun", "SmdpLearner", "options_used"]
+
+_MIN_TRACE = 0.01  # eligibilities below this are dropped (keepaway's cut-off)
 
 
 @dataclass(frozen=True)
@@ -156,6 +166,14 @@ class SmdpLearner:
     bootstrap_on_truncation : bool, default False
     initial_value : float, default 0.0
         Initial value of every Q(s, c).
+    option_initial_value : float, optional
+        Initial value of every option's Q(s, o) (default: ``initial_value``). Above
+        ``initial_value`` the learner tries the options before the primitives: the
+        paper's "search for a solution first in the policy subspace spanned by
+        behaviours that proved useful in the past".
+    trace_decay : float, default 0.0
+        ``lambda`` of eligibility traces over choice points (0: one-step SMDP updates,
+        keepaway's setting). See the module docstring.
     seed : int or numpy.random.Generator, optional
     max_decisions : int, default 100_000
         Safety bound on the steps of one episode (an error beyond it).
@@ -174,6 +192,8 @@ class SmdpLearner:
         intra_option: bool = False,
         bootstrap_on_truncation: bool = False,
         initial_value: float = 0.0,
+        option_initial_value: float | None = None,
+        trace_decay: float = 0.0,
         seed: int | np.random.Generator | None = None,
         max_decisions: int = 100_000,
     ) -> None:
@@ -185,6 +205,8 @@ class SmdpLearner:
             raise ValueError(f"epsilon must be in [0, 1], got {epsilon}")
         if not 0.0 <= gamma <= 1.0:
             raise ValueError(f"gamma must be in [0, 1], got {gamma}")
+        if not (isinstance(trace_decay, int | float) and 0.0 <= trace_decay <= 1.0):
+            raise ValueError(f"trace_decay must be in [0, 1], got {trace_decay!r}")
         if method not in ("sarsa", "q"):
             raise ValueError(f"method must be 'sarsa' or 'q', got {method!r}")
         if library is not None:
@@ -202,6 +224,10 @@ class SmdpLearner:
                 )
         option_ids = () if library is None else tuple(int(o) for o in library.option_ids)
         self.q = LinearPolicy(tile_coder, n_primitive, option_ids, initial_value=initial_value)
+        if option_initial_value is not None:
+            if not math.isfinite(option_initial_value):
+                raise ValueError(f"option_initial_value must be finite, got {option_initial_value}")
+            self.q.weights[n_primitive:] = option_initial_value / tile_coder.n_active
         self.tile_coder = tile_coder
         self.library = library
         self.n_primitive = int(n_primitive)
@@ -211,6 +237,7 @@ class SmdpLearner:
         self.method = method
         self.intra_option = bool(intra_option)
         self.bootstrap_on_truncation = bool(bootstrap_on_truncation)
+        self.trace_decay = float(trace_decay)
         self.max_decisions = int(max_decisions)
         self.rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         self._step = self.alpha / tile_coder.n_active
@@ -425,6 +452,7 @@ class SmdpLearner:
         cycles = 0
         info: dict[str, Any] = {}
         terminated = truncated = False
+        traces: list[list] = []  # [tiles, choice, eligibility] of earlier choice points
 
         active = self.tile_coder.active(s)
         mask, m = self._choice_mask(s)
@@ -482,7 +510,7 @@ class SmdpLearner:
                 )
             if ended and not bootstrap_end:
                 if learn:
-                    self._update(start_active, choice, ret)
+                    self._td_update(traces, start_active, choice, ret, 0.0, True)
                 break
             # Next choice point at s (or, for a bootstrapped truncation, the final state).
             if ended:
@@ -497,7 +525,9 @@ class SmdpLearner:
             next_choice, explored = self._choose(q, mask, epsilon)
             if learn:
                 target = ret + disc * self._bootstrap(q, mask, next_choice)
-                self._update(start_active, choice, target)
+                # Watkins's Q(lambda): an exploratory choice cuts the traces.
+                cut = self.method == "q" and explored
+                self._td_update(traces, start_active, choice, target, disc * self.trace_decay, cut)
             if ended:
                 break
             choice = next_choice
@@ -529,6 +559,30 @@ class SmdpLearner:
         """Move Q(s, choice) toward ``target`` (Q recomputed: earlier updates may share tiles)."""
         current = float(np.take(self.q.weights[choice], active).sum())
         self.q.update(active, choice, self._step * (target - current))
+
+    def _td_update(
+        self, traces: list[list], active: np.ndarray, choice: int, target: float,
+        decay: float, cut: bool,
+    ) -> None:
+        """The update of one choice point, spread back along the eligibility traces.
+
+        ``decay`` is ``gamma ** D * lambda`` for the choice's duration ``D``; ``cut``
+        clears the traces afterwards (episode end, or an exploratory choice next in
+        Q-learning).
+        """
+        if self.trace_decay == 0.0:
+            self._update(active, choice, target)
+            return
+        delta = target - float(np.take(self.q.weights[choice], active).sum())
+        traces.append([active, choice, 1.0])
+        for tiles, c, e in traces:
+            self.q.update(tiles, c, self._step * delta * e)
+        if cut:
+            traces.clear()
+            return
+        for entry in traces:
+            entry[2] *= decay
+        traces[:] = [entry for entry in traces if entry[2] >= _MIN_TRACE]
 
     def train(
         self,

@@ -222,6 +222,51 @@ def test_primitive_updates_and_terminal_target() -> None:
     assert learner.q.q_values(np.array([1.0]))[2] == pytest.approx(4 + alpha * (2.0 - 4.0))
 
 
+@pytest.mark.parametrize("lam", [0.0, 0.7])
+def test_eligibility_traces_carry_later_errors_back(lam: float) -> None:
+    env = ScriptedChain([1.0, 2.0], [3, 2])
+    alpha, gamma = 0.25, 0.5
+    learner = SmdpLearner(3, chain_coder(2), alpha=alpha, epsilon=0.0, gamma=gamma,
+                          trace_decay=lam, seed=0)
+    set_q(learner, 0.0, 1, 1.0)
+    set_q(learner, 1.0, 2, 4.0)
+    learner.run_episode(env)
+    # delta_1 = 1 + g^3 * 4 - 1; the terminal delta_2 = 2 - 4 also reaches Q(0, 1)
+    # with eligibility g^3 * lambda (zero when lambda = 0).
+    expected = 1 + alpha * gamma**3 * 4.0 + alpha * (2.0 - 4.0) * gamma**3 * lam
+    assert learner.q.q_values(np.array([0.0]))[1] == pytest.approx(expected)
+    assert learner.q.q_values(np.array([1.0]))[2] == pytest.approx(4 + alpha * (2.0 - 4.0))
+
+
+def test_watkins_traces_are_cut_by_exploratory_choices() -> None:
+    """With epsilon = 1 every choice explores, so Q(lambda) equals one-step Q-learning."""
+    weights = []
+    for lam in (0.0, 0.9):
+        learner = SmdpLearner(3, corridor_coder(), method="q", epsilon=1.0, trace_decay=lam,
+                              seed=3)
+        learner.train(ZoneCorridor(), 30, seed=1)
+        weights.append(learner.q.weights.copy())
+    np.testing.assert_array_equal(weights[0], weights[1])
+    sarsa = SmdpLearner(3, corridor_coder(), epsilon=1.0, trace_decay=0.9, seed=3)
+    sarsa.train(ZoneCorridor(), 30, seed=1)
+    assert not np.array_equal(sarsa.q.weights, weights[0])  # Sarsa(lambda) keeps its traces
+
+
+@pytest.mark.parametrize("method", ["sarsa", "q"])
+def test_converges_with_eligibility_traces(method: str) -> None:
+    learner = SmdpLearner(3, corridor_coder(), gamma=GAMMA, method=method, initial_value=1.0,
+                          trace_decay=0.8, seed=0)
+    learner.train(ZoneCorridor(), 2000, seed=10)
+    rng = np.random.default_rng(0)
+    assert all(greedy_primitive(learner, x, rng) == optimal_action(x) for x in interior_points())
+    assert np.mean([is_optimal_episode(r) for r in learner.evaluate(ZoneCorridor(), 300, seed=99)]) >= 0.9
+
+
+def test_trace_decay_outside_unit_interval_is_refused() -> None:
+    with pytest.raises(ValueError, match="trace_decay"):
+        SmdpLearner(3, corridor_coder(), trace_decay=1.5)
+
+
 def test_learn_false_leaves_weights_alone() -> None:
     learner = SmdpLearner(3, corridor_coder(), seed=0, initial_value=0.3)
     before = learner.q.weights.copy()
