@@ -31,11 +31,12 @@ its failure reward at the time limit, which makes the limit part of the task; pa
 ``bootstrap_on_truncation=True`` for environments where truncation is not.
 
 With ``trace_decay = lambda > 0`` the error ``delta`` of each choice point's update is
-also applied to the earlier choice points of the episode, weighted by their
-eligibility (Sarsa(lambda); Watkins's Q(lambda) for ``method="q"``, whose traces are cut
-after an exploratory choice). A choice point enters with eligibility 1, and after a
-choice of duration ``D`` every eligibility is multiplied by ``gamma ** D * lambda`` and
-dropped below 0.01. Keepaway learns with ``lambda = 0``; a positive ``lambda`` carries
+also applied to the weights of earlier choice points of the episode, in proportion to
+their eligibility (Sarsa(lambda); Watkins's Q(lambda) for ``method="q"``, whose traces
+are cut after an exploratory choice). Traces are keepaway's *replacing* traces on
+tiles: the active tiles of a choice point get eligibility 1 for the choice made and 0
+for the other choices; after a choice of duration ``D`` every eligibility is multiplied
+by ``gamma ** D * lambda`` and dropped below 0.01. Keepaway learns with ``lambda = 0``; a positive ``lambda`` carries
 the drill's end-of-episode reward back along the ~15 decisions of an episode at once.
 
 With ``intra_option=True`` every primitive step also updates, one step at a time, the
@@ -452,7 +453,8 @@ class SmdpLearner:
         cycles = 0
         info: dict[str, Any] = {}
         terminated = truncated = False
-        traces: list[list] = []  # [tiles, choice, eligibility] of earlier choice points
+        # One eligibility per weight, only when lambda > 0.
+        traces = np.zeros_like(self.q.weights) if self.trace_decay > 0.0 else None
 
         active = self.tile_coder.active(s)
         mask, m = self._choice_mask(s)
@@ -561,28 +563,31 @@ class SmdpLearner:
         self.q.update(active, choice, self._step * (target - current))
 
     def _td_update(
-        self, traces: list[list], active: np.ndarray, choice: int, target: float,
+        self, traces: np.ndarray | None, active: np.ndarray, choice: int, target: float,
         decay: float, cut: bool,
     ) -> None:
         """The update of one choice point, spread back along the eligibility traces.
 
+        ``traces`` holds one replacing trace per weight (``None`` when ``lambda = 0``);
         ``decay`` is ``gamma ** D * lambda`` for the choice's duration ``D``; ``cut``
         clears the traces afterwards (episode end, or an exploratory choice next in
         Q-learning).
         """
-        if self.trace_decay == 0.0:
+        if traces is None:
             self._update(active, choice, target)
             return
         delta = target - float(np.take(self.q.weights[choice], active).sum())
-        traces.append([active, choice, 1.0])
-        for tiles, c, e in traces:
-            self.q.update(tiles, c, self._step * delta * e)
+        # Replacing traces on tiles (keepaway): the tiles of this state get eligibility 1
+        # for this choice and 0 for the others, so tiles shared by successive states
+        # are not counted twice (accumulating traces would multiply the step size).
+        traces[:, active] = 0.0
+        traces[choice, active] = 1.0
+        self.q.weights += (self._step * delta) * traces
         if cut:
-            traces.clear()
-            return
-        for entry in traces:
-            entry[2] *= decay
-        traces[:] = [entry for entry in traces if entry[2] >= _MIN_TRACE]
+            traces.fill(0.0)
+        else:
+            traces *= decay
+            traces[traces < _MIN_TRACE] = 0.0
 
     def train(
         self,

@@ -2,8 +2,10 @@
 
     ilpss-holder-learning --episodes 1000 --eval 500 --seeds 3 --out docs/learning.md
 
-For every team: learn with :class:`~ilpss.smdp.SmdpLearner` (keepaway's settings, no
-options) for ``--episodes`` episodes per seed, then evaluate the greedy policy on
+For every team: learn with :class:`~ilpss.smdp.SmdpLearner` (the settings of
+:class:`~ilpss.lifelong.LearnerConfig` unless overridden by ``--method``,
+``--trace-decay``, ``--initial-value``, ``--alpha``; no options) for ``--episodes``
+episodes per seed, then evaluate the greedy policy on
 ``--eval`` seeded episodes; evaluate every fixed holder rule on the same episode
 seeds. Mean reward with a 95% t interval and success rate with a Wilson interval.
 The fixed rules are looked up by name (``--rules module:attribute``), so this module
@@ -25,6 +27,7 @@ from scipy import stats
 from ilpss._io import atomic_write_bytes
 from ilpss.experiments.config import DRILL_ENV_ID, DRILL_TILE_WIDTHS, PAPER_TEAMS
 from ilpss.experiments.executor import LocalExecutor
+from ilpss.lifelong import LearnerConfig
 from ilpss.metrics import wilson_interval
 from ilpss.smdp import SmdpLearner
 from ilpss.tiles import TileCoder
@@ -51,12 +54,15 @@ def _evaluate(env: gym.Env, act, n: int) -> np.ndarray:
     return rewards
 
 
-def learn_and_evaluate(job: tuple[str, int, int, int]) -> dict[str, Any]:
+def learn_and_evaluate(job: tuple[str, int, int, int, LearnerConfig]) -> dict[str, Any]:
     """Learn on one team with one seed, then evaluate the greedy policy."""
-    team, seed, episodes, n_eval = job
+    team, seed, episodes, n_eval, lc = job
     env = gym.make(DRILL_ENV_ID, opponent=team, disable_env_checker=True)
-    coder = TileCoder.from_space(env.observation_space, np.asarray(DRILL_TILE_WIDTHS))
-    learner = SmdpLearner(3, coder, seed=seed)
+    coder = TileCoder.from_space(env.observation_space, np.asarray(DRILL_TILE_WIDTHS),
+                                 n_tilings=lc.n_tilings)
+    learner = SmdpLearner(3, coder, alpha=lc.alpha, epsilon=lc.epsilon, gamma=lc.gamma,
+                          method=lc.method, initial_value=lc.initial_value,
+                          trace_decay=lc.trace_decay, seed=seed)
     curve = [r.total_reward for r in learner.train(env, episodes, seed=seed)]
     rng = np.random.default_rng(seed)
     rewards = _evaluate(env, lambda obs: learner.q.greedy(np.asarray(obs, float), rng), n_eval)
@@ -90,11 +96,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--seeds", type=int, default=3)
     p.add_argument("--rules", default="soccer_drill.policies:HOLDER_POLICIES")
     p.add_argument("--workers", type=int, default=2)
+    defaults = LearnerConfig()
+    p.add_argument("--method", choices=["sarsa", "q"], default=defaults.method)
+    p.add_argument("--trace-decay", type=float, default=defaults.trace_decay, help="lambda")
+    p.add_argument("--initial-value", type=float, default=defaults.initial_value)
+    p.add_argument("--alpha", type=float, default=defaults.alpha)
     p.add_argument("--out", default="docs/learning.md")
     args = p.parse_args(argv)
+    lc = LearnerConfig(alpha=args.alpha, method=args.method, initial_value=args.initial_value,
+                       trace_decay=args.trace_decay)
     pool = LocalExecutor(args.workers)
     learnt = pool.map(learn_and_evaluate,
-                      [(t, s, args.episodes, args.eval) for t in args.teams for s in range(args.seeds)],
+                      [(t, s, args.episodes, args.eval, lc) for t in args.teams
+                       for s in range(args.seeds)],
                       desc="learning")
     names = sorted(_rules(args.rules))
     fixed = pool.map(rule_rewards, [(t, args.rules, n, args.eval) for t in args.teams for n in names],
@@ -103,9 +117,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         "# SMDP learning against the best fixed holder rule",
         "",
         f"Command: `ilpss-holder-learning --episodes {args.episodes} --eval {args.eval} "
-        f"--seeds {args.seeds}`. Learning: SMDP Sarsa, keepaway's tile coding and step size, "
-        f"epsilon 0.01, no options, {args.episodes} episodes per seed. Evaluation: the greedy "
-        f"policy of each seed and every fixed rule on the same {args.eval} episode seeds "
+        f"--seeds {args.seeds} --method {lc.method} --trace-decay {lc.trace_decay:g} "
+        f"--initial-value {lc.initial_value:g} --alpha {lc.alpha:g}`. Learning: SMDP "
+        f"{'Q' if lc.method == 'q' else 'Sarsa'}({lc.trace_decay:g}) with replacing traces, "
+        f"keepaway's tile coding, step size {lc.alpha:g}, epsilon {lc.epsilon:g}, initial "
+        f"values {lc.initial_value:g}, no options, {args.episodes} episodes per seed. "
+        f"Evaluation: the greedy policy of each seed and every fixed rule on the same {args.eval} episode seeds "
         "(unseen in learning). Mean reward with a 95% t interval; success rate with a 95% "
         "Wilson interval.",
         "",
