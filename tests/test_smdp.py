@@ -238,6 +238,21 @@ def test_eligibility_traces_carry_later_errors_back(lam: float) -> None:
     assert learner.q.q_values(np.array([1.0]))[2] == pytest.approx(4 + alpha * (2.0 - 4.0))
 
 
+def test_traces_replace_rather_than_accumulate_on_shared_tiles() -> None:
+    """Two successive states in one tile: its eligibility is reset to 1, not 1 + g^3 lambda."""
+    env = ScriptedChain([1.0, 2.0], [3, 2])
+    alpha, gamma, lam = 0.25, 0.5, 0.7
+    coder = TileCoder([0.0], [2.0], [10.0], n_tilings=1)  # states 0 and 1 share the tile
+    learner = SmdpLearner(3, coder, alpha=alpha, epsilon=0.0, gamma=gamma, trace_decay=lam,
+                          seed=0)
+    learner.q.weights[1] = 1.0  # action 1 is greedy everywhere
+    learner.run_episode(env)
+    assert env.actions == [1, 1]
+    after_first = 1 + alpha * gamma**3  # delta_1 = 1 + g^3 * 1 - 1
+    expected = after_first + alpha * (2.0 - after_first)  # eligibility 1 at the end
+    assert learner.q.q_values(np.array([0.0]))[1] == pytest.approx(expected)
+
+
 def test_watkins_traces_are_cut_by_exploratory_choices() -> None:
     """With epsilon = 1 every choice explores, so Q(lambda) equals one-step Q-learning."""
     weights = []
