@@ -242,6 +242,7 @@ class SmdpLearner:
         self.max_decisions = int(max_decisions)
         self.rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         self._step = self.alpha / tile_coder.n_active
+        self._live_rows: set[int] = set()
         self._lib_version: tuple[int, int] | None = None
         self._lib_pos = np.zeros(0, dtype=np.int64)
         self._lib_ok = np.zeros(0, dtype=bool)
@@ -455,6 +456,7 @@ class SmdpLearner:
         terminated = truncated = False
         # One eligibility per weight, only when lambda > 0.
         traces = np.zeros_like(self.q.weights) if self.trace_decay > 0.0 else None
+        self._live_rows: set[int] = set()  # rows of `traces` with a non-zero eligibility
 
         active = self.tile_coder.active(s)
         mask, m = self._choice_mask(s)
@@ -580,14 +582,25 @@ class SmdpLearner:
         # Replacing traces on tiles (keepaway): the tiles of this state get eligibility 1
         # for this choice and 0 for the others, so tiles shared by successive states
         # are not counted twice (accumulating traces would multiply the step size).
-        traces[:, active] = 0.0
+        live = self._live_rows
+        for row in live:
+            traces[row, active] = 0.0
         traces[choice, active] = 1.0
-        self.q.weights += (self._step * delta) * traces
+        live.add(choice)
+        step = self._step * delta
+        for row in live:  # only rows with eligible tiles: other rows would add zeros
+            self.q.weights[row] += step * traces[row]
         if cut:
-            traces.fill(0.0)
-        else:
-            traces *= decay
-            traces[traces < _MIN_TRACE] = 0.0
+            for row in live:
+                traces[row] = 0.0
+            live.clear()
+            return
+        for row in list(live):
+            e = traces[row]
+            e *= decay
+            e[e < _MIN_TRACE] = 0.0
+            if not e.any():
+                live.discard(row)
 
     def train(
         self,
