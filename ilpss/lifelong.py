@@ -19,7 +19,9 @@ The loop talks to environments only through the Gymnasium API.
 
 from __future__ import annotations
 
+import hashlib
 import json
+import math
 import os
 import shutil
 from collections.abc import Callable
@@ -71,6 +73,38 @@ class LearnerConfig:
     tile_widths: tuple[float, ...] | None = None
     """Tile width per feature, in its units; ``None``: a tenth of each feature's range."""
 
+    def __post_init__(self) -> None:
+        # Checked here, by name: configurations come from JSON files, and the SmdpLearner
+        # would only refuse a bad value at the first trial, without naming the field.
+        _check_real("LearnerConfig.alpha", self.alpha, 0.0, math.inf, low_open=True)
+        _check_real("LearnerConfig.epsilon", self.epsilon, 0.0, 1.0)
+        _check_real("LearnerConfig.gamma", self.gamma, 0.0, 1.0)
+        _check_real("LearnerConfig.trace_decay", self.trace_decay, 0.0, 1.0)
+        _check_real("LearnerConfig.initial_value", self.initial_value, -math.inf, math.inf)
+        if self.option_initial_value is not None:
+            _check_real("LearnerConfig.option_initial_value", self.option_initial_value,
+                        -math.inf, math.inf)
+        if self.method not in ("sarsa", "q"):
+            raise ValueError(f"LearnerConfig.method must be 'sarsa' or 'q', got {self.method!r}")
+        if not isinstance(self.intra_option, bool):
+            raise ValueError(
+                f"LearnerConfig.intra_option must be true or false, got {self.intra_option!r}"
+            )
+        if not _is_int(self.n_tilings) or self.n_tilings < 1:
+            raise ValueError(
+                f"LearnerConfig.n_tilings must be an integer >= 1, got {self.n_tilings!r}"
+            )
+        widths = self.tile_widths
+        if widths is not None and (
+            not isinstance(widths, tuple)
+            or not widths
+            or not all(_is_real(w) and 0 < w < math.inf for w in widths)
+        ):
+            raise ValueError(
+                "LearnerConfig.tile_widths must be None or a non-empty tuple of finite "
+                f"numbers > 0, got {widths!r}"
+            )
+
 
 @dataclass(frozen=True)
 class LifelongConfig:
@@ -103,6 +137,11 @@ class LifelongConfig:
     """The SMDP learner's hyper-parameters."""
 
     def __post_init__(self) -> None:
+        if not isinstance(self.learner, LearnerConfig):
+            raise ValueError(
+                "LifelongConfig.learner must be a LearnerConfig (from_dict takes a dict), "
+                f"got {type(self.learner).__name__}"
+            )
         for name in ("n_kernels", "train_episodes", "rollout_episodes", "max_depth",
                      "kernel_n_init", "kernel_max_iter"):
             value = getattr(self, name)
@@ -115,12 +154,17 @@ class LifelongConfig:
                 "LifelongConfig.options must be 'kernels', 'whole_policies' or 'none', "
                 f"got {self.options!r}"
             )
-        if not 0.0 < self.discount <= 1.0:
+        if not (_is_real(self.discount) and 0.0 < self.discount <= 1.0):
             raise ValueError(f"LifelongConfig.discount must lie in (0, 1], got {self.discount!r}")
-        if not 0.0 <= self.prune_threshold < 1.0:
+        if not (_is_real(self.prune_threshold) and 0.0 <= self.prune_threshold < 1.0):
             raise ValueError(
                 f"LifelongConfig.prune_threshold must lie in [0, 1), got {self.prune_threshold!r}"
             )
+        if self.max_match_distance is not None:
+            _check_real(
+                "LifelongConfig.max_match_distance", self.max_match_distance, 0.0, math.inf
+            )
+        _check_real("LifelongConfig.kernel_reg_covar", self.kernel_reg_covar, 0.0, math.inf)
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict."""
@@ -129,13 +173,58 @@ class LifelongConfig:
     @classmethod
     def from_dict(cls, values: dict[str, Any]) -> LifelongConfig:
         """Inverse of :meth:`to_dict`; unknown keys are refused by name."""
+        if not isinstance(values, dict):
+            raise ValueError(f"a LifelongConfig must be a dict, got {type(values).__name__}")
         values = dict(values)
         _refuse_unknown(cls, values)
-        learner = dict(values.pop("learner", {}))
+        learner = values.pop("learner", {})
+        if not isinstance(learner, dict):
+            raise ValueError(
+                f"LifelongConfig.learner must be a dict of LearnerConfig fields, "
+                f"got {type(learner).__name__}"
+            )
+        learner = dict(learner)
         _refuse_unknown(LearnerConfig, learner)
-        if learner.get("tile_widths") is not None:
-            learner["tile_widths"] = tuple(float(w) for w in learner["tile_widths"])
+        widths = learner.get("tile_widths")
+        if widths is not None:
+            if not isinstance(widths, list | tuple):
+                raise ValueError(
+                    f"LearnerConfig.tile_widths must be a list of numbers, got {widths!r}"
+                )
+            # JSON gives lists (and ints for whole numbers); __post_init__ checks each width.
+            learner["tile_widths"] = tuple(float(w) if _is_real(w) else w for w in widths)
         return cls(**values, learner=LearnerConfig(**learner))
+
+
+def _is_real(value: object) -> bool:
+    """A real number, not a bool (nor a string, which JSON may carry by mistake)."""
+    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
+        value, bool
+    )
+
+
+def _is_int(value: object) -> bool:
+    return isinstance(value, int | np.integer) and not isinstance(value, bool)
+
+
+def _check_real(
+    name: str, value: object, low: float, high: float, *, low_open: bool = False
+) -> None:
+    """Refuse anything but a finite real number in ``[low, high]`` (``(low, high]``)."""
+    if (
+        _is_real(value)
+        and math.isfinite(value)  # type: ignore[arg-type]
+        and (low < value if low_open else low <= value)  # type: ignore[operator]
+        and value <= high  # type: ignore[operator]
+    ):
+        return
+    if math.isinf(low) and math.isinf(high):
+        allowed = ""
+    elif math.isinf(high):
+        allowed = f" {'>' if low_open else '>='} {low:g}"
+    else:
+        allowed = f" in {'(' if low_open else '['}{low:g}, {high:g}]"
+    raise ValueError(f"{name} must be a finite number{allowed}, got {value!r}")
 
 
 def _refuse_unknown(cls: type, values: dict[str, Any]) -> None:
@@ -352,8 +441,14 @@ class LifelongLearner:
             {f"bag_{i}": b for i, b in enumerate(self.bags)},
             {"schema": CHECKPOINT_SCHEMA + "/bags", "n_bags": len(self.bags)},
         )
+        # A digest of every file, so a load refuses files mixed from different checkpoints.
+        files = {
+            p.relative_to(building).as_posix(): _sha256(p)
+            for p in sorted(building.rglob("*")) if p.is_file()
+        }
         state = {
             "schema": CHECKPOINT_SCHEMA,
+            "files": files,
             "seed": self.seed,
             "n_primitive": self.n_primitive,
             "config": self.config.to_dict(),
@@ -383,32 +478,77 @@ class LifelongLearner:
         if not name.startswith("trial_") or "/" in name:
             raise ValueError(f"{root / 'LATEST'}: malformed checkpoint name {name!r}")
         ckpt = root / name
+        state_path = ckpt / "state.json"
         try:
-            state = json.loads((ckpt / "state.json").read_text())
+            state = json.loads(state_path.read_text())
         except (OSError, json.JSONDecodeError) as exc:
-            raise ValueError(f"{ckpt / 'state.json'}: unreadable checkpoint state: {exc}") from exc
+            raise ValueError(f"{state_path}: unreadable checkpoint state: {exc}") from exc
+        if not isinstance(state, dict):
+            raise ValueError(f"{state_path}: not a JSON object")
         if state.get("schema") != CHECKPOINT_SCHEMA:
             raise ValueError(
                 f"{ckpt}: schema {state.get('schema')!r} is not {CHECKPOINT_SCHEMA!r}"
             )
-        learner = cls(
-            LifelongConfig.from_dict(state["config"]), observation_space,
-            state["n_primitive"], state["seed"],
-        )
-        learner.records = [
-            TrialRecord(**{**r, **{k: tuple(r[k]) for k in
-                                   ("rewards", "options_used", "options_pruned")}})
-            for r in state["records"]
-        ]
+        missing = sorted({"seed", "n_primitive", "config", "kernel", "records"} - set(state))
+        if missing:
+            raise ValueError(f"{state_path}: missing field(s) {missing}")
+        if not _is_int(state["seed"]) or state["seed"] < 0:
+            raise ValueError(f"{state_path}: seed must be an integer >= 0, got {state['seed']!r}")
+        if not _is_int(state["n_primitive"]) or state["n_primitive"] < 1:
+            raise ValueError(
+                f"{state_path}: n_primitive must be an integer >= 1, got {state['n_primitive']!r}"
+            )
+        if state["kernel"] not in (None, "SharedKernelModel", "UniformKernel"):
+            raise ValueError(f"{state_path}: unknown kernel model {state['kernel']!r}")
+        try:
+            config = LifelongConfig.from_dict(state["config"])
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{state_path}: {exc}") from exc
+        learner = cls(config, observation_space, state["n_primitive"], state["seed"])
+        try:
+            learner.records = [
+                TrialRecord(**{**r, **{k: tuple(r[k]) for k in
+                                       ("rewards", "options_used", "options_pruned")}})
+                for r in state["records"]
+            ]
+        except (TypeError, KeyError) as exc:
+            raise ValueError(f"{state_path}: malformed trial records: {exc!r}") from exc
         n = len(learner.records)
+        if name != f"trial_{n:04d}":
+            raise ValueError(f"{ckpt}: holds {n} trial records, but its name says {name}")
         arrays, _ = load_npz(
             ckpt / "bags.npz", CHECKPOINT_SCHEMA + "/bags",
             {f"bag_{i}": ((None, learner.tile_coder.n_features), "f") for i in range(n)},
         )
         learner.bags = [arrays[f"bag_{i}"] for i in range(n)]
+        for i, bag in enumerate(learner.bags):
+            if not np.isfinite(bag).all():
+                raise ValueError(f"{ckpt / 'bags.npz'}: bag_{i} has non-finite states")
         learner.policies = [FrozenPolicy.load(ckpt / f"policy_{i}.npz") for i in range(n)]
-        if (ckpt / "library").exists():
+        for i, policy in enumerate(learner.policies):
+            if policy.tile_coder != learner.tile_coder:
+                raise ValueError(
+                    f"{ckpt / f'policy_{i}.npz'}: its tile coder is not the one the "
+                    "checkpoint's configuration and observation space give"
+                )
+        library = ckpt / "library"
+        if state["kernel"] is not None and not library.is_dir():
+            raise ValueError(
+                f"{ckpt}: the option library is missing (the state names a "
+                f"{state['kernel']} kernel model)"
+            )
+        if library.exists():
             loader = UniformKernel.load if state["kernel"] == "UniformKernel" else None
-            learner.library = OptionLibrary.load(ckpt / "library", kernel_loader=loader)
+            learner.library = OptionLibrary.load(library, kernel_loader=loader)
             learner.kernel_model = learner.library.kernel_model
+        # Last, so that the errors above say what is wrong; this catches files that
+        # load but were mixed in from another checkpoint. (Absent in older checkpoints.)
+        for rel, digest in (state.get("files") or {}).items():
+            path = ckpt / rel
+            if not path.is_file() or _sha256(path) != digest:
+                raise ValueError(f"{path}: missing, modified, or from another checkpoint")
         return learner
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()

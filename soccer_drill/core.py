@@ -15,7 +15,13 @@ from soccer_drill.features import feature_bounds, features, kinematic_bounds, ki
 from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS, Command, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillView
 from soccer_drill.support import SupportPlayer
-from soccer_drill.teams import Team, TeamDriver, make_team
+from soccer_drill.teams import (
+    DEFAULT_TEAM_TIMEOUT,
+    Team,
+    TeamDriver,
+    check_team_timeout,
+    make_team,
+)
 
 ObsType = Literal["features", "kinematic"]
 IllegalAction = Literal["raise", "default"]
@@ -54,6 +60,8 @@ class DrillCore:
         illegal_action: ``"raise"`` (a masked action is an error) or ``"default"``
             (it is replaced by the role's default: HOLD, GET_OPEN or INTERCEPT).
         scripted_attackers: attackers driven by :class:`SupportPlayer`.
+        team_timeout: seconds each ``reset``/``act`` call of the team may take, or
+            ``None`` for no bound (see :class:`~soccer_drill.teams.TeamDriver`).
     """
 
     def __init__(
@@ -64,6 +72,7 @@ class DrillCore:
         obs_type: ObsType = "features",
         illegal_action: IllegalAction = "raise",
         scripted_attackers: tuple[int, ...] = (),
+        team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
     ) -> None:
         if obs_type not in ("features", "kinematic"):
             raise ValueError(f"obs_type must be 'features' or 'kinematic', got {obs_type!r}")
@@ -71,6 +80,7 @@ class DrillCore:
             raise ValueError(
                 f"illegal_action must be 'raise' or 'default', got {illegal_action!r}"
             )
+        team_timeout = check_team_timeout(team_timeout)  # checked even without a team
         self.config = config
         self.drill = Drill(config)
         self.obs_type = obs_type
@@ -93,7 +103,9 @@ class DrillCore:
         self.scripted_attackers = tuple(sorted(scripted_attackers))
         self.support = SupportPlayer()
         self._driver = (
-            TeamDriver(self.team, self.team_name or "", PLAYER_NAMES[2:]) if self.team else None
+            TeamDriver(self.team, self.team_name or "", PLAYER_NAMES[2:], team_timeout)
+            if self.team
+            else None
         )
         self.view = DrillView(self.drill, PLAYER_NAMES[2:])
         if obs_type == "features":

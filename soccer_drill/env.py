@@ -14,7 +14,7 @@ from pettingzoo.utils import AgentSelector
 from soccer_drill.config import DrillConfig
 from soccer_drill.core import DrillCore, IllegalAction, ObsType, action_spaces, make_config
 from soccer_drill.state import PLAYER_NAMES
-from soccer_drill.teams import Team
+from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
 
 _METADATA = {
     "render_modes": ["human", "rgb_array"],
@@ -38,6 +38,7 @@ class _DrillEnvBase:
         config: DrillConfig | Mapping[str, Any] | None,
         render_mode: str | None,
         illegal_action: IllegalAction,
+        team_timeout: float | None,
     ) -> None:
         if render_mode is not None and render_mode not in _METADATA["render_modes"]:
             raise ValueError(
@@ -45,7 +46,9 @@ class _DrillEnvBase:
                 f"got {render_mode!r}"
             )
         cfg = make_config(config, max_cycles)
-        self._core = DrillCore(opponent, opponent_params, cfg, obs_type, illegal_action)
+        self._core = DrillCore(
+            opponent, opponent_params, cfg, obs_type, illegal_action, team_timeout=team_timeout
+        )
         self.config = cfg
         self.render_mode = render_mode
         self.possible_agents = [PLAYER_NAMES[i] for i in self._core.agent_indices]
@@ -181,6 +184,7 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``render_mode`` | ``None`` | ``"human"`` (a window) or ``"rgb_array"`` (off-screen) |
     | ``illegal_action`` | ``"raise"`` | ``"raise"`` or ``"default"`` (replace masked actions by the role's default) |
+    | ``team_timeout`` | ``1.0`` | seconds each ``reset``/``act`` call of the scripted team may take before it is stopped with ``TeamError`` naming it; ``None``: no bound (e.g. to debug a team). See ``soccer_drill.teams.TeamDriver`` |
 
     ``env(...)`` returns this class: the order and bounds checks of PettingZoo's
     standard wrappers are built in (cheaply), so no wrapper chain is added.
@@ -195,14 +199,16 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
         config: DrillConfig | Mapping[str, Any] | None = None,
         render_mode: str | None = None,
         illegal_action: IllegalAction = "raise",
+        team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
     ) -> None:
         EzPickle.__init__(
             self, opponent, opponent_params, obs_type, max_cycles, config, render_mode,
-            illegal_action,
+            illegal_action, team_timeout,
         )
         AECEnv.__init__(self)
         self._setup(
-            opponent, opponent_params, obs_type, max_cycles, config, render_mode, illegal_action
+            opponent, opponent_params, obs_type, max_cycles, config, render_mode, illegal_action,
+            team_timeout,
         )
         self._has_reset = False
         self.agents: list[str] = []
@@ -292,13 +298,15 @@ class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
         config: DrillConfig | Mapping[str, Any] | None = None,
         render_mode: str | None = None,
         illegal_action: IllegalAction = "raise",
+        team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
     ) -> None:
         EzPickle.__init__(
             self, opponent, opponent_params, obs_type, max_cycles, config, render_mode,
-            illegal_action,
+            illegal_action, team_timeout,
         )
         self._setup(
-            opponent, opponent_params, obs_type, max_cycles, config, render_mode, illegal_action
+            opponent, opponent_params, obs_type, max_cycles, config, render_mode, illegal_action,
+            team_timeout,
         )
         self.agents: list[str] = []
         self._has_reset = False

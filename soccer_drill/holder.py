@@ -13,7 +13,7 @@ from soccer_drill.config import DrillConfig
 from soccer_drill.core import DrillCore, make_config
 from soccer_drill.skills import HOLDER_ACTIONS, Command
 from soccer_drill.state import PLAYER_NAMES
-from soccer_drill.teams import Team
+from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
 
 _HOLDER_COMMANDS = tuple(Command(skill) for skill in HOLDER_ACTIONS)
 
@@ -70,6 +70,7 @@ class HolderEnv(gym.Env):
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``render_mode`` | ``None`` | ``"human"`` or ``"rgb_array"`` |
     | ``decision_cycles`` | ``4`` | cycles a ``HOLD`` or ``DRIBBLE`` lasts (fewer if possession changes); ``PASS`` lasts until an attacker controls the ball |
+    | ``team_timeout`` | ``1.0`` | seconds each ``reset``/``act`` call of the team may take before it is stopped with ``TeamError`` naming it; ``None``: no bound (see ``soccer_drill.teams.TeamDriver``) |
     """
 
     metadata: ClassVar[dict] = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
@@ -82,6 +83,7 @@ class HolderEnv(gym.Env):
         config: DrillConfig | Mapping[str, Any] | None = None,
         render_mode: str | None = None,
         decision_cycles: int = 4,
+        team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
     ) -> None:
         if not isinstance(decision_cycles, int) or isinstance(decision_cycles, bool) or not (
             1 <= decision_cycles <= 50
@@ -97,7 +99,8 @@ class HolderEnv(gym.Env):
             )
         self.config = make_config(config, max_cycles)
         self._core = DrillCore(
-            opponent, opponent_params, self.config, "features", scripted_attackers=(0, 1)
+            opponent, opponent_params, self.config, "features", scripted_attackers=(0, 1),
+            team_timeout=team_timeout,
         )
         self.observation_space = self._core.obs_box
         self.action_space = spaces.Discrete(len(HOLDER_ACTIONS))

@@ -133,7 +133,7 @@ def ball_interception_point(
     return x, y
 
 
-@functools.cache
+@functools.lru_cache(maxsize=64)
 def _roll_table(damping: float, cycle: float) -> tuple[tuple[float, float], ...]:
     """``(t, distance per unit initial speed)`` of a rolling ball, every 2 cycles for 3 s."""
     k = -math.log(max(damping, 1e-6))

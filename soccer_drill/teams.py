@@ -11,13 +11,21 @@ name is the id and its value a factory taking keyword parameters::
 
     [project.entry-points."soccer_drill.opponents"]
     my_team = "my_package.teams:MyTeam"
+
+Every call of a team's ``reset`` and ``act`` is bounded in time (``team_timeout``,
+1 s by default; see :class:`TeamDriver`), so a team that hangs fails with a
+:class:`TeamError` naming it instead of freezing an experiment.
 """
 
 from __future__ import annotations
 
 import math
+import numbers
+import signal
+import threading
+import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib.metadata import entry_points
 from typing import Any, Protocol, runtime_checkable
 
@@ -27,6 +35,18 @@ from soccer_drill.skills import BALL_SKILLS, Command, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillView
 
 ENTRY_POINT_GROUP = "soccer_drill.opponents"
+DEFAULT_TEAM_TIMEOUT = 1.0
+"""Seconds a team's ``reset`` or ``act`` may take (real time) before it is stopped."""
+
+try:
+    # The C functions under ``signal``'s enum wrappers: ``signal.signal`` costs ~2.7 us a
+    # call (it converts the returned handler to an enum through an exception), these
+    # ~0.3 us, which matters at two calls per drill cycle.
+    import _signal as _sig
+except ImportError:  # pragma: no cover - other Python implementations
+    _sig = signal  # type: ignore[assignment]
+_CAN_INTERRUPT = hasattr(signal, "setitimer") and hasattr(signal, "SIGALRM")
+_MAIN_THREAD = threading.main_thread().ident
 
 
 @runtime_checkable
@@ -41,25 +61,49 @@ class Team(Protocol):
 
 
 class TeamError(RuntimeError):
-    """A scripted team misbehaved (raised, or returned invalid commands)."""
+    """A scripted team misbehaved (raised, hung, or returned invalid commands)."""
 
 
-@dataclass(frozen=True)
+class _Overrun(BaseException):
+    """Raised inside a team's call when its time bound passes.
+
+    A ``BaseException``, so the ``except Exception`` blocks of a team do not swallow it.
+    """
+
+
+def check_team_timeout(team_timeout: object) -> float | None:
+    """``team_timeout`` as a float, or ``None``; refuses anything but a finite number > 0."""
+    if team_timeout is None:
+        return None
+    if not (_is_real(team_timeout) and 0 < team_timeout < math.inf):  # type: ignore[operator]
+        raise ValueError(
+            f"team_timeout must be None (no bound) or a finite number of seconds > 0, "
+            f"got {team_timeout!r}"
+        )
+    return float(team_timeout)
+
+
+@dataclass
 class _Entry:
     factory: Callable[..., Team] | None
     entry_point: Any = None  # importlib.metadata.EntryPoint, loaded on first use
+    # Loading an entry point imports and parses each time (and importlib.metadata keeps
+    # a little memory per call): every environment makes its team, so load once.
+    loaded: Callable[..., Team] | None = field(default=None, repr=False, compare=False)
 
     def load(self, team_id: str) -> Callable[..., Team]:
         """The team factory (importing the entry point on first use)."""
         if self.factory is not None:
             return self.factory
-        try:
-            return self.entry_point.load()
-        except Exception as exc:
-            raise TeamError(
-                f"the entry point of team {team_id!r} ({self.entry_point.value}) "
-                f"failed to load: {exc!r}"
-            ) from exc
+        if self.loaded is None:
+            try:
+                self.loaded = self.entry_point.load()
+            except Exception as exc:
+                raise TeamError(
+                    f"the entry point of team {team_id!r} ({self.entry_point.value}) "
+                    f"failed to load: {exc!r}"
+                ) from exc
+        return self.loaded
 
 
 _registry: dict[str, _Entry] = {}
@@ -146,37 +190,116 @@ def make_team(team_id: str, **params: Any) -> Team:
 
 
 class TeamDriver:
-    """Runs a team inside the drill and checks everything it returns."""
+    """Runs a team inside the drill, bounds the time of each call and checks every command.
 
-    def __init__(self, team: Team, name: str, players: tuple[str, ...]) -> None:
+    Args:
+        team: the team.
+        name: its id, named in every error.
+        players: the players it drives.
+        team_timeout: seconds (real time) each ``reset`` or ``act`` call may take, or
+            ``None`` for no bound. A call that exceeds it raises :class:`TeamError`.
+
+    How a call is bounded: on the main thread of a Unix process a real-time interval
+    timer (``signal.setitimer(ITIMER_REAL)``) is armed around the call and its
+    ``SIGALRM`` interrupts the team, even in a pure-Python infinite loop or a
+    ``time.sleep``; the previous ``SIGALRM`` handler is restored after every call. Off
+    the main thread, on platforms without ``setitimer`` (Windows), or when another
+    real-time timer is already armed (it is left alone), the call's duration is
+    measured and the error raised *after* it returns, so a team that never returns
+    there hangs the drill. Code stuck inside a C extension cannot be interrupted
+    either way: it is reported when it returns. The bound is real time, so a debugger
+    paused in a team's code trips it: pass ``team_timeout=None`` to debug a team.
+
+    After the error the environment stays usable: its next ``reset()`` resets the team.
+    """
+
+    def __init__(
+        self,
+        team: Team,
+        name: str,
+        players: tuple[str, ...],
+        team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
+    ) -> None:
         self.team, self.name, self.players = team, name, players
+        self.team_timeout = check_team_timeout(team_timeout)
         self._indices = tuple(PLAYER_NAMES.index(p) for p in players)
 
     def reset(self, view: DrillView, rng: np.random.Generator) -> None:
         """Reset the team, naming it in any error it raises."""
+        start = time.perf_counter()
         try:
-            self.team.reset(view, rng)
-        except Exception as exc:
-            raise TeamError(f"team {self.name!r} raised in reset(): {exc!r}") from exc
+            self._call(self.team.reset, view, rng)
+        except (_Overrun, Exception) as exc:
+            raise self._failure("reset()", "", exc, start) from _cause(exc)
 
     def act(self, view: DrillView) -> list[tuple[int, Command]]:
         """Commands as ``(player index, command)`` pairs, validated."""
+        start = time.perf_counter()
         try:
-            commands = self.team.act(view)
-        except Exception as exc:
+            commands = self._call(self.team.act, view)
+        except (_Overrun, Exception) as exc:
+            raise self._failure("act()", f" at cycle {view.cycle}", exc, start) from _cause(exc)
+        try:
+            return self._commands(commands, view.cycle)
+        except TeamError:
+            raise
+        except Exception as exc:  # the team's own Mapping or Command type misbehaved
             raise TeamError(
-                f"team {self.name!r} raised in act() at cycle {view.cycle}: {exc!r}"
+                f"team {self.name!r} returned commands that could not be checked at cycle "
+                f"{view.cycle}: {exc!r}"
             ) from exc
+
+    def _commands(self, commands: object, cycle: int) -> list[tuple[int, Command]]:
         if not isinstance(commands, Mapping) or set(commands) != set(self.players):
-            got = sorted(commands) if isinstance(commands, Mapping) else type(commands).__name__
+            got = sorted(commands, key=repr) if isinstance(commands, Mapping) else (
+                type(commands).__name__
+            )
             raise TeamError(
                 f"team {self.name!r} must return a mapping with exactly the players it "
-                f"drives {sorted(self.players)}, got {got} at cycle {view.cycle}"
+                f"drives {sorted(self.players)}, got {got} at cycle {cycle}"
             )
         out = []
         for player, index in zip(self.players, self._indices, strict=True):
-            out.append((index, self._check(player, commands[player], view.cycle)))
+            out.append((index, self._check(player, commands[player], cycle)))
         return out
+
+    def _call(self, method: Callable[..., Any], *args: Any) -> Any:
+        """``method(*args)`` within the time bound; raises :class:`_Overrun` past it."""
+        timeout = self.team_timeout
+        if timeout is None:
+            return method(*args)
+        start = time.perf_counter()
+        if (
+            _CAN_INTERRUPT
+            and threading.get_ident() == _MAIN_THREAD
+            and _sig.getitimer(signal.ITIMER_REAL)[0] == 0.0  # nobody else's alarm pending
+            and _sig.getsignal(signal.SIGALRM) is not None  # a handler we can put back
+        ):
+            previous = _sig.signal(signal.SIGALRM, _on_alarm)
+            # An interval, not a one-shot: a team that swallows the first interruption
+            # (a bare ``except:``) is interrupted again.
+            _sig.setitimer(signal.ITIMER_REAL, timeout, timeout)
+            try:
+                result = method(*args)
+            finally:
+                _sig.setitimer(signal.ITIMER_REAL, 0.0)
+                _drain()  # run an alarm that fired just before the disarm while ours is set
+                _sig.signal(signal.SIGALRM, previous)
+        else:
+            result = method(*args)
+        if time.perf_counter() - start > timeout:  # e.g. off the main thread
+            raise _Overrun
+        return result
+
+    def _failure(self, call: str, when: str, exc: BaseException, start: float) -> TeamError:
+        elapsed = time.perf_counter() - start
+        bound = self.team_timeout
+        if isinstance(exc, _Overrun) or (bound is not None and elapsed > bound):
+            return TeamError(
+                f"team {self.name!r} exceeded its time bound of {bound:g} s in {call}{when} "
+                f"(stopped after {elapsed:.2f} s); fix the team or pass a larger team_timeout"
+            )
+        return TeamError(f"team {self.name!r} raised in {call}{when}: {exc!r}")
 
     def _check(self, player: str, command: object, cycle: int) -> Command:
         where = f"team {self.name!r}, player {player!r}, cycle {cycle}"
@@ -187,10 +310,50 @@ class TeamDriver:
                 f"{where}: skill {command.skill!r} is not allowed for a scripted defender; "
                 f"allowed: {[s.name for s in Skill if s not in BALL_SKILLS]}"
             )
-        if not (isinstance(command.speed, float | int) and 0.0 < command.speed <= 1.0):
-            raise TeamError(f"{where}: speed must be in (0, 1], got {command.speed!r}")
+        speed = command.speed
+        if not (_is_real(speed) and 0.0 < speed <= 1.0):  # type: ignore[operator]
+            raise TeamError(f"{where}: speed must be in (0, 1], got {speed!r}")
         if command.skill is Skill.MOVE_TO:
             t = command.target
-            if t is None or len(t) != 2 or not all(math.isfinite(float(c)) for c in t):
+            if not _is_point(t):
                 raise TeamError(f"{where}: MOVE_TO needs a finite (x, y) target, got {t!r}")
         return command
+
+
+def _drain() -> None:
+    """Nothing; calling a Python function runs the signal handlers pending by then."""
+
+
+# Frames where an alarm must not raise: the driver's own bookkeeping around the call.
+_DRIVER_CODES = (TeamDriver._call.__code__, _drain.__code__)
+
+
+def _on_alarm(signum: int, frame: Any) -> None:
+    """SIGALRM while a team runs: stop it by raising inside its code."""
+    if frame is not None and frame.f_code in _DRIVER_CODES:
+        # Raising here could skip the cleanup (disarm, restore the previous handler);
+        # the call's elapsed time is checked after it anyway.
+        return
+    raise _Overrun
+
+
+def _is_real(value: object) -> bool:
+    """A real number but not a bool (``float`` and ``int`` first: the common, fast case)."""
+    if isinstance(value, bool):
+        return False
+    return isinstance(value, float | int) or isinstance(value, numbers.Real)
+
+
+def _is_point(target: object) -> bool:
+    """A finite ``(x, y)`` pair of real numbers."""
+    try:
+        return len(target) == 2 and all(  # type: ignore[arg-type]
+            _is_real(c) and math.isfinite(c) for c in target  # type: ignore[union-attr]
+        )
+    except TypeError:  # no len() (None, a number) or no iteration
+        return False
+
+
+def _cause(exc: BaseException) -> BaseException | None:
+    """The exception to chain a :class:`TeamError` to (not the internal interruption)."""
+    return None if isinstance(exc, _Overrun) else exc

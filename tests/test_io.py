@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import json
 import os
+import shutil
 import stat
 import sys
 from pathlib import Path
@@ -193,3 +194,401 @@ def test_missing_file_is_not_a_value_error(tmp_path: Path) -> None:
 
 def test_container_constant() -> None:
     assert _io.CONTAINER == "ilpss.npz/1" and _io.META_KEY == "__meta__"
+
+
+# =========================================================================== issue 8
+# Crash safety and hostile files for every artefact: models, policies, option
+# libraries, lifelong checkpoints and experiment results.
+class _HalfWriter:
+    """A file whose ``write`` stores half of the data, then fails as a full disk would."""
+
+    def __init__(self, fh, log: list[int]) -> None:
+        self.fh, self.log = fh, log
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc) -> bool:
+        self.fh.close()
+        return False
+
+    def write(self, data: bytes) -> int:
+        self.fh.write(data[: len(data) // 2])
+        self.fh.flush()
+        self.log.append(os.fstat(self.fh.fileno()).st_size)  # really half-written on disk
+        raise OSError(28, "No space left on device")
+
+    def __getattr__(self, name: str):
+        return getattr(self.fh, name)
+
+
+def _crash_on_write(monkeypatch: pytest.MonkeyPatch, nth: int = 1) -> list[int]:
+    """Make the ``nth`` atomic write from now on die half-way; returns the sizes written."""
+    real_fdopen, calls, log = os.fdopen, [0], []
+
+    def fdopen(fd, mode="r", *args, **kwargs):
+        fh = real_fdopen(fd, mode, *args, **kwargs)
+        calls[0] += 1
+        return _HalfWriter(fh, log) if calls[0] == nth else fh
+
+    monkeypatch.setattr(os, "fdopen", fdopen)
+    return log
+
+
+def test_a_write_dying_half_way_keeps_the_old_file(tmp_path, monkeypatch) -> None:
+    path = tmp_path / "f.bin"
+    atomic_write_bytes(path, b"old contents")
+    log = _crash_on_write(monkeypatch)
+    with pytest.raises(OSError, match="No space left"):
+        atomic_write_bytes(path, b"new contents, longer than the old ones")
+    assert log and log[0] > 0  # the temporary file really held half the new bytes
+    assert path.read_bytes() == b"old contents"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.bin"]  # temporary removed
+
+
+def test_a_failing_fsync_keeps_the_old_archive(tmp_path, monkeypatch) -> None:
+    path = tmp_path / "a.npz"
+    save_npz_atomic(path, _arrays(), {"schema": SCHEMA})
+
+    def fsync(fd):
+        raise OSError(5, "Input/output error")
+
+    monkeypatch.setattr(os, "fsync", fsync)
+    with pytest.raises(OSError, match="Input/output"):
+        save_npz_atomic(path, {**_arrays(), "w": np.ones((3, 2))}, {"schema": SCHEMA})
+    monkeypatch.undo()
+    arrays, _ = load_npz(path, SCHEMA, REQUIRED)
+    np.testing.assert_array_equal(arrays["w"], _arrays()["w"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.npz"]
+
+
+# ------------------------------------------------------------- lifelong checkpoints
+def _corridor_learner(trials: int, checkpoint: Path | None = None):
+    from synthetic_smdp import ZoneCorridor
+
+    from ilpss.lifelong import LearnerConfig, LifelongConfig, LifelongLearner
+
+    # The setting of tests/test_lifelong.py, which checks that trial 1 already ends with
+    # kernels and options (so every kind of file is in the checkpoint).
+    envs = [ZoneCorridor(cost=c, n_features=2) for c in (0.02, 0.05)]
+    cfg = LifelongConfig(n_kernels=2, train_episodes=40, rollout_episodes=10,
+                         learner=LearnerConfig(initial_value=1.0, tile_widths=(1.0, 0.5),
+                                               n_tilings=8))
+    learner = LifelongLearner(cfg, envs[0].observation_space, 3, seed=3)
+    for t in range(trials):
+        learner.run_trial(envs[t], f"corridor_{t}")
+        if checkpoint is not None:
+            learner.save(checkpoint)
+    assert learner.library is not None, "the checkpoint tests need an option library"
+    return learner, envs[0].observation_space
+
+
+def _fingerprint(learner) -> tuple:
+    lib = learner.library
+    return (
+        learner.records,
+        [p.weights.tobytes() for p in learner.policies],
+        [b.tobytes() for b in learner.bags],
+        None if lib is None else (lib.option_ids.tolist(), lib.scales.tolist(),
+                                  sorted(lib.registry.items())),
+        None if learner.kernel_model is None else learner.kernel_model.means_.tobytes(),
+    )
+
+
+@pytest.fixture(scope="module")
+def checkpoints(tmp_path_factory):
+    """A checkpoint after trial 1, and the learner after trial 2 (not yet saved)."""
+    from ilpss.lifelong import LifelongLearner
+
+    root = tmp_path_factory.mktemp("checkpoints")
+    one = root / "after_trial_1"
+    learner, space = _corridor_learner(1, one)
+    first = _fingerprint(LifelongLearner.load(one, space))
+    two, _ = _corridor_learner(2)
+    return one, space, first, two
+
+
+def _copy(src: Path, dst: Path) -> Path:
+    shutil.copytree(src, dst)
+    return dst
+
+
+# One lifelong save writes 9 files here: policies 0-1, the library's kernels, policies 0-1
+# and record, the bags, state.json, then LATEST (which publishes the checkpoint).
+@pytest.mark.parametrize("nth_write", range(1, 10))
+def test_a_checkpoint_save_dying_at_any_write_leaves_the_previous_one(
+    checkpoints, tmp_path, monkeypatch, nth_write
+) -> None:
+    from ilpss.lifelong import LifelongLearner
+
+    template, space, first, learner = checkpoints
+    root = _copy(template, tmp_path / "run")
+    log = _crash_on_write(monkeypatch, nth_write)
+    with pytest.raises(OSError, match="No space left"):
+        learner.save(root)
+    monkeypatch.undo()
+    assert log, "the crash was not triggered: fewer writes than expected"
+    assert (root / "LATEST").read_text() == "trial_0001"
+    assert _fingerprint(LifelongLearner.load(root, space)) == first
+    # Saving again succeeds and publishes the new checkpoint; no debris is left.
+    learner.save(root)
+    assert _fingerprint(LifelongLearner.load(root, space)) == _fingerprint(learner)
+    assert sorted(p.name for p in root.iterdir()) == ["LATEST", "trial_0002"]
+
+
+def test_a_checkpoint_save_dying_at_the_directory_rename_or_cleanup(
+    checkpoints, tmp_path, monkeypatch
+) -> None:
+    from ilpss.lifelong import LifelongLearner
+
+    template, space, first, learner = checkpoints
+    root = _copy(template, tmp_path / "rename")
+    real_replace, real_rmtree = os.replace, shutil.rmtree
+
+    def replace(src, dst):
+        if Path(src).name.startswith(".building_"):
+            raise OSError("killed before the rename")
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", replace)
+    with pytest.raises(OSError, match="killed before the rename"):
+        learner.save(root)
+    monkeypatch.undo()
+    assert _fingerprint(LifelongLearner.load(root, space)) == first
+
+    # Dying after LATEST names the new checkpoint, while deleting the old one: the new one wins.
+    root = _copy(template, tmp_path / "cleanup")
+
+    def rmtree(path, *args, **kwargs):
+        if Path(path).name == "trial_0001":
+            raise KeyboardInterrupt("killed while cleaning up")
+        return real_rmtree(path, *args, **kwargs)
+
+    monkeypatch.setattr(shutil, "rmtree", rmtree)
+    with pytest.raises(KeyboardInterrupt):
+        learner.save(root)
+    monkeypatch.undo()
+    assert (root / "trial_0001").exists()  # debris, but harmless
+    assert _fingerprint(LifelongLearner.load(root, space)) == _fingerprint(learner)
+
+
+def _edit_state(checkpoint: Path, edit) -> None:
+    state = checkpoint / "trial_0001" / "state.json"
+    state.write_text(json.dumps(edit(json.loads(state.read_text()))))
+
+
+def _rewrite_bags(checkpoint: Path, edit) -> None:
+    from ilpss.lifelong import CHECKPOINT_SCHEMA
+
+    path = checkpoint / "trial_0001" / "bags.npz"
+    arrays, meta = load_npz(path, CHECKPOINT_SCHEMA + "/bags", {})
+    edit(arrays, meta)
+    save_npz_atomic(path, arrays, meta)  # a valid digest: only the content checks can refuse
+
+
+@pytest.mark.parametrize(
+    ("tamper", "match"),
+    [
+        (lambda c: (c / "LATEST").write_text(""), "malformed checkpoint name ''"),
+        (lambda c: (c / "LATEST").write_text("../../etc"), "malformed checkpoint name"),
+        (lambda c: (c / "LATEST").write_text("trial_0042"), r"trial_0042/state.json: unreadable"),
+        (lambda c: (c / "trial_0001" / "state.json").write_text('{"schema": "ilpss.lif'),
+         "unreadable checkpoint state"),
+        (lambda c: _edit_state(c, lambda s: {**s, "schema": "ilpss.lifelong/2"}),
+         r"schema 'ilpss.lifelong/2' is not 'ilpss.lifelong/1'"),
+        (lambda c: (c / "trial_0001" / "bags.npz").write_bytes(
+            (c / "trial_0001" / "bags.npz").read_bytes()[:200]), "not a readable .npz"),
+        (lambda c: _rewrite_bags(c, lambda a, m: a.update(bag_0=np.zeros((4, 3)))),
+         r"bags.npz: array 'bag_0' has shape \(4, 3\), expected \(\*, 2\)"),
+        (lambda c: _rewrite_bags(c, lambda a, m: a.update(bag_0=np.zeros((4, 2), int))),
+         r"array 'bag_0' has dtype int64"),
+        (lambda c: _rewrite_bags(c, lambda a, m: a.pop("bag_0")), "missing array 'bag_0'"),
+        (lambda c: _rewrite_bags(c, lambda a, m: m.update(schema="ilpss.lifelong/1/other")),
+         "wrong schema 'ilpss.lifelong/1/other'"),
+        (lambda c: (c / "trial_0001" / "policy_0.npz").write_bytes(b""), "not a readable .npz"),
+        (lambda c: (c / "trial_0001" / "library" / "kernels.npz").write_bytes(
+            (c / "trial_0001" / "library" / "kernels.npz").read_bytes()[:-30]),
+         "not a readable|modified"),
+    ],
+)
+def test_damaged_checkpoints_are_refused_by_name(checkpoints, tmp_path, tamper, match) -> None:
+    from ilpss.lifelong import LifelongLearner
+
+    template, space, _, _ = checkpoints
+    root = _copy(template, tmp_path / "ckpt")
+    tamper(root)
+    with pytest.raises(ValueError, match=match) as err:
+        LifelongLearner.load(root, space)
+    assert str(root) in str(err.value)  # names the file or folder
+
+
+# What the gaps look like today: no error, or a raw KeyError/TypeError/AttributeError.
+@pytest.mark.parametrize(
+    ("tamper", "match"),
+    [
+        (lambda c: _edit_state(c, lambda s: [s]), "state.json: not a JSON object"),
+        # Refused today, but without naming the file:
+        (lambda c: _edit_state(c, lambda s: {**s, "config": {**s["config"], "n_kernels": 0}}),
+         "state.json: .*n_kernels must be a positive integer"),
+        (lambda c: _edit_state(c, lambda s: {**s, "config": {**s["config"], "magic": 1}}),
+         r"state.json: .*unknown LifelongConfig field\(s\) \['magic'\]"),
+        (lambda c: _edit_state(c, lambda s: {k: v for k, v in s.items() if k != "records"}),
+         r"state.json: missing field\(s\) \['records'\]"),
+        (lambda c: _edit_state(c, lambda s: {**s, "records": [{**s["records"][0], "x": 1}]}),
+         "state.json: malformed trial records"),
+        (lambda c: _edit_state(c, lambda s: {**s, "records": []}),
+         "holds 0 trial records, but its name says trial_0001"),
+        (lambda c: shutil.rmtree(c / "trial_0001" / "library"),
+         "the option library is missing"),
+        (lambda c: _rewrite_bags(c, lambda a, m: a.update(bag_0=np.full((4, 2), np.nan))),
+         "bag_0 has non-finite states"),
+    ],
+)
+def test_checkpoint_gaps(checkpoints, tmp_path, tamper, match) -> None:
+    from ilpss.lifelong import LifelongLearner
+
+    template, space, _, _ = checkpoints
+    root = _copy(template, tmp_path / "ckpt")
+    tamper(root)
+    with pytest.raises(ValueError, match=match):
+        LifelongLearner.load(root, space)
+
+
+def test_a_policy_from_another_checkpoint_is_refused(checkpoints, tmp_path) -> None:
+    from ilpss.lifelong import LifelongLearner
+
+    template, space, _, learner = checkpoints
+    root = _copy(template, tmp_path / "ckpt")
+    learner.policies[1].save(root / "trial_0001" / "policy_0.npz")  # valid, same tile coder
+    with pytest.raises(ValueError, match=r"policy_0\.npz: missing, modified, or from another"):
+        LifelongLearner.load(root, space)
+
+
+# ------------------------------------------------------------------ never unpickled
+class _Payload:
+    """Unpickling this creates ``path``: proof that a loader unpickled."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+
+    def __reduce__(self):
+        return (open, (str(self.path), "w"))
+
+
+def _poison(path: Path, marker: Path) -> None:
+    """Add a pickled object array to the archive at ``path``, keeping its other members."""
+    with np.load(path, allow_pickle=False) as f:
+        members = {k: f[k] for k in f.files}
+    members["weights"] = np.array([_Payload(marker)], dtype=object)
+    buffer = io.BytesIO()
+    np.savez(buffer, **members)  # np.savez pickles object arrays
+    path.write_bytes(buffer.getvalue())
+
+
+def test_no_loader_ever_unpickles(checkpoints, tmp_path, monkeypatch) -> None:
+    import pickle
+
+    from ilpss.kernels import SharedKernelModel, UniformKernel
+    from ilpss.lifelong import LifelongLearner
+    from ilpss.options import OptionLibrary
+    from ilpss.policy import FrozenPolicy
+
+    template, space, first, _ = checkpoints
+    uniform = tmp_path / "uniform.npz"
+    UniformKernel(2).save(uniform)
+    targets = {
+        "policy": (lambda r: r / "trial_0001" / "policy_0.npz",
+                   lambda r: FrozenPolicy.load(r / "trial_0001" / "policy_0.npz")),
+        "kernels": (lambda r: r / "trial_0001" / "library" / "kernels.npz",
+                    lambda r: SharedKernelModel.load(r / "trial_0001" / "library" / "kernels.npz")),
+        "library": (lambda r: r / "trial_0001" / "library" / "library.npz",
+                    lambda r: OptionLibrary.load(r / "trial_0001" / "library")),
+        "bags": (lambda r: r / "trial_0001" / "bags.npz",
+                 lambda r: LifelongLearner.load(r, space)),
+    }
+    for name, (file_of, load) in targets.items():
+        root = _copy(template, tmp_path / name)
+        marker = tmp_path / f"unpickled_{name}"
+        _poison(file_of(root), marker)
+        with pytest.raises(ValueError, match=r"not a readable \.npz archive"):
+            load(root)
+        assert not marker.exists(), f"{name}: the payload ran"
+    marker = tmp_path / "unpickled_uniform"
+    _poison(uniform, marker)
+    with pytest.raises(ValueError, match=r"not a readable \.npz archive"):
+        UniformKernel.load(uniform)
+    assert not marker.exists()
+
+    # And a whole checkpoint loads with every way to unpickle disabled.
+    def refuse(*args, **kwargs):
+        raise AssertionError("something tried to unpickle")
+
+    for name in ("load", "loads", "Unpickler"):
+        monkeypatch.setattr(pickle, name, refuse)
+    assert _fingerprint(LifelongLearner.load(template, space)) == first
+
+
+# --------------------------------------------------------------- experiment results
+def _tiny_experiment():
+    from ilpss.experiments.config import ExperimentConfig
+
+    return ExperimentConfig(n_seeds=1, workers=1, methods=("scratch",)).with_overrides(
+        lifelong={"train_episodes": 4, "rollout_episodes": 2})
+
+
+@pytest.fixture(scope="module")
+def experiment(tmp_path_factory):
+    """An uninterrupted tiny run: (its folder, its job results)."""
+    from ilpss.experiments.run import run_experiment
+
+    out = tmp_path_factory.mktemp("experiment")
+    return out, run_experiment(_tiny_experiment(), out, progress=False)
+
+
+def test_a_crash_writing_result_json_leaves_none_and_the_rerun_matches(
+    experiment, tmp_path, monkeypatch
+) -> None:
+    from ilpss.experiments.run import run_experiment
+
+    straight_dir, straight = experiment
+    out = tmp_path / "run"
+    job = out / "seed_000" / "stream_00"
+    real_fdopen = os.fdopen
+
+    def fdopen(fd, mode="r", *args, **kwargs):  # only the result file's write dies
+        fh = real_fdopen(fd, mode, *args, **kwargs)
+        writing_result = job.is_dir() and any(
+            p.name.startswith(".result.json.") for p in job.iterdir())
+        return _HalfWriter(fh, []) if writing_result else fh
+
+    monkeypatch.setattr(os, "fdopen", fdopen)
+    with pytest.raises(OSError, match="No space left"):
+        run_experiment(_tiny_experiment(), out, progress=False)
+    monkeypatch.undo()
+    assert not (job / "result.json").exists()
+    assert not [p for p in job.iterdir() if p.name.startswith(".")]  # no temporary left
+    assert run_experiment(_tiny_experiment(), out, progress=False) == straight
+    assert (job / "result.json").read_bytes() == (
+        straight_dir / "seed_000" / "stream_00" / "result.json").read_bytes()
+
+
+@pytest.mark.parametrize(
+    ("name", "tamper", "match"),
+    [
+        ("result.json", lambda p: p.write_text(p.read_text()[:40]), "result.json: not valid JSON"),
+        ("result.json", lambda p: p.write_text(p.read_text().replace(
+            "ilpss.experiment_result/1", "ilpss.experiment_result/0")), "result.json: schema"),
+        ("result.json", lambda p: p.write_text(json.dumps(
+            {**json.loads(p.read_text()), "methods": {}})), "result.json: methods"),
+        ("config.json", lambda p: p.write_text(p.read_text()[:40]), "config.json: not valid JSON"),
+    ],
+)
+def test_damaged_results_are_refused_by_name(experiment, tmp_path, name, tamper, match) -> None:
+    from ilpss.experiments.run import run_experiment
+
+    out = _copy(experiment[0], tmp_path / "run")
+    path = out / name if name == "config.json" else out / "seed_000" / "stream_00" / name
+    tamper(path)
+    with pytest.raises(ValueError, match=match) as err:
+        run_experiment(_tiny_experiment(), out, progress=False)
+    assert str(path) in str(err.value)

@@ -74,8 +74,14 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the experiment and write its report."""
-    args = parser().parse_args(argv)
-    cfg = build_config(args)
+    p = parser()
+    args = p.parse_args(argv)
+    try:
+        cfg = build_config(args)
+    except OSError as exc:
+        p.error(f"--config {args.config}: {exc.strerror or exc}")
+    except json.JSONDecodeError as exc:
+        p.error(f"--config {args.config}: not valid JSON ({exc})")
     results = run_experiment(cfg, args.out, progress=not args.quiet)
     if not args.no_report:
         from ilpss.experiments.report import write_report

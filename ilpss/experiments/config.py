@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import importlib
 import json
+import math
+from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any, Literal
 
@@ -91,25 +93,74 @@ class ExperimentConfig:
     """Parallel seeds."""
 
     def __post_init__(self) -> None:
+        # Every field is checked here, with its name and what is allowed, because configs
+        # come from JSON files (``--config``) and a bad value found later would surface
+        # mid-run as an unrelated error, after ``config.json`` was written.
         if self.protocol not in ("A", "B", "C"):
-            raise ValueError(f"protocol must be 'A', 'B' or 'C', got {self.protocol!r}")
+            raise ValueError(
+                f"ExperimentConfig.protocol must be 'A', 'B' or 'C', got {self.protocol!r}"
+            )
+        _check_names("methods", self.methods)
         unknown = sorted(set(self.methods) - set(METHODS))
         if unknown or not self.methods:
-            raise ValueError(f"unknown method(s) {unknown}; allowed: {list(METHODS)}")
+            raise ValueError(
+                f"unknown method(s) {unknown} in ExperimentConfig.methods (which must name "
+                f"at least one); allowed: {list(METHODS)}"
+            )
+        if len(set(self.methods)) != len(self.methods):
+            raise ValueError(
+                f"ExperimentConfig.methods must not repeat a method, got {self.methods!r}"
+            )
         if "prq" in self.methods and "scratch" not in self.methods:
             raise ValueError("method 'prq' reuses the policies of 'scratch': add 'scratch'")
-        for name in ("n_seeds", "workers", "stream_length"):
+        for name, low in (("n_seeds", 1), ("workers", 1), ("stream_length", 1),
+                          ("first_seed", 0), ("n_shuffles", 0)):
             value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
-                raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
-        if not isinstance(self.n_shuffles, int) or self.n_shuffles < 0:
-            raise ValueError(f"n_shuffles must be an integer >= 0, got {self.n_shuffles!r}")
+            if not isinstance(value, int) or isinstance(value, bool) or value < low:
+                raise ValueError(
+                    f"ExperimentConfig.{name} must be an integer >= {low}, got {value!r}"
+                )
+        if not isinstance(self.env_id, str) or not self.env_id.strip():
+            raise ValueError(
+                f"ExperimentConfig.env_id must be a Gymnasium id (a non-empty string), "
+                f"got {self.env_id!r}"
+            )
+        # Team ids are only checked for form: ``ilpss`` never imports the drill, so an
+        # unknown id is refused by the environment, whose error names it and the known ones.
+        _check_names("teams", self.teams)
         if self.protocol in ("A", "B") and len(self.teams) < 2:
-            raise ValueError(f"protocols A and B need at least 2 teams, got {self.teams!r}")
+            raise ValueError(
+                f"protocols A and B need at least 2 teams in ExperimentConfig.teams, "
+                f"got {self.teams!r}"
+            )
+        if self.protocol == "B" and len(set(self.teams)) != len(self.teams):
+            raise ValueError(
+                f"protocol B holds out each team in turn: ExperimentConfig.teams must not "
+                f"repeat a team, got {self.teams!r}"
+            )
+        module, _, function = (self.sampler if isinstance(self.sampler, str) else "").partition(":")
+        if not (all(p.isidentifier() for p in module.split(".")) and function.isidentifier()):
+            raise ValueError(
+                f"ExperimentConfig.sampler must be 'module:function', got {self.sampler!r}"
+            )
+        if not isinstance(self.sampler_team, str) or not self.sampler_team.strip():
+            raise ValueError(
+                f"ExperimentConfig.sampler_team must be a team id (a non-empty string), "
+                f"got {self.sampler_team!r}"
+            )
+        if not isinstance(self.lifelong, LifelongConfig):
+            raise ValueError(
+                "ExperimentConfig.lifelong must be a LifelongConfig (from_dict takes a dict), "
+                f"got {type(self.lifelong).__name__}"
+            )
+        # The ranges PrqLearner accepts (ilpss.baselines): checked now, not at the first target.
+        _check_real("prq_psi", self.prq_psi, 0.0, 1.0)
+        _check_real("prq_upsilon", self.prq_upsilon, 0.0, 1.0)
+        _check_real("prq_delta_tau", self.prq_delta_tau, 0.0, math.inf)
         if self.executor not in ("local", "ray"):
-            raise ValueError(f"executor must be 'local' or 'ray', got {self.executor!r}")
-        if ":" not in self.sampler:
-            raise ValueError(f"sampler must be 'module:function', got {self.sampler!r}")
+            raise ValueError(
+                f"ExperimentConfig.executor must be 'local' or 'ray', got {self.executor!r}"
+            )
 
     @property
     def seeds(self) -> range:
@@ -150,8 +201,18 @@ class ExperimentConfig:
         return json.dumps(self.to_dict(), indent=2, sort_keys=True)
 
     @classmethod
-    def from_dict(cls, values: dict[str, Any]) -> ExperimentConfig:
-        """Inverse of :meth:`to_dict`; unknown keys are refused by name."""
+    def from_dict(cls, values: Mapping[str, Any]) -> ExperimentConfig:
+        """Inverse of :meth:`to_dict`; unknown keys and ill-typed values are refused by name.
+
+        Raises:
+            ValueError: ``values`` is not a mapping, has unknown keys, or a field is invalid
+                (the message names the field and what it allows).
+        """
+        if not isinstance(values, Mapping):
+            raise ValueError(
+                f"an ExperimentConfig must be a JSON object (a dict of its fields), "
+                f"got {type(values).__name__}"
+            )
         values = dict(values)
         known = {f.name for f in fields(cls)}
         unknown = sorted(set(values) - known)
@@ -160,9 +221,24 @@ class ExperimentConfig:
                 f"unknown ExperimentConfig field(s) {unknown}; allowed: {sorted(known)}"
             )
         if "lifelong" in values:
-            values["lifelong"] = LifelongConfig.from_dict(values["lifelong"])
+            lifelong = values["lifelong"]
+            if not isinstance(lifelong, Mapping):
+                raise ValueError(
+                    "ExperimentConfig.lifelong must be a JSON object of LifelongConfig fields, "
+                    f"got {type(lifelong).__name__}"
+                )
+            try:
+                values["lifelong"] = LifelongConfig.from_dict(dict(lifelong))
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"ExperimentConfig.lifelong: {exc}") from exc
         for name in ("methods", "teams"):
             if name in values:
+                # A string would become a tuple of its letters; say so instead.
+                if not isinstance(values[name], list | tuple):
+                    raise ValueError(
+                        f"ExperimentConfig.{name} must be a list of strings, "
+                        f"got {values[name]!r}"
+                    )
                 values[name] = tuple(values[name])
         return cls(**values)
 
@@ -176,4 +252,30 @@ class ExperimentConfig:
 
 
 def _team(team: str) -> Task:
+    """The task of playing against the team with id ``team``."""
+    if not isinstance(team, str) or not team.strip():
+        raise ValueError(f"a team id must be a non-empty string, got {team!r}")
     return Task(team, {"opponent": team})
+
+
+def _check_names(name: str, values: object) -> None:
+    """``values`` is a tuple of non-empty strings (method names, team ids)."""
+    if not isinstance(values, tuple) or not all(
+        isinstance(v, str) and v.strip() for v in values
+    ):
+        raise ValueError(
+            f"ExperimentConfig.{name} must be a tuple of non-empty strings, got {values!r}"
+        )
+
+
+def _check_real(name: str, value: object, low: float, high: float) -> None:
+    """``value`` is a finite real number (not a bool or a string) in ``[low, high]``."""
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or not (math.isfinite(value) and low <= value <= high)
+    ):
+        shown = f"in [{low:g}, {high:g}]" if math.isfinite(high) else f">= {low:g}"
+        raise ValueError(
+            f"ExperimentConfig.{name} must be a finite number {shown}, got {value!r}"
+        )

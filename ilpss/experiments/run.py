@@ -12,6 +12,7 @@ identical to an uninterrupted one.
 from __future__ import annotations
 
 import json
+import math
 import os
 from dataclasses import replace
 from pathlib import Path
@@ -89,7 +90,7 @@ def run_stream(job: tuple[ExperimentConfig, int, int, str]) -> dict[str, Any]:
     directory = Path(out_dir) / f"seed_{seed:03d}" / f"stream_{stream_index:02d}"
     done = directory / "result.json"
     if done.exists():
-        return json.loads(done.read_text())
+        return load_result(done, cfg, seed, stream_index, stream)
     directory.mkdir(parents=True, exist_ok=True)
     methods: dict[str, Any] = {}
     learners = {}
@@ -122,15 +123,63 @@ def run_stream(job: tuple[ExperimentConfig, int, int, str]) -> dict[str, Any]:
     return result
 
 
+def load_result(
+    path: Path, cfg: ExperimentConfig, seed: int, stream_index: int, stream: Stream
+) -> dict[str, Any]:
+    """A job's saved ``result.json``, checked against the job (a clear error otherwise)."""
+    hint = "delete it to run this job again"
+    try:
+        result = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: not valid JSON ({exc}); {hint}") from exc
+    if not isinstance(result, dict) or result.get("schema") != RESULT_SCHEMA:
+        schema = result.get("schema") if isinstance(result, dict) else None
+        raise ValueError(f"{path}: schema {schema!r} is not {RESULT_SCHEMA!r}; {hint}")
+    job = {"seed": seed, "stream_index": stream_index, "tasks": [t.name for t in stream.tasks],
+           "first_target": stream.first_target}
+    for key, value in job.items():
+        if result.get(key) != value:
+            raise ValueError(f"{path}: {key} is {result.get(key)!r}, expected {value!r}; {hint}")
+    methods = result.get("methods")
+    if not isinstance(methods, dict) or set(methods) != set(cfg.methods):
+        shown = sorted(methods) if isinstance(methods, dict) else methods
+        raise ValueError(
+            f"{path}: methods {shown} are not the configuration's {sorted(cfg.methods)}; {hint}"
+        )
+    targets = {str(t) for t in range(stream.first_target, len(stream.tasks))}
+    for method, values in methods.items():
+        curves = values.get("curves") if isinstance(values, dict) else None
+        if not isinstance(curves, dict) or set(curves) != targets or not all(
+            isinstance(c, list) and len(c) == cfg.lifelong.train_episodes
+            and all(isinstance(r, int | float) and math.isfinite(r) for r in c)
+            for c in curves.values()
+        ):
+            raise ValueError(
+                f"{path}: the curves of {method!r} are not {len(targets)} lists of "
+                f"{cfg.lifelong.train_episodes} finite rewards; {hint}"
+            )
+    return result
+
+
 def run_experiment(
     cfg: ExperimentConfig, out_dir: str | os.PathLike[str], progress: bool = True
 ) -> list[dict[str, Any]]:
     """Run (or resume) every job of ``cfg`` into ``out_dir``; return the job results."""
+    # Build every distinct task's environment once, so that a mistyped team fails now
+    # rather than after hours of earlier trials.
+    tasks = {repr(t): t for seed in cfg.seeds for s in cfg.streams(seed) for t in s.tasks}
+    for task in tasks.values():
+        make_env(cfg.env_id, task).close()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     config_file = out / "config.json"
     if config_file.exists():
-        saved = ExperimentConfig.from_dict(json.loads(config_file.read_text()))
+        try:
+            saved = ExperimentConfig.from_dict(json.loads(config_file.read_text()))
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"{config_file}: not valid JSON ({exc})") from exc
+        except ValueError as exc:
+            raise ValueError(f"{config_file}: {exc}") from exc
         # Where the seeds run does not change the results.
         if replace(saved, executor=cfg.executor, workers=cfg.workers) != cfg:
             raise ValueError(

@@ -1,0 +1,505 @@
+"""Issue 8: soak test, teams that hang or misbehave, SIGKILL mid-experiment, hostile configs."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import math
+import os
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import soccer_drill
+import soccer_drill.core
+from ilpss.experiments.cli import main as cli_main
+from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.run import run_experiment
+from ilpss.lifelong import LearnerConfig, LifelongConfig
+from soccer_drill.skills import Command, Skill
+from soccer_drill.teams import TeamError
+
+ROOT = Path(__file__).resolve().parent.parent
+UNIX_ALARM = hasattr(signal, "setitimer") and hasattr(signal, "SIGALRM")
+
+
+def _load_soak():
+    spec = importlib.util.spec_from_file_location("soak", ROOT / "benchmarks" / "soak.py")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["soak"] = module  # dataclasses look their module up by name
+    spec.loader.exec_module(module)
+    return module
+
+
+soak = _load_soak()
+
+
+# ------------------------------------------------------------------------- soak
+def test_short_soak_has_no_violations_and_writes_its_section(tmp_path):
+    out = tmp_path / "reliability.md"
+    old = f"{soak.MARK_START}\nold\n{soak.MARK_END}"
+    out.write_text(f"# Reliability\n\nintro\n\n{old}\n\ntrailer\n")
+    code = soak.main(["--episodes", "200", "--warmup", "150", "--out", str(out)])
+    text = out.read_text()
+    assert code == 0
+    assert "| **invariant violations** | **0** |" in text
+    assert "200 episodes (aec 70, parallel 70, holder 60)" in text  # blocks of 10
+    assert "`python benchmarks/soak.py --episodes 200 --warmup 150 --out" in text
+    assert "per 1,000 episodes" in text and "| site | size diff | blocks diff |" in text
+    # Only the section between the markers is replaced.
+    assert text.startswith("# Reliability\n\nintro\n\n") and text.endswith("\n\ntrailer\n")
+    assert "\nold\n" not in text and text.count(soak.MARK_START) == 1
+
+
+def test_soak_counts_and_reports_violations(monkeypatch, tmp_path):
+    """A drill whose observations turn NaN at cycle 3 must fail the soak (exit status 1)."""
+    features = soccer_drill.core.features
+
+    def broken(state, index, *args):
+        obs = features(state, index, *args)
+        return np.full_like(obs, np.nan) if state.cycle == 3 else obs
+
+    monkeypatch.setattr(soccer_drill.core, "features", broken)
+    out = tmp_path / "r.md"
+    assert soak.main(["--episodes", "30", "--warmup", "20", "--out", str(out)]) == 1
+    text = out.read_text()
+    assert "| **invariant violations** | **0** |" not in text
+    assert "First violations:" in text and "non-finite observation" in text
+
+
+# ------------------------------------------------------------- teams that hang
+class _Hanging:
+    """Defenders that hang once, in ``reset`` or in ``act`` at cycle ``at``, then behave."""
+
+    def __init__(self, where: str = "act", how: str = "loop", at: int = 2,
+                 hang_seconds: float = 30.0) -> None:
+        self.where, self.how, self.at, self.hang_seconds = where, how, at, hang_seconds
+        self.hung = False
+
+    def _hang(self) -> None:
+        self.hung = True
+        # Bounded, so that a broken time bound fails the test instead of hanging it.
+        end = time.monotonic() + self.hang_seconds
+        if self.how == "sleep":
+            time.sleep(self.hang_seconds)
+        elif self.how == "swallow":  # a team that catches the first interruption
+            try:
+                while time.monotonic() < end:
+                    pass
+            except BaseException:
+                pass
+            while time.monotonic() < end:
+                pass
+        else:  # a pure-Python busy loop, which also ignores ordinary exceptions
+            while time.monotonic() < end:
+                try:
+                    pass
+                except Exception:
+                    pass
+
+    def reset(self, view, rng):
+        self.players = view.players
+        if self.where == "reset" and not self.hung:
+            self._hang()
+
+    def act(self, view):
+        if self.where == "act" and not self.hung and view.cycle == self.at:
+            self._hang()
+        return dict.fromkeys(self.players, Command(Skill.INTERCEPT))
+
+
+def _run_to_end(env, kind: str, seed: int) -> str:
+    """Reset ``env`` and play one episode with the first legal actions; its outcome."""
+    if kind == "holder":
+        env.reset(seed=seed)
+        done = False
+        while not done:
+            _, _, term, trunc, info = env.step(1)
+            done = term or trunc
+        return info["outcome"]
+    if kind == "parallel":
+        obs, _ = env.reset(seed=seed)
+        while env.agents:
+            obs, *_ = env.step({a: int(np.flatnonzero(o["action_mask"])[0])
+                                for a, o in obs.items()})
+        return env.outcome
+    env.reset(seed=seed)
+    for _ in env.agent_iter():
+        obs, _, term, trunc, _ = env.last()
+        env.step(None if term or trunc else int(np.flatnonzero(obs["action_mask"])[0]))
+    return env.outcome
+
+
+def _make(kind: str, team, **kwargs):
+    if kind == "holder":
+        return soccer_drill.HolderEnv(opponent=team, **kwargs)
+    return (soccer_drill.env if kind == "aec" else soccer_drill.parallel_env)(
+        opponent=team, **kwargs)
+
+
+def _steps(env, kind: str, n: int) -> None:
+    """Step a reset ``env`` ``n`` times (cycles or holder decisions)."""
+    for _ in range(n):
+        if kind == "holder":
+            env.step(0)
+        elif kind == "parallel":
+            env.step({a: 3 if env.drill_state.holder != i else 0
+                      for i, a in enumerate(env.agents)})
+        else:
+            for _ in env.possible_agents:
+                mask = env.observe(env.agent_selection)["action_mask"]
+                env.step(int(np.flatnonzero(mask)[0]))
+
+
+@pytest.fixture
+def sentinel_alarm_handler():
+    """A SIGALRM handler of 'someone else', to check it is put back after every call."""
+    if not UNIX_ALARM:
+        yield None
+        return
+
+    def handler(signum, frame):  # pragma: no cover - must never run
+        raise AssertionError("the test's own SIGALRM handler was called")
+
+    previous = signal.signal(signal.SIGALRM, handler)
+    yield handler
+    signal.setitimer(signal.ITIMER_REAL, 0.0)
+    signal.signal(signal.SIGALRM, previous)
+
+
+@pytest.mark.skipif(not UNIX_ALARM, reason="interrupting a call needs setitimer (Unix)")
+@pytest.mark.parametrize("kind", ["holder", "aec", "parallel"])
+@pytest.mark.parametrize("how", ["loop", "sleep", "swallow"])
+def test_a_team_that_hangs_in_act_is_stopped_named_and_the_env_recovers(
+    kind, how, sentinel_alarm_handler
+):
+    timeout = 0.2
+    team = _Hanging("act", how)
+    env = _make(kind, team, team_timeout=timeout)
+    env.reset(seed=0)
+    start = time.monotonic()
+    with pytest.raises(TeamError) as err:
+        _steps(env, kind, 10)
+    elapsed = time.monotonic() - start
+    assert team.hung
+    assert elapsed < 10 * timeout  # interrupted, not waited out (the hang lasts 30 s)
+    assert (f"team '_Hanging' exceeded its time bound of {timeout:g} s in act() at cycle 2"
+            in str(err.value))
+    assert err.value.__cause__ is None  # the internal interruption is not chained
+    # The previous handler is back and no timer is left armed.
+    assert signal.getsignal(signal.SIGALRM) is sentinel_alarm_handler
+    assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
+    # The environment is usable: a reset and a whole episode work.
+    assert _run_to_end(env, kind, seed=1) in soak.OUTCOMES
+
+
+@pytest.mark.skipif(not UNIX_ALARM, reason="interrupting a call needs setitimer (Unix)")
+def test_a_team_that_hangs_in_reset_is_stopped_and_the_next_reset_works(sentinel_alarm_handler):
+    env = soccer_drill.HolderEnv(opponent=_Hanging("reset"), team_timeout=0.2)
+    start = time.monotonic()
+    with pytest.raises(TeamError, match=r"'_Hanging' exceeded its time bound of 0.2 s in reset"):
+        env.reset(seed=0)
+    assert time.monotonic() - start < 2.0
+    assert signal.getsignal(signal.SIGALRM) is sentinel_alarm_handler
+    assert _run_to_end(env, "holder", seed=0) in soak.OUTCOMES
+
+
+def test_a_slow_call_off_the_main_thread_is_reported_when_it_returns():
+    """Off the main thread no signal can interrupt the team: the bound is checked afterwards."""
+    before = signal.getsignal(signal.SIGALRM) if UNIX_ALARM else None
+    errors: list[BaseException] = []
+    env = soccer_drill.HolderEnv(opponent=_Hanging("act", "sleep", hang_seconds=0.5),
+                                 team_timeout=0.1)
+
+    def play() -> None:
+        env.reset(seed=0)
+        try:
+            _steps(env, "holder", 10)
+        except TeamError as exc:
+            errors.append(exc)
+
+    worker = threading.Thread(target=play)
+    worker.start()
+    worker.join(30)
+    assert not worker.is_alive()
+    assert len(errors) == 1 and "exceeded its time bound of 0.1 s in act()" in str(errors[0])
+    # The whole sleep: the call was not interrupted, only measured.
+    assert re.search(r"stopped after (0\.[5-9]|[1-9])", str(errors[0]))
+    if UNIX_ALARM:
+        assert signal.getsignal(signal.SIGALRM) is before
+
+
+@pytest.mark.skipif(not UNIX_ALARM, reason="setitimer (Unix)")
+def test_another_armed_timer_is_left_alone(sentinel_alarm_handler):
+    """With someone else's alarm pending, the driver measures instead of re-arming the timer."""
+    signal.setitimer(signal.ITIMER_REAL, 60.0)
+    env = soccer_drill.HolderEnv(opponent=_Hanging("act", "sleep", hang_seconds=0.4),
+                                 team_timeout=0.1)
+    env.reset(seed=0)
+    with pytest.raises(TeamError, match=r"bound of 0.1 s .*stopped after (0\.[4-9]|[1-9])"):
+        _steps(env, "holder", 10)
+    remaining, interval = signal.getitimer(signal.ITIMER_REAL)
+    assert 50.0 < remaining <= 60.0 and interval == 0.0
+    assert signal.getsignal(signal.SIGALRM) is sentinel_alarm_handler
+
+
+def test_no_bound_with_team_timeout_none():
+    env = soccer_drill.HolderEnv(opponent=_Hanging("act", "sleep", hang_seconds=0.3),
+                                 team_timeout=None)
+    env.reset(seed=0)
+    _steps(env, "holder", 1)  # runs cycle 2, where the team sleeps 0.3 s: allowed
+    assert env._core._driver.team.hung
+
+
+@pytest.mark.parametrize("bad", [0, -1.0, math.nan, math.inf, "1", True, [1.0]])
+@pytest.mark.parametrize(("kind", "team"), [("holder", "chasers"), ("aec", "chasers"),
+                                            ("parallel", "chasers"), ("aec", None)])
+def test_invalid_team_timeout_is_refused(kind, team, bad):
+    with pytest.raises(ValueError, match=r"team_timeout must be None \(no bound\) or a finite"):
+        _make(kind, team, team_timeout=bad)
+
+
+def test_gymnasium_make_passes_team_timeout():
+    import gymnasium as gym
+
+    env = gym.make("soccer_drill/Holder-v0", opponent="chasers", team_timeout=None)
+    assert env.unwrapped._core._driver.team_timeout is None
+
+
+# -------------------------------------------------------- teams that misbehave
+class _Scripted:
+    """A team whose ``reset`` and ``act`` do what the test says."""
+
+    def __init__(self, act=None, reset=None):
+        self._act, self._reset = act, reset
+
+    def reset(self, view, rng):
+        self.players = view.players
+        if self._reset is not None:
+            self._reset()
+
+    def act(self, view):
+        return self._act(self.players)
+
+
+class _NotAllowedToIterate(dict):
+    def __iter__(self):
+        raise RuntimeError("my mapping is broken")
+
+
+def test_a_team_that_raises_in_reset_is_named_with_the_cause():
+    calls = []
+
+    def reset_once():
+        calls.append(1)
+        if len(calls) == 1:
+            raise RuntimeError("lost the whistle")
+
+    env = soccer_drill.env(
+        opponent=_Scripted(lambda p: dict.fromkeys(p, Command(Skill.MARK)), reset_once)
+    )
+    with pytest.raises(TeamError, match=r"'_Scripted' raised in reset\(\): RuntimeError") as err:
+        env.reset(seed=0)
+    assert isinstance(err.value.__cause__, RuntimeError)
+    assert _run_to_end(env, "aec", seed=0) in soak.OUTCOMES  # the next reset works
+
+
+@pytest.mark.parametrize(
+    ("act", "message"),
+    [
+        # Beyond tests/test_errors.py: other wrong shapes and types of commands.
+        (lambda p: None, r"must return a mapping .* got NoneType at cycle 0"),
+        (lambda p: [Command(Skill.MARK)] * 2, r"must return a mapping .* got list"),
+        (lambda p: {**dict.fromkeys(p, Command(Skill.MARK)), 7: Command(Skill.MARK)},
+         r"exactly the players it drives .*got \['defender_0', 'defender_1', 7\]"),
+        (lambda p: _NotAllowedToIterate(dict.fromkeys(p, Command(Skill.MARK))),
+         r"returned commands that could not be checked at cycle 0: RuntimeError"),
+        (lambda p: dict.fromkeys(p, Command(Skill.MARK, speed=True)), r"speed must be in \(0, 1\]"),
+        (lambda p: dict.fromkeys(p, Command(Skill.MARK, speed=math.nan)), "speed must be in"),
+        (lambda p: dict.fromkeys(p, Command(Skill.MARK, speed=0)), "speed must be in"),
+        (lambda p: dict.fromkeys(p, Command(Skill.MARK, speed="fast")), "speed must be in"),
+        (lambda p: dict.fromkeys(p, Command(1)), "skill 1 is not allowed for a scripted defender"),
+        (lambda p: dict.fromkeys(p, Command(Skill.PASS)), "not allowed for a scripted defender"),
+        (lambda p: dict.fromkeys(p, Command(Skill.MOVE_TO)), "MOVE_TO needs a finite"),
+        (lambda p: dict.fromkeys(p, Command(Skill.MOVE_TO, "ab")), "MOVE_TO needs a finite"),
+        (lambda p: dict.fromkeys(p, Command(Skill.MOVE_TO, 5.0)), "MOVE_TO needs a finite"),
+        (lambda p: dict.fromkeys(p, Command(Skill.MOVE_TO, (1.0, 2.0, 3.0))), "MOVE_TO needs"),
+        (lambda p: dict.fromkeys(p, Command(Skill.MOVE_TO, (1.0, math.inf))), "MOVE_TO needs"),
+    ],
+)
+def test_invalid_commands_are_refused_by_name(act, message):
+    env = soccer_drill.parallel_env(opponent=_Scripted(act))
+    obs, _ = env.reset(seed=0)
+    with pytest.raises(TeamError, match=message) as err:
+        env.step({a: int(np.flatnonzero(o["action_mask"])[0]) for a, o in obs.items()})
+    assert "team '_Scripted'" in str(err.value)
+
+
+def test_numpy_numbers_are_valid_commands():
+    team = _Scripted(lambda p: dict.fromkeys(
+        p, Command(Skill.MOVE_TO, np.array([10.0, np.float32(5.0)]), speed=np.float32(0.5))))
+    assert _run_to_end(soccer_drill.env(opponent=team), "aec", seed=0) in soak.OUTCOMES
+
+
+# ----------------------------------------------------- SIGKILL mid-experiment
+def _experiment_command(out: Path) -> list[str]:
+    return [sys.executable, "-m", "ilpss.experiments.cli", "--protocol", "A", "--seeds", "1",
+            "--episodes", "150", "--rollouts", "5", "--methods", "ilpss", "--workers", "1",
+            "--quiet", "--no-report", "--out", str(out)]
+
+
+def _final_state(out: Path) -> tuple[bytes, bytes, list[np.ndarray]]:
+    job = out / "seed_000" / "stream_00"
+    checkpoint = job / "ilpss" / (job / "ilpss" / "LATEST").read_text()
+    arrays = []
+    for path in sorted(checkpoint.rglob("*.npz")):
+        with np.load(path, allow_pickle=False) as f:
+            arrays += [f[k] for k in sorted(f.files) if k != "__meta__"]
+    return (job / "result.json").read_bytes(), (checkpoint / "state.json").read_bytes(), arrays
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="SIGKILL")
+def test_sigkill_mid_trial_then_restart_ends_identical_to_an_uninterrupted_run(tmp_path):
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    straight, killed = tmp_path / "straight", tmp_path / "killed"
+    subprocess.run(_experiment_command(straight), check=True, env=env, timeout=120)
+
+    process = subprocess.Popen(_experiment_command(killed), env=env)
+    latest = killed / "seed_000" / "stream_00" / "ilpss" / "LATEST"
+    deadline = time.monotonic() + 60
+    while not latest.exists() and process.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.01)
+    time.sleep(0.2)  # well inside the next trial (each takes about a second)
+    process.send_signal(signal.SIGKILL)
+    assert process.wait(30) == -signal.SIGKILL  # killed, not finished
+    assert latest.read_text() in ("trial_0001", "trial_0002", "trial_0003")
+    assert not (killed / "seed_000" / "stream_00" / "result.json").exists()
+
+    subprocess.run(_experiment_command(killed), check=True, env=env, timeout=120)
+    result_a, state_a, arrays_a = _final_state(straight)
+    result_b, state_b, arrays_b = _final_state(killed)
+    assert result_a == result_b  # the saved results, byte for byte
+    assert state_a == state_b  # records and configuration of the last checkpoint
+    assert len(arrays_a) == len(arrays_b) > 0  # policies, bags, option library, kernels
+    for a, b in zip(arrays_a, arrays_b, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert json.loads(result_a)["methods"]["ilpss"]["curves"].keys() == {"3"}
+
+
+# ----------------------------------------------------------- hostile configs
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"n_seeds": "3"}, r"ExperimentConfig.n_seeds must be an integer >= 1, got '3'"),
+        ({"n_seeds": 2.0}, "n_seeds must be an integer >= 1, got 2.0"),
+        ({"n_seeds": True}, "n_seeds must be an integer >= 1, got True"),
+        ({"first_seed": -1}, "first_seed must be an integer >= 0, got -1"),
+        ({"n_shuffles": False}, "n_shuffles must be an integer >= 0, got False"),
+        ({"workers": 0}, "workers must be an integer >= 1"),
+        ({"prq_psi": math.nan}, r"prq_psi must be a finite number in \[0, 1\], got nan"),
+        ({"prq_psi": "0.5"}, r"prq_psi must be a finite number in \[0, 1\], got '0.5'"),
+        ({"prq_upsilon": math.inf}, r"prq_upsilon must be a finite number in \[0, 1\], got inf"),
+        ({"prq_upsilon": 1.5}, r"prq_upsilon must be a finite number in \[0, 1\]"),
+        ({"prq_delta_tau": -math.inf}, r"prq_delta_tau must be a finite number >= 0, got -inf"),
+        ({"prq_delta_tau": math.nan}, "prq_delta_tau must be a finite number"),
+        ({"methods": "ilpss"}, r"ExperimentConfig.methods must be a list of strings, got 'ilpss'"),
+        ({"methods": []}, r"unknown method\(s\) \[\] in ExperimentConfig.methods \(which must"),
+        ({"methods": ["scratch", "scratch"]}, "must not repeat a method"),
+        ({"methods": [1]}, "ExperimentConfig.methods must be a tuple of non-empty strings"),
+        ({"teams": "goal_guards"}, "ExperimentConfig.teams must be a list of strings"),
+        ({"teams": ["chasers", ""]}, "ExperimentConfig.teams must be a tuple of non-empty"),
+        ({"teams": ["chasers", None]}, "ExperimentConfig.teams must be a tuple of non-empty"),
+        ({"protocol": "B", "teams": ["chasers", "chasers"]}, "must not repeat a team"),
+        ({"protocol": "a"}, r"ExperimentConfig.protocol must be 'A', 'B' or 'C', got 'a'"),
+        ({"executor": "slurm"}, "ExperimentConfig.executor must be 'local' or 'ray'"),
+        ({"env_id": ""}, "ExperimentConfig.env_id must be a Gymnasium id"),
+        ({"sampler": "opponents.parametric"}, "sampler must be 'module:function'"),
+        ({"sampler": "a b:c"}, "sampler must be 'module:function'"),
+        ({"sampler_team": 3}, "sampler_team must be a team id"),
+        ({"lifelong": [1, 2]}, "ExperimentConfig.lifelong must be a JSON object"),
+        ({"lifelong": {"discount": 2.0}}, r"ExperimentConfig.lifelong: .*discount must lie"),
+        ({"lifelong": {"learner": {"alpah": 0.1}}},
+         r"ExperimentConfig.lifelong: unknown LearnerConfig field\(s\) \['alpah'\]"),
+    ],
+)
+def test_hostile_experiment_configs_name_the_field(changes, message):
+    values = {**ExperimentConfig().to_dict(), **changes}
+    with pytest.raises(ValueError, match=message):
+        ExperimentConfig.from_dict(json.loads(json.dumps(values)))
+
+
+def test_config_must_be_an_object_and_direct_construction_is_checked_too():
+    for bad in ([], "A", None, 3):
+        with pytest.raises(ValueError, match="must be a JSON object"):
+            ExperimentConfig.from_dict(bad)
+    with pytest.raises(ValueError, match="prq_psi must be a finite number"):
+        ExperimentConfig(prq_psi=float("nan"))
+    with pytest.raises(ValueError, match="lifelong must be a LifelongConfig"):
+        ExperimentConfig(lifelong={"train_episodes": 3})
+    with pytest.raises(ValueError, match="methods must be a tuple"):
+        ExperimentConfig(methods=["ilpss"])
+
+
+def test_an_unknown_team_fails_the_run_naming_it(tmp_path):
+    cfg = ExperimentConfig(n_seeds=1, workers=1, methods=("scratch",),
+                           teams=("no_such_team", "chasers")).with_overrides(
+        lifelong={"train_episodes": 2, "rollout_episodes": 1})
+    with pytest.raises(ValueError, match=r"unknown opponent team 'no_such_team'; known teams: \["):
+        run_experiment(cfg, tmp_path, progress=False)
+
+
+def test_cli_config_with_wrong_types_is_refused_by_name(tmp_path):
+    path = tmp_path / "config.json"
+    path.write_text(json.dumps({"n_seeds": "3"}))
+    with pytest.raises(ValueError, match=r"ExperimentConfig\.n_seeds must be an integer"):
+        cli_main(["--config", str(path), "--out", str(tmp_path / "out"), "--quiet"])
+    assert not (tmp_path / "out").exists()  # refused before anything was written
+
+
+# What the gaps look like today: no error, another message, or a raw TypeError or JSON
+# error escaping; anything else fails these tests even before the fixes.
+def test_cli_config_that_is_not_json_gives_a_clear_error(tmp_path, capsys):
+    path = tmp_path / "config.json"
+    path.write_text('{"n_seeds": 3,')  # truncated
+    with pytest.raises(SystemExit) as exit_info:
+        cli_main(["--config", str(path), "--out", str(tmp_path / "out"), "--quiet"])
+    assert exit_info.value.code == 2
+    assert f"--config {path}: not valid JSON" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("alpha", math.nan, r"LearnerConfig.alpha must be a finite number > 0"),
+        ("epsilon", "0.1", r"LearnerConfig.epsilon must be a finite number in \[0, 1\]"),
+        ("epsilon", 1.5, r"LearnerConfig.epsilon must be a finite number in \[0, 1\]"),
+        ("gamma", -0.1, r"LearnerConfig.gamma must be a finite number in \[0, 1\]"),
+        ("method", "td", "LearnerConfig.method must be 'sarsa' or 'q'"),
+        ("n_tilings", 0, "LearnerConfig.n_tilings must be an integer >= 1"),
+        ("tile_widths", (1.0, math.nan), "LearnerConfig.tile_widths must be None or a non-empty"),
+    ],
+)
+def test_learner_config_validation(field, value, message):
+    with pytest.raises(ValueError, match=message):
+        LearnerConfig(**{field: value})
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("discount", "0.5", r"LifelongConfig.discount must lie in \(0, 1\]"),
+        ("max_match_distance", math.nan, "LifelongConfig.max_match_distance must be"),
+        ("kernel_reg_covar", -1.0, "LifelongConfig.kernel_reg_covar must be"),
+        ("learner", {"alpha": 0.1}, "LifelongConfig.learner must be a LearnerConfig"),
+    ],
+)
+def test_lifelong_config_validation_gaps(field, value, message):
+    with pytest.raises(ValueError, match=message):
+        LifelongConfig(**{field: value})
