@@ -9,7 +9,9 @@ actions:
   3 primitives, no options);
 * ``learner+15 options``: the same with an option library of 5 kernels (a
   ``SharedKernelModel`` fitted on states of random rollouts) x 3 frozen policies;
-* ``learner+15 options+intra``: the same with intra-option updates.
+* ``learner+15 options+intra``: the same with intra-option updates;
+* ``Q(0.9)``: the learner with ``LearnerConfig``'s defaults (Watkins's Q(lambda), replacing
+  traces), without and with the 15 options.
 
 Configurations are interleaved over several rounds and the median rate is reported,
 with the learner's overhead per decision (``1/rate - 1/rate_random``).
@@ -247,6 +249,13 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
         "learner + 15 options": SmdpLearner(3, coder, library, seed=args.seed),
         "learner + 15 options + intra-option": SmdpLearner(
             3, coder, library, intra_option=True, seed=args.seed
+        ),
+        # LearnerConfig's defaults: Watkins's Q(0.9), replacing traces, optimistic values.
+        "Q(0.9) learner (3 primitives)": SmdpLearner(
+            3, coder, method="q", trace_decay=0.9, initial_value=1.0, seed=args.seed
+        ),
+        "Q(0.9) learner + 15 options": SmdpLearner(
+            3, coder, library, method="q", trace_decay=0.9, initial_value=1.0, seed=args.seed
         ),
     }
     rng = np.random.default_rng(args.seed)
