@@ -89,3 +89,27 @@ def test_cli_runs_and_writes_report(tmp_path, capsys):
     assert (out / "report.md").exists() and (out / "config.json").exists()
     saved = json.loads((out / "config.json").read_text())
     assert saved["n_seeds"] == 1 and saved["lifelong"]["train_episodes"] == 4
+
+
+def test_cli_set_overrides_lifelong_and_learner_fields() -> None:
+    from ilpss.experiments.cli import build_config, parser
+
+    args = parser().parse_args(["--out", "x", "--set", "n_kernels=2",
+                                "--set", "learner.intra_option=true", "--set", "discount=0.25"])
+    cfg = build_config(args)
+    assert cfg.lifelong.n_kernels == 2
+    assert cfg.lifelong.discount == 0.25
+    assert cfg.lifelong.learner.intra_option is True
+    # untouched learner fields keep the defaults
+    assert cfg.lifelong.learner.tile_widths == ExperimentConfig().lifelong.learner.tile_widths
+
+
+def test_cli_bad_set_is_a_usage_error(capsys) -> None:
+    from ilpss.experiments.cli import main
+
+    for bad in (["--set", "n_kernels"], ["--set", "no_such_field=1"], ["--set", "n_kernels=0"]):
+        with pytest.raises(SystemExit) as exc:
+            main(["--out", "unused", *bad])
+        assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "KEY=VALUE" in err and "no_such_field" in err and "n_kernels" in err

@@ -45,9 +45,27 @@ def build_config(args: argparse.Namespace) -> ExperimentConfig:
         lifelong["train_episodes"] = args.episodes
     if args.rollouts is not None:
         lifelong["rollout_episodes"] = args.rollouts
+    for item in args.set or ():
+        key, value = _setting(item)
+        if key.startswith("learner."):
+            learner = lifelong.setdefault("learner", cfg.lifelong.learner.__dict__.copy())
+            learner[key.removeprefix("learner.")] = value
+        else:
+            lifelong[key] = value
     if lifelong:
         changes["lifelong"] = lifelong
     return cfg.with_overrides(**changes)
+
+
+def _setting(item: str) -> tuple[str, object]:
+    """``KEY=VALUE`` of ``--set``; the value is read as JSON, else kept as a string."""
+    key, sep, text = item.partition("=")
+    if not sep or not key:
+        raise ValueError(f"--set takes KEY=VALUE (e.g. n_kernels=2), got {item!r}")
+    try:
+        return key, json.loads(text)
+    except json.JSONDecodeError:
+        return key, text
 
 
 def parser() -> argparse.ArgumentParser:
@@ -64,6 +82,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--rollouts", type=int, help="greedy rollouts per trial (default 50)")
     p.add_argument("--stream-length", type=int, help="protocol C: opponents in the stream")
     p.add_argument("--methods", nargs="+", choices=METHODS)
+    p.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="a LifelongConfig field (or learner.FIELD), value as JSON; repeatable, "
+                   "e.g. --set n_kernels=2 --set learner.intra_option=true")
     p.add_argument("--workers", type=int, help="parallel seeds (default 2)")
     p.add_argument("--executor", choices=["local", "ray"])
     p.add_argument("--out", required=True, help="output folder (one per run)")
@@ -82,6 +103,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error(f"--config {args.config}: {exc.strerror or exc}")
     except json.JSONDecodeError as exc:
         p.error(f"--config {args.config}: not valid JSON ({exc})")
+    except (ValueError, TypeError) as exc:
+        p.error(str(exc))
     results = run_experiment(cfg, args.out, progress=not args.quiet)
     if not args.no_report:
         from ilpss.experiments.report import write_report
