@@ -127,6 +127,9 @@ class LifelongConfig:
     """Largest Bhattacharyya distance at which a refit kernel keeps an old identity."""
     max_depth: int = 4
     """Policies consulted at most when following option pointers."""
+    continuation_exponent: float = 1.0
+    """Options continue with probability ``K(s) ** continuation_exponent`` (1: the
+    paper; below 1: longer options, an ablation of option duration)."""
     kernel_n_init: int = 3
     """EM restarts per fit."""
     kernel_max_iter: int = 200
@@ -165,6 +168,9 @@ class LifelongConfig:
                 "LifelongConfig.max_match_distance", self.max_match_distance, 0.0, math.inf
             )
         _check_real("LifelongConfig.kernel_reg_covar", self.kernel_reg_covar, 0.0, math.inf)
+        _check_real(
+            "LifelongConfig.continuation_exponent", self.continuation_exponent, 0.0, math.inf
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict."""
@@ -411,6 +417,7 @@ class LifelongLearner:
                 model, self.policies, discount=cfg.discount,
                 prune_threshold=cfg.prune_threshold, max_depth=cfg.max_depth,
                 max_match_distance=cfg.max_match_distance,
+                continuation_exponent=cfg.continuation_exponent,
             )
         else:
             known = len(self.library.policies)

@@ -257,6 +257,10 @@ class OptionLibrary:
         Maximum number of policies consulted when following pointers.
     max_match_distance : float or None, default 3.0
         Largest Bhattacharyya distance at which a refit kernel inherits an old identity.
+    continuation_exponent : float, default 1.0
+        A running option continues with probability ``K_k(s) ** continuation_exponent``:
+        1 is the paper's rule; below 1 options run longer (0: until the episode ends),
+        an ablation of option duration. Initiation is unchanged.
 
     Attributes
     ----------
@@ -285,8 +289,11 @@ class OptionLibrary:
         prune_threshold: float = 0.1,
         max_depth: int = 4,
         max_match_distance: float | None = 3.0,
+        continuation_exponent: float = 1.0,
     ) -> None:
-        self._set_params(discount, prune_threshold, max_depth, max_match_distance)
+        self._set_params(
+            discount, prune_threshold, max_depth, max_match_distance, continuation_exponent
+        )
         policies = tuple(policies)
         self._check_model(kernel_model, policies)
         self._check_policies(policies, registry={})
@@ -314,7 +321,14 @@ class OptionLibrary:
         prune_threshold: float,
         max_depth: int,
         max_match_distance: float | None,
+        continuation_exponent: float = 1.0,
     ) -> None:
+        if not (isinstance(continuation_exponent, int | float | np.floating)
+                and 0.0 <= continuation_exponent < np.inf):
+            raise ValueError(
+                f"continuation_exponent must be a finite number >= 0, got {continuation_exponent!r}"
+            )
+        self.continuation_exponent = float(continuation_exponent)
         if not 0.0 < discount <= 1.0:  # 1.0: no discounting (the library only grows)
             raise ValueError(f"discount must be in (0, 1], got {discount}")
         if not 0.0 <= prune_threshold < 1.0:
@@ -505,10 +519,11 @@ class OptionLibrary:
     def continuation_probability(
         self, option_id: int, state: np.ndarray, membership: np.ndarray | None = None
     ) -> float:
-        """``K_k(s)`` of active option ``option_id`` (its scale does not apply)."""
+        """``K_k(s) ** continuation_exponent`` of active option ``option_id`` (its scale
+        does not apply)."""
         j = self.position(option_id)
         m = self.membership(state) if membership is None else membership
-        return float(m[self.option_kernel[j]])
+        return float(m[self.option_kernel[j]]) ** self.continuation_exponent
 
     def continues(
         self,
@@ -699,7 +714,8 @@ class OptionLibrary:
         order = np.argsort(ids, kind="stable")
         lib = object.__new__(OptionLibrary)
         lib._set_params(
-            self.discount, self.prune_threshold, self.max_depth, self.max_match_distance
+            self.discount, self.prune_threshold, self.max_depth, self.max_match_distance,
+            self.continuation_exponent,
         )
         lib._install(
             kernel_model=kernel_model,
@@ -771,6 +787,7 @@ class OptionLibrary:
             "prune_threshold": self.prune_threshold,
             "max_depth": self.max_depth,
             "max_match_distance": self.max_match_distance,
+            "continuation_exponent": self.continuation_exponent,
             "next_option_id": self._next_option_id,
             "next_kernel_id": self._next_kernel_id,
             "files": digests,
@@ -857,6 +874,7 @@ class OptionLibrary:
                 meta.get("prune_threshold"),  # type: ignore[arg-type]
                 meta.get("max_depth"),  # type: ignore[arg-type]
                 meta.get("max_match_distance"),
+                meta.get("continuation_exponent", 1.0),  # absent before it existed
             )
             cls._check_model(model, policies)
             cls._check_policies(policies, registry)

@@ -402,7 +402,7 @@ class SmdpLearner:
                     targets[c] = reward
                 else:
                     assert m_next is not None
-                    beta_cont = m_next[k]
+                    beta_cont = m_next[k] ** lib.continuation_exponent
                     u = beta_cont * q_next[c] + (1.0 - beta_cont) * q_next.max()
                     targets[c] = reward + disc * float(u)
         if targets:

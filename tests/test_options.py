@@ -123,6 +123,32 @@ def test_continuation_frequency_matches_membership_without_scale() -> None:
     assert lib.continuation_probability(0, np.array([1.0])) == 0.6
 
 
+@pytest.mark.parametrize("exponent", [0.0, 0.5, 2.0])
+def test_continuation_exponent_scales_the_stopping_rule(exponent: float, tmp_path) -> None:
+    lib = OptionLibrary(constant_kernels([0.6]), [constant_policy(0)],
+                        continuation_exponent=exponent)
+    rng = np.random.default_rng(3)
+    n = 20_000
+    hits = sum(lib.continues(0, np.array([1.0]), rng) for _ in range(n))
+    if exponent == 0.0:
+        assert hits == n  # runs until the episode ends
+    else:
+        assert binomial_ok(hits, n, 0.6**exponent)
+    # initiation does not change, and the exponent survives a refit and a save/load
+    np.testing.assert_allclose(lib.initiation_probabilities(np.array([1.0])), [0.6])
+    assert lib.refit(constant_kernels([0.6]), []).continuation_exponent == exponent
+    saved = OptionLibrary(IntervalKernels([(0, 9)]), [constant_policy(0)],
+                          continuation_exponent=exponent)
+    saved.save(tmp_path / "lib")
+    again = OptionLibrary.load(tmp_path / "lib", kernel_loader=IntervalKernels.load)
+    assert again.continuation_exponent == exponent
+
+
+def test_negative_continuation_exponent_is_refused() -> None:
+    with pytest.raises(ValueError, match="continuation_exponent"):
+        OptionLibrary(constant_kernels([0.6]), [constant_policy(0)], continuation_exponent=-1)
+
+
 def test_option_acts_greedily_with_its_policy() -> None:
     model = IntervalKernels([(0, 9)])
     lib = OptionLibrary(model, [constant_policy(2), constant_policy(1)])
