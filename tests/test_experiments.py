@@ -113,3 +113,29 @@ def test_cli_bad_set_is_a_usage_error(capsys) -> None:
         assert exc.value.code == 2
     err = capsys.readouterr().err
     assert "KEY=VALUE" in err and "no_such_field" in err and "n_kernels" in err
+
+
+def test_compare_pairs_runs_by_seed_and_matches_the_report(tmp_path, capsys):
+    from ilpss import metrics
+    from ilpss.experiments.compare import main as compare_main
+    from ilpss.experiments.report import collect, threshold_for
+
+    cfg = _tiny(methods=("ilpss", "scratch"))
+    results = run_experiment(cfg, tmp_path / "a", progress=False)
+    # An ablation run with one method and 3 seeds: only the 2 shared seeds are paired.
+    run_experiment(_tiny(methods=("ilpss",)).with_overrides(
+        n_seeds=3, lifelong={"n_kernels": 1}), tmp_path / "b", progress=False)
+    assert compare_main(["--baseline", f"{tmp_path / 'a'}:scratch",
+                         f"ILPSS (K = 2)={tmp_path / 'a'}:ilpss",
+                         f"K = 1={tmp_path / 'b'}:ilpss"]) == 0
+    out = capsys.readouterr().out
+    assert "2 paired seeds" in out and "| ILPSS (K = 2) |" in out and "| K = 1 |" in out
+    # The same jumpstart as computing it directly from the curves.
+    curves = collect(results)["held_out=goal_guards"]
+    a, b = curves["ilpss"][3], curves["scratch"][3]
+    est = metrics.compare(a, b, first=6, last=6, threshold=threshold_for(b), window=6)
+    js = est["jumpstart"]
+    assert f"| ILPSS (K = 2) | {js.value:+.3g} [{js.low:+.3g}, {js.high:+.3g}]" in out
+    for bad in (["--baseline", "nofolder", "x=y:z"], ["--baseline", f"{tmp_path / 'a'}:prq", "x"]):
+        with pytest.raises(SystemExit):
+            compare_main(bad)
