@@ -422,7 +422,7 @@ def test_damaged_checkpoints_are_refused_by_name(checkpoints, tmp_path, tamper, 
     assert str(root) in str(err.value)  # names the file or folder
 
 
-# What the gaps look like today: no error, or a raw KeyError/TypeError/AttributeError.
+# Damaged state.json: each case once escaped as no error or a raw KeyError/TypeError/AttributeError.
 @pytest.mark.parametrize(
     ("tamper", "match"),
     [
@@ -444,7 +444,7 @@ def test_damaged_checkpoints_are_refused_by_name(checkpoints, tmp_path, tamper, 
          "bag_0 has non-finite states"),
     ],
 )
-def test_checkpoint_gaps(checkpoints, tmp_path, tamper, match) -> None:
+def test_damaged_checkpoint_state_is_refused(checkpoints, tmp_path, tamper, match) -> None:
     from ilpss.lifelong import LifelongLearner
 
     template, space, _, _ = checkpoints

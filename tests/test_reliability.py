@@ -455,16 +455,16 @@ def test_an_unknown_team_fails_the_run_naming_it(tmp_path):
         run_experiment(cfg, tmp_path, progress=False)
 
 
-def test_cli_config_with_wrong_types_is_refused_by_name(tmp_path):
+def test_cli_config_with_wrong_types_is_refused_by_name(tmp_path, capsys):
     path = tmp_path / "config.json"
     path.write_text(json.dumps({"n_seeds": "3"}))
-    with pytest.raises(ValueError, match=r"ExperimentConfig\.n_seeds must be an integer"):
+    with pytest.raises(SystemExit) as exc:  # a usage error, not a traceback
         cli_main(["--config", str(path), "--out", str(tmp_path / "out"), "--quiet"])
+    assert exc.value.code == 2
+    assert "ExperimentConfig.n_seeds must be an integer" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()  # refused before anything was written
 
 
-# What the gaps look like today: no error, another message, or a raw TypeError or JSON
-# error escaping; anything else fails these tests even before the fixes.
 def test_cli_config_that_is_not_json_gives_a_clear_error(tmp_path, capsys):
     path = tmp_path / "config.json"
     path.write_text('{"n_seeds": 3,')  # truncated
@@ -500,6 +500,6 @@ def test_learner_config_validation(field, value, message):
         ("learner", {"alpha": 0.1}, "LifelongConfig.learner must be a LearnerConfig"),
     ],
 )
-def test_lifelong_config_validation_gaps(field, value, message):
+def test_lifelong_config_validation(field, value, message):
     with pytest.raises(ValueError, match=message):
         LifelongConfig(**{field: value})
