@@ -36,8 +36,9 @@ their eligibility (Sarsa(lambda); Watkins's Q(lambda) for ``method="q"``, whose 
 are cut after an exploratory choice). Traces are keepaway's *replacing* traces on
 tiles: the active tiles of a choice point get eligibility 1 for the choice made and 0
 for the other choices; after a choice of duration ``D`` every eligibility is multiplied
-by ``gamma ** D * lambda`` and dropped below 0.01. Keepaway learns with ``lambda = 0``; a positive ``lambda`` carries
-the drill's end-of-episode reward back along the ~15 decisions of an episode at once.
+by ``gamma ** D * lambda`` and dropped below 0.01. With ``lambda = 0`` this is the
+one-step update above; a positive ``lambda`` carries the drill's end-of-episode reward
+back along the ~15 decisions of an episode at once.
 
 With ``intra_option=True`` every primitive step also updates, one step at a time, the
 primitive action taken and every *other* offered option whose policy would have taken
@@ -173,8 +174,8 @@ class SmdpLearner:
         paper's "search for a solution first in the policy subspace spanned by
         behaviours that proved useful in the past".
     trace_decay : float, default 0.0
-        ``lambda`` of eligibility traces over choice points (0: one-step SMDP updates,
-        keepaway's setting). See the module docstring.
+        ``lambda`` of eligibility traces over choice points (0: one-step SMDP updates).
+        See the module docstring.
     seed : int or numpy.random.Generator, optional
     max_decisions : int, default 100_000
         Safety bound on the steps of one episode (an error beyond it).
