@@ -47,9 +47,10 @@ class LearnerConfig:
     """SMDP learner hyper-parameters.
 
     Keepaway's tile coding, step size and exploration, with Watkins's Q(lambda) and
-    optimistic initial values instead of keepaway's Sarsa(0): on the drill, Sarsa(0)
-    and Q(0) rise and then collapse, while Q(0.9) with replacing traces learns within a
-    few hundred episodes and stays up (the sweep is in ``docs/learning.md``).
+    optimistic initial values instead of one-step Sarsa: on the drill, one-step Sarsa
+    and Q-learning rise and then collapse, while Q(0.9) with replacing traces learns
+    within a few hundred episodes and stays up (the sweep is in
+    ``docs/learning_sweep.md``).
     """
 
     alpha: float = 0.125
