@@ -106,6 +106,16 @@ class LearnerConfig:
                 f"numbers > 0, got {widths!r}"
             )
 
+    def smdp_kwargs(self) -> dict[str, Any]:
+        """Keyword arguments of :class:`~ilpss.smdp.SmdpLearner` for these settings."""
+        return {
+            "alpha": self.alpha, "epsilon": self.epsilon, "gamma": self.gamma,
+            "method": self.method, "intra_option": self.intra_option,
+            "initial_value": self.initial_value,
+            "option_initial_value": self.option_initial_value,
+            "trace_decay": self.trace_decay,
+        }
+
 
 @dataclass(frozen=True)
 class LifelongConfig:
@@ -324,12 +334,8 @@ class LifelongLearner:
         """A fresh SMDP learner offered the current options (or none)."""
         lc = self.config.learner
         library = self.library if with_options and self.config.options != "none" else None
-        return SmdpLearner(
-            self.n_primitive, self.tile_coder, library, alpha=lc.alpha, epsilon=lc.epsilon,
-            gamma=lc.gamma, method=lc.method, intra_option=lc.intra_option,
-            initial_value=lc.initial_value, option_initial_value=lc.option_initial_value,
-            trace_decay=lc.trace_decay, seed=seed,
-        )
+        return SmdpLearner(self.n_primitive, self.tile_coder, library, seed=seed,
+                           **lc.smdp_kwargs())
 
     def learn(
         self,

@@ -243,7 +243,7 @@ class SmdpLearner:
         self.max_decisions = int(max_decisions)
         self.rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         self._step = self.alpha / tile_coder.n_active
-        self._live_rows: set[int] = set()
+        self._live_rows: set[int] = set()  # rows of the episode's traces that are non-zero
         self._lib_version: tuple[int, int] | None = None
         self._lib_pos = np.zeros(0, dtype=np.int64)
         self._lib_ok = np.zeros(0, dtype=bool)
@@ -457,7 +457,7 @@ class SmdpLearner:
         terminated = truncated = False
         # One eligibility per weight, only when lambda > 0.
         traces = np.zeros_like(self.q.weights) if self.trace_decay > 0.0 else None
-        self._live_rows: set[int] = set()  # rows of `traces` with a non-zero eligibility
+        self._live_rows.clear()  # rows of `traces` with a non-zero eligibility
 
         active = self.tile_coder.active(s)
         mask, m = self._choice_mask(s)

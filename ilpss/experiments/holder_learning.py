@@ -60,9 +60,7 @@ def learn_and_evaluate(job: tuple[str, int, int, int, LearnerConfig]) -> dict[st
     env = gym.make(DRILL_ENV_ID, opponent=team, disable_env_checker=True)
     coder = TileCoder.from_space(env.observation_space, np.asarray(DRILL_TILE_WIDTHS),
                                  n_tilings=lc.n_tilings)
-    learner = SmdpLearner(3, coder, alpha=lc.alpha, epsilon=lc.epsilon, gamma=lc.gamma,
-                          method=lc.method, initial_value=lc.initial_value,
-                          trace_decay=lc.trace_decay, seed=seed)
+    learner = SmdpLearner(3, coder, seed=seed, **lc.smdp_kwargs())
     curve = [r.total_reward for r in learner.train(env, episodes, seed=seed)]
     rng = np.random.default_rng(seed)
     rewards = _evaluate(env, lambda obs: learner.q.greedy(np.asarray(obs, float), rng), n_eval)
