@@ -23,7 +23,9 @@ from pathlib import Path
 import numpy as np
 
 from ilpss import metrics
+from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.report import threshold_for, windows
+from ilpss.experiments.run import load_result
 
 
 def _parse(spec: str) -> tuple[Path, str]:
@@ -35,9 +37,14 @@ def _parse(spec: str) -> tuple[Path, str]:
 
 def target_curves(folder: Path, method: str) -> dict[int, tuple[list[float], dict]]:
     """``{seed: (curve on the first target of stream 0, that method's result)}``."""
+    config = folder / "config.json"
+    if not config.is_file():
+        raise ValueError(f"{folder}: no config.json (not a folder written by ilpss-experiment)")
+    cfg = ExperimentConfig.from_dict(json.loads(config.read_text()))
     out = {}
     for path in sorted(folder.glob("seed_*/stream_00/result.json")):
-        result = json.loads(path.read_text())
+        seed = int(path.parent.parent.name.removeprefix("seed_"))
+        result = load_result(path, cfg, seed, 0, cfg.streams(seed)[0])  # checked, clear errors
         if method not in result["methods"]:
             raise ValueError(f"{path}: no method {method!r}; it has {sorted(result['methods'])}")
         data = result["methods"][method]
