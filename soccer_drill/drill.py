@@ -46,6 +46,24 @@ class Drill:
         self._dt = cfg.cycle_seconds
         self._sub_dt = cfg.cycle_seconds / cfg.substeps
         self._roll = cfg.ball_damping**cfg.cycle_seconds  # speed kept per cycle
+        self._build_space()
+        self._top_speed = (
+            cfg.attacker_speed, cfg.attacker_speed, cfg.defender_speed, cfg.defender_speed,
+        )
+        self._caps = (*self._top_speed, cfg.ball_max_speed)
+        self.state: DrillState
+        self.outcome: Outcome | None = None
+        self.attacker_reward = 0.0
+
+    # ------------------------------------------------------------------ reset
+    def _build_space(self) -> None:
+        """A new pymunk space with the four players, the ball and the walls.
+
+        Built anew on every :meth:`reset`: a space keeps contact caches and other
+        internal state from earlier episodes that change later collisions, so reusing
+        one would make an episode depend on what ran before it, not only on its seed.
+        """
+        cfg = self.config
         self._space = pymunk.Space()
         self._players: list[pymunk.Body] = []
         for _ in range(4):
@@ -69,19 +87,15 @@ class Drill:
             wall.elasticity = 0.0
             wall.filter = pymunk.ShapeFilter(categories=_WALL_CATEGORY, mask=_PLAYER_CATEGORY)
             self._space.add(wall)
-        self._top_speed = (
-            cfg.attacker_speed, cfg.attacker_speed, cfg.defender_speed, cfg.defender_speed,
-        )
         self._bodies = (*self._players, self._ball)
-        self._caps = (*self._top_speed, cfg.ball_max_speed)
-        self.state: DrillState
-        self.outcome: Outcome | None = None
-        self.attacker_reward = 0.0
 
-    # ------------------------------------------------------------------ reset
     def reset(self, rng: np.random.Generator) -> DrillState:
-        """Place the players with seeded jitter and give the ball to a random attacker."""
+        """Place the players with seeded jitter and give the ball to a random attacker.
+
+        The physics space is rebuilt, so the episode depends only on ``rng``'s state.
+        """
         cfg = self.config
+        self._build_space()
         starts = (*cfg.attacker_starts, *cfg.defender_starts)
         jitter = rng.uniform(-cfg.start_jitter, cfg.start_jitter, size=(4, 2))
         pos = []

@@ -8,6 +8,7 @@ import numpy as np
 
 import soccer_drill
 from soccer_drill.policies import keepaway_rule
+from soccer_drill.teams import team_ids
 
 
 def _aec_rollout(env, seed: int, episodes: int) -> list:
@@ -95,3 +96,70 @@ def test_rendering_does_not_change_observations():
     drawn_env.record_frames(frames)
     assert _holder_rollout(drawn_env, 2, 2) == plain
     assert len(frames) > 10 and frames[0].dtype == np.uint8
+
+
+# --------------------------------------------------------------------- reseeding a used env
+def _holder_seeded(env, seed: int, actions) -> list:
+    """One episode from ``reset(seed=seed)`` with a fixed action sequence (cycled)."""
+    obs, info = env.reset(seed=seed)
+    out = [(obs.tobytes(), tuple(sorted(info.items())))]
+    for t in range(500):
+        obs, reward, term, trunc, info = env.step(actions[t % len(actions)])
+        out.append((obs.tobytes(), reward, term, trunc, tuple(sorted(info.items()))))
+        if term or trunc:
+            return out
+    raise AssertionError("episode did not end")
+
+
+def _aec_seeded(env, seed: int, action_seed: int) -> list:
+    """One AEC episode from ``reset(seed=seed)``, legal actions drawn by ``action_seed``."""
+    rng = np.random.default_rng(action_seed)
+    env.reset(seed=seed)
+    record = []
+    for agent in env.agent_iter():
+        obs, reward, term, trunc, info = env.last()
+        record.append((agent, obs["observation"].tobytes(), obs["action_mask"].tobytes(),
+                       reward, term, trunc, tuple(sorted(info.items()))))
+        env.step(None if term or trunc else int(rng.choice(np.flatnonzero(obs["action_mask"]))))
+    return record
+
+
+def _parallel_seeded(env, seed: int, action_seed: int) -> list:
+    rng = np.random.default_rng(action_seed)
+    obs, infos = env.reset(seed=seed)
+    record = [(sorted((a, o["observation"].tobytes()) for a, o in obs.items()), repr(infos))]
+    while env.agents:
+        actions = {a: int(rng.choice(np.flatnonzero(obs[a]["action_mask"]))) for a in env.agents}
+        obs, rewards, terms, truncs, infos = env.step(actions)
+        record.append((sorted((a, o["observation"].tobytes()) for a, o in obs.items()),
+                       repr(rewards), repr(terms), repr(truncs), repr(infos)))
+    return record
+
+
+def test_reseeding_a_used_holder_env_reproduces_the_episode_for_every_team():
+    """``reset(seed=s)`` after other episodes equals a fresh environment's ``reset(seed=s)``.
+
+    The earlier episodes differ (seeds and actions), so state carried over by the physics
+    engine between episodes (its contact caches) would show up in some of them.
+    """
+    actions = [int(a) for a in np.random.default_rng(0).integers(3, size=60)]
+    for team in team_ids():
+        fresh = _holder_seeded(soccer_drill.HolderEnv(opponent=team), 7, actions)
+        used = soccer_drill.HolderEnv(opponent=team)
+        for earlier in range(12):
+            _holder_seeded(used, 100 + earlier, actions[earlier:] + actions[:earlier])
+            assert _holder_seeded(used, 7, actions) == fresh, (team, earlier)
+
+
+def test_reseeding_used_aec_and_parallel_envs_reproduces_the_episode():
+    for opponent in (None, *team_ids()):
+        fresh = _aec_seeded(soccer_drill.env(opponent=opponent), 7, 0)
+        used = soccer_drill.env(opponent=opponent)
+        for earlier in range(15):
+            _aec_seeded(used, 200 + earlier, earlier + 1)
+            assert _aec_seeded(used, 7, 0) == fresh, (opponent, earlier)
+        fresh = _parallel_seeded(soccer_drill.parallel_env(opponent=opponent), 7, 0)
+        used = soccer_drill.parallel_env(opponent=opponent)
+        for earlier in range(15):
+            _parallel_seeded(used, 300 + earlier, earlier + 1)
+            assert _parallel_seeded(used, 7, 0) == fresh, (opponent, earlier)
