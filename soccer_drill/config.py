@@ -2,11 +2,58 @@
 
 from __future__ import annotations
 
-import math
-from dataclasses import asdict, dataclass, fields
+import numbers
+from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 Point = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class Limits:
+    """The interval a numeric :class:`DrillConfig` field must lie in."""
+
+    low: float
+    high: float
+    low_open: bool = False
+    """The interval excludes ``low`` (``(low, high]``)."""
+    integer: bool = False
+    """The field is a whole number (a Python or NumPy integer, not a bool)."""
+
+    def __str__(self) -> str:
+        kind = "an integer" if self.integer else "a number"
+        return f"{kind} in {'(' if self.low_open else '['}{_plain(self.low)}, {_plain(self.high)}]"
+
+    def admit(self, name: str, value: object) -> float | int:
+        """``value`` as a Python ``float`` (or ``int``), or ``ValueError`` naming ``name``."""
+        kind = numbers.Integral if self.integer else numbers.Real
+        if isinstance(value, bool) or not isinstance(value, kind):
+            raise ValueError(f"DrillConfig.{name} must be {self}, got {value!r}")
+        number = int(value) if self.integer else float(value)  # type: ignore[arg-type]
+        inside = (self.low < number if self.low_open else self.low <= number) and (
+            number <= self.high
+        )  # False for NaN
+        if not inside:
+            raise ValueError(f"DrillConfig.{name} must be {self}, got {value!r}")
+        return number
+
+
+def _plain(x: float) -> str:
+    return str(int(x)) if float(x).is_integer() else str(x)
+
+
+# The ranges are wide enough for any sensible drill and keep every derived quantity
+# finite and every table small (e.g. the ball's roll table has 1.5 / cycle_seconds rows).
+def _within(low: float, high: float) -> dict[str, Limits]:
+    return {"limits": Limits(low, high)}
+
+
+def _above(low: float, high: float) -> dict[str, Limits]:
+    return {"limits": Limits(low, high, low_open=True)}
+
+
+def _whole(low: int, high: int) -> dict[str, Limits]:
+    return {"limits": Limits(low, high, integer=True)}
 
 
 @dataclass(frozen=True)
@@ -17,96 +64,77 @@ class DrillConfig:
     hand-coded rule often does, and the best rule differs between opponent teams
     (see ``docs/opponents.md``). The field is ``field_size`` square; ``x`` runs
     left to right, ``y`` from the goal line (``y = 0``) up to the attackers' side.
+
+    Each numeric field declares the interval it must lie in (its ``limits``
+    metadata, a :class:`Limits`). A value outside it, NaN, infinity, a bool or a
+    non-number raises ``ValueError`` naming the field and the interval. NumPy
+    numbers are accepted and stored as Python ``float``/``int``; the start points
+    are stored as tuples of floats.
     """
 
-    field_size: float = 35.0
+    field_size: float = field(default=35.0, metadata=_within(10.0, 1000.0))
     """Side of the square training region, in metres."""
-    cycle_seconds: float = 0.1
+    cycle_seconds: float = field(default=0.1, metadata=_within(0.001, 1.0))
     """Simulated time of one cycle (one decision of every agent)."""
-    substeps: int = 10
+    substeps: int = field(default=10, metadata=_whole(1, 1000))
     """Physics sub-steps per cycle (fixed step ``cycle_seconds / substeps``)."""
-    max_cycles: int = 100
+    max_cycles: int = field(default=100, metadata=_whole(1, 1_000_000))
     """Cycles after which the episode is truncated (a failure: timeout)."""
-    player_radius: float = 0.5
+    player_radius: float = field(default=0.5, metadata=_within(0.05, 5.0))
     """Radius of a player's body; players collide with each other and the walls."""
-    wall_margin: float = 1.0
+    wall_margin: float = field(default=1.0, metadata=_within(0.0, 100.0))
     """Players are stopped by walls this far outside the region; the ball is not."""
-    attacker_speed: float = 6.0
+    attacker_speed: float = field(default=6.0, metadata=_above(0.0, 100.0))
     """Top running speed of an attacker without the ball."""
-    dribble_speed: float = 4.6
+    dribble_speed: float = field(default=4.6, metadata=_above(0.0, 100.0))
     """Top speed of an attacker running with the ball (dribbling)."""
-    hold_speed: float = 1.5
+    hold_speed: float = field(default=1.5, metadata=_above(0.0, 100.0))
     """Top speed of the holder while shielding the ball (``HOLD``)."""
-    defender_speed: float = 4.6
+    defender_speed: float = field(default=4.6, metadata=_above(0.0, 100.0))
     """Top running speed of a defender."""
-    player_acceleration: float = 20.0
+    player_acceleration: float = field(default=20.0, metadata=_above(0.0, 10_000.0))
     """Acceleration cap of every player, m/s^2."""
-    ball_damping: float = 0.4
+    ball_damping: float = field(default=0.4, metadata=_within(0.0, 1.0))
     """Fraction of its speed a rolling ball keeps after one second."""
-    ball_max_speed: float = 25.0
+    ball_max_speed: float = field(default=25.0, metadata=_above(0.0, 1000.0))
     """Speed cap of the ball (a kick never exceeds it)."""
-    pass_arrival_speed: float = 4.0
+    pass_arrival_speed: float = field(default=4.0, metadata=_above(0.0, 1000.0))
     """Speed a pass is aimed to have when it reaches the receiver."""
-    kick_angle_noise: float = 4.0
+    kick_angle_noise: float = field(default=4.0, metadata=_within(0.0, 180.0))
     """Standard deviation of a kick's direction error, in degrees."""
-    kick_speed_noise: float = 0.08
+    kick_speed_noise: float = field(default=0.08, metadata=_within(0.0, 1.0))
     """Standard deviation of a kick's relative speed error."""
-    control_radius: float = 1.0
+    control_radius: float = field(default=1.0, metadata=_above(0.0, 10.0))
     """A player controls the ball within this centre-to-centre distance ..."""
-    control_speed: float = 9.0
+    control_speed: float = field(default=9.0, metadata=_above(0.0, 1000.0))
     """... if the ball's speed relative to the player is at most this."""
-    ball_offset: float = 0.75
+    ball_offset: float = field(default=0.75, metadata=_above(0.0, 10.0))
     """Distance ahead of the holder at which dribbling and shielding keep the ball."""
-    tackle_probability: float = 0.2
+    tackle_probability: float = field(default=0.2, metadata=_within(0.0, 1.0))
     """Chance per cycle that a defender within control range of a held ball takes it."""
-    pass_lockout_cycles: int = 4
+    pass_lockout_cycles: int = field(default=4, metadata=_whole(0, 1_000_000))
     """Cycles after a pass during which the passer cannot regain the ball."""
-    start_jitter: float = 1.5
+    start_jitter: float = field(default=1.5, metadata=_within(0.0, 100.0))
     """Half-width of the uniform jitter added to each starting coordinate."""
     attacker_starts: tuple[Point, Point] = ((4.0, 31.0), (31.0, 31.0))
     """Nominal starting points of the two attackers (top corners)."""
     defender_starts: tuple[Point, Point] = ((13.0, 9.0), (22.0, 9.0))
     """Nominal starting points of the two defenders (near the goal line)."""
-    reward_success_centre: float = 1.0
+    reward_success_centre: float = field(default=1.0, metadata=_within(-1000.0, 1000.0))
     """Attackers' reward for crossing the goal line at its centre."""
-    reward_success_edge: float = 0.5
+    reward_success_edge: float = field(default=0.5, metadata=_within(-1000.0, 1000.0))
     """Attackers' reward for crossing at either end (linear in between)."""
-    reward_failure: float = -1.0
+    reward_failure: float = field(default=-1.0, metadata=_within(-1000.0, 1000.0))
     """Attackers' reward for an interception or the ball leaving the region."""
-    reward_timeout: float = -1.0
+    reward_timeout: float = field(default=-1.0, metadata=_within(-1000.0, 1000.0))
     """Attackers' reward when ``max_cycles`` pass without an outcome."""
 
     def __post_init__(self) -> None:
-        positive = (
-            "field_size", "cycle_seconds", "player_radius", "attacker_speed",
-            "dribble_speed", "hold_speed", "defender_speed", "player_acceleration",
-            "ball_max_speed", "pass_arrival_speed", "control_radius", "control_speed",
-            "ball_offset",
-        )
-        for name in (f.name for f in fields(self)):
-            value = getattr(self, name)
-            if isinstance(value, float | int) and not isinstance(value, bool):
-                if not math.isfinite(value):
-                    raise ValueError(f"DrillConfig.{name} must be finite, got {value!r}")
-        for name in positive:
-            if getattr(self, name) <= 0:
-                raise ValueError(f"DrillConfig.{name} must be > 0, got {getattr(self, name)!r}")
-        for name in ("substeps", "max_cycles"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
-                raise ValueError(f"DrillConfig.{name} must be an integer >= 1, got {value!r}")
-        if not isinstance(self.pass_lockout_cycles, int) or self.pass_lockout_cycles < 0:
-            raise ValueError(
-                "DrillConfig.pass_lockout_cycles must be an integer >= 0, "
-                f"got {self.pass_lockout_cycles!r}"
-            )
-        for name in ("ball_damping", "tackle_probability"):
-            value = getattr(self, name)
-            if not 0.0 <= value <= 1.0:
-                raise ValueError(f"DrillConfig.{name} must lie in [0, 1], got {value!r}")
-        for name in ("kick_angle_noise", "kick_speed_noise", "start_jitter", "wall_margin"):
-            if getattr(self, name) < 0:
-                raise ValueError(f"DrillConfig.{name} must be >= 0, got {getattr(self, name)!r}")
+        # NumPy numbers are accepted and stored as Python numbers, so to_dict() is JSON.
+        for f in fields(self):
+            limits = f.metadata.get("limits")
+            if limits is not None:
+                object.__setattr__(self, f.name, limits.admit(f.name, getattr(self, f.name)))
         if self.ball_offset + 0.05 >= self.control_radius:
             raise ValueError(
                 "DrillConfig.ball_offset must be smaller than control_radius - 0.05 "
@@ -114,14 +142,13 @@ class DrillConfig:
                 f"{self.control_radius - 0.05}"
             )
         for name in ("attacker_starts", "defender_starts"):
-            points = getattr(self, name)
-            if len(points) != 2 or any(
-                len(p) != 2 or not all(0.0 <= c <= self.field_size for c in p) for p in points
-            ):
+            points = _points(getattr(self, name), self.field_size)
+            if points is None:
                 raise ValueError(
                     f"DrillConfig.{name} must be two (x, y) points inside "
-                    f"[0, {self.field_size}]^2, got {points!r}"
+                    f"[0, {self.field_size:g}]^2, got {getattr(self, name)!r}"
                 )
+            object.__setattr__(self, name, points)
 
     @classmethod
     def from_dict(cls, values: dict[str, Any]) -> DrillConfig:
@@ -132,10 +159,6 @@ class DrillConfig:
             raise ValueError(
                 f"unknown DrillConfig field(s) {unknown}; allowed: {sorted(known)}"
             )
-        values = dict(values)
-        for name in ("attacker_starts", "defender_starts"):
-            if name in values:
-                values[name] = tuple(tuple(float(c) for c in p) for p in values[name])
         return cls(**values)
 
     def to_dict(self) -> dict[str, Any]:
@@ -149,3 +172,19 @@ class DrillConfig:
         return self.reward_success_centre + (
             self.reward_success_edge - self.reward_success_centre
         ) * off_centre
+
+
+def _points(points: object, size: float) -> tuple[Point, Point] | None:
+    """``points`` as two ``(x, y)`` float pairs inside ``[0, size]^2``, or ``None``."""
+    try:
+        pairs = tuple(tuple(p) for p in points)  # type: ignore[union-attr]
+    except TypeError:
+        return None
+    if len(pairs) != 2 or any(len(p) != 2 for p in pairs):
+        return None
+    if not all(isinstance(c, numbers.Real) and not isinstance(c, bool) for p in pairs for c in p):
+        return None
+    out = tuple((float(x), float(y)) for x, y in pairs)
+    if not all(0.0 <= c <= size for p in out for c in p):  # False for NaN
+        return None
+    return out  # type: ignore[return-value]

@@ -1,0 +1,94 @@
+"""DrillConfig: every number checked the same way, NumPy or not, and kept in a sane range."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import fields
+
+import numpy as np
+import pytest
+
+import soccer_drill
+from soccer_drill.config import DrillConfig
+
+NUMERIC = [f.name for f in fields(DrillConfig) if f.type in ("float", "int")]
+INTEGERS = [f.name for f in fields(DrillConfig) if f.type == "int"]
+
+
+def test_every_number_declares_its_limits_and_the_defaults_lie_inside():
+    defaults = DrillConfig()
+    for f in fields(DrillConfig):
+        if f.name in NUMERIC:
+            limits = f.metadata["limits"]
+            assert limits.integer == (f.name in INTEGERS)
+            assert limits.admit(f.name, getattr(defaults, f.name)) == getattr(defaults, f.name)
+        else:
+            assert "limits" not in f.metadata
+
+
+@pytest.mark.parametrize("name", NUMERIC)
+@pytest.mark.parametrize(
+    "bad",
+    [np.float32("nan"), np.float64("inf"), -np.inf, math.nan, True, np.bool_(True), "1", None,
+     np.array([1.0])],
+    ids=repr,
+)
+def test_non_finite_and_non_numbers_are_refused_naming_the_field_and_range(name, bad):
+    kind = "an integer" if name in INTEGERS else "a number"
+    with pytest.raises(ValueError, match=rf"^DrillConfig\.{name} must be {kind} in [\[(]\S+, \S+\], got "):
+        DrillConfig(**{name: bad})
+
+
+@pytest.mark.parametrize(
+    ("name", "value", "message"),
+    [
+        # Absurd values that used to be accepted, and then hung or broke the drill.
+        ("cycle_seconds", 1e-9, r"cycle_seconds must be a number in \[0.001, 1\], got 1e-09"),
+        ("substeps", 10**9, r"substeps must be an integer in \[1, 1000\], got 1000000000"),
+        ("field_size", 1e300, r"field_size must be a number in \[10, 1000\], got 1e\+300"),
+        ("attacker_speed", 1e200, r"attacker_speed must be a number in \(0, 100\]"),
+        ("ball_max_speed", 1e308, r"ball_max_speed must be a number in \(0, 1000\]"),
+        ("kick_angle_noise", 1e9, r"kick_angle_noise must be a number in \[0, 180\]"),
+        ("reward_failure", -1e300, r"reward_failure must be a number in \[-1000, 1000\]"),
+        ("max_cycles", 10**12, r"max_cycles must be an integer in \[1, 1000000\]"),
+        ("defender_speed", 0.0, r"defender_speed must be a number in \(0, 100\], got 0.0"),
+    ],
+)
+def test_absurd_values_are_refused_up_front_with_the_allowed_range(name, value, message):
+    with pytest.raises(ValueError, match=message):
+        DrillConfig(**{name: value})
+
+
+def test_numpy_numbers_are_accepted_and_stored_as_python_numbers():
+    config = DrillConfig(
+        max_cycles=np.int64(50), substeps=np.uint8(5), pass_lockout_cycles=np.int32(3),
+        attacker_speed=np.float32(5.5), tackle_probability=np.float64(0.25), field_size=40,
+        attacker_starts=np.array([[4.0, 31.0], [31.0, 31.0]]),
+    )
+    assert config == DrillConfig(
+        max_cycles=50, substeps=5, pass_lockout_cycles=3, attacker_speed=5.5,
+        tackle_probability=0.25, field_size=40.0,
+    )
+    for f in fields(DrillConfig):
+        value = getattr(config, f.name)
+        if f.name in NUMERIC:
+            assert type(value) is (int if f.name in INTEGERS else float), f.name
+    assert config.attacker_starts == ((4.0, 31.0), (31.0, 31.0))
+    assert all(type(c) is float for p in config.attacker_starts for c in p)
+    assert DrillConfig.from_dict(json.loads(json.dumps(config.to_dict()))) == config
+    env = soccer_drill.HolderEnv(opponent="chasers", config=config)
+    obs, _ = env.reset(seed=0)
+    assert env.observation_space.contains(obs)
+
+
+@pytest.mark.parametrize(
+    "starts",
+    [((1.0, 1.0), (math.nan, 1.0)), ((1.0, 1.0), (np.float32("inf"), 1.0)),
+     ((1.0, 1.0), (True, 1.0)), ((1.0, 1.0),), ((1.0, 1.0), (1.0, 1.0, 1.0)), 5.0, "ab"],
+    ids=repr,
+)
+def test_start_points_must_be_two_finite_points_inside_the_field(starts):
+    with pytest.raises(ValueError, match=r"attacker_starts must be two \(x, y\) points inside "
+                                         r"\[0, 35\]\^2"):
+        DrillConfig(attacker_starts=starts)
