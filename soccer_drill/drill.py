@@ -165,29 +165,41 @@ class Drill:
                 body.velocity = (vx, vy)
             vel.append((vx, vy))
         cycle = state.cycle + 1
-        new = DrillState(tuple(pos), tuple(vel), holder, cycle, passer, lockout_until)
-        new.holder = self._possession(new, rng)
+        positions, velocities = tuple(pos), tuple(vel)
+        holder = self._possession(positions, velocities, holder, cycle, passer, lockout_until, rng)
+        new = DrillState(positions, velocities, holder, cycle, passer, lockout_until)
         self.state = new
         self._judge(new)
         return new
 
-    def _possession(self, s: DrillState, rng: np.random.Generator) -> int:
-        """Who holds the ball after this cycle's physics (at most one player)."""
+    def _possession(
+        self,
+        pos: tuple[tuple[float, float], ...],
+        vel: tuple[tuple[float, float], ...],
+        holder: int,
+        cycle: int,
+        passer: int,
+        lockout_until: int,
+        rng: np.random.Generator,
+    ) -> int:
+        """Who holds the ball after this cycle's physics (at most one player).
+
+        ``holder`` is who held it before; the other arguments are the new state's.
+        """
         cfg = self.config
-        bx, by = s.pos[BALL]
-        bvx, bvy = s.vel[BALL]
+        bx, by = pos[BALL]
+        bvx, bvy = vel[BALL]
         in_control = []
         for i in range(4):
-            if i == s.passer and s.cycle < s.lockout_until:
+            if i == passer and cycle < lockout_until:
                 continue
-            px, py = s.pos[i]
+            px, py = pos[i]
             dist = math.hypot(px - bx, py - by)
             if dist <= cfg.control_radius:
-                vx, vy = s.vel[i]
+                vx, vy = vel[i]
                 if math.hypot(bvx - vx, bvy - vy) <= cfg.control_speed:
                     in_control.append((dist, i))
         in_control.sort()
-        holder = s.holder
         if holder >= 0 and all(i != holder for _, i in in_control):
             holder = -1  # the holder lost touch with the ball
         if holder >= 0:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
@@ -17,8 +17,12 @@ DEFENDERS: tuple[int, int] = (2, 3)
 BALL = 4
 
 
-class DrillState:
-    """One cycle's snapshot: plain tuples, so it can be shared without copying.
+class DrillState(NamedTuple):
+    """One cycle's snapshot: immutable, so it can be shared without copying.
+
+    Assigning to a field (or adding one) raises ``AttributeError``, and ``pos`` and
+    ``vel`` are tuples of tuples. (A named tuple rather than a frozen dataclass: one
+    is built every cycle, and a frozen dataclass takes about 2 us more to build.)
 
     Attributes:
         pos: ``(x, y)`` of the four players then the ball, metres.
@@ -29,23 +33,12 @@ class DrillState:
         lockout_until: the passer cannot regain the ball before this cycle.
     """
 
-    __slots__ = ("cycle", "holder", "lockout_until", "passer", "pos", "vel")
-
-    def __init__(
-        self,
-        pos: tuple[tuple[float, float], ...],
-        vel: tuple[tuple[float, float], ...],
-        holder: int,
-        cycle: int,
-        passer: int = -1,
-        lockout_until: int = 0,
-    ) -> None:
-        self.pos = pos
-        self.vel = vel
-        self.holder = holder
-        self.cycle = cycle
-        self.passer = passer
-        self.lockout_until = lockout_until
+    pos: tuple[tuple[float, float], ...]
+    vel: tuple[tuple[float, float], ...]
+    holder: int
+    cycle: int
+    passer: int = -1
+    lockout_until: int = 0
 
     @staticmethod
     def opponents_of(player: int) -> tuple[int, int]:
@@ -83,16 +76,32 @@ def _frozen(values: object) -> np.ndarray:
 class DrillView:
     """A live, read-only window on the drill, handed to scripted teams.
 
-    ``view.state`` is always the current :class:`DrillState`; the array properties
-    are fresh read-only copies, so a team cannot change the drill by writing to them.
+    ``view.state`` is always the current (immutable) :class:`DrillState`; the array
+    properties are fresh read-only copies; and the view's own attributes cannot be
+    set. So a team cannot change the drill by writing to what it is given. (It runs
+    in the same process, so this guards against mistakes, not against a team that
+    sets out to reach the drill's internals.)
     """
 
-    __slots__ = ("_drill", "players")
+    __slots__ = ("_drill", "_players")
 
     def __init__(self, drill: object, players: tuple[str, ...]) -> None:
-        self._drill = drill
-        self.players = players
+        object.__setattr__(self, "_drill", drill)
+        object.__setattr__(self, "_players", tuple(players))
+
+    def __setattr__(self, name: str, value: object) -> None:
+        raise AttributeError(f"DrillView is read-only: cannot set {name!r}")
+
+    def __delattr__(self, name: str) -> None:
+        raise AttributeError(f"DrillView is read-only: cannot delete {name!r}")
+
+    def __reduce__(self) -> tuple[type, tuple[object, tuple[str, ...]]]:
+        return DrillView, (self._drill, self._players)
+
+    @property
+    def players(self) -> tuple[str, ...]:
         """Names of the players the team drives."""
+        return self._players
 
     @property
     def state(self) -> DrillState:

@@ -348,6 +348,55 @@ def test_numpy_numbers_are_valid_commands():
     assert _run_to_end(soccer_drill.env(opponent=team), "aec", seed=0) in soak.OUTCOMES
 
 
+class _Writer:
+    """A team that tries to change the drill through its view at cycle 1."""
+
+    def __init__(self, write):
+        self.write = write
+
+    def reset(self, view, rng):
+        self.players = view.players
+
+    def act(self, view):
+        if view.cycle == 1:
+            self.write(view)
+        return dict.fromkeys(self.players, Command(Skill.MARK))
+
+
+def _set_cycle(view):
+    view.state.cycle = 10**6
+
+
+def _set_pos(view):
+    view.state.pos = ((0.0, 0.0),) * 5
+
+
+def _set_holder(view):
+    view.state.holder = 2
+
+
+def _set_players(view):
+    view.players = ("attacker_0", "attacker_1")
+
+
+def _write_positions(view):
+    view.positions[2] = (1.0, 1.0)
+
+
+@pytest.mark.parametrize("write", [_set_cycle, _set_pos, _set_holder, _set_players,
+                                   _write_positions])
+def test_a_team_cannot_change_the_drill_through_its_view(write):
+    env = soccer_drill.HolderEnv(opponent=_Writer(write), decision_cycles=1)
+    env.reset(seed=0)
+    env.step(0)  # cycle 0
+    before = env.drill_state
+    with pytest.raises(TeamError, match=r"team '_Writer' raised in act\(\) at cycle 1: "
+                                        r"(AttributeError|ValueError)"):
+        env.step(0)
+    assert env.drill_state is before and before.cycle == 1 and before.holder in (0, 1)
+    assert env._core.view.players == ("defender_0", "defender_1")
+
+
 # ----------------------------------------------------- SIGKILL mid-experiment
 def _experiment_command(out: Path) -> list[str]:
     return [sys.executable, "-m", "ilpss.experiments.cli", "--protocol", "A", "--seeds", "1",
