@@ -21,6 +21,7 @@ from soccer_drill.teams import (
     TeamDriver,
     check_team_timeout,
     make_team,
+    team_parameters,
 )
 
 ObsType = Literal["features", "kinematic"]
@@ -91,7 +92,8 @@ class DrillCore:
                 raise ValueError("opponent_params given but opponent is None")
             self.team, self.team_name = None, None
         elif isinstance(opponent, str):
-            self.team, self.team_name = make_team(opponent, **dict(opponent_params or {})), opponent
+            params = team_parameters(opponent_params)
+            self.team, self.team_name = make_team(opponent, **params), opponent
         elif isinstance(opponent, Team):
             self.team, self.team_name = opponent, type(opponent).__name__
         else:

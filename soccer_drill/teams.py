@@ -83,6 +83,18 @@ def check_team_timeout(team_timeout: object) -> float | None:
     return float(team_timeout)
 
 
+def team_parameters(params: object) -> dict[str, Any]:
+    """``opponent_params`` as keyword parameters: ``None`` (none) or a mapping with str keys."""
+    if params is None:
+        return {}
+    if not isinstance(params, Mapping) or not all(isinstance(k, str) for k in params):
+        raise TypeError(
+            "opponent_params must be None or a mapping of parameter names (str) to values, "
+            f"got {params!r}"
+        )
+    return dict(params)
+
+
 @dataclass
 class _Entry:
     factory: Callable[..., Team] | None
@@ -302,22 +314,46 @@ class TeamDriver:
         return TeamError(f"team {self.name!r} raised in {call}{when}: {exc!r}")
 
     def _check(self, player: str, command: object, cycle: int) -> Command:
-        where = f"team {self.name!r}, player {player!r}, cycle {cycle}"
+        """``command`` if it is valid and plain, else a plain copy of it.
+
+        Each field is read once and the copy holds what was checked: a ``MOVE_TO``
+        target becomes a ``(float, float)`` tuple, so an object that yields other
+        numbers when read again (or a ``Command`` subclass computing its fields)
+        cannot slip a NaN past the check.
+        """
         if not isinstance(command, Command):
-            raise TeamError(f"{where}: expected a Command, got {command!r}")
-        if not isinstance(command.skill, Skill) or command.skill in BALL_SKILLS:
-            raise TeamError(
-                f"{where}: skill {command.skill!r} is not allowed for a scripted defender; "
+            raise self._invalid(player, cycle, f"expected a Command, got {command!r}")
+        skill, target, speed = command.skill, command.target, command.speed
+        if not isinstance(skill, Skill) or skill in BALL_SKILLS:
+            raise self._invalid(
+                player, cycle, f"skill {skill!r} is not allowed for a scripted defender; "
                 f"allowed: {[s.name for s in Skill if s not in BALL_SKILLS]}"
             )
-        speed = command.speed
-        if not (_is_real(speed) and 0.0 < speed <= 1.0):  # type: ignore[operator]
-            raise TeamError(f"{where}: speed must be in (0, 1], got {speed!r}")
-        if command.skill is Skill.MOVE_TO:
-            t = command.target
-            if not _is_point(t):
-                raise TeamError(f"{where}: MOVE_TO needs a finite (x, y) target, got {t!r}")
-        return command
+        plain = type(command) is Command and (type(speed) is float or type(speed) is int)
+        checked = float(speed) if not plain and _is_real(speed) else speed  # type: ignore[arg-type]
+        if not (_is_real(checked) and 0.0 < checked <= 1.0):  # type: ignore[operator]
+            raise self._invalid(player, cycle, f"speed must be in (0, 1], got {speed!r}")
+        speed = checked
+        if skill is not Skill.MOVE_TO:
+            return command if plain else Command(skill, None, speed)  # type: ignore[arg-type]
+        if not (  # the common case, already immutable and plain: no copy needed
+            type(target) is tuple
+            and len(target) == 2
+            and type(target[0]) is float
+            and type(target[1]) is float
+            and math.isfinite(target[0])
+            and math.isfinite(target[1])
+        ):
+            point = _point(target)
+            if point is None:
+                raise self._invalid(
+                    player, cycle, f"MOVE_TO needs a finite (x, y) target, got {target!r}"
+                )
+            target, plain = point, False
+        return command if plain else Command(skill, target, speed)  # type: ignore[arg-type]
+
+    def _invalid(self, player: str, cycle: int, what: str) -> TeamError:
+        return TeamError(f"team {self.name!r}, player {player!r}, cycle {cycle}: {what}")
 
 
 def _drain() -> None:
@@ -344,14 +380,16 @@ def _is_real(value: object) -> bool:
     return isinstance(value, float | int) or isinstance(value, numbers.Real)
 
 
-def _is_point(target: object) -> bool:
-    """A finite ``(x, y)`` pair of real numbers."""
+def _point(target: object) -> tuple[float, float] | None:
+    """``target`` read once into a finite ``(x, y)`` pair of floats, or ``None``."""
     try:
-        return len(target) == 2 and all(  # type: ignore[arg-type]
-            _is_real(c) and math.isfinite(c) for c in target  # type: ignore[union-attr]
-        )
-    except TypeError:  # no len() (None, a number) or no iteration
-        return False
+        x, y = target  # type: ignore[misc]
+    except (TypeError, ValueError):  # not iterable, or not exactly two items
+        return None
+    if not (_is_real(x) and _is_real(y)):
+        return None
+    point = (float(x), float(y))
+    return point if math.isfinite(point[0]) and math.isfinite(point[1]) else None
 
 
 def _cause(exc: BaseException) -> BaseException | None:

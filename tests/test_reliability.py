@@ -397,6 +397,46 @@ def test_a_team_cannot_change_the_drill_through_its_view(write):
     assert env._core.view.players == ("defender_0", "defender_1")
 
 
+class _Flip:
+    """A point that reads as finite once, then as NaN."""
+
+    def __init__(self):
+        self.reads = 0
+
+    def __len__(self):
+        return 2
+
+    def __iter__(self):
+        self.reads += 1
+        return iter((5.0, 5.0) if self.reads == 1 else (math.nan, math.nan))
+
+
+def test_a_move_to_target_is_copied_when_checked():
+    targets = []
+
+    def act(players):
+        targets.append(_Flip())
+        return {players[0]: Command(Skill.MOVE_TO, targets[-1]),
+                players[1]: Command(Skill.MOVE_TO, [30.0, np.float32(5.0)])}
+
+    env = soccer_drill.HolderEnv(opponent=_Scripted(act), decision_cycles=1)
+    env.reset(seed=0)
+    for _ in range(30):  # 3 s: long enough to get there from the start (13, 9)
+        env.step(0)  # the holder shields the ball: no outcome this soon
+    state = env.drill_state
+    assert state.cycle == 30 and all(math.isfinite(c) for p in state.pos for c in p)
+    assert math.hypot(state.pos[2][0] - 5.0, state.pos[2][1] - 5.0) < 1.0
+    assert math.hypot(state.pos[3][0] - 30.0, state.pos[3][1] - 5.0) < 1.0
+    assert all(t.reads == 1 for t in targets)
+
+
+@pytest.mark.parametrize("params", [[1, 2], "speed", {1: 2}, 3.0])
+def test_opponent_params_must_be_a_mapping_of_names(params):
+    with pytest.raises(TypeError, match=r"opponent_params must be None or a mapping of parameter "
+                                        r"names \(str\) to values, got "):
+        soccer_drill.HolderEnv(opponent="chasers", opponent_params=params)
+
+
 # ----------------------------------------------------- SIGKILL mid-experiment
 def _experiment_command(out: Path) -> list[str]:
     return [sys.executable, "-m", "ilpss.experiments.cli", "--protocol", "A", "--seeds", "1",
