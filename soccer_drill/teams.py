@@ -37,6 +37,9 @@ from soccer_drill.state import PLAYER_NAMES, DrillView
 ENTRY_POINT_GROUP = "soccer_drill.opponents"
 DEFAULT_TEAM_TIMEOUT = 1.0
 """Seconds a team's ``reset`` or ``act`` may take (real time) before it is stopped."""
+TEAM_TIMEOUT_RANGE = (0.001, 86_400.0)
+"""Allowed ``team_timeout`` values, in seconds (``None`` means no bound). Far inside
+what ``setitimer`` takes (about 9.2e9 s, or 2**31 s with a 32-bit ``time_t``)."""
 
 try:
     # The C functions under ``signal``'s enum wrappers: ``signal.signal`` costs ~2.7 us a
@@ -72,15 +75,17 @@ class _Overrun(BaseException):
 
 
 def check_team_timeout(team_timeout: object) -> float | None:
-    """``team_timeout`` as a float, or ``None``; refuses anything but a finite number > 0."""
+    """``team_timeout`` as a float, or ``None``; refuses anything outside
+    :data:`TEAM_TIMEOUT_RANGE` (NaN, infinity, bools and non-numbers included)."""
     if team_timeout is None:
         return None
-    if not (_is_real(team_timeout) and 0 < team_timeout < math.inf):  # type: ignore[operator]
+    low, high = TEAM_TIMEOUT_RANGE
+    if not (_is_real(team_timeout) and low <= team_timeout <= high):  # type: ignore[operator]
         raise ValueError(
-            f"team_timeout must be None (no bound) or a finite number of seconds > 0, "
-            f"got {team_timeout!r}"
+            f"team_timeout must be None (no bound) or a number of seconds in "
+            f"[{low:g}, {high:g}], got {team_timeout!r}"
         )
-    return float(team_timeout)
+    return float(team_timeout)  # type: ignore[arg-type]
 
 
 def team_parameters(params: object) -> dict[str, Any]:
@@ -208,19 +213,21 @@ class TeamDriver:
         team: the team.
         name: its id, named in every error.
         players: the players it drives.
-        team_timeout: seconds (real time) each ``reset`` or ``act`` call may take, or
-            ``None`` for no bound. A call that exceeds it raises :class:`TeamError`.
+        team_timeout: seconds (real time) each ``reset`` or ``act`` call may take, in
+            :data:`TEAM_TIMEOUT_RANGE` (1 ms to one day), or ``None`` for no bound. A
+            call that exceeds it raises :class:`TeamError`.
 
     How a call is bounded: on the main thread of a Unix process a real-time interval
     timer (``signal.setitimer(ITIMER_REAL)``) is armed around the call and its
     ``SIGALRM`` interrupts the team, even in a pure-Python infinite loop or a
-    ``time.sleep``; the previous ``SIGALRM`` handler is restored after every call. Off
-    the main thread, on platforms without ``setitimer`` (Windows), or when another
-    real-time timer is already armed (it is left alone), the call's duration is
-    measured and the error raised *after* it returns, so a team that never returns
-    there hangs the drill. Code stuck inside a C extension cannot be interrupted
-    either way: it is reported when it returns. The bound is real time, so a debugger
-    paused in a team's code trips it: pass ``team_timeout=None`` to debug a team.
+    ``time.sleep``; the previous ``SIGALRM`` handler is restored after every call,
+    also when the call or the arming of the timer fails. Off the main thread, on
+    platforms without ``setitimer`` (Windows), or when another real-time timer is
+    already armed (it is left alone), the call's duration is measured and the error
+    raised *after* it returns, so a team that never returns there hangs the drill.
+    Code stuck inside a C extension cannot be interrupted either way: it is reported
+    when it returns. The bound is real time, so a debugger paused in a team's code
+    trips it: pass ``team_timeout=None`` to debug a team.
 
     After the error the environment stays usable: its next ``reset()`` resets the team.
     """
@@ -288,10 +295,11 @@ class TeamDriver:
             and _sig.getsignal(signal.SIGALRM) is not None  # a handler we can put back
         ):
             previous = _sig.signal(signal.SIGALRM, _on_alarm)
-            # An interval, not a one-shot: a team that swallows the first interruption
-            # (a bare ``except:``) is interrupted again.
-            _sig.setitimer(signal.ITIMER_REAL, timeout, timeout)
             try:
+                # An interval, not a one-shot: a team that swallows the first interruption
+                # (a bare ``except:``) is interrupted again. Armed inside the ``try``, so
+                # the previous handler is put back even if arming fails.
+                _sig.setitimer(signal.ITIMER_REAL, timeout, timeout)
                 result = method(*args)
             finally:
                 _sig.setitimer(signal.ITIMER_REAL, 0.0)

@@ -258,11 +258,14 @@ def test_no_bound_with_team_timeout_none():
     assert env._core._driver.team.hung
 
 
-@pytest.mark.parametrize("bad", [0, -1.0, math.nan, math.inf, "1", True, [1.0]])
+# 1e10 s is finite but more than setitimer takes (about 9.2e9 s); 1e-4 s is below 1 ms.
+@pytest.mark.parametrize("bad", [0, -1.0, math.nan, math.inf, "1", True, [1.0], 1e10, 86_401,
+                                 1e-4, np.float64(1e300)])
 @pytest.mark.parametrize(("kind", "team"), [("holder", "chasers"), ("aec", "chasers"),
                                             ("parallel", "chasers"), ("aec", None)])
 def test_invalid_team_timeout_is_refused(kind, team, bad):
-    with pytest.raises(ValueError, match=r"team_timeout must be None \(no bound\) or a finite"):
+    with pytest.raises(ValueError, match=r"team_timeout must be None \(no bound\) or a number of seconds in "
+                       r"\[0.001, 86400\], got "):
         _make(kind, team, team_timeout=bad)
 
 
@@ -271,6 +274,68 @@ def test_gymnasium_make_passes_team_timeout():
 
     env = gym.make("soccer_drill/Holder-v0", opponent="chasers", team_timeout=None)
     assert env.unwrapped._core._driver.team_timeout is None
+
+
+def test_team_timeout_bounds_and_numpy_numbers_are_accepted():
+    for ok in (0.001, 86_400, np.float32(0.5), np.int64(2)):
+        env = soccer_drill.HolderEnv(opponent="chasers", team_timeout=ok)
+        assert env._core._driver.team_timeout == float(ok)
+
+
+class _SigWithFailingTimer:
+    """``_signal`` as the driver uses it, except that arming a timer fails."""
+
+    def __init__(self, real):
+        self._real = real
+
+    def __getattr__(self, name):
+        return getattr(self._real, name)
+
+    def setitimer(self, which, seconds, interval=0.0):
+        if seconds > 0:
+            raise OverflowError("timestamp out of range for platform time_t")
+        return self._real.setitimer(which, seconds, interval)
+
+
+@pytest.mark.skipif(not UNIX_ALARM, reason="setitimer (Unix)")
+def test_the_previous_alarm_handler_is_back_even_when_arming_the_timer_fails(
+    monkeypatch, sentinel_alarm_handler
+):
+    import soccer_drill.teams as teams_module
+
+    env = soccer_drill.HolderEnv(opponent="chasers", team_timeout=1.0)
+    monkeypatch.setattr(teams_module, "_sig", _SigWithFailingTimer(teams_module._sig))
+    with pytest.raises(TeamError, match="OverflowError"):
+        env.reset(seed=0)
+    monkeypatch.undo()
+    assert signal.getsignal(signal.SIGALRM) is sentinel_alarm_handler
+    assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
+
+
+@pytest.mark.skipif(not UNIX_ALARM, reason="setitimer (Unix)")
+def test_a_later_alarm_in_user_code_reaches_the_user_handler():
+    """After the team's calls, whether they succeeded or failed, SIGALRM is the user's again."""
+    fired = []
+
+    def mine(signum, frame):
+        fired.append(signum)
+
+    previous = signal.signal(signal.SIGALRM, mine)
+    try:
+        env = soccer_drill.HolderEnv(opponent=_Hanging("act", "loop", hang_seconds=5.0),
+                                     team_timeout=0.1)
+        env.reset(seed=0)
+        with pytest.raises(TeamError, match="exceeded its time bound"):
+            _steps(env, "holder", 10)
+        assert _run_to_end(env, "holder", seed=1) in soak.OUTCOMES
+        signal.setitimer(signal.ITIMER_REAL, 0.01)
+        deadline = time.monotonic() + 5.0
+        while not fired and time.monotonic() < deadline:
+            time.sleep(0.01)  # interrupted by the alarm: the handler runs here
+        assert fired == [signal.SIGALRM]
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0.0)
+        signal.signal(signal.SIGALRM, previous)
 
 
 # -------------------------------------------------------- teams that misbehave
