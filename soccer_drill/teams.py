@@ -12,6 +12,13 @@ name is the id and its value a factory taking keyword parameters::
     [project.entry-points."soccer_drill.opponents"]
     my_team = "my_package.teams:MyTeam"
 
+An entry point is imported on first use. One that fails to import (or is not
+callable) only breaks its own team: building it raises :class:`TeamError` naming it
+and the error, :func:`available_teams` leaves it out with a :class:`PluginWarning`,
+and :func:`broken_teams` lists it. A declared id that is not valid is refused the
+same way; an id declared by two distributions warns, naming both, and the first one
+found on ``sys.path`` is used.
+
 Every call of a team's ``reset`` and ``act`` is bounded in time (``team_timeout``,
 1 s by default; see :class:`TeamDriver`), so a team that hangs fails with a
 :class:`TeamError` naming it instead of freezing an experiment.
@@ -24,6 +31,7 @@ import numbers
 import signal
 import threading
 import time
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from importlib.metadata import entry_points
@@ -64,7 +72,12 @@ class Team(Protocol):
 
 
 class TeamError(RuntimeError):
-    """A scripted team misbehaved (raised, hung, or returned invalid commands)."""
+    """A scripted team misbehaved (raised, hung, or returned invalid commands), or its
+    plugin cannot be used (failed to import, not callable, invalid id)."""
+
+
+class PluginWarning(UserWarning):
+    """A team plugin is broken or ambiguous; the other teams are unaffected."""
 
 
 class _Overrun(BaseException):
@@ -105,35 +118,85 @@ class _Entry:
     factory: Callable[..., Team] | None
     entry_point: Any = None  # importlib.metadata.EntryPoint, loaded on first use
     # Loading an entry point imports and parses each time (and importlib.metadata keeps
-    # a little memory per call): every environment makes its team, so load once.
+    # a little memory per call): every environment makes its team, so load once; a
+    # failure is kept too, so a broken plugin is not re-imported by every lookup.
     loaded: Callable[..., Team] | None = field(default=None, repr=False, compare=False)
+    failure: str | None = field(default=None, repr=False, compare=False)
+    cause: BaseException | None = field(default=None, repr=False, compare=False)
 
     def load(self, team_id: str) -> Callable[..., Team]:
         """The team factory (importing the entry point on first use)."""
         if self.factory is not None:
             return self.factory
-        if self.loaded is None:
+        if self.loaded is None and self.failure is None:
+            where = f"the entry point of team {team_id!r} ({self.entry_point.value})"
             try:
-                self.loaded = self.entry_point.load()
-            except Exception as exc:
-                raise TeamError(
-                    f"the entry point of team {team_id!r} ({self.entry_point.value}) "
-                    f"failed to load: {exc!r}"
-                ) from exc
-        return self.loaded
+                loaded = self.entry_point.load()
+            # SystemExit too: a plugin calling sys.exit() at import must not end the host.
+            except (Exception, SystemExit) as exc:
+                self.failure, self.cause = f"{where} failed to load: {exc!r}", exc
+            else:
+                if callable(loaded):
+                    self.loaded = loaded
+                else:
+                    self.failure = (
+                        f"{where} is not callable: it names a {type(loaded).__name__} "
+                        f"({loaded!r}); it must name a team class or factory"
+                    )
+        if self.failure is not None:
+            raise TeamError(self.failure) from self.cause
+        return self.loaded  # type: ignore[return-value]
 
 
 _registry: dict[str, _Entry] = {}
+_refused: dict[str, str] = {}  # declared ids that are not valid: id -> why
 _discovered = False
+
+
+def _id_problem(team_id: object) -> str | None:
+    """Why ``team_id`` is not a valid team id, or ``None``."""
+    if isinstance(team_id, str) and team_id and team_id.replace("-", "_").isidentifier():
+        return None
+    return (
+        "a team id must be a non-empty identifier (letters, digits, '_' or '-', not "
+        f"starting with a digit), got {team_id!r}"
+    )
+
+
+def _origin(ep: Any) -> str:
+    """The distribution that declares entry point ``ep``, for messages."""
+    name = getattr(getattr(ep, "dist", None), "name", None)
+    return f"distribution {name!r} ({ep.value})" if name else f"an entry point ({ep.value})"
 
 
 def _discover() -> None:
     global _discovered
     if _discovered:
         return
-    for ep in entry_points(group=ENTRY_POINT_GROUP):
-        _registry.setdefault(ep.name, _Entry(None, ep))
     _discovered = True
+    try:
+        found = list(entry_points(group=ENTRY_POINT_GROUP))
+    except Exception as exc:  # unreadable metadata of some installed distribution
+        warnings.warn(
+            f"could not read the {ENTRY_POINT_GROUP!r} entry points: {exc!r}",
+            PluginWarning, stacklevel=3,
+        )
+        return
+    first: dict[str, Any] = {}
+    for ep in found:
+        problem = _id_problem(ep.name)
+        if problem is not None:
+            _refused[ep.name] = f"team {ep.name!r} of {_origin(ep)} is refused: {problem}"
+            warnings.warn(_refused[ep.name], PluginWarning, stacklevel=3)
+        elif ep.name in first:
+            warnings.warn(
+                f"team id {ep.name!r} is declared twice, by {_origin(first[ep.name])} and "
+                f"by {_origin(ep)}; using the first",
+                PluginWarning, stacklevel=3,
+            )
+        else:
+            first[ep.name] = ep
+            _registry.setdefault(ep.name, _Entry(None, ep))  # a register()ed team wins
 
 
 def refresh() -> None:
@@ -141,6 +204,7 @@ def refresh() -> None:
     global _discovered
     for team_id in [k for k, e in _registry.items() if e.factory is None]:
         del _registry[team_id]
+    _refused.clear()
     _discovered = False
     _discover()
 
@@ -152,11 +216,9 @@ def register(team_id: str, factory: Callable[..., Team], *, overwrite: bool = Fa
         ValueError: ``team_id`` is not a non-empty identifier-like string, or is
             taken and ``overwrite`` is false.
     """
-    if not isinstance(team_id, str) or not team_id or not team_id.replace("-", "_").isidentifier():
-        raise ValueError(
-            f"team id must be a non-empty identifier (letters, digits, '_' or '-'), "
-            f"got {team_id!r}"
-        )
+    problem = _id_problem(team_id)
+    if problem is not None:
+        raise ValueError(problem)
     if not callable(factory):
         raise TypeError(f"factory for team {team_id!r} must be callable, got {factory!r}")
     _discover()
@@ -166,7 +228,7 @@ def register(team_id: str, factory: Callable[..., Team], *, overwrite: bool = Fa
 
 
 def team_ids() -> list[str]:
-    """Ids of every known team, sorted."""
+    """Ids of every known team, sorted (without importing any plugin)."""
     _discover()
     return sorted(_registry)
 
@@ -179,14 +241,41 @@ def describe(team_id: str) -> str:
 
 
 def available_teams() -> dict[str, str]:
-    """``{team id: one-line description}`` for every known team."""
-    return {team_id: describe(team_id) for team_id in team_ids()}
+    """``{team id: one-line description}`` of every team that can be built.
+
+    A team whose plugin fails to load is left out with a :class:`PluginWarning`
+    naming it and the error (:func:`broken_teams` lists them).
+    """
+    teams = {}
+    for team_id in team_ids():
+        try:
+            teams[team_id] = describe(team_id)
+        except TeamError as exc:
+            warnings.warn(str(exc), PluginWarning, stacklevel=2)
+    return teams
+
+
+def broken_teams() -> dict[str, str]:
+    """``{team id: what is wrong}`` for every declared team that cannot be built.
+
+    Imports every plugin not imported yet.
+    """
+    _discover()
+    broken = dict(_refused)
+    for team_id in team_ids():
+        try:
+            _lookup(team_id)
+        except TeamError as exc:
+            broken[team_id] = str(exc)
+    return dict(sorted(broken.items()))
 
 
 def _lookup(team_id: str) -> Callable[..., Team]:
     _discover()
     entry = _registry.get(team_id)
     if entry is None:
+        if team_id in _refused:
+            raise TeamError(_refused[team_id])
         raise ValueError(f"unknown opponent team {team_id!r}; known teams: {team_ids()}")
     return entry.load(team_id)
 

@@ -2,11 +2,16 @@
 
 from __future__ import annotations
 
+import importlib
+import sys
 import textwrap
+import warnings
 
 import pytest
 
+import opponents
 import soccer_drill
+from opponents import cli as opponents_cli
 from soccer_drill import teams
 
 
@@ -132,3 +137,123 @@ def test_misbehaving_plugin_is_named_by_its_id(tmp_path, monkeypatch, behaviour,
     finally:
         monkeypatch.undo()
         teams.refresh()
+
+
+# ------------------------------------------------------- one bad plugin stays one
+_GOOD_TEAM = '''
+from soccer_drill import Command, Skill
+
+class Wall:
+    """Both defenders stand on the goal line."""
+
+    def reset(self, view, rng):
+        self.players = view.players
+
+    def act(self, view):
+        return {p: Command(Skill.MOVE_TO, (15.0 + 5 * i, 1.0)) for i, p in enumerate(self.players)}
+'''
+
+
+@pytest.fixture
+def install(tmp_path, monkeypatch):
+    """``install(dist, {module: source}, entry_points_lines)``: a fake installed distribution.
+
+    Each distribution gets its own folder on ``sys.path``, in installation order (the
+    first installed is found first). Everything is undone after the test.
+    """
+    count = 0
+
+    def _install(dist: str, modules: dict[str, str], lines: str) -> None:
+        nonlocal count
+        count += 1
+        root = tmp_path / f"site{count}"
+        root.mkdir()
+        for module, source in modules.items():
+            (root / f"{module}.py").write_text(textwrap.dedent(source))
+        info = root / f"{dist.replace('-', '_')}-0.1.dist-info"
+        info.mkdir()
+        (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {dist}\nVersion: 0.1\n")
+        (info / "entry_points.txt").write_text(f"[soccer_drill.opponents]\n{lines}\n")
+        monkeypatch.setattr(sys, "path", [*sys.path, str(root)])
+        importlib.invalidate_caches()
+        teams.refresh()
+
+    yield _install
+    for module in [m for m in sys.modules if m.startswith("plugin_")]:
+        del sys.modules[module]
+    monkeypatch.undo()
+    teams.refresh()
+
+
+def test_plugins_that_fail_to_import_leave_the_other_teams_listed_and_built(install, capsys):
+    install("good-teams", {"plugin_good": _GOOD_TEAM}, "wall = plugin_good:Wall")
+    install("bad-teams", {"plugin_raises": "raise ImportError('needs libfoo')",
+                          "plugin_exits": "import sys\nsys.exit('no display')"},
+            "raises = plugin_raises:Team\nexits = plugin_exits:Team")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        listed = teams.available_teams()
+    assert {"chasers", "parametric", "wall"} <= set(listed)
+    assert not {"raises", "exits"} & set(listed)
+    assert {type(w.message).__name__ for w in caught} == {"PluginWarning"}
+    messages = " | ".join(str(w.message) for w in caught)
+    assert "team 'raises' (plugin_raises:Team) failed to load: ImportError('needs libfoo')" in messages
+    assert "team 'exits' (plugin_exits:Team) failed to load: SystemExit('no display')" in messages
+    broken = teams.broken_teams()
+    assert sorted(broken) == ["exits", "raises"]
+    assert "SystemExit('no display')" in broken["exits"]
+    # The others still build and play; the broken ones fail by name.
+    env = soccer_drill.HolderEnv(opponent="wall")
+    env.reset(seed=0)
+    env.step(2)
+    soccer_drill.make_team("chasers")
+    with pytest.raises(teams.TeamError, match=r"team 'raises' \(plugin_raises:Team\) failed"):
+        soccer_drill.env(opponent="raises")
+    # The command lists the good teams, reports the broken ones and exits with 1.
+    assert opponents_cli.main([]) == 1
+    out, err = capsys.readouterr()
+    assert "wall " in out and "chasers " in out and "raises" not in out
+    assert "error: the entry point of team 'exits' (plugin_exits:Team) failed to load" in err
+    assert "error: the entry point of team 'raises' (plugin_raises:Team) failed to load" in err
+
+
+def test_a_team_id_declared_by_two_distributions_warns_naming_both(install):
+    install("first-teams", {"plugin_first": _GOOD_TEAM}, "wall = plugin_first:Wall")
+    with pytest.warns(UserWarning, match=(
+            r"team id 'wall' is declared twice, by distribution 'first-teams' "
+            r"\(plugin_first:Wall\) and by distribution 'second-teams' \(plugin_second:Wall\); "
+            r"using the first")):
+        install("second-teams", {"plugin_second": _GOOD_TEAM}, "wall = plugin_second:Wall")
+    assert teams.make_team("wall").__module__ == "plugin_first"
+
+
+def test_a_declared_id_that_is_not_valid_is_refused(install, capsys):
+    with pytest.warns(UserWarning, match=(
+            r"team 'my team' of distribution 'spaced-teams' \(plugin_spaced:Wall\) is "
+            r"refused: a team id must be a non-empty identifier")):
+        install("spaced-teams", {"plugin_spaced": _GOOD_TEAM}, "my team = plugin_spaced:Wall")
+    assert "my team" not in teams.team_ids()
+    assert "refused" in teams.broken_teams()["my team"]
+    with pytest.raises(teams.TeamError, match=r"'my team' .* is refused: a team id must be"):
+        soccer_drill.env(opponent="my team")
+    assert opponents_cli.main([]) == 1
+    assert "error: team 'my team' of distribution 'spaced-teams'" in capsys.readouterr().err
+
+
+def test_an_entry_point_naming_something_not_callable_is_reported_as_such(install):
+    install("odd-teams", {"plugin_odd": "TEAM = 5\n"}, "odd = plugin_odd:TEAM")
+    with pytest.raises(teams.TeamError, match=(
+            r"the entry point of team 'odd' \(plugin_odd:TEAM\) is not callable: it names a "
+            r"int \(5\); it must name a team class or factory")):
+        soccer_drill.make_team("odd")
+    assert "is not callable" in teams.broken_teams()["odd"]
+
+
+def test_the_installed_teams_list_without_warnings(capsys):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        teams.refresh()
+        assert set(opponents.PAPER_TEAMS) <= set(teams.available_teams())
+        assert teams.broken_teams() == {}
+    assert opponents_cli.main([]) == 0
+    assert capsys.readouterr().err == ""
