@@ -27,15 +27,20 @@ class Limits:
     def admit(self, name: str, value: object) -> float | int:
         """``value`` as a Python ``float`` (or ``int``), or ``ValueError`` naming ``name``."""
         kind = numbers.Integral if self.integer else numbers.Real
-        if isinstance(value, bool) or not isinstance(value, kind):
-            raise ValueError(f"DrillConfig.{name} must be {self}, got {value!r}")
-        number = int(value) if self.integer else float(value)  # type: ignore[arg-type]
-        inside = (self.low < number if self.low_open else self.low <= number) and (
-            number <= self.high
-        )  # False for NaN
-        if not inside:
+        number: float | int | None = None
+        if isinstance(value, kind) and not isinstance(value, bool):
+            try:
+                number = int(value) if self.integer else float(value)  # type: ignore[arg-type]
+            except OverflowError:  # e.g. 10**400 as a float
+                pass
+        if number is None or not self.contains(number):
             raise ValueError(f"DrillConfig.{name} must be {self}, got {value!r}")
         return number
+
+    def contains(self, number: float) -> bool:
+        """Whether ``number`` lies in the interval (never for NaN)."""
+        above = self.low < number if self.low_open else self.low <= number
+        return above and number <= self.high
 
 
 def _plain(x: float) -> str:

@@ -52,6 +52,7 @@ def test_non_finite_and_non_numbers_are_refused_naming_the_field_and_range(name,
         ("kick_angle_noise", 1e9, r"kick_angle_noise must be a number in \[0, 180\]"),
         ("reward_failure", -1e300, r"reward_failure must be a number in \[-1000, 1000\]"),
         ("max_cycles", 10**12, r"max_cycles must be an integer in \[1, 1000000\]"),
+        ("field_size", 10**400, r"field_size must be a number in \[10, 1000\], got 1000"),
         ("defender_speed", 0.0, r"defender_speed must be a number in \(0, 100\], got 0.0"),
     ],
 )
