@@ -1,4 +1,4 @@
-"""Learning-curve figures (matplotlib, Agg canvas, no display).
+"""Learning-curve and score-distribution figures (matplotlib, Agg canvas, no display).
 
 The figure is drawn on a :class:`matplotlib.figure.Figure` with an explicit
 :class:`~matplotlib.backends.backend_agg.FigureCanvasAgg`; pyplot and the global backend
@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike
 from ilpss._io import atomic_write_bytes
 from ilpss.metrics import mean_curve_band, smooth
 
-__all__ = ["plot_learning_curves"]
+__all__ = ["plot_learning_curves", "plot_score_profiles"]
 
 
 def _x_for(name: str, n: int, x: Mapping[str, ArrayLike] | ArrayLike | None) -> np.ndarray:
@@ -146,6 +146,78 @@ def plot_learning_curves(
 
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_bytes(path, buf.getvalue())
+    return path
+
+
+def plot_score_profiles(
+    scores: Mapping[str, Mapping[str, ArrayLike]],
+    path: str | os.PathLike[str],
+    *,
+    title: str,
+    dpi: int = 120,
+) -> Path:
+    """Score distributions (performance profiles), one panel per score, one curve per method.
+
+    Each curve is ``x -> share of runs whose score exceeds x`` (the complement of the
+    empirical distribution function, Agarwal et al. 2021), drawn as a step function, with a
+    vertical line at 0: a curve above another over the whole range dominates it, and the
+    height of a curve at 0 is the share of runs where the method beat the baseline. The
+    runs of one seed are not independent; tests belong on seed-level values.
+
+    Parameters
+    ----------
+    scores : mapping of str to mapping of str to array_like
+        Panel title (e.g. ``"jumpstart"``) -> method name -> 1-D per-run scores, finite,
+        non-empty. Method order sets colours; the same method keeps its colour in every
+        panel.
+    path : str or os.PathLike
+        Destination PNG; missing parent directories are created. Written atomically.
+    title : str
+        Figure title.
+    dpi : int
+        Resolution of the PNG.
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+
+    Raises
+    ------
+    ValueError
+        No panels, a panel without methods, or scores that are empty, not 1-D or not finite.
+    """
+    if not scores or any(not methods for methods in scores.values()):
+        raise ValueError("scores must map at least one panel to at least one method's scores")
+    colours: dict[str, str] = {}
+    for methods in scores.values():
+        for name in methods:
+            colours.setdefault(name, f"C{len(colours) % 10}")
+    fig = Figure(figsize=(5.0 * len(scores), 3.8), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = np.atleast_1d(fig.subplots(1, len(scores)))
+    for ax, (panel, methods) in zip(axes, scores.items(), strict=True):
+        for name, raw in methods.items():
+            values = np.asarray(raw, dtype=float)
+            if values.ndim != 1 or values.size == 0 or not np.all(np.isfinite(values)):
+                raise ValueError(f"scores[{panel!r}][{name!r}] must be non-empty, 1-D and finite")
+            xs = np.sort(values)
+            share = 1.0 - np.arange(1, xs.size + 1) / xs.size  # share of runs > xs[i]
+            ax.step(np.concatenate([[xs[0]], xs]), np.concatenate([[1.0], share]),
+                    where="post", color=colours[name], linewidth=1.5,
+                    label=f"{name} ({xs.size} runs)")
+        ax.axvline(0.0, color="0.4", linestyle="--", linewidth=0.8)
+        ax.set_ylim(-0.02, 1.02)
+        ax.set_xlabel(f"{panel} (method - baseline, per run)")
+        ax.set_ylabel("share of runs with a larger score")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8, loc="lower left")
+    fig.suptitle(title, fontsize=11)
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=dpi)
+    path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_bytes(path, buf.getvalue())
     return path

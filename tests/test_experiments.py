@@ -36,7 +36,7 @@ def test_protocol_a_runs_resumes_identically_and_reports(tmp_path):
     assert again == first and latest
     report = write_report(cfg, again, tmp_path)
     text = report.read_text()
-    assert "**Verdict:**" in text and "| jumpstart |" in text
+    assert "### Verdicts" in text and "Holm-adjusted p" in text and "| jumpstart |" in text
     assert (tmp_path / "curves_00.png").stat().st_size > 0
 
 
@@ -66,6 +66,10 @@ def test_protocol_c_reports_library_size(tmp_path):
     report = write_report(cfg, results, tmp_path).read_text()
     assert "Jumpstart on each new opponent" in report
     assert (tmp_path / "stream.png").exists()
+    # pooled primary verdicts, one trend test per method, and the score distributions
+    assert "Primary endpoints (pooled)" in report and report.count("**Along the stream**") == 2
+    assert "![score distributions](profiles.png)" in report
+    assert (tmp_path / "profiles.png").stat().st_size > 0
 
 
 def test_configuration_round_trip_and_errors(tmp_path):

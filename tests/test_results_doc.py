@@ -35,9 +35,14 @@ def test_results_doc_runs_every_protocol_and_resumes(tmp_path):
         assert saved == json.loads((runs / f"protocol_{protocol.lower()}" / "config.json")
                                    .read_text())
         assert f"(results/protocol_{protocol.lower()}_config.json)" in text
-    assert text.count("### Verdicts") == 3 and "**pooled over 6 streams**" in text
+    assert text.count("### Verdicts") == 3
+    # B's streams are teams x orders, learning anew shared by the orders of a team
+    assert "The 6 streams are 3 held-out teams x 2 source orders" in text
+    assert "identical in the team's 2 orders" in text and "not 2 independent" in text
+    assert text.count("Holm's adjustment") == 3 and "(descriptive)" in text
     figures = re.findall(r"\]\((figures/[^)]+)\)", text)
     assert {"figures/protocol_a_curves.png", "figures/protocol_b_held_out.png",
+            "figures/protocol_b_profiles.png", "figures/protocol_c_profiles.png",
             "figures/protocol_c_stream.png", "figures/ilpss_vs_goal_guards.gif"} <= set(figures)
     for name in figures:
         with Image.open(docs / name) as image:

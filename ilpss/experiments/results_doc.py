@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import shlex
 import time
 from collections.abc import Sequence
@@ -31,23 +30,29 @@ from typing import Any
 
 import numpy as np
 
+from ilpss import metrics
 from ilpss._io import atomic_write_bytes
 from ilpss.experiments.config import PAPER_TEAMS, ExperimentConfig
 from ilpss.experiments.report import (
+    ENDPOINT_LABELS,
     LABELS,
+    PRIMARY,
     collect,
     comparable,
-    compare_to_scratch,
+    interval_text,
     library_sizes,
-    mean_difference,
     metrics_note,
     plot_held_out_panels,
-    pool,
+    pooled_lines,
     protocol_c_lines,
     stream_estimates,
     stream_jumpstarts,
+    stream_trend,
+    structure_b,
     target_curves,
-    verdict,
+    trend_line,
+    verdict_lines,
+    windows,
     write_report,
 )
 from ilpss.experiments.run import run_experiment
@@ -285,30 +290,6 @@ def header(protocol: str, cfg: ExperimentConfig, folder: Path, command: str | No
     ]
 
 
-def _interval(est: Any, spec: str) -> str:
-    def fmt(x: float) -> str:
-        return "n/a" if math.isnan(x) else ("inf" if math.isinf(x) else format(x, spec))
-    return f"{fmt(est.value)} [{fmt(est.low)}, {fmt(est.high)}]"
-
-
-def verdict_lines(estimates: dict[str, dict], episodes: int) -> list[str]:
-    """One verdict per method, then one sentence on the asymptotes."""
-    lines = []
-    for method, est in estimates.items():
-        gain = est["total_reward_gain"]
-        lines.append(f"- **{LABELS.get(method, method)}** vs learning anew: {verdict(est)}; "
-                     f"total reward gain {_interval(gain, '+.1f')} over {episodes} episodes.")
-    moved = [(m, est["asymptotic_gain"]) for m, est in estimates.items()
-             if est["asymptotic_gain"].low > 0 or est["asymptotic_gain"].high < 0]
-    if not moved:
-        lines.append(f"- No method changes the asymptote within {episodes} episodes (every "
-                     "asymptotic gain's 95% interval contains 0).")
-    for method, gain in moved:
-        lines.append(f"- {LABELS.get(method, method)} changes the asymptote: asymptotic gain "
-                     f"{_interval(gain, '+.3f')}.")
-    return lines
-
-
 def section_a(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Path) -> list[str]:
     """Protocol A: curves, verdicts, diagnostics, full metric tables, kernels and GIF."""
     table = collect(results)
@@ -419,56 +400,82 @@ def kernels_and_gif(cfg: ExperimentConfig, folder: Path, docs: Path) -> list[str
 
 
 def section_b(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Path) -> list[str]:
-    """Protocol B: a panel per held-out team, then per method a table over every stream
-    and a pooled row, and a verdict on the pooled comparison."""
+    """Protocol B: a panel per held-out team; the primary verdicts pooled over the streams,
+    the seeds on which each method is ahead and the score distributions; then per method
+    a descriptive table over the streams."""
     table = collect(results)
     figure = plot_held_out_panels(table, cfg.teams,
                                   docs / "figures" / "protocol_b_held_out.png")
     lines = [f"![protocol B learning curves](figures/{figure.name})", "",
              "Each panel: the learning curves against one held-out team, each seed's curve "
              "averaged over its source orders (paper's and shuffled), mean over seeds with a "
-             "95% bootstrap band.", ""]
+             "95% bootstrap band (pointwise, for the eye).", "",
+             structure_b(table), ""]
     per_stream = stream_estimates(table)
     if not all(per_stream.values()):
         return [*lines, "Transfer metrics need at least 2 seeds.", ""]
-    pooled = compare_to_scratch(pool([target_curves(m) for m in table.values()]))
+    profiles = docs / "figures" / "protocol_b_profiles.png"
+    lines += ["### Verdicts", "",
+              *pooled_lines([target_curves(m) for m in table.values()],
+                            cfg.lifelong.train_episodes, f"the {len(table)} streams", profiles,
+                            f"figures/{profiles.name}")]
+    compared = list(per_stream[next(iter(table))])
     n = len(table)
-    lines += [
-        "### Verdicts", "",
-        f"Pooled over the {n} streams: each seed's learning curves against the held-out "
-        f"teams are averaged over its {n} streams, and the metrics are computed on these "
-        "pooled curves, resampling seeds. So the pooled jumpstart and total-reward gain are "
-        "the per-seed averages of the per-stream values; the pooled time to threshold is that "
-        "of the pooled curves.", "",
-    ]
-    for method, est in pooled.items():
-        above = sum(per_stream[s][method]["jumpstart"].low > 0 for s in table)
-        below = sum(per_stream[s][method]["jumpstart"].high < 0 for s in table)
-        lines.append(f"- **{LABELS.get(method, method)}** vs learning anew, pooled: "
-                     f"{verdict(est)}; total reward gain "
-                     f"{_interval(est['total_reward_gain'], '+.1f')}. Per stream, the "
-                     f"jumpstart's 95% interval lies above zero in {above} of {n} streams "
-                     f"and below zero in {below}.")
-    lines.append("")
-    for method in pooled:
-        lines += [f"### {LABELS.get(method, method)} vs learning anew", "",
-                  "| stream | jumpstart [95% CI] | total reward gain [95% CI] | "
-                  "time to threshold ratio [95% CI] |", "|---|---:|---:|---:|"]
+    for method in compared:
+        lines += [f"### {LABELS.get(method, method)} vs learning anew, per stream "
+                  "(descriptive)", "",
+                  "| stream | jumpstart [95% CI] | total-reward gain [95% CI] | final "
+                  "performance gain [95% CI] | time to threshold ratio [95% CI] | seeds "
+                  "reaching the threshold (method, anew) |", "|---|---:|---:|---:|---:|---:|"]
         for stream in table:
             lines.append(_row(stream, per_stream[stream][method]))
-        lines += [_row(f"**pooled over {n} streams**", pooled[method]), ""]
-    return lines
+        lines.append("")
+    lines.append(f"Unadjusted 95% intervals over the {cfg.n_seeds} seeds of each of the {n} "
+                 "streams; the pooled rows are the verdicts above.")
+    return [*lines, ""]
 
 
 def _row(name: str, est: dict) -> str:
-    ratio = est["time_to_threshold_ratio"]
-    return (f"| {name} | {_interval(est['jumpstart'], '+.3f')} | "
-            f"{_interval(est['total_reward_gain'], '+.1f')} | {_interval(ratio, '.2f')} |")
+    n = est["jumpstart"].n
+    reached = (f"{round(est['threshold_reached_transfer'].value * n)}/{n}, "
+               f"{round(est['threshold_reached_baseline'].value * n)}/{n}")
+    return (f"| {name} | {interval_text(est['jumpstart'], '+.3f')} | "
+            f"{interval_text(est['total_reward_gain'], '+.1f')} | "
+            f"{interval_text(est['final_gain'], '+.3f')} | "
+            f"{interval_text(est['time_to_threshold_ratio'], '.2f')} | {reached} |")
+
+
+def discounting_lines(methods: dict[str, dict[int, np.ndarray]], targets: list[int],
+                      sizes: dict[str, np.ndarray]) -> list[str]:
+    """Protocol C: ILPSS with against without option discounting, paired by seed: the
+    library's final size, and the pooled jumpstart and total-reward gain."""
+    if not {"ilpss", "ilpss_no_discount"} <= set(sizes) or len(sizes["ilpss"]) < 2:
+        return []
+    with_, without = sizes["ilpss"][:, -1], sizes["ilpss_no_discount"][:, -1]
+    value, low, high = metrics.t_interval(with_ - without)
+    effect = ("keeps the library smaller" if high < 0 else "makes the library larger"
+              if low > 0 else "shows no demonstrated effect on the library's size")
+    lines = [f"- **Option discounting** {effect}: after the last trial {with_.mean():.1f} "
+             f"active options with it, {without.mean():.1f} without; difference {value:+.1f}, "
+             f"95% interval [{low:+.1f}, {high:+.1f}] (paired by seed, Student t)."]
+    a = np.mean([methods["ilpss"][t] for t in targets], axis=0)
+    b = np.mean([methods["ilpss_no_discount"][t] for t in targets], axis=0)
+    first, last, _ = windows(a.shape[1])
+    est = metrics.compare(a, b, first=first, last=last, threshold=None, window=1)
+    cells = [f"{ENDPOINT_LABELS[e]} {interval_text(est[e], '+.3f' if e == 'jumpstart' else '+.1f')}"
+             f" (p = {est[e].p_value:.2g})" for e in PRIMARY]
+    said = ("costs transfer" if any(est[e].high < 0 for e in PRIMARY) else
+            "helps transfer" if any(est[e].low > 0 for e in PRIMARY) else
+            "shows no demonstrated effect on transfer")
+    lines.append(f"- **With against without discounting, paired by seed** (pooled over the "
+                 f"opponents, descriptive): discounting {said}: " + "; ".join(cells) + ".")
+    return lines
 
 
 def section_c(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Path) -> list[str]:
-    """Protocol C: verdicts pooled over the stream's opponents, the library's size with and
-    without discounting, and the jumpstart on each new opponent."""
+    """Protocol C: the primary verdicts pooled over the stream's opponents, the seeds on
+    which each method is ahead, the score distributions, the trend along the stream, the
+    effect of discounting, and the jumpstart on each new opponent."""
     table = collect(results)
     ((_, methods),) = table.items()
     figure = docs / "figures" / "protocol_c_stream.png"
@@ -477,28 +484,15 @@ def section_c(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Pa
     lines = []
     if len(results) >= 2:
         targets = sorted(methods["scratch"])
-        pooled = compare_to_scratch(pool([{m: methods[m][t] for m in methods}
-                                          for t in targets]))
-        lines += [
-            "### Verdicts", "",
-            f"Pooled over the {len(targets)} opponents after the first: each seed's learning "
-            "curves are averaged over them, and the metrics are computed on these pooled "
-            "curves, resampling seeds.", "",
-        ]
-        for method, est in pooled.items():
-            lines.append(f"- **{LABELS.get(method, method)}** vs learning anew, pooled: "
-                         f"{verdict(est)}; total reward gain "
-                         f"{_interval(est['total_reward_gain'], '+.1f')}.")
-        if {"ilpss", "ilpss_no_discount"} <= set(sizes):
-            with_, without = sizes["ilpss"][:, -1], sizes["ilpss_no_discount"][:, -1]
-            value, low, high = mean_difference(with_, without)
-            effect = ("keeps the library smaller" if high < 0 else "makes the library larger"
-                      if low > 0 else "shows no demonstrated effect on the library's size")
-            lines.append(f"- **Option discounting** {effect}: after the last trial "
-                         f"{with_.mean():.1f} active options with it, {without.mean():.1f} "
-                         f"without; difference {value:+.1f}, 95% interval "
-                         f"[{low:+.1f}, {high:+.1f}] (paired by seed).")
-        lines.append("")
+        profiles = docs / "figures" / "protocol_c_profiles.png"
+        lines += ["### Verdicts", "",
+                  *pooled_lines([{m: methods[m][t] for m in methods} for t in targets],
+                                cfg.lifelong.train_episodes,
+                                f"the {len(targets)} opponents after the first", profiles,
+                                f"figures/{profiles.name}"),
+                  *[trend_line(stream_trend(methods, m), LABELS.get(m, m))
+                    for m in methods if m != "scratch"],
+                  *discounting_lines(methods, targets, sizes), ""]
     return [*lines, "### Library size and jumpstart on each new opponent", "",
             *protocol_c_lines(stream_jumpstarts(methods), sizes, f"figures/{figure.name}"), ""]
 

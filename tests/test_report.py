@@ -1,0 +1,111 @@
+"""The words of the reports: verdicts, primary endpoints, protocol B's structure, C's trend."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ilpss import metrics
+from ilpss.experiments.report import (
+    compare_to_scratch,
+    holm_primary,
+    stream_trend,
+    structure_b,
+    verdict,
+    verdict_lines,
+)
+
+EPISODES = 60
+
+
+def _steps(times, low=-1.0, high=0.8):
+    """Curves at ``low`` before episode ``time`` (1-based) and ``high`` from it on."""
+    episode = np.arange(1, EPISODES + 1)
+    return np.where(episode[None, :] >= np.asarray(times, float)[:, None], high, low)
+
+
+def _curves(rng, shift=0.0, times=None):
+    base = _steps(np.full(10, 30.0) if times is None else times)
+    return np.clip(base + shift + 0.05 * rng.standard_normal(base.shape), -1, 1)
+
+
+def test_never_and_undefined_are_worded_differently():
+    rng = np.random.default_rng(0)
+    scratch = _curves(rng)
+    never = np.full((10, EPISODES), -1.0)  # the method never reaches the threshold
+    est = compare_to_scratch({"scratch": scratch, "m": never})["m"]
+    text = verdict(est)
+    assert "never within the budget" in text and "clear negative result" in text
+    assert "undefined" not in text
+    # neither reaches it: undefined, not a negative result
+    est = metrics.compare(never, never, first=20, last=50, threshold=0.5, window=20)
+    text = verdict(est)
+    assert "undefined: neither" in text and "negative" not in text
+
+
+def test_every_verdict_states_jumpstart_total_gain_and_final_performance():
+    rng = np.random.default_rng(1)
+    scratch = _curves(rng)
+    late_loss = scratch.copy()
+    late_loss[:, :20] += 0.5  # a head start ...
+    late_loss[:, -20:] -= 0.6  # ... and a late loss
+    late_loss = np.clip(late_loss, -1, 1)
+    est = compare_to_scratch({"scratch": scratch, "m": late_loss})
+    text = verdict(est["m"], holm_primary(est)["m"], EPISODES)
+    assert text.startswith("a head start: jumpstart +")
+    assert "total-reward gain" in text and "over 60 episodes" in text
+    assert "a lower final performance within the budget" in text  # the late loss is said
+    assert "times that of learning anew" in text and "Kaplan-Meier medians" in text
+
+
+def test_primary_endpoints_are_holm_adjusted_across_methods():
+    rng = np.random.default_rng(2)
+    scratch = _curves(rng)
+    curves = {"scratch": scratch, "a": _curves(rng, 0.03), "b": _curves(rng, 0.0)}
+    est = compare_to_scratch(curves)
+    adjusted = holm_primary(est)
+    raw = [est[m][e].p_value for m in ("a", "b") for e in ("jumpstart", "total_reward_gain")]
+    expected = metrics.holm(raw)
+    got = [adjusted[m][e] for m in ("a", "b") for e in ("jumpstart", "total_reward_gain")]
+    assert got == pytest.approx(list(expected))
+    assert all(g >= r for g, r in zip(got, raw, strict=True))
+    lines = verdict_lines(est, EPISODES)
+    assert "4 tests in one family with Holm's adjustment" in lines[0]
+    assert sum(line.startswith("- **") for line in lines) == 2
+    assert all("Holm-adjusted p" in line for line in lines if line.startswith("- **"))
+
+
+def _b_table(rng, same_baseline=True):
+    table = {}
+    for team in ("t1", "t2"):
+        scratch = _curves(rng)
+        for order in ("", ",shuffle=1"):
+            anew = scratch if same_baseline else _curves(rng)
+            table[f"held_out={team}{order}"] = {"scratch": {3: anew}, "ilpss": {3: _curves(rng)}}
+    return table
+
+
+def test_protocol_b_streams_are_teams_times_orders():
+    rng = np.random.default_rng(3)
+    text = structure_b(_b_table(rng))
+    assert text.startswith("The 4 streams are 2 held-out teams x 2 source orders.")
+    assert "identical in the team's 2 orders" in text and "not 2 independent" in text
+    assert "descriptive" in text
+    other = structure_b(_b_table(rng, same_baseline=False))
+    assert "differ between the source orders" in other and "identical" not in other
+
+
+def test_protocol_c_trend_is_one_test_with_seeds_as_clusters():
+    rng = np.random.default_rng(4)
+    targets = range(1, 11)
+    scratch = {t: _curves(rng) for t in targets}
+    growing = {"scratch": scratch,
+               "ilpss": {t: np.clip(scratch[t] + np.where(np.arange(EPISODES) < 20,
+                                                          0.04 * t, 0.0), -1, 1)
+                         for t in targets}}
+    value, low, high, p, n = stream_trend(growing)
+    assert n == 10 and low > 0 and p < 0.05
+    assert value == pytest.approx(0.04 * 20 / 20, abs=0.01)  # jumpstart rises 0.04 per opponent
+    flat = {"scratch": scratch, "ilpss": {t: _curves(rng) for t in targets}}
+    _, low, high, _, _ = stream_trend(flat)
+    assert low < 0 < high
