@@ -1,34 +1,43 @@
 """Does SMDP learning beat the best fixed holder rule against each opponent?
 
-    ilpss-holder-learning --episodes 1000 --eval 500 --seeds 3 --out docs/learning.md
+    ilpss-holder-learning --episodes 1000 --eval 500 --seeds 10 --out docs/learning.md
 
 For every team: learn with :class:`~ilpss.smdp.SmdpLearner` (the settings of
 :class:`~ilpss.lifelong.LearnerConfig` unless overridden by ``--method``,
 ``--trace-decay``, ``--initial-value``, ``--alpha``; no options) for ``--episodes``
-episodes per seed, then evaluate the greedy policy on
-``--eval`` seeded episodes; evaluate every fixed holder rule on the same episode
-seeds. Mean reward with a 95% t interval and success rate with a Wilson interval.
-The fixed rules are looked up by name (``--rules module:attribute``), so this module
-imports no drill code.
+episodes per seed, then evaluate the greedy policy on ``--eval`` seeded episodes;
+evaluate every fixed holder rule on the same episode seeds.
+
+The unit of replication is the learning seed: each seed's learnt policy is one draw of
+what learning produces, while the evaluation episodes of one seed share its policy and
+are not independent of each other. So the comparison (:func:`compare_to_rule`) takes,
+per learning seed, the mean over the evaluation episodes of (learnt reward - rule
+reward) on the *same* episode seed (paired by episode seed, which removes the
+episodes' difficulty), and puts a Student t interval over the learning seeds on those
+means. "The learnt policy beats the best rule" is claimed for a team when the
+Holm-adjusted p-value across the teams is below 0.05. The inference is conditional on
+the evaluation episodes, which are the same for every seed and rule. The best rule is
+picked on those same episodes, which can only favour the rule. The fixed rules are
+looked up by name (``--rules module:attribute``), so this module imports no drill code.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from scipy import stats
 
 from ilpss._io import atomic_write_bytes
 from ilpss.experiments.config import DRILL_ENV_ID, DRILL_TILE_WIDTHS, PAPER_TEAMS
 from ilpss.experiments.executor import LocalExecutor
 from ilpss.lifelong import LearnerConfig
-from ilpss.metrics import wilson_interval
+from ilpss.metrics import holm, improvement_test, t_interval, t_test_pvalue, wilson_interval
 from ilpss.smdp import SmdpLearner
 from ilpss.tiles import TileCoder
 
@@ -77,21 +86,43 @@ def rule_rewards(job: tuple[str, str, str, int]) -> dict[str, Any]:
             "eval": _evaluate(env, lambda obs: rule(obs, rng), n_eval).tolist()}
 
 
-def _summary(rewards: np.ndarray) -> tuple[float, float, float, float, float, float]:
-    mean = float(rewards.mean())
-    half = float(stats.t.ppf(0.975, len(rewards) - 1) * rewards.std(ddof=1) / np.sqrt(len(rewards)))
-    wins = int((rewards > 0).sum())
-    lo, hi = wilson_interval(wins, len(rewards))
-    return mean, mean - half, mean + half, wins / len(rewards), lo, hi
+def compare_to_rule(learnt: np.ndarray, rule: np.ndarray) -> dict[str, Any]:
+    """The learnt policies against one rule, paired by episode seed, seeds as the unit.
+
+    ``learnt`` has shape ``(n_seeds, n_episodes)`` (row: one learning seed's greedy
+    policy on the evaluation episodes), ``rule`` shape ``(n_episodes,)`` on the same
+    episodes. Returns the per-seed mean differences (``diff``), their mean with a 95%
+    Student t interval (``diff_ci``) and paired t-test p-value (``p``), the seeds on which
+    learning is ahead (``improvement``, with a sign test), the learnt mean reward with a t
+    interval over seeds, the rule's mean reward with a t interval over episodes, and
+    success rates (learnt: t interval over the seeds' rates; rule: Wilson over episodes).
+    """
+    learnt = np.asarray(learnt, dtype=float)
+    rule = np.asarray(rule, dtype=float)
+    if learnt.ndim != 2 or rule.shape != learnt.shape[1:] or learnt.shape[0] < 2:
+        raise ValueError(f"need learnt (n_seeds >= 2, n_episodes) and rule (n_episodes,), "
+                         f"got {learnt.shape} and {rule.shape}")
+    diff = (learnt - rule).mean(axis=1)
+    wins = int((rule > 0).sum())
+    return {
+        "diff": diff,
+        "diff_ci": t_interval(diff),
+        "p": float(t_test_pvalue(diff)),
+        "improvement": improvement_test(diff),
+        "learnt_ci": t_interval(learnt.mean(axis=1)),
+        "rule_ci": t_interval(rule),
+        "learnt_success_ci": t_interval((learnt > 0).mean(axis=1)),
+        "rule_success": (wins / rule.size, *wilson_interval(wins, rule.size)),
+    }
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the comparison and write its markdown table."""
+    """Run the comparison and write its markdown page."""
     p = argparse.ArgumentParser(prog="ilpss-holder-learning", description=__doc__.splitlines()[0])
     p.add_argument("--teams", nargs="+", default=list(PAPER_TEAMS))
     p.add_argument("--episodes", type=int, default=1000)
     p.add_argument("--eval", type=int, default=500)
-    p.add_argument("--seeds", type=int, default=3)
+    p.add_argument("--seeds", type=int, default=10, help="learning seeds per team (>= 2)")
     p.add_argument("--rules", default="soccer_drill.policies:HOLDER_POLICIES")
     p.add_argument("--workers", type=int, default=2)
     defaults = LearnerConfig()
@@ -101,8 +132,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--alpha", type=float, default=defaults.alpha)
     p.add_argument("--out", default="docs/learning.md")
     args = p.parse_args(argv)
+    if args.seeds < 2:
+        p.error(f"--seeds must be >= 2 (the interval is over learning seeds), got {args.seeds}")
     lc = LearnerConfig(alpha=args.alpha, method=args.method, initial_value=args.initial_value,
                        trace_decay=args.trace_decay)
+    start = time.perf_counter()
     pool = LocalExecutor(args.workers)
     learnt = pool.map(learn_and_evaluate,
                       [(t, s, args.episodes, args.eval, lc) for t in args.teams
@@ -111,46 +145,69 @@ def main(argv: Sequence[str] | None = None) -> int:
     names = sorted(_rules(args.rules))
     fixed = pool.map(rule_rewards, [(t, args.rules, n, args.eval) for t in args.teams for n in names],
                      desc="fixed rules")
+    minutes = (time.perf_counter() - start) / 60
+    results = {}
+    for team in args.teams:
+        mine = np.array([r["eval"] for r in learnt if r["team"] == team])
+        rules = {r["rule"]: np.asarray(r["eval"]) for r in fixed if r["team"] == team}
+        best = max(rules, key=lambda n: rules[n].mean())
+        results[team] = (best, compare_to_rule(mine, rules[best]))
+    adjusted = dict(zip(results, holm([c["p"] for _, c in results.values()]), strict=True))
     lines = [
         "# SMDP learning against the best fixed holder rule",
         "",
         f"Command: `ilpss-holder-learning --episodes {args.episodes} --eval {args.eval} "
         f"--seeds {args.seeds} --method {lc.method} --trace-decay {lc.trace_decay:g} "
-        f"--initial-value {lc.initial_value:g} --alpha {lc.alpha:g}`. Learning: SMDP "
+        f"--initial-value {lc.initial_value:g} --alpha {lc.alpha:g}` "
+        f"({minutes:.1f} min with {args.workers} worker(s)). Learning: SMDP "
         f"{'Q' if lc.method == 'q' else 'Sarsa'}({lc.trace_decay:g}) with replacing traces, "
         f"keepaway's tile coding, step size {lc.alpha:g}, epsilon {lc.epsilon:g}, initial "
-        f"values {lc.initial_value:g}, no options, {args.episodes} episodes per seed. "
-        f"Evaluation: the greedy policy of each seed and every fixed rule on the same {args.eval} episode seeds "
-        "(unseen in learning). Mean reward with a 95% t interval; success rate with a 95% "
-        "Wilson interval.",
+        f"values {lc.initial_value:g}, no options, {args.episodes} episodes per seed, "
+        f"{args.seeds} learning seeds per team. Evaluation: the greedy policy of each seed "
+        f"and every fixed rule on the same {args.eval} episode seeds (unseen in learning); "
+        "the best rule is the one with the highest mean reward on them.",
         "",
-        "| team | learnt: mean reward [95% CI] | learnt: success | best fixed rule | "
-        "rule: mean reward [95% CI] | rule: success | learnt better? |",
-        "|---|---|---|---|---|---|---|",
+        "How it is compared: the learning seed is the unit. For each seed, the mean over "
+        f"the {args.eval} episodes of (learnt reward - rule reward) on the same episode "
+        "seed; then the mean of these per-seed differences over the seeds with a 95% "
+        "Student t interval and the paired t-test, and the p-value adjusted with Holm's "
+        f"method across the {len(args.teams)} teams. Learnt mean reward and success: mean "
+        "over seeds of each seed's mean, with a t interval over seeds; the rule's: over its "
+        "episodes (t interval; Wilson for the success rate). The evaluation episodes are the "
+        "same for every seed and rule, so the comparison is conditional on them.",
+        "",
+        "| team | learnt: mean reward [95% CI] | learnt: success [95% CI] | best fixed rule | "
+        "rule: mean reward [95% CI] | rule: success [95% CI] | learnt - rule [95% CI] | "
+        "seeds ahead (sign test p) | p (Holm) | learnt better? |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     beaten = 0
-    for team in args.teams:
-        mine = np.concatenate([r["eval"] for r in learnt if r["team"] == team])
-        rules = {r["rule"]: np.asarray(r["eval"]) for r in fixed if r["team"] == team}
-        best = max(rules, key=lambda n: rules[n].mean())
-        m = _summary(mine)
-        b = _summary(rules[best])
-        diff = stats.ttest_ind(mine, rules[best], equal_var=False)
-        better = m[0] > b[0] and diff.pvalue < 0.05
+    for team, (best, c) in results.items():
+        better = c["diff_ci"][0] > 0 and adjusted[team] < 0.05
         beaten += better
+        lm, ll, lh = c["learnt_ci"]
+        sm, sl, sh = c["learnt_success_ci"]
+        rm, rl, rh = c["rule_ci"]
+        qm, ql, qh = c["rule_success"]
+        dm, dl, dh = c["diff_ci"]
+        imp = c["improvement"]
+        sign = "n/a" if np.isnan(imp.sign_p) else f"{imp.sign_p:.2g}"
         lines.append(
-            f"| {team} | {m[0]:+.3f} [{m[1]:+.3f}, {m[2]:+.3f}] | {m[3]:.1%} [{m[4]:.1%}, {m[5]:.1%}] "
-            f"| {best} | {b[0]:+.3f} [{b[1]:+.3f}, {b[2]:+.3f}] | {b[3]:.1%} [{b[4]:.1%}, {b[5]:.1%}] "
-            f"| {'yes' if better else 'no'} (Welch p = {diff.pvalue:.3g}) |"
+            f"| {team} | {lm:+.3f} [{ll:+.3f}, {lh:+.3f}] | {sm:.1%} [{sl:.1%}, {sh:.1%}] "
+            f"| {best} | {rm:+.3f} [{rl:+.3f}, {rh:+.3f}] | {qm:.1%} [{ql:.1%}, {qh:.1%}] "
+            f"| {dm:+.3f} [{dl:+.3f}, {dh:+.3f}] | {imp.better} of {imp.n} ({sign}) "
+            f"| {adjusted[team]:.2g} | {'yes' if better else 'no'} |"
         )
     lines += ["", f"**The learnt policy beats the best fixed rule on {beaten} of "
-              f"{len(args.teams)} teams** (higher mean reward, Welch t-test p < 0.05).", ""]
+              f"{len(args.teams)} teams** (paired difference over learning seeds above zero, "
+              "Holm-adjusted p < 0.05 across the teams).", ""]
     curves = {t: np.mean([r["curve"] for r in learnt if r["team"] == t], axis=0) for t in args.teams}
+    blocks = range(0, args.episodes, 100)
     lines += ["Mean learning reward per 100 episodes (mean over seeds):", "",
-              "| team | " + " | ".join(f"{i}-{i + 99}" for i in range(0, args.episodes, 100)) + " |",
-              "|---|" + "---|" * len(range(0, args.episodes, 100))]
+              "| team | " + " | ".join(f"{i}-{min(i + 99, args.episodes - 1)}" for i in blocks)
+              + " |", "|---|" + "---|" * len(blocks)]
     for t, c in curves.items():
-        cells = [f"{np.mean(c[i:i + 100]):+.2f}" for i in range(0, args.episodes, 100)]
+        cells = [f"{np.mean(c[i:i + 100]):+.2f}" for i in blocks]
         lines.append(f"| {t} | " + " | ".join(cells) + " |")
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
