@@ -37,7 +37,7 @@ from ilpss.metrics import (
     trend_slopes,
     wilson_interval,
 )
-from ilpss.plots import plot_learning_curves
+from ilpss.plots import plot_learning_curves, plot_score_profiles
 
 # Tiny hand-checked curves (length 6).
 T = np.array([0.0, 0.5, 0.5, 1.0, 1.0, 1.0])
@@ -658,3 +658,17 @@ def test_trend_slopes_with_seeds_as_clusters():
         trend_slopes(values, np.ones(19))
     with pytest.raises(ValueError, match="positions"):
         trend_slopes(values, x[:-1])
+
+
+def test_plot_score_profiles_writes_png(tmp_path):
+    rng = np.random.default_rng(0)
+    scores = {"jumpstart": {"a": rng.normal(0.2, 0.1, 80), "b": rng.normal(0, 0.1, 80)},
+              "total-reward gain": {"a": rng.normal(5, 10, 80)}}
+    out = plot_score_profiles(scores, tmp_path / "p" / "profiles.png", title="t")
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert sorted(p.name for p in out.parent.iterdir()) == ["profiles.png"]
+    with pytest.raises(ValueError, match="at least one"):
+        plot_score_profiles({"jumpstart": {}}, tmp_path / "x.png", title="t")
+    with pytest.raises(ValueError, match="finite"):
+        plot_score_profiles({"j": {"a": [0.0, np.nan]}}, tmp_path / "x.png", title="t")
+    assert not (tmp_path / "x.png").exists()

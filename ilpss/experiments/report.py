@@ -127,16 +127,6 @@ def held_out_team(stream: str) -> str:
     return stream.split(",")[0].removeprefix("held_out=")
 
 
-def mean_difference(
-    a: np.ndarray, b: np.ndarray, *, confidence: float = 0.95
-) -> tuple[float, float, float]:
-    """Mean over seeds of ``a - b`` (paired by seed) with a Student t interval:
-    ``(value, low, high)``."""
-    d = np.asarray(a, dtype=float) - np.asarray(b, dtype=float)
-    value, low, high = metrics.t_interval(d, confidence)
-    return float(value), float(low), float(high)
-
-
 def holm_primary(estimates: dict[str, dict[str, metrics.MetricEstimate]]) -> dict[str, dict]:
     """``{method: {endpoint: Holm-adjusted p}}`` for the :data:`PRIMARY` endpoints of every
     method, adjusted as one family (methods x endpoints)."""
