@@ -45,7 +45,7 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -1331,8 +1331,9 @@ def compare(
         out[name] = MetricEstimate(name, float(value), float(low), float(high), n_seeds,
                                    definition, confidence, how, float(p))
 
-    def add_mean(name: str, per_seed: FloatArray, definition: str, test: bool) -> None:
-        definition = "mean over seeds of " + definition
+    def add_mean(name: str, per_seed: FloatArray, definition: str, test: bool,
+                 prefix: str = "mean over seeds of ") -> None:
+        definition = prefix + definition
         if weights is None:
             value, low, high = t_interval(per_seed, confidence)
             put(name, value, low, high, definition, "Student t",
@@ -1378,15 +1379,14 @@ def compare(
         return out
     times_t, reached_t = threshold_times(t, threshold, window)
     times_b, reached_b = threshold_times(b, threshold, window)
-    crit = (f"per seed, the first episode number t (1-based = episodes played, "
-            f"t >= {window}) at which the mean of episodes t-{window}+1..t is >= "
-            f"{threshold:g}, censored at the budget of {n_eps} episodes")
-    rmst = "restricted mean time to threshold (up to the budget) = mean over seeds of "
-    add_mean("time_to_threshold_transfer", times_t, crit + ", transfer", test=False)
-    add_mean("time_to_threshold_baseline", times_b, crit + ", baseline", test=False)
-    for key in ("time_to_threshold_transfer", "time_to_threshold_baseline"):
-        e = out[key]
-        out[key] = replace(e, definition=rmst + e.definition.removeprefix("mean over seeds of "))
+    crit = (f"the first episode number t (1-based = episodes played, t >= {window}) at "
+            f"which the mean of episodes t-{window}+1..t is >= {threshold:g}, censored at "
+            f"the budget of {n_eps} episodes")
+    rmst = "restricted mean time to threshold (up to the budget): mean over seeds of "
+    add_mean("time_to_threshold_transfer", times_t, crit + ", transfer", test=False,
+             prefix=rmst)
+    add_mean("time_to_threshold_baseline", times_b, crit + ", baseline", test=False,
+             prefix=rmst)
     add_mean("time_to_threshold_gain", times_t - times_b,
              "(censored time to threshold with transfer) - (same for baseline), "
              f"{paired}; episodes; < 0 favours transfer", test=True)
