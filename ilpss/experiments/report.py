@@ -175,14 +175,14 @@ def time_text(est: dict[str, metrics.MetricEstimate]) -> str:
                 f"threshold, while {kb} of {n} learning anew do), a clear negative result")
 
     def median(e: metrics.MetricEstimate) -> str:
-        return ("beyond the budget" if e.value == math.inf else f"{e.value:.0f}")
+        return "beyond the budget" if e.value == math.inf else f"{e.value:.0f} episodes"
 
     ratio = est["time_to_threshold_ratio"]
     aim = "at most half: aim met" if ratio.high <= 0.5 else "aim of at most half not shown"
     return (f"time to threshold (restricted mean, censored at the budget) "
             f"{interval_text(ratio, '.2f')} times that of learning anew ({aim}); {shares}; "
             f"Kaplan-Meier medians {median(est['median_time_to_threshold_transfer'])} and "
-            f"{median(est['median_time_to_threshold_baseline'])} episodes")
+            f"{median(est['median_time_to_threshold_baseline'])}")
 
 
 def verdict(estimates: dict[str, metrics.MetricEstimate],
