@@ -234,11 +234,12 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     possession flags. With ``shared_spaces=True`` one more value ends it: 1 for an
     attacker, 0 for a defender, so that one shared policy knows which side it plays.
 
-    PettingZoo's ``api_test`` warns "Observation is not a NumPy array" for the
-    default ``Dict`` observation and, with defenders as agents, "Agents have different
-    observation space sizes" (their masks have 3 entries, the attackers' 5): both are
-    expected, as for PettingZoo's classic games. ``obs_format="flat"`` removes the
-    first and ``shared_spaces=True`` the second.
+    PettingZoo's ``api_test`` warns "Observation is not a NumPy array" and
+    "Observation space for each agent probably should be gymnasium.spaces.box or
+    gymnasium.spaces.discrete" for the default ``Dict`` observation and, with defenders
+    as agents, "Agents have different observation space sizes" (their masks have 3
+    entries, the attackers' 5): all are expected, as for PettingZoo's classic games.
+    ``obs_format="flat"`` removes the first two and ``shared_spaces=True`` the third.
 
     ## Global state
 
