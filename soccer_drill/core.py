@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 import threading
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from typing import Any, Literal
 
 import numpy as np
@@ -140,6 +141,19 @@ class DrillCore:
             self._obs_args = (low, high)
         self.obs_box = spaces.Box(low, high, dtype=np.float32)
         self.np_random, _ = seeding.np_random()
+
+    @contextmanager
+    def exclusive(self, env: object, method: str) -> Iterator[None]:
+        """Hold :attr:`busy` for ``env.method()``, or raise :func:`concurrent_use` at once.
+
+        For ``reset``; the ``step`` methods take the lock inline, which is cheaper.
+        """
+        if not self.busy.acquire(False):
+            raise concurrent_use(env, method)
+        try:
+            yield
+        finally:
+            self.busy.release()
 
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()

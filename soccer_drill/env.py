@@ -120,6 +120,13 @@ class _DrillEnvBase:
     def _flat_observation(self, agent: str) -> np.ndarray:
         return self._features(self._index[agent])
 
+    def _begin_episode(self, seed: int | None) -> None:
+        """Reseed (``None``: continue the generator) and reset the drill; every agent is live."""
+        self._core.seed(seed)
+        self._core.reset()
+        self.agents = self.possible_agents[:]
+        self._has_reset = True
+
     def _require_reset(self, method: str) -> None:
         if not self._core.has_reset:
             raise not_reset(method)
@@ -336,13 +343,8 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
 
     def reset(self, seed: int | None = None, options: dict | None = None) -> None:
         """Start an episode; ``seed`` reseeds the drill (see Seeding in the class docstring)."""
-        core = self._core
-        if not core.busy.acquire(False):
-            raise concurrent_use(self, "reset")
-        try:
-            core.seed(seed)
-            core.reset()
-            self.agents = self.possible_agents[:]
+        with self._core.exclusive(self, "reset"):
+            self._begin_episode(seed)
             self.rewards = dict.fromkeys(self.agents, 0.0)
             self._cumulative_rewards = dict.fromkeys(self.agents, 0.0)
             self.terminations = dict.fromkeys(self.agents, False)
@@ -352,9 +354,6 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
             self._commands: list = [None] * 4
             self._selector = AgentSelector(self.agents)
             self.agent_selection = self._selector.next()
-            self._has_reset = True
-        finally:
-            core.busy.release()
         if self.render_mode == "human":
             self.render()
 
@@ -478,20 +477,12 @@ class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
         self, seed: int | None = None, options: dict | None = None
     ) -> tuple[dict[str, Any], dict[str, dict]]:
         """Start an episode; ``seed`` reseeds the drill (see Seeding in :class:`raw_env`)."""
-        core = self._core
-        if not core.busy.acquire(False):
-            raise concurrent_use(self, "reset")
-        try:
-            core.seed(seed)
-            core.reset()
-            self.agents = self.possible_agents[:]
-            self._has_reset = True
+        with self._core.exclusive(self, "reset"):
+            self._begin_episode(seed)
             result = (
                 {a: self._observation(a) for a in self.agents},
                 {a: self._step_info(a, None) for a in self.agents},
             )
-        finally:
-            core.busy.release()
         if self.render_mode == "human":
             self.render()
         return result

@@ -160,9 +160,7 @@ class HolderEnv(gym.Env):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start an episode; the observation is the 9 features of the attacker given the ball."""
         core = self._core
-        if not core.busy.acquire(False):
-            raise concurrent_use(self, "reset")
-        try:
+        with core.exclusive(self, "reset"):
             super().reset(seed=seed)
             core.seed(seed)
             core.reset()
@@ -172,8 +170,6 @@ class HolderEnv(gym.Env):
             return core.observe(holder), {
                 "duration": 0, "cycles": 0, "outcome": None, "holder": PLAYER_NAMES[holder],
             }
-        finally:
-            core.busy.release()
 
     def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply the holder's action and run to its next decision or the end (see the class docstring)."""
