@@ -5,7 +5,12 @@
 Prints a markdown table: AEC cycles per second through ``soccer_drill.env()`` (scripted
 defenders, random legal attacker actions, observations read with ``last()`` as users do),
 parallel-env cycles per second, holder decisions per second (random policy), and the
-bare pymunk cost of the same bodies and sub-steps, with the ratio per cycle.
+bare pymunk cost of the same bodies and sub-steps, with the ratio per cycle. Then two
+costs measured in the same run, each as the fastest of many short blocks (robust to a
+loaded machine): the thread guard of ``step`` (``env.step`` against a direct call of the
+unguarded ``env._step``, both around an empty step, so only the guard differs), and
+what rebuilding the physics space costs per reset (``Drill.reset`` against the same
+reset with the space kept from the previous episode, as before the rebuild).
 """
 
 from __future__ import annotations
@@ -13,6 +18,7 @@ from __future__ import annotations
 import argparse
 import platform
 import time
+import timeit
 
 import numpy as np
 import pymunk
@@ -119,6 +125,51 @@ def physics_cycles_per_second(cycles: int) -> float:
     return cycles / (time.perf_counter() - start)
 
 
+def _fastest_us(call, number: int, repeat: int) -> float:
+    """Microseconds per call: the fastest of ``repeat`` blocks of ``number`` calls."""
+    return min(timeit.repeat(call, number=number, repeat=repeat)) / number * 1e6
+
+
+def reset_us(rebuild: bool, number: int = 100, repeat: int = 30) -> float:
+    """Microseconds per ``Drill.reset``; ``rebuild=False`` keeps the previous space."""
+    drill = Drill()
+    rng = np.random.default_rng(0)
+    drill.reset(rng)
+    if not rebuild:
+        drill._build_space = lambda: None  # the old reset: same bodies, same space
+    return _fastest_us(lambda: drill.reset(rng), number, repeat)
+
+
+def env_reset_us(opponent: str = "chasers", number: int = 100, repeat: int = 30) -> float:
+    """Microseconds per ``env.reset(seed=...)`` of the AEC environment (team reset included)."""
+    env = soccer_drill.env(opponent=opponent)
+    seeds = iter(range(10**9))
+    return _fastest_us(lambda: env.reset(seed=next(seeds)), number, repeat)
+
+
+def guard_us(number: int = 20_000, repeat: int = 30) -> float:
+    """Microseconds the thread guard adds to one ``step`` call (around an empty step)."""
+    env = soccer_drill.env(opponent="chasers")
+    env.reset(seed=0)
+    env._step = lambda action: None  # only the guard is left in env.step
+    guarded = _fastest_us(lambda: env.step(0), number, repeat)
+    bare = _fastest_us(lambda: env._step(0), number, repeat)
+    return guarded - bare
+
+
+def mean_episode_cycles(episodes: int = 200, opponent: str = "chasers") -> float:
+    """Mean length of an AEC episode with random legal actions, in cycles."""
+    env = soccer_drill.env(opponent=opponent)
+    pick, total = RandomLegal(), 0
+    for seed in range(episodes):
+        env.reset(seed=seed)
+        for _ in env.agent_iter():
+            obs, _, term, trunc, _ = env.last()
+            env.step(None if term or trunc else pick(obs["action_mask"]))
+        total += env.drill_state.cycle
+    return total / episodes
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=int, default=20000)
@@ -136,6 +187,15 @@ def main() -> None:
         decisions, holder_cycles = holder_rates(args.cycles // 2)
         best["holder"] = max(best.get("holder", 0.0), decisions)
         best["holder_cycles"] = max(best.get("holder_cycles", 0.0), holder_cycles)
+    low: dict[str, float] = {}
+    for _ in range(args.repeats):  # fastest of each, interleaved
+        for name, value in (
+            ("reset_rebuild", reset_us(rebuild=True)),
+            ("reset_reuse", reset_us(rebuild=False)),
+            ("env_reset", env_reset_us()),
+            ("guard", guard_us()),
+        ):
+            low[name] = min(low.get(name, float("inf")), value)
     phys = best["physics"]
     print(f"python {platform.python_version()}, pymunk {pymunk.version}, {platform.machine()}")
     print("| measure | per second | us per cycle | x physics floor |")
@@ -147,6 +207,27 @@ def main() -> None:
                        ("holder_cycles", "holder env cycle (random policy)")):
         print(f"| {label} | {best[key]:,.0f} | {1e6 / best[key]:.1f} | {phys / best[key]:.2f} |")
     print(f"| holder decisions (random policy) | {best['holder']:,.0f} | - | - |")
+    cycle = 1e6 / best["aec"]
+    print()
+    print("| thread guard | us |")
+    print("|---|---|")
+    print(f"| per step() call | {low['guard']:.2f} |")
+    print(f"| per AEC cycle (2 agent turns) | {2 * low['guard']:.2f} "
+          f"({2 * low['guard'] / cycle:.1%} of the cycle's {cycle:.1f} us) |")
+    avg_cycles = best["holder_cycles"] / best["holder"]  # cycles per holder decision
+    print()
+    print("| reset | us per reset |")
+    print("|---|---|")
+    print(f"| Drill.reset, space rebuilt | {low['reset_rebuild']:.1f} |")
+    print(f"| Drill.reset, space kept (before the rebuild) | {low['reset_reuse']:.1f} |")
+    print(f"| cost of the rebuild | {low['reset_rebuild'] - low['reset_reuse']:+.1f} |")
+    print(f"| env.reset(seed) of the AEC env, chasers | {low['env_reset']:.1f} |")
+    episode_us = mean_episode_cycles() * cycle
+    rebuild = low["reset_rebuild"] - low["reset_reuse"]
+    print(f"| rebuild / (AEC episode of random legal actions, {episode_us / cycle:.0f} cycles "
+          f"= {episode_us / 1000:.1f} ms) | {rebuild / episode_us:.1%} |")
+    print(f"| rebuild / (bare pymunk cycle) | {rebuild / (1e6 / phys):.1f} cycles |")
+    print(f"(a holder decision lasts {avg_cycles:.1f} cycles on average)")
 
 
 if __name__ == "__main__":

@@ -1,15 +1,20 @@
 """Calibration of the drill: every team against every fixed holder rule.
 
-    soccer-drill-calibrate [--episodes 500] [--out docs/opponents.md] [--gifs docs/gifs]
-                           [--sampled 20] [--sampled-episodes 100] [--workers 2]
+    soccer-drill-calibrate [--teams ID ...] [--episodes 500] [--out results/calibration]
+                           [--no-gifs] [--sampled 20] [--sampled-episodes 100] [--workers 2]
 
-For each team (the paper's four and ``chasers``): success rate (95% Wilson interval),
+For each team (by default the paper's four and ``chasers``; ``--teams`` names any
+installed ones, e.g. a plugin's beside ours): success rate (95% Wilson interval),
 mean reward (95% t interval) and the outcomes over seeded episodes of each fixed
 holder rule of :mod:`soccer_drill.policies`; the three criteria the drill is tuned
 for, with their measured figures; optionally the same for members of the parametric
 family drawn by :func:`opponents.sample_opponents`; and a small GIF of each team.
 Episode ``i`` of every cell uses seed ``i``, so cells are paired and the run is
 reproducible.
+
+The page is written to ``<out>/opponents.md`` and the GIFs to ``<out>/gifs/``; the
+default folder is ``results/calibration``, never ``docs/``. This project's
+``docs/opponents.md`` is regenerated with ``--episodes 500 --sampled 20 --out docs``.
 """
 
 from __future__ import annotations
@@ -32,10 +37,12 @@ from opponents.parametric import sample_opponents, spec_label
 from soccer_drill.gif import record_episode, save_gif
 from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
-from soccer_drill.teams import describe
+from soccer_drill.teams import describe, team_ids
 
 TEAMS = (*PAPER_TEAMS, "chasers")
-"""Teams in the main table, in the paper's order, then ``chasers``."""
+"""Teams in the main table by default, in the paper's order, then ``chasers``."""
+DEFAULT_OUT = "results/calibration"
+"""Where the command writes unless told otherwise (``results/`` is not committed)."""
 
 GIF_FPS = 8
 """GIF frame rate: 0.125 s per 0.1 s cycle, slightly slowed down, and small files."""
@@ -159,13 +166,42 @@ def best_rules(cells: Mapping[tuple[str, str], Cell]) -> dict[str, str]:
     return {t: max(rules, key=lambda r: cells[(t, r)].mean_reward) for t in teams}
 
 
+def criteria_teams(teams: Sequence[str]) -> list[str]:
+    """The teams the criteria are judged on: ``teams``, less ``chasers`` beside
+    ``interceptors_press`` (it re-implements that team as a check, so it would count twice)."""
+    teams = list(teams)
+    if "chasers" in teams and "interceptors_press" in teams:
+        teams.remove("chasers")
+    return teams
+
+
+def _team_list(teams: Sequence[str]) -> str:
+    if len(teams) == 1:
+        return teams[0]
+    return f"each of the {len(teams)} teams ({', '.join(teams)})"
+
+
+def _all(n: int) -> str:
+    return "both" if n == 2 else f"all {n}"
+
+
 def criteria(
     cells: Mapping[tuple[str, str], Cell], teams: Sequence[str] = PAPER_TEAMS
 ) -> list[str]:
-    """The three calibration criteria, each with its measured figures and verdict."""
+    """The three calibration criteria over ``teams``, each with its figures and verdict.
+
+    The wording names the teams judged; the third criterion (the best rule differs
+    between teams) needs at least two.
+    """
+    teams = list(teams)
+    if not teams:
+        raise ValueError("criteria need at least one team")
     _, all_rules = _teams_and_rules(cells)
     rules = [r for r in all_rules if r != "random"]
+    if "random" not in all_rules or not rules:
+        raise ValueError("criteria need the 'random' rule and at least one fixed rule")
     rate = {(t, r): cells[(t, r)].success_rate for t in teams for r in all_rules}
+    against = _team_list(teams)
     # 1. Random play seldom succeeds.
     worst_random = max(teams, key=lambda t: rate[(t, "random")])
     ok1 = all(rate[(t, "random")] < 0.25 for t in teams)
@@ -174,31 +210,47 @@ def criteria(
     ok2 = all(rate[(t, top[t])] >= 1 / 3 for t in teams)
     robust = max(rules, key=lambda r: min(rate[(t, r)] for t in teams))
     robust_low = min(rate[(t, robust)] for t in teams)
-    # 3. The rules rank differently against different teams; the best response differs.
-    rankings = {t: tuple(sorted(rules, key=lambda r: -cells[(t, r)].mean_reward)) for t in teams}
-    best = {t: rankings[t][0] for t in teams}
-    ok3 = len(set(rankings.values())) > 1 and len(set(best.values())) > 1
 
     def verdict(ok: bool) -> str:
         """'met' or 'NOT met'."""
         return "**met**" if ok else "**NOT met**"
 
-    return [
-        "1. The random holder succeeds in less than a quarter of episodes against every "
-        "paper team: "
+    second = (
+        f"2. Some fixed rule succeeds in at least a third of episodes against {against}: "
+        "the most successful rule per team is "
+        + ", ".join(f"{t} {top[t]} {rate[(t, top[t])]:.1%}" for t in teams)
+        + f" -> {verdict(ok2)}."
+    )
+    if len(teams) > 1:
+        second += (
+            f" A single rule does so against {_all(len(teams))}: {robust} "
+            f"(lowest {robust_low:.1%}) -> {'yes' if robust_low >= 1 / 3 else 'no'}."
+        )
+    lines = [
+        f"1. The random holder succeeds in less than a quarter of episodes against {against}: "
         + ", ".join(f"{t} {rate[(t, 'random')]:.1%}" for t in teams)
         + f" (highest: {worst_random}, Wilson upper bound "
         f"{cells[(worst_random, 'random')].success_interval[1]:.1%}) -> {verdict(ok1)}.",
-        "2. Some fixed rule succeeds in at least a third of episodes against every paper "
-        "team: the most successful rule per team is "
-        + ", ".join(f"{t} {top[t]} {rate[(t, top[t])]:.1%}" for t in teams)
-        + f" -> {verdict(ok2)}. A single rule does so against all four: {robust} "
-        f"(lowest {robust_low:.1%}) -> {'yes' if robust_low >= 1 / 3 else 'no'}.",
-        "3. The ranking of the fixed rules (by mean reward) is not the same against all four "
-        f"teams: {len(set(rankings.values()))} distinct rankings, and the best rule is "
-        + ", ".join(f"{best[t]} against {t}" for t in teams)
-        + f" ({len(set(best.values()))} distinct best responses) -> {verdict(ok3)}.",
+        second,
     ]
+    if len(teams) < 2:
+        lines.append(
+            "3. The ranking of the fixed rules differs between teams: not judged, it needs "
+            "at least two teams."
+        )
+        return lines
+    # 3. The rules rank differently against different teams; the best response differs.
+    rankings = {t: tuple(sorted(rules, key=lambda r: -cells[(t, r)].mean_reward)) for t in teams}
+    best = {t: rankings[t][0] for t in teams}
+    ok3 = len(set(rankings.values())) > 1 and len(set(best.values())) > 1
+    lines.append(
+        f"3. The ranking of the fixed rules (by mean reward) is not the same against "
+        f"{_all(len(teams))} teams: {len(set(rankings.values()))} distinct rankings, and the best "
+        "rule is "
+        + ", ".join(f"{best[t]} against {t}" for t in teams)
+        + f" ({len(set(best.values()))} distinct best responses) -> {verdict(ok3)}."
+    )
+    return lines
 
 
 def _first_line(obj: object) -> str:
@@ -237,13 +289,12 @@ def write_markdown(
     command: str | None = None,
     timing: str | None = None,
 ) -> Path:
-    """Write ``docs/opponents.md``: teams, rules, criteria, tables, family and GIFs.
+    """Write the calibration page (``opponents.md``): teams, rules, criteria, tables, GIFs.
 
     ``gifs`` maps a team to its GIF path relative to ``path`` (or to a tuple
     ``(relative path, rule, seed, outcome)``).
     """
     teams, rules = _teams_and_rules(cells)
-    paper = [t for t in PAPER_TEAMS if t in teams]
     command = command or f"soccer-drill-calibrate --episodes {episodes}"
     took = f" {timing}" if timing else ""
     lines = [
@@ -262,9 +313,9 @@ def write_markdown(
         "",
         "## The teams",
         "",
-        "All are settings of `opponents.parametric.ParametricTeam` (except `chasers`); each "
-        "class docstring gives the full behaviour and settings. List the installed teams with "
-        "`soccer-drill-teams`.",
+        "The paper's teams are settings of `opponents.parametric.ParametricTeam` and "
+        "`chasers` is a minimal stand-alone team; each team's class docstring gives its full "
+        "behaviour and settings. List the installed teams with `soccer-drill-teams`.",
         "",
         "| id | description |",
         "|---|---|",
@@ -289,8 +340,12 @@ def write_markdown(
     ]
     for r in rules:
         lines.append(f"| `{r}` | {_first_line(HOLDER_POLICIES[r])} |")
-    if paper:
-        lines += ["", "## Criteria", "", *criteria(cells, paper)]
+    judged = criteria_teams(teams)
+    note = (
+        ["", "`chasers` is left out of the criteria: it re-implements `interceptors_press`."]
+        if judged != teams else []
+    )
+    lines += ["", "## Criteria", "", *criteria(cells, judged), *note]
     lines += [
         "",
         "## Success rates",
@@ -402,12 +457,17 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="soccer-drill-calibrate", description=__doc__.splitlines()[0]
     )
+    parser.add_argument(
+        "--teams", nargs="+", default=list(TEAMS), metavar="ID",
+        help=f"team ids to calibrate (default: {' '.join(TEAMS)})",
+    )
     parser.add_argument("--episodes", type=int, default=500, help="episodes per cell")
     parser.add_argument("--workers", type=int, default=2, help="worker processes")
-    parser.add_argument("--out", default="docs/opponents.md")
     parser.add_argument(
-        "--gifs", default="docs/gifs", help="folder for one GIF per team ('' for none)"
+        "--out", default=DEFAULT_OUT,
+        help=f"folder for opponents.md and gifs/ (default: {DEFAULT_OUT})",
     )
+    parser.add_argument("--no-gifs", action="store_true", help="write no GIFs")
     parser.add_argument(
         "--sampled", type=int, default=0,
         help="also tabulate this many members of the parametric family (seed 0)",
@@ -418,31 +478,41 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("--episodes and --sampled-episodes must be at least 2")
     if args.sampled < 0:
         parser.error("--sampled must be >= 0")
+    known = team_ids()
+    unknown = [t for t in args.teams if t not in known]
+    if unknown:
+        parser.error(f"unknown team(s) {unknown}; installed teams: {known}")
+    teams = list(dict.fromkeys(args.teams))
+    out_dir = Path(args.out)
+    if not args.out or out_dir.is_file():
+        parser.error(f"--out must name a folder (opponents.md and gifs/ go in it), got {args.out!r}")
     start = time.perf_counter()
-    cells = calibrate(args.episodes, workers=args.workers)
+    cells = calibrate(args.episodes, teams=teams, workers=args.workers)
     family = (
         calibrate_family(args.sampled, 0, args.sampled_episodes, args.workers)
         if args.sampled else None
     )
     gifs: dict[str, tuple[str, str, int, str]] = {}
-    if args.gifs:
-        out_dir = Path(args.out).parent
+    if not args.no_gifs:
         best = best_rules(cells)
-        for team in TEAMS:
-            path = Path(args.gifs) / f"{team}.gif"
-            seed, outcome = write_team_gif(team, best[team], path)
-            gifs[team] = (os.path.relpath(path, out_dir), best[team], seed, outcome)
-    command = f"soccer-drill-calibrate --episodes {args.episodes}"
+        for team in teams:
+            seed, outcome = write_team_gif(team, best[team], out_dir / "gifs" / f"{team}.gif")
+            gifs[team] = (f"gifs/{team}.gif", best[team], seed, outcome)
+    command = "soccer-drill-calibrate"
+    if teams != list(TEAMS):
+        command += " --teams " + " ".join(teams)
+    command += f" --episodes {args.episodes}"
     if args.sampled:
         command += f" --sampled {args.sampled} --sampled-episodes {args.sampled_episodes}"
-    if args.out != "docs/opponents.md":
-        command += f" --out {args.out}"
-    if args.gifs != "docs/gifs":
-        command += f" --gifs '{args.gifs}'"
+    if args.no_gifs:
+        command += " --no-gifs"
+    command += f" --out {args.out}"
     seconds = time.perf_counter() - start
     timing = f"It took {seconds / 60:.1f} min with {args.workers} worker process(es)."
-    path = write_markdown(cells, args.episodes, args.out, gifs, family, command, timing)
-    for line in criteria(cells):
+    path = write_markdown(
+        cells, args.episodes, out_dir / "opponents.md", gifs, family, command, timing
+    )
+    for line in criteria(cells, criteria_teams(teams)):
         print(line)
     print(f"wrote {path} in {seconds:.0f} s")
     return 0

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import threading
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from typing import Any, Literal
 
 import numpy as np
@@ -30,7 +32,9 @@ IllegalAction = Literal["raise", "default"]
 _ATTACKER_HOLDER_MASK = np.array([1, 1, 1, 0, 0], dtype=np.int8)
 _ATTACKER_OFF_BALL_MASK = np.array([0, 0, 0, 1, 1], dtype=np.int8)
 _DEFENDER_MASK = np.ones(len(DEFENDER_ACTIONS), dtype=np.int8)
-for _mask in (_ATTACKER_HOLDER_MASK, _ATTACKER_OFF_BALL_MASK, _DEFENDER_MASK):
+# With shared spaces a defender has an attacker's Discrete(5); its last two actions are masked.
+_SHARED_DEFENDER_MASK = np.array([1, 1, 1, 0, 0], dtype=np.int8)
+for _mask in (_ATTACKER_HOLDER_MASK, _ATTACKER_OFF_BALL_MASK, _DEFENDER_MASK, _SHARED_DEFENDER_MASK):
     _mask.flags.writeable = False
 _DEFAULT_ATTACKER_ACTION = {True: 0, False: 3}  # holder: HOLD; off the ball: GET_OPEN
 _DEFAULT_DEFENDER_ACTION = 0  # INTERCEPT
@@ -59,10 +63,20 @@ class DrillCore:
         config: drill parameters.
         obs_type: ``"features"`` (the 9 features) or ``"kinematic"`` (26 values).
         illegal_action: ``"raise"`` (a masked action is an error) or ``"default"``
-            (it is replaced by the role's default: HOLD, GET_OPEN or INTERCEPT).
+            (it is replaced by the role's default: HOLD, GET_OPEN or INTERCEPT, and
+            :attr:`replaced` says so).
         scripted_attackers: attackers driven by :class:`SupportPlayer`.
         team_timeout: seconds each ``reset``/``act`` call of the team may take, or
             ``None`` for no bound (see :class:`~soccer_drill.teams.TeamDriver`).
+        shared_spaces: defenders get the attackers' ``Discrete(5)`` actions, the last
+            two always masked.
+
+    Attributes:
+        replaced: ``(given, taken)`` after :meth:`command_for` replaced a masked action,
+            else ``None``; the caller reads it and sets it back to ``None``.
+        busy: a lock an environment holds while it steps or resets, so that a second
+            thread using the same environment at the same time gets a clear error
+            (:func:`concurrent_use`) instead of corrupting the physics engine.
     """
 
     def __init__(
@@ -74,6 +88,7 @@ class DrillCore:
         illegal_action: IllegalAction = "raise",
         scripted_attackers: tuple[int, ...] = (),
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
+        shared_spaces: bool = False,
     ) -> None:
         if obs_type not in ("features", "kinematic"):
             raise ValueError(f"obs_type must be 'features' or 'kinematic', got {obs_type!r}")
@@ -81,11 +96,17 @@ class DrillCore:
             raise ValueError(
                 f"illegal_action must be 'raise' or 'default', got {illegal_action!r}"
             )
+        if not isinstance(shared_spaces, bool):
+            raise TypeError(f"shared_spaces must be True or False, got {shared_spaces!r}")
         team_timeout = check_team_timeout(team_timeout)  # checked even without a team
         self.config = config
         self.drill = Drill(config)
         self.obs_type = obs_type
         self.illegal_action = illegal_action
+        self.shared_spaces = shared_spaces
+        self._defender_mask = _SHARED_DEFENDER_MASK if shared_spaces else _DEFENDER_MASK
+        self.replaced: tuple[int, int] | None = None
+        self.busy = threading.Lock()
         self.team_name: str | None
         if opponent is None:
             if opponent_params:
@@ -121,6 +142,33 @@ class DrillCore:
         self.obs_box = spaces.Box(low, high, dtype=np.float32)
         self.np_random, _ = seeding.np_random()
 
+    @contextmanager
+    def exclusive(self, env: object, method: str) -> Iterator[None]:
+        """Hold :attr:`busy` for ``env.method()``, or raise :func:`concurrent_use` at once.
+
+        For ``reset``; the ``step`` methods take the lock inline, which is cheaper.
+        """
+        if not self.busy.acquire(False):
+            raise concurrent_use(env, method)
+        try:
+            yield
+        finally:
+            self.busy.release()
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        del state["busy"]  # a lock cannot be pickled; a copy gets its own
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self.busy = threading.Lock()
+
+    @property
+    def has_reset(self) -> bool:
+        """Whether :meth:`reset` has run (so that there is a state to observe or draw)."""
+        return hasattr(self.drill, "state")
+
     # -------------------------------------------------------------- episodes
     def seed(self, seed: int | None) -> None:
         """Reseed the drill's generator (``None`` keeps the current stream)."""
@@ -155,45 +203,69 @@ class DrillCore:
     def mask(self, index: int) -> np.ndarray:
         """Action mask of player ``index`` (read-only int8)."""
         if index >= 2:
-            return _DEFENDER_MASK
+            return self._defender_mask
         return _ATTACKER_HOLDER_MASK if self.drill.state.holder == index else _ATTACKER_OFF_BALL_MASK
 
     # --------------------------------------------------------------- actions
     def command_for(self, agent: str, index: int, action: object) -> Command:
         """Check ``action`` of ``agent`` and turn it into a command."""
         actions = ATTACKER_ACTIONS if index < 2 else DEFENDER_ACTIONS
+        n = len(ATTACKER_ACTIONS) if self.shared_spaces else len(actions)
         if isinstance(action, np.ndarray) and action.shape == ():
             action = action.item()
         if isinstance(action, bool) or not isinstance(action, int | np.integer):
             raise TypeError(
-                f"action for {agent!r} must be an integer in [0, {len(actions) - 1}] "
-                f"({_names(actions)}), got {action!r} of type {type(action).__name__}"
+                f"action for {agent!r} must be an integer in [0, {n - 1}] "
+                f"({_names(actions, n)}), got {action!r} of type {type(action).__name__}"
             )
         a = int(action)
-        if not 0 <= a < len(actions):
+        if not 0 <= a < n:
             raise ValueError(
-                f"action {a} for {agent!r} is out of range; allowed: 0..{len(actions) - 1} "
-                f"({_names(actions)})"
+                f"action {a} for {agent!r} is out of range; allowed: 0..{n - 1} "
+                f"({_names(actions, n)})"
             )
         mask = self.mask(index)
         if not mask[a]:
             if self.illegal_action == "default":
+                given = a
                 a = (
                     _DEFAULT_ATTACKER_ACTION[self.drill.state.holder == index]
                     if index < 2
                     else _DEFAULT_DEFENDER_ACTION
                 )
+                self.replaced = (given, a)
             else:
                 legal = [f"{i}={actions[i].name}" for i in np.flatnonzero(mask)]
                 raise ValueError(
-                    f"action {a} ({actions[a].name}) is masked for {agent!r} at cycle "
-                    f"{self.drill.state.cycle}; legal actions now: {legal}"
+                    f"action {a} ({_name(actions, a)}) is masked for {agent!r} at cycle "
+                    f"{self.drill.state.cycle}; legal actions now: {legal}. "
+                    "illegal_action='default' replaces a masked action by the role's "
+                    "default action instead (and reports it in infos)"
                 )
         return _COMMANDS[actions[a]]
 
 
-def _names(actions: tuple[Skill, ...]) -> str:
-    return ", ".join(f"{i}={s.name}" for i, s in enumerate(actions))
+def concurrent_use(env: object, method: str) -> RuntimeError:
+    """The error for a second thread calling ``method`` while another thread is inside it."""
+    return RuntimeError(
+        f"{type(env).__name__}.{method}() called from thread "
+        f"{threading.current_thread().name!r} while another thread is stepping or resetting "
+        "the same environment; an environment must not be used from two threads at once "
+        "(give each thread its own environment)"
+    )
+
+
+def not_reset(method: str) -> RuntimeError:
+    """The error for ``method`` called before the first ``reset()``."""
+    return RuntimeError(f"{method}() called before reset(); call reset() first")
+
+
+def _name(actions: tuple[Skill, ...], a: int) -> str:
+    return actions[a].name if a < len(actions) else "padding"
+
+
+def _names(actions: tuple[Skill, ...], n: int) -> str:
+    return ", ".join(f"{i}={_name(actions, i)}" for i in range(n))
 
 
 _COMMANDS = {skill: Command(skill) for skill in Skill if skill is not Skill.MOVE_TO}

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from gymnasium import spaces
@@ -12,9 +12,20 @@ from pettingzoo import AECEnv, ParallelEnv
 from pettingzoo.utils import AgentSelector
 
 from soccer_drill.config import DrillConfig
-from soccer_drill.core import DrillCore, IllegalAction, ObsType, action_spaces, make_config
+from soccer_drill.core import (
+    DrillCore,
+    IllegalAction,
+    ObsType,
+    concurrent_use,
+    make_config,
+    not_reset,
+)
+from soccer_drill.features import global_state, state_bounds
+from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
+
+ObsFormat = Literal["dict", "flat"]
 
 _METADATA = {
     "render_modes": ["human", "rgb_array"],
@@ -22,10 +33,11 @@ _METADATA = {
     "is_parallelizable": True,
     "render_fps": 10,
 }
+_ROLE_FLAG = (np.zeros(1, dtype=np.float32), np.ones(1, dtype=np.float32))  # defender, attacker
 
 
 class _DrillEnvBase:
-    """Construction, spaces, observations and rendering common to both APIs."""
+    """Construction, spaces, observations, state and rendering common to both APIs."""
 
     metadata = _METADATA
 
@@ -39,50 +51,99 @@ class _DrillEnvBase:
         render_mode: str | None,
         illegal_action: IllegalAction,
         team_timeout: float | None,
+        obs_format: ObsFormat,
+        shared_spaces: bool,
     ) -> None:
         if render_mode is not None and render_mode not in _METADATA["render_modes"]:
             raise ValueError(
                 f"render_mode must be None or one of {_METADATA['render_modes']}, "
                 f"got {render_mode!r}"
             )
+        if obs_format not in ("dict", "flat"):
+            raise ValueError(f"obs_format must be 'dict' or 'flat', got {obs_format!r}")
         cfg = make_config(config, max_cycles)
-        self._core = DrillCore(
-            opponent, opponent_params, cfg, obs_type, illegal_action, team_timeout=team_timeout
+        core = self._core = DrillCore(
+            opponent, opponent_params, cfg, obs_type, illegal_action, team_timeout=team_timeout,
+            shared_spaces=shared_spaces,
         )
         self.config = cfg
         self.render_mode = render_mode
-        self.possible_agents = [PLAYER_NAMES[i] for i in self._core.agent_indices]
+        self.obs_format = obs_format
+        self.shared_spaces = shared_spaces
+        self._flat = obs_format == "flat"
+        self.possible_agents = [PLAYER_NAMES[i] for i in core.agent_indices]
         self._index = {name: PLAYER_NAMES.index(name) for name in self.possible_agents}
-        attacker_space, defender_space = action_spaces()
-        mask_spaces = {
-            n: spaces.Box(0, 1, shape=(s.n,), dtype=np.int8)
-            for n, s in (("attacker", attacker_space), ("defender", defender_space))
-        }
-        self._action_spaces = {
-            name: attacker_space if i < 2 else defender_space for name, i in self._index.items()
-        }
-        self._observation_spaces = {
-            name: spaces.Dict(
-                {
-                    "observation": self._core.obs_box,
-                    "action_mask": mask_spaces["attacker" if i < 2 else "defender"],
-                }
+        box = core.obs_box
+        if shared_spaces:  # a trailing role flag tells one shared policy which side it plays
+            box = spaces.Box(
+                np.append(box.low, 0.0).astype(np.float32),
+                np.append(box.high, 1.0).astype(np.float32),
+                dtype=np.float32,
             )
-            for name, i in self._index.items()
-        }
+        self._action_spaces: dict[str, spaces.Discrete] = {}
+        self._observation_spaces: dict[str, spaces.Space] = {}
+        for name, i in self._index.items():
+            n = len(ATTACKER_ACTIONS if i < 2 or shared_spaces else DEFENDER_ACTIONS)
+            self._action_spaces[name] = spaces.Discrete(n)
+            self._observation_spaces[name] = (
+                spaces.Box(box.low, box.high, dtype=np.float32)
+                if self._flat
+                else spaces.Dict(
+                    {
+                        "observation": spaces.Box(box.low, box.high, dtype=np.float32),
+                        "action_mask": spaces.Box(0, 1, shape=(n,), dtype=np.int8),
+                    }
+                )
+            )
+        self._features = self._with_role if shared_spaces else core.observe
+        self._observation = self._flat_observation if self._flat else self._dict_observation
+        low, high = state_bounds(cfg)
+        self._state_bounds = (low, high)
+        self.state_space = spaces.Box(low, high, dtype=np.float32)
         self._renderer = None
 
     def observation_space(self, agent: str) -> spaces.Space:
-        """``Dict(observation=Box, action_mask=Box(int8))``; the same object every call."""
+        """The agent's observation space (see the class docstring); the same object every call."""
         return self._observation_spaces[agent]
 
     def action_space(self, agent: str) -> spaces.Space:
-        """``Discrete(5)`` for attackers, ``Discrete(3)`` for defenders; the same object."""
+        """The agent's ``Discrete`` action space (see the class docstring); the same object."""
         return self._action_spaces[agent]
 
-    def _observation(self, agent: str) -> dict[str, np.ndarray]:
+    def _with_role(self, i: int) -> np.ndarray:
+        return np.concatenate((self._core.observe(i), _ROLE_FLAG[i < 2]))
+
+    def _dict_observation(self, agent: str) -> dict[str, np.ndarray]:
         i = self._index[agent]
-        return {"observation": self._core.observe(i), "action_mask": self._core.mask(i)}
+        return {"observation": self._features(i), "action_mask": self._core.mask(i)}
+
+    def _flat_observation(self, agent: str) -> np.ndarray:
+        return self._features(self._index[agent])
+
+    def _begin_episode(self, seed: int | None) -> None:
+        """Reseed (``None``: continue the generator) and reset the drill; every agent is live."""
+        self._core.seed(seed)
+        self._core.reset()
+        self.agents = self.possible_agents[:]
+        self._has_reset = True
+
+    def _require_reset(self, method: str) -> None:
+        if not self._core.has_reset:
+            raise not_reset(method)
+
+    def action_mask(self, agent: str) -> np.ndarray:
+        """The current action mask of ``agent`` (int8, 1 = legal; read-only)."""
+        self._require_reset("action_mask")
+        return self._core.mask(self._index[agent])
+
+    def _step_info(self, agent: str, replaced: tuple[int, int] | None) -> dict[str, Any]:
+        """An agent's info while the episode runs: the replaced action, the flat mask."""
+        info: dict[str, Any] = {}
+        if replaced is not None:
+            info["illegal_action"], info["action_taken"] = replaced
+        if self._flat:
+            info["action_mask"] = self._core.mask(self._index[agent])
+        return info
 
     def _outcome_info(self) -> dict[str, Any]:
         drill = self._core.drill
@@ -90,10 +151,16 @@ class _DrillEnvBase:
             return {}
         return {"outcome": drill.outcome, "cycles": drill.state.cycle}
 
+    def state(self) -> np.ndarray:
+        """The whole drill as a 29-value vector (layout in the class docstring), for critics."""
+        self._require_reset("state")
+        return global_state(self._core.drill.state, self.config, *self._state_bounds)
+
     def render(self) -> np.ndarray | None:
         """Draw the current cycle (see :mod:`soccer_drill.render`)."""
         if self.render_mode is None:
             return None
+        self._require_reset("render")
         if self._renderer is None:
             from soccer_drill.render import Renderer
 
@@ -109,6 +176,7 @@ class _DrillEnvBase:
     @property
     def drill_state(self):
         """The current :class:`~soccer_drill.state.DrillState` (positions, holder, cycle)."""
+        self._require_reset("drill_state")
         return self._core.drill.state
 
     @property
@@ -137,18 +205,55 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     |-------|-------|---------|
     | attacker | ``Discrete(5)`` | 0 HOLD, 1 PASS, 2 DRIBBLE (ball holder only), 3 GET_OPEN, 4 GO_TO_BALL (off the ball only) |
     | defender | ``Discrete(3)`` | 0 INTERCEPT, 1 MARK, 2 GUARD_LINE (always legal) |
+    | defender, ``shared_spaces=True`` | ``Discrete(5)`` | 0-2 as above; 3 and 4 always masked |
 
-    Illegal actions are masked (``observation["action_mask"]``, int8); stepping a
-    masked action raises ``ValueError`` naming the agent, the action and the legal
-    ones, unless ``illegal_action="default"``.
+    ## Illegal (masked) actions
+
+    The action mask (``observation["action_mask"]``, or ``infos[agent]["action_mask"]``
+    and :meth:`action_mask` with ``obs_format="flat"``; int8, 1 = legal) says which
+    actions are legal now. With the default ``illegal_action="default"`` a masked
+    action is replaced by the role's default action (HOLD for the holder, GET_OPEN off
+    the ball, INTERCEPT for a defender) and the replacement is reported:
+    ``infos[agent]`` then holds ``"illegal_action"`` (the action given) and
+    ``"action_taken"`` (the action applied). In the AEC API that info stays until the
+    agent's next turn, so ``last()`` shows it; in the parallel API it is in the infos
+    ``step`` returns. With ``illegal_action="raise"`` a masked action raises
+    ``ValueError`` naming the agent, the action, the legal ones and this option.
+
+    Why replacement is the default: PettingZoo's own tests (``parallel_seed_test``,
+    ``max_cycles_test``) and the usual training pipelines (SuperSuit's vector
+    environments feeding Stable-Baselines3) sample actions without masks, and they must
+    run unmodified. Ending the episode with a penalty, as PettingZoo's classic board
+    games do (``TerminateIllegalWrapper``), would cut every such episode short in its
+    first cycle (``max_cycles_test`` fails); an error stops them outright. Replacing the
+    action keeps the episode's physics meaningful and the substitution visible.
 
     ## Observation space
 
-    ``Dict(observation=Box, action_mask=Box(0, 1, (n,), int8))``. With
-    ``obs_type="features"`` the observation is the paper's 9 features from the
+    | ``obs_format`` | observation | action mask |
+    |----------------|-------------|-------------|
+    | ``"dict"`` (default) | ``Dict(observation=Box, action_mask=Box(0, 1, (n,), int8))`` | in the observation |
+    | ``"flat"`` | the ``Box`` alone (for SB3's ``MlpPolicy``, SuperSuit) | ``infos[agent]["action_mask"]`` (current at the agent's turn) and ``action_mask(agent)`` |
+
+    With ``obs_type="features"`` the ``Box`` holds the paper's 9 features from the
     agent's point of view (table in :mod:`soccer_drill.features`); with
-    ``"kinematic"`` it is a 26-value egocentric vector of positions, velocities
-    and possession flags.
+    ``"kinematic"`` a 26-value egocentric vector of positions, velocities and
+    possession flags. With ``shared_spaces=True`` one more value ends it: 1 for an
+    attacker, 0 for a defender, so that one shared policy knows which side it plays.
+
+    PettingZoo's ``api_test`` warns "Observation is not a NumPy array" and
+    "Observation space for each agent probably should be gymnasium.spaces.box or
+    gymnasium.spaces.discrete" for the default ``Dict`` observation and, with defenders
+    as agents, "Agents have different observation space sizes" (their masks have 3
+    entries, the attackers' 5): all are expected, as for PettingZoo's classic games.
+    ``obs_format="flat"`` removes the first two and ``shared_spaces=True`` the third.
+
+    ## Global state
+
+    ``state()`` returns the whole drill, 29 float32 values in ``state_space``
+    (positions and velocities of the four players and the ball in field coordinates,
+    holder and passer flags, elapsed fraction of ``max_cycles``; layout in
+    :func:`soccer_drill.features.global_state`), for centralised critics.
 
     ## Rewards
 
@@ -169,9 +274,28 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     Success, interception and out terminate; timeout truncates. The outcome is judged
     after each cycle in that order (interception, success, out, timeout), so a defender
     who wins the ball on the last cycle makes it an interception, not a timeout. Every agent then
-    has ``terminations`` (or ``truncations``) set, receives ``infos[agent] ==
-    {"outcome": ..., "cycles": ...}``, must be stepped with ``None`` and is
+    has ``terminations`` (or ``truncations``) set, receives ``infos[agent]`` with
+    ``"outcome"`` and ``"cycles"``, must be stepped with ``None`` and is
     removed, so ``agents`` is empty at the end.
+
+    ## Seeding
+
+    ``reset(seed=s)`` makes the episode a function of ``s`` and the actions alone:
+    observations, rewards, terminations, truncations and infos are bit-identical to
+    those of a fresh environment's ``reset(seed=s)`` with the same actions, whatever
+    episodes ran before (the physics space is rebuilt on every reset), for every team.
+    ``reset()`` without a seed continues the environment's generator, so a sequence of
+    episodes after one seeded reset is reproducible too. The scripted team and the
+    support player draw from their own generators, seeded from the drill's at each
+    reset, so a team's draws never change the physics noise. Rendering changes nothing.
+    Copies made with ``pickle`` rebuild the environment from its arguments.
+
+    ## Threads
+
+    One environment must be stepped by one thread at a time: a ``step`` or ``reset``
+    that starts while another thread is inside one raises ``RuntimeError`` (the
+    physics engine is not thread-safe). Separate environments in separate threads are
+    fine.
 
     ## Arguments
 
@@ -183,8 +307,10 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``render_mode`` | ``None`` | ``"human"`` (a window) or ``"rgb_array"`` (off-screen) |
-    | ``illegal_action`` | ``"raise"`` | ``"raise"`` or ``"default"`` (replace masked actions by the role's default) |
+    | ``illegal_action`` | ``"default"`` | ``"default"`` (replace a masked action by the role's default, reported in infos) or ``"raise"`` (a masked action is an error) |
     | ``team_timeout`` | ``1.0`` | seconds each ``reset``/``act`` call of the scripted team may take before it is stopped with ``TeamError`` naming it; ``None``: no bound (e.g. to debug a team). See ``soccer_drill.teams.TeamDriver`` |
+    | ``obs_format`` | ``"dict"`` | ``"dict"`` (observation and mask together) or ``"flat"`` (a ``Box``; the mask in infos and ``action_mask()``) |
+    | ``shared_spaces`` | ``False`` | ``True``: every agent has the same action and observation spaces (for self-play through SuperSuit or Tianshou) |
 
     ``env(...)`` returns this class: the order and bounds checks of PettingZoo's
     standard wrappers are built in (cheaply), so no wrapper chain is added.
@@ -198,48 +324,70 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
         max_cycles: int | None = None,
         config: DrillConfig | Mapping[str, Any] | None = None,
         render_mode: str | None = None,
-        illegal_action: IllegalAction = "raise",
+        illegal_action: IllegalAction = "default",
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
+        obs_format: ObsFormat = "dict",
+        shared_spaces: bool = False,
     ) -> None:
         EzPickle.__init__(
             self, opponent, opponent_params, obs_type, max_cycles, config, render_mode,
-            illegal_action, team_timeout,
+            illegal_action, team_timeout, obs_format, shared_spaces,
         )
         AECEnv.__init__(self)
         self._setup(
             opponent, opponent_params, obs_type, max_cycles, config, render_mode, illegal_action,
-            team_timeout,
+            team_timeout, obs_format, shared_spaces,
         )
         self._has_reset = False
         self.agents: list[str] = []
 
     def reset(self, seed: int | None = None, options: dict | None = None) -> None:
-        """Start an episode; ``seed`` reseeds the drill (see the class docstring)."""
-        self._core.seed(seed)
-        self._core.reset()
-        self.agents = self.possible_agents[:]
-        self.rewards = dict.fromkeys(self.agents, 0.0)
-        self._cumulative_rewards = dict.fromkeys(self.agents, 0.0)
-        self.terminations = dict.fromkeys(self.agents, False)
-        self.truncations = dict.fromkeys(self.agents, False)
-        self.infos = {agent: {} for agent in self.agents}
-        self._commands: list = [None] * 4
-        self._selector = AgentSelector(self.agents)
-        self.agent_selection = self._selector.next()
-        self._has_reset = True
+        """Start an episode; ``seed`` reseeds the drill (see Seeding in the class docstring)."""
+        with self._core.exclusive(self, "reset"):
+            self._begin_episode(seed)
+            self.rewards = dict.fromkeys(self.agents, 0.0)
+            self._cumulative_rewards = dict.fromkeys(self.agents, 0.0)
+            self.terminations = dict.fromkeys(self.agents, False)
+            self.truncations = dict.fromkeys(self.agents, False)
+            self.infos = {agent: self._step_info(agent, None) for agent in self.agents}
+            self._reported: set[str] = set()  # agents whose info reports a replaced action
+            self._commands: list = [None] * 4
+            self._selector = AgentSelector(self.agents)
+            self.agent_selection = self._selector.next()
         if self.render_mode == "human":
             self.render()
 
-    def observe(self, agent: str) -> dict[str, np.ndarray]:
-        """The observation dict (features and action mask) of ``agent``."""
+    def observe(self, agent: str) -> dict[str, np.ndarray] | np.ndarray:
+        """The observation of ``agent`` (see the class docstring)."""
         if not self._has_reset:
-            raise RuntimeError("observe() called before reset()")
+            raise not_reset("observe")
         return self._observation(agent)
 
-    def step(self, action: int | None) -> None:
-        """Act for the selected agent (AEC) or for all live agents (parallel); see the class docstring."""
+    def last(self, observe: bool = True):
+        """``(observation, reward, termination, truncation, info)`` of the selected agent."""
         if not self._has_reset:
-            raise RuntimeError("step() called before reset()")
+            raise not_reset("last")
+        return super().last(observe)
+
+    def action_mask(self, agent: str | None = None) -> np.ndarray:
+        """The current action mask of ``agent`` (default: the selected agent; int8, read-only)."""
+        if not self._has_reset:
+            raise not_reset("action_mask")
+        return super().action_mask(self.agent_selection if agent is None else agent)
+
+    def step(self, action: int | None) -> None:
+        """Act for the selected agent; the cycle advances after the last one (see the class docstring)."""
+        busy = self._core.busy
+        if not busy.acquire(False):
+            raise concurrent_use(self, "step")
+        try:
+            self._step(action)
+        finally:
+            busy.release()
+
+    def _step(self, action: int | None) -> None:
+        if not self._has_reset:
+            raise not_reset("step")
         agent = self.agent_selection
         if not self.agents:
             raise RuntimeError("step() called after the episode ended; call reset()")
@@ -251,13 +399,21 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
                 )
             self._was_dead_step(action)
             return
+        core = self._core
         index = self._index[agent]
-        self._commands[index] = self._core.command_for(agent, index, action)
+        self._commands[index] = core.command_for(agent, index, action)
+        if core.replaced is not None:
+            self.infos[agent] = self._step_info(agent, core.replaced)
+            self._reported.add(agent)
+            core.replaced = None
+        elif agent in self._reported:  # its previous action was replaced; this one is not
+            self.infos[agent] = self._step_info(agent, None)
+            self._reported.discard(agent)
         self._cumulative_rewards[agent] = 0.0
         if self._selector.is_last():
-            self._core.advance(self._commands)
+            core.advance(self._commands)
             self._commands = [None] * 4
-            drill = self._core.drill
+            drill = core.drill
             if drill.outcome is not None:
                 reward = drill.attacker_reward
                 info = self._outcome_info()
@@ -266,7 +422,10 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
                     self.rewards[name] = reward if self._index[name] < 2 else -reward
                     self.terminations[name] = done
                     self.truncations[name] = not done
-                    self.infos[name] = dict(info)
+                    self.infos[name] = {**self.infos[name], **info}
+            elif self._flat:  # masks change with possession
+                for name in self.agents:
+                    self.infos[name]["action_mask"] = core.mask(self._index[name])
             if self.render_mode == "human":
                 self.render()
         else:
@@ -283,10 +442,11 @@ def env(**kwargs: Any) -> raw_env:
 class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
     """The drill as a PettingZoo parallel environment: all agents act each cycle.
 
-    Spaces, rewards, episode end and arguments are those of :class:`raw_env`.
-    ``step`` takes one action per live agent; a missing, extra, out-of-range or
-    masked action raises ``ValueError`` naming the agent. After the step that ends
-    the episode, ``agents`` is empty.
+    Spaces, illegal actions, rewards, episode end, global state, seeding, threads and
+    arguments are those of :class:`raw_env`. ``step`` takes one action per live agent;
+    a missing, extra or out-of-range action raises ``ValueError`` naming the agent, and
+    a masked one is replaced (reported in the returned infos) or raises, as
+    ``illegal_action`` says. After the step that ends the episode, ``agents`` is empty.
     """
 
     def __init__(
@@ -297,36 +457,52 @@ class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
         max_cycles: int | None = None,
         config: DrillConfig | Mapping[str, Any] | None = None,
         render_mode: str | None = None,
-        illegal_action: IllegalAction = "raise",
+        illegal_action: IllegalAction = "default",
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
+        obs_format: ObsFormat = "dict",
+        shared_spaces: bool = False,
     ) -> None:
         EzPickle.__init__(
             self, opponent, opponent_params, obs_type, max_cycles, config, render_mode,
-            illegal_action, team_timeout,
+            illegal_action, team_timeout, obs_format, shared_spaces,
         )
         self._setup(
             opponent, opponent_params, obs_type, max_cycles, config, render_mode, illegal_action,
-            team_timeout,
+            team_timeout, obs_format, shared_spaces,
         )
         self.agents: list[str] = []
         self._has_reset = False
 
     def reset(
         self, seed: int | None = None, options: dict | None = None
-    ) -> tuple[dict[str, dict], dict[str, dict]]:
-        """Start an episode; ``seed`` reseeds the drill (see the class docstring)."""
-        self._core.seed(seed)
-        self._core.reset()
-        self.agents = self.possible_agents[:]
-        self._has_reset = True
+    ) -> tuple[dict[str, Any], dict[str, dict]]:
+        """Start an episode; ``seed`` reseeds the drill (see Seeding in :class:`raw_env`)."""
+        with self._core.exclusive(self, "reset"):
+            self._begin_episode(seed)
+            result = (
+                {a: self._observation(a) for a in self.agents},
+                {a: self._step_info(a, None) for a in self.agents},
+            )
         if self.render_mode == "human":
             self.render()
-        return {a: self._observation(a) for a in self.agents}, {a: {} for a in self.agents}
+        return result
 
     def step(self, actions: Mapping[str, int]):
-        """Act for the selected agent (AEC) or for all live agents (parallel); see the class docstring."""
+        """One cycle with one action per live agent (see the class docstring)."""
+        busy = self._core.busy
+        if not busy.acquire(False):
+            raise concurrent_use(self, "step")
+        try:
+            result = self._step(actions)
+        finally:
+            busy.release()
+        if self.render_mode == "human":
+            self.render()
+        return result
+
+    def _step(self, actions: Mapping[str, int]):
         if not self._has_reset:
-            raise RuntimeError("step() called before reset()")
+            raise not_reset("step")
         if not self.agents:
             raise RuntimeError("step() called after the episode ended; call reset()")
         if not isinstance(actions, Mapping) or set(actions) != set(self.agents):
@@ -335,28 +511,31 @@ class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
                 f"actions must be a mapping with one action per live agent {self.agents}, "
                 f"got {got}"
             )
+        core = self._core
         commands: list = [None] * 4
+        replaced: dict[str, tuple[int, int]] = {}
         for agent in self.agents:
             index = self._index[agent]
-            commands[index] = self._core.command_for(agent, index, actions[agent])
-        self._core.advance(commands)
-        drill = self._core.drill
+            commands[index] = core.command_for(agent, index, actions[agent])
+            if core.replaced is not None:
+                replaced[agent], core.replaced = core.replaced, None
+        core.advance(commands)
+        drill = core.drill
         agents = self.agents
         obs = {a: self._observation(a) for a in agents}
+        if replaced or self._flat:
+            infos = {a: self._step_info(a, replaced.get(a)) for a in agents}
+        else:
+            infos = {a: {} for a in agents}
         if drill.outcome is None:
             zeros = dict.fromkeys(agents, 0.0)
             falses = dict.fromkeys(agents, False)
-            result = obs, zeros, falses, dict(falses), {a: {} for a in agents}
-        else:
-            reward = drill.attacker_reward
-            done = drill.outcome != "timeout"
-            rewards = {a: reward if self._index[a] < 2 else -reward for a in agents}
-            info = self._outcome_info()
-            result = (
-                obs, rewards, dict.fromkeys(agents, done), dict.fromkeys(agents, not done),
-                {a: dict(info) for a in agents},
-            )
-            self.agents = []
-        if self.render_mode == "human":
-            self.render()
-        return result
+            return obs, zeros, falses, dict(falses), infos
+        reward = drill.attacker_reward
+        done = drill.outcome != "timeout"
+        rewards = {a: reward if self._index[a] < 2 else -reward for a in agents}
+        info = self._outcome_info()
+        for a in agents:
+            infos[a].update(info)
+        self.agents = []
+        return obs, rewards, dict.fromkeys(agents, done), dict.fromkeys(agents, not done), infos

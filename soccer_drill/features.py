@@ -131,3 +131,58 @@ def kinematics(
         float(state.passer == player and state.cycle < state.lockout_until),
     ]
     return np.clip(np.array(values, dtype=np.float32), low, high)
+
+
+STATE_SIZE = 29
+"""Length of the global state vector (:func:`global_state`)."""
+
+
+def state_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of :func:`global_state` (float32).
+
+    Players are held inside the walls (``wall_margin`` outside the region); the ball
+    touches nothing, and one cycle after it leaves the region (which ends the episode)
+    it is at most ``ball_max_speed * cycle_seconds`` further out.
+    """
+    player_lo, player_hi = -cfg.wall_margin, cfg.field_size + cfg.wall_margin
+    reach = cfg.wall_margin + cfg.ball_max_speed * cfg.cycle_seconds
+    ball_lo, ball_hi = -reach, cfg.field_size + reach
+    low, high = [], []
+    speeds = (cfg.attacker_speed, cfg.attacker_speed, cfg.defender_speed, cfg.defender_speed,
+              cfg.ball_max_speed)
+    for body, speed in enumerate(speeds):
+        lo, hi = (ball_lo, ball_hi) if body == BALL else (player_lo, player_hi)
+        low += [lo, lo, -speed, -speed]
+        high += [hi, hi, speed, speed]
+    low += [0.0] * 9
+    high += [1.0] * 9
+    return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
+
+
+def global_state(
+    state: DrillState, cfg: DrillConfig, low: np.ndarray, high: np.ndarray
+) -> np.ndarray:
+    """The whole drill in a fixed layout (29 float32 values), for centralised critics.
+
+    | index | value |
+    |-------|-------|
+    | 0-3 | ``x, y, vx, vy`` of ``attacker_0`` (field coordinates, m and m/s) |
+    | 4-7 | the same for ``attacker_1`` |
+    | 8-11 | the same for ``defender_0`` |
+    | 12-15 | the same for ``defender_1`` |
+    | 16-19 | the same for the ball |
+    | 20-23 | 1 for the player holding the ball (all 0: a loose ball), in player order |
+    | 24-27 | 1 for the player who passed and cannot regain the ball yet, in player order |
+    | 28 | cycles elapsed / ``max_cycles`` |
+
+    Values are clipped into :func:`state_bounds`.
+    """
+    values: list[float] = []
+    for (x, y), (vx, vy) in zip(state.pos, state.vel, strict=True):
+        values += [x, y, vx, vy]
+    holder, passer = state.holder, state.passer
+    locked = state.cycle < state.lockout_until
+    values += [float(holder == i) for i in range(4)]
+    values += [float(locked and passer == i) for i in range(4)]
+    values.append(state.cycle / cfg.max_cycles)
+    return np.clip(np.array(values, dtype=np.float32), low, high)

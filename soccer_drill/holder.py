@@ -10,7 +10,7 @@ import numpy as np
 from gymnasium import spaces
 
 from soccer_drill.config import DrillConfig
-from soccer_drill.core import DrillCore, make_config
+from soccer_drill.core import DrillCore, concurrent_use, make_config, not_reset
 from soccer_drill.skills import HOLDER_ACTIONS, Command
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
@@ -60,6 +60,34 @@ class HolderEnv(gym.Env):
     | ``outcome`` | ``None`` while running, else ``"success"``, ``"interception"``, ``"out"`` or ``"timeout"`` |
     | ``holder`` | name of the attacker whose decision is next (``None`` at the end) |
 
+    ## Rendering
+
+    | ``render_mode`` | ``render()`` returns |
+    |-----------------|----------------------|
+    | ``"rgb_array"`` | the current frame, ``(H, W, 3)`` uint8 |
+    | ``"rgb_array_list"`` | every frame since the last ``render()`` (or ``reset``): one per 0.1 s cycle, so a video written at ``metadata["render_fps"]`` (10) plays at true speed, e.g. ``gymnasium.utils.save_video.save_video(env.render(), "videos", fps=10)`` (needs moviepy) |
+    | ``"human"`` | ``None``; a window shows every cycle at 10 frames per second |
+
+    Gymnasium's ``RecordVideo`` keeps one frame per ``step`` (with a list it keeps the
+    last one), and a step lasts several cycles, so its videos play faster than the drill
+    ran; use ``"rgb_array_list"`` and ``save_video`` for true speed.
+
+    ## Seeding
+
+    ``reset(seed=s)`` makes the episode a function of ``s`` and the actions alone:
+    observations, rewards and infos are bit-identical to those of a fresh
+    environment's ``reset(seed=s)`` with the same actions, whatever episodes ran before
+    (the physics space is rebuilt on every reset), for every team. ``reset()`` without a
+    seed continues the generator. The team and the support player draw from their own
+    generators, seeded from the drill's at each reset; rendering changes nothing; a
+    ``pickle`` copy reseeded with ``s`` plays the same episode.
+
+    ## Threads
+
+    One environment must be stepped by one thread at a time: a ``step`` or ``reset``
+    that starts while another thread is inside one raises ``RuntimeError``. Separate
+    environments in separate threads are fine.
+
     ## Arguments
 
     | argument | default | meaning |
@@ -68,12 +96,15 @@ class HolderEnv(gym.Env):
     | ``opponent_params`` | ``None`` | keyword parameters of the team factory |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
-    | ``render_mode`` | ``None`` | ``"human"`` or ``"rgb_array"`` |
+    | ``render_mode`` | ``None`` | ``"human"``, ``"rgb_array"`` or ``"rgb_array_list"`` (see Rendering) |
     | ``decision_cycles`` | ``4`` | cycles a ``HOLD`` or ``DRIBBLE`` lasts (fewer if possession changes); ``PASS`` lasts until an attacker controls the ball |
     | ``team_timeout`` | ``1.0`` | seconds each ``reset``/``act`` call of the team may take before it is stopped with ``TeamError`` naming it; ``None``: no bound (see ``soccer_drill.teams.TeamDriver``) |
     """
 
-    metadata: ClassVar[dict] = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+    metadata: ClassVar[dict] = {
+        "render_modes": ["human", "rgb_array", "rgb_array_list"],
+        "render_fps": 10,
+    }
 
     def __init__(
         self,
@@ -109,33 +140,50 @@ class HolderEnv(gym.Env):
         """Extra text drawn on rendered frames (e.g. the active option)."""
         self._renderers: dict = {}
         self._frames: list[np.ndarray] | None = None
+        self._cycle_frames: list[np.ndarray] = []  # rgb_array_list: frames since render()
 
     @property
     def drill_state(self):
         """The current :class:`~soccer_drill.state.DrillState`."""
+        if not self._core.has_reset:
+            raise not_reset("drill_state")
         return self._core.drill.state
 
     def record_frames(self, frames: list[np.ndarray] | None) -> None:
         """Append an ``rgb_array`` frame to ``frames`` after every cycle (``None`` stops)."""
         self._frames = frames
-        if frames is not None and hasattr(self._core.drill, "state"):  # mid-episode: draw now
+        if frames is not None and self._core.has_reset:  # mid-episode: draw now
             frames.append(self._draw("rgb_array"))
 
     def reset(
         self, *, seed: int | None = None, options: dict | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start an episode; the observation is the 9 features of the attacker given the ball."""
-        super().reset(seed=seed)
-        self._core.seed(seed)
-        self._core.reset()
-        self._after_cycle()
-        holder = self._core.drill.state.holder
-        return self._core.observe(holder), {
-            "duration": 0, "cycles": 0, "outcome": None, "holder": PLAYER_NAMES[holder],
-        }
+        core = self._core
+        with core.exclusive(self, "reset"):
+            super().reset(seed=seed)
+            core.seed(seed)
+            core.reset()
+            self._cycle_frames = []
+            self._after_cycle()
+            holder = core.drill.state.holder
+            return core.observe(holder), {
+                "duration": 0, "cycles": 0, "outcome": None, "holder": PLAYER_NAMES[holder],
+            }
 
     def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply the holder's action and run to its next decision or the end (see the class docstring)."""
+        busy = self._core.busy
+        if not busy.acquire(False):
+            raise concurrent_use(self, "step")
+        try:
+            return self._step(action)
+        finally:
+            busy.release()
+
+    def _step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if not self._core.has_reset:
+            raise not_reset("step")
         drill = self._core.drill
         if drill.outcome is not None:
             raise RuntimeError("step() called after the episode ended; call reset()")
@@ -181,6 +229,8 @@ class HolderEnv(gym.Env):
     def _after_cycle(self) -> None:
         if self.render_mode == "human":
             self._draw("human")
+        elif self.render_mode == "rgb_array_list":
+            self._cycle_frames.append(self._draw("rgb_array"))
         if self._frames is not None:
             self._frames.append(self._draw("rgb_array"))
 
@@ -195,10 +245,15 @@ class HolderEnv(gym.Env):
         drill = self._core.drill
         return renderer.draw(drill.state, drill.outcome, self.caption)
 
-    def render(self) -> np.ndarray | None:
-        """The current frame (``rgb_array``) or draw it in the window (``human``)."""
+    def render(self) -> np.ndarray | list[np.ndarray] | None:
+        """The current frame, the frames since the last call, or ``None`` (see Rendering)."""
         if self.render_mode is None:
             return None
+        if not self._core.has_reset:
+            raise not_reset("render")
+        if self.render_mode == "rgb_array_list":
+            frames, self._cycle_frames = self._cycle_frames, []
+            return frames
         return self._draw(self.render_mode)
 
     def close(self) -> None:

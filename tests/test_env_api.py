@@ -14,57 +14,73 @@ from pettingzoo.test import (
     max_cycles_test,
     parallel_api_test,
     parallel_seed_test,
+    performance_benchmark,
     render_test,
     seed_test,
+    state_test,
 )
+from pettingzoo.test import test_save_obs as save_obs_test  # not collected as a test
 
 import soccer_drill
 
 OPPONENTS = [None, "chasers"]
+CONFIGURATIONS = [(o, t) for o in OPPONENTS for t in ("features", "kinematic")]
 
 
-@pytest.mark.parametrize("opponent", OPPONENTS)
-@pytest.mark.parametrize("obs_type", ["features", "kinematic"])
-def test_api(opponent, obs_type):
-    api_test(soccer_drill.env(opponent=opponent, obs_type=obs_type), num_cycles=400)
-
-
-@pytest.mark.parametrize("opponent", OPPONENTS)
-def test_parallel_api(opponent):
-    parallel_api_test(soccer_drill.parallel_env(opponent=opponent), num_cycles=400)
-
-
-@pytest.mark.parametrize("opponent", OPPONENTS)
-def test_seed(opponent):
-    seed_test(partial(soccer_drill.env, opponent=opponent), num_cycles=300)
-
-
-@pytest.mark.parametrize("opponent", OPPONENTS)
-def test_parallel_seed(opponent):
-    # parallel_seed_test samples without masks: see test_max_cycles. (It also stops after one
-    # step; tests/test_determinism.py checks whole episodes.)
-    parallel_seed_test(
-        partial(soccer_drill.parallel_env, opponent=opponent, illegal_action="default"),
-        num_cycles=300,
+def _module(**kwargs):
+    """What ``max_cycles_test`` takes: a module with ``env`` and ``parallel_env``."""
+    return types.SimpleNamespace(
+        env=partial(soccer_drill.env, **kwargs),
+        parallel_env=partial(soccer_drill.parallel_env, **kwargs),
     )
 
 
-@pytest.mark.parametrize("opponent", OPPONENTS)
-def test_render(opponent):
-    render_test(partial(soccer_drill.env, opponent=opponent))
+# Every function of pettingzoo.test, unmodified and with its default arguments, on the
+# environments' default arguments (only the opponent and the observation type vary).
+@pytest.mark.parametrize(("opponent", "obs_type"), CONFIGURATIONS)
+def test_pettingzoo_aec_tests(opponent, obs_type):
+    make = partial(soccer_drill.env, opponent=opponent, obs_type=obs_type)
+    api_test(make())
+    seed_test(make)
+    render_test(make)
+    state_test(make(), partial(soccer_drill.parallel_env, opponent=opponent, obs_type=obs_type)())
+
+
+@pytest.mark.parametrize(("opponent", "obs_type"), CONFIGURATIONS)
+def test_pettingzoo_parallel_tests(opponent, obs_type):
+    make = partial(soccer_drill.parallel_env, opponent=opponent, obs_type=obs_type)
+    parallel_api_test(make())
+    parallel_seed_test(make)
+    max_cycles_test(_module(opponent=opponent, obs_type=obs_type))
 
 
 @pytest.mark.parametrize("opponent", OPPONENTS)
-def test_max_cycles(opponent):
-    # max_cycles_test samples actions without their masks, so it runs with the documented
-    # illegal_action="default" (a masked action becomes the role's default action).
-    module = types.SimpleNamespace(
-        env=partial(soccer_drill.env, opponent=opponent, illegal_action="default"),
-        parallel_env=partial(
-            soccer_drill.parallel_env, opponent=opponent, illegal_action="default"
-        ),
-    )
-    max_cycles_test(module)
+def test_pettingzoo_benchmark_and_save_obs(opponent, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    performance_benchmark(soccer_drill.env(opponent=opponent))  # runs for 5 s
+    assert "cycles per second" in capsys.readouterr().out
+    save_obs_test(soccer_drill.env(opponent=opponent))
+    # Not images, so nothing is saved: the function says so and returns.
+    assert "did not save the observations" in capsys.readouterr().out
+    assert not (tmp_path / "saved_observations").exists()
+
+
+@pytest.mark.parametrize("opponent", OPPONENTS)
+def test_flat_shared_spaces_pass_api_test_without_warnings(opponent):
+    """The two documented api_test warnings go away with the two options."""
+    kwargs = {"opponent": opponent, "obs_format": "flat", "shared_spaces": True}
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        api_test(soccer_drill.env(**kwargs))
+        parallel_api_test(soccer_drill.parallel_env(**kwargs))
+    messages = {str(w.message) for w in caught}
+    assert "Observation is not a NumPy array" not in messages
+    assert "Agents have different observation space sizes" not in messages
+    assert not any("probably should be gymnasium.spaces.box" in m for m in messages)
+    seed_test(partial(soccer_drill.env, **kwargs))
+    parallel_seed_test(partial(soccer_drill.parallel_env, **kwargs))
+    max_cycles_test(_module(**kwargs))
+    state_test(soccer_drill.env(**kwargs), soccer_drill.parallel_env(**kwargs))
 
 
 def test_metadata_and_spaces_are_stable():

@@ -13,8 +13,8 @@ from soccer_drill.skills import Command, Skill
 from soccer_drill.teams import TeamError
 
 
-def _first_turn(opponent="chasers"):
-    env = soccer_drill.env(opponent=opponent)
+def _first_turn(opponent="chasers", illegal_action="raise"):
+    env = soccer_drill.env(opponent=opponent, illegal_action=illegal_action)
     env.reset(seed=0)
     agent = env.agent_selection
     mask = env.observe(agent)["action_mask"]
@@ -28,13 +28,48 @@ def test_masked_action_names_agent_action_and_legal_ones():
         env.step(masked)
     for legal in np.flatnonzero(mask):
         assert f"{legal}=" in str(err.value)
+    assert "illegal_action='default'" in str(err.value)  # the error names the option
 
 
-def test_masked_action_default_mode_replaces_it():
-    env = soccer_drill.env(opponent="chasers", illegal_action="default")
+@pytest.mark.parametrize("shared_spaces", [False, True])
+def test_masked_defender_action_with_shared_spaces_names_the_padding(shared_spaces):
+    env = soccer_drill.parallel_env(illegal_action="raise", shared_spaces=shared_spaces)
+    obs, _ = env.reset(seed=0)
+    actions = {a: int(np.flatnonzero(obs[a]["action_mask"])[0]) for a in env.agents}
+    if shared_spaces:
+        with pytest.raises(ValueError, match=r"action 4 \(padding\) is masked for 'defender_0'"):
+            env.step({**actions, "defender_0": 4})
+    else:
+        with pytest.raises(ValueError, match=r"action 4 for 'defender_0' is out of range; allowed: 0\.\.2"):
+            env.step({**actions, "defender_0": 4})
+
+
+def test_masked_action_is_replaced_by_default_and_reported_in_infos():
+    env = soccer_drill.env(opponent="chasers")  # the default: illegal_action="default"
     env.reset(seed=0)
-    mask = env.observe(env.agent_selection)["action_mask"]
-    env.step(int(np.flatnonzero(mask == 0)[0]))  # no error
+    agent = env.agent_selection
+    holder = env.drill_state.holder == env.possible_agents.index(agent)
+    masked = int(np.flatnonzero(env.observe(agent)["action_mask"] == 0)[0])
+    env.step(masked)
+    taken = 0 if holder else 3  # HOLD for the holder, GET_OPEN off the ball
+    assert env.infos[agent] == {"illegal_action": masked, "action_taken": taken}
+    env.step(None if env.terminations[env.agent_selection] else
+             int(np.flatnonzero(env.observe(env.agent_selection)["action_mask"])[0]))
+    assert env.agent_selection == agent
+    assert env.last()[4] == {"illegal_action": masked, "action_taken": taken}  # seen at its turn
+    env.step(int(np.flatnonzero(env.observe(agent)["action_mask"])[0]))  # a legal action
+    assert env.infos[agent] == {}  # the report is gone
+
+    par = soccer_drill.parallel_env(opponent="chasers")
+    obs, infos = par.reset(seed=0)
+    assert infos == {a: {} for a in par.agents}
+    actions = {a: int(np.flatnonzero(obs[a]["action_mask"] == 0)[0]) for a in par.agents}
+    _, _, _, _, infos = par.step(actions)
+    for a in par.agents:
+        assert infos[a]["illegal_action"] == actions[a]
+        assert infos[a]["action_taken"] in (0, 3)
+    legal = {a: int(np.flatnonzero(o["action_mask"])[0]) for a, o in par.reset(seed=0)[0].items()}
+    assert par.step(legal)[4] == {a: {} for a in par.agents}
 
 
 @pytest.mark.parametrize("action", [5, -1, 99])

@@ -72,13 +72,24 @@ def _execute(name: str, kernel: str, workdir: Path) -> nbformat.NotebookNode:
 
 
 def _text_outputs(nb: nbformat.NotebookNode) -> list[str]:
-    """Every output of the notebook, as text (images as their encoded bytes)."""
+    """Every output of the notebook, as text (images as their encoded bytes).
+
+    Consecutive stream outputs of a cell are joined: how the kernel splits printed text
+    into messages depends on timing (a loaded machine splits more), not on the notebook.
+    """
     out = []
     for cell in nb.cells:
+        stream = None
         for output in cell.get("outputs", []):
             if output.output_type == "stream":
-                out.append(output.text)
-            elif "data" in output:
+                if stream == output.name:
+                    out[-1] += output.text
+                else:
+                    out.append(output.text)
+                stream = output.name
+                continue
+            stream = None
+            if "data" in output:
                 out.append(json.dumps(output.data, sort_keys=True))
             else:
                 out.append(json.dumps(output, sort_keys=True, default=str))

@@ -142,10 +142,10 @@ def test_wilson_interval_matches_scipy():
 
 
 def test_calibration_command_writes_the_page(tmp_path, capsys):
-    out = tmp_path / "docs" / "opponents.md"
+    out = tmp_path / "calibration"
     assert calibrate_main(["--episodes", "2", "--workers", "1", "--out", str(out),
-                           "--gifs", "", "--sampled", "2", "--sampled-episodes", "2"]) == 0
-    text = out.read_text()
+                           "--no-gifs", "--sampled", "2", "--sampled-episodes", "2"]) == 0
+    text = (out / "opponents.md").read_text()
     assert "soccer-drill-calibrate --episodes 2 --sampled 2" in text
     assert "## The parametric family" in text and "| p01 (" in text
     assert "met" in capsys.readouterr().out

@@ -1,0 +1,136 @@
+"""One environment used from two threads at once fails clearly; one per thread is fine."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+import threading
+
+import numpy as np
+import pytest
+
+import soccer_drill
+
+# Run in a child process: without the guard, two threads inside pymunk's Space.step
+# crash the interpreter (a segmentation fault) or hang it.
+_TWO_THREADS_ONE_ENV = textwrap.dedent(
+    """
+    import sys, threading
+    import numpy as np
+    import soccer_drill
+
+    sys.setswitchinterval(1e-6)  # switch threads as often as possible
+    kind = sys.argv[1]
+    env = {"holder": lambda: soccer_drill.HolderEnv(),
+           "aec": lambda: soccer_drill.env(opponent="chasers"),
+           "parallel": lambda: soccer_drill.parallel_env(opponent="chasers")}[kind]()
+    env.reset(seed=0)
+    clashes, others = [], []
+
+    def one_step():
+        if kind == "holder":
+            _, _, term, trunc, _ = env.step(0)
+            return term or trunc
+        if kind == "aec":
+            agent = env.agent_selection
+            done = env.terminations[agent] or env.truncations[agent]
+            env.step(None if done else 0)
+            return not env.agents
+        env.step({a: 0 for a in env.agents})
+        return not env.agents
+
+    def run():
+        for _ in range(3000):
+            try:
+                if one_step():
+                    env.reset()
+            except RuntimeError as exc:
+                if "from two threads at once" in str(exc):
+                    clashes.append(str(exc))
+                else:  # e.g. the other thread ended the episode first
+                    others.append(type(exc).__name__)
+                    try:
+                        env.reset()
+                    except RuntimeError as again:
+                        if "from two threads at once" in str(again):
+                            clashes.append(str(again))
+            except (ValueError, KeyError) as exc:  # an action for an agent already gone
+                others.append(type(exc).__name__)
+
+    threads = [threading.Thread(target=run, name=f"worker-{k}") for k in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    print(len(clashes))
+    print(clashes[0] if clashes else "")
+    """
+)
+
+
+@pytest.mark.parametrize("kind", ["holder", "aec", "parallel"])
+def test_one_environment_stepped_from_two_threads_raises_a_clear_error(kind):
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c", _TWO_THREADS_ONE_ENV, kind],
+            capture_output=True, text=True, timeout=120,
+        )
+    except subprocess.TimeoutExpired:
+        pytest.fail("two threads on one environment hung the process")
+    assert done.returncode == 0, f"the process died ({done.returncode}): {done.stderr[-2000:]}"
+    count, message = done.stdout.strip().splitlines()
+    assert int(count) > 0, "concurrent use was never detected"
+    assert "called from thread 'worker-" in message
+    assert "give each thread its own environment" in message
+
+
+def _holder_episodes(seed: int, episodes: int = 6) -> list:
+    env = soccer_drill.HolderEnv(opponent="chasers")
+    rng = np.random.default_rng(seed)
+    out = []
+    for e in range(episodes):
+        obs, _ = env.reset(seed=seed * 100 + e)
+        done = False
+        while not done:
+            obs, reward, term, trunc, info = env.step(int(rng.integers(3)))
+            out.append((obs.tobytes(), reward, info["duration"]))
+            done = term or trunc
+    return out
+
+
+def test_separate_environments_in_separate_threads_are_fine():
+    expected = {seed: _holder_episodes(seed) for seed in range(4)}
+    results: dict[int, list] = {}
+    errors: list[BaseException] = []
+
+    def run(seed: int) -> None:
+        try:
+            results[seed] = _holder_episodes(seed)
+        except BaseException as exc:  # reported below
+            errors.append(exc)
+
+    switch = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)
+    try:
+        threads = [threading.Thread(target=run, args=(seed,)) for seed in range(4)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    finally:
+        sys.setswitchinterval(switch)
+    assert not errors
+    assert results == expected
+
+
+def test_an_environment_can_move_to_another_thread():
+    """The guard is a lock, not an owner: a thread may take over an idle environment."""
+    env = soccer_drill.parallel_env(opponent="chasers")
+    env.reset(seed=1)
+    out: list = []
+    worker = threading.Thread(target=lambda: out.append(env.step({a: 3 for a in env.agents})))
+    worker.start()
+    worker.join()
+    assert len(out) == 1
+    env.step({a: 3 for a in env.agents})  # back on the main thread
