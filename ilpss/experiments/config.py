@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib
 import json
 import math
 from collections.abc import Mapping
@@ -11,6 +10,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from ilpss.experiments.registry import SAMPLERS, check_env_id
 from ilpss.lifelong import LearnerConfig, LifelongConfig
 
 PAPER_TEAMS = ("interceptors_press", "interceptors_cover", "interceptor_guard", "goal_guards")
@@ -71,8 +71,9 @@ class ExperimentConfig:
     """Protocol B: shuffled source orders per held-out team (besides the paper's)."""
     stream_length: int = 20
     """Protocol C: opponents in the stream."""
-    sampler: str = "opponents.parametric:sample_opponents"
-    """Protocol C: ``module:function(n, seed) -> list of parameter dicts``."""
+    sampler: str = "parametric"
+    """Protocol C: the name of a registered sampler (``sampler(n, seed) -> list of
+    parameter dicts``; see :mod:`ilpss.experiments.registry`)."""
     sampler_team: str = "parametric"
     """Protocol C: the team id that takes the sampled parameters."""
     lifelong: LifelongConfig = field(
@@ -120,11 +121,7 @@ class ExperimentConfig:
                 raise ValueError(
                     f"ExperimentConfig.{name} must be an integer >= {low}, got {value!r}"
                 )
-        if not isinstance(self.env_id, str) or not self.env_id.strip():
-            raise ValueError(
-                f"ExperimentConfig.env_id must be a Gymnasium id (a non-empty string), "
-                f"got {self.env_id!r}"
-            )
+        check_env_id("ExperimentConfig.env_id", self.env_id)
         # Team ids are only checked for form: ``ilpss`` never imports the drill, so an
         # unknown id is refused by the environment, whose error names it and the known ones.
         _check_names("teams", self.teams)
@@ -138,11 +135,8 @@ class ExperimentConfig:
                 f"protocol B holds out each team in turn: ExperimentConfig.teams must not "
                 f"repeat a team, got {self.teams!r}"
             )
-        module, _, function = (self.sampler if isinstance(self.sampler, str) else "").partition(":")
-        if not (all(p.isidentifier() for p in module.split(".")) and function.isidentifier()):
-            raise ValueError(
-                f"ExperimentConfig.sampler must be 'module:function', got {self.sampler!r}"
-            )
+        # A name, never code; only protocol C draws from it, so only C needs it registered.
+        SAMPLERS.check("ExperimentConfig.sampler", self.sampler, registered=self.protocol == "C")
         if not isinstance(self.sampler_team, str) or not self.sampler_team.strip():
             raise ValueError(
                 f"ExperimentConfig.sampler_team must be a team id (a non-empty string), "
@@ -183,9 +177,7 @@ class ExperimentConfig:
                     label = f"held_out={held}" + ("" if k == 0 else f",shuffle={k}")
                     streams.append(Stream(label, tasks, len(tasks) - 1))
             return streams
-        module, _, function = self.sampler.partition(":")
-        sample = getattr(importlib.import_module(module), function)
-        specs = sample(self.stream_length, seed)
+        specs = SAMPLERS.get(self.sampler)(self.stream_length, seed)
         tasks = tuple(
             Task(f"{self.sampler_team}_{i}", {"opponent": self.sampler_team, "opponent_params": p})
             for i, p in enumerate(specs)
