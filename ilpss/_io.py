@@ -8,6 +8,8 @@ Everything ``ilpss`` saves (kernel models, policies, option libraries, checkpoin
   leaves either the old file or the new one, never half of one.
 * :func:`save_npz_atomic` stores ``arrays`` and a JSON ``meta`` record (which must name
   its ``"schema"``, e.g. ``"ilpss.kernels/1"``) together with a SHA-256 digest of both.
+* :func:`locked_folder` holds an exclusive lock on a folder while a run writes into it, so
+  that a second writer gets a clear error instead of mixing its files with the first's.
 * :func:`load_npz` reads such a file **without ever unpickling** (``allow_pickle=False``)
   and refuses, with a :class:`ValueError` saying what is wrong, anything that is not
   exactly what the caller expects: a truncated or corrupt archive, a missing or
@@ -26,19 +28,27 @@ booleans, ``"U"`` for strings.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import io
 import json
 import os
 import secrets
 import zipfile
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["atomic_write_bytes", "load_npz", "save_npz_atomic"]
+__all__ = [
+    "FolderInUseError",
+    "atomic_write_bytes",
+    "json_differences",
+    "load_npz",
+    "locked_folder",
+    "save_npz_atomic",
+]
 
 #: Name of the archive member that holds the JSON record.
 META_KEY = "__meta__"
@@ -97,6 +107,66 @@ def _fsync_directory(directory: Path) -> None:
         pass
     finally:
         os.close(dir_fd)
+
+
+class FolderInUseError(RuntimeError):
+    """Another process holds the lock of a folder (see :func:`locked_folder`)."""
+
+
+@contextlib.contextmanager
+def locked_folder(path: str | os.PathLike[str], what: str = "folder") -> Iterator[None]:
+    """Hold an exclusive lock on the existing folder ``path`` for the ``with`` block.
+
+    The lock is :func:`fcntl.flock` on the folder itself (no lock file is left behind) and
+    is released when the block ends or the process dies, ``SIGKILL`` included. Processes
+    forked inside the block (local worker processes) share it. It does not wait: a second
+    holder gets :class:`FolderInUseError` at once. A process must not lock one folder
+    twice. Where ``fcntl`` is missing (Windows) nothing is locked.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    what : str
+        How the error message calls the folder (e.g. ``"run folder"``).
+    """
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - Windows
+        yield
+        return
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise FolderInUseError(
+                f"{os.fspath(path)}: this {what} is being written by another process; wait "
+                "for it to finish or use another folder"
+            ) from None
+        yield
+    finally:
+        os.close(fd)  # releases the lock
+
+
+def json_differences(saved: Any, current: Any, prefix: str = "") -> list[str]:
+    """Where two JSON values differ, as ``"a.b.c: <saved> saved, <current> here"`` lines.
+
+    Objects are compared key by key (a key missing on one side is a difference); any
+    other values, lists included, as wholes.
+    """
+    if isinstance(saved, dict) and isinstance(current, dict):
+        out: list[str] = []
+        for key in sorted(set(saved) | set(current), key=str):
+            name = f"{prefix}.{key}" if prefix else str(key)
+            if key not in saved or key not in current:
+                side = "missing in the saved record" if key not in saved else "not set here"
+                out.append(f"{name}: {side}")
+            else:
+                out += json_differences(saved[key], current[key], name)
+        return out
+    if saved == current and isinstance(saved, bool) == isinstance(current, bool):
+        return []
+    return [f"{prefix or 'value'}: {saved!r} saved, {current!r} here"]
 
 
 def _canonical_json(meta: Mapping[str, Any]) -> str:

@@ -31,7 +31,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ilpss._io import atomic_write_bytes, load_npz, save_npz_atomic
+from ilpss._io import atomic_write_bytes, load_npz, locked_folder, save_npz_atomic
 from ilpss.kernels import SharedKernelModel, UniformKernel
 from ilpss.options import OptionLibrary
 from ilpss.policy import FrozenPolicy
@@ -293,6 +293,10 @@ class LifelongLearner:
         Number of primitive actions (``Discrete(n)``).
     seed : int
         Seeds every trial (see :func:`trial_seeds`).
+    provenance : dict, optional
+        A JSON record of where this run comes from (an experiment runner puts its
+        configuration and job here); saved in every checkpoint and restored by
+        :meth:`load`, so that a resume can refuse a checkpoint of another run.
 
     Attributes
     ----------
@@ -307,11 +311,21 @@ class LifelongLearner:
     """
 
     def __init__(
-        self, config: LifelongConfig, observation_space: Any, n_primitive: int, seed: int = 0
+        self,
+        config: LifelongConfig,
+        observation_space: Any,
+        n_primitive: int,
+        seed: int = 0,
+        *,
+        provenance: dict[str, Any] | None = None,
     ) -> None:
         self.config = config
         self.n_primitive = int(n_primitive)
         self.seed = int(seed)
+        if provenance is not None and not isinstance(provenance, dict):
+            raise ValueError(f"provenance must be a dict or None, got {provenance!r}")
+        # A JSON copy: what is saved is exactly what a resume compares with.
+        self.provenance = None if provenance is None else json.loads(json.dumps(provenance))
         lc = config.learner
         self.tile_coder = TileCoder.from_space(
             observation_space,
@@ -442,42 +456,46 @@ class LifelongLearner:
         """
         root = Path(directory)
         root.mkdir(parents=True, exist_ok=True)
-        target = root / f"trial_{self.n_trials:04d}"
-        building = root / f".building_{self.n_trials:04d}"
-        shutil.rmtree(building, ignore_errors=True)
-        building.mkdir()
-        for i, policy in enumerate(self.policies):
-            policy.save(building / f"policy_{i}.npz")
-        if self.library is not None:
-            self.library.save(building / "library")
-        save_npz_atomic(
-            building / "bags.npz",
-            {f"bag_{i}": b for i, b in enumerate(self.bags)},
-            {"schema": CHECKPOINT_SCHEMA + "/bags", "n_bags": len(self.bags)},
-        )
-        # A digest of every file, so a load refuses files mixed from different checkpoints.
-        files = {
-            p.relative_to(building).as_posix(): _sha256(p)
-            for p in sorted(building.rglob("*")) if p.is_file()
-        }
-        state = {
-            "schema": CHECKPOINT_SCHEMA,
-            "files": files,
-            "seed": self.seed,
-            "n_primitive": self.n_primitive,
-            "config": self.config.to_dict(),
-            "kernel": None if self.kernel_model is None else type(self.kernel_model).__name__,
-            "records": [asdict(r) for r in self.records],
-        }
-        atomic_write_bytes(building / "state.json", json.dumps(state, indent=1).encode())
-        shutil.rmtree(target, ignore_errors=True)
-        os.replace(building, target)
-        atomic_write_bytes(root / "LATEST", target.name.encode())
-        # Only now that LATEST names the new checkpoint may older ones go.
-        for old in root.glob("trial_*"):
-            if old.name < target.name:
-                shutil.rmtree(old, ignore_errors=True)
-        return target
+        # One writer at a time: a second process saving here gets a clear error.
+        with locked_folder(root, "checkpoint folder"):
+            target = root / f"trial_{self.n_trials:04d}"
+            building = root / f".building_{self.n_trials:04d}"
+            for stale in root.glob(".building_*"):  # left by a crash: no one else is here
+                shutil.rmtree(stale, ignore_errors=True)
+            building.mkdir()
+            for i, policy in enumerate(self.policies):
+                policy.save(building / f"policy_{i}.npz")
+            if self.library is not None:
+                self.library.save(building / "library")
+            save_npz_atomic(
+                building / "bags.npz",
+                {f"bag_{i}": b for i, b in enumerate(self.bags)},
+                {"schema": CHECKPOINT_SCHEMA + "/bags", "n_bags": len(self.bags)},
+            )
+            # A digest of every file, so a load refuses files mixed from different checkpoints.
+            files = {
+                p.relative_to(building).as_posix(): _sha256(p)
+                for p in sorted(building.rglob("*")) if p.is_file()
+            }
+            state = {
+                "schema": CHECKPOINT_SCHEMA,
+                "files": files,
+                "seed": self.seed,
+                "n_primitive": self.n_primitive,
+                "config": self.config.to_dict(),
+                "provenance": self.provenance,
+                "kernel": None if self.kernel_model is None else type(self.kernel_model).__name__,
+                "records": [asdict(r) for r in self.records],
+            }
+            atomic_write_bytes(building / "state.json", json.dumps(state, indent=1).encode())
+            shutil.rmtree(target, ignore_errors=True)
+            os.replace(building, target)
+            atomic_write_bytes(root / "LATEST", target.name.encode())
+            # Only now that LATEST names the new checkpoint may older ones go.
+            for old in root.glob("trial_*"):
+                if old.name < target.name:
+                    shutil.rmtree(old, ignore_errors=True)
+            return target
 
     @classmethod
     def load(
@@ -518,7 +536,11 @@ class LifelongLearner:
             config = LifelongConfig.from_dict(state["config"])
         except (TypeError, ValueError) as exc:
             raise ValueError(f"{state_path}: {exc}") from exc
-        learner = cls(config, observation_space, state["n_primitive"], state["seed"])
+        provenance = state.get("provenance")
+        if provenance is not None and not isinstance(provenance, dict):
+            raise ValueError(f"{state_path}: provenance must be an object or null")
+        learner = cls(config, observation_space, state["n_primitive"], state["seed"],
+                      provenance=provenance)
         try:
             learner.records = [
                 TrialRecord(**{**r, **{k: tuple(r[k]) for k in

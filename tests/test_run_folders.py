@@ -104,3 +104,134 @@ def test_a_registered_sampler_makes_the_protocol_c_stream():
     # The drill's own sampler comes from its entry point.
     assert "parametric" in SAMPLERS.names()
     assert len(ExperimentConfig(protocol="C", stream_length=4).streams(0)[0].tasks) == 4
+
+
+# ------------------------------------------------------------ runs that mix configurations
+ROOT = Path(__file__).resolve().parent.parent
+ENV = {"PYTHONPATH": str(ROOT)}
+
+
+def _tiny(**lifelong) -> ExperimentConfig:
+    return ExperimentConfig(n_seeds=1, workers=1, methods=("scratch",)).with_overrides(
+        lifelong={"train_episodes": 3, "rollout_episodes": 1, **lifelong})
+
+
+def _alpha(value: float) -> ExperimentConfig:
+    cfg = _tiny()
+    return cfg.with_overrides(lifelong={"learner": {**cfg.lifelong.learner.__dict__,
+                                                    "alpha": value}})
+
+
+def test_a_resume_refuses_checkpoints_and_results_of_another_configuration(tmp_path):
+    from ilpss.experiments.run import run_experiment
+
+    run_experiment(_alpha(0.125), tmp_path, progress=False)
+    (tmp_path / "config.json").unlink()
+    # The result of the 0.125 run is not returned as the 0.5 run's.
+    with pytest.raises(ValueError, match=r"result.json: comes from another configuration "
+                       r"\(config.lifelong.learner.alpha: 0.125 saved, 0.5 here\)"):
+        run_experiment(_alpha(0.5), tmp_path, progress=False)
+    # Nor is its checkpoint continued.
+    (tmp_path / "config.json").unlink()
+    (tmp_path / "seed_000" / "stream_00" / "result.json").unlink()
+    with pytest.raises(ValueError, match=r"scratch: the checkpoint comes from another run "
+                       r"\(experiment.lifelong.learner.alpha: 0.125 saved, 0.5 here\)"):
+        run_experiment(_alpha(0.5), tmp_path, progress=False)
+    # The folder's own configuration still resumes.
+    (tmp_path / "config.json").unlink()
+    run_experiment(_alpha(0.125), tmp_path, progress=False)
+    with pytest.raises(ValueError, match=r"different configuration \(lifelong.learner.alpha: "
+                       r"0.125 saved, 0.5 here\)"):
+        run_experiment(_alpha(0.5), tmp_path, progress=False)
+
+
+_HOLD = """
+import sys
+from ilpss._io import locked_folder
+with locked_folder(sys.argv[1]):
+    print("locked", flush=True)
+    sys.stdin.read()
+"""
+
+
+@pytest.fixture
+def held(tmp_path):
+    """``held(folder)`` locks ``folder`` from another process until the test ends."""
+    import os
+    import subprocess
+
+    holders = []
+
+    def hold(folder: Path) -> None:
+        folder.mkdir(parents=True, exist_ok=True)
+        proc = subprocess.Popen([sys.executable, "-c", _HOLD, str(folder)], text=True,
+                                stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                env={**os.environ, **ENV})
+        holders.append(proc)
+        assert proc.stdout.readline() == "locked\n"
+
+    yield hold
+    for proc in holders:
+        proc.communicate("", timeout=30)
+
+
+def test_a_folder_being_written_is_refused_to_a_second_run(tmp_path, held, capsys):
+    from ilpss._io import FolderInUseError
+    from ilpss.experiments.cli import main as experiment_main
+    from ilpss.experiments.run import run_experiment
+
+    out = tmp_path / "run"
+    held(out)
+    with pytest.raises(FolderInUseError, match="run folder is being written by another"):
+        run_experiment(_tiny(), out, progress=False)
+    assert list(out.iterdir()) == []  # nothing written, not even config.json
+    with pytest.raises(SystemExit) as exit_info:
+        experiment_main(["--seeds", "1", "--methods", "scratch", "--out", str(out), "--quiet"])
+    assert exit_info.value.code == 1
+    assert "being written by another process" in capsys.readouterr().err
+
+
+def test_a_checkpoint_folder_being_written_is_refused_to_a_second_save(tmp_path, held):
+    from synthetic_smdp import ZoneCorridor
+
+    from ilpss._io import FolderInUseError
+    from ilpss.lifelong import LearnerConfig, LifelongConfig, LifelongLearner
+
+    env = ZoneCorridor()
+    learner = LifelongLearner(
+        LifelongConfig(train_episodes=2, rollout_episodes=1, learner=LearnerConfig(n_tilings=2)),
+        env.observation_space, 3)
+    learner.run_trial(env, "corridor")
+    held(tmp_path / "ckpt")
+    with pytest.raises(FolderInUseError, match="checkpoint folder is being written"):
+        learner.save(tmp_path / "ckpt")
+    assert list((tmp_path / "ckpt").iterdir()) == []
+
+
+def test_two_runs_started_together_on_one_folder_never_mix(tmp_path):
+    """Two processes with different configurations: one runs, the other is refused, and
+    every file of the folder comes from the one that ran."""
+    import os
+    import subprocess
+
+    out = tmp_path / "run"
+    base = [sys.executable, "-m", "ilpss.experiments.cli", "--seeds", "1", "--episodes", "3",
+            "--rollouts", "1", "--methods", "scratch", "--workers", "1", "--quiet",
+            "--no-report", "--out", str(out)]
+    alphas = ("0.125", "0.5")
+    procs = [subprocess.Popen([*base, "--set", f"learner.alpha={a}"], env={**os.environ, **ENV},
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for a in alphas]
+    outputs = [p.communicate(timeout=300) for p in procs]
+    codes = [p.returncode for p in procs]
+    assert sorted(codes) == [0, 1], outputs
+    loser = outputs[codes.index(1)][1]
+    assert "being written by another process" in loser or "different configuration" in loser
+    winner = float(alphas[codes.index(0)])
+    config = json.loads((out / "config.json").read_text())
+    assert config["lifelong"]["learner"]["alpha"] == winner
+    result = json.loads((out / "seed_000" / "stream_00" / "result.json").read_text())
+    assert result["config"]["lifelong"]["learner"]["alpha"] == winner
+    state = out / "seed_000" / "stream_00" / "scratch"
+    state = json.loads((state / (state / "LATEST").read_text() / "state.json").read_text())
+    assert state["config"]["learner"]["alpha"] == winner

@@ -14,6 +14,7 @@ import json
 from collections.abc import Sequence
 from pathlib import Path
 
+from ilpss._io import FolderInUseError
 from ilpss.experiments.config import METHODS, ExperimentConfig
 from ilpss.experiments.run import run_experiment
 
@@ -105,7 +106,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error(f"--config {args.config}: not valid JSON ({exc})")
     except (ValueError, TypeError) as exc:
         p.error(str(exc))
-    results = run_experiment(cfg, args.out, progress=not args.quiet)
+    try:
+        results = run_experiment(cfg, args.out, progress=not args.quiet)
+    except (FolderInUseError, ValueError) as exc:  # a folder of another run, a bad file
+        p.exit(1, f"{p.prog}: error: {exc}\n")
     if not args.no_report:
         from ilpss.experiments.report import write_report
 

@@ -22,6 +22,8 @@ DRILL_TILE_WIDTHS = (3.0, 3.0, 3.0, 3.0, 10.0, 3.0, 3.0, 3.0, 10.0)
 METHODS = ("ilpss", "scratch", "whole_policies", "prq", "ilpss_no_discount")
 """Every method the runner knows."""
 Protocol = Literal["A", "B", "C"]
+RUN_ONLY_FIELDS = ("executor", "workers")
+"""Fields of :class:`ExperimentConfig` that say where seeds run, not what they compute."""
 
 
 @dataclass(frozen=True)
@@ -187,6 +189,15 @@ class ExperimentConfig:
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict."""
         return asdict(self)
+
+    def results_record(self) -> dict[str, Any]:
+        """The fields that decide the results, as JSON values: every field but
+        ``executor`` and ``workers`` (where seeds run changes nothing). Every result and
+        checkpoint of a run records this, and a resume compares it."""
+        values = self.to_dict()
+        for name in RUN_ONLY_FIELDS:
+            del values[name]
+        return json.loads(json.dumps(values))
 
     def to_json(self) -> str:
         """Pretty JSON of :meth:`to_dict`, keys sorted."""

@@ -20,7 +20,7 @@ from typing import Any
 
 import gymnasium as gym
 
-from ilpss._io import atomic_write_bytes
+from ilpss._io import atomic_write_bytes, json_differences, locked_folder
 from ilpss.experiments.config import ExperimentConfig, Stream, Task
 from ilpss.experiments.executor import make_executor
 from ilpss.lifelong import LifelongConfig, LifelongLearner, trial_seeds
@@ -47,20 +47,36 @@ def method_config(base: LifelongConfig, method: str) -> LifelongConfig:
 def run_lifelong(
     cfg: ExperimentConfig, method: str, stream: Stream, seed: int, directory: Path
 ) -> LifelongLearner:
-    """One lifelong method over the whole stream, resuming from its checkpoint."""
+    """One lifelong method over the whole stream, resuming from its checkpoint (which
+    must come from this very job: a checkpoint of another configuration is refused)."""
     env0 = make_env(cfg.env_id, stream.tasks[0])
+    provenance = {"experiment": cfg.results_record(), "method": method, "seed": seed,
+                  "stream": stream.name, "tasks": [t.name for t in stream.tasks]}
     if (directory / "LATEST").exists():
         learner = LifelongLearner.load(directory, env0.observation_space)
+        _check_resumable(learner, provenance, directory)
     else:
         learner = LifelongLearner(
             method_config(cfg.lifelong, method), env0.observation_space,
-            int(env0.action_space.n), seed,
+            int(env0.action_space.n), seed, provenance=provenance,
         )
     for t in range(learner.n_trials, len(stream.tasks)):
         task = stream.tasks[t]
         learner.run_trial(make_env(cfg.env_id, task), task.name)
         learner.save(directory)
     return learner
+
+
+def _check_resumable(learner: LifelongLearner, provenance: dict, directory: Path) -> None:
+    """Refuse a checkpoint that another configuration or job wrote, naming the field."""
+    hint = "delete that folder to run this method of the job again"
+    if learner.provenance is None:
+        raise ValueError(f"{directory}: the checkpoint records no provenance; {hint}")
+    diffs = json_differences(learner.provenance, provenance)
+    if diffs:
+        raise ValueError(
+            f"{directory}: the checkpoint comes from another run ({'; '.join(diffs)}); {hint}"
+        )
 
 
 def run_prq(cfg: ExperimentConfig, stream: Stream, seed: int, scratch: LifelongLearner) -> dict:
@@ -112,6 +128,7 @@ def run_stream(job: tuple[ExperimentConfig, int, int, str]) -> dict[str, Any]:
         methods["prq"] = run_prq(cfg, stream, seed, learners["scratch"])
     result = {
         "schema": RESULT_SCHEMA,
+        "config": cfg.results_record(),
         "seed": seed,
         "stream": stream.name,
         "stream_index": stream_index,
@@ -135,6 +152,9 @@ def load_result(
     if not isinstance(result, dict) or result.get("schema") != RESULT_SCHEMA:
         schema = result.get("schema") if isinstance(result, dict) else None
         raise ValueError(f"{path}: schema {schema!r} is not {RESULT_SCHEMA!r}; {hint}")
+    diffs = json_differences(result.get("config"), cfg.results_record(), "config")
+    if diffs:
+        raise ValueError(f"{path}: comes from another configuration ({'; '.join(diffs)}); {hint}")
     job = {"seed": seed, "stream_index": stream_index, "tasks": [t.name for t in stream.tasks],
            "first_target": stream.first_target}
     for key, value in job.items():
@@ -172,26 +192,35 @@ def run_experiment(
         make_env(cfg.env_id, task).close()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
+    # One run at a time writes into a folder: a second one gets a clear error rather than
+    # mixing its configuration, checkpoints and results with the first one's.
+    with locked_folder(out, "run folder"):
+        _write_or_check_config(cfg, out)
+        jobs = [
+            (cfg, seed, index, os.fspath(out))
+            for seed in cfg.seeds
+            for index in range(len(cfg.streams(seed)))
+        ]
+        executor = make_executor(cfg.executor, cfg.workers, progress)
+        return executor.map(run_stream, jobs, desc=f"protocol {cfg.protocol}")
+
+
+def _write_or_check_config(cfg: ExperimentConfig, out: Path) -> None:
+    """Write ``config.json``, or refuse a folder whose ``config.json`` differs (naming the
+    fields); the caller holds the folder's lock, so no other run is between the two."""
     config_file = out / "config.json"
-    if config_file.exists():
-        try:
-            saved = ExperimentConfig.from_dict(json.loads(config_file.read_text()))
-        except json.JSONDecodeError as exc:
-            raise ValueError(f"{config_file}: not valid JSON ({exc})") from exc
-        except ValueError as exc:
-            raise ValueError(f"{config_file}: {exc}") from exc
-        # Where the seeds run does not change the results.
-        if replace(saved, executor=cfg.executor, workers=cfg.workers) != cfg:
-            raise ValueError(
-                f"{out} holds a run with a different configuration; "
-                "choose another output folder or delete it"
-            )
-    else:
+    if not config_file.exists():
         atomic_write_bytes(config_file, cfg.to_json().encode())
-    jobs = [
-        (cfg, seed, index, os.fspath(out))
-        for seed in cfg.seeds
-        for index in range(len(cfg.streams(seed)))
-    ]
-    executor = make_executor(cfg.executor, cfg.workers, progress)
-    return executor.map(run_stream, jobs, desc=f"protocol {cfg.protocol}")
+        return
+    try:
+        saved = ExperimentConfig.from_dict(json.loads(config_file.read_text()))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{config_file}: not valid JSON ({exc})") from exc
+    except ValueError as exc:
+        raise ValueError(f"{config_file}: {exc}") from exc
+    diffs = json_differences(saved.results_record(), cfg.results_record())
+    if diffs:
+        raise ValueError(
+            f"{out} holds a run with a different configuration ({'; '.join(diffs)}); "
+            "choose another output folder or delete it"
+        )
