@@ -91,10 +91,7 @@ class LearnerConfig:
             raise ValueError(
                 f"LearnerConfig.intra_option must be true or false, got {self.intra_option!r}"
             )
-        if not _is_int(self.n_tilings) or self.n_tilings < 1:
-            raise ValueError(
-                f"LearnerConfig.n_tilings must be an integer >= 1, got {self.n_tilings!r}"
-            )
+        _check_count("LearnerConfig.n_tilings", self.n_tilings, 1, 1024)
         widths = self.tile_widths
         if widths is not None and (
             not isinstance(widths, tuple)
@@ -105,6 +102,21 @@ class LearnerConfig:
                 "LearnerConfig.tile_widths must be None or a non-empty tuple of finite "
                 f"numbers > 0, got {widths!r}"
             )
+
+    def tile_coder(self, observation_space: Any) -> TileCoder:
+        """The tile coder of these settings over a 1-D ``Box`` observation space.
+
+        Raises
+        ------
+        ValueError
+            The widths do not fit the space (one per feature, at most
+            :data:`~ilpss.tiles.MAX_WEIGHTS` tiles in all); the message names the field.
+        """
+        widths = None if self.tile_widths is None else np.asarray(self.tile_widths, dtype=float)
+        try:
+            return TileCoder.from_space(observation_space, widths, self.n_tilings)
+        except ValueError as exc:
+            raise ValueError(f"LearnerConfig.tile_widths / n_tilings: {exc}") from exc
 
     def smdp_kwargs(self) -> dict[str, Any]:
         """Keyword arguments of :class:`~ilpss.smdp.SmdpLearner` for these settings."""
@@ -156,13 +168,12 @@ class LifelongConfig:
                 "LifelongConfig.learner must be a LearnerConfig (from_dict takes a dict), "
                 f"got {type(self.learner).__name__}"
             )
-        for name in ("n_kernels", "train_episodes", "rollout_episodes", "max_depth",
-                     "kernel_n_init", "kernel_max_iter"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < (
-                0 if name.endswith("episodes") else 1
-            ):
-                raise ValueError(f"LifelongConfig.{name} must be a positive integer, got {value!r}")
+        # Upper bounds far above any useful value, so that a typo fails here rather than
+        # after hours, or in an allocation: every episode's result is kept in memory.
+        for name, low, high in (("n_kernels", 1, 1000), ("train_episodes", 0, 1_000_000),
+                                ("rollout_episodes", 0, 100_000), ("max_depth", 1, 1000),
+                                ("kernel_n_init", 1, 1000), ("kernel_max_iter", 1, 1_000_000)):
+            _check_count(f"LifelongConfig.{name}", getattr(self, name), low, high)
         if self.options not in ("kernels", "whole_policies", "none"):
             raise ValueError(
                 "LifelongConfig.options must be 'kernels', 'whole_policies' or 'none', "
@@ -222,6 +233,12 @@ def _is_real(value: object) -> bool:
 
 def _is_int(value: object) -> bool:
     return isinstance(value, int | np.integer) and not isinstance(value, bool)
+
+
+def _check_count(name: str, value: object, low: int, high: int) -> None:
+    """Refuse anything but an integer (not a bool) in ``[low, high]``."""
+    if not (_is_int(value) and low <= value <= high):  # type: ignore[operator]
+        raise ValueError(f"{name} must be an integer in [{low:,}, {high:,}], got {value!r}")
 
 
 def _check_real(
@@ -326,12 +343,7 @@ class LifelongLearner:
             raise ValueError(f"provenance must be a dict or None, got {provenance!r}")
         # A JSON copy: what is saved is exactly what a resume compares with.
         self.provenance = None if provenance is None else json.loads(json.dumps(provenance))
-        lc = config.learner
-        self.tile_coder = TileCoder.from_space(
-            observation_space,
-            None if lc.tile_widths is None else np.asarray(lc.tile_widths, dtype=float),
-            lc.n_tilings,
-        )
+        self.tile_coder = config.learner.tile_coder(observation_space)
         self.policies: list[FrozenPolicy] = []
         self.bags: list[np.ndarray] = []
         self.library: OptionLibrary | None = None

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["KEEPAWAY_ALPHA", "KEEPAWAY_N_TILINGS", "TileCoder"]
+__all__ = ["KEEPAWAY_ALPHA", "KEEPAWAY_N_TILINGS", "MAX_WEIGHTS", "TileCoder"]
 
 #: Keepaway's number of one-dimensional tilings per state variable.
 KEEPAWAY_N_TILINGS = 32
@@ -31,6 +31,9 @@ KEEPAWAY_ALPHA = 0.125
 #: Keepaway's tile widths: metres for distances, degrees for angles.
 KEEPAWAY_DISTANCE_WIDTH = 3.0
 KEEPAWAY_ANGLE_WIDTH = 10.0
+#: Most weights a coder may have (per choice of a value function: 32 MiB of float64).
+#: The drill's coder has about 5,500; tiny widths would ask for terabytes.
+MAX_WEIGHTS = 2**22
 
 
 def _as_1d_float(name: str, value: object, n: int | None = None) -> np.ndarray:
@@ -94,6 +97,16 @@ class TileCoder:
             raise TypeError(f"n_tilings must be an int, got {type(n_tilings).__name__}")
         if n_tilings < 1:
             raise ValueError(f"n_tilings must be >= 1, got {n_tilings}")
+        # Counted before anything is allocated (floats: tiny widths overflow int64).
+        bins = np.floor((high_a - low_a) / widths_a) + 2
+        if not int(n_tilings) * bins.sum() <= MAX_WEIGHTS:
+            f = int(np.argmax(bins))
+            raise ValueError(
+                f"these widths and {int(n_tilings)} tilings give {int(n_tilings) * bins.sum():.3g} "
+                f"weights, at most {MAX_WEIGHTS:,} are allowed (n_tilings x the sum over "
+                f"features of (high - low) / width + 2): widen the tiles or use fewer tilings "
+                f"(feature {f} spans {high_a[f] - low_a[f]:g} with width {widths_a[f]:g})"
+            )
         self.low = low_a
         self.high = high_a
         self.widths = widths_a

@@ -429,7 +429,7 @@ def test_damaged_checkpoints_are_refused_by_name(checkpoints, tmp_path, tamper, 
         (lambda c: _edit_state(c, lambda s: [s]), "state.json: not a JSON object"),
         # Refused today, but without naming the file:
         (lambda c: _edit_state(c, lambda s: {**s, "config": {**s["config"], "n_kernels": 0}}),
-         "state.json: .*n_kernels must be a positive integer"),
+         r"state.json: .*n_kernels must be an integer in \[1, 1,000\]"),
         (lambda c: _edit_state(c, lambda s: {**s, "config": {**s["config"], "magic": 1}}),
          r"state.json: .*unknown LifelongConfig field\(s\) \['magic'\]"),
         (lambda c: _edit_state(c, lambda s: {k: v for k, v in s.items() if k != "records"}),

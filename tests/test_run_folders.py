@@ -235,3 +235,32 @@ def test_two_runs_started_together_on_one_folder_never_mix(tmp_path):
     state = out / "seed_000" / "stream_00" / "scratch"
     state = json.loads((state / (state / "LATEST").read_text() / "state.json").read_text())
     assert state["config"]["learner"]["alpha"] == winner
+
+
+# ------------------------------------------------------------------------ absurd values
+def test_tile_widths_that_would_need_terabytes_are_refused_before_anything_is_written(
+    tmp_path, capsys
+):
+    from gymnasium.spaces import Box
+
+    from ilpss.experiments.cli import main as experiment_main
+    from ilpss.lifelong import LearnerConfig
+    from ilpss.tiles import MAX_WEIGHTS, TileCoder
+
+    out = tmp_path / "run"
+    code = None
+    with pytest.raises(SystemExit) as exit_info:
+        code = experiment_main(["--seeds", "1", "--methods", "scratch", "--quiet", "--out",
+                                str(out), "--set", f"learner.tile_widths={[1e-9] * 9}"])
+    assert code is None and exit_info.value.code == 1
+    err = capsys.readouterr().err
+    assert "LearnerConfig.tile_widths / n_tilings: these widths and 32 tilings give" in err
+    assert f"at most {MAX_WEIGHTS:,} are allowed" in err and "(feature 4 spans 180 with width 1e-09)" in err
+    assert not (out / "config.json").exists()
+    # The bound itself: one tile short of it is fine, one over is not.
+    fits = TileCoder([0.0], [1.0], [1.0 / (MAX_WEIGHTS // 2 - 2)], n_tilings=2)
+    assert fits.n_weights == MAX_WEIGHTS
+    with pytest.raises(ValueError, match="at most"):
+        TileCoder([0.0], [1.0], [1.0 / (MAX_WEIGHTS // 2 - 1)], n_tilings=2)
+    with pytest.raises(ValueError, match=r"LearnerConfig.tile_widths / n_tilings: widths must"):
+        LearnerConfig(tile_widths=(1.0, 2.0)).tile_coder(Box(0.0, 1.0, (1,)))

@@ -116,12 +116,16 @@ class ExperimentConfig:
             )
         if "prq" in self.methods and "scratch" not in self.methods:
             raise ValueError("method 'prq' reuses the policies of 'scratch': add 'scratch'")
-        for name, low in (("n_seeds", 1), ("workers", 1), ("stream_length", 1),
-                          ("first_seed", 0), ("n_shuffles", 0)):
+        # Upper bounds far above any useful value: each seed, stream, opponent and worker
+        # costs memory (and a worker a process) before the first episode.
+        for name, low, high in (("n_seeds", 1, 100_000), ("workers", 1, 1024),
+                                ("stream_length", 1, 10_000), ("first_seed", 0, 2**32 - 1),
+                                ("n_shuffles", 0, 1000)):
             value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < low:
+            if not isinstance(value, int) or isinstance(value, bool) or not low <= value <= high:
                 raise ValueError(
-                    f"ExperimentConfig.{name} must be an integer >= {low}, got {value!r}"
+                    f"ExperimentConfig.{name} must be an integer in [{low:,}, {high:,}], "
+                    f"got {value!r}"
                 )
         check_env_id("ExperimentConfig.env_id", self.env_id)
         # Team ids are only checked for form: ``ilpss`` never imports the drill, so an

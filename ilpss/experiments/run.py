@@ -189,7 +189,9 @@ def run_experiment(
     # rather than after hours of earlier trials.
     tasks = {repr(t): t for seed in cfg.seeds for s in cfg.streams(seed) for t in s.tasks}
     for task in tasks.values():
-        make_env(cfg.env_id, task).close()
+        env = make_env(cfg.env_id, task)
+        cfg.lifelong.learner.tile_coder(env.observation_space)  # widths that fit, at most
+        env.close()  # MAX_WEIGHTS tiles: refused before config.json is written
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     # One run at a time writes into a folder: a second one gets a clear error rather than
