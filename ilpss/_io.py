@@ -8,6 +8,9 @@ Everything ``ilpss`` saves (kernel models, policies, option libraries, checkpoin
   leaves either the old file or the new one, never half of one.
 * :func:`save_npz_atomic` stores ``arrays`` and a JSON ``meta`` record (which must name
   its ``"schema"``, e.g. ``"ilpss.kernels/1"``) together with a SHA-256 digest of both.
+* :func:`json_record_bytes` and :func:`load_json_record` do the same for a JSON file (a
+  record naming its ``"schema"``, with the SHA-256 of its canonical form), and
+  :func:`read_json` reads any JSON file with errors that name it.
 * :func:`locked_folder` holds an exclusive lock on a folder while a run writes into it, so
   that a second writer gets a clear error instead of mixing its files with the first's.
 * :func:`load_npz` reads such a file **without ever unpickling** (``allow_pickle=False``)
@@ -45,8 +48,11 @@ __all__ = [
     "FolderInUseError",
     "atomic_write_bytes",
     "json_differences",
+    "json_record_bytes",
+    "load_json_record",
     "load_npz",
     "locked_folder",
+    "read_json",
     "save_npz_atomic",
 ]
 
@@ -54,6 +60,8 @@ __all__ = [
 META_KEY = "__meta__"
 #: Version of the container layout (the JSON wrapper below), independent of any schema.
 CONTAINER = "ilpss.npz/1"
+#: Largest JSON file :func:`read_json` reads (and largest record of an archive).
+MAX_JSON_BYTES = 64 * 2**20
 
 ShapeTemplate = tuple[int | str | None, ...]
 
@@ -171,6 +179,90 @@ def json_differences(saved: Any, current: Any, prefix: str = "") -> list[str]:
 
 def _canonical_json(meta: Mapping[str, Any]) -> str:
     return json.dumps(meta, allow_nan=False, sort_keys=True, separators=(",", ":"))
+
+
+def _refuse_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not a JSON number")
+
+
+def _parse_json(text: str | bytes, where: str) -> Any:
+    """Strict JSON (no NaN or Infinity); errors name ``where``."""
+    try:
+        return json.loads(text, parse_constant=_refuse_constant)
+    except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError, NaN
+        raise ValueError(f"{where}: not valid JSON ({exc})") from exc
+    except RecursionError:
+        raise ValueError(f"{where}: JSON nested too deeply to be a record") from None
+
+
+def read_json(path: str | os.PathLike[str]) -> Any:
+    """The parsed contents of a JSON file.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        Naming the file: it is a folder, larger than :data:`MAX_JSON_BYTES`, not UTF-8
+        JSON, or nested too deeply to parse.
+    """
+    path = Path(path)
+    where = os.fspath(path)
+    if path.is_dir():
+        raise ValueError(f"{where}: a folder, where a JSON file was expected")
+    size = path.stat().st_size
+    if size > MAX_JSON_BYTES:
+        raise ValueError(
+            f"{where}: {size:,} bytes, more than the {MAX_JSON_BYTES:,} a JSON record may have"
+        )
+    return _parse_json(path.read_bytes(), where)
+
+
+def json_record_bytes(record: Mapping[str, Any]) -> bytes:
+    """The file contents of a JSON record: ``record`` (which names its ``"schema"``) with
+    the SHA-256 of its canonical JSON added as ``"sha256"``, indented for reading.
+
+    Raises
+    ------
+    ValueError
+        If ``record`` has no string ``"schema"``, already has a ``"sha256"``, or is not
+        strict JSON.
+    """
+    if not isinstance(record.get("schema"), str):
+        raise ValueError("a record must contain a string 'schema', e.g. 'ilpss.lifelong/2'")
+    if "sha256" in record:
+        raise ValueError("a record must not contain 'sha256': it is added here")
+    try:
+        digest = hashlib.sha256(_canonical_json(record).encode()).hexdigest()
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"the record is not serialisable as strict JSON: {exc}") from exc
+    return json.dumps({**record, "sha256": digest}, indent=1, allow_nan=False).encode()
+
+
+def load_json_record(path: str | os.PathLike[str], schema: str) -> dict[str, Any]:
+    """Read a file written with :func:`json_record_bytes`: an object of ``schema`` whose
+    digest matches (returned without its ``"sha256"``).
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        Naming the file: unreadable (see :func:`read_json`), not an object, another
+        schema, or modified after saving.
+    """
+    where = os.fspath(path)
+    record = read_json(path)
+    if not isinstance(record, dict):
+        raise ValueError(f"{where}: not a JSON object")
+    if record.get("schema") != schema:
+        raise ValueError(f"{where}: schema {record.get('schema')!r} is not {schema!r}")
+    digest = record.pop("sha256", None)
+    if digest != hashlib.sha256(_canonical_json(record).encode()).hexdigest():
+        raise ValueError(
+            f"{where}: content checksum mismatch (sha256); the record was modified after saving"
+        )
+    return record
 
 
 def _digest(arrays: Mapping[str, np.ndarray], meta: Mapping[str, Any]) -> str:

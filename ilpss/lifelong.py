@@ -23,6 +23,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import shutil
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, fields
@@ -31,14 +32,31 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ilpss._io import atomic_write_bytes, load_npz, locked_folder, save_npz_atomic
+from ilpss._check import (
+    Integer,
+    ListOf,
+    NoneOr,
+    OneOf,
+    Real,
+    Text,
+    check_fields,
+    check_keys,
+)
+from ilpss._io import (
+    atomic_write_bytes,
+    json_record_bytes,
+    load_json_record,
+    load_npz,
+    locked_folder,
+    save_npz_atomic,
+)
 from ilpss.kernels import SharedKernelModel, UniformKernel
 from ilpss.options import OptionLibrary
 from ilpss.policy import FrozenPolicy
 from ilpss.smdp import EpisodeResult, SmdpLearner, options_used
 from ilpss.tiles import TileCoder
 
-CHECKPOINT_SCHEMA = "ilpss.lifelong/1"
+CHECKPOINT_SCHEMA = "ilpss.lifelong/2"
 OptionSource = Literal["kernels", "whole_policies", "none"]
 
 
@@ -291,6 +309,35 @@ class TrialRecord:
     library_size: int
     """Active options after the refit that closes the trial."""
 
+    @classmethod
+    def from_dict(cls, values: object, where: str = "TrialRecord") -> TrialRecord:
+        """A record from its JSON form (lists for tuples), every field checked by name."""
+        if not isinstance(values, dict):
+            raise ValueError(f"{where}: must be an object of TrialRecord fields, got {values!r}")
+        check_keys(where, values, RECORD_CONSTRAINTS)
+        check_fields(where, values, RECORD_CONSTRAINTS, dict.get)
+        return cls(**{
+            **values,
+            "rewards": tuple(float(r) for r in values["rewards"]),
+            "rollout_success_rate": float(values["rollout_success_rate"]),
+            "rollout_mean_reward": float(values["rollout_mean_reward"]),
+            **{k: tuple(int(o) for o in values[k]) for k in ("options_used", "options_pruned")},
+        })
+
+
+RECORD_CONSTRAINTS = {
+    "name": Text(),
+    "rewards": ListOf(Real()),
+    "rollout_success_rate": Real(0.0, 1.0),
+    "rollout_mean_reward": Real(),
+    "bag_size": Integer(0),
+    "options_offered": Integer(0),
+    "options_used": ListOf(Integer(0), unique=True),
+    "options_pruned": ListOf(Integer(0), unique=True),
+    "library_size": Integer(0),
+}
+"""What each field of a saved :class:`TrialRecord` may hold."""
+
 
 def trial_seeds(seed: int, trial: int) -> tuple[int, int, int, int]:
     """Independent seeds (learner, learning env, rollout env, kernels) of one trial."""
@@ -499,7 +546,7 @@ class LifelongLearner:
                 "kernel": None if self.kernel_model is None else type(self.kernel_model).__name__,
                 "records": [asdict(r) for r in self.records],
             }
-            atomic_write_bytes(building / "state.json", json.dumps(state, indent=1).encode())
+            atomic_write_bytes(building / "state.json", json_record_bytes(state))
             shutil.rmtree(target, ignore_errors=True)
             os.replace(building, target)
             atomic_write_bytes(root / "LATEST", target.name.encode())
@@ -513,89 +560,211 @@ class LifelongLearner:
     def load(
         cls, directory: str | os.PathLike[str], observation_space: Any
     ) -> LifelongLearner:
-        """Restore the checkpoint that ``<directory>/LATEST`` names."""
-        root = Path(directory)
-        try:
-            name = (root / "LATEST").read_text().strip()
-        except FileNotFoundError:
-            raise FileNotFoundError(f"no checkpoint in {root} (no LATEST file)") from None
-        if not name.startswith("trial_") or "/" in name:
-            raise ValueError(f"{root / 'LATEST'}: malformed checkpoint name {name!r}")
-        ckpt = root / name
-        state_path = ckpt / "state.json"
-        try:
-            state = json.loads(state_path.read_text())
-        except (OSError, json.JSONDecodeError) as exc:
-            raise ValueError(f"{state_path}: unreadable checkpoint state: {exc}") from exc
-        if not isinstance(state, dict):
-            raise ValueError(f"{state_path}: not a JSON object")
-        if state.get("schema") != CHECKPOINT_SCHEMA:
-            raise ValueError(
-                f"{ckpt}: schema {state.get('schema')!r} is not {CHECKPOINT_SCHEMA!r}"
-            )
-        missing = sorted({"seed", "n_primitive", "config", "kernel", "records"} - set(state))
-        if missing:
-            raise ValueError(f"{state_path}: missing field(s) {missing}")
-        if not _is_int(state["seed"]) or state["seed"] < 0:
-            raise ValueError(f"{state_path}: seed must be an integer >= 0, got {state['seed']!r}")
-        if not _is_int(state["n_primitive"]) or state["n_primitive"] < 1:
-            raise ValueError(
-                f"{state_path}: n_primitive must be an integer >= 1, got {state['n_primitive']!r}"
-            )
-        if state["kernel"] not in (None, "SharedKernelModel", "UniformKernel"):
-            raise ValueError(f"{state_path}: unknown kernel model {state['kernel']!r}")
-        try:
-            config = LifelongConfig.from_dict(state["config"])
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{state_path}: {exc}") from exc
-        provenance = state.get("provenance")
-        if provenance is not None and not isinstance(provenance, dict):
-            raise ValueError(f"{state_path}: provenance must be an object or null")
+        """Restore the checkpoint that ``<directory>/LATEST`` names.
+
+        Every field of ``state.json`` is checked (its digest, types and ranges), and so is
+        the agreement of the files with one another: records, bags, policies, the option
+        library and its kernel model, and the digest of every file. Errors name the file
+        and the field.
+
+        Raises
+        ------
+        FileNotFoundError
+            If ``directory`` holds no ``LATEST``.
+        ValueError
+            For any damaged, modified, inconsistent or mixed-up checkpoint.
+        """
+        ckpt = latest_checkpoint(directory)
+        state, config, records = read_state(ckpt)
+        where = ckpt / "state.json"
+        n = len(records)
         learner = cls(config, observation_space, state["n_primitive"], state["seed"],
-                      provenance=provenance)
-        try:
-            learner.records = [
-                TrialRecord(**{**r, **{k: tuple(r[k]) for k in
-                                       ("rewards", "options_used", "options_pruned")}})
-                for r in state["records"]
-            ]
-        except (TypeError, KeyError) as exc:
-            raise ValueError(f"{state_path}: malformed trial records: {exc!r}") from exc
-        n = len(learner.records)
-        if name != f"trial_{n:04d}":
-            raise ValueError(f"{ckpt}: holds {n} trial records, but its name says {name}")
+                      provenance=state["provenance"])
+        learner.records = records
+        d = learner.tile_coder.n_features
         arrays, _ = load_npz(
             ckpt / "bags.npz", CHECKPOINT_SCHEMA + "/bags",
-            {f"bag_{i}": ((None, learner.tile_coder.n_features), "f") for i in range(n)},
+            {f"bag_{i}": ((None, d), "f") for i in range(n)},
         )
         learner.bags = [arrays[f"bag_{i}"] for i in range(n)]
-        for i, bag in enumerate(learner.bags):
+        for i, (bag, record) in enumerate(zip(learner.bags, records, strict=True)):
             if not np.isfinite(bag).all():
                 raise ValueError(f"{ckpt / 'bags.npz'}: bag_{i} has non-finite states")
+            if len(bag) != record.bag_size:
+                raise ValueError(
+                    f"{ckpt / 'bags.npz'}: bag_{i} holds {len(bag)} states, but records[{i}]"
+                    f".bag_size in {where} is {record.bag_size}"
+                )
         learner.policies = [FrozenPolicy.load(ckpt / f"policy_{i}.npz") for i in range(n)]
-        for i, policy in enumerate(learner.policies):
+        for i, (policy, record) in enumerate(zip(learner.policies, records, strict=True)):
+            path = ckpt / f"policy_{i}.npz"
             if policy.tile_coder != learner.tile_coder:
                 raise ValueError(
-                    f"{ckpt / f'policy_{i}.npz'}: its tile coder is not the one the "
-                    "checkpoint's configuration and observation space give"
+                    f"{path}: its tile coder is not the one the checkpoint's configuration "
+                    "and observation space give"
+                )
+            if policy.n_primitive != learner.n_primitive:
+                raise ValueError(
+                    f"{path}: {policy.n_primitive} primitive actions, but n_primitive in "
+                    f"{where} is {learner.n_primitive}"
+                )
+            if len(policy.option_ids) != record.options_offered:
+                raise ValueError(
+                    f"{path}: chooses among {len(policy.option_ids)} options, but "
+                    f"records[{i}].options_offered in {where} is {record.options_offered}"
                 )
         library = ckpt / "library"
-        if state["kernel"] is not None and not library.is_dir():
+        if (state["kernel"] is None) == library.is_dir():
             raise ValueError(
                 f"{ckpt}: the option library is missing (the state names a "
-                f"{state['kernel']} kernel model)"
+                f"{state['kernel']} kernel model)" if state["kernel"] is not None else
+                f"{ckpt}: holds an option library, but kernel in {where} is null"
             )
-        if library.exists():
+        if state["kernel"] is not None:
             loader = UniformKernel.load if state["kernel"] == "UniformKernel" else None
             learner.library = OptionLibrary.load(library, kernel_loader=loader)
             learner.kernel_model = learner.library.kernel_model
+            _check_library(learner, ckpt)
+        elif n and records[-1].library_size:
+            raise ValueError(
+                f"{where}: records[{n - 1}].library_size is {records[-1].library_size} "
+                "without an option library"
+            )
         # Last, so that the errors above say what is wrong; this catches files that
-        # load but were mixed in from another checkpoint. (Absent in older checkpoints.)
-        for rel, digest in (state.get("files") or {}).items():
+        # load but were mixed in from another checkpoint.
+        for rel, digest in state["files"].items():
             path = ckpt / rel
             if not path.is_file() or _sha256(path) != digest:
                 raise ValueError(f"{path}: missing, modified, or from another checkpoint")
         return learner
+
+
+_CHECKPOINT_NAME = re.compile(r"trial_\d{4,}")
+_FILE_NAME = re.compile(r"(policy_\d+|bags|library/(kernels|library|policy_\d+))\.npz")
+STATE_CONSTRAINTS = {
+    "seed": Integer(0),
+    "n_primitive": Integer(1),
+    "kernel": NoneOr(OneOf(("SharedKernelModel", "UniformKernel"))),
+}
+"""What the scalar fields of ``state.json`` may hold (``config`` is a LifelongConfig,
+``records`` TrialRecords, ``files`` the digests, ``provenance`` an object or null)."""
+KERNELS_OF = {"kernels": "SharedKernelModel", "whole_policies": "UniformKernel", "none": None}
+"""The kernel model that each ``LifelongConfig.options`` builds."""
+
+
+def latest_checkpoint(directory: str | os.PathLike[str]) -> Path:
+    """The checkpoint folder that ``<directory>/LATEST`` names (checked for form)."""
+    root = Path(directory)
+    latest = root / "LATEST"
+    if latest.is_dir():
+        raise ValueError(f"{latest}: a folder, where the file naming the checkpoint belongs")
+    try:
+        data = latest.read_bytes()
+    except FileNotFoundError:
+        raise FileNotFoundError(f"no checkpoint in {root} (no LATEST file)") from None
+    name = data.decode("ascii", errors="replace").strip()
+    if len(data) > 64 or not _CHECKPOINT_NAME.fullmatch(name):
+        raise ValueError(f"{latest}: malformed checkpoint name {name[:64]!r}")
+    return root / name
+
+
+def read_state(checkpoint: Path) -> tuple[dict[str, Any], LifelongConfig, list[TrialRecord]]:
+    """``state.json`` of a checkpoint folder, every field checked: the record, its
+    configuration and its trial records (array files are not read)."""
+    where = checkpoint / "state.json"
+    try:
+        state = load_json_record(where, CHECKPOINT_SCHEMA)
+    except (FileNotFoundError, NotADirectoryError) as exc:
+        raise ValueError(f"{where}: unreadable checkpoint state: {exc}") from exc
+    check_keys(str(where), state, {"schema", "files", "seed", "n_primitive", "config",
+                                   "provenance", "kernel", "records"})
+    check_fields(str(where), state, STATE_CONSTRAINTS, dict.get)
+    try:
+        config = LifelongConfig.from_dict(state["config"])
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{where}: config: {exc}") from exc
+    if state["provenance"] is not None and not isinstance(state["provenance"], dict):
+        raise ValueError(f"{where}: provenance must be an object or null")
+    if not isinstance(state["records"], list):
+        raise ValueError(f"{where}: records must be a list of trial records")
+    records = [TrialRecord.from_dict(r, f"{where}: records[{i}]")
+               for i, r in enumerate(state["records"])]
+    n = len(records)
+    if checkpoint.name != f"trial_{n:04d}":
+        raise ValueError(
+            f"{checkpoint}: holds {n} trial records, but its name says {checkpoint.name}"
+        )
+    kernel = KERNELS_OF[config.options]
+    if state["kernel"] not in (None, kernel):
+        raise ValueError(
+            f"{where}: kernel {state['kernel']!r} is not what options={config.options!r} "
+            f"builds ({kernel!r})"
+        )
+    rollouts = config.rollout_episodes
+    for i, r in enumerate(records):
+        field = f"{where}: records[{i}]"
+        if len(r.rewards) != config.train_episodes:
+            raise ValueError(
+                f"{field}.rewards has {len(r.rewards)} values, but the configuration's "
+                f"train_episodes is {config.train_episodes}"
+            )
+        successes = r.rollout_success_rate * max(rollouts, 1)
+        if abs(successes - round(successes)) > 1e-6 or (round(successes) == 0) != (
+            r.bag_size == 0
+        ):
+            raise ValueError(
+                f"{field}.rollout_success_rate {r.rollout_success_rate!r} is not a share of "
+                f"{rollouts} rollouts consistent with bag_size {r.bag_size}"
+            )
+        if (i == 0 or config.options == "none") and r.options_offered:
+            raise ValueError(f"{field}.options_offered must be 0 (no options to offer yet)")
+    files = state["files"]
+    expected = {f"policy_{i}.npz" for i in range(n)} | {"bags.npz"}
+    if not (isinstance(files, dict) and all(
+        isinstance(k, str) and _FILE_NAME.fullmatch(k) and isinstance(v, str)
+        for k, v in files.items()
+    ) and expected <= set(files)):
+        raise ValueError(
+            f"{where}: files must map every file of the checkpoint (policy_<i>.npz, "
+            f"bags.npz, library/...) to its SHA-256"
+        )
+    listed = any(k.startswith("library/") for k in files)
+    if (state["kernel"] is None) == listed:
+        raise ValueError(
+            f"{where}: kernel is {state['kernel']!r}, but files "
+            f"{'list' if listed else 'do not list'} an option library"
+        )
+    return state, config, records
+
+
+def _check_library(learner: LifelongLearner, ckpt: Path) -> None:
+    """The option library of a checkpoint agrees with its policies and records."""
+    lib = learner.library
+    assert lib is not None
+    where = ckpt / "library" / "library.npz"
+    if len(lib.policies) > len(learner.policies):
+        raise ValueError(
+            f"{where}: {len(lib.policies)} policies, more than the checkpoint's "
+            f"{len(learner.policies)}"
+        )
+    for i, policy in enumerate(lib.policies):
+        mine = learner.policies[i]
+        if policy.tile_coder != mine.tile_coder or policy.option_ids != mine.option_ids or \
+                not np.array_equal(policy.weights, mine.weights):
+            raise ValueError(f"{where}: its policy {i} is not the checkpoint's policy_{i}.npz")
+    last = learner.records[-1]
+    if last.library_size != len(lib):
+        raise ValueError(
+            f"{ckpt / 'state.json'}: records[{len(learner.records) - 1}].library_size is "
+            f"{last.library_size}, but the library holds {len(lib)} active options"
+        )
+    for i, record in enumerate(learner.records):
+        unknown = sorted(set(record.options_used + record.options_pruned) - set(lib.registry))
+        if unknown:
+            raise ValueError(
+                f"{ckpt / 'state.json'}: records[{i}] names option ids {unknown} that the "
+                "library never issued"
+            )
 
 
 def _sha256(path: Path) -> str:

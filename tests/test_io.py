@@ -373,8 +373,21 @@ def test_a_checkpoint_save_dying_at_the_directory_rename_or_cleanup(
 
 
 def _edit_state(checkpoint: Path, edit) -> None:
+    """Edit state.json and give it a valid digest: only the content checks can refuse."""
     state = checkpoint / "trial_0001" / "state.json"
-    state.write_text(json.dumps(edit(json.loads(state.read_text()))))
+    record = json.loads(state.read_text())
+    del record["sha256"]
+    edited = edit(record)
+    state.write_bytes(_io.json_record_bytes(edited) if isinstance(edited, dict) and
+                      isinstance(edited.get("schema"), str) else json.dumps(edited).encode())
+
+
+def _record(**changes):
+    """An edit of state.json that changes fields of its first trial record."""
+    def edit(state: dict) -> dict:
+        state["records"][0].update(changes)
+        return state
+    return edit
 
 
 def _rewrite_bags(checkpoint: Path, edit) -> None:
@@ -393,9 +406,9 @@ def _rewrite_bags(checkpoint: Path, edit) -> None:
         (lambda c: (c / "LATEST").write_text("../../etc"), "malformed checkpoint name"),
         (lambda c: (c / "LATEST").write_text("trial_0042"), r"trial_0042/state.json: unreadable"),
         (lambda c: (c / "trial_0001" / "state.json").write_text('{"schema": "ilpss.lif'),
-         "unreadable checkpoint state"),
-        (lambda c: _edit_state(c, lambda s: {**s, "schema": "ilpss.lifelong/2"}),
-         r"schema 'ilpss.lifelong/2' is not 'ilpss.lifelong/1'"),
+         "state.json: not valid JSON"),
+        (lambda c: _edit_state(c, lambda s: {**s, "schema": "ilpss.lifelong/1"}),
+         r"schema 'ilpss.lifelong/1' is not 'ilpss.lifelong/2'"),
         (lambda c: (c / "trial_0001" / "bags.npz").write_bytes(
             (c / "trial_0001" / "bags.npz").read_bytes()[:200]), "not a readable .npz"),
         (lambda c: _rewrite_bags(c, lambda a, m: a.update(bag_0=np.zeros((4, 3)))),
@@ -435,13 +448,51 @@ def test_damaged_checkpoints_are_refused_by_name(checkpoints, tmp_path, tamper, 
         (lambda c: _edit_state(c, lambda s: {k: v for k, v in s.items() if k != "records"}),
          r"state.json: missing field\(s\) \['records'\]"),
         (lambda c: _edit_state(c, lambda s: {**s, "records": [{**s["records"][0], "x": 1}]}),
-         "state.json: malformed trial records"),
+         r"state.json: records\[0\]: unknown field\(s\) \['x'\]"),
         (lambda c: _edit_state(c, lambda s: {**s, "records": []}),
          "holds 0 trial records, but its name says trial_0001"),
         (lambda c: shutil.rmtree(c / "trial_0001" / "library"),
          "the option library is missing"),
         (lambda c: _rewrite_bags(c, lambda a, m: a.update(bag_0=np.full((4, 2), np.nan))),
          "bag_0 has non-finite states"),
+        # One character changed: the digest refuses it.
+        (lambda c: (c / "trial_0001" / "state.json").write_text(
+            (c / "trial_0001" / "state.json").read_text().replace('"n_primitive": 3',
+                                                                  '"n_primitive": 7')),
+         "state.json: content checksum mismatch"),
+        (lambda c: (c / "trial_0001" / "state.json").write_text("[" * 100_000 + "]" * 100_000),
+         "state.json: JSON nested too deeply"),
+        # With a valid digest, every field and its agreement with the other files.
+        (lambda c: _edit_state(c, lambda s: {**s, "n_primitive": 7}),
+         r"policy_0.npz: 3 primitive actions, but n_primitive in .*state.json is 7"),
+        (lambda c: _edit_state(c, lambda s: {**s, "n_primitive": "3"}),
+         r"state.json.n_primitive must be an integer >= 1, got '3'"),
+        (lambda c: _edit_state(c, _record(rollout_success_rate="x")),
+         r"records\[0\].rollout_success_rate must be a finite number in \[0, 1\], got 'x'"),
+        (lambda c: _edit_state(c, _record(rollout_success_rate=0.55)),
+         r"records\[0\].rollout_success_rate 0.55 is not a share of 10 rollouts"),
+        (lambda c: _edit_state(c, _record(name=7)),
+         r"records\[0\].name must be a non-empty string, got 7"),
+        (lambda c: _edit_state(c, _record(rewards=[0.0])),
+         r"records\[0\].rewards has 1 values, but the configuration's train_episodes is 40"),
+        (lambda c: _edit_state(c, _record(bag_size=1)),
+         r"bags.npz: bag_0 holds \d+ states, but records\[0\].bag_size in .* is 1"),
+        (lambda c: _edit_state(c, _record(library_size=99)),
+         r"records\[0\].library_size is 99, but the library holds 2 active options"),
+        (lambda c: _edit_state(c, _record(options_used=[999])),
+         r"records\[0\] names option ids \[999\] that the library never issued"),
+        (lambda c: _edit_state(c, _record(options_offered=2)),
+         r"records\[0\].options_offered must be 0"),
+        (lambda c: _edit_state(c, lambda s: {**s, "kernel": None}),
+         "kernel is None, but files list an option library"),
+        (lambda c: _edit_state(c, lambda s: {**s, "config": {**s["config"], "options": "none"}}),
+         "kernel 'SharedKernelModel' is not what options='none' builds"),
+        (lambda c: _edit_state(c, lambda s: {**s, "files": {**s["files"], "../x.npz": "0"}}),
+         "files must map every file of the checkpoint"),
+        (lambda c: _edit_state(c, lambda s: {**s, "provenance": "elsewhere"}),
+         "provenance must be an object or null"),
+        (lambda c: (c / "LATEST").unlink() or (c / "LATEST").mkdir(),
+         "LATEST: a folder, where the file naming the checkpoint belongs"),
     ],
 )
 def test_damaged_checkpoint_state_is_refused(checkpoints, tmp_path, tamper, match) -> None:
@@ -456,11 +507,24 @@ def test_damaged_checkpoint_state_is_refused(checkpoints, tmp_path, tamper, matc
 
 def test_a_policy_from_another_checkpoint_is_refused(checkpoints, tmp_path) -> None:
     from ilpss.lifelong import LifelongLearner
+    from ilpss.policy import FrozenPolicy
 
     template, space, _, learner = checkpoints
     root = _copy(template, tmp_path / "ckpt")
     learner.policies[1].save(root / "trial_0001" / "policy_0.npz")  # valid, same tile coder
-    with pytest.raises(ValueError, match=r"policy_0\.npz: missing, modified, or from another"):
+    with pytest.raises(ValueError, match=r"policy_0\.npz: chooses among 2 options, but "
+                       r"records\[0\].options_offered in .*state.json is 0"):
+        LifelongLearner.load(root, space)
+    # The same policy, slightly changed: it agrees with the records, not with the digests.
+    root = _copy(template, tmp_path / "ckpt2")
+    p = learner.policies[0]
+    FrozenPolicy(p.tile_coder, p.n_primitive, p.option_ids, p.weights + 1e-9).save(
+        root / "trial_0001" / "policy_0.npz")
+    with pytest.raises(ValueError, match=r"library.npz: its policy 0 is not the checkpoint's "
+                       r"policy_0.npz"):
+        LifelongLearner.load(root, space)
+    shutil.copy(root / "trial_0001" / "policy_0.npz", root / "trial_0001" / "library")
+    with pytest.raises(ValueError, match=r"library/policy_0.npz: content differs from the file"):
         LifelongLearner.load(root, space)
 
 
@@ -572,14 +636,52 @@ def test_a_crash_writing_result_json_leaves_none_and_the_rerun_matches(
         straight_dir / "seed_000" / "stream_00" / "result.json").read_bytes()
 
 
+def _edit_record(path: Path, edit) -> None:
+    """Edit a JSON record and give it a valid digest: only the content checks can refuse."""
+    record = json.loads(path.read_text())
+    del record["sha256"]
+    edit(record)
+    path.write_bytes(_io.json_record_bytes(record))
+
+
+def _scratch(record: dict) -> dict:
+    return record["methods"]["scratch"]
+
+
 @pytest.mark.parametrize(
     ("name", "tamper", "match"),
     [
         ("result.json", lambda p: p.write_text(p.read_text()[:40]), "result.json: not valid JSON"),
         ("result.json", lambda p: p.write_text(p.read_text().replace(
-            "ilpss.experiment_result/1", "ilpss.experiment_result/0")), "result.json: schema"),
-        ("result.json", lambda p: p.write_text(json.dumps(
-            {**json.loads(p.read_text()), "methods": {}})), "result.json: methods"),
+            "ilpss.experiment_result/2", "ilpss.experiment_result/0")), "result.json: schema"),
+        # One character changed: the digest refuses it.
+        ("result.json", lambda p: p.write_text(p.read_text().replace("-1.0", "-9.0", 1)),
+         r"result.json: content checksum mismatch"),
+        ("result.json", lambda p: p.write_text("[" * 100_000 + "]" * 100_000),
+         "result.json: JSON nested too deeply"),
+        # With a valid digest, every field is checked.
+        ("result.json", lambda p: _edit_record(p, lambda r: r.update(methods={})),
+         "result.json: methods"),
+        ("result.json", lambda p: _edit_record(
+            p, lambda r: _scratch(r)["curves"]["3"].__setitem__(0, -9.0)),
+         r"result.json: methods.scratch.curves.3 must be a list of 4 values, each a finite "
+         r"number in \[-1, 1\], got \[-9.0"),
+        ("result.json", lambda p: _edit_record(
+            p, lambda r: _scratch(r)["curves"]["3"].pop()), r"curves.3 must be a list of 4 values"),
+        ("result.json", lambda p: _edit_record(
+            p, lambda r: _scratch(r).update(rollout_success_rate=["x"] * 4)),
+         r"methods.scratch.rollout_success_rate must be a list of 4 values, each a finite "
+         r"number in \[0, 1\]"),
+        ("result.json", lambda p: _edit_record(
+            p, lambda r: _scratch(r).update(library_size=[0, 0, 0])), "library_size must be a list of 4 values"),
+        ("result.json", lambda p: _edit_record(p, lambda r: r.update(stream="held_out=x")),
+         r"result.json: stream is 'held_out=x', expected 'held_out=goal_guards'"),
+        ("result.json", lambda p: _edit_record(p, lambda r: r.update(extra=1)),
+         r"result.json: unknown field\(s\) \['extra'\]"),
+        # Consistent in itself, but not with the checkpoint it came from.
+        ("result.json", lambda p: _edit_record(
+            p, lambda r: _scratch(r)["curves"]["3"].__setitem__(0, 0.5)),
+         r"methods.scratch disagrees with the checkpoint in .*scratch \(methods.scratch.curves.3"),
         ("config.json", lambda p: p.write_text(p.read_text()[:40]), "config.json: not valid JSON"),
     ],
 )

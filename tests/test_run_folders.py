@@ -264,3 +264,21 @@ def test_tile_widths_that_would_need_terabytes_are_refused_before_anything_is_wr
         TileCoder([0.0], [1.0], [1.0 / (MAX_WEIGHTS // 2 - 1)], n_tilings=2)
     with pytest.raises(ValueError, match=r"LearnerConfig.tile_widths / n_tilings: widths must"):
         LearnerConfig(tile_widths=(1.0, 2.0)).tile_coder(Box(0.0, 1.0, (1,)))
+
+
+# ------------------------------------------------------------- records with integrity checks
+def test_a_resume_refuses_rewards_the_environment_cannot_pay(tmp_path):
+    from ilpss import _io
+    from ilpss.experiments.run import run_experiment
+
+    run_experiment(_tiny(), tmp_path, progress=False)
+    job = tmp_path / "seed_000" / "stream_00"
+    (job / "result.json").unlink()
+    state = job / "scratch" / (job / "scratch" / "LATEST").read_text() / "state.json"
+    record = json.loads(state.read_text())
+    del record["sha256"]
+    record["records"][0]["rewards"][0] = -9.0  # with a valid digest
+    state.write_bytes(_io.json_record_bytes(record))
+    with pytest.raises(ValueError, match=r"records\[0\].rewards lie outside the environment's "
+                       r"range \[-1, 1\]"):
+        run_experiment(_tiny(), tmp_path, progress=False)

@@ -20,16 +20,14 @@ run. The configurations must agree on the stream; the table is printed as markdo
 from __future__ import annotations
 
 import argparse
-import json
 from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from ilpss import metrics
-from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.report import PRIMARY, interval_text, threshold_for, windows
-from ilpss.experiments.run import load_result
+from ilpss.experiments.run import load_result, read_config
 
 
 def _parse(spec: str) -> tuple[Path, str]:
@@ -44,7 +42,7 @@ def target_curves(folder: Path, method: str) -> dict[int, tuple[list[float], dic
     config = folder / "config.json"
     if not config.is_file():
         raise ValueError(f"{folder}: no config.json (not a folder written by ilpss-experiment)")
-    cfg = ExperimentConfig.from_dict(json.loads(config.read_text()))
+    cfg = read_config(config)
     out = {}
     for path in sorted(folder.glob("seed_*/stream_00/result.json")):
         seed = int(path.parent.parent.name.removeprefix("seed_"))

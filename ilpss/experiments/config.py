@@ -17,6 +17,9 @@ PAPER_TEAMS = ("interceptors_press", "interceptors_cover", "interceptor_guard", 
 """The paper's four opponent teams, in its order (ids of the ``opponents`` package)."""
 DRILL_ENV_ID = "soccer_drill:soccer_drill/Holder-v0"
 """The holder environment, imported by ``gymnasium.make`` (``ilpss`` never imports it)."""
+EPISODE_REWARD_RANGES = {DRILL_ENV_ID: (-1.0, 1.0), "soccer_drill/Holder-v0": (-1.0, 1.0)}
+"""Range of an episode's total reward, per environment id: the drill pays one reward in
+[-1, 1] when the episode ends. Other environments: any finite number."""
 DRILL_TILE_WIDTHS = (3.0, 3.0, 3.0, 3.0, 10.0, 3.0, 3.0, 3.0, 10.0)
 """Keepaway's tile widths for the drill's 9 features: 3 m for distances, 10 degrees for angles."""
 METHODS = ("ilpss", "scratch", "whole_policies", "prq", "ilpss_no_discount")
@@ -161,6 +164,11 @@ class ExperimentConfig:
             raise ValueError(
                 f"ExperimentConfig.executor must be 'local' or 'ray', got {self.executor!r}"
             )
+
+    @property
+    def reward_range(self) -> tuple[float, float]:
+        """The range of an episode's total reward in this run's environment."""
+        return EPISODE_REWARD_RANGES.get(self.env_id, (-math.inf, math.inf))
 
     @property
     def seeds(self) -> range:

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from ilpss import metrics
-from ilpss._io import atomic_write_bytes
+from ilpss._io import atomic_write_bytes, read_json
 from ilpss.experiments.config import PAPER_TEAMS, ExperimentConfig
 from ilpss.experiments.report import (
     ENDPOINT_LABELS,
@@ -55,7 +55,7 @@ from ilpss.experiments.report import (
     windows,
     write_report,
 )
-from ilpss.experiments.run import run_experiment
+from ilpss.experiments.run import load_result, read_config, run_experiment
 from ilpss.metrics import format_metrics_markdown
 
 PROTOCOLS = ("A", "B", "C")
@@ -116,7 +116,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         else:  # keep the section of an earlier, finished run
             if not (folder / "config.json").exists():
                 continue
-            cfg = ExperimentConfig.from_dict(json.loads((folder / "config.json").read_text()))
+            cfg = read_config(folder / "config.json")
             results = finished_results(cfg, folder)
             if results is None:
                 print(f"protocol {protocol}: {folder} is unfinished; its section is left out")
@@ -196,11 +196,13 @@ def job_files(cfg: ExperimentConfig, folder: Path) -> list[Path]:
 
 
 def finished_results(cfg: ExperimentConfig, folder: Path) -> list[dict[str, Any]] | None:
-    """Every job's result if all are finished, else ``None`` (nothing is run)."""
+    """Every job's result (checked) if all are finished, else ``None`` (nothing is run)."""
     files = job_files(cfg, folder)
     if not all(f.exists() for f in files):
         return None
-    return [json.loads(f.read_text()) for f in files]
+    return [load_result(folder / f"seed_{seed:03d}" / f"stream_{index:02d}" / "result.json",
+                        cfg, seed, index, stream)
+            for seed in cfg.seeds for index, stream in enumerate(cfg.streams(seed))]
 
 
 def run_timed(cfg: ExperimentConfig, folder: Path, progress: bool) -> list[dict[str, Any]]:
@@ -214,7 +216,7 @@ def run_timed(cfg: ExperimentConfig, folder: Path, progress: bool) -> list[dict[
     finally:
         if any(f.exists() for f in todo):
             timing = folder / TIMING_FILE
-            seconds = json.loads(timing.read_text())["seconds"] if timing.exists() else 0.0
+            seconds = read_json(timing)["seconds"] if timing.exists() else 0.0
             record = {"seconds": seconds + time.perf_counter() - start,
                       "workers": cfg.workers, "executor": cfg.executor}
             atomic_write_bytes(timing, json.dumps(record).encode())
@@ -225,7 +227,7 @@ def wall_time(cfg: ExperimentConfig, folder: Path) -> str:
     ``ilpss-results``, the span from its ``config.json`` to its last ``result.json``."""
     timing = folder / TIMING_FILE
     if timing.exists():
-        record = json.loads(timing.read_text())
+        record = read_json(timing)
         return (f"{_duration(record['seconds'])} with {record['workers']} {record['executor']} "
                 "worker(s), summed over the `ilpss-results` invocations that finished jobs")
     last = max(f.stat().st_mtime for f in job_files(cfg, folder))

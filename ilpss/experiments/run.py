@@ -11,8 +11,6 @@ identical to an uninterrupted one.
 
 from __future__ import annotations
 
-import json
-import math
 import os
 from dataclasses import replace
 from pathlib import Path
@@ -20,12 +18,26 @@ from typing import Any
 
 import gymnasium as gym
 
-from ilpss._io import atomic_write_bytes, json_differences, locked_folder
+from ilpss._check import Integer, ListOf, Real, check_fields, check_keys
+from ilpss._io import (
+    atomic_write_bytes,
+    json_differences,
+    json_record_bytes,
+    load_json_record,
+    locked_folder,
+    read_json,
+)
 from ilpss.experiments.config import ExperimentConfig, Stream, Task
 from ilpss.experiments.executor import make_executor
-from ilpss.lifelong import LifelongConfig, LifelongLearner, trial_seeds
+from ilpss.lifelong import (
+    LifelongConfig,
+    LifelongLearner,
+    latest_checkpoint,
+    read_state,
+    trial_seeds,
+)
 
-RESULT_SCHEMA = "ilpss.experiment_result/1"
+RESULT_SCHEMA = "ilpss.experiment_result/2"
 
 
 def make_env(env_id: str, task: Task) -> gym.Env:
@@ -54,7 +66,7 @@ def run_lifelong(
                   "stream": stream.name, "tasks": [t.name for t in stream.tasks]}
     if (directory / "LATEST").exists():
         learner = LifelongLearner.load(directory, env0.observation_space)
-        _check_resumable(learner, provenance, directory)
+        _check_resumable(learner, provenance, directory, cfg.reward_range)
     else:
         learner = LifelongLearner(
             method_config(cfg.lifelong, method), env0.observation_space,
@@ -67,8 +79,12 @@ def run_lifelong(
     return learner
 
 
-def _check_resumable(learner: LifelongLearner, provenance: dict, directory: Path) -> None:
-    """Refuse a checkpoint that another configuration or job wrote, naming the field."""
+def _check_resumable(
+    learner: LifelongLearner, provenance: dict, directory: Path,
+    reward_range: tuple[float, float],
+) -> None:
+    """Refuse a checkpoint that another configuration or job wrote, naming the field, or
+    whose rewards the environment cannot have paid."""
     hint = "delete that folder to run this method of the job again"
     if learner.provenance is None:
         raise ValueError(f"{directory}: the checkpoint records no provenance; {hint}")
@@ -77,6 +93,13 @@ def _check_resumable(learner: LifelongLearner, provenance: dict, directory: Path
         raise ValueError(
             f"{directory}: the checkpoint comes from another run ({'; '.join(diffs)}); {hint}"
         )
+    low, high = reward_range
+    for i, record in enumerate(learner.records):
+        if not all(low <= r <= high for r in record.rewards):
+            raise ValueError(
+                f"{directory}: records[{i}].rewards lie outside the environment's range "
+                f"[{low:g}, {high:g}]; {hint}"
+            )
 
 
 def run_prq(cfg: ExperimentConfig, stream: Stream, seed: int, scratch: LifelongLearner) -> dict:
@@ -136,49 +159,103 @@ def run_stream(job: tuple[ExperimentConfig, int, int, str]) -> dict[str, Any]:
         "first_target": stream.first_target,
         "methods": methods,
     }
-    atomic_write_bytes(done, json.dumps(result).encode())
+    atomic_write_bytes(done, json_record_bytes(result))
     return result
+
+
+RESULT_FIELDS = ("schema", "config", "seed", "stream", "stream_index", "tasks", "first_target",
+                 "methods")
+LIFELONG_SERIES = {
+    "library_size": Integer(0),
+    "options_offered": Integer(0),
+    "options_used": Integer(0),
+    "rollout_success_rate": Real(0.0, 1.0),
+}
+"""Per lifelong method, one value per task of the stream (from its trial records)."""
 
 
 def load_result(
     path: Path, cfg: ExperimentConfig, seed: int, stream_index: int, stream: Stream
 ) -> dict[str, Any]:
-    """A job's saved ``result.json``, checked against the job (a clear error otherwise)."""
+    """A job's saved ``result.json``, every field checked against the job and its
+    configuration, and against the job's checkpoints when they are there.
+
+    Raises
+    ------
+    ValueError
+        Naming the file and the field: unreadable, modified (digest), of another schema,
+        configuration or job, a curve of the wrong length or a reward outside the
+        environment's range, or disagreeing with a method's last checkpoint.
+    """
     hint = "delete it to run this job again"
     try:
-        result = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not valid JSON ({exc}); {hint}") from exc
-    if not isinstance(result, dict) or result.get("schema") != RESULT_SCHEMA:
-        schema = result.get("schema") if isinstance(result, dict) else None
-        raise ValueError(f"{path}: schema {schema!r} is not {RESULT_SCHEMA!r}; {hint}")
-    diffs = json_differences(result.get("config"), cfg.results_record(), "config")
+        result = load_json_record(path, RESULT_SCHEMA)
+        check_keys(str(path), result, RESULT_FIELDS)
+    except ValueError as exc:
+        raise ValueError(f"{exc}; {hint}") from exc
+    diffs = json_differences(result["config"], cfg.results_record(), "config")
     if diffs:
         raise ValueError(f"{path}: comes from another configuration ({'; '.join(diffs)}); {hint}")
-    job = {"seed": seed, "stream_index": stream_index, "tasks": [t.name for t in stream.tasks],
+    tasks = [t.name for t in stream.tasks]
+    job = {"seed": seed, "stream": stream.name, "stream_index": stream_index, "tasks": tasks,
            "first_target": stream.first_target}
     for key, value in job.items():
-        if result.get(key) != value:
-            raise ValueError(f"{path}: {key} is {result.get(key)!r}, expected {value!r}; {hint}")
-    methods = result.get("methods")
+        if result[key] != value:
+            raise ValueError(f"{path}: {key} is {result[key]!r}, expected {value!r}; {hint}")
+    methods = result["methods"]
     if not isinstance(methods, dict) or set(methods) != set(cfg.methods):
         shown = sorted(methods) if isinstance(methods, dict) else methods
         raise ValueError(
             f"{path}: methods {shown} are not the configuration's {sorted(cfg.methods)}; {hint}"
         )
-    targets = {str(t) for t in range(stream.first_target, len(stream.tasks))}
-    for method, values in methods.items():
-        curves = values.get("curves") if isinstance(values, dict) else None
-        if not isinstance(curves, dict) or set(curves) != targets or not all(
-            isinstance(c, list) and len(c) == cfg.lifelong.train_episodes
-            and all(isinstance(r, int | float) and math.isfinite(r) for r in c)
-            for c in curves.values()
-        ):
-            raise ValueError(
-                f"{path}: the curves of {method!r} are not {len(targets)} lists of "
-                f"{cfg.lifelong.train_episodes} finite rewards; {hint}"
-            )
+    low, high = cfg.reward_range
+    curve = ListOf(Real(low, high), cfg.lifelong.train_episodes, cfg.lifelong.train_episodes)
+    series = {name: ListOf(c, len(tasks), len(tasks)) for name, c in LIFELONG_SERIES.items()}
+    targets = [str(t) for t in range(stream.first_target, len(tasks))]
+    try:
+        for method, values in methods.items():
+            field = f"{path}: methods.{method}"
+            if not isinstance(values, dict):
+                raise ValueError(f"{field} must be an object")
+            check_keys(field, values, ("curves",) if method == "prq" else ("curves", *series))
+            if not isinstance(values["curves"], dict) or sorted(values["curves"]) != targets:
+                raise ValueError(f"{field}.curves must have the targets {targets} as keys")
+            check_fields(f"{field}.curves", values["curves"], dict.fromkeys(targets, curve),
+                         dict.get)
+            if method != "prq":
+                check_fields(field, values, series, dict.get)
+                _check_against_checkpoint(path.parent / method, values, stream, field)
+    except ValueError as exc:
+        raise ValueError(f"{exc}; {hint}") from exc
     return result
+
+
+def _check_against_checkpoint(
+    directory: Path, values: dict[str, Any], stream: Stream, field: str
+) -> None:
+    """A lifelong method's result equals what its last checkpoint records (if kept)."""
+    if not (directory / "LATEST").exists():
+        return  # the checkpoints may be deleted once a job is done
+    _, _, records = read_state(latest_checkpoint(directory))
+    if len(records) != len(stream.tasks):
+        raise ValueError(
+            f"{field}: the job is done, but {directory} holds a checkpoint of "
+            f"{len(records)} of its {len(stream.tasks)} trials"
+        )
+    mine = {
+        "curves": {str(t): list(r.rewards) for t, r in enumerate(records)
+                   if t >= stream.first_target},
+        "library_size": [r.library_size for r in records],
+        "options_offered": [r.options_offered for r in records],
+        "options_used": [len(r.options_used) for r in records],
+        "rollout_success_rate": [r.rollout_success_rate for r in records],
+    }
+    diffs = json_differences(values, mine, field.split(": ")[-1])
+    if diffs:
+        raise ValueError(
+            f"{field} disagrees with the checkpoint in {directory} ({diffs[0]} in the result, "
+            "in the checkpoint)"
+        )
 
 
 def run_experiment(
@@ -207,6 +284,15 @@ def run_experiment(
         return executor.map(run_stream, jobs, desc=f"protocol {cfg.protocol}")
 
 
+def read_config(path: Path) -> ExperimentConfig:
+    """A run folder's ``config.json`` (errors name the file)."""
+    values = read_json(path)
+    try:
+        return ExperimentConfig.from_dict(values)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from exc
+
+
 def _write_or_check_config(cfg: ExperimentConfig, out: Path) -> None:
     """Write ``config.json``, or refuse a folder whose ``config.json`` differs (naming the
     fields); the caller holds the folder's lock, so no other run is between the two."""
@@ -214,12 +300,7 @@ def _write_or_check_config(cfg: ExperimentConfig, out: Path) -> None:
     if not config_file.exists():
         atomic_write_bytes(config_file, cfg.to_json().encode())
         return
-    try:
-        saved = ExperimentConfig.from_dict(json.loads(config_file.read_text()))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{config_file}: not valid JSON ({exc})") from exc
-    except ValueError as exc:
-        raise ValueError(f"{config_file}: {exc}") from exc
+    saved = read_config(config_file)
     diffs = json_differences(saved.results_record(), cfg.results_record())
     if diffs:
         raise ValueError(

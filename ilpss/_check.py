@@ -1,0 +1,269 @@
+"""One vocabulary for the constraints on settings and saved fields.
+
+In the spirit of scikit-learn's ``_parameter_constraints``: a constraint is declared
+once, as an object that says whether a value satisfies it and describes what it allows,
+and every place that takes the value (a configuration, the class it configures, a loader
+of saved files) checks it with :func:`check`, whose message names the field and the
+allowed values::
+
+    >>> check("LearnerConfig.epsilon", 1.5, Real(0.0, 1.0))
+    Traceback (most recent call last):
+    ...
+    ValueError: LearnerConfig.epsilon must be a finite number in [0, 1], got 1.5
+
+Numbers are Python or NumPy numbers, never bools or strings (JSON may carry either by
+mistake); reals must be finite.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "AnyOf",
+    "Bool",
+    "Constraint",
+    "Integer",
+    "ListOf",
+    "Name",
+    "NoneOr",
+    "OneOf",
+    "Real",
+    "Text",
+    "check",
+    "check_fields",
+    "check_keys",
+    "is_int",
+    "is_real",
+]
+
+
+def is_real(value: object) -> bool:
+    """A real number (Python or NumPy), not a bool."""
+    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
+        value, bool | np.bool_
+    )
+
+
+def is_int(value: object) -> bool:
+    """An integer (Python or NumPy), not a bool."""
+    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
+
+
+class Constraint:
+    """What a value may be: :meth:`allows` and a :meth:`describe` for messages."""
+
+    def allows(self, value: object) -> bool:  # pragma: no cover - interface
+        """Whether ``value`` satisfies the constraint."""
+        raise NotImplementedError
+
+    def describe(self) -> str:  # pragma: no cover - interface
+        """What is allowed, as the end of "``field`` must be ...\"."""
+        raise NotImplementedError
+
+
+def _bound(x: float) -> str:
+    return f"{x:,}" if isinstance(x, int) else f"{x:g}"
+
+
+@dataclass(frozen=True)
+class Real(Constraint):
+    """A finite real number in ``[low, high]`` (ends open when asked)."""
+
+    low: float = -math.inf
+    high: float = math.inf
+    low_open: bool = False
+    high_open: bool = False
+
+    def allows(self, value: object) -> bool:
+        if not is_real(value) or not math.isfinite(value):  # type: ignore[arg-type]
+            return False
+        v = float(value)  # type: ignore[arg-type]
+        above = v > self.low if self.low_open else v >= self.low
+        below = v < self.high if self.high_open else v <= self.high
+        return above and below
+
+    def describe(self) -> str:
+        if math.isinf(self.low) and math.isinf(self.high):
+            return "a finite number"
+        if math.isinf(self.high):
+            return f"a finite number {'>' if self.low_open else '>='} {_bound(self.low)}"
+        if math.isinf(self.low):
+            return f"a finite number {'<' if self.high_open else '<='} {_bound(self.high)}"
+        return (f"a finite number in {'(' if self.low_open else '['}{_bound(self.low)}, "
+                f"{_bound(self.high)}{')' if self.high_open else ']'}")
+
+
+@dataclass(frozen=True)
+class Integer(Constraint):
+    """An integer in ``[low, high]``."""
+
+    low: int = 0
+    high: int | None = None
+
+    def allows(self, value: object) -> bool:
+        return is_int(value) and self.low <= value and (  # type: ignore[operator]
+            self.high is None or value <= self.high  # type: ignore[operator]
+        )
+
+    def describe(self) -> str:
+        if self.high is None:
+            return f"an integer >= {self.low:,}"
+        return f"an integer in [{self.low:,}, {self.high:,}]"
+
+
+@dataclass(frozen=True)
+class Bool(Constraint):
+    """``True`` or ``False`` (Python or NumPy)."""
+
+    def allows(self, value: object) -> bool:
+        return isinstance(value, bool | np.bool_)
+
+    def describe(self) -> str:
+        return "true or false"
+
+
+@dataclass(frozen=True)
+class OneOf(Constraint):
+    """One of the given values (compared with ``==``, bools never equal to numbers)."""
+
+    values: tuple[Any, ...]
+
+    def allows(self, value: object) -> bool:
+        return any(
+            value == v and isinstance(value, bool) == isinstance(v, bool)
+            for v in self.values
+        )
+
+    def describe(self) -> str:
+        shown = [repr(v) for v in self.values]
+        return "one of " + ", ".join(shown[:-1]) + f" or {shown[-1]}" if len(shown) > 1 \
+            else shown[0]
+
+
+@dataclass(frozen=True)
+class Text(Constraint):
+    """A string that is not blank."""
+
+    def allows(self, value: object) -> bool:
+        return isinstance(value, str) and bool(value.strip())
+
+    def describe(self) -> str:
+        return "a non-empty string"
+
+
+@dataclass(frozen=True)
+class Name(Constraint):
+    """A name: letters, digits, ``_``, ``-`` and ``.``, starting with a letter or ``_``."""
+
+    def allows(self, value: object) -> bool:
+        return (
+            isinstance(value, str)
+            and bool(value)
+            and all(part.replace("-", "_").isidentifier() for part in value.split("."))
+        )
+
+    def describe(self) -> str:
+        return "a name (letters, digits, '_', '-' or '.')"
+
+
+@dataclass(frozen=True)
+class NoneOr(Constraint):
+    """``None`` or a value allowed by ``inner``."""
+
+    inner: Constraint
+
+    def allows(self, value: object) -> bool:
+        return value is None or self.inner.allows(value)
+
+    def describe(self) -> str:
+        return f"None or {self.inner.describe()}"
+
+
+@dataclass(frozen=True)
+class AnyOf(Constraint):
+    """A value allowed by at least one of ``options``."""
+
+    options: tuple[Constraint, ...]
+
+    def allows(self, value: object) -> bool:
+        return any(c.allows(value) for c in self.options)
+
+    def describe(self) -> str:
+        return " or ".join(c.describe() for c in self.options)
+
+
+@dataclass(frozen=True)
+class ListOf(Constraint):
+    """A list or tuple of values allowed by ``item``, of a length in ``[min_len, max_len]``,
+    without repeats if ``unique``."""
+
+    item: Constraint
+    min_len: int = 0
+    max_len: int | None = None
+    unique: bool = False
+    kinds: tuple[type, ...] = (list, tuple)
+
+    def allows(self, value: object) -> bool:
+        if not isinstance(value, self.kinds):
+            return False
+        seq = list(value)  # type: ignore[call-overload]
+        if len(seq) < self.min_len or (self.max_len is not None and len(seq) > self.max_len):
+            return False
+        if self.unique and len(set(map(repr, seq))) != len(seq):
+            return False
+        return all(self.item.allows(v) for v in seq)
+
+    def describe(self) -> str:
+        kind = "tuple" if self.kinds == (tuple,) else "list"
+        unique = "distinct " if self.unique else ""
+        if self.max_len is not None and self.max_len == self.min_len:
+            size = f"of {self.min_len:,} {unique}values"
+        elif self.max_len is not None:
+            size = f"of {self.min_len:,} to {self.max_len:,} {unique}values"
+        elif self.min_len:
+            size = f"of at least {self.min_len:,} {unique}values"
+        else:
+            size = f"of {unique}values"
+        return f"a {kind} {size}, each {self.item.describe()}"
+
+
+def check(field: str, value: object, constraint: Constraint) -> None:
+    """Raise ``ValueError("<field> must be <what is allowed>, got <value>")`` unless
+    ``constraint`` allows ``value``."""
+    if not constraint.allows(value):
+        raise ValueError(f"{field} must be {constraint.describe()}, got {_shown(value)}")
+
+
+def check_fields(
+    owner: str,
+    values: Mapping[str, Any] | object,
+    constraints: Mapping[str, Constraint],
+    get: Callable[[Any, str], Any] = getattr,
+) -> None:
+    """:func:`check` every ``constraints`` entry on ``values`` (an object, or a mapping
+    with ``get=dict.get``), naming fields ``<owner>.<name>``."""
+    for name, constraint in constraints.items():
+        check(f"{owner}.{name}" if owner else name, get(values, name), constraint)
+
+
+def check_keys(where: str, record: Mapping[str, Any], allowed: Iterable[str],
+               required: Iterable[str] | None = None) -> None:
+    """Refuse unknown keys, and missing ones among ``required`` (default: all allowed)."""
+    allowed = set(allowed)
+    unknown = sorted(set(record) - allowed, key=str)
+    if unknown:
+        raise ValueError(f"{where}: unknown field(s) {unknown}; allowed: {sorted(allowed)}")
+    missing = sorted(set(allowed if required is None else required) - set(record))
+    if missing:
+        raise ValueError(f"{where}: missing field(s) {missing}")
+
+
+def _shown(value: object) -> str:
+    text = repr(value)
+    return text if len(text) <= 200 else text[:200] + "..."
