@@ -8,20 +8,22 @@ Everything ``ilpss`` saves (kernel models, policies, option libraries, checkpoin
   leaves either the old file or the new one, never half of one.
 * :func:`save_npz_atomic` stores ``arrays`` and a JSON ``meta`` record (which must name
   its ``"schema"``, e.g. ``"ilpss.kernels/1"``) together with a SHA-256 digest of both.
+* :func:`load_npz` reads such a file **without ever unpickling** (``allow_pickle=False``)
+  and refuses, with a :class:`ValueError` saying what is wrong, anything that is not
+  exactly what the caller expects: a truncated or corrupt archive, a member that is not
+  an uncompressed ``.npy`` array, a missing or malformed JSON record, another schema
+  version, missing or unexpected arrays, arrays of the wrong shape or dtype (all checked
+  from the headers, before any array is read, so that a small file cannot fill the
+  memory), or a digest mismatch (arrays or record modified after saving).
 * :func:`json_record_bytes` and :func:`load_json_record` do the same for a JSON file (a
   record naming its ``"schema"``, with the SHA-256 of its canonical form), and
   :func:`read_json` reads any JSON file with errors that name it.
 * :func:`locked_folder` holds an exclusive lock on a folder while a run writes into it, so
   that a second writer gets a clear error instead of mixing its files with the first's.
-* :func:`load_npz` reads such a file **without ever unpickling** (``allow_pickle=False``)
-  and refuses, with a :class:`ValueError` saying what is wrong, anything that is not
-  exactly what the caller expects: a truncated or corrupt archive, a missing or
-  malformed JSON record, another schema version, a digest mismatch (arrays or record
-  modified after saving), missing arrays, or arrays of the wrong shape or dtype.
 
 Shape templates
 ---------------
-``required`` maps an array name to ``(shape_template, dtype_kinds)``. A template is a
+``required`` (and ``optional``) map an array name to ``(shape_template, dtype_kinds)``. A template is a
 tuple with one entry per axis: an ``int`` (that exact length), a ``str`` (a symbol that
 must have the same length wherever it appears, e.g. ``("K", "d")`` and
 ``("K", "d", "d")``), or ``None`` (any length). ``dtype_kinds`` is a string of accepted
@@ -325,8 +327,17 @@ def load_npz(
     path: str | os.PathLike[str],
     schema: str,
     required: Mapping[str, tuple[ShapeTemplate, str]],
+    optional: Mapping[str, tuple[ShapeTemplate, str]] | None = None,
 ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """Load and check a file written by :func:`save_npz_atomic`.
+
+    Everything that can be checked without reading the arrays is checked first, from the
+    zip directory and each member's ``.npy`` header: that every member is an
+    uncompressed ``.npy`` array (what :func:`save_npz_atomic` writes, so that no member
+    can expand beyond the file's size), that the members are exactly the record, the
+    ``required`` arrays and some ``optional`` ones, that no array holds Python objects,
+    that each header's shape and dtype give exactly the member's size, and the shape
+    templates. Only then are the record and the arrays read and the digest compared.
 
     Parameters
     ----------
@@ -336,7 +347,9 @@ def load_npz(
         The exact schema the caller understands (``meta["schema"]`` must equal it).
     required : mapping of str to (shape_template, dtype_kinds)
         Arrays that must be present, with their shape template and accepted dtype kinds
-        (see the module docstring). Other arrays in the file are returned unchecked.
+        (see the module docstring).
+    optional : mapping of str to (shape_template, dtype_kinds), optional
+        Arrays that may be present, checked the same way. No other array is allowed.
 
     Returns
     -------
@@ -350,32 +363,67 @@ def load_npz(
     FileNotFoundError
         If ``path`` does not exist.
     ValueError
-        If the file is not a complete, unmodified archive of this schema with the
-        required arrays; the message names the file and the problem.
+        If the file is not a complete, unmodified archive of this schema with exactly
+        these arrays; the message names the file and the problem.
     """
     where = os.fspath(path)
-    try:
-        loaded = np.load(path, allow_pickle=False)
-    except (FileNotFoundError, IsADirectoryError, PermissionError):
-        raise
-    except _READ_ERRORS as exc:
-        raise _unreadable(where, exc) from exc
-    if not isinstance(loaded, np.lib.npyio.NpzFile):
-        raise ValueError(f"{where}: not an .npz archive (a single .npy array?)")
-    try:
-        with loaded as archive:
-            # Read every member now: the zip CRC check of a damaged member only fires on read.
-            arrays = {name: archive[name] for name in archive.files}
-    except _READ_ERRORS as exc:
-        raise _unreadable(where, exc) from exc
+    optional = optional or {}
+    with open(path, "rb") as fh:  # FileNotFoundError, IsADirectoryError, PermissionError
+        if fh.read(6) == b"\x93NUMPY":
+            raise ValueError(f"{where}: not an .npz archive (a single .npy array?)")
+        try:
+            archive = zipfile.ZipFile(fh)
+        except (zipfile.BadZipFile, OSError, EOFError, ValueError) as exc:
+            raise _unreadable(where, exc) from exc
+        with archive:
+            try:
+                headers = _member_headers(archive, where)
+            except _READ_ERRORS as exc:
+                raise _unreadable(where, exc) from exc
+            if META_KEY not in headers:
+                raise ValueError(f"{where}: missing or malformed {META_KEY!r} record")
+            shape, dtype = headers[META_KEY]
+            if dtype.kind != "U" or shape != () or dtype.itemsize > 4 * MAX_JSON_BYTES:
+                raise ValueError(f"{where}: missing or malformed {META_KEY!r} record")
+            meta, digest = _read_record(archive, where, schema)
+            names = set(headers) - {META_KEY}
+            missing = sorted(set(required) - names)
+            if missing:
+                raise ValueError(f"{where}: missing array {missing[0]!r}")
+            unexpected = sorted(names - set(required) - set(optional))
+            if unexpected:
+                raise ValueError(
+                    f"{where}: unexpected array(s) {unexpected}; this schema holds "
+                    f"{sorted({*required, *optional})}"
+                )
+            templates = {**required, **{k: v for k, v in optional.items() if k in names}}
+            _check_required(headers, templates, where)
+            try:
+                arrays = {}
+                for name in sorted(names):
+                    with archive.open(name + ".npy") as fp:
+                        arrays[name] = np.lib.format.read_array(fp, allow_pickle=False)
+            except _READ_ERRORS as exc:  # e.g. a zip CRC mismatch, found while reading
+                raise _unreadable(where, exc) from exc
 
-    record_array = arrays.pop(META_KEY, None)
-    if record_array is None or record_array.dtype.kind != "U" or record_array.ndim != 0:
-        raise ValueError(f"{where}: missing or malformed {META_KEY!r} record")
+    if _digest(arrays, meta) != digest:
+        raise ValueError(
+            f"{where}: content checksum mismatch; the arrays or the record were modified "
+            "after saving"
+        )
+    return arrays, meta
+
+
+def _read_record(
+    archive: zipfile.ZipFile, where: str, schema: str
+) -> tuple[dict[str, Any], str]:
+    """The ``meta`` record and the digest of an archive, checked for layout and schema."""
     try:
-        record = json.loads(str(record_array))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{where}: the {META_KEY!r} record is not valid JSON: {exc}") from exc
+        with archive.open(META_KEY + ".npy") as fp:
+            text = str(np.lib.format.read_array(fp, allow_pickle=False))
+    except _READ_ERRORS as exc:
+        raise _unreadable(where, exc) from exc
+    record = _parse_json(text, f"{where}: the {META_KEY!r} record")
     if (
         not isinstance(record, dict)
         or record.get("container") != CONTAINER
@@ -386,19 +434,60 @@ def load_npz(
     meta: dict[str, Any] = record["meta"]
     if meta.get("schema") != schema:
         raise ValueError(f"{where}: wrong schema {meta.get('schema')!r}, expected {schema!r}")
-    if _digest(arrays, meta) != record["sha256"]:
-        raise ValueError(
-            f"{where}: content checksum mismatch; the arrays or the record were modified "
-            "after saving"
-        )
-    _check_required(arrays, required, where)
-    return arrays, meta
+    return meta, record["sha256"]
 
 
 _READ_ERRORS = (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile)
+#: Largest ``.npy`` header read (numpy's own default bound).
+_MAX_HEADER = 10_000
+
+
+def _member_headers(
+    archive: zipfile.ZipFile, where: str
+) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+    """``{array name: (shape, dtype)}`` from the zip directory and the ``.npy`` headers,
+    reading no array data; refuses what :func:`save_npz_atomic` never writes."""
+    out: dict[str, tuple[tuple[int, ...], np.dtype]] = {}
+    for info in archive.infolist():
+        member = info.filename
+        if not member.endswith(".npy") or "/" in member or info.is_dir():
+            raise ValueError(
+                f"{where}: member {member!r} is not an .npy array; ilpss archives hold "
+                "only .npy arrays"
+            )
+        name = member[: -len(".npy")]
+        if name in out:
+            raise ValueError(f"{where}: member {member!r} appears twice")
+        if info.compress_type != zipfile.ZIP_STORED:
+            raise ValueError(
+                f"{where}: member {member!r} is compressed; ilpss archives store their "
+                "arrays uncompressed (np.savez), so that nothing expands beyond the file"
+            )
+        with archive.open(info) as fp:
+            version = np.lib.format.read_magic(fp)
+            if version == (1, 0):
+                shape, _, dtype = np.lib.format.read_array_header_1_0(fp, _MAX_HEADER)
+            else:
+                shape, _, dtype = np.lib.format.read_array_header_2_0(fp, _MAX_HEADER)
+            header = fp.tell()
+        if dtype.hasobject:
+            raise ValueError(
+                f"not a readable .npz archive: member {member!r} holds pickled Python "
+                "objects (dtype object), which are never loaded"
+            )
+        size = int(np.prod(shape, dtype=object)) * dtype.itemsize
+        if header + size != info.file_size:
+            raise ValueError(
+                f"{where}: member {member!r} declares shape {shape} of {dtype} "
+                f"({size:,} bytes) but holds {info.file_size - header:,} bytes of data"
+            )
+        out[name] = (tuple(int(n) for n in shape), dtype)
+    return out
 
 
 def _unreadable(where: str, exc: BaseException) -> ValueError:
+    if str(exc).startswith("not a readable .npz archive"):
+        return ValueError(f"{where}: {exc}")
     return ValueError(
         f"{where}: not a readable .npz archive (truncated, corrupt, or containing pickled "
         f"objects): {type(exc).__name__}: {exc}"
@@ -406,27 +495,26 @@ def _unreadable(where: str, exc: BaseException) -> ValueError:
 
 
 def _check_required(
-    arrays: Mapping[str, np.ndarray],
+    headers: Mapping[str, tuple[tuple[int, ...], np.dtype]],
     required: Mapping[str, tuple[ShapeTemplate, str]],
     where: str,
 ) -> None:
-    """Check presence, dtype kind and shape (with consistent symbols) of ``required``."""
+    """Check dtype kind and shape (with consistent symbols) of ``required`` arrays from
+    their ``(shape, dtype)`` headers."""
     bound: dict[str, tuple[int, str]] = {}
     for name, (template, kinds) in required.items():
-        if name not in arrays:
-            raise ValueError(f"{where}: missing array {name!r}")
-        a = arrays[name]
-        if a.dtype.kind not in kinds:
+        shape, dtype = headers[name]
+        if dtype.kind not in kinds:
             raise ValueError(
-                f"{where}: array {name!r} has dtype {a.dtype} (kind {a.dtype.kind!r}), "
+                f"{where}: array {name!r} has dtype {dtype} (kind {dtype.kind!r}), "
                 f"expected kind {kinds!r}"
             )
         shown = "(" + ", ".join("*" if t is None else str(t) for t in template) + ")"
-        if a.ndim != len(template):
-            raise ValueError(f"{where}: array {name!r} has shape {a.shape}, expected {shown}")
-        for axis, (size, want) in enumerate(zip(a.shape, template, strict=True)):
+        if len(shape) != len(template):
+            raise ValueError(f"{where}: array {name!r} has shape {shape}, expected {shown}")
+        for axis, (size, want) in enumerate(zip(shape, template, strict=True)):
             if isinstance(want, int) and size != want:
-                raise ValueError(f"{where}: array {name!r} has shape {a.shape}, expected {shown}")
+                raise ValueError(f"{where}: array {name!r} has shape {shape}, expected {shown}")
             if isinstance(want, str):
                 if want in bound and bound[want][0] != size:
                     other_size, other = bound[want]

@@ -30,6 +30,7 @@ Only correct handling of the durations separates fast from slow when ``cost = 0`
 
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Callable
 
@@ -306,6 +307,15 @@ class ScriptedChain(gym.Env):
 
 
 # --------------------------------------------------------------------------- helpers
+def read_archive(path: str | os.PathLike[str]) -> tuple[dict[str, np.ndarray], dict]:
+    """Every array and the ``meta`` record of an ilpss archive, unchecked (to tamper with
+    it in tests and save it back with a valid digest)."""
+    with np.load(path, allow_pickle=False) as f:
+        arrays = {k: f[k] for k in f.files}
+    return arrays, json.loads(str(arrays.pop("__meta__")))["meta"]
+
+
+
 Z999 = 3.29  # two-sided 99.9 % normal quantile
 
 

@@ -8,6 +8,7 @@ import os
 import shutil
 import stat
 import sys
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -67,9 +68,11 @@ def test_round_trip_keeps_arrays_meta_and_extras(tmp_path: Path) -> None:
     path = tmp_path / "a.npz"
     meta = {"schema": SCHEMA, "nested": {"x": [1, 2.5, None, "s"]}, "flag": True}
     save_npz_atomic(path, {**_arrays(), "extra": np.array(["a", "bc"])}, meta)
-    arrays, loaded_meta = load_npz(path, SCHEMA, REQUIRED)
+    arrays, loaded_meta = load_npz(path, SCHEMA, REQUIRED, optional={"extra": ((None,), "U")})
     assert loaded_meta == meta
     assert set(arrays) == {"w", "c", "t", "extra"}
+    with pytest.raises(ValueError, match=r"unexpected array\(s\) \['extra'\]; this schema holds"):
+        load_npz(path, SCHEMA, REQUIRED)
     for name, value in _arrays().items():
         np.testing.assert_array_equal(arrays[name], value)
         assert arrays[name].dtype == value.dtype
@@ -124,11 +127,11 @@ def test_load_refuses_bad_files(tmp_path: Path) -> None:
     # Pickles and object arrays are never loaded.
     with bad.open("wb") as fh:  # a file handle: np.save would append ".npy" to a path
         np.save(fh, np.array([{"a": 1}], dtype=object), allow_pickle=True)
-    refused("not a readable .npz archive .*allow_pickle=False")
+    refused(r"not an .npz archive \(a single .npy array\?\)")
     bad.write_bytes(b"\x80\x04\x95garbage")
     refused("not a readable .npz")
     _write(bad, {**_arrays(), "o": np.array([None], dtype=object)}, None)
-    refused("not a readable .npz")
+    refused("not a readable .npz archive: member 'o.npy' holds pickled Python objects")
     # A single .npy array is not an archive.
     with bad.open("wb") as fh:
         np.save(fh, np.zeros(3))
@@ -391,10 +394,10 @@ def _record(**changes):
 
 
 def _rewrite_bags(checkpoint: Path, edit) -> None:
-    from ilpss.lifelong import CHECKPOINT_SCHEMA
+    from synthetic_smdp import read_archive
 
     path = checkpoint / "trial_0001" / "bags.npz"
-    arrays, meta = load_npz(path, CHECKPOINT_SCHEMA + "/bags", {})
+    arrays, meta = read_archive(path)
     edit(arrays, meta)
     save_npz_atomic(path, arrays, meta)  # a valid digest: only the content checks can refuse
 
@@ -694,3 +697,85 @@ def test_damaged_results_are_refused_by_name(experiment, tmp_path, name, tamper,
     with pytest.raises(ValueError, match=match) as err:
         run_experiment(_tiny_experiment(), out, progress=False)
     assert str(path) in str(err.value)
+
+
+# ------------------------------------------------------------------- bounded loads
+def _npy(array: np.ndarray, shape: tuple | None = None) -> bytes:
+    """The .npy bytes of ``array``, with the header claiming ``shape`` if given."""
+    buffer = io.BytesIO()
+    np.lib.format.write_array(buffer, array)
+    data = buffer.getvalue()
+    if shape is None:
+        return data
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(header, {"descr": array.dtype.str, "fortran_order": False,
+                                                  "shape": shape})
+    return header.getvalue() + data[len(header.getvalue()):]
+
+
+def _zip(path: Path, members: dict[str, bytes], compression: int) -> None:
+    good = path.with_name("good.npz")
+    save_npz_atomic(good, {"w": np.zeros((2, 2)), "c": np.zeros(2, int), "t": np.zeros(0)},
+                    {"schema": SCHEMA})
+    with zipfile.ZipFile(good) as src, zipfile.ZipFile(path, "w") as dst:
+        dst.writestr("__meta__.npy", src.read("__meta__.npy"))
+        for name, data in members.items():
+            dst.writestr(name, data, compress_type=compression)
+
+
+@pytest.fixture
+def no_array_read(monkeypatch):
+    """Fail the test if load_npz reads any array's data but the small record's."""
+    real = np.lib.format.read_array
+
+    def read_array(fp, *args, **kwargs):
+        if not getattr(fp, "name", "").startswith("__meta__"):
+            raise AssertionError(f"array data read: {fp.name}")
+        return real(fp, *args, **kwargs)
+
+    monkeypatch.setattr(np.lib.format, "read_array", read_array)
+
+
+@pytest.mark.parametrize(
+    ("members", "compression", "match"),
+    [
+        # 64 MiB of zeros in a 65 KiB file: refused before anything is decompressed.
+        (lambda: {"w.npy": _npy(np.zeros((4096, 2048)))}, zipfile.ZIP_DEFLATED,
+         "member 'w.npy' is compressed; ilpss archives store their arrays uncompressed"),
+        # A header claiming more than the member holds.
+        (lambda: {"w.npy": _npy(np.zeros((3, 2)), shape=(3 * 10**9, 2))}, zipfile.ZIP_STORED,
+         r"member 'w.npy' declares shape \(3000000000, 2\) of float64 \(48,000,000,000 bytes\) "
+         r"but holds 48 bytes"),
+        (lambda: {"w.npy": _npy(np.zeros((3, 2))), "notes.txt": b"hello"}, zipfile.ZIP_STORED,
+         "member 'notes.txt' is not an .npy array; ilpss archives hold only .npy arrays"),
+        (lambda: {"w.npy": _npy(np.zeros((3, 2))), "c.npy": _npy(np.zeros(3, int)),
+          "t.npy": _npy(np.zeros((3, 3)))}, zipfile.ZIP_STORED,
+         r"array 't' has shape \(3, 3\), expected \(\*\)"),
+        (lambda: {"w.npy": _npy(np.zeros((3, 2))), "c.npy": _npy(np.zeros(4, int)),
+          "t.npy": _npy(np.zeros(0))}, zipfile.ZIP_STORED,
+         "'c' axis 0 has length 4, but K = 3"),
+        (lambda: {"w.npy": _npy(np.zeros((3, 2))), "c.npy": _npy(np.zeros(3, int)),
+          "t.npy": _npy(np.zeros(0)), "x.npy": _npy(np.zeros(10**6))}, zipfile.ZIP_STORED,
+         r"unexpected array\(s\) \['x'\]"),
+    ],
+)
+def test_archives_are_checked_before_their_arrays_are_read(
+    tmp_path, no_array_read, members, compression, match
+) -> None:
+    path = tmp_path / "hostile.npz"
+    _zip(path, members(), compression)
+    with pytest.raises(ValueError, match=match) as err:
+        load_npz(path, SCHEMA, REQUIRED)
+    assert str(path) in str(err.value)
+    if compression == zipfile.ZIP_DEFLATED:
+        assert path.stat().st_size < 2**17
+
+
+def test_a_valid_archive_reads_each_array_once(tmp_path, monkeypatch) -> None:
+    path = tmp_path / "a.npz"
+    save_npz_atomic(path, _arrays(), {"schema": SCHEMA})
+    real, read = np.lib.format.read_array, []
+    monkeypatch.setattr(np.lib.format, "read_array",
+                        lambda fp, *a, **k: read.append(fp.name) or real(fp, *a, **k))
+    load_npz(path, SCHEMA, REQUIRED)
+    assert sorted(read) == ["__meta__.npy", "c.npy", "t.npy", "w.npy"]

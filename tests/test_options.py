@@ -393,11 +393,12 @@ def test_load_rejects_tampered_or_mixed_files(tmp_path: Path) -> None:
     with pytest.raises(ValueError):
         OptionLibrary.load(tmp_path / "d", kernel_loader=IntervalKernels.load)
     # A consistent-looking record with impossible contents (scales > 1).
-    from ilpss._io import load_npz, save_npz_atomic
-    from ilpss.options import LIBRARY_SCHEMA
+    from synthetic_smdp import read_archive
+
+    from ilpss._io import save_npz_atomic
 
     lib.save(tmp_path / "e")
-    arrays, meta = load_npz(tmp_path / "e" / "library.npz", LIBRARY_SCHEMA, {})
+    arrays, meta = read_archive(tmp_path / "e" / "library.npz")
     arrays["scales"] = arrays["scales"] * 10
     save_npz_atomic(tmp_path / "e" / "library.npz", arrays, meta)
     with pytest.raises(ValueError, match="scales"):
