@@ -83,7 +83,8 @@ def sq_mahalanobis(
     prec_chol: Array,
     stacked: tuple[Array, Array, Array] | None = None,
 ) -> Array:
-    """Squared Mahalanobis distance of every row of ``Z`` to every component (n, K).
+    """Squared Mahalanobis distance of every row of ``Z`` to every component (n, K), in
+    ``[0, inf]`` (``inf`` where it overflows float64).
 
     ``stacked`` is :func:`stack_components` of ``means`` and ``prec_chol`` if the caller
     has it already (a fitted model keeps it: it matters when scoring single states).
@@ -95,7 +96,9 @@ def sq_mahalanobis(
         y -= b
         np.square(y, out=y)
         np.matmul(y, block_sum, out=out[start : start + CHUNK])
-    return out
+    # A NaN here only comes from an overflow (inf * 0 in the block sum, inf - inf): the
+    # distance is beyond float64, so it is +inf. fmin(x, inf) is x for every other value.
+    return np.fmin(out, np.inf, out=out)
 
 
 def _log_det_half(prec_chol: Array) -> Array:

@@ -337,8 +337,11 @@ class SharedKernelModel:
         pooled = np.concatenate(arrays, axis=0)
         ends = np.cumsum(n_states)
         slices = [slice(int(e - n), int(e)) for e, n in zip(ends, n_states, strict=True)]
-        feature_mean, feature_scale = _fit_scaler(pooled)
-        Z = (pooled - feature_mean) / feature_scale
+        # Overflows here (features near float64's limits) are refused just below.
+        with np.errstate(over="ignore", invalid="ignore"):
+            feature_mean, feature_scale = _fit_scaler(pooled)
+            Z = (pooled - feature_mean) / feature_scale
+        _check_standardised(Z, feature_scale)
 
         if init_params is not None:
             starts = [self._start_from_params(Z, slices, init_params, feature_mean, feature_scale)]
@@ -367,6 +370,15 @@ class SharedKernelModel:
         offset = self._log_jacobian()
         self.log_likelihood_trace_ = [float(v + offset) for v in best.trace]
         self.lower_bound_ = self.log_likelihood_trace_[-1]
+        fitted = (self.weights_, self.means_, self.covariances_, self.std_precisions_cholesky_,
+                  np.asarray(self.log_likelihood_trace_))
+        if not all(np.isfinite(a).all() for a in fitted):
+            del self.std_precisions_cholesky_  # not fitted: a failed fit leaves no model
+            raise ValueError(
+                "the fit gave non-finite parameters: the states' scales are beyond float64 "
+                "arithmetic for this model (e.g. covariances in original units overflow); "
+                "rescale the features"
+            )
         self.n_iter_ = best.n_iter
         self.converged_ = best.converged
         if not best.converged and self.max_iter > 0:
@@ -579,7 +591,7 @@ class SharedKernelModel:
         -------
         ndarray (n, K), or (K,) for a single state.
         """
-        d2 = self.sq_mahalanobis(X)
+        d2 = self.sq_mahalanobis(X)  # +inf where it overflows: membership 0
         return chdtrc(float(self.n_features_in_), d2)
 
     def responsibilities(self, X: ArrayLike, instance: int | None = None) -> Array:
@@ -818,6 +830,25 @@ def _safe_log(a: Array) -> Array:
     """``log`` that maps an exact zero weight to ``-inf`` without a warning."""
     with np.errstate(divide="ignore"):
         return np.log(a)
+
+
+def _check_standardised(Z: Array, scale: Array) -> None:
+    """Refuse states whose standardisation lost them to float64 limits.
+
+    Standardised by the population standard deviation, no value can exceed ``sqrt(n)``
+    in magnitude, and a constant feature is only centred (its values are then ~0). Values
+    beyond that come from an overflow (features near 1e300) or from a constant feature so
+    large (an offset of 1e200) that centring it leaves rounding errors of ~1e184.
+    """
+    bound = math.sqrt(Z.shape[0]) + 1.0
+    extent = np.max(np.abs(Z), axis=0, initial=0.0)
+    bad = ~(np.isfinite(scale) & np.isfinite(extent) & (extent <= bound))
+    if bad.any():
+        raise ValueError(
+            f"feature(s) {np.flatnonzero(bad).tolist()} of the bags cannot be standardised "
+            "in float64 (a spread beyond about 1e150, or an offset so large that the values "
+            "no longer differ); rescale or recentre the features"
+        )
 
 
 def _fit_scaler(X: Array) -> tuple[Array, Array]:

@@ -557,3 +557,58 @@ def test_degenerate_data_without_regularisation_is_refused() -> None:
     bags = [np.tile(np.arange(float(D)), (10, 1))]
     with pytest.raises(ValueError, match="not positive definite: the data are degenerate"):
         SharedKernelModel(1, reg_covar=0.0).fit(bags)
+
+
+# ------------------------------------------------------------ extreme scales
+@pytest.mark.parametrize("scale", [1e-300, 1e-150, 1e-8, 1e8, 1e150, 1e155, 1e300])
+@pytest.mark.parametrize("offset", [0.0, 1e8, -1e100, 1e200])
+def test_a_fit_at_any_scale_gives_finite_parameters_or_raises(scale, offset) -> None:
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(120, 3)) * scale + offset
+    model = SharedKernelModel(2, random_state=0)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)  # no silent overflow either
+            warnings.simplefilter("ignore", KernelConvergenceWarning)
+            model.fit([X])
+    except ValueError as exc:
+        assert "rescale" in str(exc)
+        with pytest.raises(NotFittedError):  # a failed fit leaves no usable model
+            model.membership(X[0])
+        return
+    for a in (model.weights_, model.means_, model.covariances_, model.std_means_):
+        assert np.isfinite(a).all()
+    assert np.isfinite(model.score([X]))
+    m = model.membership(X)
+    assert np.isfinite(m).all() and (m >= 0).all() and (m <= 1).all()
+
+
+def test_the_documented_failures_are_refused() -> None:
+    X = np.random.default_rng(0).normal(size=(200, 3))
+    for bad in (X * 1e300, X + 1e200):
+        with pytest.raises(ValueError, match=r"feature\(s\) \[0, 1, 2\] of the bags cannot be "
+                           r"standardised in float64"):
+            SharedKernelModel(2, random_state=0).fit([bad])
+    # The normal case is untouched.
+    assert np.isfinite(SharedKernelModel(2, random_state=0).fit([X]).means_).all()
+
+
+@pytest.mark.parametrize("feature_scales", [(1.0, 1.0, 1.0), (1e-3, 1.0, 1e6), (1e-8, 1e8, 1.0)])
+def test_membership_lies_in_0_1_for_every_finite_state(feature_scales) -> None:
+    rng = np.random.default_rng(1)
+    X = rng.normal(size=(300, 3)) * np.asarray(feature_scales)
+    model = SharedKernelModel(3, random_state=0).fit([X])
+    magnitudes = [0.0, *(10.0**k for k in range(0, 309, 7)), np.finfo(float).max]
+    states = np.array([sign * m * np.array(pattern) for m in magnitudes
+                       for sign in (1.0, -1.0)
+                       for pattern in ((1, 1, 1), (1, 0, 0), (0, -1, 1), (1, -1, 0.5))])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # overflow on the way to +inf
+        batch = model.membership(states)
+        single = np.array([model.membership(s) for s in states])
+        d2 = model.sq_mahalanobis(states)
+    for m in (batch, single):
+        assert not np.isnan(m).any()
+        assert (m >= 0).all() and (m <= 1).all()
+    assert (d2 >= 0).all() and not np.isnan(d2).any()
+    assert (batch[-8:] == 0).all()  # the largest floats are outside every kernel
