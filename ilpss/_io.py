@@ -38,6 +38,7 @@ import hashlib
 import io
 import json
 import os
+import re
 import secrets
 import zipfile
 from collections.abc import Iterator, Mapping
@@ -55,6 +56,7 @@ __all__ = [
     "load_npz",
     "locked_folder",
     "read_json",
+    "remove_stale_temporaries",
     "save_npz_atomic",
 ]
 
@@ -103,6 +105,27 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
             pass
         raise
     _fsync_directory(directory)
+
+
+_TEMPORARY = re.compile(r"\..+\.\d+\.[0-9a-f]{12}\.tmp")
+
+
+def remove_stale_temporaries(directory: str | os.PathLike[str]) -> list[str]:
+    """Remove the temporaries that :func:`atomic_write_bytes` left in ``directory`` when
+    its process died before the rename (``SIGKILL``, power loss); return their names.
+
+    Only call it while no other process writes into ``directory`` (hold its lock, see
+    :func:`locked_folder`): another writer's temporary looks the same.
+    """
+    removed = []
+    for path in Path(directory).iterdir():
+        if _TEMPORARY.fullmatch(path.name) and path.is_file():
+            try:
+                path.unlink()
+            except FileNotFoundError:
+                continue
+            removed.append(path.name)
+    return sorted(removed)
 
 
 def _fsync_directory(directory: Path) -> None:

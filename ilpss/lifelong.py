@@ -48,6 +48,7 @@ from ilpss._io import (
     load_json_record,
     load_npz,
     locked_folder,
+    remove_stale_temporaries,
     save_npz_atomic,
 )
 from ilpss.kernels import SharedKernelModel, UniformKernel
@@ -521,6 +522,7 @@ class LifelongLearner:
             building = root / f".building_{self.n_trials:04d}"
             for stale in root.glob(".building_*"):  # left by a crash: no one else is here
                 shutil.rmtree(stale, ignore_errors=True)
+            remove_stale_temporaries(root)
             building.mkdir()
             for i, policy in enumerate(self.policies):
                 policy.save(building / f"policy_{i}.npz")

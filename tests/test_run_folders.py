@@ -282,3 +282,64 @@ def test_a_resume_refuses_rewards_the_environment_cannot_pay(tmp_path):
     with pytest.raises(ValueError, match=r"records\[0\].rewards lie outside the environment's "
                        r"range \[-1, 1\]"):
         run_experiment(_tiny(), tmp_path, progress=False)
+
+
+# ----------------------------------------------------------------------- smaller things
+def test_output_folders_that_cannot_be_one_are_refused_clearly(tmp_path, capsys):
+    from ilpss.experiments.cli import main as experiment_main
+    from ilpss.experiments.run import run_experiment
+
+    a_file = tmp_path / "a_file"
+    a_file.write_text("x")
+    for out, message in (("", "the output folder must be a path, got ''"),
+                         (a_file, "a_file: exists and is not a folder"),
+                         (a_file / "sub", r"a_file/sub: cannot create the output folder "
+                                          r"\(Not a directory\)")):
+        with pytest.raises(ValueError, match=message):
+            run_experiment(_tiny(), out, progress=False)
+        with pytest.raises(SystemExit) as exit_info:
+            experiment_main(["--seeds", "1", "--methods", "scratch", "--quiet",
+                             "--out", str(out)])
+        assert exit_info.value.code == 1
+        assert "error: " in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="SIGKILL")
+def test_a_kill_just_before_result_json_is_renamed_leaves_no_temporary_after_the_resume(
+    tmp_path,
+):
+    import os
+    import subprocess
+
+    script = """
+import os, signal, sys
+from pathlib import Path
+from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.run import run_experiment
+
+real = os.replace
+def replace(src, dst):
+    if Path(src).name.startswith(".result.json."):
+        os.kill(os.getpid(), signal.SIGKILL)
+    return real(src, dst)
+os.replace = replace
+cfg = ExperimentConfig(n_seeds=1, workers=1, methods=("scratch",)).with_overrides(
+    lifelong={"train_episodes": 3, "rollout_episodes": 1})
+run_experiment(cfg, sys.argv[1], progress=False)
+"""
+    from ilpss.experiments.run import run_experiment
+
+    killed = tmp_path / "killed"
+    proc = subprocess.run([sys.executable, "-c", script, str(killed)], env={**os.environ, **ENV},
+                          timeout=300)
+    assert proc.returncode == -9
+    job = killed / "seed_000" / "stream_00"
+    (temporary,) = [p.name for p in job.iterdir() if p.name.endswith(".tmp")]
+    assert temporary.startswith(".result.json.") and not (job / "result.json").exists()
+    resumed = run_experiment(_tiny(), killed, progress=False)
+    assert sorted(p.name for p in job.iterdir()) == ["result.json", "scratch"]
+    straight = run_experiment(_tiny(), tmp_path / "straight", progress=False)
+    assert resumed == straight
+    assert (job / "result.json").read_bytes() == (
+        tmp_path / "straight" / "seed_000" / "stream_00" / "result.json").read_bytes()

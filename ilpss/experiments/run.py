@@ -26,6 +26,7 @@ from ilpss._io import (
     load_json_record,
     locked_folder,
     read_json,
+    remove_stale_temporaries,
 )
 from ilpss.experiments.config import ExperimentConfig, Stream, Task
 from ilpss.experiments.executor import make_executor
@@ -131,6 +132,7 @@ def run_stream(job: tuple[ExperimentConfig, int, int, str]) -> dict[str, Any]:
     if done.exists():
         return load_result(done, cfg, seed, stream_index, stream)
     directory.mkdir(parents=True, exist_ok=True)
+    remove_stale_temporaries(directory)  # the run holds the folder's lock: they are stale
     methods: dict[str, Any] = {}
     learners = {}
     for method in cfg.methods:
@@ -261,7 +263,17 @@ def _check_against_checkpoint(
 def run_experiment(
     cfg: ExperimentConfig, out_dir: str | os.PathLike[str], progress: bool = True
 ) -> list[dict[str, Any]]:
-    """Run (or resume) every job of ``cfg`` into ``out_dir``; return the job results."""
+    """Run (or resume) every job of ``cfg`` into ``out_dir``; return the job results.
+
+    Raises
+    ------
+    FolderInUseError
+        If another run is writing into ``out_dir``.
+    ValueError
+        If ``out_dir`` is not a folder that can be written, holds a run of another
+        configuration, or a file of it is damaged; a task's environment cannot be made.
+    """
+    out = check_out_dir(out_dir)
     # Build every distinct task's environment once, so that a mistyped team fails now
     # rather than after hours of earlier trials.
     tasks = {repr(t): t for seed in cfg.seeds for s in cfg.streams(seed) for t in s.tasks}
@@ -269,11 +281,10 @@ def run_experiment(
         env = make_env(cfg.env_id, task)
         cfg.lifelong.learner.tile_coder(env.observation_space)  # widths that fit, at most
         env.close()  # MAX_WEIGHTS tiles: refused before config.json is written
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     # One run at a time writes into a folder: a second one gets a clear error rather than
     # mixing its configuration, checkpoints and results with the first one's.
     with locked_folder(out, "run folder"):
+        remove_stale_temporaries(out)
         _write_or_check_config(cfg, out)
         jobs = [
             (cfg, seed, index, os.fspath(out))
@@ -282,6 +293,22 @@ def run_experiment(
         ]
         executor = make_executor(cfg.executor, cfg.workers, progress)
         return executor.map(run_stream, jobs, desc=f"protocol {cfg.protocol}")
+
+
+def check_out_dir(out_dir: str | os.PathLike[str]) -> Path:
+    """The output folder, created if needed; a clear error if it cannot be one."""
+    if not os.fspath(out_dir).strip():
+        raise ValueError(f"the output folder must be a path, got {os.fspath(out_dir)!r}")
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"{out}: exists and is not a folder; choose another output folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"{out}: cannot create the output folder ({exc.strerror})") from exc
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise ValueError(f"{out}: the output folder is not writable")
+    return out
 
 
 def read_config(path: Path) -> ExperimentConfig:
