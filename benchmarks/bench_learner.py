@@ -45,6 +45,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from ilpss.kernels import SharedKernelModel
+from ilpss.lifelong import LearnerConfig
 from ilpss.options import OptionLibrary
 from ilpss.policy import FrozenPolicy
 from ilpss.smdp import SmdpLearner
@@ -130,7 +131,7 @@ def keepaway_coder(space: gym.spaces.Box) -> TileCoder:
     for i in ANGLE_FEATURES:
         if i < widths.shape[0]:
             widths[i] = KEEPAWAY_ANGLE_WIDTH
-    return TileCoder.from_space(space, widths, n_tilings=32)
+    return LearnerConfig(tile_widths=tuple(widths), n_tilings=32).tile_coder(space)
 
 
 def collect_states(env: gym.Env, n: int, rng: np.random.Generator) -> np.ndarray:

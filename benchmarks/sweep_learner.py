@@ -23,11 +23,13 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from ilpss.experiments.config import DRILL_ENV_ID, DRILL_TILE_WIDTHS, PAPER_TEAMS
+from ilpss.experiments.drill import ENV_ID as DRILL_ENV_ID
+from ilpss.experiments.drill import PAPER_TEAMS
+from ilpss.experiments.drill import TILE_WIDTHS as DRILL_TILE_WIDTHS
 from ilpss.experiments.executor import LocalExecutor
 from ilpss.experiments.holder_learning import _evaluate
+from ilpss.lifelong import LearnerConfig
 from ilpss.smdp import SmdpLearner
-from ilpss.tiles import TileCoder
 
 BLOCK = 100
 
@@ -36,7 +38,7 @@ def job(args: tuple[str, int, int, int, dict[str, Any]]) -> tuple[str, int, list
     """Learn on one team with one seed; greedy reward of the final and the best-block weights."""
     team, seed, episodes, n_eval, kwargs = args
     env = gym.make(DRILL_ENV_ID, opponent=team, disable_env_checker=True)
-    coder = TileCoder.from_space(env.observation_space, np.asarray(DRILL_TILE_WIDTHS))
+    coder = LearnerConfig(tile_widths=DRILL_TILE_WIDTHS).tile_coder(env.observation_space)
     learner = SmdpLearner(3, coder, seed=seed, **kwargs)
     curve: list[float] = []
     best_score, best_weights = -np.inf, learner.q.weights.copy()

@@ -17,6 +17,7 @@ mistake); reals must be finite.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
@@ -38,6 +39,7 @@ __all__ = [
     "check",
     "check_fields",
     "check_keys",
+    "from_json",
     "is_int",
     "is_real",
 ]
@@ -142,8 +144,10 @@ class OneOf(Constraint):
 
     def describe(self) -> str:
         shown = [repr(v) for v in self.values]
-        return "one of " + ", ".join(shown[:-1]) + f" or {shown[-1]}" if len(shown) > 1 \
-            else shown[0]
+        if len(shown) == 1:
+            return shown[0]
+        listed = ", ".join(shown[:-1]) + f" or {shown[-1]}"
+        return listed if len(shown) == 2 else f"one of {listed}"
 
 
 @dataclass(frozen=True)
@@ -262,6 +266,46 @@ def check_keys(where: str, record: Mapping[str, Any], allowed: Iterable[str],
     missing = sorted(set(allowed if required is None else required) - set(record))
     if missing:
         raise ValueError(f"{where}: missing field(s) {missing}")
+
+
+def from_json(
+    cls: type[Any],
+    values: object,
+    *,
+    nested: Mapping[str, type[Any]] | None = None,
+    tuples: Iterable[str] = (),
+) -> Any:
+    """A frozen configuration dataclass from a JSON object.
+
+    Unknown keys are refused by name; a ``nested`` field given as an object is built with
+    that class's ``from_dict``; a ``tuples`` field given as a list becomes a tuple. The
+    dataclass itself checks the values.
+    """
+    name = cls.__name__
+    if not isinstance(values, Mapping):
+        raise ValueError(
+            f"a {name} must be a JSON object of its fields, got {type(values).__name__}"
+        )
+    values = dict(values)
+    known = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(values) - known, key=str)
+    if unknown:
+        raise ValueError(f"unknown {name} field(s) {unknown}; allowed: {sorted(known)}")
+    for key, sub in (nested or {}).items():
+        if key in values and not isinstance(values[key], sub):
+            if not isinstance(values[key], Mapping):
+                raise ValueError(
+                    f"{name}.{key} must be a JSON object of {sub.__name__} fields, "
+                    f"got {type(values[key]).__name__}"
+                )
+            try:
+                values[key] = sub.from_dict(values[key])
+            except ValueError as exc:
+                raise ValueError(f"{name}.{key}: {exc}") from exc
+    for key in tuples:
+        if isinstance(values.get(key), list):
+            values[key] = tuple(values[key])
+    return cls(**values)
 
 
 def _shown(value: object) -> str:

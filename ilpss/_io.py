@@ -57,6 +57,7 @@ __all__ = [
     "locked_folder",
     "read_json",
     "remove_stale_temporaries",
+    "save_figure",
     "save_npz_atomic",
 ]
 
@@ -126,6 +127,17 @@ def remove_stale_temporaries(directory: str | os.PathLike[str]) -> list[str]:
                 continue
             removed.append(path.name)
     return sorted(removed)
+
+
+def save_figure(fig: Any, path: str | os.PathLike[str], **savefig: Any) -> Path:
+    """Write a matplotlib figure to ``path`` atomically (the format from its suffix,
+    ``savefig`` passed to ``Figure.savefig``); missing parent folders are created."""
+    path = Path(path)
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format=path.suffix.lstrip(".") or "png", **savefig)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_bytes(path, buffer.getvalue())
+    return path
 
 
 def _fsync_directory(directory: Path) -> None:

@@ -52,35 +52,73 @@ Departures from the paper
 With an empty library, PRQ-learning is SMDP Q-learning: a :class:`PrqLearner` then makes
 the same updates and, with the same seed, the same random draws as
 ``SmdpLearner(method="q")`` (except the unused choice that the latter draws at a
-bootstrapped truncation).
+bootstrapped truncation). Both learners stand on the episode seam of
+:mod:`ilpss.episode`; greedy rollouts are :class:`~ilpss.smdp.SmdpLearner`'s, from the
+learnt values (:meth:`SmdpLearner.from_policy`).
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable, Mapping
+from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 
-from ilpss.policy import FrozenPolicy, LinearPolicy, greedy_choice
-from ilpss.smdp import EpisodeResult, SmdpLearner
+from ilpss._check import Real, check_fields, from_json
+from ilpss.episode import (
+    EpisodeLog,
+    EpisodeResult,
+    EpisodicLearner,
+    check_env,
+    observation,
+    step_duration,
+)
+from ilpss.policy import FrozenPolicy, LinearPolicy, epsilon_greedy_choice, greedy_choice
+from ilpss.smdp import SMDP_CONSTRAINTS, SmdpLearner
 from ilpss.tiles import KEEPAWAY_ALPHA, TileCoder
 
-__all__ = ["PrqLearner"]
+__all__ = ["PRQ_CONSTRAINTS", "PrqConfig", "PrqLearner"]
+
+PRQ_CONSTRAINTS = {
+    "psi": Real(0.0, 1.0),
+    "upsilon": Real(0.0, 1.0),
+    "tau0": Real(0.0),
+    "delta_tau": Real(0.0),
+}
+"""What each reuse setting of PRQ-learning allows."""
+_BASE_SETTINGS = ("alpha", "epsilon", "gamma", "initial_value", "bootstrap_on_truncation",
+                  "max_decisions")
 
 
-def _real(name: str, value: object, low: float, high: float = math.inf) -> float:
-    """``value`` as a float in ``[low, high]``, or a clear error."""
-    if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-        raise TypeError(f"{name} must be a real number, got {type(value).__name__}")
-    v = float(value)
-    if not (math.isfinite(v) and low <= v <= high):
-        raise ValueError(f"{name} must be finite and in [{low}, {high}], got {value}")
-    return v
+@dataclass(frozen=True)
+class PrqConfig:
+    """The reuse settings of PRQ-learning (:class:`PrqLearner`); its base learner takes
+    the learning settings of :class:`~ilpss.lifelong.LearnerConfig`."""
+
+    psi: float = 1.0
+    """Probability ``psi_0`` of following the reused policy at the first decision."""
+    upsilon: float = 0.95
+    """Decay of ``psi_h`` per decision within a reuse episode."""
+    tau0: float = 0.0
+    """Initial temperature of the choice of the policy to follow (0: uniform)."""
+    delta_tau: float = 0.05
+    """Growth of the temperature after every training episode."""
+
+    def __post_init__(self) -> None:
+        check_fields("PrqConfig", self, PRQ_CONSTRAINTS)
+
+    @classmethod
+    def from_dict(cls, values: Mapping[str, Any]) -> PrqConfig:
+        """Inverse of :meth:`to_dict`; unknown keys are refused by name."""
+        return from_json(cls, values)
+
+    def to_dict(self) -> dict[str, float]:
+        """A JSON-ready dict, also the keyword arguments of :class:`PrqLearner`."""
+        return asdict(self)
 
 
-class PrqLearner:
+class PrqLearner(EpisodicLearner):
     """PRQ-learning with pi-reuse (Fernández and Veloso 2006) over tile-coded SMDPs.
 
     See the module docstring for the algorithm.
@@ -100,14 +138,9 @@ class PrqLearner:
         Exploration of the epsilon-greedy choices on the new Q.
     gamma : float, default 1.0
         Discount per cycle; a step of duration ``d`` is discounted by ``gamma ** d``.
-    psi : float, default 1.0
-        Probability ``psi_0`` of following the reused policy at the first decision.
-    upsilon : float, default 0.95
-        Decay of ``psi_h`` per decision within a reuse episode.
-    tau0 : float, default 0.0
-        Initial temperature of the policy choice (0: uniform).
-    delta_tau : float, default 0.05
-        Increase of ``tau`` after every training episode.
+    psi, upsilon, tau0, delta_tau : float
+        The reuse settings (defaults: :class:`PrqConfig`'s); ``**PrqConfig(...).to_dict()``
+        passes them whole.
     initial_value : float, default 0.0
         Initial value of every Q(s, a).
     bootstrap_on_truncation : bool, default False
@@ -116,6 +149,9 @@ class PrqLearner:
         Source of every random draw (policy choice, pi-reuse, exploration, ties).
     max_decisions : int, default 100_000
         Safety bound on the steps of one episode (an error beyond it).
+
+    The learning settings are checked with :data:`~ilpss.smdp.SMDP_CONSTRAINTS`, the reuse
+    settings with :data:`PRQ_CONSTRAINTS`.
 
     Attributes
     ----------
@@ -159,36 +195,28 @@ class PrqLearner:
         seed: int | np.random.Generator | None = None,
         max_decisions: int = 100_000,
     ) -> None:
-        alpha = _real("alpha", alpha, 0.0)
-        epsilon = _real("epsilon", epsilon, 0.0, 1.0)
-        gamma = _real("gamma", gamma, 0.0, 1.0)
-        self.psi = _real("psi", psi, 0.0, 1.0)
-        self.upsilon = _real("upsilon", upsilon, 0.0, 1.0)
-        self.tau0 = _real("tau0", tau0, 0.0)
-        self.delta_tau = _real("delta_tau", delta_tau, 0.0)
-        initial_value = _real("initial_value", initial_value, -math.inf)
-        if isinstance(max_decisions, bool) or not isinstance(max_decisions, int | np.integer):
-            raise TypeError("max_decisions must be an int")
-        if max_decisions < 1:
-            raise ValueError(f"max_decisions must be >= 1, got {max_decisions}")
-        rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-        # The SMDP Q-learner supplies the Q function, its update, the environment
-        # checks and the greedy evaluation; it shares our generator.
-        self._smdp = SmdpLearner(
-            n_primitive,
-            tile_coder,
-            alpha=alpha,
-            epsilon=epsilon,
-            gamma=gamma,
-            method="q",
-            bootstrap_on_truncation=bootstrap_on_truncation,
-            initial_value=initial_value,
-            seed=rng,
-            max_decisions=int(max_decisions),
-        )
-        self.rng = rng
-        self.n_primitive = self._smdp.n_primitive
+        base = {"alpha": alpha, "epsilon": epsilon, "gamma": gamma,
+                "initial_value": initial_value, "bootstrap_on_truncation": bootstrap_on_truncation,
+                "max_decisions": max_decisions}
+        check_fields("PrqLearner", base, {k: SMDP_CONSTRAINTS[k] for k in _BASE_SETTINGS},
+                     dict.get)
+        reuse = {"psi": psi, "upsilon": upsilon, "tau0": tau0, "delta_tau": delta_tau}
+        check_fields("PrqLearner", reuse, PRQ_CONSTRAINTS, dict.get)
+        if not isinstance(tile_coder, TileCoder):
+            raise TypeError(f"tile_coder must be a TileCoder, got {type(tile_coder).__name__}")
+        self.q = LinearPolicy(tile_coder, n_primitive, (), initial_value=initial_value)
+        self.n_primitive = self.q.n_primitive
         self.tile_coder = tile_coder
+        self.alpha = float(alpha)
+        self.epsilon = float(epsilon)
+        self.gamma = float(gamma)
+        self.bootstrap_on_truncation = bool(bootstrap_on_truncation)
+        self.max_decisions = int(max_decisions)
+        self.psi = float(psi)
+        self.upsilon = float(upsilon)
+        self.tau0 = float(tau0)
+        self.delta_tau = float(delta_tau)
+        self.rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         self.past_policies = self._check_policies(past_policies)
         n = len(self.past_policies)
         self.reuse_gains = np.zeros(n + 1)
@@ -196,6 +224,7 @@ class PrqLearner:
         self.tau = self.tau0
         self.reused: list[int] = []
         self.followed_past: list[bool] = []
+        self._step = self.alpha / tile_coder.n_active
         self._mask = np.ones(self.n_primitive, dtype=bool)
 
     def _check_policies(self, policies: Iterable[FrozenPolicy]) -> tuple[FrozenPolicy, ...]:
@@ -225,32 +254,6 @@ class PrqLearner:
             out.append(p)
         return tuple(out)
 
-    # ------------------------------------------------------------- properties
-    @property
-    def q(self) -> LinearPolicy:
-        """The new action values ``Q`` (policy ``Pi_Omega``)."""
-        return self._smdp.q
-
-    @property
-    def alpha(self) -> float:
-        """Step size, spread over the active tiles."""
-        return self._smdp.alpha
-
-    @property
-    def epsilon(self) -> float:
-        """Exploration rate."""
-        return self._smdp.epsilon
-
-    @property
-    def gamma(self) -> float:
-        """Discount per cycle."""
-        return self._smdp.gamma
-
-    @property
-    def bootstrap_on_truncation(self) -> bool:
-        """Whether a timeout bootstraps from the next state."""
-        return self._smdp.bootstrap_on_truncation
-
     def freeze(self) -> FrozenPolicy:
         """Immutable snapshot of the new policy (e.g. for the next task's library)."""
         return self.q.freeze()
@@ -279,7 +282,7 @@ class PrqLearner:
         """pi-reuse choice: ``(action, explored, followed the past policy)``."""
         if past is not None and psi_h > 0.0 and self.rng.random() < psi_h:
             return greedy_choice(past.q_from_tiles(active), self.rng), False, True
-        action, explored = self._smdp._choose(q, self._mask, self.epsilon)
+        action, explored = epsilon_greedy_choice(q, self.rng, self.epsilon, self._mask)
         return action, explored, False
 
     # --------------------------------------------------------------- episodes
@@ -307,10 +310,15 @@ class PrqLearner:
             (epsilon) ones; no options are ever run.
         """
         if not learn:
-            res = self._smdp.run_episode(env, learn=False, seed=seed)
+            greedy = SmdpLearner.from_policy(
+                self.q, epsilon=0.0, gamma=self.gamma, seed=self.rng,
+                bootstrap_on_truncation=self.bootstrap_on_truncation,
+                max_decisions=self.max_decisions,
+            )
+            res = greedy.run_episode(env, learn=False, seed=seed)
             self.followed_past = [False] * res.decisions
             return res
-        self._smdp._check_env(env)
+        check_env(env, self.n_primitive, self.tile_coder.n_features)
         k = self._select()
         res = self._reuse_episode(env, self.past_policies[k] if k >= 0 else None, seed)
         self.reuse_gains[k] = (self.reuse_gains[k] * self.reuse_counts[k] + res.total_reward) / (
@@ -325,102 +333,42 @@ class PrqLearner:
         self, env: Any, past: FrozenPolicy | None, seed: int | None
     ) -> EpisodeResult:
         """pi-reuse of ``past`` (epsilon-greedy on Q when None) with Q-learning updates."""
-        smdp = self._smdp
         coder = self.tile_coder
-        gamma = self.gamma
+        n_features = coder.n_features
         psi_h = self.psi if past is not None else 0.0
         obs, _ = env.reset(seed=seed)
-        s = smdp._observation(obs)
+        s = observation(obs, n_features)
         active = coder.active(s)
         q = self.q.q_from_tiles(active)
-        trace: list[np.ndarray] = []
-        choices: list[int] = []
-        explored_flags: list[bool] = []
+        log = EpisodeLog(self.gamma, n_features, self.max_decisions)
         followed: list[bool] = []
-        total_reward = discounted_return = last_reward = 0.0
-        cycles = 0
-        info: dict[str, Any] = {}
-        terminated = truncated = False
-
         action, explored, follow = self._decide(active, q, past, psi_h)
         while True:
-            if len(trace) >= smdp.max_decisions:
-                raise RuntimeError(f"episode exceeded max_decisions={smdp.max_decisions}")
-            trace.append(s)
-            choices.append(action)
-            explored_flags.append(explored)
+            log.visit(s)
+            log.choose(action, explored)
             followed.append(follow)
             obs, reward, terminated, truncated, info = env.step(action)
             reward = float(reward)
-            d = smdp._duration(info)
+            d = step_duration(info)
             ended = bool(terminated or truncated)
             bootstrap_end = bool(truncated and not terminated and self.bootstrap_on_truncation)
-            next_s = smdp._observation(obs) if (not ended or bootstrap_end) else None
-            discounted_return += gamma**cycles * reward
-            total_reward += reward
-            last_reward = reward
-            cycles += d
+            next_s = observation(obs, n_features) if (not ended or bootstrap_end) else None
+            log.step(obs, reward, d, terminated, truncated, info)
             if next_s is None:
-                smdp._update(active, action, reward)
+                self.q.update_toward(active, action, reward, self._step)
                 break
             next_active = coder.active(next_s)
             q = self.q.q_from_tiles(next_active)
             if not ended:  # choose at s' with the values before this step's update
                 psi_h *= self.upsilon
                 next_action, explored, follow = self._decide(next_active, q, past, psi_h)
-            smdp._update(active, action, reward + gamma**d * float(q.max()))
+            self.q.update_toward(active, action, reward + self.gamma**d * float(q.max()),
+                                 self._step)
             if ended:
                 break
             s, active, action = next_s, next_active, next_action
-
         self.followed_past = followed
-        outcome = info.get("outcome")
-        if outcome is not None:
-            success = outcome == "success"
-        else:
-            success = bool(terminated and not truncated and last_reward > 0)
-        return EpisodeResult(
-            total_reward=total_reward,
-            discounted_return=discounted_return,
-            cycles=cycles,
-            decisions=len(trace),
-            outcome=outcome,
-            success=success,
-            terminated=bool(terminated),
-            truncated=bool(truncated),
-            trace=np.array(trace, dtype=np.float64).reshape(len(trace), coder.n_features),
-            final_observation=np.asarray(obs, dtype=np.float64),
-            choices=choices,
-            explored=explored_flags,
-        )
-
-    def train(
-        self,
-        env: Any,
-        n_episodes: int,
-        *,
-        seed: int | None = None,
-        callback: Callable[[int, EpisodeResult], None] | None = None,
-    ) -> list[EpisodeResult]:
-        """Learn for ``n_episodes`` episodes; ``seed`` seeds the first ``env.reset`` only.
-
-        ``callback(i, result)`` is called after each episode.
-        """
-        if n_episodes < 0:
-            raise ValueError("n_episodes must be >= 0")
-        results = []
-        for i in range(n_episodes):
-            res = self.run_episode(env, learn=True, seed=seed if i == 0 else None)
-            results.append(res)
-            if callback is not None:
-                callback(i, res)
-        return results
-
-    def evaluate(self, env: Any, n: int, *, seed: int | None = None) -> list[EpisodeResult]:
-        """``n`` greedy rollouts of the new Q, without reuse or learning."""
-        if n < 0:
-            raise ValueError("n must be >= 0")
-        return [self.run_episode(env, learn=False, seed=seed if i == 0 else None) for i in range(n)]
+        return log.result()
 
     def __repr__(self) -> str:
         return (

@@ -39,9 +39,11 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.special import chdtrc
 
 from ilpss import _gmm_numerics as num
+from ilpss._check import Integer, Real, check, check_fields
 from ilpss._io import load_npz, save_npz_atomic
 
 __all__ = [
+    "KERNEL_CONSTRAINTS",
     "SCHEMA",
     "KernelConvergenceWarning",
     "NotFittedError",
@@ -151,21 +153,15 @@ def _as_states(X: ArrayLike, n_features: int) -> tuple[Array, bool]:
     return a, single
 
 
-def _check_int(name: str, value: Any, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise ValueError(f"{name} must be an int >= {minimum}, got {value!r}")
-    return int(value)
-
-
-def _check_float(name: str, value: Any) -> float:
-    if (
-        isinstance(value, bool)
-        or not isinstance(value, numbers.Real)
-        or not math.isfinite(value)
-        or value < 0
-    ):
-        raise ValueError(f"{name} must be a finite float >= 0, got {value!r}")
-    return float(value)
+KERNEL_CONSTRAINTS = {
+    "n_components": Integer(1, 1000),
+    "reg_covar": Real(0.0),
+    "tol": Real(0.0),
+    "max_iter": Integer(0, 1_000_000),
+    "n_init": Integer(1, 1000),
+}
+"""What each hyperparameter of :class:`SharedKernelModel` allows (the lifelong
+configuration's kernel settings are checked with these too)."""
 
 
 # --------------------------------------------------------------------------- the model
@@ -282,11 +278,7 @@ class SharedKernelModel:
         )
 
     def _check_hyperparameters(self) -> None:
-        _check_int("n_components", self.n_components, 1)
-        _check_float("reg_covar", self.reg_covar)
-        _check_float("tol", self.tol)
-        _check_int("max_iter", self.max_iter, 0)
-        _check_int("n_init", self.n_init, 1)
+        check_fields("", self, KERNEL_CONSTRAINTS)
 
     # ----------------------------------------------------------------------- fitting
 
@@ -922,7 +914,8 @@ class UniformKernel:
     n_components = 1
 
     def __init__(self, n_features: int) -> None:
-        self.n_features_in_ = _check_int("n_features", n_features, 1)
+        check("n_features", n_features, Integer(1))
+        self.n_features_in_ = int(n_features)
         self.means_ = np.zeros((1, self.n_features_in_))
         self.covariances_ = np.eye(self.n_features_in_)[None]
 

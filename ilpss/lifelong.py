@@ -21,12 +21,11 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import os
 import re
 import shutil
-from collections.abc import Callable
-from dataclasses import asdict, dataclass, field, fields
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
@@ -41,6 +40,7 @@ from ilpss._check import (
     Text,
     check_fields,
     check_keys,
+    from_json,
 )
 from ilpss._io import (
     atomic_write_bytes,
@@ -51,14 +51,26 @@ from ilpss._io import (
     remove_stale_temporaries,
     save_npz_atomic,
 )
-from ilpss.kernels import SharedKernelModel, UniformKernel
-from ilpss.options import OptionLibrary
+from ilpss.episode import EpisodeResult, options_used
+from ilpss.kernels import KERNEL_CONSTRAINTS, SharedKernelModel, UniformKernel
+from ilpss.options import OptionLibrary, OptionSettings
 from ilpss.policy import FrozenPolicy
-from ilpss.smdp import EpisodeResult, SmdpLearner, options_used
-from ilpss.tiles import TileCoder
+from ilpss.smdp import SMDP_CONSTRAINTS, SmdpLearner
+from ilpss.tiles import TILE_CONSTRAINTS, TileCoder
 
 CHECKPOINT_SCHEMA = "ilpss.lifelong/2"
 OptionSource = Literal["kernels", "whole_policies", "none"]
+
+
+LEARNER_CONSTRAINTS = {
+    **{name: SMDP_CONSTRAINTS[name] for name in (
+        "alpha", "epsilon", "gamma", "method", "intra_option", "initial_value",
+        "option_initial_value", "trace_decay")},
+    "n_tilings": TILE_CONSTRAINTS["n_tilings"],
+    "tile_widths": NoneOr(ListOf(TILE_CONSTRAINTS["width"], min_len=1)),
+}
+"""What each field of :class:`LearnerConfig` allows: the learner's own constraints
+(:data:`~ilpss.smdp.SMDP_CONSTRAINTS`, :data:`~ilpss.tiles.TILE_CONSTRAINTS`)."""
 
 
 @dataclass(frozen=True)
@@ -94,33 +106,16 @@ class LearnerConfig:
     """Tile width per feature, in its units; ``None``: a tenth of each feature's range."""
 
     def __post_init__(self) -> None:
-        # Checked here, by name: configurations come from JSON files, and the SmdpLearner
-        # would only refuse a bad value at the first trial, without naming the field.
-        _check_real("LearnerConfig.alpha", self.alpha, 0.0, math.inf, low_open=True)
-        _check_real("LearnerConfig.epsilon", self.epsilon, 0.0, 1.0)
-        _check_real("LearnerConfig.gamma", self.gamma, 0.0, 1.0)
-        _check_real("LearnerConfig.trace_decay", self.trace_decay, 0.0, 1.0)
-        _check_real("LearnerConfig.initial_value", self.initial_value, -math.inf, math.inf)
-        if self.option_initial_value is not None:
-            _check_real("LearnerConfig.option_initial_value", self.option_initial_value,
-                        -math.inf, math.inf)
-        if self.method not in ("sarsa", "q"):
-            raise ValueError(f"LearnerConfig.method must be 'sarsa' or 'q', got {self.method!r}")
-        if not isinstance(self.intra_option, bool):
-            raise ValueError(
-                f"LearnerConfig.intra_option must be true or false, got {self.intra_option!r}"
-            )
-        _check_count("LearnerConfig.n_tilings", self.n_tilings, 1, 1024)
-        widths = self.tile_widths
-        if widths is not None and (
-            not isinstance(widths, tuple)
-            or not widths
-            or not all(_is_real(w) and 0 < w < math.inf for w in widths)
-        ):
-            raise ValueError(
-                "LearnerConfig.tile_widths must be None or a non-empty tuple of finite "
-                f"numbers > 0, got {widths!r}"
-            )
+        # Checked here, by name: configurations come from JSON files, and a bad value
+        # would otherwise only be refused at the first trial.
+        check_fields("LearnerConfig", self, LEARNER_CONSTRAINTS)
+        if self.tile_widths is not None:  # JSON gives lists, and ints for whole numbers
+            object.__setattr__(self, "tile_widths", tuple(float(w) for w in self.tile_widths))
+
+    @classmethod
+    def from_dict(cls, values: Mapping[str, Any]) -> LearnerConfig:
+        """Inverse of ``dataclasses.asdict``; unknown keys are refused by name."""
+        return from_json(cls, values)
 
     def tile_coder(self, observation_space: Any) -> TileCoder:
         """The tile coder of these settings over a 1-D ``Box`` observation space.
@@ -148,6 +143,21 @@ class LearnerConfig:
         }
 
 
+LIFELONG_CONSTRAINTS = {
+    "n_kernels": KERNEL_CONSTRAINTS["n_components"],
+    # Every episode's result is kept in memory: far above any useful value, a typo fails
+    # here rather than after hours.
+    "train_episodes": Integer(0, 1_000_000),
+    "rollout_episodes": Integer(0, 100_000),
+    "options": OneOf(("kernels", "whole_policies", "none")),
+    "kernel_n_init": KERNEL_CONSTRAINTS["n_init"],
+    "kernel_max_iter": KERNEL_CONSTRAINTS["max_iter"],
+    "kernel_reg_covar": KERNEL_CONSTRAINTS["reg_covar"],
+}
+"""What each scalar field of :class:`LifelongConfig` allows (the kernel settings are
+:data:`~ilpss.kernels.KERNEL_CONSTRAINTS`)."""
+
+
 @dataclass(frozen=True)
 class LifelongConfig:
     """How ILPSS extracts structure after each trial."""
@@ -161,130 +171,35 @@ class LifelongConfig:
     options: OptionSource = "kernels"
     """``"kernels"`` (ILPSS), ``"whole_policies"`` (ablation: past policies as options
     that start anywhere and never stop) or ``"none"`` (learning anew every time)."""
-    discount: float = 0.5
-    """Factor applied to the scale of an option the learnt policy did not use (1: none)."""
-    prune_threshold: float = 0.1
-    """Options whose scale falls below this are pruned."""
-    max_match_distance: float | None = 3.0
-    """Largest Bhattacharyya distance at which a refit kernel keeps an old identity."""
-    max_depth: int = 4
-    """Policies consulted at most when following option pointers."""
-    continuation_exponent: float = 1.0
-    """Options continue with probability ``K(s) ** continuation_exponent`` (1: the
-    paper; below 1: longer options, an ablation of option duration)."""
     kernel_n_init: int = 3
     """EM restarts per fit."""
     kernel_max_iter: int = 200
     """EM iterations at most per restart."""
     kernel_reg_covar: float = 1e-6
     """Added to the diagonal of every (standardised) covariance."""
+    library: OptionSettings = field(default_factory=OptionSettings)
+    """The option library's discounting, pruning, pointers, matching and option duration."""
     learner: LearnerConfig = field(default_factory=LearnerConfig)
     """The SMDP learner's hyper-parameters."""
 
     def __post_init__(self) -> None:
-        if not isinstance(self.learner, LearnerConfig):
-            raise ValueError(
-                "LifelongConfig.learner must be a LearnerConfig (from_dict takes a dict), "
-                f"got {type(self.learner).__name__}"
-            )
-        # Upper bounds far above any useful value, so that a typo fails here rather than
-        # after hours, or in an allocation: every episode's result is kept in memory.
-        for name, low, high in (("n_kernels", 1, 1000), ("train_episodes", 0, 1_000_000),
-                                ("rollout_episodes", 0, 100_000), ("max_depth", 1, 1000),
-                                ("kernel_n_init", 1, 1000), ("kernel_max_iter", 1, 1_000_000)):
-            _check_count(f"LifelongConfig.{name}", getattr(self, name), low, high)
-        if self.options not in ("kernels", "whole_policies", "none"):
-            raise ValueError(
-                "LifelongConfig.options must be 'kernels', 'whole_policies' or 'none', "
-                f"got {self.options!r}"
-            )
-        if not (_is_real(self.discount) and 0.0 < self.discount <= 1.0):
-            raise ValueError(f"LifelongConfig.discount must lie in (0, 1], got {self.discount!r}")
-        if not (_is_real(self.prune_threshold) and 0.0 <= self.prune_threshold < 1.0):
-            raise ValueError(
-                f"LifelongConfig.prune_threshold must lie in [0, 1), got {self.prune_threshold!r}"
-            )
-        if self.max_match_distance is not None:
-            _check_real(
-                "LifelongConfig.max_match_distance", self.max_match_distance, 0.0, math.inf
-            )
-        _check_real("LifelongConfig.kernel_reg_covar", self.kernel_reg_covar, 0.0, math.inf)
-        _check_real(
-            "LifelongConfig.continuation_exponent", self.continuation_exponent, 0.0, math.inf
-        )
+        check_fields("LifelongConfig", self, LIFELONG_CONSTRAINTS)
+        for name, kind in (("library", OptionSettings), ("learner", LearnerConfig)):
+            if not isinstance(getattr(self, name), kind):
+                raise ValueError(
+                    f"LifelongConfig.{name} must be a {kind.__name__} (from_dict takes a "
+                    f"dict), got {type(getattr(self, name)).__name__}"
+                )
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict."""
         return asdict(self)
 
     @classmethod
-    def from_dict(cls, values: dict[str, Any]) -> LifelongConfig:
+    def from_dict(cls, values: Mapping[str, Any]) -> LifelongConfig:
         """Inverse of :meth:`to_dict`; unknown keys are refused by name."""
-        if not isinstance(values, dict):
-            raise ValueError(f"a LifelongConfig must be a dict, got {type(values).__name__}")
-        values = dict(values)
-        _refuse_unknown(cls, values)
-        learner = values.pop("learner", {})
-        if not isinstance(learner, dict):
-            raise ValueError(
-                f"LifelongConfig.learner must be a dict of LearnerConfig fields, "
-                f"got {type(learner).__name__}"
-            )
-        learner = dict(learner)
-        _refuse_unknown(LearnerConfig, learner)
-        widths = learner.get("tile_widths")
-        if widths is not None:
-            if not isinstance(widths, list | tuple):
-                raise ValueError(
-                    f"LearnerConfig.tile_widths must be a list of numbers, got {widths!r}"
-                )
-            # JSON gives lists (and ints for whole numbers); __post_init__ checks each width.
-            learner["tile_widths"] = tuple(float(w) if _is_real(w) else w for w in widths)
-        return cls(**values, learner=LearnerConfig(**learner))
-
-
-def _is_real(value: object) -> bool:
-    """A real number, not a bool (nor a string, which JSON may carry by mistake)."""
-    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
-        value, bool
-    )
-
-
-def _is_int(value: object) -> bool:
-    return isinstance(value, int | np.integer) and not isinstance(value, bool)
-
-
-def _check_count(name: str, value: object, low: int, high: int) -> None:
-    """Refuse anything but an integer (not a bool) in ``[low, high]``."""
-    if not (_is_int(value) and low <= value <= high):  # type: ignore[operator]
-        raise ValueError(f"{name} must be an integer in [{low:,}, {high:,}], got {value!r}")
-
-
-def _check_real(
-    name: str, value: object, low: float, high: float, *, low_open: bool = False
-) -> None:
-    """Refuse anything but a finite real number in ``[low, high]`` (``(low, high]``)."""
-    if (
-        _is_real(value)
-        and math.isfinite(value)  # type: ignore[arg-type]
-        and (low < value if low_open else low <= value)  # type: ignore[operator]
-        and value <= high  # type: ignore[operator]
-    ):
-        return
-    if math.isinf(low) and math.isinf(high):
-        allowed = ""
-    elif math.isinf(high):
-        allowed = f" {'>' if low_open else '>='} {low:g}"
-    else:
-        allowed = f" in {'(' if low_open else '['}{low:g}, {high:g}]"
-    raise ValueError(f"{name} must be a finite number{allowed}, got {value!r}")
-
-
-def _refuse_unknown(cls: type, values: dict[str, Any]) -> None:
-    known = {f.name for f in fields(cls)}
-    unknown = sorted(set(values) - known)
-    if unknown:
-        raise ValueError(f"unknown {cls.__name__} field(s) {unknown}; allowed: {sorted(known)}")
+        return from_json(cls, values, nested={"library": OptionSettings,
+                                              "learner": LearnerConfig})
 
 
 @dataclass(frozen=True)
@@ -494,12 +409,7 @@ class LifelongLearner:
             ).fit(self.bags)
         if self.library is None:
             # Policies learnt before any options existed never point to options.
-            self.library = OptionLibrary(
-                model, self.policies, discount=cfg.discount,
-                prune_threshold=cfg.prune_threshold, max_depth=cfg.max_depth,
-                max_match_distance=cfg.max_match_distance,
-                continuation_exponent=cfg.continuation_exponent,
-            )
+            self.library = OptionLibrary(model, self.policies, cfg.library)
         else:
             known = len(self.library.policies)
             self.library = self.library.refit(model, self.policies[known:])

@@ -70,22 +70,26 @@ from __future__ import annotations
 import hashlib
 import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from ilpss._check import Integer, NoneOr, Real, check_fields, from_json
 from ilpss._io import load_npz, save_npz_atomic
 from ilpss.policy import FrozenPolicy, greedy_choice
 from ilpss.tiles import TileCoder
 
 __all__ = [
     "LIBRARY_SCHEMA",
+    "OPTION_CONSTRAINTS",
     "KernelModel",
+    "LibraryState",
     "OptionInfo",
     "OptionLibrary",
+    "OptionSettings",
     "RefitReport",
     "TrialReport",
     "bhattacharyya_distance",
@@ -236,6 +240,138 @@ class RefitReport:
     retired_option_ids: tuple[int, ...]
 
 
+# --------------------------------------------------------------------------- settings
+OPTION_CONSTRAINTS = {
+    "discount": Real(0.0, 1.0, low_open=True),
+    "prune_threshold": Real(0.0, 1.0, high_open=True),
+    "max_depth": Integer(1, 1000),
+    "max_match_distance": NoneOr(Real(0.0)),
+    "continuation_exponent": Real(0.0),
+}
+"""What each field of :class:`OptionSettings` allows."""
+
+
+@dataclass(frozen=True)
+class OptionSettings:
+    """How an option library discounts, prunes, follows pointers, keeps identities across
+    refits, and how long its options run. Held by :class:`~ilpss.lifelong.LifelongConfig`
+    as ``library`` and kept by every library made from one (refits, saves, loads)."""
+
+    discount: float = 0.5
+    """Factor in (0, 1] applied to the scale of every offered, unused option per trial
+    (1: no discounting, so nothing is ever pruned)."""
+    prune_threshold: float = 0.1
+    """Options whose scale falls below this are pruned."""
+    max_depth: int = 4
+    """Policies consulted at most when following option pointers."""
+    max_match_distance: float | None = 3.0
+    """Largest Bhattacharyya distance at which a refit kernel keeps an old identity
+    (``None``: every assigned pair)."""
+    continuation_exponent: float = 1.0
+    """A running option continues with probability ``K_k(s) ** continuation_exponent``:
+    1 is the paper's rule; below 1 options run longer (0: until the episode ends), an
+    ablation of option duration. Initiation is unchanged."""
+
+    def __post_init__(self) -> None:
+        check_fields("OptionSettings", self, OPTION_CONSTRAINTS)
+        # Plain floats and ints, so that saved records do not depend on how they came.
+        for name in ("discount", "prune_threshold", "continuation_exponent"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+        object.__setattr__(self, "max_depth", int(self.max_depth))
+        if self.max_match_distance is not None:
+            object.__setattr__(self, "max_match_distance", float(self.max_match_distance))
+
+    @classmethod
+    def from_dict(cls, values: Mapping[str, Any]) -> OptionSettings:
+        """Settings from a JSON object (``dataclasses.asdict``'s); unknown keys refused."""
+        return from_json(cls, values)
+
+
+@dataclass(frozen=True)
+class LibraryState:
+    """The identities, scales and usage counts of a library's options: what a fresh
+    library starts from (:meth:`initial`), a refit carries over and a load restores.
+
+    Attributes
+    ----------
+    kernel_ids : numpy.ndarray of int64, shape (K,)
+        Stable id of each kernel of the kernel model.
+    registry : mapping of int to (kernel_id, policy_id)
+        Every option id ever issued.
+    option_ids : numpy.ndarray of int64
+        Active option ids, increasing.
+    scales, uses, trial_uses : numpy.ndarray
+        Per active option.
+    pruned : frozenset of (kernel_id, policy_id)
+    next_option_id, next_kernel_id : int
+        The ids the next new option and kernel get.
+    """
+
+    kernel_ids: np.ndarray
+    registry: Mapping[int, tuple[int, int]]
+    option_ids: np.ndarray
+    scales: np.ndarray
+    uses: np.ndarray
+    trial_uses: np.ndarray
+    pruned: frozenset[tuple[int, int]]
+    next_option_id: int
+    next_kernel_id: int
+
+    @classmethod
+    def initial(cls, n_kernels: int, n_policies: int) -> LibraryState:
+        """Every (kernel, policy) pair a new option with scale 1, kernel-major."""
+        pairs = [(k, p) for k in range(n_kernels) for p in range(n_policies)]
+        return cls(
+            kernel_ids=np.arange(n_kernels, dtype=np.int64),
+            registry={i: (k, p) for i, (k, p) in enumerate(pairs)},
+            option_ids=np.arange(len(pairs), dtype=np.int64),
+            scales=np.ones(len(pairs)),
+            uses=np.zeros(len(pairs), dtype=np.int64),
+            trial_uses=np.zeros(len(pairs), dtype=np.int64),
+            pruned=frozenset(),
+            next_option_id=len(pairs),
+            next_kernel_id=n_kernels,
+        )
+
+    def check(self, n_kernels: int, n_policies: int) -> None:
+        """Refuse a state that cannot belong to a model of ``n_kernels`` kernels and
+        ``n_policies`` policies (``ValueError`` saying what is wrong)."""
+        kernel_ids = [int(k) for k in self.kernel_ids]
+        if len(kernel_ids) != n_kernels or len(set(kernel_ids)) != len(kernel_ids):
+            raise ValueError("kernel ids do not match the kernel model")
+        oids = [int(o) for o in self.option_ids]
+        if oids != sorted(set(oids)):
+            raise ValueError("active option ids must be unique and increasing")
+        n = len(oids)
+        if not (len(self.scales) == len(self.uses) == len(self.trial_uses) == n):
+            raise ValueError("scales and counts must have one entry per active option")
+        for o in oids:
+            if o not in self.registry:
+                raise ValueError(f"active option {o} is not in the registry")
+            kid, pid = self.registry[o]
+            if kid not in kernel_ids:
+                raise ValueError(f"active option {o} refers to a kernel id not in the model")
+            if (kid, pid) in self.pruned:
+                raise ValueError(f"active option {o} is marked as pruned")
+        for _, pid in self.registry.values():
+            if not 0 <= pid < n_policies:
+                raise ValueError(f"registry refers to policy {pid} of {n_policies}")
+        scales = np.asarray(self.scales)
+        if not (np.isfinite(scales).all() and (scales > 0).all() and (scales <= 1).all()):
+            raise ValueError("scales must be finite and in (0, 1]")
+        if (np.asarray(self.uses) < 0).any() or (np.asarray(self.trial_uses) < 0).any():
+            raise ValueError("usage counts must be non-negative")
+        next_o, next_k = self.next_option_id, self.next_kernel_id
+        if isinstance(next_o, bool) or isinstance(next_k, bool) or not (
+            isinstance(next_o, int) and isinstance(next_k, int)
+        ):
+            raise ValueError("next_option_id/next_kernel_id must be ints")
+        if self.registry and next_o <= max(self.registry):
+            raise ValueError("next_option_id must exceed every issued option id")
+        if kernel_ids and next_k <= max(kernel_ids):
+            raise ValueError("next_kernel_id must exceed every kernel id")
+
+
 # --------------------------------------------------------------------------- library
 class OptionLibrary:
     """The options ``o_k^i`` of one kernel model and all frozen policies learnt so far.
@@ -248,19 +384,14 @@ class OptionLibrary:
         Policies ``pi_0 .. pi_{n-1}``; policy id = position. In a fresh library they
         must not refer to options (there are none yet); use :meth:`refit` to add
         policies learnt with options.
-    discount : float, default 0.5
-        Factor in (0, 1] applied to the scale of every offered, unused option per trial
-        (1: no discounting, so nothing is ever pruned).
-    prune_threshold : float, default 0.1
-        Options whose scale falls below this are pruned.
-    max_depth : int, default 4
-        Maximum number of policies consulted when following pointers.
-    max_match_distance : float or None, default 3.0
-        Largest Bhattacharyya distance at which a refit kernel inherits an old identity.
-    continuation_exponent : float, default 1.0
-        A running option continues with probability ``K_k(s) ** continuation_exponent``:
-        1 is the paper's rule; below 1 options run longer (0: until the episode ends),
-        an ablation of option duration. Initiation is unchanged.
+    settings : OptionSettings, optional
+        Discounting, pruning, pointers, matching and option duration (default:
+        :class:`OptionSettings`'s defaults). Kept by :meth:`refit`, saved and loaded.
+    state : LibraryState, optional
+        Identities, scales and counts to continue from (what :meth:`refit` and
+        :meth:`load` give); by default :meth:`LibraryState.initial`, every (kernel,
+        policy) pair a new option with scale 1. It is checked against the model and the
+        policies.
 
     Attributes
     ----------
@@ -274,6 +405,7 @@ class OptionLibrary:
     registry : mapping of int to (kernel_id, policy_id)
         Every option id ever issued (for pointers), active or not.
     pruned : frozenset of (kernel_id, policy_id)
+    settings : OptionSettings
     refit_report : RefitReport or None
         Set on libraries made by :meth:`refit`.
     version : int
@@ -284,66 +416,40 @@ class OptionLibrary:
         self,
         kernel_model: KernelModel,
         policies: Sequence[FrozenPolicy],
+        settings: OptionSettings | None = None,
         *,
-        discount: float = 0.5,
-        prune_threshold: float = 0.1,
-        max_depth: int = 4,
-        max_match_distance: float | None = 3.0,
-        continuation_exponent: float = 1.0,
+        state: LibraryState | None = None,
     ) -> None:
-        self._set_params(
-            discount, prune_threshold, max_depth, max_match_distance, continuation_exponent
-        )
+        settings = OptionSettings() if settings is None else settings
+        if not isinstance(settings, OptionSettings):
+            raise TypeError(f"settings must be an OptionSettings, got {type(settings).__name__}")
         policies = tuple(policies)
         self._check_model(kernel_model, policies)
-        self._check_policies(policies, registry={})
-        K = int(kernel_model.n_components)
-        pairs = [(k, p) for k in range(K) for p in range(len(policies))]
-        self._install(
-            kernel_model=kernel_model,
-            kernel_ids=np.arange(K, dtype=np.int64),
-            policies=policies,
-            registry={i: (k, p) for i, (k, p) in enumerate(pairs)},
-            option_ids=np.arange(len(pairs), dtype=np.int64),
-            scales=np.ones(len(pairs)),
-            uses=np.zeros(len(pairs), dtype=np.int64),
-            trial_uses=np.zeros(len(pairs), dtype=np.int64),
-            pruned=frozenset(),
-            next_option_id=len(pairs),
-            next_kernel_id=K,
-        )
+        n_kernels = int(kernel_model.n_components)
+        if state is None:
+            state = LibraryState.initial(n_kernels, len(policies))
+        else:
+            state.check(n_kernels, len(policies))
+        self._check_policies(policies, state.registry)
+        self.settings = settings
+        self.kernel_model = kernel_model
+        self.n_kernels = n_kernels
+        self.n_features = int(np.asarray(kernel_model.means_).shape[1])
+        self.policies = policies
+        self.n_primitive = policies[0].n_primitive if policies else None
+        self.kernel_ids = np.asarray(state.kernel_ids, dtype=np.int64)
+        self.registry = dict(state.registry)
+        self.option_ids = np.asarray(state.option_ids, dtype=np.int64)
+        self.scales = np.asarray(state.scales, dtype=np.float64)
+        self.uses = np.asarray(state.uses, dtype=np.int64)
+        self.trial_uses = np.asarray(state.trial_uses, dtype=np.int64)
+        self.pruned = frozenset(state.pruned)
+        self._next_option_id = int(state.next_option_id)
+        self._next_kernel_id = int(state.next_kernel_id)
         self.refit_report: RefitReport | None = None
+        self._reindex()
 
     # ------------------------------------------------------------ construction
-    def _set_params(
-        self,
-        discount: float,
-        prune_threshold: float,
-        max_depth: int,
-        max_match_distance: float | None,
-        continuation_exponent: float = 1.0,
-    ) -> None:
-        if not (isinstance(continuation_exponent, int | float | np.floating)
-                and 0.0 <= continuation_exponent < np.inf):
-            raise ValueError(
-                f"continuation_exponent must be a finite number >= 0, got {continuation_exponent!r}"
-            )
-        self.continuation_exponent = float(continuation_exponent)
-        if not 0.0 < discount <= 1.0:  # 1.0: no discounting (the library only grows)
-            raise ValueError(f"discount must be in (0, 1], got {discount}")
-        if not 0.0 <= prune_threshold < 1.0:
-            raise ValueError(f"prune_threshold must be in [0, 1), got {prune_threshold}")
-        if isinstance(max_depth, bool) or not isinstance(max_depth, int | np.integer):
-            raise TypeError("max_depth must be an int")
-        if max_depth < 1:
-            raise ValueError(f"max_depth must be >= 1, got {max_depth}")
-        if max_match_distance is not None and not max_match_distance >= 0:
-            raise ValueError(f"max_match_distance must be >= 0 or None, got {max_match_distance}")
-        self.discount = float(discount)
-        self.prune_threshold = float(prune_threshold)
-        self.max_depth = int(max_depth)
-        self.max_match_distance = None if max_match_distance is None else float(max_match_distance)
-
     @staticmethod
     def _check_model(model: KernelModel, policies: Sequence[FrozenPolicy]) -> None:
         if not callable(getattr(model, "membership", None)):
@@ -389,37 +495,6 @@ class OptionLibrary:
                         "with options must be added to the library that issued them "
                         "(OptionLibrary.refit)"
                     )
-
-    def _install(
-        self,
-        *,
-        kernel_model: KernelModel,
-        kernel_ids: np.ndarray,
-        policies: tuple[FrozenPolicy, ...],
-        registry: dict[int, tuple[int, int]],
-        option_ids: np.ndarray,
-        scales: np.ndarray,
-        uses: np.ndarray,
-        trial_uses: np.ndarray,
-        pruned: frozenset[tuple[int, int]],
-        next_option_id: int,
-        next_kernel_id: int,
-    ) -> None:
-        self.kernel_model = kernel_model
-        self.n_kernels = int(kernel_model.n_components)
-        self.n_features = int(np.asarray(kernel_model.means_).shape[1])
-        self.kernel_ids = np.asarray(kernel_ids, dtype=np.int64)
-        self.policies = policies
-        self.registry = dict(registry)
-        self.option_ids = np.asarray(option_ids, dtype=np.int64)
-        self.scales = np.asarray(scales, dtype=np.float64)
-        self.uses = np.asarray(uses, dtype=np.int64)
-        self.trial_uses = np.asarray(trial_uses, dtype=np.int64)
-        self.pruned = frozenset(pruned)
-        self._next_option_id = int(next_option_id)
-        self._next_kernel_id = int(next_kernel_id)
-        self.n_primitive = policies[0].n_primitive if policies else None
-        self._reindex()
 
     def _reindex(self) -> None:
         # Bumped whenever the active set changes, so learners can cache positions.
@@ -516,14 +591,29 @@ class OptionLibrary:
         p = self.initiation_probabilities(state, membership)
         return rng.random(p.shape[0]) < p
 
+    def memberships(self, membership: np.ndarray) -> np.ndarray:
+        """``K_k(s)`` of every active option's kernel, shape (n_options,), from the kernel
+        memberships of one state (:meth:`membership`)."""
+        return membership[self.option_kernel]
+
+    def continuation_probabilities(self, membership: np.ndarray) -> np.ndarray:
+        """``K_k(s) ** continuation_exponent`` of every active option (its scale does not
+        apply), shape (n_options,), from the kernel memberships of one state."""
+        e = self.settings.continuation_exponent
+        if e == 1.0:
+            return membership[self.option_kernel]
+        # One power per kernel, with Python's floats: NumPy's vectorised power may differ
+        # from it in the last bit, and continuation must not depend on how it is asked.
+        per_kernel = np.array([float(v) ** e for v in membership])
+        return per_kernel[self.option_kernel]
+
     def continuation_probability(
         self, option_id: int, state: np.ndarray, membership: np.ndarray | None = None
     ) -> float:
-        """``K_k(s) ** continuation_exponent`` of active option ``option_id`` (its scale
-        does not apply)."""
+        """:meth:`continuation_probabilities` of active option ``option_id`` at ``state``."""
         j = self.position(option_id)
         m = self.membership(state) if membership is None else membership
-        return float(m[self.option_kernel[j]]) ** self.continuation_exponent
+        return float(self.continuation_probabilities(m)[j])
 
     def continues(
         self,
@@ -574,13 +664,14 @@ class OptionLibrary:
             tiles = {}
         pid = self.policy_of(option_id)
         path = [pid]
-        for depth in range(1, self.max_depth + 1):
+        max_depth = self.settings.max_depth
+        for depth in range(1, max_depth + 1):
             pol = self.policies[pid]
             active = tiles.get(pol.tile_coder)
             if active is None:
                 active = tiles[pol.tile_coder] = pol.tile_coder.active(x)
             q = pol.q_from_tiles(active)
-            if depth == self.max_depth:
+            if depth == max_depth:
                 # At the bound: best primitive of this policy.
                 return greedy_choice(q[: pol.n_primitive], rng), tuple(path)
             c = greedy_choice(q, rng)
@@ -633,9 +724,9 @@ class OptionLibrary:
         keep = np.ones(len(self), dtype=bool)
         for j, oid in enumerate(int(o) for o in self.option_ids):
             if oid in offered_set and oid not in used_set:
-                self.scales[j] *= self.discount
+                self.scales[j] *= self.settings.discount
                 discounted.append(oid)
-                if self.scales[j] < self.prune_threshold:
+                if self.scales[j] < self.settings.prune_threshold:
                     keep[j] = False
         pruned_ids = tuple(int(o) for o in self.option_ids[~keep])
         self.pruned = self.pruned | {self.registry[o] for o in pruned_ids}
@@ -670,7 +761,8 @@ class OptionLibrary:
             if new_policies[0].n_primitive != self.n_primitive:
                 raise ValueError("new policies have a different number of primitive actions")
 
-        matched = match_kernels(self.kernel_model, kernel_model, self.max_match_distance)
+        matched = match_kernels(self.kernel_model, kernel_model,
+                                self.settings.max_match_distance)
         next_kid = self._next_kernel_id
         kernel_ids = np.empty(int(kernel_model.n_components), dtype=np.int64)
         new_kids: list[int] = []
@@ -712,15 +804,8 @@ class OptionLibrary:
                 trial_uses.append(0)
                 new_oids.append(oid)
         order = np.argsort(ids, kind="stable")
-        lib = object.__new__(OptionLibrary)
-        lib._set_params(
-            self.discount, self.prune_threshold, self.max_depth, self.max_match_distance,
-            self.continuation_exponent,
-        )
-        lib._install(
-            kernel_model=kernel_model,
+        state = LibraryState(
             kernel_ids=kernel_ids,
-            policies=policies,
             registry=registry,
             option_ids=np.asarray(ids, dtype=np.int64)[order],
             scales=np.asarray(scales, dtype=np.float64)[order],
@@ -730,6 +815,7 @@ class OptionLibrary:
             next_option_id=next_oid,
             next_kernel_id=next_kid,
         )
+        lib = OptionLibrary(kernel_model, policies, self.settings, state=state)
         lib.refit_report = RefitReport(
             matched=dict(matched),
             kept_kernel_ids=kept_kids,
@@ -783,11 +869,7 @@ class OptionLibrary:
         meta = {
             "schema": LIBRARY_SCHEMA,
             "n_policies": len(self.policies),
-            "discount": self.discount,
-            "prune_threshold": self.prune_threshold,
-            "max_depth": self.max_depth,
-            "max_match_distance": self.max_match_distance,
-            "continuation_exponent": self.continuation_exponent,
+            **asdict(self.settings),
             "next_option_id": self._next_option_id,
             "next_kernel_id": self._next_kernel_id,
             "files": digests,
@@ -867,78 +949,25 @@ class OptionLibrary:
             (int(k), int(p))
             for k, p in zip(arrays["pruned_kernel_ids"], arrays["pruned_policy_ids"], strict=True)
         )
+        if len(registry) != arrays["registry_option_ids"].shape[0]:
+            raise ValueError(f"{where}: inconsistent library: duplicate option ids in the registry")
         try:
-            lib = object.__new__(cls)
-            lib._set_params(
-                meta.get("discount"),  # type: ignore[arg-type]
-                meta.get("prune_threshold"),  # type: ignore[arg-type]
-                meta.get("max_depth"),  # type: ignore[arg-type]
-                meta.get("max_match_distance"),
-                meta.get("continuation_exponent", 1.0),  # absent before it existed
-            )
-            cls._check_model(model, policies)
-            cls._check_policies(policies, registry)
-            cls._check_loaded(arrays, registry, pruned, n_policies, meta, model)
-            lib._install(
-                kernel_model=model,
-                kernel_ids=arrays["kernel_ids"],
-                policies=policies,
+            settings = OptionSettings.from_dict(
+                {f.name: meta.get(f.name) for f in fields(OptionSettings)})
+            state = LibraryState(
+                kernel_ids=arrays["kernel_ids"].astype(np.int64),
                 registry=registry,
-                option_ids=arrays["option_ids"],
+                option_ids=arrays["option_ids"].astype(np.int64),
                 scales=arrays["scales"].astype(np.float64),
                 uses=arrays["uses"].astype(np.int64),
                 trial_uses=arrays["trial_uses"].astype(np.int64),
                 pruned=pruned,
-                next_option_id=meta["next_option_id"],
-                next_kernel_id=meta["next_kernel_id"],
+                next_option_id=meta.get("next_option_id"),  # type: ignore[arg-type]
+                next_kernel_id=meta.get("next_kernel_id"),  # type: ignore[arg-type]
             )
-        except (TypeError, KeyError) as exc:
+            return cls(model, policies, settings, state=state)
+        except (TypeError, ValueError) as exc:
             raise ValueError(f"{where}: inconsistent library: {exc}") from exc
-        except ValueError as exc:
-            raise ValueError(f"{where}: inconsistent library: {exc}") from exc
-        lib.refit_report = None
-        return lib
-
-    @staticmethod
-    def _check_loaded(
-        arrays: Mapping[str, np.ndarray],
-        registry: Mapping[int, tuple[int, int]],
-        pruned: frozenset[tuple[int, int]],
-        n_policies: int,
-        meta: Mapping[str, Any],
-        model: KernelModel,
-    ) -> None:
-        kernel_ids = [int(k) for k in arrays["kernel_ids"]]
-        if len(kernel_ids) != int(model.n_components) or len(set(kernel_ids)) != len(kernel_ids):
-            raise ValueError("kernel ids do not match the kernel model")
-        if len(registry) != arrays["registry_option_ids"].shape[0]:
-            raise ValueError("duplicate option ids in the registry")
-        oids = [int(o) for o in arrays["option_ids"]]
-        if oids != sorted(set(oids)):
-            raise ValueError("active option ids must be unique and increasing")
-        for o in oids:
-            if o not in registry:
-                raise ValueError(f"active option {o} is not in the registry")
-            kid, pid = registry[o]
-            if kid not in kernel_ids:
-                raise ValueError(f"active option {o} refers to a kernel id not in the model")
-            if (kid, pid) in pruned:
-                raise ValueError(f"active option {o} is marked as pruned")
-        for _, pid in registry.values():
-            if not 0 <= pid < n_policies:
-                raise ValueError(f"registry refers to policy {pid} of {n_policies}")
-        scales = arrays["scales"]
-        if not (np.isfinite(scales).all() and (scales > 0).all() and (scales <= 1).all()):
-            raise ValueError("scales must be finite and in (0, 1]")
-        if (arrays["uses"] < 0).any() or (arrays["trial_uses"] < 0).any():
-            raise ValueError("usage counts must be non-negative")
-        next_o, next_k = meta.get("next_option_id"), meta.get("next_kernel_id")
-        if not isinstance(next_o, int) or not isinstance(next_k, int):
-            raise ValueError("next_option_id/next_kernel_id must be ints")
-        if registry and next_o <= max(registry):
-            raise ValueError("next_option_id must exceed every issued option id")
-        if kernel_ids and next_k <= max(kernel_ids):
-            raise ValueError("next_kernel_id must exceed every kernel id")
 
     def __repr__(self) -> str:
         return (

@@ -28,7 +28,7 @@ import numpy as np
 from ilpss._io import load_npz, save_npz_atomic
 from ilpss.tiles import TileCoder
 
-__all__ = ["POLICY_SCHEMA", "FrozenPolicy", "LinearPolicy", "greedy_choice"]
+__all__ = ["POLICY_SCHEMA", "FrozenPolicy", "LinearPolicy", "epsilon_greedy_choice", "greedy_choice"]
 
 POLICY_SCHEMA = "ilpss.policy/1"
 
@@ -57,6 +57,20 @@ def greedy_choice(q: np.ndarray, rng: np.random.Generator, mask: np.ndarray | No
     if ties.shape[0] == 1:
         return int(ties[0])
     return int(ties[rng.integers(ties.shape[0])])
+
+
+def epsilon_greedy_choice(
+    q: np.ndarray, rng: np.random.Generator, epsilon: float, mask: np.ndarray
+) -> tuple[int, bool]:
+    """With probability ``epsilon`` a uniform choice among ``mask``, else the greedy one.
+
+    Returns ``(choice, explored)``, ``explored`` telling whether the choice was the random
+    one. With ``epsilon = 0`` nothing is drawn but the tie-breaks of :func:`greedy_choice`.
+    """
+    if epsilon > 0.0 and rng.random() < epsilon:
+        allowed = np.flatnonzero(mask)
+        return int(allowed[rng.integers(allowed.shape[0])]), True
+    return greedy_choice(q, rng, mask), False
 
 
 def _check_option_ids(option_ids: Sequence[int] | np.ndarray) -> tuple[int, ...]:
@@ -179,14 +193,13 @@ class _LinearQ:
         epsilon: float,
         mask: np.ndarray | None = None,
     ) -> int:
-        """With probability ``epsilon`` a uniform allowed choice, else the greedy one."""
+        """With probability ``epsilon`` a uniform allowed choice, else the greedy one
+        (:func:`epsilon_greedy_choice` at ``state``)."""
         if not 0.0 <= epsilon <= 1.0:
             raise ValueError(f"epsilon must be in [0, 1], got {epsilon}")
         mask = self._mask(mask, False)
-        if rng.random() < epsilon:
-            allowed = np.arange(self.n_choices) if mask is None else np.flatnonzero(mask)
-            return int(allowed[rng.integers(allowed.shape[0])])
-        return greedy_choice(self.q_values(state), rng, mask)
+        allowed = np.ones(self.n_choices, dtype=bool) if mask is None else mask
+        return epsilon_greedy_choice(self.q_values(state), rng, epsilon, allowed)[0]
 
     def _mask(self, mask: np.ndarray | None, primitive_only: bool) -> np.ndarray | None:
         if mask is not None:
@@ -279,6 +292,14 @@ class LinearPolicy(_LinearQ):
         (one per feature and tiling), so fancy-index addition is exact.
         """
         self.weights[choice, active] += step
+
+    def update_toward(
+        self, active: np.ndarray, choice: int, target: float, step_size: float
+    ) -> None:
+        """Move ``Q(s, choice)`` toward ``target``: ``step_size * (target - Q(s, choice))``
+        on each of the active tiles (``Q`` read now: earlier updates may share tiles)."""
+        current = float(np.take(self.weights[choice], active).sum())
+        self.update(active, choice, step_size * (target - current))
 
     def freeze(self) -> FrozenPolicy:
         """An immutable copy of the current policy."""

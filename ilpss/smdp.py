@@ -1,4 +1,4 @@
-"""SMDP Sarsa(0) / Q-learning over primitive actions and kernel options.
+"""SMDP Sarsa(lambda) / Watkins's Q(lambda) over primitive actions and kernel options.
 
 The learner follows keepaway's (Stone, Sutton and Kuhlmann 2005): a linear action-value
 function over one-dimensional tilings (:mod:`ilpss.tiles`), epsilon-greedy choice with
@@ -6,10 +6,11 @@ random tie-breaking, and SMDP updates in which one environment ``step`` may span
 cycles. Defaults are keepaway's: ``alpha = 0.125`` spread over the active tiles,
 ``epsilon = 0.01``, ``gamma = 1``.
 
-It talks to the environment only through the Gymnasium API: any environment with a 1-D
-``Box`` observation and a ``Discrete(n)`` action space works. ``info["duration"]`` (the
-number of cycles the step took, an int >= 1) is used when present and taken as 1
-otherwise; ``info["outcome"]`` is reported when present.
+It talks to the environment only through the Gymnasium API, with the contract of
+:mod:`ilpss.episode`: any environment with a 1-D ``Box`` observation and a
+``Discrete(n)`` action space works. ``info["duration"]`` (the number of cycles the step
+took, an int >= 1) is used when present and taken as 1 otherwise; ``info["outcome"]``
+is reported when present.
 
 Update rule
 -----------
@@ -55,99 +56,66 @@ the same environment seed, the same learner seed gives the same learning curve.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from ilpss._check import Bool, Integer, NoneOr, OneOf, Real, check_fields
+from ilpss.episode import (
+    EpisodeLog,
+    EpisodeResult,
+    EpisodicLearner,
+    OptionRun,
+    check_env,
+    observation,
+    options_used,
+    step_duration,
+)
 from ilpss.options import OptionLibrary
-from ilpss.policy import FrozenPolicy, LinearPolicy, greedy_choice
+from ilpss.policy import FrozenPolicy, LinearPolicy, epsilon_greedy_choice
 from ilpss.tiles import KEEPAWAY_ALPHA, TileCoder
 
-__all__ = ["EpisodeResult", "OptionRun", "SmdpLearner", "options_used"]
+__all__ = [
+    "SMDP_CONSTRAINTS",
+    "EpisodeResult",
+    "OptionRun",
+    "SmdpLearner",
+    "options_used",
+]
 
 _MIN_TRACE = 0.01  # eligibilities below this are dropped (keepaway's cut-off)
 
-
-@dataclass(frozen=True)
-class OptionRun:
-    """One execution of an option within an episode."""
-
-    option_id: int
-    start_decision: int  # index into EpisodeResult.trace of its first decision
-    n_decisions: int
-    cycles: int
-    ended_by_episode: bool  # the episode ended while it ran (rather than K(s) stopping it)
-    explored: bool  # it was started by an exploratory (random) choice
+SMDP_CONSTRAINTS = {
+    "alpha": Real(0.0, math.inf, low_open=True),
+    "epsilon": Real(0.0, 1.0),
+    "gamma": Real(0.0, 1.0),
+    "method": OneOf(("sarsa", "q")),
+    "intra_option": Bool(),
+    "bootstrap_on_truncation": Bool(),
+    "initial_value": Real(),
+    "option_initial_value": NoneOr(Real()),
+    "trace_decay": Real(0.0, 1.0),
+    "max_decisions": Integer(1),
+}
+"""What each setting of an SMDP learner allows; :class:`~ilpss.lifelong.LearnerConfig`
+and :class:`~ilpss.baselines.PrqLearner` check their fields of the same name with these."""
 
 
 @dataclass
-class EpisodeResult:
-    """Summary of one episode run by :meth:`SmdpLearner.run_episode`.
+class _ChoiceEnd:
+    """How one choice (a primitive, or an option's whole run) ended."""
 
-    Attributes
-    ----------
-    total_reward : float
-        Undiscounted sum of rewards.
-    discounted_return : float
-        ``sum_i gamma ** (cycles before step i) * r_i`` with the learner's ``gamma``.
-    cycles : int
-        Sum of step durations.
-    decisions : int
-        Number of environment steps (decisions of the agent, inside options included).
-    outcome : str or None
-        ``info["outcome"]`` of the last step, if the environment reports it.
-    success : bool
-        ``outcome == "success"`` when an outcome is reported, else terminated (not
-        truncated) with a positive last reward.
-    terminated, truncated : bool
-    trace : numpy.ndarray, shape (decisions, n_features)
-        The states at which the agent decided (the ILPSS trace; the final observation
-        is in ``final_observation``).
-    final_observation : numpy.ndarray
-    choices : list of int
-        The learner's choice indices, one per choice point (an option counts once).
-    options_chosen : list of int
-        Option ids started, in order.
-    option_runs : list of OptionRun
-    explored : list of bool
-        Whether each choice was an exploratory (random) one.
-    """
-
-    total_reward: float
-    discounted_return: float
-    cycles: int
-    decisions: int
-    outcome: str | None
-    success: bool
-    terminated: bool
-    truncated: bool
-    trace: np.ndarray
-    final_observation: np.ndarray
-    choices: list[int] = field(default_factory=list)
-    options_chosen: list[int] = field(default_factory=list)
-    option_runs: list[OptionRun] = field(default_factory=list)
-    explored: list[bool] = field(default_factory=list)
+    ret: float  # its discounted return
+    disc: float  # gamma ** its duration
+    ended: bool  # the episode ended during it
+    state: np.ndarray | None  # the next choice point (None: the episode is over)
+    active: np.ndarray | None
+    membership: np.ndarray | None  # kernel memberships at `state`, if already computed
 
 
-def options_used(results: Iterable[EpisodeResult], greedy_only: bool = True) -> set[int]:
-    """Option ids started in ``results`` (by default only by non-exploratory choices).
-
-    Pass the options used by greedy rollouts of the learnt policy
-    (:meth:`SmdpLearner.evaluate`) to :meth:`OptionLibrary.end_trial`: those are the
-    options "used by the learnt policy" of the paper's discounting rule.
-    """
-    return {
-        run.option_id
-        for res in results
-        for run in res.option_runs
-        if not (greedy_only and run.explored)
-    }
-
-
-class SmdpLearner:
-    """SMDP Sarsa(0) (or Q-learning) with linear tile coding over primitives and options.
+class SmdpLearner(EpisodicLearner):
+    """SMDP Sarsa / Q-learning with linear tile coding over primitives and options.
 
     Parameters
     ----------
@@ -179,6 +147,8 @@ class SmdpLearner:
     seed : int or numpy.random.Generator, optional
     max_decisions : int, default 100_000
         Safety bound on the steps of one episode (an error beyond it).
+
+    Every setting is checked with :data:`SMDP_CONSTRAINTS`.
     """
 
     def __init__(
@@ -201,16 +171,13 @@ class SmdpLearner:
     ) -> None:
         if not isinstance(tile_coder, TileCoder):
             raise TypeError(f"tile_coder must be a TileCoder, got {type(tile_coder).__name__}")
-        if not (math.isfinite(alpha) and alpha > 0):
-            raise ValueError(f"alpha must be positive, got {alpha}")
-        if not 0.0 <= epsilon <= 1.0:
-            raise ValueError(f"epsilon must be in [0, 1], got {epsilon}")
-        if not 0.0 <= gamma <= 1.0:
-            raise ValueError(f"gamma must be in [0, 1], got {gamma}")
-        if not (isinstance(trace_decay, int | float) and 0.0 <= trace_decay <= 1.0):
-            raise ValueError(f"trace_decay must be in [0, 1], got {trace_decay!r}")
-        if method not in ("sarsa", "q"):
-            raise ValueError(f"method must be 'sarsa' or 'q', got {method!r}")
+        settings = {
+            "alpha": alpha, "epsilon": epsilon, "gamma": gamma, "method": method,
+            "intra_option": intra_option, "bootstrap_on_truncation": bootstrap_on_truncation,
+            "initial_value": initial_value, "option_initial_value": option_initial_value,
+            "trace_decay": trace_decay, "max_decisions": max_decisions,
+        }
+        check_fields("SmdpLearner", settings, SMDP_CONSTRAINTS, dict.get)
         if library is not None:
             if not isinstance(library, OptionLibrary):
                 raise TypeError("library must be an OptionLibrary")
@@ -227,8 +194,6 @@ class SmdpLearner:
         option_ids = () if library is None else tuple(int(o) for o in library.option_ids)
         self.q = LinearPolicy(tile_coder, n_primitive, option_ids, initial_value=initial_value)
         if option_initial_value is not None:
-            if not math.isfinite(option_initial_value):
-                raise ValueError(f"option_initial_value must be finite, got {option_initial_value}")
             self.q.weights[n_primitive:] = option_initial_value / tile_coder.n_active
         self.tile_coder = tile_coder
         self.library = library
@@ -316,48 +281,10 @@ class SmdpLearner:
         mask[self.n_primitive :] = self._lib_ok & avail[self._lib_pos]
         return mask, m
 
-    def _choose(self, q: np.ndarray, mask: np.ndarray, epsilon: float) -> tuple[int, bool]:
-        if epsilon > 0.0 and self.rng.random() < epsilon:
-            allowed = np.flatnonzero(mask)
-            return int(allowed[self.rng.integers(allowed.shape[0])]), True
-        return greedy_choice(q, self.rng, mask), False
-
     def _bootstrap(self, q: np.ndarray, mask: np.ndarray, choice: int) -> float:
         if self.method == "q":
             return float(np.max(np.where(mask, q, -np.inf)))
         return float(q[choice])
-
-    def _check_env(self, env: Any) -> None:
-        space = getattr(env, "action_space", None)
-        n = getattr(space, "n", None)
-        if n is None or int(n) != self.n_primitive:
-            raise ValueError(
-                f"environment action space {space!r} is not Discrete({self.n_primitive})"
-            )
-        obs_space = getattr(env, "observation_space", None)
-        shape = getattr(obs_space, "shape", None)
-        if shape is not None and tuple(shape) != (self.tile_coder.n_features,):
-            raise ValueError(
-                f"environment observations have shape {shape}, the tile coder expects "
-                f"({self.tile_coder.n_features},)"
-            )
-
-    def _observation(self, obs: Any) -> np.ndarray:
-        x = np.array(obs, dtype=np.float64)  # a copy: envs may reuse their buffers
-        if x.shape != (self.tile_coder.n_features,):
-            raise ValueError(
-                f"observation must have shape ({self.tile_coder.n_features},), got {x.shape}"
-            )
-        if not np.isfinite(x).all():
-            raise ValueError(f"observation contains NaN or infinite values: {x}")
-        return x
-
-    @staticmethod
-    def _duration(info: dict[str, Any]) -> int:
-        d = info.get("duration", 1)
-        if isinstance(d, bool) or not isinstance(d, int | np.integer) or d < 1:
-            raise ValueError(f"info['duration'] must be an int >= 1, got {d!r}")
-        return int(d)
 
     # ------------------------------------------------------------ intra-option
     def _intra_option_update(
@@ -372,27 +299,26 @@ class SmdpLearner:
         next_state: np.ndarray | None,
     ) -> None:
         """One-step updates of the primitive taken and of consistent options."""
+        lib = self.library
         q_next = None
-        m_next = None
+        cont = None
         if next_state is not None:
             q_next = self.q.q_values(next_state)
             if self.option_ids:
-                m_next = self.library.membership(next_state)  # type: ignore[union-attr]
+                assert lib is not None
+                cont = lib.continuation_probabilities(lib.membership(next_state))[self._lib_pos]
         disc = self.gamma**duration
         targets: dict[int, float] = {}
         if action != running:
             targets[action] = reward + (0.0 if q_next is None else disc * float(q_next.max()))
         if self.option_ids and m is not None:
-            lib = self.library
             assert lib is not None
             tiles = {self.tile_coder: s_active}
+            inside = lib.memberships(m)[self._lib_pos] > 0.0
             by_policy: dict[int, int] = {}
             for j, oid in enumerate(self.option_ids):
                 c = self.n_primitive + j
-                if c == running or not self._lib_ok[j]:
-                    continue
-                k = lib.option_kernel[self._lib_pos[j]]
-                if m[k] <= 0.0:
+                if c == running or not self._lib_ok[j] or not inside[j]:
                     continue
                 pid = lib.policy_of(oid)
                 if pid not in by_policy:
@@ -402,9 +328,8 @@ class SmdpLearner:
                 if q_next is None:
                     targets[c] = reward
                 else:
-                    assert m_next is not None
-                    beta_cont = m_next[k] ** lib.continuation_exponent
-                    u = beta_cont * q_next[c] + (1.0 - beta_cont) * q_next.max()
+                    assert cont is not None
+                    u = cont[j] * q_next[c] + (1.0 - cont[j]) * q_next.max()
                     targets[c] = reward + disc * float(u)
         if targets:
             q_now = self.q.q_from_tiles(s_active)
@@ -438,132 +363,99 @@ class SmdpLearner:
         -------
         EpisodeResult
         """
-        self._check_env(env)
+        n_features = self.tile_coder.n_features
+        check_env(env, self.n_primitive, n_features)
         epsilon = self.epsilon if (learn if explore is None else explore) else 0.0
-        lib = self.library
-        n_prim = self.n_primitive
         obs, _ = env.reset(seed=seed)
-        s = self._observation(obs)
-        trace: list[np.ndarray] = []
-        choices: list[int] = []
-        explored_flags: list[bool] = []
-        options_chosen: list[int] = []
-        runs: list[OptionRun] = []
-        total_reward = 0.0
-        discounted_return = 0.0
-        last_reward = 0.0
-        cycles = 0
-        info: dict[str, Any] = {}
-        terminated = truncated = False
+        s = observation(obs, n_features)
+        log = EpisodeLog(self.gamma, n_features, self.max_decisions)
         # One eligibility per weight, only when lambda > 0.
         traces = np.zeros_like(self.q.weights) if self.trace_decay > 0.0 else None
         self._live_rows.clear()  # rows of `traces` with a non-zero eligibility
-
         active = self.tile_coder.active(s)
         mask, m = self._choice_mask(s)
-        choice, explored = self._choose(self.q.q_from_tiles(active), mask, epsilon)
-        while True:
-            # A choice point: `choice` was made at `s` (tiles `active`).
-            start_active = active
-            choices.append(choice)
-            explored_flags.append(explored)
-            option_id = self.q.option_ids[choice - n_prim] if choice >= n_prim else None
-            if option_id is not None:
-                assert lib is not None
-                options_chosen.append(option_id)
-                lib.record_use(option_id)
-            run_start, run_cycles = len(trace), 0
-            ret, disc = 0.0, 1.0  # discounted return of this choice, gamma ** duration
-            while True:  # the steps of this choice
-                if len(trace) >= self.max_decisions:
-                    raise RuntimeError(f"episode exceeded max_decisions={self.max_decisions}")
-                trace.append(s)
-                if option_id is None:
-                    action = choice
-                else:
-                    action = lib.act(option_id, s, self.rng, {self.tile_coder: active})  # type: ignore[union-attr]
-                obs, reward, terminated, truncated, info = env.step(action)
-                reward = float(reward)
-                d = self._duration(info)
-                ended = bool(terminated or truncated)
-                bootstrap_end = bool(truncated and not terminated and self.bootstrap_on_truncation)
-                next_s = self._observation(obs) if (not ended or bootstrap_end) else None
-                if learn and self.intra_option:
-                    self._intra_option_update(active, s, m, action, choice, reward, d, next_s)
-                ret += disc * reward
-                disc *= self.gamma**d
-                discounted_return += self.gamma**cycles * reward
-                total_reward += reward
-                last_reward = reward
-                cycles += d
-                run_cycles += d
-                if ended:
-                    break
-                s = next_s  # type: ignore[assignment]
-                active = self.tile_coder.active(s)
-                m = None
-                if option_id is None:
-                    break
-                m = lib.membership(s)  # type: ignore[union-attr]
-                if not lib.continues(option_id, s, self.rng, membership=m):  # type: ignore[union-attr]
-                    break
-            if option_id is not None:
-                runs.append(
-                    OptionRun(
-                        option_id, run_start, len(trace) - run_start, run_cycles, ended, explored
-                    )
-                )
-            if ended and not bootstrap_end:
+        choice, explored = epsilon_greedy_choice(
+            self.q.q_from_tiles(active), self.rng, epsilon, mask
+        )
+        while True:  # one iteration per choice point: `choice` made at `s`
+            log.choose(choice, explored)
+            end = self._run_choice(env, log, choice, explored, s, active, m, learn)
+            if end.state is None:  # the episode is over: the target is the return alone
                 if learn:
-                    self._td_update(traces, start_active, choice, ret, 0.0, True)
+                    self._td_update(traces, active, choice, end.ret, 0.0, True)
                 break
-            # Next choice point at s (or, for a bootstrapped truncation, the final state).
-            if ended:
-                s = next_s  # type: ignore[assignment]
-                active = self.tile_coder.active(s)
-                m = None
-            q = self.q.q_from_tiles(active)
-            if m is None:
-                mask, m = self._choice_mask(s)
-            else:  # membership already computed for the termination draw
-                mask, _ = self._choice_mask(s, m)
-            next_choice, explored = self._choose(q, mask, epsilon)
+            q = self.q.q_from_tiles(end.active)
+            mask, m = self._choice_mask(end.state, end.membership)
+            next_choice, explored = epsilon_greedy_choice(q, self.rng, epsilon, mask)
             if learn:
-                target = ret + disc * self._bootstrap(q, mask, next_choice)
+                target = end.ret + end.disc * self._bootstrap(q, mask, next_choice)
                 # Watkins's Q(lambda): an exploratory choice cuts the traces.
                 cut = self.method == "q" and explored
-                self._td_update(traces, start_active, choice, target, disc * self.trace_decay, cut)
+                self._td_update(traces, active, choice, target, end.disc * self.trace_decay, cut)
+            if end.ended:  # a truncation bootstrapped from its last state
+                break
+            s, active, choice = end.state, end.active, next_choice
+        return log.result()
+
+    def _run_choice(
+        self,
+        env: Any,
+        log: EpisodeLog,
+        choice: int,
+        explored: bool,
+        s: np.ndarray,
+        active: np.ndarray,
+        m: np.ndarray | None,
+        learn: bool,
+    ) -> _ChoiceEnd:
+        """Carry out ``choice`` from ``s``: one step for a primitive, every step until
+        the option stops (or the episode ends) for an option."""
+        lib = self.library
+        option_id = self.q.option_ids[choice - self.n_primitive] if choice >= self.n_primitive \
+            else None
+        if option_id is not None:
+            assert lib is not None
+            log.options_chosen.append(option_id)
+            lib.record_use(option_id)
+        run_start, run_cycles = log.decisions, 0
+        ret, disc = 0.0, 1.0  # discounted return of this choice, gamma ** duration
+        while True:
+            log.visit(s)
+            if option_id is None:
+                action = choice
+            else:
+                action = lib.act(option_id, s, self.rng, {self.tile_coder: active})  # type: ignore[union-attr]
+            obs, reward, terminated, truncated, info = env.step(action)
+            reward = float(reward)
+            d = step_duration(info)
+            ended = bool(terminated or truncated)
+            bootstrap_end = bool(truncated and not terminated and self.bootstrap_on_truncation)
+            next_s = observation(obs, s.shape[0]) if (not ended or bootstrap_end) else None
+            if learn and self.intra_option:
+                self._intra_option_update(active, s, m, action, choice, reward, d, next_s)
+            ret += disc * reward
+            disc *= self.gamma**d
+            log.step(obs, reward, d, terminated, truncated, info)
+            run_cycles += d
             if ended:
                 break
-            choice = next_choice
-
-        outcome = info.get("outcome")
-        if outcome is not None:
-            success = outcome == "success"
-        else:
-            success = bool(terminated and not truncated and last_reward > 0)
-        d_feat = self.tile_coder.n_features
-        return EpisodeResult(
-            total_reward=total_reward,
-            discounted_return=discounted_return,
-            cycles=cycles,
-            decisions=len(trace),
-            outcome=outcome,
-            success=success,
-            terminated=bool(terminated),
-            truncated=bool(truncated),
-            trace=np.array(trace, dtype=np.float64).reshape(len(trace), d_feat),
-            final_observation=np.asarray(obs, dtype=np.float64),
-            choices=choices,
-            options_chosen=options_chosen,
-            option_runs=runs,
-            explored=explored_flags,
-        )
-
-    def _update(self, active: np.ndarray, choice: int, target: float) -> None:
-        """Move Q(s, choice) toward ``target`` (Q recomputed: earlier updates may share tiles)."""
-        current = float(np.take(self.q.weights[choice], active).sum())
-        self.q.update(active, choice, self._step * (target - current))
+            s = next_s  # type: ignore[assignment]
+            active = self.tile_coder.active(s)
+            m = None
+            if option_id is None:
+                break
+            m = lib.membership(s)  # type: ignore[union-attr]
+            if not lib.continues(option_id, s, self.rng, membership=m):  # type: ignore[union-attr]
+                break
+        if option_id is not None:
+            log.option_runs.append(OptionRun(
+                option_id, run_start, log.decisions - run_start, run_cycles, ended, explored
+            ))
+        if ended:
+            if next_s is None:
+                return _ChoiceEnd(ret, disc, True, None, None, None)
+            return _ChoiceEnd(ret, disc, True, next_s, self.tile_coder.active(next_s), None)
+        return _ChoiceEnd(ret, disc, False, s, active, m)
 
     def _td_update(
         self, traces: np.ndarray | None, active: np.ndarray, choice: int, target: float,
@@ -577,7 +469,7 @@ class SmdpLearner:
         Q-learning).
         """
         if traces is None:
-            self._update(active, choice, target)
+            self.q.update_toward(active, choice, target, self._step)
             return
         delta = target - float(np.take(self.q.weights[choice], active).sum())
         # Replacing traces on tiles (keepaway): the tiles of this state get eligibility 1
@@ -602,31 +494,3 @@ class SmdpLearner:
             e[e < _MIN_TRACE] = 0.0
             if not e.any():
                 live.discard(row)
-
-    def train(
-        self,
-        env: Any,
-        n_episodes: int,
-        *,
-        seed: int | None = None,
-        callback: Callable[[int, EpisodeResult], None] | None = None,
-    ) -> list[EpisodeResult]:
-        """Learn for ``n_episodes`` episodes; ``seed`` seeds the first ``env.reset``."""
-        if n_episodes < 0:
-            raise ValueError("n_episodes must be >= 0")
-        results = []
-        for i in range(n_episodes):
-            res = self.run_episode(env, learn=True, seed=seed if i == 0 else None)
-            results.append(res)
-            if callback is not None:
-                callback(i, res)
-        return results
-
-    def evaluate(
-        self, env: Any, n_episodes: int, *, seed: int | None = None
-    ) -> list[EpisodeResult]:
-        """Greedy rollouts without learning (e.g. to collect traces of the learnt policy)."""
-        return [
-            self.run_episode(env, learn=False, seed=seed if i == 0 else None)
-            for i in range(n_episodes)
-        ]

@@ -20,9 +20,13 @@ choice), and there are no hash collisions.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-__all__ = ["KEEPAWAY_ALPHA", "KEEPAWAY_N_TILINGS", "MAX_WEIGHTS", "TileCoder"]
+from ilpss._check import Integer, Real, check
+
+__all__ = ["KEEPAWAY_ALPHA", "KEEPAWAY_N_TILINGS", "MAX_WEIGHTS", "TILE_CONSTRAINTS", "TileCoder"]
 
 #: Keepaway's number of one-dimensional tilings per state variable.
 KEEPAWAY_N_TILINGS = 32
@@ -34,6 +38,8 @@ KEEPAWAY_ANGLE_WIDTH = 10.0
 #: Most weights a coder may have (per choice of a value function: 32 MiB of float64).
 #: The drill's coder has about 5,500; tiny widths would ask for terabytes.
 MAX_WEIGHTS = 2**22
+TILE_CONSTRAINTS = {"n_tilings": Integer(1, 1024), "width": Real(0.0, math.inf, low_open=True)}
+"""The number of tilings, and each feature's tile width (in its units)."""
 
 
 def _as_1d_float(name: str, value: object, n: int | None = None) -> np.ndarray:
@@ -91,12 +97,10 @@ class TileCoder:
         widths_a = _as_1d_float("widths", widths, n)
         if np.any(high_a <= low_a):
             raise ValueError("every high must exceed its low")
-        if np.any(widths_a <= 0):
-            raise ValueError("every width must be positive")
-        if isinstance(n_tilings, bool) or not isinstance(n_tilings, int | np.integer):
-            raise TypeError(f"n_tilings must be an int, got {type(n_tilings).__name__}")
-        if n_tilings < 1:
-            raise ValueError(f"n_tilings must be >= 1, got {n_tilings}")
+        width = TILE_CONSTRAINTS["width"]
+        if not all(width.allows(w) for w in widths_a):
+            raise ValueError(f"every width must be {width.describe()}, got {widths_a}")
+        check("n_tilings", n_tilings, TILE_CONSTRAINTS["n_tilings"])
         # Counted before anything is allocated (floats: tiny widths overflow int64).
         bins = np.floor((high_a - low_a) / widths_a) + 2
         if not int(n_tilings) * bins.sum() <= MAX_WEIGHTS:

@@ -380,8 +380,8 @@ class BadDurationEnv(ZoneCorridor):
         ({"tau0": -1.0}, ValueError, "tau0"),
         ({"tau0": float("inf")}, ValueError, "tau0"),
         ({"delta_tau": -0.05}, ValueError, "delta_tau"),
-        ({"delta_tau": "0.1"}, TypeError, "delta_tau"),
-        ({"psi": True}, TypeError, "psi"),
+        ({"delta_tau": "0.1"}, ValueError, r"PrqLearner.delta_tau must be a finite number >= 0"),
+        ({"psi": True}, ValueError, r"PrqLearner.psi must be a finite number in \[0, 1\], got True"),
         ({"initial_value": float("nan")}, ValueError, "initial_value"),
         ({"max_decisions": 0}, ValueError, "max_decisions"),
     ],
@@ -422,7 +422,7 @@ def test_bad_environments_and_arguments() -> None:
             prq.run_episode(BadDurationEnv(bad), seed=0)
     with pytest.raises(ValueError, match="n_episodes"):
         prq.train(ZoneCorridor(), -1)
-    with pytest.raises(ValueError, match="n must be"):
+    with pytest.raises(ValueError, match="n_episodes must be"):
         prq.evaluate(ZoneCorridor(), -1)
     capped = PrqLearner(3, cell_coder(), [], epsilon=0.0, max_decisions=3, seed=0)
     capped.q.weights[0] = 1.0  # the fast action of zone A: more than 3 steps to the goal

@@ -75,13 +75,13 @@ def test_protocol_c_reports_library_size(tmp_path):
 def test_configuration_round_trip_and_errors(tmp_path):
     cfg = _tiny(protocol="B")
     assert ExperimentConfig.from_dict(json.loads(cfg.to_json())) == cfg
-    with pytest.raises(ValueError, match=r"unknown method\(s\) \['magic'\]"):
+    with pytest.raises(ValueError, match=r"methods must name a registered method .*'magic'"):
         ExperimentConfig(methods=("magic",))
-    with pytest.raises(ValueError, match="reuses the policies of 'scratch'"):
+    with pytest.raises(ValueError, match=r"method 'prq' reuses the learners of \['scratch'\]"):
         ExperimentConfig(methods=("ilpss", "prq"))
     with pytest.raises(ValueError, match=r"unknown ExperimentConfig field\(s\) \['seeds'\]"):
         ExperimentConfig.from_dict({"seeds": 3})
-    with pytest.raises(ValueError, match="protocol must be"):
+    with pytest.raises(ValueError, match="protocol must name a registered protocol"):
         ExperimentConfig(protocol="D")
 
 
@@ -99,10 +99,12 @@ def test_cli_set_overrides_lifelong_and_learner_fields() -> None:
     from ilpss.experiments.cli import build_config, parser
 
     args = parser().parse_args(["--out", "x", "--set", "n_kernels=2",
-                                "--set", "learner.intra_option=true", "--set", "discount=0.25"])
+                                "--set", "learner.intra_option=true",
+                                "--set", "library.discount=0.25"])
     cfg = build_config(args)
     assert cfg.lifelong.n_kernels == 2
-    assert cfg.lifelong.discount == 0.25
+    assert cfg.lifelong.library.discount == 0.25
+    assert cfg.lifelong.library.max_depth == ExperimentConfig().lifelong.library.max_depth
     assert cfg.lifelong.learner.intra_option is True
     # untouched learner fields keep the defaults
     assert cfg.lifelong.learner.tile_widths == ExperimentConfig().lifelong.learner.tile_widths

@@ -114,10 +114,15 @@ def test_config_round_trip_and_validation():
     assert LifelongConfig.from_dict(json.loads(json.dumps(cfg.to_dict()))) == cfg
     with pytest.raises(ValueError, match=r"unknown LifelongConfig field\(s\) \['kernels'\]"):
         LifelongConfig.from_dict({"kernels": 5})
-    with pytest.raises(ValueError, match="options must be 'kernels', 'whole_policies' or 'none'"):
+    with pytest.raises(ValueError, match="options must be one of 'kernels', 'whole_policies' or "
+                       "'none'"):
         LifelongConfig(options="all")
-    with pytest.raises(ValueError, match=r"discount must lie in \(0, 1\]"):
-        LifelongConfig(discount=1.5)
+    with pytest.raises(ValueError, match=r"OptionSettings.discount must be a finite number in "
+                       r"\(0, 1\], got 1.5"):
+        LifelongConfig.from_dict({"library": {"discount": 1.5}})
+    with pytest.raises(ValueError, match=r"LifelongConfig.library: unknown OptionSettings "
+                       r"field\(s\) \['discout'\]"):
+        LifelongConfig.from_dict({"library": {"discout": 0.5}})
 
 
 def test_tiny_loop_on_the_drill():

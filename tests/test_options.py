@@ -17,6 +17,7 @@ from synthetic_smdp import (
 
 from ilpss.options import (
     OptionLibrary,
+    OptionSettings,
     bhattacharyya_distance,
     kernel_distances,
     match_kernels,
@@ -55,9 +56,9 @@ def test_build_rejects_bad_inputs() -> None:
     with pytest.raises(ValueError, match="features"):
         OptionLibrary(IntervalKernels([(0, 3)], n_features=2), [constant_policy(0)])
     with pytest.raises(ValueError, match="discount"):
-        OptionLibrary(model, [constant_policy(0)], discount=1.5)
+        OptionLibrary(model, [constant_policy(0)], OptionSettings(discount=1.5))
     with pytest.raises(ValueError, match="max_depth"):
-        OptionLibrary(model, [constant_policy(0)], max_depth=0)
+        OptionLibrary(model, [constant_policy(0)], OptionSettings(max_depth=0))
     bad = IntervalKernels([(0, 3)])
     bad.means_ = np.zeros((2, 1))
     with pytest.raises(ValueError, match=r"means_|n_components"):
@@ -86,7 +87,7 @@ def test_membership_shapes_and_state_checks() -> None:
 # --------------------------------------------------------------------------- semantics
 def test_initiation_frequency_matches_scale_times_membership() -> None:
     model = constant_kernels([0.3, 0.8])
-    lib = OptionLibrary(model, [constant_policy(0)], discount=0.5, prune_threshold=0.1)
+    lib = OptionLibrary(model, [constant_policy(0)], OptionSettings(discount=0.5, prune_threshold=0.1))
     # Discount option 1 (kernel 1) once: c = 0.5.
     lib.end_trial(used=[0])
     assert lib.scale(0) == 1.0 and lib.scale(1) == 0.5
@@ -113,7 +114,7 @@ def test_initiation_follows_state_dependent_membership() -> None:
 
 def test_continuation_frequency_matches_membership_without_scale() -> None:
     model = constant_kernels([0.6])
-    lib = OptionLibrary(model, [constant_policy(0)], discount=0.5)
+    lib = OptionLibrary(model, [constant_policy(0)], OptionSettings(discount=0.5))
     lib.end_trial(used=[])  # scale 0.5 must not affect continuation
     assert lib.scale(0) == 0.5
     rng = np.random.default_rng(2)
@@ -125,8 +126,7 @@ def test_continuation_frequency_matches_membership_without_scale() -> None:
 
 @pytest.mark.parametrize("exponent", [0.0, 0.5, 2.0])
 def test_continuation_exponent_scales_the_stopping_rule(exponent: float, tmp_path) -> None:
-    lib = OptionLibrary(constant_kernels([0.6]), [constant_policy(0)],
-                        continuation_exponent=exponent)
+    lib = OptionLibrary(constant_kernels([0.6]), [constant_policy(0)], OptionSettings(continuation_exponent=exponent))
     rng = np.random.default_rng(3)
     n = 20_000
     hits = sum(lib.continues(0, np.array([1.0]), rng) for _ in range(n))
@@ -136,17 +136,16 @@ def test_continuation_exponent_scales_the_stopping_rule(exponent: float, tmp_pat
         assert binomial_ok(hits, n, 0.6**exponent)
     # initiation does not change, and the exponent survives a refit and a save/load
     np.testing.assert_allclose(lib.initiation_probabilities(np.array([1.0])), [0.6])
-    assert lib.refit(constant_kernels([0.6]), []).continuation_exponent == exponent
-    saved = OptionLibrary(IntervalKernels([(0, 9)]), [constant_policy(0)],
-                          continuation_exponent=exponent)
+    assert lib.refit(constant_kernels([0.6]), []).settings.continuation_exponent == exponent
+    saved = OptionLibrary(IntervalKernels([(0, 9)]), [constant_policy(0)], OptionSettings(continuation_exponent=exponent))
     saved.save(tmp_path / "lib")
     again = OptionLibrary.load(tmp_path / "lib", kernel_loader=IntervalKernels.load)
-    assert again.continuation_exponent == exponent
+    assert again.settings.continuation_exponent == exponent
 
 
 def test_negative_continuation_exponent_is_refused() -> None:
     with pytest.raises(ValueError, match="continuation_exponent"):
-        OptionLibrary(constant_kernels([0.6]), [constant_policy(0)], continuation_exponent=-1)
+        OptionLibrary(constant_kernels([0.6]), [constant_policy(0)], OptionSettings(continuation_exponent=-1))
 
 
 def test_option_acts_greedily_with_its_policy() -> None:
@@ -176,7 +175,7 @@ def test_nested_pointers_execute_the_pointed_policy() -> None:
 
 def test_depth_is_bounded() -> None:
     model = IntervalKernels([(0, 9)])
-    lib = OptionLibrary(model, [constant_policy(2)], max_depth=4)
+    lib = OptionLibrary(model, [constant_policy(2)], OptionSettings(max_depth=4))
     # A chain: pi_i (i >= 1) prefers the option of pi_{i-1}; its best primitive is 1.
     for i in range(1, 7):
         prev_option = int(lib.option_ids[-1])
@@ -192,7 +191,7 @@ def test_depth_is_bounded() -> None:
     action, path = lib.resolve(int(lib.option_ids[3]), s, rng)
     assert path == (3, 2, 1, 0) and action == 2
     # max_depth = 1: the option's own policy, best primitive.
-    shallow = OptionLibrary(model, [constant_policy(2)], max_depth=1)
+    shallow = OptionLibrary(model, [constant_policy(2)], OptionSettings(max_depth=1))
     assert shallow.resolve(0, s, rng) == (2, (0,))
 
 
@@ -212,7 +211,7 @@ def test_unknown_option_ids_give_clear_errors() -> None:
 # --------------------------------------------------------------- discounting/pruning
 def test_discounting_and_pruning_rule() -> None:
     model = IntervalKernels([(0, 3), (3, 6)])
-    lib = OptionLibrary(model, [constant_policy(0)], discount=0.5, prune_threshold=0.1)
+    lib = OptionLibrary(model, [constant_policy(0)], OptionSettings(discount=0.5, prune_threshold=0.1))
     # Trial 1: option 0 used, option 1 not -> 0.5.
     rep = lib.end_trial(used=[0])
     assert rep.discounted == (1,) and rep.pruned == ()
@@ -328,7 +327,7 @@ def test_refit_unmatched_kernels_new_policies_and_pruned_pairs() -> None:
 
 def test_refit_max_match_distance_none_matches_everything() -> None:
     model = IntervalKernels([(0, 3)])
-    lib = OptionLibrary(model, [constant_policy(0)], max_match_distance=None)
+    lib = OptionLibrary(model, [constant_policy(0)], OptionSettings(max_match_distance=None))
     new = lib.refit(IntervalKernels([(50, 53)]))
     assert list(new.kernel_ids) == [0] and list(new.option_ids) == [0]
 
@@ -345,7 +344,7 @@ def test_match_kernels_helper() -> None:
 # ---------------------------------------------------------------------- persistence
 def _library_for_saving() -> OptionLibrary:
     model = IntervalKernels([(0, 3), (3, 6)])
-    lib = OptionLibrary(model, [constant_policy(2)], max_depth=3)
+    lib = OptionLibrary(model, [constant_policy(2)], OptionSettings(max_depth=3))
     lib = lib.refit(model, [constant_policy(0, option_ids=(0, 1), prefer=4)])
     lib.end_trial(used=[0, 1, 2])  # option 3 discounted
     lib.record_use(2, 5)
@@ -358,7 +357,7 @@ def test_save_load_round_trip(tmp_path: Path) -> None:
     again = OptionLibrary.load(tmp_path / "lib", kernel_loader=IntervalKernels.load)
     assert again.options() == lib.options()
     assert again.registry == lib.registry and again.pruned == lib.pruned
-    assert again.max_depth == 3 and again.discount == lib.discount
+    assert again.settings == lib.settings and again.settings.max_depth == 3
     np.testing.assert_array_equal(again.kernel_ids, lib.kernel_ids)
     r1, r2 = np.random.default_rng(4), np.random.default_rng(4)
     for x in np.linspace(0.1, 8.9, 40):
@@ -498,7 +497,7 @@ def test_discounting_accumulates_across_permuted_refits() -> None:
 
 def test_no_discounting_keeps_every_option() -> None:
     model = constant_kernels([0.3, 0.8])
-    lib = OptionLibrary(model, [constant_policy(0)], discount=1.0, prune_threshold=0.1)
+    lib = OptionLibrary(model, [constant_policy(0)], OptionSettings(discount=1.0, prune_threshold=0.1))
     for _ in range(10):
         lib.end_trial(used=())
     assert len(lib) == 2 and np.all(lib.scales == 1.0)

@@ -83,7 +83,7 @@ def _corridors() -> list[ZoneCorridor]:
 def synthetic_run(root: Path) -> tuple[dict[str, Any], int]:
     """Every method on four corridors; also the longest pointer chain that was followed."""
     from ilpss.baselines import PrqLearner
-    from ilpss.experiments.run import method_config
+    from ilpss.experiments.methods import METHODS
     from ilpss.lifelong import LearnerConfig, LifelongConfig, LifelongLearner, trial_seeds
     from ilpss.options import OptionLibrary
 
@@ -92,9 +92,11 @@ def synthetic_run(root: Path) -> tuple[dict[str, Any], int]:
         learner=LearnerConfig(initial_value=1.0, tile_widths=(1.0, 0.5), n_tilings=8,
                               intra_option=True, option_initial_value=1.5),
     )
-    variant = replace(base, continuation_exponent=0.5, max_depth=2, learner=replace(
-        base.learner, method="sarsa", intra_option=False, option_initial_value=2.0))
-    configs = {m: method_config(base, m) for m in SYNTHETIC_METHODS} | {"variant": variant}
+    variant = replace(
+        base, library=replace(base.library, continuation_exponent=0.5, max_depth=2),
+        learner=replace(base.learner, method="sarsa", intra_option=False,
+                        option_initial_value=2.0))
+    configs = {m: METHODS.get(m).config(base) for m in SYNTHETIC_METHODS} | {"variant": variant}
     longest = [1]
     real_resolve = OptionLibrary.resolve
 
@@ -139,10 +141,11 @@ def synthetic_run(root: Path) -> tuple[dict[str, Any], int]:
 
 def drill_run(root: Path) -> dict[str, Any]:
     """Protocol A on the drill: 2 seeds, every method, 5 episodes per team."""
-    from ilpss.experiments.config import METHODS, ExperimentConfig
+    from ilpss.experiments.config import ExperimentConfig
     from ilpss.experiments.run import run_experiment
 
-    cfg = ExperimentConfig(n_seeds=2, workers=1, methods=METHODS).with_overrides(
+    methods = ("ilpss", "scratch", "whole_policies", "prq", "ilpss_no_discount")
+    cfg = ExperimentConfig(n_seeds=2, workers=1, methods=methods).with_overrides(
         lifelong={"train_episodes": 5, "rollout_episodes": 3, "n_kernels": 2})
     results = run_experiment(cfg, root, progress=False)
     return {

@@ -19,10 +19,12 @@ import pytest
 
 import soccer_drill
 import soccer_drill.core
+from ilpss.baselines import PrqConfig
 from ilpss.experiments.cli import main as cli_main
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.run import run_experiment
 from ilpss.lifelong import LearnerConfig, LifelongConfig
+from ilpss.options import OptionSettings
 from soccer_drill.skills import Command, Skill
 from soccer_drill.teams import TeamError
 
@@ -560,21 +562,31 @@ def test_sigkill_mid_trial_then_restart_ends_identical_to_an_uninterrupted_run(t
         ({"workers": 0}, r"workers must be an integer in \[1, 1,024\]"),
         ({"workers": 10**6}, r"workers must be an integer in \[1, 1,024\], got 1000000"),
         ({"stream_length": 10**9}, r"stream_length must be an integer in \[1, 10,000\]"),
-        ({"prq_psi": math.nan}, r"prq_psi must be a finite number in \[0, 1\], got nan"),
-        ({"prq_psi": "0.5"}, r"prq_psi must be a finite number in \[0, 1\], got '0.5'"),
-        ({"prq_upsilon": math.inf}, r"prq_upsilon must be a finite number in \[0, 1\], got inf"),
-        ({"prq_upsilon": 1.5}, r"prq_upsilon must be a finite number in \[0, 1\]"),
-        ({"prq_delta_tau": -math.inf}, r"prq_delta_tau must be a finite number >= 0, got -inf"),
-        ({"prq_delta_tau": math.nan}, "prq_delta_tau must be a finite number"),
-        ({"methods": "ilpss"}, r"ExperimentConfig.methods must be a list of strings, got 'ilpss'"),
-        ({"methods": []}, r"unknown method\(s\) \[\] in ExperimentConfig.methods \(which must"),
-        ({"methods": ["scratch", "scratch"]}, "must not repeat a method"),
-        ({"methods": [1]}, "ExperimentConfig.methods must be a tuple of non-empty strings"),
-        ({"teams": "goal_guards"}, "ExperimentConfig.teams must be a list of strings"),
-        ({"teams": ["chasers", ""]}, "ExperimentConfig.teams must be a tuple of non-empty"),
-        ({"teams": ["chasers", None]}, "ExperimentConfig.teams must be a tuple of non-empty"),
+        ({"prq": {"psi": math.nan}},
+         r"ExperimentConfig.prq: PrqConfig.psi must be a finite number in \[0, 1\], got nan"),
+        ({"prq": {"psi": "0.5"}}, r"PrqConfig.psi must be a finite number in \[0, 1\], got '0.5'"),
+        ({"prq": {"upsilon": math.inf}},
+         r"PrqConfig.upsilon must be a finite number in \[0, 1\], got inf"),
+        ({"prq": {"upsilon": 1.5}}, r"PrqConfig.upsilon must be a finite number in \[0, 1\]"),
+        ({"prq": {"delta_tau": -math.inf}},
+         r"PrqConfig.delta_tau must be a finite number >= 0, got -inf"),
+        ({"prq": {"delta_tau": math.nan}}, "PrqConfig.delta_tau must be a finite number"),
+        ({"prq": [1]}, "ExperimentConfig.prq must be a JSON object of PrqConfig fields, got list"),
+        ({"methods": "ilpss"}, r"ExperimentConfig.methods must be a list of at least 1 distinct "
+                               r"values, each a name .*, got 'ilpss'"),
+        ({"methods": []}, r"ExperimentConfig.methods must be a list of at least 1 distinct"),
+        ({"methods": ["scratch", "scratch"]}, r"methods must be a list of at least 1 distinct"),
+        ({"methods": [1]}, r"ExperimentConfig.methods must be a list .*, got \(1,\)"),
+        ({"methods": ["magic"]}, r"ExperimentConfig.methods must name a registered method "
+                                 r"\(entry-point group 'ilpss.methods'\), got 'magic'"),
+        ({"teams": "goal_guards"}, r"ExperimentConfig.teams must be a list of at least 1 values, "
+                                   r"each a non-empty string, got 'goal_guards'"),
+        ({"teams": ["chasers", ""]}, "ExperimentConfig.teams must be a list of at least 1 values"),
+        ({"teams": ["chasers", None]}, "ExperimentConfig.teams must be a list of at least 1"),
         ({"protocol": "B", "teams": ["chasers", "chasers"]}, "must not repeat a team"),
-        ({"protocol": "a"}, r"ExperimentConfig.protocol must be 'A', 'B' or 'C', got 'a'"),
+        ({"protocol": "a"}, r"ExperimentConfig.protocol must name a registered protocol "
+                            r"\(entry-point group 'ilpss.protocols'\), got 'a'; registered: "
+                            r"\['A', 'B', 'C'"),
         ({"executor": "slurm"}, "ExperimentConfig.executor must be 'local' or 'ray'"),
         ({"env_id": ""}, "ExperimentConfig.env_id must be a Gymnasium id"),
         ({"env_id": "a:b:c"}, "ExperimentConfig.env_id must be 'id' or 'package:id'"),
@@ -583,11 +595,13 @@ def test_sigkill_mid_trial_then_restart_ends_identical_to_an_uninterrupted_run(t
         ({"sampler": "a b"}, "sampler must be the name of a registered sampler"),
         ({"protocol": "C", "sampler": "nobody"},
          r"sampler must name a registered sampler .*registered: \[.*'parametric'"),
-        ({"sampler_team": 3}, "sampler_team must be a team id"),
+        ({"sampler_team": 3}, "ExperimentConfig.sampler_team must be a non-empty string, got 3"),
         ({"lifelong": [1, 2]}, "ExperimentConfig.lifelong must be a JSON object"),
-        ({"lifelong": {"discount": 2.0}}, r"ExperimentConfig.lifelong: .*discount must lie"),
-        ({"lifelong": {"learner": {"alpah": 0.1}}},
-         r"ExperimentConfig.lifelong: unknown LearnerConfig field\(s\) \['alpah'\]"),
+        ({"lifelong": {"library": {"discount": 2.0}}},
+         r"ExperimentConfig.lifelong: LifelongConfig.library: OptionSettings.discount must be a "
+         r"finite number in \(0, 1\], got 2.0"),
+        ({"lifelong": {"learner": {"alpah": 0.1}}}, r"ExperimentConfig.lifelong: "
+         r"LifelongConfig.learner: unknown LearnerConfig field\(s\) \['alpah'\]"),
     ],
 )
 def test_hostile_experiment_configs_name_the_field(changes, message):
@@ -600,12 +614,13 @@ def test_config_must_be_an_object_and_direct_construction_is_checked_too():
     for bad in ([], "A", None, 3):
         with pytest.raises(ValueError, match="must be a JSON object"):
             ExperimentConfig.from_dict(bad)
-    with pytest.raises(ValueError, match="prq_psi must be a finite number"):
-        ExperimentConfig(prq_psi=float("nan"))
+    with pytest.raises(ValueError, match=r"PrqConfig\.psi must be a finite number"):
+        ExperimentConfig(prq=PrqConfig(psi=float("nan")))
     with pytest.raises(ValueError, match="lifelong must be a LifelongConfig"):
         ExperimentConfig(lifelong={"train_episodes": 3})
-    with pytest.raises(ValueError, match="methods must be a tuple"):
-        ExperimentConfig(methods=["ilpss"])
+    with pytest.raises(ValueError, match="prq must be a PrqConfig"):
+        ExperimentConfig(prq={"psi": 1.0})
+    assert ExperimentConfig(methods=["ilpss"]).methods == ("ilpss",)  # JSON's lists: tuples
 
 
 def test_an_unknown_team_fails_the_run_naming_it(tmp_path):
@@ -645,7 +660,8 @@ def test_cli_config_that_is_not_json_gives_a_clear_error(tmp_path, capsys):
         ("method", "td", "LearnerConfig.method must be 'sarsa' or 'q'"),
         ("n_tilings", 0, r"LearnerConfig.n_tilings must be an integer in \[1, 1,024\]"),
         ("n_tilings", 10**9, r"LearnerConfig.n_tilings must be an integer in \[1, 1,024\]"),
-        ("tile_widths", (1.0, math.nan), "LearnerConfig.tile_widths must be None or a non-empty"),
+        ("tile_widths", (1.0, math.nan), r"LearnerConfig.tile_widths must be None or a list of at "
+                                         r"least 1 values, each a finite number > 0"),
     ],
 )
 def test_learner_config_validation(field, value, message):
@@ -656,8 +672,7 @@ def test_learner_config_validation(field, value, message):
 @pytest.mark.parametrize(
     ("field", "value", "message"),
     [
-        ("discount", "0.5", r"LifelongConfig.discount must lie in \(0, 1\]"),
-        ("max_match_distance", math.nan, "LifelongConfig.max_match_distance must be"),
+
         ("kernel_reg_covar", -1.0, "LifelongConfig.kernel_reg_covar must be"),
         ("train_episodes", 10**9,
          r"LifelongConfig.train_episodes must be an integer in \[0, 1,000,000\]"),
@@ -668,3 +683,16 @@ def test_learner_config_validation(field, value, message):
 def test_lifelong_config_validation(field, value, message):
     with pytest.raises(ValueError, match=message):
         LifelongConfig(**{field: value})
+
+
+@pytest.mark.parametrize(
+    ("field", "value", "message"),
+    [
+        ("discount", "0.5", r"OptionSettings.discount must be a finite number in \(0, 1\]"),
+        ("max_match_distance", math.nan, "OptionSettings.max_match_distance must be None or a"),
+        ("max_depth", 10**6, r"OptionSettings.max_depth must be an integer in \[1, 1,000\]"),
+    ],
+)
+def test_option_settings_validation(field, value, message):
+    with pytest.raises(ValueError, match=message):
+        OptionSettings(**{field: value})

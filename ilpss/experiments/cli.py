@@ -15,17 +15,21 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ilpss._io import FolderInUseError
-from ilpss.experiments.config import METHODS, ExperimentConfig
-from ilpss.experiments.run import run_experiment
+from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.methods import METHODS
+from ilpss.experiments.protocols import PROTOCOLS
+from ilpss.experiments.run import read_config, run_experiment
 
 
 def build_config(args: argparse.Namespace) -> ExperimentConfig:
     """The configuration from ``--config`` (if given) with the other flags on top."""
-    cfg = (
-        ExperimentConfig.from_dict(json.loads(Path(args.config).read_text()))
-        if args.config
-        else ExperimentConfig(protocol=args.protocol or "A")
-    )
+    if args.config:
+        try:
+            cfg = read_config(Path(args.config))
+        except ValueError as exc:
+            raise ValueError(f"--config {exc}") from exc
+    else:
+        cfg = ExperimentConfig(protocol=args.protocol or "A")
     changes: dict = {}
     lifelong: dict = {}
     if args.protocol:
@@ -48,11 +52,13 @@ def build_config(args: argparse.Namespace) -> ExperimentConfig:
         lifelong["rollout_episodes"] = args.rollouts
     for item in args.set or ():
         key, value = _setting(item)
-        if key.startswith("learner."):
-            learner = lifelong.setdefault("learner", cfg.lifelong.learner.__dict__.copy())
-            learner[key.removeprefix("learner.")] = value
-        else:
-            lifelong[key] = value
+        *path, name = key.split(".")  # learner.alpha, library.discount, n_kernels
+        target = lifelong
+        for part in path:
+            target = target.setdefault(part, {})
+            if not isinstance(target, dict):
+                raise ValueError(f"--set {key}: {part} is not a group of settings")
+        target[name] = value
     if lifelong:
         changes["lifelong"] = lifelong
     return cfg.with_overrides(**changes)
@@ -75,17 +81,18 @@ def parser() -> argparse.ArgumentParser:
         prog="ilpss-experiment", description=__doc__.splitlines()[0],
         formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__,
     )
-    p.add_argument("--protocol", choices=["A", "B", "C"])
+    p.add_argument("--protocol", choices=PROTOCOLS.names())
     p.add_argument("--config", help="a config.json to start from (e.g. to resume a run)")
     p.add_argument("--seeds", type=int, help="number of seeds (default 30)")
     p.add_argument("--first-seed", type=int)
     p.add_argument("--episodes", type=int, help="learning episodes per task (default 300)")
     p.add_argument("--rollouts", type=int, help="greedy rollouts per trial (default 50)")
     p.add_argument("--stream-length", type=int, help="protocol C: opponents in the stream")
-    p.add_argument("--methods", nargs="+", choices=METHODS)
+    p.add_argument("--methods", nargs="+", choices=METHODS.names())
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
-                   help="a LifelongConfig field (or learner.FIELD), value as JSON; repeatable, "
-                   "e.g. --set n_kernels=2 --set learner.intra_option=true")
+                   help="a LifelongConfig field (or learner.FIELD, library.FIELD), value as "
+                   "JSON; repeatable, e.g. --set n_kernels=2 --set learner.intra_option=true "
+                   "--set library.continuation_exponent=0.5")
     p.add_argument("--workers", type=int, help="parallel seeds (default 2)")
     p.add_argument("--executor", choices=["local", "ray"])
     p.add_argument("--out", required=True, help="output folder (one per run)")
@@ -102,8 +109,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         cfg = build_config(args)
     except OSError as exc:
         p.error(f"--config {args.config}: {exc.strerror or exc}")
-    except json.JSONDecodeError as exc:
-        p.error(f"--config {args.config}: not valid JSON ({exc})")
     except (ValueError, TypeError) as exc:
         p.error(str(exc))
     try:

@@ -20,6 +20,7 @@ import gymnasium as gym
 
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.figures import plot_kernels_on_field, write_agent_gif
+from ilpss.experiments.folder import RunFolder
 from ilpss.experiments.report import write_report
 from ilpss.experiments.run import run_experiment
 from ilpss.lifelong import LifelongLearner
@@ -43,7 +44,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     held_out = cfg.teams[-1]
     env = gym.make(cfg.env_id, opponent=held_out, render_mode="rgb_array",
                    disable_env_checker=True)
-    learner = LifelongLearner.load(out / "seed_000" / "stream_00" / "ilpss", env.observation_space)
+    checkpoints = RunFolder(out).checkpoints(cfg.first_seed, 0, "ilpss")
+    learner = LifelongLearner.load(checkpoints, env.observation_space)
     if learner.kernel_model is not None:
         plot_kernels_on_field(learner, out / "kernels.png")
     gif = write_agent_gif(learner, env, out / "ilpss_vs_held_out.gif", seed=1)

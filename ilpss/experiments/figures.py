@@ -1,7 +1,8 @@
 """Drill-specific pictures: kernels drawn on the field, and a GIF of the agent with its options.
 
-The drill's 9 features include the holder's position: feature 6 is its lateral
-offset from the line centre and feature 5 its distance to the goal line, so each
+The drill's 9 features include the holder's position (:data:`~ilpss.experiments.drill.LATERAL`,
+its lateral offset from the line centre, and
+:data:`~ilpss.experiments.drill.GOAL_DISTANCE`, its distance to the goal line), so each
 kernel, projected on those two features, is an ellipse on the field.
 """
 
@@ -13,22 +14,11 @@ from typing import Any
 
 import numpy as np
 
+from ilpss._io import save_figure
+from ilpss.experiments.drill import ACTION_NAMES, FIELD, GOAL_DISTANCE, LATERAL
 from ilpss.lifelong import LifelongLearner
 from ilpss.options import OptionLibrary
 from ilpss.smdp import SmdpLearner
-
-FIELD = 35.0
-LATERAL, GOAL_DISTANCE = 6, 5  # feature indices of the holder's position
-PRIMITIVE_NAMES = ("HOLD", "PASS", "DRIBBLE")
-
-
-def _save_figure(fig: Any, path: str | os.PathLike[str]) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    os.replace(tmp, path)
-    return path
 
 
 def plot_kernels_on_field(
@@ -86,7 +76,7 @@ def plot_kernels_on_field(
     ax.set_ylabel("y (m): holder's distance to the goal line")
     ax.set_title("ILPSS kernels projected on the holder's position")
     ax.legend(loc="upper left", fontsize=6, bbox_to_anchor=(1.01, 1.0))
-    return _save_figure(fig, path)
+    return save_figure(fig, path, dpi=110, bbox_inches="tight")
 
 
 def greedy_episodes(
@@ -143,7 +133,7 @@ def write_agent_gif(
     env.unwrapped.record_frames(None)
     starts.append(len(frames))
     names = [r.name for r in learner.records]
-    labels = [f"{PRIMITIVE_NAMES[a]} (primitive)" for a in actions]
+    labels = [f"{ACTION_NAMES[a]} (primitive)" for a in actions]
     lib = learner.library
     for run in result.option_runs:
         kernel_id, policy_id = lib.registry[run.option_id] if lib is not None else (-1, -1)
@@ -156,7 +146,7 @@ def write_agent_gif(
             image = Image.fromarray(frame)
             draw = ImageDraw.Draw(image)
             draw.rectangle((0, image.height - 18, image.width, image.height), fill=(20, 20, 20))
-            draw.text((6, image.height - 15), f"{PRIMITIVE_NAMES[actions[d]]} <- {label}",
+            draw.text((6, image.height - 15), f"{ACTION_NAMES[actions[d]]} <- {label}",
                       fill=(255, 255, 255))
             images.append(image)
     if not images:

@@ -34,7 +34,9 @@ import gymnasium as gym
 import numpy as np
 
 from ilpss._io import atomic_write_bytes
-from ilpss.experiments.config import DRILL_ENV_ID, DRILL_TILE_WIDTHS, PAPER_TEAMS
+from ilpss.experiments.drill import ENV_ID as DRILL_ENV_ID
+from ilpss.experiments.drill import PAPER_TEAMS
+from ilpss.experiments.drill import TILE_WIDTHS as DRILL_TILE_WIDTHS
 from ilpss.experiments.executor import LocalExecutor
 from ilpss.lifelong import LearnerConfig
 from ilpss.metrics import holm, improvement_test, t_interval, t_test_pvalue, wilson_interval

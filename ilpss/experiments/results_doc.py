@@ -32,7 +32,8 @@ import numpy as np
 
 from ilpss import metrics
 from ilpss._io import atomic_write_bytes, read_json
-from ilpss.experiments.config import PAPER_TEAMS, ExperimentConfig
+from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.drill import PAPER_TEAMS
 from ilpss.experiments.report import (
     ENDPOINT_LABELS,
     LABELS,

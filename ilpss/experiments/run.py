@@ -2,21 +2,19 @@
 
 Read top to bottom: :func:`run_experiment` writes the configuration, runs one job
 per (seed, stream) through an executor, and gathers the learning curves;
-:func:`run_stream` is one job: each method meets the stream's task instances in
-order, with a checkpoint after every trial, then PRQ-learning reuses the policies
-learnt anew. A job whose ``result.json`` exists is not run again, and a job that was
-interrupted resumes from its last checkpoints, so a resumed experiment ends
-identical to an uninterrupted one.
+:func:`run_stream` is one job: each method of the configuration runs on the stream
+(:mod:`ilpss.experiments.methods`; a lifelong method checkpoints after every trial, and
+PRQ-learning reuses the policies learnt anew), and the job's ``result.json`` is written.
+A job whose ``result.json`` exists is not run again (it is read, checked), and a job that
+was interrupted resumes from its last checkpoints, so a resumed experiment ends
+identical to an uninterrupted one. The folder's layout is :class:`RunFolder`'s.
 """
 
 from __future__ import annotations
 
 import os
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
-
-import gymnasium as gym
 
 from ilpss._check import Integer, ListOf, Real, check_fields, check_keys
 from ilpss._io import (
@@ -28,129 +26,33 @@ from ilpss._io import (
     read_json,
     remove_stale_temporaries,
 )
-from ilpss.experiments.config import ExperimentConfig, Stream, Task
+from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.executor import make_executor
-from ilpss.lifelong import (
-    LifelongConfig,
-    LifelongLearner,
-    latest_checkpoint,
-    read_state,
-    trial_seeds,
-)
+from ilpss.experiments.folder import RunFolder
+from ilpss.experiments.methods import METHODS, Job, LifelongMethod, lifelong_entry
+from ilpss.experiments.protocols import Stream, make_env
+from ilpss.lifelong import latest_checkpoint, read_state
+
+__all__ = ["RESULT_SCHEMA", "load_result", "read_config", "run_experiment", "run_stream"]
 
 RESULT_SCHEMA = "ilpss.experiment_result/2"
-
-
-def make_env(env_id: str, task: Task) -> gym.Env:
-    """The task's environment (Gymnasium's env checker off: it only slows learning)."""
-    return gym.make(env_id, disable_env_checker=True, **task.env_kwargs)
-
-
-def method_config(base: LifelongConfig, method: str) -> LifelongConfig:
-    """The lifelong configuration of each lifelong method."""
-    variants = {
-        "ilpss": {},
-        "scratch": {"options": "none"},
-        "whole_policies": {"options": "whole_policies"},
-        "ilpss_no_discount": {"discount": 1.0},
-    }
-    return replace(base, **variants[method])
-
-
-def run_lifelong(
-    cfg: ExperimentConfig, method: str, stream: Stream, seed: int, directory: Path
-) -> LifelongLearner:
-    """One lifelong method over the whole stream, resuming from its checkpoint (which
-    must come from this very job: a checkpoint of another configuration is refused)."""
-    env0 = make_env(cfg.env_id, stream.tasks[0])
-    provenance = {"experiment": cfg.results_record(), "method": method, "seed": seed,
-                  "stream": stream.name, "tasks": [t.name for t in stream.tasks]}
-    if (directory / "LATEST").exists():
-        learner = LifelongLearner.load(directory, env0.observation_space)
-        _check_resumable(learner, provenance, directory, cfg.reward_range)
-    else:
-        learner = LifelongLearner(
-            method_config(cfg.lifelong, method), env0.observation_space,
-            int(env0.action_space.n), seed, provenance=provenance,
-        )
-    for t in range(learner.n_trials, len(stream.tasks)):
-        task = stream.tasks[t]
-        learner.run_trial(make_env(cfg.env_id, task), task.name)
-        learner.save(directory)
-    return learner
-
-
-def _check_resumable(
-    learner: LifelongLearner, provenance: dict, directory: Path,
-    reward_range: tuple[float, float],
-) -> None:
-    """Refuse a checkpoint that another configuration or job wrote, naming the field, or
-    whose rewards the environment cannot have paid."""
-    hint = "delete that folder to run this method of the job again"
-    if learner.provenance is None:
-        raise ValueError(f"{directory}: the checkpoint records no provenance; {hint}")
-    diffs = json_differences(learner.provenance, provenance)
-    if diffs:
-        raise ValueError(
-            f"{directory}: the checkpoint comes from another run ({'; '.join(diffs)}); {hint}"
-        )
-    low, high = reward_range
-    for i, record in enumerate(learner.records):
-        if not all(low <= r <= high for r in record.rewards):
-            raise ValueError(
-                f"{directory}: records[{i}].rewards lie outside the environment's range "
-                f"[{low:g}, {high:g}]; {hint}"
-            )
-
-
-def run_prq(cfg: ExperimentConfig, stream: Stream, seed: int, scratch: LifelongLearner) -> dict:
-    """PRQ-learning on every target, reusing the policies learnt anew on earlier tasks."""
-    from ilpss.baselines import PrqLearner
-
-    curves = {}
-    for t in range(stream.first_target, len(stream.tasks)):
-        learner_seed, env_seed, _, _ = trial_seeds(seed, t)
-        lc = cfg.lifelong.learner
-        prq = PrqLearner(
-            scratch.n_primitive, scratch.tile_coder, scratch.policies[:t],
-            alpha=lc.alpha, epsilon=lc.epsilon, gamma=lc.gamma,
-            initial_value=lc.initial_value, psi=cfg.prq_psi, upsilon=cfg.prq_upsilon,
-            delta_tau=cfg.prq_delta_tau, seed=learner_seed,
-        )
-        env = make_env(cfg.env_id, stream.tasks[t])
-        results = prq.train(env, cfg.lifelong.train_episodes, seed=env_seed)
-        curves[str(t)] = [float(r.total_reward) for r in results]
-    return {"curves": curves}
 
 
 def run_stream(job: tuple[ExperimentConfig, int, int, str]) -> dict[str, Any]:
     """One (seed, stream) job; returns (and saves) its learning curves."""
     cfg, seed, stream_index, out_dir = job
     stream = cfg.streams(seed)[stream_index]
-    directory = Path(out_dir) / f"seed_{seed:03d}" / f"stream_{stream_index:02d}"
-    done = directory / "result.json"
+    folder = RunFolder(out_dir)
+    done = folder.result(seed, stream_index)
     if done.exists():
         return load_result(done, cfg, seed, stream_index, stream)
-    directory.mkdir(parents=True, exist_ok=True)
-    remove_stale_temporaries(directory)  # the run holds the folder's lock: they are stale
-    methods: dict[str, Any] = {}
-    learners = {}
-    for method in cfg.methods:
-        if method == "prq":
-            continue
-        learner = learners[method] = run_lifelong(cfg, method, stream, seed, directory / method)
-        methods[method] = {
-            "curves": {
-                str(t): list(r.rewards)
-                for t, r in enumerate(learner.records) if t >= stream.first_target
-            },
-            "library_size": [r.library_size for r in learner.records],
-            "options_offered": [r.options_offered for r in learner.records],
-            "options_used": [len(r.options_used) for r in learner.records],
-            "rollout_success_rate": [r.rollout_success_rate for r in learner.records],
-        }
-    if "prq" in cfg.methods:
-        methods["prq"] = run_prq(cfg, stream, seed, learners["scratch"])
+    folder.job(seed, stream_index).mkdir(parents=True, exist_ok=True)
+    # The run holds the run folder's lock: temporaries in the job's folder are stale.
+    remove_stale_temporaries(folder.job(seed, stream_index))
+    context = Job(cfg, seed, stream_index, stream, folder)
+    # Methods that reuse other methods' learners run after them.
+    order = sorted(cfg.methods, key=lambda m: bool(METHODS.get(m).reuses))
+    methods = {name: METHODS.get(name).run(context) for name in order}
     result = {
         "schema": RESULT_SCHEMA,
         "config": cfg.results_record(),
@@ -219,14 +121,16 @@ def load_result(
             field = f"{path}: methods.{method}"
             if not isinstance(values, dict):
                 raise ValueError(f"{field} must be an object")
-            check_keys(field, values, ("curves",) if method == "prq" else ("curves", *series))
+            lifelong = isinstance(METHODS.get(method), LifelongMethod)
+            check_keys(field, values, ("curves", *series) if lifelong else ("curves",))
             if not isinstance(values["curves"], dict) or sorted(values["curves"]) != targets:
                 raise ValueError(f"{field}.curves must have the targets {targets} as keys")
             check_fields(f"{field}.curves", values["curves"], dict.fromkeys(targets, curve),
                          dict.get)
-            if method != "prq":
+            if lifelong:
                 check_fields(field, values, series, dict.get)
-                _check_against_checkpoint(path.parent / method, values, stream, field)
+                checkpoints = RunFolder(path.parents[2]).checkpoints(seed, stream_index, method)
+                _check_against_checkpoint(checkpoints, values, stream, field)
     except ValueError as exc:
         raise ValueError(f"{exc}; {hint}") from exc
     return result
@@ -244,14 +148,7 @@ def _check_against_checkpoint(
             f"{field}: the job is done, but {directory} holds a checkpoint of "
             f"{len(records)} of its {len(stream.tasks)} trials"
         )
-    mine = {
-        "curves": {str(t): list(r.rewards) for t, r in enumerate(records)
-                   if t >= stream.first_target},
-        "library_size": [r.library_size for r in records],
-        "options_offered": [r.options_offered for r in records],
-        "options_used": [len(r.options_used) for r in records],
-        "rollout_success_rate": [r.rollout_success_rate for r in records],
-    }
+    mine = lifelong_entry(records, range(stream.first_target, len(stream.tasks)))
     diffs = json_differences(values, mine, field.split(": ")[-1])
     if diffs:
         raise ValueError(
@@ -285,7 +182,7 @@ def run_experiment(
     # mixing its configuration, checkpoints and results with the first one's.
     with locked_folder(out, "run folder"):
         remove_stale_temporaries(out)
-        _write_or_check_config(cfg, out)
+        _write_or_check_config(cfg, RunFolder(out))
         jobs = [
             (cfg, seed, index, os.fspath(out))
             for seed in cfg.seeds
@@ -320,10 +217,10 @@ def read_config(path: Path) -> ExperimentConfig:
         raise ValueError(f"{path}: {exc}") from exc
 
 
-def _write_or_check_config(cfg: ExperimentConfig, out: Path) -> None:
+def _write_or_check_config(cfg: ExperimentConfig, folder: RunFolder) -> None:
     """Write ``config.json``, or refuse a folder whose ``config.json`` differs (naming the
     fields); the caller holds the folder's lock, so no other run is between the two."""
-    config_file = out / "config.json"
+    config_file = folder.config
     if not config_file.exists():
         atomic_write_bytes(config_file, cfg.to_json().encode())
         return
@@ -331,6 +228,6 @@ def _write_or_check_config(cfg: ExperimentConfig, out: Path) -> None:
     diffs = json_differences(saved.results_record(), cfg.results_record())
     if diffs:
         raise ValueError(
-            f"{out} holds a run with a different configuration ({'; '.join(diffs)}); "
+            f"{folder.root} holds a run with a different configuration ({'; '.join(diffs)}); "
             "choose another output folder or delete it"
         )

@@ -1,0 +1,52 @@
+"""Everything :mod:`ilpss` knows about the soccer drill, in one place.
+
+``ilpss`` never imports the drill: it makes the holder environment through Gymnasium
+(``gymnasium.make(ENV_ID, opponent=..., ...)``) and learns on its 9 features as it
+would on any ``Box``. The experiments need a few facts about it, all here:
+
+==========================  =========================================================
+fact                        used by
+==========================  =========================================================
+:data:`ENV_ID`              the default environment of every experiment
+:data:`ENV_PACKAGE`         the package Gymnasium imports for it (declared in the
+                            entry-point group ``ilpss.environments``)
+:data:`PAPER_TEAMS`         protocols A and B, ``ilpss-results``,
+                            ``ilpss-holder-learning``
+:data:`TILE_WIDTHS`         the learner's tile coder (keepaway's widths)
+:data:`SAMPLER`,            protocol C's stream of opponents
+:data:`SAMPLER_TEAM`
+:data:`EPISODE_REWARD`      the checks of saved results (an episode pays one reward)
+:data:`ACTION_NAMES`        the captions of the agent's GIF
+:data:`LATERAL`,            the kernels drawn on the field
+:data:`GOAL_DISTANCE`,
+:data:`FIELD`
+:data:`HOLDER_RULES`        ``ilpss-holder-learning``'s fixed rules to beat
+==========================  =========================================================
+"""
+
+from __future__ import annotations
+
+ENV_PACKAGE = "soccer_drill"
+"""The package that registers the holder environment with Gymnasium."""
+ENV_ID = f"{ENV_PACKAGE}:soccer_drill/Holder-v0"
+"""The holder environment, imported by ``gymnasium.make`` (``ilpss`` never imports it)."""
+PAPER_TEAMS = ("interceptors_press", "interceptors_cover", "interceptor_guard", "goal_guards")
+"""The paper's four opponent teams, in its order (ids of the ``opponents`` package)."""
+TILE_WIDTHS = (3.0, 3.0, 3.0, 3.0, 10.0, 3.0, 3.0, 3.0, 10.0)
+"""Keepaway's tile widths for the drill's 9 features: 3 m for distances, 10 degrees for
+angles."""
+SAMPLER = "parametric"
+"""The registered sampler of protocol C's opponents (``opponents.parametric``)."""
+SAMPLER_TEAM = "parametric"
+"""The team id that takes the sampled parameters."""
+EPISODE_REWARD = (-1.0, 1.0)
+"""Range of an episode's total reward: the drill pays one reward, in [-1, 1], at its end."""
+ACTION_NAMES = ("HOLD", "PASS", "DRIBBLE")
+"""The holder's primitive actions, by index."""
+LATERAL, GOAL_DISTANCE = 6, 5
+"""Feature indices of the holder's position: its lateral offset from the line centre and
+its distance to the goal line (metres)."""
+FIELD = 35.0
+"""Side of the square field (metres)."""
+HOLDER_RULES = "soccer_drill.policies:HOLDER_POLICIES"
+"""Where the drill's fixed holder rules are: a mapping of name to ``rule(obs, rng)``."""

@@ -1,0 +1,72 @@
+"""The layout of a run folder, spelled once.
+
+::
+
+    <root>/config.json                          the configuration (ExperimentConfig)
+    <root>/seed_SSS/stream_TT/result.json       one job's curves and series, checked
+    <root>/seed_SSS/stream_TT/<method>/         a lifelong method's checkpoints
+    <root>/report.md, <root>/*.png              the report and its figures
+    <root>/wall_time.json                       ilpss-results' timing record
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+__all__ = ["RunFolder"]
+
+_SEED = re.compile(r"seed_(\d{3,})")
+
+
+@dataclass(frozen=True, init=False)
+class RunFolder:
+    """The paths of one run of an experiment."""
+
+    root: Path
+    """The folder (``--out``)."""
+
+    def __init__(self, root: str | os.PathLike[str]) -> None:
+        object.__setattr__(self, "root", Path(root))
+
+    @property
+    def config(self) -> Path:
+        """``config.json``."""
+        return self.root / "config.json"
+
+    @property
+    def report(self) -> Path:
+        """``report.md``."""
+        return self.root / "report.md"
+
+    @property
+    def timing(self) -> Path:
+        """The wall-time record of ``ilpss-results``."""
+        return self.root / "wall_time.json"
+
+    def figure(self, name: str) -> Path:
+        """A figure of the report."""
+        return self.root / name
+
+    def job(self, seed: int, stream_index: int) -> Path:
+        """The folder of one (seed, stream) job."""
+        return self.root / f"seed_{seed:03d}" / f"stream_{stream_index:02d}"
+
+    def result(self, seed: int, stream_index: int) -> Path:
+        """A job's ``result.json``."""
+        return self.job(seed, stream_index) / "result.json"
+
+    def checkpoints(self, seed: int, stream_index: int, method: str) -> Path:
+        """The checkpoint folder of a lifelong method in a job."""
+        return self.job(seed, stream_index) / method
+
+    def finished_seeds(self, stream_index: int = 0) -> list[int]:
+        """Seeds whose job on stream ``stream_index`` has a ``result.json``, in order."""
+        seeds = []
+        for path in self.root.glob(f"seed_*/stream_{stream_index:02d}/result.json"):
+            match = _SEED.fullmatch(path.parent.parent.name)
+            if match:
+                seeds.append(int(match.group(1)))
+        return sorted(seeds)

@@ -1,0 +1,206 @@
+"""Methods: what a job runs on its stream, and what it records of each.
+
+A :class:`Method` has a name, a label for reports, the methods whose learners it reuses
+(``reuses``), and :meth:`~Method.run`, which runs it on one job and returns its entry of
+``result.json`` (``"curves"``: one learning curve per target task, and any series).
+Methods are registered by name in :data:`METHODS`; a configuration names them in
+``ExperimentConfig.methods``.
+
+* :class:`LifelongMethod`: the lifelong learner (Algorithm 1) with a variant of the
+  lifelong configuration, over the whole stream, checkpointed after every trial and
+  resumed from its checkpoint. ILPSS, learning anew, whole past policies as options and
+  ILPSS without discounting are four of them.
+* :class:`PrqMethod`: PRQ-learning on every target, reusing the policies that learning
+  anew learnt on the earlier tasks.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from ilpss._io import json_differences
+from ilpss.baselines import PrqLearner
+from ilpss.experiments.folder import RunFolder
+from ilpss.experiments.protocols import Stream, make_env
+from ilpss.experiments.registry import Registry
+from ilpss.lifelong import LifelongConfig, LifelongLearner, TrialRecord, trial_seeds
+
+if TYPE_CHECKING:
+    from ilpss.experiments.config import ExperimentConfig
+
+__all__ = [
+    "METHODS",
+    "Job",
+    "LifelongMethod",
+    "Method",
+    "PrqMethod",
+    "lifelong_entry",
+    "register_method",
+]
+
+
+@dataclass
+class Job:
+    """One (seed, stream) job: what its methods run on, and the learners they leave."""
+
+    cfg: ExperimentConfig
+    seed: int
+    stream_index: int
+    stream: Stream
+    folder: RunFolder
+    learners: dict[str, LifelongLearner] = field(default_factory=dict)
+    """The lifelong learners of the methods run so far, by method name."""
+
+    @property
+    def targets(self) -> range:
+        """Indices of the tasks whose learning curves are compared."""
+        return range(self.stream.first_target, len(self.stream.tasks))
+
+
+class Method:
+    """What a method provides; subclass it and register an instance.
+
+    Attributes
+    ----------
+    name : str
+        Its name in configurations.
+    label : str
+        How reports call it.
+    reuses : tuple of str
+        Methods whose learners :meth:`run` needs (they run first in every job).
+    """
+
+    name = ""
+    label = ""
+    reuses: tuple[str, ...] = ()
+
+    def run(self, job: Job) -> dict[str, Any]:  # pragma: no cover - interface
+        """Run on ``job``; return this method's entry of the job's ``result.json``."""
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class LifelongMethod(Method):
+    """The lifelong learner with ``changes`` to the lifelong configuration."""
+
+    name: str
+    label: str
+    changes: Callable[[LifelongConfig], dict[str, Any]] = lambda base: {}
+    """The fields of the base configuration this method replaces (a function of it)."""
+    reuses: tuple[str, ...] = ()
+
+    def config(self, base: LifelongConfig) -> LifelongConfig:
+        """This method's lifelong configuration."""
+        return replace(base, **self.changes(base))
+
+    def run(self, job: Job) -> dict[str, Any]:
+        learner = run_lifelong(job, self.name, self.config(job.cfg.lifelong))
+        job.learners[self.name] = learner
+        return lifelong_entry(learner.records, job.targets)
+
+
+def lifelong_entry(records: Sequence[TrialRecord], targets: Iterable[int]) -> dict[str, Any]:
+    """A lifelong method's entry of ``result.json``: the curves on the targets and, per
+    task, the library size, options offered and used, and rollout success."""
+    return {
+        "curves": {str(t): list(records[t].rewards) for t in targets},
+        "library_size": [r.library_size for r in records],
+        "options_offered": [r.options_offered for r in records],
+        "options_used": [len(r.options_used) for r in records],
+        "rollout_success_rate": [r.rollout_success_rate for r in records],
+    }
+
+
+class PrqMethod(Method):
+    """PRQ-learning on every target, reusing the policies learnt anew on earlier tasks."""
+
+    name = "prq"
+    label = "PRQ-learning (policy reuse)"
+    reuses = ("scratch",)
+
+    def run(self, job: Job) -> dict[str, Any]:
+        scratch = job.learners["scratch"]
+        cfg = job.cfg
+        lc = cfg.lifelong.learner
+        curves = {}
+        for t in job.targets:
+            learner_seed, env_seed, _, _ = trial_seeds(job.seed, t)
+            prq = PrqLearner(
+                scratch.n_primitive, scratch.tile_coder, scratch.policies[:t],
+                alpha=lc.alpha, epsilon=lc.epsilon, gamma=lc.gamma,
+                initial_value=lc.initial_value, seed=learner_seed, **cfg.prq.to_dict(),
+            )
+            env = make_env(cfg.env_id, job.stream.tasks[t])
+            results = prq.train(env, cfg.lifelong.train_episodes, seed=env_seed)
+            curves[str(t)] = [float(r.total_reward) for r in results]
+        return {"curves": curves}
+
+
+def run_lifelong(job: Job, method: str, config: LifelongConfig) -> LifelongLearner:
+    """One lifelong method over the whole stream, resuming from its checkpoint (which
+    must come from this very job: a checkpoint of another configuration is refused)."""
+    cfg, stream = job.cfg, job.stream
+    directory = job.folder.checkpoints(job.seed, job.stream_index, method)
+    env0 = make_env(cfg.env_id, stream.tasks[0])
+    provenance = {"experiment": cfg.results_record(), "method": method, "seed": job.seed,
+                  "stream": stream.name, "tasks": [t.name for t in stream.tasks]}
+    if (directory / "LATEST").exists():
+        learner = LifelongLearner.load(directory, env0.observation_space)
+        _check_resumable(learner, provenance, directory, cfg.reward_range)
+    else:
+        learner = LifelongLearner(config, env0.observation_space, int(env0.action_space.n),
+                                  job.seed, provenance=provenance)
+    for t in range(learner.n_trials, len(stream.tasks)):
+        task = stream.tasks[t]
+        learner.run_trial(make_env(cfg.env_id, task), task.name)
+        learner.save(directory)
+    return learner
+
+
+def _check_resumable(
+    learner: LifelongLearner, provenance: dict, directory: Path,
+    reward_range: tuple[float, float],
+) -> None:
+    """Refuse a checkpoint that another configuration or job wrote, naming the field, or
+    whose rewards the environment cannot have paid."""
+    hint = "delete that folder to run this method of the job again"
+    if learner.provenance is None:
+        raise ValueError(f"{directory}: the checkpoint records no provenance; {hint}")
+    diffs = json_differences(learner.provenance, provenance)
+    if diffs:
+        raise ValueError(
+            f"{directory}: the checkpoint comes from another run ({'; '.join(diffs)}); {hint}"
+        )
+    low, high = reward_range
+    for i, record in enumerate(learner.records):
+        if not all(low <= r <= high for r in record.rewards):
+            raise ValueError(
+                f"{directory}: records[{i}].rewards lie outside the environment's range "
+                f"[{low:g}, {high:g}]; {hint}"
+            )
+
+
+METHODS = Registry("ilpss.methods", "method")
+"""Every method, by name."""
+
+
+def register_method(method: Method, *, overwrite: bool = False) -> None:
+    """Register ``method`` under its ``name`` for this process."""
+    if not isinstance(method, Method):
+        raise TypeError(f"a method must be a Method, got {type(method).__name__}")
+    METHODS.register(method.name, method, overwrite=overwrite)
+
+
+for _method in (
+    LifelongMethod("ilpss", "ILPSS (kernel options)"),
+    LifelongMethod("scratch", "learning anew", lambda base: {"options": "none"}),
+    LifelongMethod("whole_policies", "whole past policies as options",
+                   lambda base: {"options": "whole_policies"}),
+    PrqMethod(),
+    LifelongMethod("ilpss_no_discount", "ILPSS without discounting",
+                   lambda base: {"library": replace(base.library, discount=1.0)}),
+):
+    register_method(_method)

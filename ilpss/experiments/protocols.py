@@ -1,0 +1,178 @@
+"""Protocols: which task instances a lifelong learner meets, in which order, per seed.
+
+A :class:`Protocol` gives the streams of a configuration for one seed
+(:meth:`~Protocol.streams`) and refuses a configuration it cannot run
+(:meth:`~Protocol.check`).
+Protocols are registered by name in :data:`PROTOCOLS` (``A``, ``B``, ``C`` here; more
+with :func:`register_protocol` or the entry-point group ``ilpss.protocols``), and the
+configuration, the runner and the reports only dispatch to them: a new protocol needs
+no change anywhere else.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import gymnasium as gym
+import numpy as np
+
+from ilpss.experiments.registry import SAMPLERS, Registry
+
+if TYPE_CHECKING:
+    from ilpss.experiments.config import ExperimentConfig
+
+__all__ = [
+    "PROTOCOLS",
+    "Protocol",
+    "Stream",
+    "Task",
+    "make_env",
+    "register_protocol",
+    "team_task",
+]
+
+
+@dataclass(frozen=True)
+class Task:
+    """One task instance: an opponent team for the drill."""
+
+    name: str
+    """A label for tables and plots."""
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    """Keyword arguments of ``gymnasium.make`` (e.g. ``opponent``, ``opponent_params``)."""
+
+
+@dataclass(frozen=True)
+class Stream:
+    """An ordered sequence of task instances; methods are compared on the targets."""
+
+    name: str
+    """A label, e.g. ``"held_out=goal_guards"``."""
+    tasks: tuple[Task, ...]
+    """The instances in the order the lifelong learner meets them."""
+    first_target: int
+    """Index of the first task whose learning curves are compared."""
+
+
+def team_task(team: str) -> Task:
+    """The task of playing against the team with id ``team``."""
+    if not isinstance(team, str) or not team.strip():
+        raise ValueError(f"a team id must be a non-empty string, got {team!r}")
+    return Task(team, {"opponent": team})
+
+
+def make_env(env_id: str, task: Task) -> gym.Env:
+    """The task's environment (Gymnasium's env checker off: it only slows learning)."""
+    return gym.make(env_id, disable_env_checker=True, **task.env_kwargs)
+
+
+class Protocol:
+    """What a protocol provides; subclass it and register an instance.
+
+    Attributes
+    ----------
+    name : str
+        Its name in configurations (``ExperimentConfig.protocol``).
+    title : str
+        A heading for reports.
+    """
+
+    name = ""
+    title = ""
+
+    def check(self, cfg: ExperimentConfig) -> None:
+        """Refuse a configuration this protocol cannot run (``ValueError`` naming the
+        field); the default accepts any."""
+
+    def streams(self, cfg: ExperimentConfig, seed: int) -> list[Stream]:  # pragma: no cover
+        """The streams of one seed (the same for every call with the same arguments)."""
+        raise NotImplementedError
+
+    def describe(self, cfg: ExperimentConfig) -> str:
+        """A sentence saying what the protocol does with ``cfg``."""
+        return self.title
+
+
+def _check_teams(cfg: ExperimentConfig, distinct: bool) -> None:
+    if len(cfg.teams) < 2:
+        raise ValueError(
+            f"protocol {cfg.protocol} needs at least 2 teams in ExperimentConfig.teams, "
+            f"got {cfg.teams!r}"
+        )
+    if distinct and len(set(cfg.teams)) != len(cfg.teams):
+        raise ValueError(
+            f"protocol {cfg.protocol} holds out each team in turn: ExperimentConfig.teams "
+            f"must not repeat a team, got {cfg.teams!r}"
+        )
+
+
+class HeldOutTeam(Protocol):
+    """A: teams 1-3 in order, then the held-out team 4 (the paper's Figure 3)."""
+
+    name = "A"
+    title = "the paper's Figure 3"
+
+    def check(self, cfg: ExperimentConfig) -> None:
+        _check_teams(cfg, distinct=False)
+
+    def streams(self, cfg: ExperimentConfig, seed: int) -> list[Stream]:
+        tasks = tuple(team_task(t) for t in cfg.teams)
+        return [Stream(f"held_out={cfg.teams[-1]}", tasks, len(tasks) - 1)]
+
+
+class EveryTeamHeldOut(Protocol):
+    """B: every team held out in turn, after the others in the given order and in
+    ``n_shuffles`` shuffled orders drawn per seed."""
+
+    name = "B"
+    title = "every team held out in turn"
+
+    def check(self, cfg: ExperimentConfig) -> None:
+        _check_teams(cfg, distinct=True)
+
+    def streams(self, cfg: ExperimentConfig, seed: int) -> list[Stream]:
+        rng = np.random.default_rng([seed, 0xB])
+        streams = []
+        for held in cfg.teams:
+            sources = [t for t in cfg.teams if t != held]
+            orders = [sources] + [list(rng.permutation(sources)) for _ in range(cfg.n_shuffles)]
+            for k, order in enumerate(orders):
+                tasks = tuple(team_task(t) for t in (*order, held))
+                label = f"held_out={held}" + ("" if k == 0 else f",shuffle={k}")
+                streams.append(Stream(label, tasks, len(tasks) - 1))
+        return streams
+
+
+class ParametricStream(Protocol):
+    """C: a long stream of opponents drawn per seed by a registered sampler; every
+    opponent from the second on is a target."""
+
+    name = "C"
+    title = "a long stream of parametric opponents"
+
+    def check(self, cfg: ExperimentConfig) -> None:
+        SAMPLERS.check("ExperimentConfig.sampler", cfg.sampler)
+
+    def streams(self, cfg: ExperimentConfig, seed: int) -> list[Stream]:
+        specs = SAMPLERS.get(cfg.sampler)(cfg.stream_length, seed)
+        tasks = tuple(
+            Task(f"{cfg.sampler_team}_{i}", {"opponent": cfg.sampler_team, "opponent_params": p})
+            for i, p in enumerate(specs)
+        )
+        return [Stream("parametric_stream", tasks, 1)]
+
+
+PROTOCOLS = Registry("ilpss.protocols", "protocol")
+"""Every protocol, by name."""
+
+
+def register_protocol(protocol: Protocol, *, overwrite: bool = False) -> None:
+    """Register ``protocol`` under its ``name`` for this process."""
+    if not isinstance(protocol, Protocol):
+        raise TypeError(f"a protocol must be a Protocol, got {type(protocol).__name__}")
+    PROTOCOLS.register(protocol.name, protocol, overwrite=overwrite)
+
+
+for _protocol in (HeldOutTeam(), EveryTeamHeldOut(), ParametricStream()):
+    register_protocol(_protocol)
