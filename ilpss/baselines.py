@@ -289,25 +289,14 @@ class PrqLearner(EpisodicLearner):
     def run_episode(
         self, env: Any, learn: bool = True, *, seed: int | None = None
     ) -> EpisodeResult:
-        """Run one episode on a Gymnasium environment.
+        """One episode on ``env`` (the contract of :mod:`ilpss.episode`; ``seed`` is
+        passed to ``env.reset``).
 
-        Parameters
-        ----------
-        env : gymnasium.Env
-            ``Box`` observations of shape (n_features,), ``Discrete(n_primitive)``
-            actions.
-        learn : bool, default True
-            A PRQ-learning episode (choose a policy, pi-reuse or epsilon-greedy, update
-            Q, the gains and ``tau``). Otherwise a greedy rollout of the new Q without
-            reuse that changes nothing.
-        seed : int, optional
-            Passed to ``env.reset``.
-
-        Returns
-        -------
-        EpisodeResult
-            ``choices`` are the primitive actions taken, ``explored`` marks the random
-            (epsilon) ones; no options are ever run.
+        With ``learn`` (the default), a PRQ-learning episode: choose a policy, pi-reuse or
+        epsilon-greedy, update Q, the gains and ``tau``. Otherwise a greedy rollout of
+        the new Q, without reuse, that changes nothing. In the result, ``choices`` are
+        the primitive actions taken and ``explored`` marks the random (epsilon) ones; no
+        options are ever run.
         """
         if not learn:
             greedy = SmdpLearner.from_policy(

@@ -30,26 +30,14 @@ def build_config(args: argparse.Namespace) -> ExperimentConfig:
             raise ValueError(f"--config {exc}") from exc
     else:
         cfg = ExperimentConfig(protocol=args.protocol or "A")
-    changes: dict = {}
-    lifelong: dict = {}
-    if args.protocol:
-        changes["protocol"] = args.protocol
-    if args.seeds is not None:
-        changes["n_seeds"] = args.seeds
-    if args.first_seed is not None:
-        changes["first_seed"] = args.first_seed
-    if args.methods:
-        changes["methods"] = tuple(args.methods)
-    if args.workers is not None:
-        changes["workers"] = args.workers
-    if args.executor:
-        changes["executor"] = args.executor
-    if args.stream_length is not None:
-        changes["stream_length"] = args.stream_length
-    if args.episodes is not None:
-        lifelong["train_episodes"] = args.episodes
-    if args.rollouts is not None:
-        lifelong["rollout_episodes"] = args.rollouts
+    flags = {"protocol": "protocol", "seeds": "n_seeds", "first_seed": "first_seed",
+             "methods": "methods", "workers": "workers", "executor": "executor",
+             "stream_length": "stream_length"}
+    changes: dict = {field: getattr(args, flag) for flag, field in flags.items()
+                     if getattr(args, flag) is not None}
+    lifelong: dict = {field: getattr(args, flag) for flag, field in
+                      (("episodes", "train_episodes"), ("rollouts", "rollout_episodes"))
+                      if getattr(args, flag) is not None}
     for item in args.set or ():
         key, value = _setting(item)
         *path, name = key.split(".")  # learner.alpha, library.discount, n_kernels
