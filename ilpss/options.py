@@ -3,7 +3,7 @@
 Option semantics
 ----------------
 Option ``o_k^i`` pairs kernel ``k`` of the current kernel model with frozen policy
-``pi_i`` (paper section 4, step 4; DESIGN.md "ILPSS as we implement it", item 4):
+``pi_i`` (paper section 4, step 4), as implemented here:
 
 * **Initiation.** At a decision state ``s`` the option may be chosen with probability
   ``c * K_k(s)``, where ``c`` is the option's *scale* (1 when created) and ``K_k(s)`` in

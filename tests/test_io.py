@@ -195,11 +195,7 @@ def test_missing_file_is_not_a_value_error(tmp_path: Path) -> None:
         load_npz(tmp_path / "none.npz", SCHEMA, {})
 
 
-def test_container_constant() -> None:
-    assert _io.CONTAINER == "ilpss.npz/1" and _io.META_KEY == "__meta__"
-
-
-# =========================================================================== issue 8
+# ===========================================================================
 # Crash safety and hostile files for every artefact: models, policies, option
 # libraries, lifelong checkpoints and experiment results.
 class _HalfWriter:
@@ -438,12 +434,11 @@ def test_damaged_checkpoints_are_refused_by_name(checkpoints, tmp_path, tamper, 
     assert str(root) in str(err.value)  # names the file or folder
 
 
-# Damaged state.json: each case once escaped as no error or a raw KeyError/TypeError/AttributeError.
+# Damaged state.json: every field and its agreement with the other files, each refused by name.
 @pytest.mark.parametrize(
     ("tamper", "match"),
     [
         (lambda c: _edit_state(c, lambda s: [s]), "state.json: not a JSON object"),
-        # Refused today, but without naming the file:
         (lambda c: _edit_state(c, lambda s: {**s, "config": {**s["config"], "n_kernels": 0}}),
          r"state.json: .*n_kernels must be an integer in \[1, 1,000\]"),
         (lambda c: _edit_state(c, lambda s: {**s, "config": {**s["config"], "magic": 1}}),

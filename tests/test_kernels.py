@@ -14,7 +14,6 @@ from scipy.optimize import linear_sum_assignment
 
 from ilpss import _io
 from ilpss.kernels import (
-    SCHEMA,
     KernelConvergenceWarning,
     NotFittedError,
     SharedKernelModel,
@@ -547,10 +546,6 @@ def test_damaged_or_foreign_files_are_refused(planted_fit, tmp_path: Path) -> No
         SharedKernelModel.load(tmp_path / "missing.npz")
     with pytest.raises(NotFittedError):
         SharedKernelModel().save(tmp_path / "x.npz")
-
-
-def test_schema_constant() -> None:
-    assert SCHEMA == "ilpss.kernels/1"
 
 
 def test_degenerate_data_without_regularisation_is_refused() -> None:

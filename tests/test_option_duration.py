@@ -1,4 +1,4 @@
-"""Kernel options last several decisions in the drill's 9 dimensions (DESIGN.md item 3).
+"""Kernel options last several decisions in the drill's 9 dimensions.
 
 With ``exp(-d2/2)`` as membership a typical in-kernel state (d2 near 9) would give
 K ~ 0.01 and every option would stop after one decision; the chi-square tail keeps

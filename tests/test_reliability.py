@@ -1,4 +1,4 @@
-"""Issue 8: soak test, teams that hang or misbehave, SIGKILL mid-experiment, hostile configs."""
+"""Soak test, teams that hang or misbehave, SIGKILL mid-experiment, hostile configurations."""
 
 from __future__ import annotations
 

@@ -41,7 +41,7 @@ def greedy_primitive(learner: SmdpLearner, x: float, rng: np.random.Generator) -
     mask = np.ones(learner.n_choices, dtype=bool)
     lib = learner.library
     if lib is not None and len(lib):
-        mask[learner.n_primitive :] = lib.membership(s)[lib.option_kernel] > 0
+        mask[learner.n_primitive :] = lib.memberships(lib.membership(s)) > 0
     c = int(np.argmax(np.where(mask, q, -np.inf)))
     if c < learner.n_primitive:
         return c
