@@ -25,12 +25,22 @@ from typing import Self
 
 import numpy as np
 
+from ilpss._check import Real, check
 from ilpss._io import load_npz, save_npz_atomic
 from ilpss.tiles import TileCoder
 
-__all__ = ["POLICY_SCHEMA", "FrozenPolicy", "LinearPolicy", "epsilon_greedy_choice", "greedy_choice"]
+__all__ = [
+    "EPSILON",
+    "POLICY_SCHEMA",
+    "FrozenPolicy",
+    "LinearPolicy",
+    "epsilon_greedy_choice",
+    "greedy_choice",
+]
 
 POLICY_SCHEMA = "ilpss.policy/1"
+EPSILON = Real(0.0, 1.0)
+"""What an exploration rate allows (the learners' ``epsilon`` setting is checked with it)."""
 
 
 def greedy_choice(q: np.ndarray, rng: np.random.Generator, mask: np.ndarray | None = None) -> int:
@@ -195,8 +205,7 @@ class _LinearQ:
     ) -> int:
         """With probability ``epsilon`` a uniform allowed choice, else the greedy one
         (:func:`epsilon_greedy_choice` at ``state``)."""
-        if not 0.0 <= epsilon <= 1.0:
-            raise ValueError(f"epsilon must be in [0, 1], got {epsilon}")
+        check("epsilon", epsilon, EPSILON)
         mask = self._mask(mask, False)
         allowed = np.ones(self.n_choices, dtype=bool) if mask is None else mask
         return epsilon_greedy_choice(self.q_values(state), rng, epsilon, allowed)[0]

@@ -73,7 +73,7 @@ from ilpss.episode import (
     step_duration,
 )
 from ilpss.options import OptionLibrary
-from ilpss.policy import FrozenPolicy, LinearPolicy, epsilon_greedy_choice
+from ilpss.policy import EPSILON, FrozenPolicy, LinearPolicy, epsilon_greedy_choice
 from ilpss.tiles import KEEPAWAY_ALPHA, TileCoder
 
 __all__ = [
@@ -88,7 +88,7 @@ _MIN_TRACE = 0.01  # eligibilities below this are dropped (keepaway's cut-off)
 
 SMDP_CONSTRAINTS = {
     "alpha": Real(0.0, math.inf, low_open=True),
-    "epsilon": Real(0.0, 1.0),
+    "epsilon": EPSILON,
     "gamma": Real(0.0, 1.0),
     "method": OneOf(("sarsa", "q")),
     "intra_option": Bool(),

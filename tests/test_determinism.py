@@ -5,6 +5,7 @@ from __future__ import annotations
 import pickle
 
 import numpy as np
+import pytest
 
 import soccer_drill
 from soccer_drill.policies import keepaway_rule
@@ -136,6 +137,7 @@ def _parallel_seeded(env, seed: int, action_seed: int) -> list:
     return record
 
 
+@pytest.mark.slow
 def test_reseeding_a_used_holder_env_reproduces_the_episode_for_every_team():
     """``reset(seed=s)`` after other episodes equals a fresh environment's ``reset(seed=s)``.
 
@@ -151,6 +153,7 @@ def test_reseeding_a_used_holder_env_reproduces_the_episode_for_every_team():
             assert _holder_seeded(used, 7, actions) == fresh, (team, earlier)
 
 
+@pytest.mark.slow
 def test_reseeding_used_aec_and_parallel_envs_reproduces_the_episode():
     for opponent in (None, *team_ids()):
         fresh = _aec_seeded(soccer_drill.env(opponent=opponent), 7, 0)

@@ -12,6 +12,8 @@ from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.report import write_report
 from ilpss.experiments.run import run_experiment
 
+pytestmark = pytest.mark.slow  # runs experiments end to end
+
 
 def _tiny(**changes) -> ExperimentConfig:
     cfg = ExperimentConfig(n_seeds=2, workers=1, **changes)

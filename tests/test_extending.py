@@ -18,6 +18,8 @@ from ilpss.experiments.methods import METHODS, Job, LifelongMethod, Method, regi
 from ilpss.experiments.protocols import PROTOCOLS, Protocol, Stream, register_protocol, team_task
 from ilpss.experiments.run import run_experiment
 
+pytestmark = pytest.mark.slow  # runs experiments end to end
+
 
 def _tiny(**changes) -> ExperimentConfig:
     return ExperimentConfig(n_seeds=2, workers=1, **changes).with_overrides(

@@ -125,6 +125,7 @@ def test_config_round_trip_and_validation():
         LifelongConfig.from_dict({"library": {"discout": 0.5}})
 
 
+@pytest.mark.slow
 def test_tiny_loop_on_the_drill():
     """Three opponents then a held-out one, with and without options, on a tiny budget."""
     cfg = LifelongConfig(n_kernels=3, train_episodes=15, rollout_episodes=10,

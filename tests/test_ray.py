@@ -7,6 +7,8 @@ import pytest
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.run import run_experiment
 
+pytestmark = pytest.mark.slow  # starts Ray
+
 ray = pytest.importorskip("ray", reason="the Ray executor needs the optional 'ray' extra")
 
 

@@ -44,6 +44,7 @@ soak = _load_soak()
 
 
 # ------------------------------------------------------------------------- soak
+@pytest.mark.slow
 def test_short_soak_has_no_violations_and_writes_its_section(tmp_path):
     out = tmp_path / "reliability.md"
     old = f"{soak.MARK_START}\nold\n{soak.MARK_END}"
@@ -60,6 +61,7 @@ def test_short_soak_has_no_violations_and_writes_its_section(tmp_path):
     assert "\nold\n" not in text and text.count(soak.MARK_START) == 1
 
 
+@pytest.mark.slow
 def test_soak_counts_and_reports_violations(monkeypatch, tmp_path):
     """A drill whose observations turn NaN at cycle 3 must fail the soak (exit status 1)."""
     features = soccer_drill.core.features
@@ -521,6 +523,7 @@ def _final_state(out: Path) -> tuple[bytes, bytes, list[np.ndarray]]:
     return (job / "result.json").read_bytes(), (checkpoint / "state.json").read_bytes(), arrays
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGKILL")
 def test_sigkill_mid_trial_then_restart_ends_identical_to_an_uninterrupted_run(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(ROOT)}

@@ -6,10 +6,13 @@ import json
 import re
 import shlex
 
+import pytest
 from PIL import Image
 
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.results_doc import command_for, main, parser, protocol_config
+
+pytestmark = pytest.mark.slow  # runs every protocol end to end
 
 TINY = ["--seeds-a", "2", "--seeds-b", "2", "--seeds-c", "2", "--episodes", "4",
         "--rollouts", "2", "--shuffles", "1", "--stream-length", "3",

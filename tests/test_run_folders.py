@@ -208,6 +208,7 @@ def test_a_checkpoint_folder_being_written_is_refused_to_a_second_save(tmp_path,
     assert list((tmp_path / "ckpt").iterdir()) == []
 
 
+@pytest.mark.slow
 def test_two_runs_started_together_on_one_folder_never_mix(tmp_path):
     """Two processes with different configurations: one runs, the other is refused, and
     every file of the folder comes from the one that ran."""
@@ -305,6 +306,7 @@ def test_output_folders_that_cannot_be_one_are_refused_clearly(tmp_path, capsys)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(sys.platform == "win32", reason="SIGKILL")
 def test_a_kill_just_before_result_json_is_renamed_leaves_no_temporary_after_the_resume(
     tmp_path,
