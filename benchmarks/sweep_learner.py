@@ -27,7 +27,7 @@ from ilpss.experiments.drill import ENV_ID as DRILL_ENV_ID
 from ilpss.experiments.drill import PAPER_TEAMS
 from ilpss.experiments.drill import TILE_WIDTHS as DRILL_TILE_WIDTHS
 from ilpss.experiments.executor import LocalExecutor
-from ilpss.experiments.holder_learning import _evaluate
+from ilpss.experiments.holder_learning import evaluation_rewards
 from ilpss.lifelong import LearnerConfig
 from ilpss.smdp import SmdpLearner
 
@@ -47,9 +47,9 @@ def job(args: tuple[str, int, int, int, dict[str, Any]]) -> tuple[str, int, list
         if np.mean(curve[-BLOCK:]) >= best_score:
             best_score, best_weights = float(np.mean(curve[-BLOCK:])), learner.q.weights.copy()
     rng = np.random.default_rng(seed)
-    final = _evaluate(env, lambda o: learner.q.greedy(np.asarray(o, float), rng), n_eval)
+    final = evaluation_rewards(env, lambda o: learner.q.greedy(np.asarray(o, float), rng), n_eval)
     learner.q.weights[:] = best_weights
-    snap = _evaluate(env, lambda o: learner.q.greedy(np.asarray(o, float), rng), n_eval)
+    snap = evaluation_rewards(env, lambda o: learner.q.greedy(np.asarray(o, float), rng), n_eval)
     blocks = [float(np.mean(curve[i:i + BLOCK])) for i in range(0, len(curve), BLOCK)]
     return team, seed, blocks, float(final.mean()), float(snap.mean())
 

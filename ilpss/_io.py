@@ -130,11 +130,13 @@ def remove_stale_temporaries(directory: str | os.PathLike[str]) -> list[str]:
 
 
 def save_figure(fig: Any, path: str | os.PathLike[str], **savefig: Any) -> Path:
-    """Write a matplotlib figure to ``path`` atomically (the format from its suffix,
-    ``savefig`` passed to ``Figure.savefig``); missing parent folders are created."""
+    """Write a matplotlib figure to ``path`` atomically (the format from its suffix unless
+    ``savefig`` gives one; ``savefig`` passed to ``Figure.savefig``); missing parent
+    folders are created."""
     path = Path(path)
     buffer = io.BytesIO()
-    fig.savefig(buffer, format=path.suffix.lstrip(".") or "png", **savefig)
+    savefig.setdefault("format", path.suffix.lstrip(".") or "png")
+    fig.savefig(buffer, **savefig)
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_bytes(path, buffer.getvalue())
     return path

@@ -4,12 +4,11 @@ The figure is drawn on a :class:`matplotlib.figure.Figure` with an explicit
 :class:`~matplotlib.backends.backend_agg.FigureCanvasAgg`; pyplot and the global backend
 are never touched, so importing this module is safe in headless jobs and in processes
 that use another backend. Files are written atomically (temporary file in the
-destination directory, then :func:`os.replace`, via :func:`ilpss._io.atomic_write_bytes`).
+destination directory, then :func:`os.replace`, via :func:`ilpss._io.save_figure`).
 """
 
 from __future__ import annotations
 
-import io
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -19,7 +18,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike
 
-from ilpss._io import atomic_write_bytes
+from ilpss._io import save_figure
 from ilpss.metrics import mean_curve_band, smooth
 
 __all__ = ["plot_learning_curves", "plot_score_profiles"]
@@ -144,11 +143,7 @@ def plot_learning_curves(
     legend_title = f"mean, {confidence * 100:g}% bootstrap band" if band else "mean"
     ax.legend(title=legend_title, fontsize=8, title_fontsize=8, loc="best")
 
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_bytes(path, buf.getvalue())
-    return path
+    return save_figure(fig, path, format="png", dpi=dpi)
 
 
 def plot_score_profiles(
@@ -215,9 +210,4 @@ def plot_score_profiles(
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8, loc="lower left")
     fig.suptitle(title, fontsize=11)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=dpi)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_bytes(path, buf.getvalue())
-    return path
+    return save_figure(fig, path, format="png", dpi=dpi)

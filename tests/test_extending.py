@@ -16,6 +16,7 @@ from synthetic_smdp import ZoneCorridor
 from ilpss.experiments.config import EXPERIMENT_CONSTRAINTS, ExperimentConfig
 from ilpss.experiments.methods import METHODS, Job, LifelongMethod, Method, register_method
 from ilpss.experiments.protocols import PROTOCOLS, Protocol, Stream, register_protocol, team_task
+from ilpss.experiments.report import write_report
 from ilpss.experiments.run import run_experiment
 
 pytestmark = pytest.mark.slow  # runs experiments end to end
@@ -47,6 +48,8 @@ def test_a_new_lifelong_method_runs_and_is_reported(tmp_path, registered) -> Non
         assert list(entry["curves"]) == ["3"] and len(entry["curves"]["3"]) == 4
         assert len(entry["library_size"]) == 4
     assert run_experiment(cfg, tmp_path, progress=False) == results  # read back, checked
+    report = write_report(cfg, results, tmp_path).read_text()
+    assert "### ILPSS with one kernel vs learning anew" in report
 
 
 class _LearnAnewPerTarget(Method):
@@ -83,6 +86,8 @@ def test_a_new_learner_method_runs_and_is_reported(tmp_path, registered) -> None
         # The same learner, seeds and target as learning anew's last trial: the same curve.
         assert mine["curves"] == scratch["curves"]
     assert run_experiment(cfg, tmp_path, progress=False) == results
+    report = write_report(cfg, results, tmp_path).read_text()
+    assert "### SMDP learning on the target alone vs learning anew" in report
 
 
 # ---------------------------------------------------------------------- a protocol
@@ -114,6 +119,21 @@ def test_a_new_protocol_needs_no_change_elsewhere(tmp_path, registered, capsys) 
     assert [r["tasks"] for r in results] == [["interceptors_press", "chasers", "goal_guards"]] * 2
     assert all(sorted(r["methods"]["prq"]["curves"]) == ["1", "2"] for r in results)
     assert "D" in parser().parse_args(["--protocol", "D", "--out", "x"]).protocol
+    # Its report: the default sections, every target of every stream.
+    report = write_report(cfg, results, tmp_path).read_text()
+    assert report.startswith("# Protocol D: 2 seeds, 4 learning episodes per opponent")
+    for t in (1, 2):
+        assert f"## first=interceptors_press, task {t}" in report
+        assert (tmp_path / f"curves_00_{t:02d}.png").stat().st_size > 0
+    assert report.count("### PRQ-learning (policy reuse) vs learning anew") == 2
+    # And its section of the results page, with the figures copied.
+    from ilpss.experiments.sections import report_section
+
+    docs = tmp_path / "docs"
+    (docs / "figures").mkdir(parents=True)
+    section = report_section(PROTOCOLS.get("D"), cfg, results, tmp_path, docs)
+    assert "![learning curves](figures/protocol_d_curves_00_01.png)" in section
+    assert (docs / "figures" / "protocol_d_curves_00_02.png").exists()
 
 
 # -------------------------------------------------------------------------- a team

@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ilpss import metrics
+from ilpss.experiments.folder import RunFolder
 from ilpss.experiments.report import PRIMARY, interval_text, threshold_for, windows
 from ilpss.experiments.run import load_result, read_config
 
@@ -39,13 +40,14 @@ def _parse(spec: str) -> tuple[Path, str]:
 
 def target_curves(folder: Path, method: str) -> dict[int, tuple[list[float], dict]]:
     """``{seed: (curve on the first target of stream 0, that method's result)}``."""
-    config = folder / "config.json"
+    run = RunFolder(folder)
+    config = run.config
     if not config.is_file():
         raise ValueError(f"{folder}: no config.json (not a folder written by ilpss-experiment)")
     cfg = read_config(config)
     out = {}
-    for path in sorted(folder.glob("seed_*/stream_00/result.json")):
-        seed = int(path.parent.parent.name.removeprefix("seed_"))
+    for seed in run.finished_seeds(stream_index=0):
+        path = run.result(seed, 0)
         result = load_result(path, cfg, seed, 0, cfg.streams(seed)[0])  # checked, clear errors
         if method not in result["methods"]:
             raise ValueError(f"{path}: no method {method!r}; it has {sorted(result['methods'])}")

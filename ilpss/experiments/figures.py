@@ -20,6 +20,9 @@ from ilpss.lifelong import LifelongLearner
 from ilpss.options import OptionLibrary
 from ilpss.smdp import SmdpLearner
 
+GIF_SEEDS = range(1, 51)
+"""Environment seeds of the greedy episodes scanned for the GIF of the results page."""
+
 
 def plot_kernels_on_field(
     learner: LifelongLearner, path: str | os.PathLike[str], task_names: list[str] | None = None
@@ -92,6 +95,14 @@ def greedy_episodes(
         out.append({"seed": seed, "outcome": result.outcome, "reward": result.total_reward,
                     "options": [run.option_id for run in result.option_runs]})
     return out
+
+
+def gif_episode(episodes: list[dict[str, Any]]) -> dict[str, Any]:
+    """The episode worth a GIF among :func:`greedy_episodes`: one that shows an option at
+    work, succeeding if one does (the first such), else the first episode."""
+    with_options = [e for e in episodes if e["options"]]
+    return next((e for e in with_options if e["outcome"] == "success"),
+                with_options[0] if with_options else episodes[0])
 
 
 def write_agent_gif(

@@ -11,10 +11,14 @@
 
 from __future__ import annotations
 
+import json
 import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
+
+from ilpss._io import atomic_write_bytes, read_json
 
 __all__ = ["RunFolder"]
 
@@ -61,6 +65,17 @@ class RunFolder:
     def checkpoints(self, seed: int, stream_index: int, method: str) -> Path:
         """The checkpoint folder of a lifelong method in a job."""
         return self.job(seed, stream_index) / method
+
+    def wall_time(self) -> dict[str, Any] | None:
+        """The timing record (``seconds``, ``workers``, ``executor``), if there is one."""
+        return read_json(self.timing) if self.timing.exists() else None
+
+    def add_wall_time(self, seconds: float, workers: int, executor: str) -> None:
+        """Add ``seconds`` of a run that finished jobs to the timing record."""
+        record = self.wall_time()
+        total = (record["seconds"] if record else 0.0) + seconds
+        atomic_write_bytes(self.timing, json.dumps(
+            {"seconds": total, "workers": workers, "executor": executor}).encode())
 
     def finished_seeds(self, stream_index: int = 0) -> list[int]:
         """Seeds whose job on stream ``stream_index`` has a ``result.json``, in order."""

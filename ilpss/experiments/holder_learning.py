@@ -18,7 +18,8 @@ means. "The learnt policy beats the best rule" is claimed for a team when the
 Holm-adjusted p-value across the teams is below 0.05. The inference is conditional on
 the evaluation episodes, which are the same for every seed and rule. The best rule is
 picked on those same episodes, which can only favour the rule. The fixed rules are
-looked up by name (``--rules module:attribute``), so this module imports no drill code.
+looked up by name (``--rules module:attribute``, by default the drill's, see
+:data:`ilpss.experiments.drill.HOLDER_RULES`), so this module imports no drill code.
 """
 
 from __future__ import annotations
@@ -34,14 +35,11 @@ import gymnasium as gym
 import numpy as np
 
 from ilpss._io import atomic_write_bytes
-from ilpss.experiments.drill import ENV_ID as DRILL_ENV_ID
-from ilpss.experiments.drill import PAPER_TEAMS
-from ilpss.experiments.drill import TILE_WIDTHS as DRILL_TILE_WIDTHS
+from ilpss.experiments.drill import ENV_ID, HOLDER_RULES, PAPER_TEAMS, TILE_WIDTHS
 from ilpss.experiments.executor import LocalExecutor
 from ilpss.lifelong import LearnerConfig
 from ilpss.metrics import holm, improvement_test, t_interval, t_test_pvalue, wilson_interval
 from ilpss.smdp import SmdpLearner
-from ilpss.tiles import TileCoder
 
 EVAL_SEED = 10_000  # evaluation episodes use seeds EVAL_SEED + i, never seen in learning
 
@@ -51,8 +49,9 @@ def _rules(spec: str) -> dict[str, Any]:
     return dict(getattr(importlib.import_module(module), attribute))
 
 
-def _evaluate(env: gym.Env, act, n: int) -> np.ndarray:
-    """Rewards of ``n`` episodes with seeds EVAL_SEED.. (``act(obs) -> action``)."""
+def evaluation_rewards(env: gym.Env, act, n: int) -> np.ndarray:
+    """Rewards of ``n`` episodes with seeds EVAL_SEED.. (``act(obs) -> action``), the
+    evaluation episodes of the learnt policies and of the rules."""
     rewards = np.empty(n)
     for i in range(n):
         obs, _ = env.reset(seed=EVAL_SEED + i)
@@ -68,13 +67,12 @@ def _evaluate(env: gym.Env, act, n: int) -> np.ndarray:
 def learn_and_evaluate(job: tuple[str, int, int, int, LearnerConfig]) -> dict[str, Any]:
     """Learn on one team with one seed, then evaluate the greedy policy."""
     team, seed, episodes, n_eval, lc = job
-    env = gym.make(DRILL_ENV_ID, opponent=team, disable_env_checker=True)
-    coder = TileCoder.from_space(env.observation_space, np.asarray(DRILL_TILE_WIDTHS),
-                                 n_tilings=lc.n_tilings)
-    learner = SmdpLearner(3, coder, seed=seed, **lc.smdp_kwargs())
+    env = gym.make(ENV_ID, opponent=team, disable_env_checker=True)
+    coder = lc.tile_coder(env.observation_space)
+    learner = SmdpLearner(int(env.action_space.n), coder, seed=seed, **lc.smdp_kwargs())
     curve = [r.total_reward for r in learner.train(env, episodes, seed=seed)]
     rng = np.random.default_rng(seed)
-    rewards = _evaluate(env, lambda obs: learner.q.greedy(np.asarray(obs, float), rng), n_eval)
+    rewards = evaluation_rewards(env, lambda obs: learner.q.greedy(np.asarray(obs, float), rng), n_eval)
     return {"team": team, "seed": seed, "curve": curve, "eval": rewards.tolist()}
 
 
@@ -82,10 +80,10 @@ def rule_rewards(job: tuple[str, str, str, int]) -> dict[str, Any]:
     """Rewards of one fixed rule against one team on the evaluation seeds."""
     team, spec, name, n_eval = job
     rule = _rules(spec)[name]
-    env = gym.make(DRILL_ENV_ID, opponent=team, disable_env_checker=True)
+    env = gym.make(ENV_ID, opponent=team, disable_env_checker=True)
     rng = np.random.default_rng(0)
     return {"team": team, "rule": name,
-            "eval": _evaluate(env, lambda obs: rule(obs, rng), n_eval).tolist()}
+            "eval": evaluation_rewards(env, lambda obs: rule(obs, rng), n_eval).tolist()}
 
 
 def compare_to_rule(learnt: np.ndarray, rule: np.ndarray) -> dict[str, Any]:
@@ -125,7 +123,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--episodes", type=int, default=1000)
     p.add_argument("--eval", type=int, default=500)
     p.add_argument("--seeds", type=int, default=10, help="learning seeds per team (>= 2)")
-    p.add_argument("--rules", default="soccer_drill.policies:HOLDER_POLICIES")
+    p.add_argument("--rules", default=HOLDER_RULES)
     p.add_argument("--workers", type=int, default=2)
     defaults = LearnerConfig()
     p.add_argument("--method", choices=["sarsa", "q"], default=defaults.method)
@@ -137,7 +135,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if args.seeds < 2:
         p.error(f"--seeds must be >= 2 (the interval is over learning seeds), got {args.seeds}")
     lc = LearnerConfig(alpha=args.alpha, method=args.method, initial_value=args.initial_value,
-                       trace_decay=args.trace_decay)
+                       trace_decay=args.trace_decay,
+                       tile_widths=TILE_WIDTHS)
     start = time.perf_counter()
     pool = LocalExecutor(args.workers)
     learnt = pool.map(learn_and_evaluate,

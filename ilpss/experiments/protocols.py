@@ -1,8 +1,10 @@
 """Protocols: which task instances a lifelong learner meets, in which order, per seed.
 
 A :class:`Protocol` gives the streams of a configuration for one seed
-(:meth:`~Protocol.streams`) and refuses a configuration it cannot run
-(:meth:`~Protocol.check`).
+(:meth:`~Protocol.streams`), refuses a configuration it cannot run
+(:meth:`~Protocol.check`), says what it does (:meth:`~Protocol.describe`), and writes its
+part of ``report.md`` (:meth:`~Protocol.report`) and of ``docs/results.md``
+(:meth:`~Protocol.results_section`).
 Protocols are registered by name in :data:`PROTOCOLS` (``A``, ``B``, ``C`` here; more
 with :func:`register_protocol` or the entry-point group ``ilpss.protocols``), and the
 configuration, the runner and the reports only dispatch to them: a new protocol needs
@@ -12,6 +14,7 @@ no change anywhere else.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
@@ -90,8 +93,35 @@ class Protocol:
         raise NotImplementedError
 
     def describe(self, cfg: ExperimentConfig) -> str:
-        """A sentence saying what the protocol does with ``cfg``."""
-        return self.title
+        """What the protocol does with ``cfg``, for the results page."""
+        return f"{self.title[:1].upper()}{self.title[1:]}, with {_methods(cfg)}."
+
+    def report(self, cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path) -> list[str]:
+        """The body of ``report.md`` (markdown lines; its figures written into ``out``). By
+        default, per stream and target, the curves and the metrics of every method against
+        learning anew (:func:`~ilpss.experiments.report.target_sections`)."""
+        from ilpss.experiments.report import target_sections
+
+        return target_sections(cfg, results, out)
+
+    def results_section(
+        self, cfg: ExperimentConfig, results: list[dict[str, Any]], folder: Path, docs: Path
+    ) -> list[str]:
+        """The body of this protocol's section of ``docs/results.md``; by default that of
+        :meth:`report`, its figures copied to ``docs/figures``."""
+        from ilpss.experiments.sections import report_section
+
+        return report_section(self, cfg, results, folder, docs)
+
+
+def _methods(cfg: ExperimentConfig, leave_out: tuple[str, ...] = ()) -> str:
+    from ilpss.experiments.report import label
+
+    return ", ".join(label(m) for m in cfg.methods if m not in leave_out)
+
+
+def _teams(teams: tuple[str, ...]) -> str:
+    return ", ".join(f"`{t}`" for t in teams)
 
 
 def _check_teams(cfg: ExperimentConfig, distinct: bool) -> None:
@@ -120,6 +150,25 @@ class HeldOutTeam(Protocol):
         tasks = tuple(team_task(t) for t in cfg.teams)
         return [Stream(f"held_out={cfg.teams[-1]}", tasks, len(tasks) - 1)]
 
+    def describe(self, cfg: ExperimentConfig) -> str:
+        others = _methods(cfg, ("ilpss", "scratch"))
+        return (f"Opponent teams {_teams(cfg.teams[:-1])} in sequence, with extraction after "
+                f"each; then against the held-out team `{cfg.teams[-1]}`: learning with the "
+                "extracted options (ILPSS) against learning anew"
+                + (f", beside {others} under the same budget." if others else "."))
+
+    def report(self, cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path) -> list[str]:
+        from ilpss.experiments.report import held_out_sections
+
+        return held_out_sections(cfg, results, out, pooled=False)
+
+    def results_section(
+        self, cfg: ExperimentConfig, results: list[dict[str, Any]], folder: Path, docs: Path
+    ) -> list[str]:
+        from ilpss.experiments.sections import section_a
+
+        return section_a(cfg, results, folder, docs)
+
 
 class EveryTeamHeldOut(Protocol):
     """B: every team held out in turn, after the others in the given order and in
@@ -143,6 +192,24 @@ class EveryTeamHeldOut(Protocol):
                 streams.append(Stream(label, tasks, len(tasks) - 1))
         return streams
 
+    def describe(self, cfg: ExperimentConfig) -> str:
+        others = _methods(cfg, ("ilpss", "scratch"))
+        return (f"Each of {_teams(cfg.teams)} is held out in turn, after the others in the "
+                f"paper's order and in {cfg.n_shuffles} shuffled order(s) drawn per seed; "
+                "methods: ILPSS, learning anew" + (f", {others}." if others else "."))
+
+    def report(self, cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path) -> list[str]:
+        from ilpss.experiments.report import held_out_sections
+
+        return held_out_sections(cfg, results, out, pooled=True)
+
+    def results_section(
+        self, cfg: ExperimentConfig, results: list[dict[str, Any]], folder: Path, docs: Path
+    ) -> list[str]:
+        from ilpss.experiments.sections import section_b
+
+        return section_b(cfg, results, folder, docs)
+
 
 class ParametricStream(Protocol):
     """C: a long stream of opponents drawn per seed by a registered sampler; every
@@ -161,6 +228,25 @@ class ParametricStream(Protocol):
             for i, p in enumerate(specs)
         )
         return [Stream("parametric_stream", tasks, 1)]
+
+    def describe(self, cfg: ExperimentConfig) -> str:
+        return (f"A stream of {cfg.stream_length} opponents of the `{cfg.sampler_team}` "
+                f"family (drawn per seed by the sampler `{cfg.sampler}`); from the second "
+                "on, ILPSS and "
+                f"{_methods(cfg, ('ilpss', 'scratch'))} against learning anew on every "
+                "opponent.")
+
+    def report(self, cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path) -> list[str]:
+        from ilpss.experiments.report import parametric_stream_sections
+
+        return parametric_stream_sections(cfg, results, out)
+
+    def results_section(
+        self, cfg: ExperimentConfig, results: list[dict[str, Any]], folder: Path, docs: Path
+    ) -> list[str]:
+        from ilpss.experiments.sections import section_c
+
+        return section_c(cfg, results, folder, docs)
 
 
 PROTOCOLS = Registry("ilpss.protocols", "protocol")

@@ -1,8 +1,14 @@
-"""Figures, tables and verdicts of an experiment, written as ``report.md`` in its folder."""
+"""Figures, tables and verdicts of an experiment, written as ``report.md`` in its folder.
+
+:func:`write_report` writes the head of the page and asks the run's protocol for its
+body (:meth:`ilpss.experiments.protocols.Protocol.report`); the sections here are the
+ones protocols use: :func:`held_out_sections` (one held-out target per stream: A and B),
+:func:`parametric_stream_sections` (a long stream: C) and :func:`target_sections` (any
+stream, every target: the default of a new protocol).
+"""
 
 from __future__ import annotations
 
-import io
 import math
 import os
 import shlex
@@ -15,8 +21,10 @@ from typing import Any
 import numpy as np
 
 from ilpss import metrics
-from ilpss._io import atomic_write_bytes
+from ilpss._io import atomic_write_bytes, save_figure
 from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.methods import METHODS, LifelongMethod
+from ilpss.experiments.protocols import PROTOCOLS
 from ilpss.plots import plot_learning_curves, plot_score_profiles
 
 JUMPSTART_EPISODES = 20
@@ -36,13 +44,11 @@ Everything else (final performance, time to threshold, per-stream and per-oppone
 is descriptive."""
 ALPHA = 0.05
 """Family-wise error rate of the primary endpoints."""
-LABELS = {
-    "ilpss": "ILPSS (kernel options)",
-    "scratch": "learning anew",
-    "whole_policies": "whole past policies as options",
-    "prq": "PRQ-learning (policy reuse)",
-    "ilpss_no_discount": "ILPSS without discounting",
-}
+
+
+def label(method: str) -> str:
+    """How reports call a method: its registered label, else its name."""
+    return METHODS.get(method).label if method in METHODS else method
 
 
 def collect(results: list[dict[str, Any]]) -> dict[str, dict[str, dict[int, np.ndarray]]]:
@@ -230,7 +236,7 @@ def verdict_lines(estimates: dict[str, dict[str, metrics.MetricEstimate]],
              f"(family-wise error {ALPHA:g}). Intervals are unadjusted 95% intervals; final "
              "performance and time to threshold are descriptive.", ""]
     for method, est in estimates.items():
-        lines.append(f"- **{LABELS.get(method, method)}** vs learning anew: "
+        lines.append(f"- **{label(method)}** vs learning anew: "
                      f"{verdict(est, adjusted[method], episodes)}.")
     return lines
 
@@ -277,7 +283,7 @@ def run_scores(curve_sets: Sequence[dict[str, np.ndarray]]) -> dict[str, dict[st
                 continue
             gains = metrics.per_seed_gains(c, curves["scratch"], first=first, last=last)
             for e in PRIMARY:
-                out[ENDPOINT_LABELS[e]][LABELS.get(method, method)].append(gains[e])
+                out[ENDPOINT_LABELS[e]][label(method)].append(gains[e])
     return {e: {m: np.concatenate(v) for m, v in ms.items()} for e, ms in out.items()}
 
 
@@ -323,7 +329,7 @@ def pooled_lines(curve_sets: Sequence[dict[str, np.ndarray]], episodes: int, wha
             cells.append(f"{ENDPOINT_LABELS[e]} ahead on {t.better} of {t.n} seeds, behind on "
                          f"{t.worse} (probability {t.probability:.2f}; sign test p = {sign}, "
                          f"Wilcoxon p = {wil})")
-        lines.append(f"- {LABELS.get(method, method)}: " + "; ".join(cells) + ".")
+        lines.append(f"- {label(method)}: " + "; ".join(cells) + ".")
     scores = run_scores(curve_sets)
     n_runs = len(next(iter(next(iter(scores.values())).values())))
     plot_score_profiles(scores, figure, title=f"Score distributions over {n_runs} runs "
@@ -416,7 +422,7 @@ def trend_line(trend: tuple[float, float, float, float, int] | None, label: str)
 
 
 def _figure(curves: dict[str, np.ndarray], path: Path, title: str) -> Path:
-    named = {f"{LABELS.get(m, m)}": c for m, c in curves.items()}
+    named = {f"{label(m)}": c for m, c in curves.items()}
     window = windows(next(iter(curves.values())).shape[1])[2]
     plot_learning_curves(named, path, title=title, window=window, ylabel="reward per episode")
     return path
@@ -463,14 +469,9 @@ def plot_held_out_panels(
         ax.set_ylabel(f"reward (trailing mean over {window})")
     n_seeds = len(next(iter(curves.values())))
     fig.suptitle(f"Learning against each held-out team ({n_seeds} seeds)", fontsize=11)
-    fig.legend(list(handles.values()), [LABELS.get(m, m) for m in handles],
+    fig.legend(list(handles.values()), [label(m) for m in handles],
                loc="outside lower center", ncols=min(len(handles), 4), fontsize=8)
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_bytes(path, buf.getvalue())
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def write_report(
@@ -483,7 +484,6 @@ def write_report(
     when it is ``ilpss-experiment``, else "(from Python)".
     """
     out = Path(out_dir)
-    table = collect(results)
     if command is None:
         command = "ilpss-experiment " + " ".join(shlex.quote(a) for a in sys.argv[1:]) \
             if Path(sys.argv[0]).name == "ilpss-experiment" else "(from Python)"
@@ -496,46 +496,89 @@ def write_report(
         metrics_note(),
         "",
     ]
-    episodes = cfg.lifelong.train_episodes
-    if cfg.protocol in ("A", "B"):
-        estimates = stream_estimates(table)
-        if cfg.protocol == "B" and all(estimates.values()):
-            lines += ["## Pooled over the streams (primary)", "", structure_b(table), "",
-                      *pooled_lines([target_curves(m) for m in table.values()], episodes,
-                                    f"the {len(table)} streams", out / "profiles.png",
-                                    "profiles.png")]
-        for s, (stream, methods) in enumerate(table.items()):
-            curves = target_curves(methods)
-            fig = _figure(curves, out / f"curves_{s:02d}.png",
-                          f"{stream}: learning against the held-out opponent")
-            lines += [f"## {stream}", "", f"![learning curves]({fig.name})", ""]
-            if "scratch" in curves and not comparable(curves):
-                lines += ["Transfer metrics need at least 2 seeds.", ""]
-            elif cfg.protocol == "A" and estimates[stream]:
-                lines += ["### Verdicts", "", *verdict_lines(estimates[stream], episodes), ""]
-            for method, est in estimates[stream].items():
-                lines += [f"### {LABELS.get(method, method)} vs learning anew", ""]
-                if cfg.protocol == "B":
-                    lines += [f"Descriptive (one stream, unadjusted): {verdict(est)}.", ""]
-                lines += [metrics.format_metrics_markdown(est), ""]
-    else:
-        (methods,) = table.values()
-        jumpstarts = stream_jumpstarts(methods)
-        sizes = library_sizes(results)
-        plot_stream(jumpstarts, sizes, out / "stream.png")
-        if jumpstarts:
-            targets = sorted(methods["scratch"])
-            lines += ["## Pooled over the opponents (primary)", "",
-                      *pooled_lines([{m: methods[m][t] for m in methods} for t in targets],
-                                    episodes, f"the {len(targets)} opponents after the first",
-                                    out / "profiles.png", "profiles.png"),
-                      *[trend_line(stream_trend(methods, m), LABELS.get(m, m))
-                        for m in methods if m != "scratch"], ""]
-        lines += ["## Jumpstart on each new opponent of the stream (descriptive)", "",
-                  *protocol_c_lines(jumpstarts, sizes, "stream.png")]
+    lines += PROTOCOLS.get(cfg.protocol).report(cfg, results, out)
     path = out / "report.md"
     atomic_write_bytes(path, "\n".join(lines).encode())
     return path
+
+
+def held_out_sections(
+    cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path, *, pooled: bool
+) -> list[str]:
+    """The body of the report of protocols whose every stream has one target (the
+    held-out team): per stream its curves and the metrics of every method against
+    learning anew, with verdicts; with ``pooled`` (several streams, as in B) the verdicts
+    are on the curves pooled over the streams, and the per-stream ones descriptive."""
+    table = collect(results)
+    episodes = cfg.lifelong.train_episodes
+    estimates = stream_estimates(table)
+    lines: list[str] = []
+    if pooled and all(estimates.values()):
+        lines += ["## Pooled over the streams (primary)", "", structure_b(table), "",
+                  *pooled_lines([target_curves(m) for m in table.values()], episodes,
+                                f"the {len(table)} streams", out / "profiles.png",
+                                "profiles.png")]
+    for s, (stream, methods) in enumerate(table.items()):
+        curves = target_curves(methods)
+        fig = _figure(curves, out / f"curves_{s:02d}.png",
+                      f"{stream}: learning against the held-out opponent")
+        lines += [f"## {stream}", "", f"![learning curves]({fig.name})", ""]
+        if "scratch" in curves and not comparable(curves):
+            lines += ["Transfer metrics need at least 2 seeds.", ""]
+        elif not pooled and estimates[stream]:
+            lines += ["### Verdicts", "", *verdict_lines(estimates[stream], episodes), ""]
+        for method, est in estimates[stream].items():
+            lines += [f"### {label(method)} vs learning anew", ""]
+            if pooled:
+                lines += [f"Descriptive (one stream, unadjusted): {verdict(est)}.", ""]
+            lines += [metrics.format_metrics_markdown(est), ""]
+    return lines
+
+
+def parametric_stream_sections(
+    cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path
+) -> list[str]:
+    """The body of the report of a long stream whose every task from the second on is a
+    target (protocol C): the verdicts pooled over the targets, the trend of the head
+    start along the stream, and the jumpstart and library size on each new opponent."""
+    (methods,) = collect(results).values()
+    episodes = cfg.lifelong.train_episodes
+    jumpstarts = stream_jumpstarts(methods)
+    sizes = library_sizes(results)
+    plot_stream(jumpstarts, sizes, out / "stream.png")
+    lines: list[str] = []
+    if jumpstarts:
+        targets = sorted(methods["scratch"])
+        lines += ["## Pooled over the opponents (primary)", "",
+                  *pooled_lines([{m: methods[m][t] for m in methods} for t in targets],
+                                episodes, f"the {len(targets)} opponents after the first",
+                                out / "profiles.png", "profiles.png"),
+                  *[trend_line(stream_trend(methods, m), label(m))
+                    for m in methods if m != "scratch"], ""]
+    return [*lines, "## Jumpstart on each new opponent of the stream (descriptive)", "",
+            *protocol_c_lines(jumpstarts, sizes, "stream.png")]
+
+
+def target_sections(
+    cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path
+) -> list[str]:
+    """The body of a report for any stream: per stream and target task, the curves and
+    the metrics of every method against learning anew (descriptive, unadjusted)."""
+    lines: list[str] = []
+    for s, (stream, methods) in enumerate(collect(results).items()):
+        for t in sorted(next(iter(methods.values()))):
+            curves = {m: by_task[t] for m, by_task in methods.items()}
+            fig = _figure(curves, out / f"curves_{s:02d}_{t:02d}.png",
+                          f"{stream}: learning on task {t}")
+            lines += [f"## {stream}, task {t}", "", f"![learning curves]({fig.name})", ""]
+            if not comparable(curves):
+                lines += ["Transfer metrics need learning anew on at least 2 seeds.", ""]
+                continue
+            for method, est in compare_to_scratch(curves).items():
+                lines += [f"### {label(method)} vs learning anew", "",
+                          f"Descriptive (unadjusted): {verdict(est)}.", "",
+                          metrics.format_metrics_markdown(est), ""]
+    return lines
 
 
 def stream_jumpstarts(
@@ -555,13 +598,13 @@ def stream_jumpstarts(
 
 
 def library_sizes(results: list[dict[str, Any]]) -> dict[str, np.ndarray]:
-    """Protocol C: ``{method: active options after each trial, (n_seeds, n_trials)}`` of
-    ILPSS with and without discounting, seeds in order."""
+    """``{method: active options after each trial, (n_seeds, n_trials)}`` of every lifelong
+    method that builds options (all but learning anew), seeds in order."""
     sizes: dict[str, list] = defaultdict(list)
     for res in sorted(results, key=lambda r: (r["stream_index"], r["seed"])):
-        for method in ("ilpss", "ilpss_no_discount"):
-            if method in res["methods"]:
-                sizes[method].append(res["methods"][method]["library_size"])
+        for method, data in res["methods"].items():
+            if method != "scratch" and isinstance(METHODS.get(method), LifelongMethod):
+                sizes[method].append(data["library_size"])
     return {m: np.asarray(runs, dtype=float) for m, runs in sizes.items()}
 
 
@@ -587,16 +630,12 @@ def plot_stream(
     ax1.set_ylabel("jumpstart (first episodes)")
     for method, runs in sizes.items():
         mean = runs.mean(axis=0)
-        ax2.plot(np.arange(1, len(mean) + 1), mean, marker="o", label=LABELS[method])
+        ax2.plot(np.arange(1, len(mean) + 1), mean, marker="o", label=label(method))
     ax2.set_xlabel("trials completed")
     ax2.set_ylabel("active options (mean over seeds)")
     ax2.legend()
     fig.tight_layout()
-    path = Path(path)
-    tmp = path.with_name(f".{path.stem}.tmp.png")
-    fig.savefig(tmp, dpi=120)
-    os.replace(tmp, path)
-    return path
+    return save_figure(fig, path, dpi=120)
 
 
 def protocol_c_lines(
@@ -615,6 +654,6 @@ def protocol_c_lines(
     lines = [f"![stream]({figure})", "", *rows, ""]
     for method, runs in sizes.items():
         final = runs[:, -1]
-        lines.append(f"- {LABELS[method]}: {final.mean():.1f} active options after the last "
+        lines.append(f"- {label(method)}: {final.mean():.1f} active options after the last "
                      f"trial (min {final.min():.0f}, max {final.max():.0f} over seeds).")
     return lines
