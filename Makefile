@@ -1,7 +1,7 @@
 # Two entry points for a newcomer (see README.md):
 #   make demo   set up .venv and run the main job
 #   make test   set up .venv and run the linter and the test suite
-#   make test-quick   the test suite without the end-to-end tier (pytest -m "not slow")
+#   make test-quick   the test suite without the end-to-end tier (pytest -m "not slow ...")
 PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
@@ -24,7 +24,7 @@ test: $(STAMP)
 	$(BIN)/python -m pytest -n 2 -q
 
 test-quick: $(STAMP)
-	$(BIN)/python -m pytest -n 2 -q -m "not slow"
+	$(BIN)/python -m pytest -n 2 -q -m "not slow and not integrations"
 
 bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_env.py

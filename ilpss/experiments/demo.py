@@ -42,7 +42,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     report = write_report(cfg, results, args.out)
     out = Path(args.out)
     held_out = cfg.teams[-1]
-    env = gym.make(cfg.env_id, opponent=held_out, render_mode="rgb_array",
+    env = gym.make(cfg.env_id, opponent=held_out, render_mode="rgb_array_list",
                    disable_env_checker=True)
     checkpoints = RunFolder(out).checkpoints(cfg.first_seed, 0, "ilpss")
     learner = LifelongLearner.load(checkpoints, env.observation_space)

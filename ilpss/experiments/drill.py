@@ -21,10 +21,17 @@ fact                        used by
 :data:`GOAL_DISTANCE`,
 :data:`FIELD`
 :data:`HOLDER_RULES`        ``ilpss-holder-learning``'s fixed rules to beat
+:data:`GIF_WRITER`          the GIF of the agent (one GIF writer for the project)
 ==========================  =========================================================
+
+The last two are drill code that ``ilpss`` uses by name (:func:`drill_object`), imported
+only when used, so that ``ilpss`` itself never depends on the drill's modules.
 """
 
 from __future__ import annotations
+
+import importlib
+from typing import Any
 
 ENV_PACKAGE = "soccer_drill"
 """The package that registers the holder environment with Gymnasium."""
@@ -50,3 +57,11 @@ FIELD = 35.0
 """Side of the square field (metres)."""
 HOLDER_RULES = "soccer_drill.policies:HOLDER_POLICIES"
 """Where the drill's fixed holder rules are: a mapping of name to ``rule(obs, rng)``."""
+GIF_WRITER = "soccer_drill.gif:save_gif"
+"""The drill's GIF writer: ``save_gif(frames, path, fps)``, atomic."""
+
+
+def drill_object(spec: str) -> Any:
+    """The object named ``spec`` (``"module:attribute"``, e.g. :data:`GIF_WRITER`)."""
+    module, _, attribute = spec.partition(":")
+    return getattr(importlib.import_module(module), attribute)

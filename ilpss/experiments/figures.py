@@ -15,7 +15,14 @@ from typing import Any
 import numpy as np
 
 from ilpss._io import save_figure
-from ilpss.experiments.drill import ACTION_NAMES, FIELD, GOAL_DISTANCE, LATERAL
+from ilpss.experiments.drill import (
+    ACTION_NAMES,
+    FIELD,
+    GIF_WRITER,
+    GOAL_DISTANCE,
+    LATERAL,
+    drill_object,
+)
 from ilpss.lifelong import LifelongLearner
 from ilpss.options import OptionLibrary
 from ilpss.smdp import SmdpLearner
@@ -114,34 +121,37 @@ def write_agent_gif(
     policy_index: int = -1,
 ) -> dict[str, Any]:
     """Roll out a learnt policy greedily on ``env`` (a drill holder env made with
-    ``render_mode="rgb_array"``) and write a GIF captioned with the active option."""
+    ``render_mode="rgb_array_list"``: one frame per cycle) and write a GIF of every
+    cycle captioned with the action and the active option, with the drill's GIF writer
+    (:data:`~ilpss.experiments.drill.GIF_WRITER`)."""
+    import gymnasium as gym
     from PIL import Image, ImageDraw
 
+    if getattr(env, "render_mode", None) != "rgb_array_list":
+        raise ValueError(
+            f"write_agent_gif needs an environment made with render_mode='rgb_array_list', "
+            f"got {getattr(env, 'render_mode', None)!r}"
+        )
     policy = learner.policies[policy_index]
     agent = SmdpLearner.from_policy(policy, learner.library, epsilon=0.0, seed=seed)
     frames: list[np.ndarray] = []
     starts: list[int] = []
     actions: list[int] = []
 
-    class _Recorder:  # notes where each decision's frames start, and its action
-        def __init__(self, inner: Any) -> None:
-            self.inner = inner
-            self.observation_space, self.action_space = inner.observation_space, inner.action_space
-
+    class _Recorder(gym.Wrapper):  # each decision's action and where its frames start
         def reset(self, **kw: Any) -> Any:
-            """Reset and start recording frames."""
-            out = self.inner.reset(**kw)
-            self.inner.unwrapped.record_frames(frames)
+            out = self.env.reset(**kw)
+            frames.extend(self.env.render())
             return out
 
         def step(self, action: int) -> Any:
-            """Note where this decision's frames start, then step."""
             starts.append(len(frames))
             actions.append(int(action))
-            return self.inner.step(action)
+            out = self.env.step(action)
+            frames.extend(self.env.render())
+            return out
 
     result = agent.run_episode(_Recorder(env), learn=False, seed=seed)
-    env.unwrapped.record_frames(None)
     starts.append(len(frames))
     names = [r.name for r in learner.records]
     labels = [f"{ACTION_NAMES[a]} (primitive)" for a in actions]
@@ -151,7 +161,7 @@ def write_agent_gif(
         origin = names[policy_id] if 0 <= policy_id < len(names) else f"pi{policy_id}"
         for d in range(run.start_decision, run.start_decision + run.n_decisions):
             labels[d] = f"option {run.option_id}: kernel {kernel_id}, policy from {origin}"
-    images = []
+    captioned = []
     for d, label in enumerate(labels):
         for frame in frames[0 if d == 0 else starts[d]:starts[d + 1]]:
             image = Image.fromarray(frame)
@@ -159,15 +169,10 @@ def write_agent_gif(
             draw.rectangle((0, image.height - 18, image.width, image.height), fill=(20, 20, 20))
             draw.text((6, image.height - 15), f"{ACTION_NAMES[actions[d]]} <- {label}",
                       fill=(255, 255, 255))
-            images.append(image)
-    if not images:
+            captioned.append(np.asarray(image))
+    if not captioned:
         raise RuntimeError("the episode produced no frames")
-    images += [images[-1]] * 5
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp.gif")
-    images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:],
-                   duration=round(1000 / fps), loop=0)
-    os.replace(tmp, path)
+    captioned += [captioned[-1]] * 5
+    drill_object(GIF_WRITER)(captioned, path, fps=fps)
     return {"outcome": result.outcome, "reward": result.total_reward,
-            "options": [run.option_id for run in result.option_runs], "frames": len(images)}
+            "options": [run.option_id for run in result.option_runs], "frames": len(captioned)}

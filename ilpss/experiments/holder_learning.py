@@ -25,7 +25,6 @@ looked up by name (``--rules module:attribute``, by default the drill's, see
 from __future__ import annotations
 
 import argparse
-import importlib
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -35,7 +34,7 @@ import gymnasium as gym
 import numpy as np
 
 from ilpss._io import atomic_write_bytes
-from ilpss.experiments.drill import ENV_ID, HOLDER_RULES, PAPER_TEAMS, TILE_WIDTHS
+from ilpss.experiments.drill import ENV_ID, HOLDER_RULES, PAPER_TEAMS, TILE_WIDTHS, drill_object
 from ilpss.experiments.executor import LocalExecutor
 from ilpss.lifelong import LearnerConfig
 from ilpss.metrics import holm, improvement_test, t_interval, t_test_pvalue, wilson_interval
@@ -45,8 +44,7 @@ EVAL_SEED = 10_000  # evaluation episodes use seeds EVAL_SEED + i, never seen in
 
 
 def _rules(spec: str) -> dict[str, Any]:
-    module, _, attribute = spec.partition(":")
-    return dict(getattr(importlib.import_module(module), attribute))
+    return dict(drill_object(spec))
 
 
 def evaluation_rewards(env: gym.Env, act, n: int) -> np.ndarray:

@@ -130,8 +130,7 @@ def kernels_and_gif(cfg: ExperimentConfig, folder: Path, docs: Path) -> list[str
 
     held_out = cfg.teams[-1]
     seed = cfg.first_seed
-    env = gym.make(cfg.env_id, opponent=held_out, render_mode="rgb_array",
-                   disable_env_checker=True)
+    env = gym.make(cfg.env_id, opponent=held_out, disable_env_checker=True)
     learner = LifelongLearner.load(RunFolder(folder).checkpoints(seed, 0, "ilpss"),
                                    env.observation_space)
     lines = ["### The kernels and the agent", ""]
@@ -152,7 +151,10 @@ def kernels_and_gif(cfg: ExperimentConfig, folder: Path, docs: Path) -> list[str
     with_options = [e for e in episodes if e["options"]]
     shown = gif_episode(episodes)
     gif_path = docs / "figures" / f"ilpss_vs_{held_out}.gif"
-    gif = write_agent_gif(learner, env, gif_path, seed=shown["seed"])
+    filmed = gym.make(cfg.env_id, opponent=held_out, render_mode="rgb_array_list",
+                      disable_env_checker=True)
+    gif = write_agent_gif(learner, filmed, gif_path, seed=shown["seed"])
+    filmed.close()
     env.close()
     options = ", ".join(str(o) for o in gif["options"]) or "none"
     successes = sum(e["outcome"] == "success" for e in episodes)
