@@ -83,6 +83,9 @@ class Protocol:
 
     name = ""
     title = ""
+    page_section: str | None = None
+    """The function of :mod:`ilpss.experiments.sections` that writes its section of the
+    results page (``None``: :meth:`results_section`'s default)."""
 
     def check(self, cfg: ExperimentConfig) -> None:
         """Refuse a configuration this protocol cannot run (``ValueError`` naming the
@@ -107,11 +110,14 @@ class Protocol:
     def results_section(
         self, cfg: ExperimentConfig, results: list[dict[str, Any]], folder: Path, docs: Path
     ) -> list[str]:
-        """The body of this protocol's section of ``docs/results.md``; by default that of
-        :meth:`report`, its figures copied to ``docs/figures``."""
-        from ilpss.experiments.sections import report_section
+        """The body of this protocol's section of ``docs/results.md``: its
+        :attr:`page_section`'s, or by default that of :meth:`report`, its figures copied to
+        ``docs/figures``."""
+        from ilpss.experiments import sections
 
-        return report_section(self, cfg, results, folder, docs)
+        if self.page_section is None:
+            return sections.report_section(self, cfg, results, folder, docs)
+        return getattr(sections, self.page_section)(cfg, results, folder, docs)
 
 
 def _methods(cfg: ExperimentConfig, leave_out: tuple[str, ...] = ()) -> str:
@@ -137,11 +143,24 @@ def _check_teams(cfg: ExperimentConfig, distinct: bool) -> None:
         )
 
 
-class HeldOutTeam(Protocol):
+class _HeldOutTeams(Protocol):
+    """Streams whose last task, the held-out team, is their one target."""
+
+    pooled = False
+    """Verdicts on the curves pooled over the streams (else per stream)."""
+
+    def report(self, cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path) -> list[str]:
+        from ilpss.experiments.report import held_out_sections
+
+        return held_out_sections(cfg, results, out, pooled=self.pooled)
+
+
+class HeldOutTeam(_HeldOutTeams):
     """A: teams 1-3 in order, then the held-out team 4 (the paper's Figure 3)."""
 
     name = "A"
     title = "the paper's Figure 3"
+    page_section = "section_a"
 
     def check(self, cfg: ExperimentConfig) -> None:
         _check_teams(cfg, distinct=False)
@@ -157,25 +176,15 @@ class HeldOutTeam(Protocol):
                 "extracted options (ILPSS) against learning anew"
                 + (f", beside {others} under the same budget." if others else "."))
 
-    def report(self, cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path) -> list[str]:
-        from ilpss.experiments.report import held_out_sections
 
-        return held_out_sections(cfg, results, out, pooled=False)
-
-    def results_section(
-        self, cfg: ExperimentConfig, results: list[dict[str, Any]], folder: Path, docs: Path
-    ) -> list[str]:
-        from ilpss.experiments.sections import section_a
-
-        return section_a(cfg, results, folder, docs)
-
-
-class EveryTeamHeldOut(Protocol):
+class EveryTeamHeldOut(_HeldOutTeams):
     """B: every team held out in turn, after the others in the given order and in
     ``n_shuffles`` shuffled orders drawn per seed."""
 
     name = "B"
     title = "every team held out in turn"
+    page_section = "section_b"
+    pooled = True
 
     def check(self, cfg: ExperimentConfig) -> None:
         _check_teams(cfg, distinct=True)
@@ -198,18 +207,6 @@ class EveryTeamHeldOut(Protocol):
                 f"paper's order and in {cfg.n_shuffles} shuffled order(s) drawn per seed; "
                 "methods: ILPSS, learning anew" + (f", {others}." if others else "."))
 
-    def report(self, cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path) -> list[str]:
-        from ilpss.experiments.report import held_out_sections
-
-        return held_out_sections(cfg, results, out, pooled=True)
-
-    def results_section(
-        self, cfg: ExperimentConfig, results: list[dict[str, Any]], folder: Path, docs: Path
-    ) -> list[str]:
-        from ilpss.experiments.sections import section_b
-
-        return section_b(cfg, results, folder, docs)
-
 
 class ParametricStream(Protocol):
     """C: a long stream of opponents drawn per seed by a registered sampler; every
@@ -217,6 +214,7 @@ class ParametricStream(Protocol):
 
     name = "C"
     title = "a long stream of parametric opponents"
+    page_section = "section_c"
 
     def check(self, cfg: ExperimentConfig) -> None:
         SAMPLERS.check("ExperimentConfig.sampler", cfg.sampler)
@@ -240,13 +238,6 @@ class ParametricStream(Protocol):
         from ilpss.experiments.report import parametric_stream_sections
 
         return parametric_stream_sections(cfg, results, out)
-
-    def results_section(
-        self, cfg: ExperimentConfig, results: list[dict[str, Any]], folder: Path, docs: Path
-    ) -> list[str]:
-        from ilpss.experiments.sections import section_c
-
-        return section_c(cfg, results, folder, docs)
 
 
 PROTOCOLS = Registry("ilpss.protocols", "protocol")
