@@ -8,9 +8,10 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Literal
 
-from ilpss._check import Integer, ListOf, Name, OneOf, Text, check_fields, from_json
+from ilpss._check import Integer, ListOf, Name, Text, check_fields, from_json
 from ilpss.baselines import PrqConfig
 from ilpss.experiments import drill
+from ilpss.experiments.executor import EXECUTOR
 from ilpss.experiments.methods import METHODS
 from ilpss.experiments.protocols import PROTOCOLS, Stream, Task
 from ilpss.experiments.registry import SAMPLERS, check_env_id
@@ -35,7 +36,7 @@ EXPERIMENT_CONSTRAINTS = {
     "n_shuffles": Integer(0, 1000),
     "stream_length": Integer(1, 10_000),
     "sampler_team": Text(),
-    "executor": OneOf(("local", "ray")),
+    "executor": EXECUTOR,
     "workers": Integer(1, 1024),
 }
 """What the plain fields of :class:`ExperimentConfig` allow (the protocol, methods,

@@ -8,6 +8,11 @@ from typing import Any, Protocol
 
 from tqdm.auto import tqdm
 
+from ilpss._check import OneOf, check
+
+EXECUTOR = OneOf(("local", "ray"))
+"""Where seeds run (``ExperimentConfig.executor`` is checked with it)."""
+
 
 class Executor(Protocol):
     """Runs ``fn`` on every item, in any order, and returns results in item order."""
@@ -84,8 +89,7 @@ class RayExecutor:
 
 def make_executor(kind: str, workers: int, progress: bool = True) -> Executor:
     """``"local"`` or ``"ray"``."""
+    check("executor", kind, EXECUTOR)
     if kind == "local":
         return LocalExecutor(workers, progress)
-    if kind == "ray":
-        return RayExecutor(workers, progress=progress)
-    raise ValueError(f"executor must be 'local' or 'ray', got {kind!r}")
+    return RayExecutor(workers, progress=progress)
