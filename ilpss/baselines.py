@@ -27,6 +27,11 @@ a temperature ``tau = tau0``. Every training episode:
 
    with target ``r`` alone when the episode ends (a time limit is terminal unless
    ``bootstrap_on_truncation``), where ``n_active`` is the number of active tiles.
+   With ``trace_decay = lambda > 0`` the base learner is Watkins's Q(lambda) with the
+   replacing traces of :mod:`ilpss.traces` (the learner of
+   :class:`~ilpss.smdp.SmdpLearner`), cut after an exploratory action and after the
+   reused policy's action wherever ``Q`` prefers another (Watkins's rule: the traces
+   follow the greedy policy of ``Q`` only).
 4. With ``R`` the episode's total reward: ``W_k <- (W_k U_k + R) / (U_k + 1)``,
    ``U_k <- U_k + 1``; then ``tau <- tau + delta_tau``.
 
@@ -48,10 +53,12 @@ Departures from the paper
 * Episodes end when the environment ends them, not after a fixed horizon ``H``.
 * Evaluation (``learn=False``, :meth:`PrqLearner.evaluate`) is greedy on ``Q`` with
   no reuse and changes nothing.
+* Eligibility traces (``trace_decay``) are an option, so that PRQ-learning can be given
+  the same base learner as the other methods it is compared with.
 
 With an empty library, PRQ-learning is SMDP Q-learning: a :class:`PrqLearner` then makes
 the same updates and, with the same seed, the same random draws as
-``SmdpLearner(method="q")`` (except the unused choice that the latter draws at a
+``SmdpLearner(method="q")`` with the same ``trace_decay`` (except the unused choice that the latter draws at a
 bootstrapped truncation). Both learners stand on the episode seam of
 :mod:`ilpss.episode`; greedy rollouts are :class:`~ilpss.smdp.SmdpLearner`'s, from the
 learnt values (:meth:`SmdpLearner.from_policy`).
@@ -65,7 +72,7 @@ from typing import Any
 
 import numpy as np
 
-from ilpss._check import Real, check_fields, from_json
+from ilpss._check import NoneOr, Real, check_fields, from_json
 from ilpss.episode import (
     EpisodeLog,
     EpisodeResult,
@@ -77,6 +84,7 @@ from ilpss.episode import (
 from ilpss.policy import FrozenPolicy, LinearPolicy, epsilon_greedy_choice, greedy_choice
 from ilpss.smdp import SMDP_CONSTRAINTS, SmdpLearner
 from ilpss.tiles import KEEPAWAY_ALPHA, TileCoder
+from ilpss.traces import ReplacingTraces, td_update
 
 __all__ = ["PRQ_CONSTRAINTS", "PrqConfig", "PrqLearner"]
 
@@ -85,10 +93,11 @@ PRQ_CONSTRAINTS = {
     "upsilon": Real(0.0, 1.0),
     "tau0": Real(0.0),
     "delta_tau": Real(0.0),
+    "trace_decay": NoneOr(SMDP_CONSTRAINTS["trace_decay"]),
 }
 """What each reuse setting of PRQ-learning allows."""
-_BASE_SETTINGS = ("alpha", "epsilon", "gamma", "initial_value", "bootstrap_on_truncation",
-                  "max_decisions")
+_BASE_SETTINGS = ("alpha", "epsilon", "gamma", "initial_value", "trace_decay",
+                  "bootstrap_on_truncation", "max_decisions")
 
 
 @dataclass(frozen=True)
@@ -104,6 +113,10 @@ class PrqConfig:
     """Initial temperature of the choice of the policy to follow (0: uniform)."""
     delta_tau: float = 0.05
     """Growth of the temperature after every training episode."""
+    trace_decay: float | None = None
+    """``lambda`` of its base learner's traces; ``None``: the learner's own
+    (``LearnerConfig.trace_decay``), so that every method has the same base learner;
+    0: the paper's one-step Q-learning."""
 
     def __post_init__(self) -> None:
         check_fields("PrqConfig", self, PRQ_CONSTRAINTS)
@@ -113,9 +126,16 @@ class PrqConfig:
         """Inverse of :meth:`to_dict`; unknown keys are refused by name."""
         return from_json(cls, values)
 
-    def to_dict(self) -> dict[str, float]:
-        """A JSON-ready dict, also the keyword arguments of :class:`PrqLearner`."""
+    def to_dict(self) -> dict[str, float | None]:
+        """A JSON-ready dict of the fields."""
         return asdict(self)
+
+    def learner_kwargs(self, trace_decay: float) -> dict[str, float]:
+        """Keyword arguments of :class:`PrqLearner` for these settings, with
+        ``trace_decay`` (the learner's) where :attr:`trace_decay` is ``None``."""
+        kwargs = {k: v for k, v in asdict(self).items() if k != "trace_decay"}
+        return {**kwargs, "trace_decay": trace_decay if self.trace_decay is None
+                else self.trace_decay}
 
 
 class PrqLearner(EpisodicLearner):
@@ -139,10 +159,14 @@ class PrqLearner(EpisodicLearner):
     gamma : float, default 1.0
         Discount per cycle; a step of duration ``d`` is discounted by ``gamma ** d``.
     psi, upsilon, tau0, delta_tau : float
-        The reuse settings (defaults: :class:`PrqConfig`'s); ``**PrqConfig(...).to_dict()``
-        passes them whole.
+        The reuse settings (defaults: :class:`PrqConfig`'s);
+        ``**PrqConfig(...).learner_kwargs(trace_decay)`` passes them whole.
     initial_value : float, default 0.0
         Initial value of every Q(s, a).
+    trace_decay : float, default 0.0
+        ``lambda`` of Watkins's Q(lambda) with replacing traces (:mod:`ilpss.traces`),
+        whose traces are cut after an exploratory action and after the reused policy's
+        action where Q prefers another; 0: the paper's one-step Q-learning.
     bootstrap_on_truncation : bool, default False
         Bootstrap from the last state of a truncated episode (default: terminal).
     seed : int or numpy.random.Generator, optional
@@ -191,12 +215,14 @@ class PrqLearner(EpisodicLearner):
         tau0: float = 0.0,
         delta_tau: float = 0.05,
         initial_value: float = 0.0,
+        trace_decay: float = 0.0,
         bootstrap_on_truncation: bool = False,
         seed: int | np.random.Generator | None = None,
         max_decisions: int = 100_000,
     ) -> None:
         base = {"alpha": alpha, "epsilon": epsilon, "gamma": gamma,
-                "initial_value": initial_value, "bootstrap_on_truncation": bootstrap_on_truncation,
+                "initial_value": initial_value, "trace_decay": trace_decay,
+                "bootstrap_on_truncation": bootstrap_on_truncation,
                 "max_decisions": max_decisions}
         check_fields("PrqLearner", base, {k: SMDP_CONSTRAINTS[k] for k in _BASE_SETTINGS},
                      dict.get)
@@ -210,6 +236,7 @@ class PrqLearner(EpisodicLearner):
         self.alpha = float(alpha)
         self.epsilon = float(epsilon)
         self.gamma = float(gamma)
+        self.trace_decay = float(trace_decay)
         self.bootstrap_on_truncation = bool(bootstrap_on_truncation)
         self.max_decisions = int(max_decisions)
         self.psi = float(psi)
@@ -330,6 +357,7 @@ class PrqLearner(EpisodicLearner):
         active = coder.active(s)
         q = self.q.q_from_tiles(active)
         log = EpisodeLog(self.gamma, n_features, self.max_decisions)
+        traces = ReplacingTraces(self.q) if self.trace_decay > 0.0 else None
         followed: list[bool] = []
         action, explored, follow = self._decide(active, q, past, psi_h)
         while True:
@@ -344,15 +372,18 @@ class PrqLearner(EpisodicLearner):
             next_s = observation(obs, n_features) if (not ended or bootstrap_end) else None
             log.step(obs, reward, d, terminated, truncated, info)
             if next_s is None:
-                self.q.update_toward(active, action, reward, self._step)
+                td_update(self.q, traces, active, action, reward, self._step, 0.0, True)
                 break
             next_active = coder.active(next_s)
             q = self.q.q_from_tiles(next_active)
             if not ended:  # choose at s' with the values before this step's update
                 psi_h *= self.upsilon
                 next_action, explored, follow = self._decide(next_active, q, past, psi_h)
-            self.q.update_toward(active, action, reward + self.gamma**d * float(q.max()),
-                                 self._step)
+            # Watkins's Q(lambda): the traces are cut after an exploratory action (as in
+            # SmdpLearner) and after the reused policy's action where Q prefers another.
+            cut = ended or explored or (follow and q[next_action] < q.max())
+            td_update(self.q, traces, active, action, reward + self.gamma**d * float(q.max()),
+                      self._step, self.gamma**d * self.trace_decay, cut)
             if ended:
                 break
             s, active, action = next_s, next_active, next_action

@@ -52,6 +52,7 @@ class OptionRun:
     cycles: int
     ended_by_episode: bool  # the episode ended while it ran (rather than K(s) stopping it)
     explored: bool  # it was started by an exploratory (random) choice
+    interrupted: bool = False  # stopped because a primitive was worth more (interruption)
 
 
 @dataclass
@@ -103,19 +104,24 @@ class EpisodeResult:
     explored: list[bool] = field(default_factory=list)
 
 
-def options_used(results: Iterable[EpisodeResult], greedy_only: bool = True) -> set[int]:
+def options_used(
+    results: Iterable[EpisodeResult], greedy_only: bool = True, min_decisions: int = 1
+) -> set[int]:
     """Option ids started in ``results`` (by default only by non-exploratory choices).
 
     Pass the options used by greedy rollouts of the learnt policy
     (:meth:`EpisodicLearner.evaluate`) to :meth:`ilpss.options.OptionLibrary.end_trial`:
     those are the options "used by the learnt policy" of the paper's discounting rule.
+    With ``min_decisions > 1`` an option counts only if its runs in ``results`` lasted
+    that many decisions in all: the policy relies on it rather than starting it now and
+    then.
     """
-    return {
-        run.option_id
-        for res in results
-        for run in res.option_runs
-        if not (greedy_only and run.explored)
-    }
+    decisions: dict[int, int] = {}
+    for res in results:
+        for run in res.option_runs:
+            if not (greedy_only and run.explored):
+                decisions[run.option_id] = decisions.get(run.option_id, 0) + run.n_decisions
+    return {oid for oid, n in decisions.items() if n >= min_decisions}
 
 
 # ------------------------------------------------------------ the environment contract

@@ -64,7 +64,8 @@ OptionSource = Literal["kernels", "whole_policies", "none"]
 
 LEARNER_CONSTRAINTS = {
     **{name: SMDP_CONSTRAINTS[name] for name in (
-        "alpha", "epsilon", "gamma", "method", "intra_option", "initial_value",
+        "alpha", "epsilon", "gamma", "method", "intra_option", "intra_option_primitives",
+        "interruption", "option_bonus", "option_bonus_episodes", "initial_value",
         "option_initial_value", "trace_decay")},
     "n_tilings": TILE_CONSTRAINTS["n_tilings"],
     "tile_widths": NoneOr(ListOf(TILE_CONSTRAINTS["width"], min_len=1)),
@@ -94,6 +95,18 @@ class LearnerConfig:
     """``"sarsa"`` or ``"q"`` (Q-learning; Watkins's Q(lambda) with traces)."""
     intra_option: bool = False
     """Also apply intra-option updates."""
+    intra_option_primitives: bool = False
+    """While an option runs, give the primitive it takes the one-step Q-learning update of
+    each step, so the primitives learn from the options' experience (the paper: false)."""
+    interruption: bool = False
+    """Stop a running option where the best primitive is worth more than it (plus the
+    bonus); the paper: false, options stop only by their kernel."""
+    option_bonus: float = 0.0
+    """Bonus of the options' values when the learner chooses, in its first learning
+    episode, fading linearly to 0 over ``option_bonus_episodes``: options first, then
+    the primitives as they learn (the paper: 0)."""
+    option_bonus_episodes: int = 1
+    """Learning episodes over which the option bonus fades to 0."""
     initial_value: float = 1.0
     """Initial action value of every choice (1.0, the best reward: optimistic)."""
     option_initial_value: float | None = None
@@ -137,6 +150,9 @@ class LearnerConfig:
         return {
             "alpha": self.alpha, "epsilon": self.epsilon, "gamma": self.gamma,
             "method": self.method, "intra_option": self.intra_option,
+            "intra_option_primitives": self.intra_option_primitives,
+            "interruption": self.interruption, "option_bonus": self.option_bonus,
+            "option_bonus_episodes": self.option_bonus_episodes,
             "initial_value": self.initial_value,
             "option_initial_value": self.option_initial_value,
             "trace_decay": self.trace_decay,
@@ -371,7 +387,10 @@ class LifelongLearner:
             if successes else np.zeros((0, d))
         )
         offered = tuple(int(o) for o in learner.option_ids)
-        used = tuple(sorted(options_used(rollouts))) if offered else ()
+        used = (
+            tuple(sorted(options_used(rollouts, min_decisions=cfg.library.used_min_decisions)))
+            if offered else ()
+        )
         pruned: tuple[int, ...] = ()
         if self.library is not None and offered:
             pruned = self.library.end_trial(used, offered).pruned

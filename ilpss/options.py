@@ -247,6 +247,7 @@ OPTION_CONSTRAINTS = {
     "max_depth": Integer(1, 1000),
     "max_match_distance": NoneOr(Real(0.0)),
     "continuation_exponent": Real(0.0),
+    "used_min_decisions": Integer(1, 1_000_000),
 }
 """What each field of :class:`OptionSettings` allows."""
 
@@ -271,6 +272,10 @@ class OptionSettings:
     """A running option continues with probability ``K_k(s) ** continuation_exponent``:
     1 is the paper's rule; below 1 options run longer (0: until the episode ends), an
     ablation of option duration. Initiation is unchanged."""
+    used_min_decisions: int = 1
+    """An option counts as used by the learnt policy (and escapes the discount) when the
+    greedy rollouts ran it for at least this many decisions in all (1: any start, the
+    paper's rule)."""
 
     def __post_init__(self) -> None:
         check_fields("OptionSettings", self, OPTION_CONSTRAINTS)
@@ -278,6 +283,7 @@ class OptionSettings:
         for name in ("discount", "prune_threshold", "continuation_exponent"):
             object.__setattr__(self, name, float(getattr(self, name)))
         object.__setattr__(self, "max_depth", int(self.max_depth))
+        object.__setattr__(self, "used_min_decisions", int(self.used_min_decisions))
         if self.max_match_distance is not None:
             object.__setattr__(self, "max_match_distance", float(self.max_match_distance))
 

@@ -48,6 +48,24 @@ the same action at that state (intra-option Q-learning, Sutton, Precup and Singh
 ``U(s', o) = K_o(s') Q(s', o) + (1 - K_o(s')) max_c Q(s', c)``. The choice that is
 running still gets its SMDP update.
 
+Handing control back to the primitives
+--------------------------------------
+Three switches, all off by default (the paper's method), let a learner follow its
+options first and hand control to the primitives as these learn:
+
+* ``option_bonus = b > 0``: in learning episode ``e`` (0-based) the options' values get
+  a bonus ``b_e = b * max(0, 1 - e / option_bonus_episodes)`` when the learner chooses,
+  so that it follows the options it trusts less than it trusts untried primitives, and
+  less and less so. The Q-learning target is then the value (without the bonus) of the
+  choice the bonus-greedy policy makes at ``s'``: the learner evaluates the policy it
+  follows. Greedy rollouts (``learn=False``) have no bonus.
+* ``interruption=True``: a running option stops at a decision state where the best
+  primitive is worth more than the option plus the bonus (interruption, Sutton, Precup
+  and Singh 1999, section 5), besides its own termination condition.
+* ``intra_option_primitives=True``: while an option runs, the primitive it takes gets
+  the one-step Q-learning update of each step (the primitive half of ``intra_option``):
+  the primitives learn from the options' experience before they take over.
+
 Reproducibility: every random draw (exploration, tie-breaking, option initiation and
 termination) comes from one :class:`numpy.random.Generator` seeded by ``seed``; with
 the same environment seed, the same learner seed gives the same learning curve.
@@ -75,6 +93,7 @@ from ilpss.episode import (
 from ilpss.options import OptionLibrary
 from ilpss.policy import EPSILON, FrozenPolicy, LinearPolicy, epsilon_greedy_choice
 from ilpss.tiles import KEEPAWAY_ALPHA, TileCoder
+from ilpss.traces import ReplacingTraces, td_update
 
 __all__ = [
     "SMDP_CONSTRAINTS",
@@ -84,14 +103,16 @@ __all__ = [
     "options_used",
 ]
 
-_MIN_TRACE = 0.01  # eligibilities below this are dropped (keepaway's cut-off)
-
 SMDP_CONSTRAINTS = {
     "alpha": Real(0.0, math.inf, low_open=True),
     "epsilon": EPSILON,
     "gamma": Real(0.0, 1.0),
     "method": OneOf(("sarsa", "q")),
     "intra_option": Bool(),
+    "intra_option_primitives": Bool(),
+    "interruption": Bool(),
+    "option_bonus": Real(0.0, 100.0),
+    "option_bonus_episodes": Integer(1, 1_000_000),
     "bootstrap_on_truncation": Bool(),
     "initial_value": Real(),
     "option_initial_value": NoneOr(Real()),
@@ -133,6 +154,14 @@ class SmdpLearner(EpisodicLearner):
     method : {"sarsa", "q"}, default "sarsa"
     intra_option : bool, default False
         Also apply intra-option updates (see the module docstring).
+    intra_option_primitives : bool, default False
+        While an option runs, give the primitive it takes each step's one-step update.
+    interruption : bool, default False
+        Stop a running option where the best primitive is worth more than it.
+    option_bonus : float, default 0.0
+        The options' bonus when choosing in the first learning episode, fading linearly
+        to 0 over ``option_bonus_episodes`` learning episodes (module docstring).
+    option_bonus_episodes : int, default 1
     bootstrap_on_truncation : bool, default False
     initial_value : float, default 0.0
         Initial value of every Q(s, c).
@@ -162,6 +191,10 @@ class SmdpLearner(EpisodicLearner):
         gamma: float = 1.0,
         method: str = "sarsa",
         intra_option: bool = False,
+        intra_option_primitives: bool = False,
+        interruption: bool = False,
+        option_bonus: float = 0.0,
+        option_bonus_episodes: int = 1,
         bootstrap_on_truncation: bool = False,
         initial_value: float = 0.0,
         option_initial_value: float | None = None,
@@ -173,7 +206,10 @@ class SmdpLearner(EpisodicLearner):
             raise TypeError(f"tile_coder must be a TileCoder, got {type(tile_coder).__name__}")
         settings = {
             "alpha": alpha, "epsilon": epsilon, "gamma": gamma, "method": method,
-            "intra_option": intra_option, "bootstrap_on_truncation": bootstrap_on_truncation,
+            "intra_option": intra_option, "intra_option_primitives": intra_option_primitives,
+            "interruption": interruption, "option_bonus": option_bonus,
+            "option_bonus_episodes": option_bonus_episodes,
+            "bootstrap_on_truncation": bootstrap_on_truncation,
             "initial_value": initial_value, "option_initial_value": option_initial_value,
             "trace_decay": trace_decay, "max_decisions": max_decisions,
         }
@@ -203,12 +239,17 @@ class SmdpLearner(EpisodicLearner):
         self.gamma = float(gamma)
         self.method = method
         self.intra_option = bool(intra_option)
+        self.intra_option_primitives = bool(intra_option_primitives)
+        self.interruption = bool(interruption)
+        self.option_bonus = float(option_bonus)
+        self.option_bonus_episodes = int(option_bonus_episodes)
+        self.learning_episodes = 0  # learning episodes run so far: the bonus's clock
+        self._bonus = 0.0  # the options' bonus in the running episode
         self.bootstrap_on_truncation = bool(bootstrap_on_truncation)
         self.trace_decay = float(trace_decay)
         self.max_decisions = int(max_decisions)
         self.rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         self._step = self.alpha / tile_coder.n_active
-        self._live_rows: set[int] = set()  # rows of the episode's traces that are non-zero
         self._lib_version: tuple[int, int] | None = None
         self._lib_pos = np.zeros(0, dtype=np.int64)
         self._lib_ok = np.zeros(0, dtype=bool)
@@ -281,10 +322,31 @@ class SmdpLearner(EpisodicLearner):
         mask[self.n_primitive :] = self._lib_ok & avail[self._lib_pos]
         return mask, m
 
+    def option_bonus_at(self, episode: int) -> float:
+        """The options' bonus in learning episode ``episode`` (0-based) of this learner."""
+        if not self.option_bonus or not self.option_ids:
+            return 0.0
+        return self.option_bonus * max(0.0, 1.0 - episode / self.option_bonus_episodes)
+
+    def _behaviour_values(self, q: np.ndarray) -> np.ndarray:
+        """The values the learner chooses by: the options' with this episode's bonus."""
+        if not self._bonus:
+            return q
+        biased = q.copy()
+        biased[self.n_primitive :] += self._bonus
+        return biased
+
+    def _choose(self, q: np.ndarray, mask: np.ndarray, epsilon: float) -> tuple[int, bool]:
+        return epsilon_greedy_choice(self._behaviour_values(q), self.rng, epsilon, mask)
+
     def _bootstrap(self, q: np.ndarray, mask: np.ndarray, choice: int) -> float:
-        if self.method == "q":
+        if self.method != "q":
+            return float(q[choice])
+        if not self._bonus:
             return float(np.max(np.where(mask, q, -np.inf)))
-        return float(q[choice])
+        # The value of what the bonus-greedy policy chooses (the largest if several tie).
+        biased = np.where(mask, self._behaviour_values(q), -np.inf)
+        return float(np.max(np.where(biased == biased.max(), q, -np.inf)))
 
     # ------------------------------------------------------------ intra-option
     def _intra_option_update(
@@ -310,8 +372,14 @@ class SmdpLearner(EpisodicLearner):
         disc = self.gamma**duration
         targets: dict[int, float] = {}
         if action != running:
-            targets[action] = reward + (0.0 if q_next is None else disc * float(q_next.max()))
-        if self.option_ids and m is not None:
+            if q_next is None:
+                targets[action] = reward
+            elif self._bonus:
+                every = np.ones(q_next.shape[0], dtype=bool)
+                targets[action] = reward + disc * self._bootstrap(q_next, every, action)
+            else:
+                targets[action] = reward + disc * float(q_next.max())
+        if self.intra_option and self.option_ids and m is not None:
             assert lib is not None
             tiles = {self.tile_coder: s_active}
             inside = lib.memberships(m)[self._lib_pos] > 0.0
@@ -366,17 +434,17 @@ class SmdpLearner(EpisodicLearner):
         n_features = self.tile_coder.n_features
         check_env(env, self.n_primitive, n_features)
         epsilon = self.epsilon if (learn if explore is None else explore) else 0.0
+        self._bonus = self.option_bonus_at(self.learning_episodes) if learn else 0.0
+        if learn:
+            self.learning_episodes += 1
         obs, _ = env.reset(seed=seed)
         s = observation(obs, n_features)
         log = EpisodeLog(self.gamma, n_features, self.max_decisions)
         # One eligibility per weight, only when lambda > 0.
-        traces = np.zeros_like(self.q.weights) if self.trace_decay > 0.0 else None
-        self._live_rows.clear()  # rows of `traces` with a non-zero eligibility
+        traces = ReplacingTraces(self.q) if self.trace_decay > 0.0 else None
         active = self.tile_coder.active(s)
         mask, m = self._choice_mask(s)
-        choice, explored = epsilon_greedy_choice(
-            self.q.q_from_tiles(active), self.rng, epsilon, mask
-        )
+        choice, explored = self._choose(self.q.q_from_tiles(active), mask, epsilon)
         while True:  # one iteration per choice point: `choice` made at `s`
             log.choose(choice, explored)
             end = self._run_choice(env, log, choice, explored, s, active, m, learn)
@@ -386,7 +454,7 @@ class SmdpLearner(EpisodicLearner):
                 break
             q = self.q.q_from_tiles(end.active)
             mask, m = self._choice_mask(end.state, end.membership)
-            next_choice, explored = epsilon_greedy_choice(q, self.rng, epsilon, mask)
+            next_choice, explored = self._choose(q, mask, epsilon)
             if learn:
                 target = end.ret + end.disc * self._bootstrap(q, mask, next_choice)
                 # Watkins's Q(lambda): an exploratory choice cuts the traces.
@@ -418,6 +486,7 @@ class SmdpLearner(EpisodicLearner):
             log.options_chosen.append(option_id)
             lib.record_use(option_id)
         run_start, run_cycles = log.decisions, 0
+        interrupted = False
         ret, disc = 0.0, 1.0  # discounted return of this choice, gamma ** duration
         while True:
             log.visit(s)
@@ -431,7 +500,9 @@ class SmdpLearner(EpisodicLearner):
             ended = bool(terminated or truncated)
             bootstrap_end = bool(truncated and not terminated and self.bootstrap_on_truncation)
             next_s = observation(obs, s.shape[0]) if (not ended or bootstrap_end) else None
-            if learn and self.intra_option:
+            if learn and (
+                self.intra_option or (self.intra_option_primitives and option_id is not None)
+            ):
                 self._intra_option_update(active, s, m, action, choice, reward, d, next_s)
             ret += disc * reward
             disc *= self.gamma**d
@@ -447,9 +518,15 @@ class SmdpLearner(EpisodicLearner):
             m = lib.membership(s)  # type: ignore[union-attr]
             if not lib.continues(option_id, s, self.rng, membership=m):  # type: ignore[union-attr]
                 break
+            if self.interruption:
+                q_here = self.q.q_from_tiles(active)
+                if q_here[: self.n_primitive].max() > q_here[choice] + self._bonus:
+                    interrupted = True
+                    break
         if option_id is not None:
             log.option_runs.append(OptionRun(
-                option_id, run_start, log.decisions - run_start, run_cycles, ended, explored
+                option_id, run_start, log.decisions - run_start, run_cycles, ended, explored,
+                interrupted,
             ))
         if ended:
             if next_s is None:
@@ -458,39 +535,11 @@ class SmdpLearner(EpisodicLearner):
         return _ChoiceEnd(ret, disc, False, s, active, m)
 
     def _td_update(
-        self, traces: np.ndarray | None, active: np.ndarray, choice: int, target: float,
+        self, traces: ReplacingTraces | None, active: np.ndarray, choice: int, target: float,
         decay: float, cut: bool,
     ) -> None:
-        """The update of one choice point, spread back along the eligibility traces.
-
-        ``traces`` holds one replacing trace per weight (``None`` when ``lambda = 0``);
-        ``decay`` is ``gamma ** D * lambda`` for the choice's duration ``D``; ``cut``
-        clears the traces afterwards (episode end, or an exploratory choice next in
-        Q-learning).
-        """
-        if traces is None:
-            self.q.update_toward(active, choice, target, self._step)
-            return
-        delta = target - float(np.take(self.q.weights[choice], active).sum())
-        # Replacing traces on tiles (keepaway): the tiles of this state get eligibility 1
-        # for this choice and 0 for the others, so tiles shared by successive states
-        # are not counted twice (accumulating traces would multiply the step size).
-        live = self._live_rows
-        for row in live:
-            traces[row, active] = 0.0
-        traces[choice, active] = 1.0
-        live.add(choice)
-        step = self._step * delta
-        for row in live:  # only rows with eligible tiles: other rows would add zeros
-            self.q.weights[row] += step * traces[row]
-        if cut:
-            for row in live:
-                traces[row] = 0.0
-            live.clear()
-            return
-        for row in list(live):
-            e = traces[row]
-            e *= decay
-            e[e < _MIN_TRACE] = 0.0
-            if not e.any():
-                live.discard(row)
+        """The update of one choice point, spread back along the eligibility traces
+        (:mod:`ilpss.traces`); ``decay`` is ``gamma ** D * lambda`` for the choice's
+        duration ``D``; ``cut`` clears the traces afterwards (episode end, or an
+        exploratory choice next in Q-learning)."""
+        td_update(self.q, traces, active, choice, target, self._step, decay, cut)

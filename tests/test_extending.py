@@ -188,8 +188,10 @@ def test_every_setting_is_declared_once_and_reaches_its_user() -> None:
     for name in lc.smdp_kwargs():
         assert getattr(smdp, name, getattr(lc, name)) == getattr(lc, name)
     prq = PrqLearner(3, coder, [], **PrqConfig(psi=0.5, upsilon=0.8, tau0=0.1,
-                                                delta_tau=0.2).to_dict())
+                                                delta_tau=0.2).learner_kwargs(lc.trace_decay))
     assert (prq.psi, prq.upsilon, prq.tau0, prq.delta_tau) == (0.5, 0.8, 0.1, 0.2)
+    assert prq.trace_decay == lc.trace_decay  # the same base learner, unless told otherwise
+    assert PrqConfig(trace_decay=0.0).learner_kwargs(0.9)["trace_decay"] == 0.0
     settings = OptionSettings(discount=0.25, max_depth=2, continuation_exponent=0.5)
     cfg = LifelongConfig(library=settings, learner=lc, options="whole_policies",
                          train_episodes=2, rollout_episodes=1)

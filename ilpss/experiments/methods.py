@@ -131,7 +131,8 @@ class PrqMethod(Method):
             prq = PrqLearner(
                 scratch.n_primitive, scratch.tile_coder, scratch.policies[:t],
                 alpha=lc.alpha, epsilon=lc.epsilon, gamma=lc.gamma,
-                initial_value=lc.initial_value, seed=learner_seed, **cfg.prq.to_dict(),
+                initial_value=lc.initial_value, seed=learner_seed,
+                **cfg.prq.learner_kwargs(lc.trace_decay),
             )
             env = make_env(cfg.env_id, job.stream.tasks[t])
             results = prq.train(env, cfg.lifelong.train_episodes, seed=env_seed)
