@@ -25,7 +25,7 @@ import os
 import re
 import shutil
 from collections.abc import Callable, Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -216,6 +216,48 @@ class LifelongConfig:
         """Inverse of :meth:`to_dict`; unknown keys are refused by name."""
         return from_json(cls, values, nested={"library": OptionSettings,
                                               "learner": LearnerConfig})
+
+
+def handing_back(config: LifelongConfig) -> LifelongConfig:
+    """``config`` with the settings of ILPSS+, the improved method: kernel options that
+    are followed first and hand control back to the primitives as these learn.
+
+    Every change is a switch whose default is the paper's; this is where they are set
+    together (``docs/discussion.md`` measures each alone and all together):
+
+    ==========================================  =========  ==========  ======================
+    setting                                     the paper  ILPSS+      why
+    ==========================================  =========  ==========  ======================
+    ``kernel_reg_covar``                        1e-6       0.1         broader kernels: the
+                                                                       options can start at
+                                                                       a new opponent's
+                                                                       states
+    ``learner.option_initial_value``            1 (=       0           no lasting optimism
+                                                primitives)            about options
+    ``learner.option_bonus`` / ``_episodes``    0          1.5 / 100   options first, fading
+                                                                       to the primitives
+    ``learner.interruption``                    false      true        hand back where a
+                                                                       primitive is worth more
+    ``learner.intra_option_primitives``         false      true        primitives learn from
+                                                                       the options' steps
+    ``library.continuation_exponent``           1          0.5         options run longer
+    ``library.max_match_distance``              3          None        kernel identities
+                                                                       persist across refits
+    ``library.used_min_decisions``              1          20          "used" means relied on
+    ==========================================  =========  ==========  ======================
+
+    The base learner (primitives' initial value, traces, step size, exploration) is
+    ``config``'s, unchanged: the same as learning anew's.
+    """
+    return replace(
+        config,
+        kernel_reg_covar=0.1,
+        learner=replace(config.learner, option_initial_value=0.0, option_bonus=1.5,
+                        option_bonus_episodes=100, interruption=True,
+                        intra_option_primitives=True),
+        library=replace(config.library, continuation_exponent=0.5, max_match_distance=None,
+                        used_min_decisions=20),
+    )
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,13 @@ from ilpss.baselines import PrqLearner
 from ilpss.experiments.folder import RunFolder
 from ilpss.experiments.protocols import Stream, make_env
 from ilpss.experiments.registry import Registry
-from ilpss.lifelong import LifelongConfig, LifelongLearner, TrialRecord, trial_seeds
+from ilpss.lifelong import (
+    LifelongConfig,
+    LifelongLearner,
+    TrialRecord,
+    handing_back,
+    trial_seeds,
+)
 
 if TYPE_CHECKING:
     from ilpss.experiments.config import ExperimentConfig
@@ -184,6 +190,13 @@ def _check_resumable(
             )
 
 
+def _plus(base: LifelongConfig) -> dict[str, Any]:
+    """The fields that :func:`~ilpss.lifelong.handing_back` changes (ILPSS+)."""
+    plus = handing_back(base)
+    return {"kernel_reg_covar": plus.kernel_reg_covar, "learner": plus.learner,
+            "library": plus.library}
+
+
 METHODS = Registry("ilpss.methods", "method")
 """Every method, by name."""
 
@@ -203,5 +216,11 @@ for _method in (
     PrqMethod(),
     LifelongMethod("ilpss_no_discount", "ILPSS without discounting",
                    lambda base: {"library": replace(base.library, discount=1.0)}),
+    LifelongMethod("ilpss_plus", "ILPSS+ (options first, handed back)", _plus),
+    LifelongMethod("whole_policies_plus", "whole past policies, ILPSS+'s settings",
+                   lambda base: {**_plus(base), "options": "whole_policies"}),
+    LifelongMethod("ilpss_plus_no_discount", "ILPSS+ without discounting",
+                   lambda base: {**_plus(base), "library": replace(
+                       _plus(base)["library"], discount=1.0)}),
 ):
     register_method(_method)
