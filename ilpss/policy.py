@@ -125,17 +125,36 @@ class _LinearQ:
             if not np.isfinite(initial_value):
                 raise ValueError("initial_value must be finite")
             # Keepaway initialises weights so that every Q starts at initial_value.
-            w = np.full(shape, float(initial_value) / tile_coder.n_active)
+            self._by_tile = np.full(shape[::-1], float(initial_value) / tile_coder.n_active)
         else:
-            w = np.array(weights, dtype=np.float64)  # always a private copy
+            w = np.asarray(weights, dtype=np.float64)
             if w.shape != shape:
                 raise ValueError(f"weights must have shape {shape}, got {w.shape}")
             if not np.isfinite(w).all():
                 raise ValueError("weights contain NaN or infinite values")
-        self.weights = w
+            self._by_tile = np.array(w.T, order="C")  # always a private copy
         self._choice_of = {oid: self.n_primitive + j for j, oid in enumerate(self.option_ids)}
 
     # ------------------------------------------------------------ structure
+    @property
+    def weights(self) -> np.ndarray:
+        """The weights, shape (n_choices, n_weights): ``Q(s, c)`` sums row ``c`` at the
+        active tiles of ``s``.
+
+        A view of storage kept tile by tile (all the choices' weights of one tile side
+        by side), so that the values of every choice at a state are read as
+        ``n_active`` short contiguous runs rather than ``n_choices x n_active``
+        scattered numbers: that read is what grows with the number of options.
+        """
+        return self._by_tile.T
+
+    @weights.setter
+    def weights(self, value: np.ndarray) -> None:
+        w = np.asarray(value, dtype=np.float64)
+        if w.shape != self._by_tile.shape[::-1]:
+            raise ValueError(f"weights must have shape {self._by_tile.shape[::-1]}, got {w.shape}")
+        self._by_tile[...] = w.T
+
     @property
     def n_choices(self) -> int:
         """Number of choices: primitives plus options."""
@@ -166,9 +185,26 @@ class _LinearQ:
             raise ValueError(f"choice {choice} out of range [0, {self.n_choices})")
 
     # -------------------------------------------------------------- values
-    def q_from_tiles(self, active: np.ndarray) -> np.ndarray:
-        """Action values of every choice given the active tiles of a state."""
-        return np.take(self.weights, active, axis=1).sum(axis=1)
+    def q_from_tiles(self, active: np.ndarray, choices: np.ndarray | None = None) -> np.ndarray:
+        """Action values of every choice given the active tiles of a state.
+
+        Parameters
+        ----------
+        active : numpy.ndarray of int, shape (n_active,)
+            The state's active tiles (:meth:`TileCoder.active`).
+        choices : numpy.ndarray of int, optional
+            Only the values of these choices, in this order (default: every choice).
+
+        Each value is NumPy's sum of the choice's weights at ``active``, in that order,
+        bit for bit the same as ``np.take(weights, active, axis=1).sum(axis=1)``,
+        whichever choices are asked for.
+        """
+        by_tile = np.take(self._by_tile, active, axis=0)  # (n_active, n_choices)
+        if choices is not None:
+            by_tile = by_tile[:, choices]
+        # One contiguous row per choice, as np.take(weights, active, axis=1) gives: the
+        # same reduction over the same numbers in the same order.
+        return np.ascontiguousarray(by_tile.T).sum(axis=1)
 
     def q_values(self, state: np.ndarray) -> np.ndarray:
         """Action values of every choice at ``state``, shape (n_choices,)."""
@@ -225,7 +261,7 @@ class _LinearQ:
     def save(self, path: str | os.PathLike[str]) -> None:
         """Save weights, option ids and tile coder atomically (no pickles)."""
         arrays = {
-            "weights": self.weights,
+            "weights": np.ascontiguousarray(self.weights),
             "option_ids": np.asarray(self.option_ids, dtype=np.int64),
             **self.tile_coder.to_arrays(),
         }
@@ -300,15 +336,19 @@ class LinearPolicy(_LinearQ):
         ``step`` is already ``alpha / n_active * delta``. Tiles of one state are unique
         (one per feature and tiling), so fancy-index addition is exact.
         """
-        self.weights[choice, active] += step
+        self._by_tile[active, choice] += step
+
+    def value(self, active: np.ndarray, choice: int) -> float:
+        """``Q(s, choice)`` from the active tiles of ``s`` (one choice of
+        :meth:`q_from_tiles`, the same number)."""
+        return float(np.take(self._by_tile[:, choice], active).sum())
 
     def update_toward(
         self, active: np.ndarray, choice: int, target: float, step_size: float
     ) -> None:
         """Move ``Q(s, choice)`` toward ``target``: ``step_size * (target - Q(s, choice))``
         on each of the active tiles (``Q`` read now: earlier updates may share tiles)."""
-        current = float(np.take(self.weights[choice], active).sum())
-        self.update(active, choice, step_size * (target - current))
+        self.update(active, choice, step_size * (target - self.value(active, choice)))
 
     def freeze(self) -> FrozenPolicy:
         """An immutable copy of the current policy."""
@@ -329,7 +369,7 @@ class FrozenPolicy(_LinearQ):
         weights: np.ndarray | None = None,
     ) -> None:
         self._init(tile_coder, n_primitive, option_ids, weights, 0.0)
-        self.weights.flags.writeable = False
+        self._by_tile.flags.writeable = False
         self._frozen = True
 
     def __setattr__(self, name: str, value: object) -> None:

@@ -46,6 +46,37 @@ def test_q_values_are_sums_of_active_weights() -> None:
     np.testing.assert_allclose(pol.q_values(s), pol.weights[:, a].sum(axis=1))
 
 
+@pytest.mark.parametrize("n_tilings", [1, 7, 8, 9, 16, 32])
+@pytest.mark.parametrize("n_choices", [1, 3, 4, 40, 183])
+def test_q_values_are_numpys_row_sums_bit_for_bit(n_tilings: int, n_choices: int) -> None:
+    """Whatever the storage, every value is the sum NumPy gives for the choice's row of
+    weights at the active tiles, to the last bit, for every choice or a subset."""
+    c = TileCoder([0.0] * 9, [10.0] * 9, [0.7] * 9, n_tilings=n_tilings)
+    rng = np.random.default_rng(n_tilings * 1000 + n_choices)
+    weights = rng.normal(size=(n_choices, c.n_weights)) * rng.choice([1e-3, 1.0, 1e3], n_choices)[:, None]
+    pol = LinearPolicy(c, 1, tuple(range(n_choices - 1)), weights=weights)
+    frozen = pol.freeze()
+    for _ in range(20):
+        a = c.active(rng.uniform(-1.0, 11.0, 9))
+        expected = np.take(weights, a, axis=1).sum(axis=1)
+        subset = np.flatnonzero(rng.random(n_choices) < 0.3)
+        for policy in (pol, frozen):
+            assert policy.q_from_tiles(a).tobytes() == expected.tobytes()
+            assert policy.q_from_tiles(a, subset).tobytes() == expected[subset].tobytes()
+        assert [pol.value(a, k) for k in range(n_choices)] == expected.tolist()
+
+
+def test_weights_can_be_replaced_in_place() -> None:
+    pol = trained_policy()
+    w = np.arange(pol.weights.size, dtype=float).reshape(pol.weights.shape)
+    pol.weights = w
+    np.testing.assert_array_equal(pol.weights, w)
+    w[0, 0] = -1.0  # a copy was taken
+    assert pol.weights[0, 0] == 0.0
+    with pytest.raises(ValueError, match="shape"):
+        pol.weights = w[1:]
+
+
 def test_initial_value() -> None:
     pol = LinearPolicy(coder(), 3, initial_value=0.7)
     np.testing.assert_allclose(pol.q_values(np.array([5.0, 0.0])), 0.7)
