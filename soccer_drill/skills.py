@@ -167,22 +167,34 @@ def dribble_heading(state: DrillState, player: int, cfg: DrillConfig) -> tuple[f
     px, py = state.pos[player]
     size = cfg.field_size
     best, best_score = (0.0, -1.0), -math.inf
-    for deg in range(-70, 71, 10):
-        a = math.radians(deg)
-        hx, hy = math.sin(a), -math.cos(a)
-        score = math.cos(a)
-        for d in state.opponents_of(player):
-            rx, ry = state.pos[d][0] - px, state.pos[d][1] - py
-            ahead = rx * hx + ry * hy
-            if 0.0 < ahead < 12.0:
-                clearance = abs(rx * hy - ry * hx)
-                score -= 2.0 * max(0.0, 1.0 - clearance / 4.0) * (1.0 - ahead / 12.0)
+    d1, d2 = state.opponents_of(player)
+    r1x, r1y = state.pos[d1][0] - px, state.pos[d1][1] - py
+    r2x, r2y = state.pos[d2][0] - px, state.pos[d2][1] - py
+    for hx, hy, score in _HEADINGS:
+        # Each opponent ahead within 12 m costs more the closer it is to the heading line.
+        ahead = r1x * hx + r1y * hy
+        if 0.0 < ahead < 12.0:
+            free = 1.0 - abs(r1x * hy - r1y * hx) / 4.0
+            score -= 2.0 * (free if free > 0.0 else 0.0) * (1.0 - ahead / 12.0)
+        ahead = r2x * hx + r2y * hy
+        if 0.0 < ahead < 12.0:
+            free = 1.0 - abs(r2x * hy - r2y * hx) / 4.0
+            score -= 2.0 * (free if free > 0.0 else 0.0) * (1.0 - ahead / 12.0)
         ex = px + hx * 4.0
         if not 1.0 <= ex <= size - 1.0:
             score -= 3.0
         if score > best_score:
             best, best_score = (hx, hy), score
     return best
+
+
+def _heading(deg: int) -> tuple[float, float, float]:
+    """Unit heading ``deg`` degrees off straight down the field, and its initial score."""
+    a = math.radians(deg)
+    return math.sin(a), -math.cos(a), math.cos(a)
+
+
+_HEADINGS = tuple(_heading(deg) for deg in range(-70, 71, 10))  # the candidates, tried in order
 
 
 def shield_direction(state: DrillState, player: int) -> tuple[float, float]:
