@@ -66,7 +66,7 @@ class DrillCore:
             (it is replaced by the role's default: HOLD, GET_OPEN or INTERCEPT, and
             :attr:`replaced` says so).
         scripted_attackers: attackers driven by :class:`SupportPlayer`.
-        team_timeout: seconds each ``reset``/``act`` call of the team may take, or
+        team_timeout: seconds of CPU time each ``reset``/``act`` call of the team may take, or
             ``None`` for no bound (see :class:`~soccer_drill.teams.TeamDriver`).
         shared_spaces: defenders get the attackers' ``Discrete(5)`` actions, the last
             two always masked.

@@ -308,7 +308,7 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``render_mode`` | ``None`` | ``"human"`` (a window) or ``"rgb_array"`` (off-screen) |
     | ``illegal_action`` | ``"default"`` | ``"default"`` (replace a masked action by the role's default, reported in infos) or ``"raise"`` (a masked action is an error) |
-    | ``team_timeout`` | ``1.0`` | seconds each ``reset``/``act`` call of the scripted team may take before it is stopped with ``TeamError`` naming it; ``None``: no bound (e.g. to debug a team). See ``soccer_drill.teams.TeamDriver`` |
+    | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the scripted team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound. See ``soccer_drill.teams.TeamDriver`` |
     | ``obs_format`` | ``"dict"`` | ``"dict"`` (observation and mask together) or ``"flat"`` (a ``Box``; the mask in infos and ``action_mask()``) |
     | ``shared_spaces`` | ``False`` | ``True``: every agent has the same action and observation spaces (for self-play through SuperSuit or Tianshou) |
 
