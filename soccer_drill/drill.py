@@ -42,6 +42,7 @@ _set_velocity = pymunk.Body.velocity.fset
 _set_position = pymunk.Body.position.fset
 _set_filter = pymunk.Shape.filter.fset
 _POSITION_VELOCITY = pymunk.batch.BodyFields.POSITION | pymunk.batch.BodyFields.VELOCITY
+_new_state = tuple.__new__  # DrillState's fields in order, without its __new__'s defaults
 
 
 class Drill:
@@ -65,8 +66,10 @@ class Drill:
             cfg.attacker_speed, cfg.attacker_speed, cfg.defender_speed, cfg.defender_speed,
         )
         self._caps = (*self._top_speed, cfg.ball_max_speed)
+        self._caps2 = tuple(cap * cap for cap in self._caps)
         self._buffer = pymunk.batch.Buffer()  # reused: one batched read per cycle
         self._build_space()
+        _check_batch_order(self._space, self._bodies, self._buffer)  # every space alike
         self.state: DrillState
         self.outcome: Outcome | None = None
         self.attacker_reward = 0.0
@@ -108,9 +111,12 @@ class Drill:
             _set_filter(wall, _WALL_FILTER)
             shapes.append(wall)
         self._bodies = (*self._players, self._ball)
+        # Per body: where its velocity is in a batched read, the body, its speed cap (squared).
+        self._readback = tuple(
+            zip((2, 6, 10, 14, 18), self._bodies, self._caps, self._caps2, strict=True)
+        )
         space.add(*self._bodies, *shapes)
         self._space = space
-        _check_batch_order(space, self._bodies, self._buffer)
 
     def reset(self, rng: np.random.Generator) -> DrillState:
         """Place the players with seeded jitter and give the ball to a random attacker.
@@ -144,27 +150,27 @@ class Drill:
         holder, passer, lockout_until = state.holder, state.passer, state.lockout_until
         ball_velocity: tuple[float, float] | None = None
         accel = cfg.player_acceleration * dt
-        set_velocity = _set_velocity
+        set_velocity, hypot, old_vel = _set_velocity, math.hypot, state.vel
         for i, (body, command) in enumerate(zip(self._players, commands, strict=True)):
-            motion = execute(state, i, command, cfg, rng)
-            vx0, vy0 = state.vel[i]
-            dvx, dvy = motion.vx - vx0, motion.vy - vy0
-            dv = math.hypot(dvx, dvy)
+            mvx, mvy, ball_action, mbx, mby = execute(state, i, command, cfg, rng)
+            vx0, vy0 = old_vel[i]
+            dvx, dvy = mvx - vx0, mvy - vy0
+            dv = hypot(dvx, dvy)
             if dv > accel:
                 dvx, dvy = dvx * accel / dv, dvy * accel / dv
             vx, vy = vx0 + dvx, vy0 + dvy
             set_velocity(body, (vx, vy))
             if i != holder or command.skill not in BALL_SKILLS:
                 continue
-            if motion.ball == KICK:
-                ball_velocity = (motion.bx, motion.by)
+            if ball_action == KICK:
+                ball_velocity = (mbx, mby)
                 holder, passer, lockout_until = -1, i, state.cycle + 1 + cfg.pass_lockout_cycles
-            elif motion.ball == CONTROL:
+            elif ball_action == CONTROL:
                 # A small kick that puts the ball at the control point after this cycle,
                 # turning it round the player by at most _MAX_TURN so it stays controlled.
                 px, py = state.pos[i]
                 bx, by = state.pos[BALL]
-                ux, uy = _turn_toward(bx - px, by - py, motion.bx, motion.by)
+                ux, uy = _turn_toward(bx - px, by - py, mbx, mby)
                 cx = px + vx * dt + ux * cfg.ball_offset
                 cy = py + vy * dt + uy * cfg.ball_offset
                 ball_velocity = ((cx - bx) / dt, (cy - by) / dt)
@@ -183,18 +189,19 @@ class Drill:
         buffer.clear()
         get_space_bodies(self._space, _POSITION_VELOCITY, buffer)
         data = memoryview(buffer.float_buf()).cast("d").tolist()
-        pos, vel = [], []
-        for k, body, cap in zip(range(0, 20, 4), self._bodies, self._caps, strict=True):
-            vx, vy = data[k + 2], data[k + 3]
-            pos.append((data[k], data[k + 1]))
-            if vx * vx + vy * vy > cap * cap:  # a collision pushed it past its cap
+        vel = []
+        for k, body, cap, cap2 in self._readback:
+            vx, vy = data[k], data[k + 1]
+            if vx * vx + vy * vy > cap2:  # a collision pushed it past its cap
                 vx, vy = _capped((vx, vy), cap)
                 set_velocity(body, (vx, vy))
             vel.append((vx, vy))
+        positions = ((data[0], data[1]), (data[4], data[5]), (data[8], data[9]),
+                     (data[12], data[13]), (data[16], data[17]))
+        velocities = tuple(vel)
         cycle = state.cycle + 1
-        positions, velocities = tuple(pos), tuple(vel)
         holder = self._possession(positions, velocities, holder, cycle, passer, lockout_until, rng)
-        new = DrillState(positions, velocities, holder, cycle, passer, lockout_until)
+        new = _new_state(DrillState, (positions, velocities, holder, cycle, passer, lockout_until))
         self.state = new
         self._judge(new)
         return new
