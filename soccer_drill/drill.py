@@ -90,7 +90,9 @@ class Drill:
         Built anew on every :meth:`reset`: a space keeps contact caches and other
         internal state from earlier episodes that change later collisions, so reusing
         one would make an episode depend on what ran before it, not only on its seed.
-        Everything is added in one call (bodies first, then shapes, each in this order),
+        The bodies are new too: a body keeps the bias velocity of the last step's
+        contacts (pymunk does not expose it), which would move it in the next episode's
+        first step. Everything is added in one call (bodies first, then shapes, in order),
         and shapes keep pymunk's default elasticity and friction (0), which the drill
         wants: setting them costs more than the rest of a shape's creation.
         """
