@@ -105,14 +105,13 @@ def _clipped(values: Sequence[float], low: Bounds, high: Bounds) -> np.ndarray:
     sign of a clipped zero is NumPy's. Bounds given as lists of floats (``low.tolist()``)
     are compared fastest.
     """
-    out = []
-    for v, lo, hi in zip(values, low, high, strict=True):
-        if not (v > lo or v != v):
-            v = lo
-        if not (v < hi or v != v):
-            v = hi
-        out.append(v)
-    return np.array(out, dtype=np.float32)
+    return np.array(
+        [  # m = max(v, lo), then min(m, hi), each as NumPy compares
+            m if ((m := v if v > lo or v != v else lo) < hi or m != m) else hi
+            for v, lo, hi in zip(values, low, high, strict=True)
+        ],
+        dtype=np.float32,
+    )
 
 
 KINEMATIC_SIZE = 26
