@@ -41,6 +41,7 @@ RULES: tuple[tuple[str, str, str], ...] = (
     ("soccer_drill/drill.py", "_possession", "drill: possession, outcome, state"),
     ("soccer_drill/drill.py", "_judge", "drill: possession, outcome, state"),
     ("soccer_drill/drill.py", "step", "drill: step's own code (motion caps, ball)"),
+    ("soccer_drill/time_bound.py", "*", "team: time bound"),
     ("soccer_drill/teams.py", "_call", "team: time bound"),
     ("soccer_drill/teams.py", "_drain", "team: time bound"),
     ("soccer_drill/teams.py", "*", "team: command checks"),
