@@ -231,6 +231,7 @@ def pass_velocity(
 _HOLD, _PASS, _DRIBBLE = Skill.HOLD, Skill.PASS, Skill.DRIBBLE
 _GET_OPEN, _MARK, _GUARD_LINE = Skill.GET_OPEN, Skill.MARK, Skill.GUARD_LINE
 _TO_BALL = (Skill.GO_TO_BALL, Skill.INTERCEPT)
+_motion = tuple.__new__  # a Motion from all five fields, without its __new__'s defaults
 
 
 def execute(
@@ -249,7 +250,7 @@ def execute(
     if skill is _DRIBBLE:
         hx, hy = dribble_heading(state, player, cfg)
         v = cfg.dribble_speed * command.speed
-        return Motion(hx * v, hy * v, CONTROL, hx, hy)
+        return _motion(Motion, (hx * v, hy * v, CONTROL, hx, hy))
     if skill is _HOLD:
         sx, sy = shield_direction(state, player)
         v = cfg.hold_speed * command.speed
@@ -266,10 +267,10 @@ def execute(
             sx, sy = 0.0, (1.0 if sy > 0 else -1.0)
         if py > hi and sy > 0:
             sx, sy = (1.0 if sx > 0 else -1.0), 0.0
-        return Motion(vx, vy, CONTROL, sx, sy)
+        return _motion(Motion, (vx, vy, CONTROL, sx, sy))
     if skill is _PASS:
         kx, ky = pass_velocity(state, player, cfg, rng)
-        return Motion(0.0, 0.0, KICK, kx, ky)
+        return _motion(Motion, (0.0, 0.0, KICK, kx, ky))
     if skill is _GET_OPEN:
         tx, ty = support_spot(state, player, cfg)
     elif skill in _TO_BALL:
@@ -286,4 +287,4 @@ def execute(
         assert command.target is not None
         tx, ty = command.target
     vx, vy = seek(px, py, tx, ty, vmax)
-    return Motion(vx, vy, NO_BALL)
+    return _motion(Motion, (vx, vy, NO_BALL, 0.0, 0.0))

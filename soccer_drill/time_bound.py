@@ -59,8 +59,10 @@ class Overrun(BaseException):
 
 
 class _GcTime(threading.local):
-    """CPU seconds this thread has spent in garbage collections, and whether in one now."""
+    """CPU seconds this thread has spent in garbage collections during bounded calls
+    (``calls`` of which are running), and whether in one now."""
 
+    calls = 0
     started: float | None = None
     total = 0.0
 
@@ -69,11 +71,14 @@ _gc_time = _GcTime()
 
 
 def _count_gc(phase: str, info: dict[str, Any]) -> None:
+    gc_time = _gc_time
+    if not gc_time.calls:  # outside bounded calls, collections cost no clock reads
+        return
     if phase == "start":
-        _gc_time.started = _thread_time()
-    elif _gc_time.started is not None:
-        _gc_time.total += _thread_time() - _gc_time.started
-        _gc_time.started = None
+        gc_time.started = _thread_time()
+    elif gc_time.started is not None:
+        gc_time.total += _thread_time() - gc_time.started
+        gc_time.started = None
 
 
 class _Call:
@@ -104,35 +109,40 @@ def call_within(timeout: float, method: Callable[..., Any], *args: Any) -> Any:
     global _active
     if _count_gc not in gc.callbacks:
         gc.callbacks.append(_count_gc)
-    call = _Call(timeout)
-    if not (
-        CAN_INTERRUPT
-        and threading.get_ident() == _MAIN_THREAD
-        and _sig.getitimer(signal.ITIMER_PROF)[0] == 0.0  # no one else's timer armed
-        and _sig.getsignal(signal.SIGPROF) is not None  # a handler we can put back
-    ):
-        result = method(*args)
-        if call.cpu() > timeout:
+    gc_time = _gc_time
+    gc_time.calls += 1
+    try:
+        call = _Call(timeout)
+        if not (
+            CAN_INTERRUPT
+            and threading.get_ident() == _MAIN_THREAD
+            and _sig.getitimer(signal.ITIMER_PROF)[0] == 0.0  # no one else's timer armed
+            and _sig.getsignal(signal.SIGPROF) is not None  # a handler we can put back
+        ):
+            result = method(*args)
+            if call.cpu() > timeout:
+                raise Overrun(call.cpu())
+            return result
+        outer = _active
+        previous = _sig.signal(signal.SIGPROF, _on_cpu_timer)
+        try:
+            _active = call
+            # An interval, not a one-shot: a call that swallows the first interruption (a
+            # bare ``except:``) is interrupted again. Armed inside the ``try``, so that the
+            # previous handler is put back even if arming fails.
+            _sig.setitimer(signal.ITIMER_PROF, timeout, timeout)
+            result = method(*args)
+        finally:
+            call.closing = True
+            _sig.setitimer(signal.ITIMER_PROF, 0.0)
+            _drain()  # run a handler pending from just before the disarm while ours is set
+            _active = outer
+            _sig.signal(signal.SIGPROF, previous)
+        if call.overrun:
             raise Overrun(call.cpu())
         return result
-    outer = _active
-    previous = _sig.signal(signal.SIGPROF, _on_cpu_timer)
-    try:
-        _active = call
-        # An interval, not a one-shot: a call that swallows the first interruption (a
-        # bare ``except:``) is interrupted again. Armed inside the ``try``, so that the
-        # previous handler is put back even if arming fails.
-        _sig.setitimer(signal.ITIMER_PROF, timeout, timeout)
-        result = method(*args)
     finally:
-        call.closing = True
-        _sig.setitimer(signal.ITIMER_PROF, 0.0)
-        _drain()  # run a handler pending from just before the disarm while ours is set
-        _active = outer
-        _sig.signal(signal.SIGPROF, previous)
-    if call.overrun:
-        raise Overrun(call.cpu())
-    return result
+        gc_time.calls -= 1
 
 
 def _drain() -> None:
