@@ -271,6 +271,7 @@ print(f"finished after {time.monotonic() - start:.2f} s", flush=True)
 '''
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(signal, "SIGSTOP"), reason="SIGSTOP (Unix)")
 def test_a_team_descheduled_mid_call_is_not_charged_for_it(tmp_path):
     """The process is stopped for 1.5 s in the middle of an honest team's act(), as a
