@@ -80,20 +80,30 @@ def features(
     ma, mb = _hypot(ax - ux, ay - uy), _hypot(bx - ux, by - uy)
     mate_opp = mb if mb < ma else ma  # min(ma, mb)
     # Angles at self between the mate, or the goal direction (0, -1), and each opponent:
-    # acos of the normalised dot product, 180 for a zero-length side.
-    pa, pb = _angle(ux, uy, dm, ax, ay, da), _angle(ux, uy, dm, bx, by, db)
-    ga, gb = _angle(0.0, -1.0, 1.0, ax, ay, da), _angle(0.0, -1.0, 1.0, bx, by, db)
+    # acos of the normalised dot product (clamped to [-1, 1]), 180 for a zero-length side.
+    if da < 1e-9:
+        pa = ga = 180.0
+    else:
+        if dm < 1e-9:
+            pa = 180.0
+        else:
+            c = (ux * ax + uy * ay) / (dm * da)
+            pa = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
+        c = (0.0 * ax + -1.0 * ay) / (1.0 * da)
+        ga = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
+    if db < 1e-9:
+        pb = gb = 180.0
+    else:
+        if dm < 1e-9:
+            pb = 180.0
+        else:
+            c = (ux * bx + uy * by) / (dm * db)
+            pb = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
+        c = (0.0 * bx + -1.0 * by) / (1.0 * db)
+        gb = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
     raw = (dm, near, far, mate_opp, pb if pb < pa else pa, sy, sx - cfg.field_size / 2, my,
            gb if gb < ga else ga)
     return _clipped(raw, low, high)
-
-
-def _angle(ax: float, ay: float, na: float, bx: float, by: float, nb: float) -> float:
-    """Unsigned angle between vectors a and b of norms ``na`` and ``nb``, degrees."""
-    if na < 1e-9 or nb < 1e-9:
-        return 180.0
-    c = (ax * bx + ay * by) / (na * nb)
-    return _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
 
 
 def _clipped(values: Sequence[float], low: Bounds, high: Bounds) -> np.ndarray:
