@@ -59,10 +59,9 @@ class Overrun(BaseException):
 
 
 class _GcTime(threading.local):
-    """CPU seconds this thread has spent in garbage collections during bounded calls
-    (``calls`` of which are running), and whether in one now."""
+    """CPU seconds this thread has spent in garbage collections during bounded calls,
+    and whether in one now."""
 
-    calls = 0
     started: float | None = None
     total = 0.0
 
@@ -71,9 +70,9 @@ _gc_time = _GcTime()
 
 
 def _count_gc(phase: str, info: dict[str, Any]) -> None:
+    """A ``gc.callbacks`` entry, there only while a bounded call runs (so collections
+    outside them cost nothing)."""
     gc_time = _gc_time
-    if not gc_time.calls:  # outside bounded calls, collections cost no clock reads
-        return
     if phase == "start":
         gc_time.started = _thread_time()
     elif gc_time.started is not None:
@@ -107,10 +106,8 @@ def call_within(timeout: float, method: Callable[..., Any], *args: Any) -> Any:
     """``method(*args)``, raising :class:`Overrun` if it takes more than ``timeout``
     seconds of CPU time (see the module docstring for how, and what is not counted)."""
     global _active
-    if _count_gc not in gc.callbacks:
-        gc.callbacks.append(_count_gc)
-    gc_time = _gc_time
-    gc_time.calls += 1
+    callbacks = gc.callbacks
+    callbacks.append(_count_gc)
     try:
         call = _Call(timeout)
         if not (
@@ -142,7 +139,7 @@ def call_within(timeout: float, method: Callable[..., Any], *args: Any) -> Any:
             raise Overrun(call.cpu())
         return result
     finally:
-        gc_time.calls -= 1
+        callbacks.remove(_count_gc)
 
 
 def _drain() -> None:
