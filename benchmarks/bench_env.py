@@ -1,24 +1,32 @@
-"""Environment throughput against the bare physics floor, measured in one run.
+"""Environment cost per cycle against the bare physics floor, measured in one run.
 
-    python benchmarks/bench_env.py [--cycles 20000] [--repeats 3]
+    python benchmarks/bench_env.py [--block 2000] [--rounds 25]
 
-Prints a markdown table: AEC cycles per second through ``soccer_drill.env()`` (scripted
-defenders, random legal attacker actions, observations read with ``last()`` as users do),
-parallel-env cycles per second, holder decisions per second (random policy), and the
-bare pymunk cost of the same bodies and sub-steps, with the ratio per cycle. Then two
-costs measured in the same run, each as the fastest of many short blocks (robust to a
-loaded machine): the thread guard of ``step`` (``env.step`` against a direct call of the
-unguarded ``env._step``, both around an empty step, so only the guard differs), and
-what rebuilding the physics space costs per reset (``Drill.reset`` against the same
-reset with the space kept from the previous episode, as before the rebuild).
+Each loop below runs in short blocks (``--block`` cycles), the loops taking turns, for
+``--rounds`` rounds; a block's cost is the CPU time of this thread per cycle
+(``time.thread_time``), so time the process spends descheduled on a loaded machine is
+not counted. A loop's cost is its fastest block (the least disturbed by other jobs),
+and the table shows the ratio of those costs to the floor's, and of the medians.
+
+The loops: the bare pymunk cycle of the drill's own space (one velocity set per body,
+then the sub-steps: the floor); an AEC cycle through ``soccer_drill.env()`` (scripted
+defenders, random legal attacker actions drawn in advance, ``last()`` for both agents,
+as users loop); the same behind PettingZoo's standard wrappers; a parallel-env cycle;
+and a holder-env cycle (random policy). Then the safety checks, each measured alone as
+the fastest of many short blocks: the thread guard of ``step``, the team time bound,
+the team's command checks, an agent action's check; and what a reset costs, with the
+physics space rebuilt (what ``reset`` does) and, for comparison, kept.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import platform
+import statistics
 import time
 import timeit
+from collections.abc import Callable
 
 import numpy as np
 import pymunk
@@ -53,81 +61,126 @@ def wrapped_env(**kwargs):
     )
 
 
-def aec_cycles_per_second(cycles: int, opponent: str = "chasers", make=soccer_drill.env) -> float:
-    env = make(opponent=opponent)
-    pick = RandomLegal()
-    done_cycles, seed = 0, 0
-    start = time.perf_counter()
-    while done_cycles < cycles:
-        env.reset(seed=seed)
-        seed += 1
-        for agent in env.agent_iter():
-            obs, _, term, trunc, _ = env.last()
-            if term or trunc:
-                env.step(None)
-                continue
-            env.step(pick(obs["action_mask"]))
-            if agent == env.possible_agents[-1]:
-                done_cycles += 1
-    return done_cycles / (time.perf_counter() - start)
+class AecLoop:
+    """AEC episodes as users loop them; ``run(n)`` plays ``n`` more cycles."""
+
+    def __init__(self, make: Callable = soccer_drill.env, opponent: str = "chasers") -> None:
+        self.env = make(opponent=opponent)
+        self.pick = RandomLegal()
+        self.seed = 0
+        self._start()
+
+    def _start(self) -> None:
+        self.env.reset(seed=self.seed)
+        self.seed += 1
+        self.turns = iter(self.env.agent_iter())
+
+    def run(self, cycles: int) -> int:
+        env, pick, last_agent = self.env, self.pick, self.env.possible_agents[-1]
+        done = 0
+        while done < cycles:
+            for agent in self.turns:
+                obs, _, term, trunc, _ = env.last()
+                if term or trunc:
+                    env.step(None)
+                    continue
+                env.step(pick(obs["action_mask"]))
+                if agent == last_agent:
+                    done += 1
+                    if done >= cycles:
+                        break
+            else:
+                self._start()
+        return done
 
 
-def parallel_cycles_per_second(cycles: int, opponent: str = "chasers") -> float:
-    env = soccer_drill.parallel_env(opponent=opponent)
-    pick = RandomLegal()
-    done_cycles, seed = 0, 0
-    start = time.perf_counter()
-    while done_cycles < cycles:
-        obs, _ = env.reset(seed=seed)
-        seed += 1
-        while env.agents:
-            actions = {a: pick(obs[a]["action_mask"]) for a in env.agents}
-            obs, *_ = env.step(actions)
-            done_cycles += 1
-    return done_cycles / (time.perf_counter() - start)
+class ParallelLoop:
+    """Parallel-env episodes; ``run(n)`` plays ``n`` more cycles."""
+
+    def __init__(self, opponent: str = "chasers") -> None:
+        self.env = soccer_drill.parallel_env(opponent=opponent)
+        self.pick = RandomLegal()
+        self.seed = 0
+        self.obs: dict = {}
+
+    def run(self, cycles: int) -> int:
+        env, pick = self.env, self.pick
+        for _ in range(cycles):
+            if not env.agents:
+                self.obs, _ = env.reset(seed=self.seed)
+                self.seed += 1
+            obs = self.obs
+            self.obs, *_ = env.step({a: pick(obs[a]["action_mask"]) for a in env.agents})
+        return cycles
 
 
-def holder_rates(decisions: int, opponent: str = "chasers") -> tuple[float, float]:
-    """(decisions per second, cycles per second) of the holder env with a random policy."""
-    env = soccer_drill.HolderEnv(opponent=opponent)
-    pick, mask = RandomLegal(), np.ones(3, dtype=np.int8)
-    done, cycles, seed = 0, 0, 0
-    start = time.perf_counter()
-    while done < decisions:
-        env.reset(seed=seed)
-        seed += 1
-        finished = False
-        while not finished:
+class HolderLoop:
+    """Holder-env episodes with a random policy; ``run(n)`` runs at least ``n`` cycles."""
+
+    def __init__(self, opponent: str = "chasers") -> None:
+        self.env = soccer_drill.HolderEnv(opponent=opponent)
+        self.pick, self.mask = RandomLegal(), np.ones(3, dtype=np.int8)
+        self.seed = 0
+        self.finished = True
+        self.decisions = self.cycles = 0
+
+    def run(self, cycles: int) -> int:
+        env, pick, mask = self.env, self.pick, self.mask
+        done = 0
+        while done < cycles:
+            if self.finished:
+                env.reset(seed=self.seed)
+                self.seed += 1
             _, _, term, trunc, info = env.step(pick(mask))
-            done += 1
-            cycles += info["duration"]
-            finished = term or trunc
-    elapsed = time.perf_counter() - start
-    return done / elapsed, cycles / elapsed
+            self.decisions += 1
+            done += info["duration"]
+            self.finished = term or trunc
+        self.cycles += done
+        return done
 
 
-def physics_cycles_per_second(cycles: int) -> float:
+class PhysicsLoop:
     """The floor: the drill's own pymunk space (4 players, ball, walls), stepped bare."""
-    drill = Drill()
-    drill.reset(np.random.default_rng(0))
-    space: pymunk.Space = drill._space
-    cfg = drill.config
-    dt = cfg.cycle_seconds / cfg.substeps
-    bodies = [*drill._players, drill._ball]
-    rng = np.random.default_rng(0)
-    velocities = rng.uniform(-3, 3, size=(cycles, len(bodies), 2)).tolist()
-    start = time.perf_counter()
-    for c in range(cycles):
-        for body, v in zip(bodies, velocities[c], strict=True):  # one velocity set per cycle
-            body.velocity = v
-        for _ in range(cfg.substeps):
-            space.step(dt)
-    return cycles / (time.perf_counter() - start)
+
+    def __init__(self, cycles: int = 1 << 16) -> None:
+        drill = Drill()
+        drill.reset(np.random.default_rng(0))
+        self.space: pymunk.Space = drill._space
+        self.bodies = list(self.space.bodies)  # the 4 players and the ball
+        cfg = drill.config
+        self.dt, self.substeps = cfg.cycle_seconds / cfg.substeps, cfg.substeps
+        rng = np.random.default_rng(0)
+        self.velocities = rng.uniform(-3, 3, size=(cycles, len(self.bodies), 2)).tolist()
+        self.k = 0
+
+    def run(self, cycles: int) -> int:
+        space, bodies, dt, substeps = self.space, self.bodies, self.dt, self.substeps
+        velocities, k = self.velocities, self.k
+        for _ in range(cycles):
+            for body, v in zip(bodies, velocities[k], strict=True):  # one velocity set per cycle
+                body.velocity = v
+            for _ in range(substeps):
+                space.step(dt)
+            k = (k + 1) % len(velocities)
+        self.k = k
+        return cycles
 
 
-def _fastest_us(call, number: int, repeat: int) -> float:
-    """Microseconds per call: the fastest of ``repeat`` blocks of ``number`` calls."""
-    return min(timeit.repeat(call, number=number, repeat=repeat)) / number * 1e6
+def cycle_costs(loops: dict[str, object], block: int, rounds: int) -> dict[str, list[float]]:
+    """Per loop, the CPU microseconds per cycle of each block, the loops taking turns."""
+    costs: dict[str, list[float]] = {name: [] for name in loops}
+    for _ in range(rounds):
+        for name, loop in loops.items():
+            start = time.thread_time()
+            n = loop.run(block)  # type: ignore[attr-defined]
+            costs[name].append((time.thread_time() - start) / n * 1e6)
+    return costs
+
+
+def _fastest_us(call: Callable[[], object], number: int, repeat: int) -> float:
+    """CPU microseconds per call: the fastest of ``repeat`` blocks of ``number`` calls."""
+    timer = timeit.Timer(call, timer=time.thread_time)
+    return min(timer.repeat(number=number, repeat=repeat)) / number * 1e6
 
 
 def reset_us(rebuild: bool, number: int = 100, repeat: int = 30) -> float:
@@ -157,6 +210,27 @@ def guard_us(number: int = 20_000, repeat: int = 30) -> float:
     return guarded - bare
 
 
+def team_check_costs(number: int = 20_000, repeat: int = 30) -> dict[str, float]:
+    """Microseconds per cycle of the team's safety checks, each alone.
+
+    ``bound``: ``TeamDriver.act`` with the time bound against the same driver without it.
+    ``commands``: checking the two commands the team returned. ``action``: checking one
+    agent's action (``DrillCore.command_for``).
+    """
+    env = soccer_drill.env(opponent="chasers")
+    env.reset(seed=0)
+    core = env._core
+    driver, view = core._driver, core.view
+    bounded = _fastest_us(lambda: driver.act(view), number, repeat)
+    timeout, driver.team_timeout = driver.team_timeout, None
+    unbounded = _fastest_us(lambda: driver.act(view), number, repeat)
+    driver.team_timeout = timeout
+    returned = driver.team.act(view)
+    commands = _fastest_us(lambda: driver._commands(returned, 0), number, repeat)
+    action = _fastest_us(lambda: core.command_for("attacker_0", 0, 3), number, repeat)
+    return {"bound": bounded - unbounded, "commands": commands, "action": action}
+
+
 def mean_episode_cycles(episodes: int = 200, opponent: str = "chasers") -> float:
     """Mean length of an AEC episode with random legal actions, in cycles."""
     env = soccer_drill.env(opponent=opponent)
@@ -172,23 +246,22 @@ def mean_episode_cycles(episodes: int = 200, opponent: str = "chasers") -> float
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cycles", type=int, default=20000)
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--block", type=int, default=2000, help="cycles per block")
+    parser.add_argument("--rounds", type=int, default=25, help="blocks per loop")
     args = parser.parse_args()
-    best: dict[str, float] = {}
-    for _ in range(args.repeats):  # interleaved repeats, best of each: robust to noise
-        for name, value in (
-            ("physics", physics_cycles_per_second(args.cycles)),
-            ("aec", aec_cycles_per_second(args.cycles)),
-            ("aec_wrapped", aec_cycles_per_second(args.cycles, make=wrapped_env)),
-            ("parallel", parallel_cycles_per_second(args.cycles)),
-        ):
-            best[name] = max(best.get(name, 0.0), value)
-        decisions, holder_cycles = holder_rates(args.cycles // 2)
-        best["holder"] = max(best.get("holder", 0.0), decisions)
-        best["holder_cycles"] = max(best.get("holder_cycles", 0.0), holder_cycles)
+    load_before = os.getloadavg()
+    holder = HolderLoop()
+    loops = {
+        "physics": PhysicsLoop(),
+        "aec": AecLoop(),
+        "aec_wrapped": AecLoop(make=wrapped_env),
+        "parallel": ParallelLoop(),
+        "holder": holder,
+    }
+    costs = cycle_costs(loops, args.block, args.rounds)
     low: dict[str, float] = {}
-    for _ in range(args.repeats):  # fastest of each, interleaved
+    checks: dict[str, float] = {}
+    for _ in range(3):  # fastest of each, interleaved
         for name, value in (
             ("reset_rebuild", reset_us(rebuild=True)),
             ("reset_reuse", reset_us(rebuild=False)),
@@ -196,38 +269,50 @@ def main() -> None:
             ("guard", guard_us()),
         ):
             low[name] = min(low.get(name, float("inf")), value)
-    phys = best["physics"]
-    print(f"python {platform.python_version()}, pymunk {pymunk.version}, {platform.machine()}")
-    print("| measure | per second | us per cycle | x physics floor |")
-    print("|---|---|---|---|")
-    print(f"| bare pymunk cycle (10 sub-steps, same bodies) | {phys:,.0f} | {1e6 / phys:.1f} | 1.0 |")
-    for key, label in (("aec", "AEC cycle via env(), chasers, 2 agent turns"),
+        for name, value in team_check_costs().items():
+            checks[name] = min(checks.get(name, float("inf")), value)
+    load_after = os.getloadavg()
+    best = {name: min(values) for name, values in costs.items()}
+    median = {name: statistics.median(values) for name, values in costs.items()}
+    phys, phys_median = best["physics"], median["physics"]
+    print(f"python {platform.python_version()}, pymunk {pymunk.version}, {platform.machine()}, "
+          f"{os.cpu_count()} CPUs; load average {load_before[0]:.1f} before, "
+          f"{load_after[0]:.1f} after; {args.rounds} blocks of {args.block} cycles per loop")
+    print()
+    print("| loop | CPU us per cycle (fastest block) | x physics floor | x floor (median blocks) |")
+    print("|---|---:|---:|---:|")
+    for key, label in (("physics", "bare pymunk cycle (10 sub-steps, same bodies)"),
+                       ("aec", "AEC cycle via env(), chasers, 2 agent turns"),
                        ("aec_wrapped", "same, behind PettingZoo's standard wrappers"),
                        ("parallel", "parallel_env cycle, chasers"),
-                       ("holder_cycles", "holder env cycle (random policy)")):
-        print(f"| {label} | {best[key]:,.0f} | {1e6 / best[key]:.1f} | {phys / best[key]:.2f} |")
-    print(f"| holder decisions (random policy) | {best['holder']:,.0f} | - | - |")
-    cycle = 1e6 / best["aec"]
+                       ("holder", "holder env cycle (random policy)")):
+        print(f"| {label} | {best[key]:.1f} | {best[key] / phys:.2f} | "
+              f"{median[key] / phys_median:.2f} |")
+    print(f"(a holder decision lasts {holder.cycles / holder.decisions:.1f} cycles on average)")
+    cycle = best["aec"]
     print()
-    print("| thread guard | us |")
-    print("|---|---|")
-    print(f"| per step() call | {low['guard']:.2f} |")
-    print(f"| per AEC cycle (2 agent turns) | {2 * low['guard']:.2f} "
-          f"({2 * low['guard'] / cycle:.1%} of the cycle's {cycle:.1f} us) |")
-    avg_cycles = best["holder_cycles"] / best["holder"]  # cycles per holder decision
-    print()
-    print("| reset | us per reset |")
-    print("|---|---|")
-    print(f"| Drill.reset, space rebuilt | {low['reset_rebuild']:.1f} |")
-    print(f"| Drill.reset, space kept (before the rebuild) | {low['reset_reuse']:.1f} |")
-    print(f"| cost of the rebuild | {low['reset_rebuild'] - low['reset_reuse']:+.1f} |")
-    print(f"| env.reset(seed) of the AEC env, chasers | {low['env_reset']:.1f} |")
+    print("| safety check | us per call | per AEC cycle | share of the AEC cycle |")
+    print("|---|---:|---:|---:|")
+    for label, per_call, calls in (
+        ("thread guard (per `step`)", low["guard"], 2),
+        ("team time bound (per `act`)", checks["bound"], 1),
+        ("team command checks (2 commands)", checks["commands"], 1),
+        ("agent action check (per action)", checks["action"], 2),
+    ):
+        print(f"| {label} | {per_call:.2f} | {per_call * calls:.2f} | "
+              f"{per_call * calls / cycle:.1%} |")
     episode_us = mean_episode_cycles() * cycle
     rebuild = low["reset_rebuild"] - low["reset_reuse"]
+    print()
+    print("| reset | us per reset |")
+    print("|---|---:|")
+    print(f"| Drill.reset, space rebuilt | {low['reset_rebuild']:.1f} |")
+    print(f"| Drill.reset, space kept (for comparison) | {low['reset_reuse']:.1f} |")
+    print(f"| cost of the rebuild | {rebuild:+.1f} |")
+    print(f"| env.reset(seed) of the AEC env, chasers | {low['env_reset']:.1f} |")
     print(f"| rebuild / (AEC episode of random legal actions, {episode_us / cycle:.0f} cycles "
           f"= {episode_us / 1000:.1f} ms) | {rebuild / episode_us:.1%} |")
-    print(f"| rebuild / (bare pymunk cycle) | {rebuild / (1e6 / phys):.1f} cycles |")
-    print(f"(a holder decision lasts {avg_cycles:.1f} cycles on average)")
+    print(f"| rebuild / (bare pymunk cycle) | {rebuild / phys:.1f} cycles |")
 
 
 if __name__ == "__main__":

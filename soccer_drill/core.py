@@ -36,6 +36,9 @@ _DEFENDER_MASK = np.ones(len(DEFENDER_ACTIONS), dtype=np.int8)
 _SHARED_DEFENDER_MASK = np.array([1, 1, 1, 0, 0], dtype=np.int8)
 for _mask in (_ATTACKER_HOLDER_MASK, _ATTACKER_OFF_BALL_MASK, _DEFENDER_MASK, _SHARED_DEFENDER_MASK):
     _mask.flags.writeable = False
+# The same masks as tuples of bools, for checking an action (indexing a tuple is cheaper).
+_ATTACKER_HOLDER_LEGAL = tuple(bool(x) for x in _ATTACKER_HOLDER_MASK)
+_ATTACKER_OFF_BALL_LEGAL = tuple(bool(x) for x in _ATTACKER_OFF_BALL_MASK)
 _DEFAULT_ATTACKER_ACTION = {True: 0, False: 3}  # holder: HOLD; off the ball: GET_OPEN
 _DEFAULT_DEFENDER_ACTION = 0  # INTERCEPT
 
@@ -66,7 +69,7 @@ class DrillCore:
             (it is replaced by the role's default: HOLD, GET_OPEN or INTERCEPT, and
             :attr:`replaced` says so).
         scripted_attackers: attackers driven by :class:`SupportPlayer`.
-        team_timeout: seconds each ``reset``/``act`` call of the team may take, or
+        team_timeout: seconds of CPU time each ``reset``/``act`` call of the team may take, or
             ``None`` for no bound (see :class:`~soccer_drill.teams.TeamDriver`).
         shared_spaces: defenders get the attackers' ``Discrete(5)`` actions, the last
             two always masked.
@@ -105,6 +108,7 @@ class DrillCore:
         self.illegal_action = illegal_action
         self.shared_spaces = shared_spaces
         self._defender_mask = _SHARED_DEFENDER_MASK if shared_spaces else _DEFENDER_MASK
+        self._defender_legal = tuple(bool(x) for x in self._defender_mask)
         self.replaced: tuple[int, int] | None = None
         self.busy = threading.Lock()
         self.team_name: str | None
@@ -131,14 +135,15 @@ class DrillCore:
             else None
         )
         self.view = DrillView(self.drill, PLAYER_NAMES[2:])
+        # The bounds as Python floats: the observation functions compare them fastest so.
         if obs_type == "features":
             low, high = feature_bounds(config)
             self._observe = features
-            self._obs_args: tuple = (config, low, high)
+            self._obs_args: tuple = (config, low.tolist(), high.tolist())
         else:
             low, high = kinematic_bounds(config)
             self._observe = kinematics
-            self._obs_args = (low, high)
+            self._obs_args = (low.tolist(), high.tolist())
         self.obs_box = spaces.Box(low, high, dtype=np.float32)
         self.np_random, _ = seeding.np_random()
 
@@ -211,21 +216,29 @@ class DrillCore:
         """Check ``action`` of ``agent`` and turn it into a command."""
         actions = ATTACKER_ACTIONS if index < 2 else DEFENDER_ACTIONS
         n = len(ATTACKER_ACTIONS) if self.shared_spaces else len(actions)
-        if isinstance(action, np.ndarray) and action.shape == ():
-            action = action.item()
-        if isinstance(action, bool) or not isinstance(action, int | np.integer):
-            raise TypeError(
-                f"action for {agent!r} must be an integer in [0, {n - 1}] "
-                f"({_names(actions, n)}), got {action!r} of type {type(action).__name__}"
-            )
-        a = int(action)
+        if type(action) is int:  # the common case: a plain int (a bool is not one)
+            a = action
+        else:
+            if isinstance(action, np.ndarray) and action.shape == ():
+                action = action.item()
+            if isinstance(action, bool) or not isinstance(action, int | np.integer):
+                raise TypeError(
+                    f"action for {agent!r} must be an integer in [0, {n - 1}] "
+                    f"({_names(actions, n)}), got {action!r} of type {type(action).__name__}"
+                )
+            a = int(action)
         if not 0 <= a < n:
             raise ValueError(
                 f"action {a} for {agent!r} is out of range; allowed: 0..{n - 1} "
                 f"({_names(actions, n)})"
             )
-        mask = self.mask(index)
-        if not mask[a]:
+        if index >= 2:
+            legal = self._defender_legal
+        else:
+            legal = _ATTACKER_HOLDER_LEGAL if self.drill.state.holder == index else (
+                _ATTACKER_OFF_BALL_LEGAL
+            )
+        if not legal[a]:
             if self.illegal_action == "default":
                 given = a
                 a = (
@@ -235,10 +248,10 @@ class DrillCore:
                 )
                 self.replaced = (given, a)
             else:
-                legal = [f"{i}={actions[i].name}" for i in np.flatnonzero(mask)]
+                legal_now = [f"{i}={actions[i].name}" for i in np.flatnonzero(self.mask(index))]
                 raise ValueError(
                     f"action {a} ({_name(actions, a)}) is masked for {agent!r} at cycle "
-                    f"{self.drill.state.cycle}; legal actions now: {legal}. "
+                    f"{self.drill.state.cycle}; legal actions now: {legal_now}. "
                     "illegal_action='default' replaces a masked action by the role's "
                     "default action instead (and reports it in infos)"
                 )

@@ -17,6 +17,8 @@ from typing import Literal
 
 import numpy as np
 import pymunk
+import pymunk.batch
+from pymunk.batch import get_space_bodies
 
 from soccer_drill.config import DrillConfig
 from soccer_drill.skills import BALL_SKILLS, CONTROL, KICK, Command, execute
@@ -27,6 +29,20 @@ OUTCOMES: tuple[Outcome, ...] = ("success", "interception", "out", "timeout")
 
 _PLAYER_CATEGORY, _WALL_CATEGORY = 0b01, 0b10
 _PLAYER_MASS = 75.0
+_BALL_MASS, _BALL_RADIUS = 0.45, 0.11
+_BALL_MOMENT = pymunk.moment_for_circle(_BALL_MASS, 0.0, _BALL_RADIUS)
+_PLAYER_FILTER = pymunk.ShapeFilter(
+    categories=_PLAYER_CATEGORY, mask=_PLAYER_CATEGORY | _WALL_CATEGORY
+)
+_BALL_FILTER = pymunk.ShapeFilter(categories=0, mask=0)
+_WALL_FILTER = pymunk.ShapeFilter(categories=_WALL_CATEGORY, mask=_PLAYER_CATEGORY)
+# pymunk's property setters called directly: the same code as ``body.velocity = v``
+# without pymunk's generic ``__setattr__`` wrapper, which costs as much again.
+_set_velocity = pymunk.Body.velocity.fset
+_set_position = pymunk.Body.position.fset
+_set_filter = pymunk.Shape.filter.fset
+_POSITION_VELOCITY = pymunk.batch.BodyFields.POSITION | pymunk.batch.BodyFields.VELOCITY
+_new_state = tuple.__new__  # DrillState's fields in order, without its __new__'s defaults
 
 
 class Drill:
@@ -46,14 +62,26 @@ class Drill:
         self._dt = cfg.cycle_seconds
         self._sub_dt = cfg.cycle_seconds / cfg.substeps
         self._roll = cfg.ball_damping**cfg.cycle_seconds  # speed kept per cycle
-        self._build_space()
         self._top_speed = (
             cfg.attacker_speed, cfg.attacker_speed, cfg.defender_speed, cfg.defender_speed,
         )
         self._caps = (*self._top_speed, cfg.ball_max_speed)
+        self._caps2 = tuple(cap * cap for cap in self._caps)
+        self._buffer = pymunk.batch.Buffer()  # reused: one batched read per cycle
+        self._build_space()
+        _check_batch_order(self._space, self._bodies, self._buffer)  # every space alike
         self.state: DrillState
         self.outcome: Outcome | None = None
         self.attacker_reward = 0.0
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        del state["_buffer"]  # C memory, not picklable; a copy gets its own
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._buffer = pymunk.batch.Buffer()
 
     # ------------------------------------------------------------------ reset
     def _build_space(self) -> None:
@@ -62,32 +90,35 @@ class Drill:
         Built anew on every :meth:`reset`: a space keeps contact caches and other
         internal state from earlier episodes that change later collisions, so reusing
         one would make an episode depend on what ran before it, not only on its seed.
+        The bodies are new too: a body keeps the bias velocity of the last step's
+        contacts (pymunk does not expose it), which would move it in the next episode's
+        first step. Everything is added in one call (bodies first, then shapes, in order),
+        and shapes keep pymunk's default elasticity and friction (0), which the drill
+        wants: setting them costs more than the rest of a shape's creation.
         """
         cfg = self.config
-        self._space = pymunk.Space()
-        self._players: list[pymunk.Body] = []
-        for _ in range(4):
-            body = pymunk.Body(_PLAYER_MASS, math.inf)  # no spin: players only translate
-            shape = pymunk.Circle(body, cfg.player_radius)
-            shape.elasticity = 0.0
-            shape.friction = 0.0
-            shape.filter = pymunk.ShapeFilter(
-                categories=_PLAYER_CATEGORY, mask=_PLAYER_CATEGORY | _WALL_CATEGORY
-            )
-            self._space.add(body, shape)
-            self._players.append(body)
-        self._ball = pymunk.Body(0.45, pymunk.moment_for_circle(0.45, 0.0, 0.11))
-        ball_shape = pymunk.Circle(self._ball, 0.11)
-        ball_shape.filter = pymunk.ShapeFilter(categories=0, mask=0)  # touches nothing
-        self._space.add(self._ball, ball_shape)
+        space = pymunk.Space()
+        self._players = [pymunk.Body(_PLAYER_MASS, math.inf) for _ in range(4)]  # no spin
+        self._ball = pymunk.Body(_BALL_MASS, _BALL_MOMENT)
+        shapes = [pymunk.Circle(body, cfg.player_radius) for body in self._players]
+        for shape in shapes:
+            _set_filter(shape, _PLAYER_FILTER)
+        ball_shape = pymunk.Circle(self._ball, _BALL_RADIUS)
+        _set_filter(ball_shape, _BALL_FILTER)  # touches nothing
+        shapes.append(ball_shape)
         lo, hi = -cfg.wall_margin, cfg.field_size + cfg.wall_margin
         corners = [(lo, lo), (hi, lo), (hi, hi), (lo, hi)]
         for a, b in zip(corners, corners[1:] + corners[:1], strict=True):
-            wall = pymunk.Segment(self._space.static_body, a, b, 0.1)
-            wall.elasticity = 0.0
-            wall.filter = pymunk.ShapeFilter(categories=_WALL_CATEGORY, mask=_PLAYER_CATEGORY)
-            self._space.add(wall)
+            wall = pymunk.Segment(space.static_body, a, b, 0.1)
+            _set_filter(wall, _WALL_FILTER)
+            shapes.append(wall)
         self._bodies = (*self._players, self._ball)
+        # Per body: where its velocity is in a batched read, the body, its speed cap (squared).
+        self._readback = tuple(
+            zip((2, 6, 10, 14, 18), self._bodies, self._caps, self._caps2, strict=True)
+        )
+        space.add(*self._bodies, *shapes)
+        self._space = space
 
     def reset(self, rng: np.random.Generator) -> DrillState:
         """Place the players with seeded jitter and give the ball to a random attacker.
@@ -101,13 +132,11 @@ class Drill:
         pos = []
         for body, (x, y), (jx, jy) in zip(self._players, starts, jitter, strict=True):
             p = (float(x + jx), float(y + jy))
-            body.position = p
-            body.velocity = (0.0, 0.0)
+            _set_position(body, p)  # new bodies are at rest
             pos.append(p)
         holder = int(rng.integers(2))
         ball = (pos[holder][0], pos[holder][1] - cfg.ball_offset)
-        self._ball.position = ball
-        self._ball.velocity = (0.0, 0.0)
+        _set_position(self._ball, ball)
         pos.append(ball)
         self.outcome = None
         self.attacker_reward = 0.0
@@ -123,51 +152,58 @@ class Drill:
         holder, passer, lockout_until = state.holder, state.passer, state.lockout_until
         ball_velocity: tuple[float, float] | None = None
         accel = cfg.player_acceleration * dt
+        set_velocity, hypot, old_vel = _set_velocity, math.hypot, state.vel
         for i, (body, command) in enumerate(zip(self._players, commands, strict=True)):
-            motion = execute(state, i, command, cfg, rng)
-            vx0, vy0 = state.vel[i]
-            dvx, dvy = motion.vx - vx0, motion.vy - vy0
-            dv = math.hypot(dvx, dvy)
+            mvx, mvy, ball_action, mbx, mby = execute(state, i, command, cfg, rng)
+            vx0, vy0 = old_vel[i]
+            dvx, dvy = mvx - vx0, mvy - vy0
+            dv = hypot(dvx, dvy)
             if dv > accel:
                 dvx, dvy = dvx * accel / dv, dvy * accel / dv
             vx, vy = vx0 + dvx, vy0 + dvy
-            body.velocity = (vx, vy)
+            set_velocity(body, (vx, vy))
             if i != holder or command.skill not in BALL_SKILLS:
                 continue
-            if motion.ball == KICK:
-                ball_velocity = (motion.bx, motion.by)
+            if ball_action == KICK:
+                ball_velocity = (mbx, mby)
                 holder, passer, lockout_until = -1, i, state.cycle + 1 + cfg.pass_lockout_cycles
-            elif motion.ball == CONTROL:
+            elif ball_action == CONTROL:
                 # A small kick that puts the ball at the control point after this cycle,
                 # turning it round the player by at most _MAX_TURN so it stays controlled.
                 px, py = state.pos[i]
                 bx, by = state.pos[BALL]
-                ux, uy = _turn_toward(bx - px, by - py, motion.bx, motion.by)
+                ux, uy = _turn_toward(bx - px, by - py, mbx, mby)
                 cx = px + vx * dt + ux * cfg.ball_offset
                 cy = py + vy * dt + uy * cfg.ball_offset
                 ball_velocity = ((cx - bx) / dt, (cy - by) / dt)
         if ball_velocity is None:  # rolling freely
             bvx, bvy = state.vel[BALL]
             ball_velocity = (bvx * self._roll, bvy * self._roll)
-        self._ball.velocity = _capped(ball_velocity, cfg.ball_max_speed)
+        set_velocity(self._ball, _capped(ball_velocity, cfg.ball_max_speed))
 
         step = self._space.step
         for _ in range(cfg.substeps):
             step(self._sub_dt)
 
-        pos, vel = [], []
-        for body, cap in zip(self._bodies, self._caps, strict=True):
-            px, py = body.position
-            vx, vy = body.velocity
-            pos.append((px, py))
-            if vx * vx + vy * vy > cap * cap:  # a collision pushed it past its cap
+        # One batched read of every body's position and velocity: x, y, vx, vy per body,
+        # in the order checked by _check_batch_order (then the space's static body).
+        buffer = self._buffer
+        buffer.clear()
+        get_space_bodies(self._space, _POSITION_VELOCITY, buffer)
+        data = memoryview(buffer.float_buf()).cast("d").tolist()
+        vel = []
+        for k, body, cap, cap2 in self._readback:
+            vx, vy = data[k], data[k + 1]
+            if vx * vx + vy * vy > cap2:  # a collision pushed it past its cap
                 vx, vy = _capped((vx, vy), cap)
-                body.velocity = (vx, vy)
+                set_velocity(body, (vx, vy))
             vel.append((vx, vy))
+        positions = ((data[0], data[1]), (data[4], data[5]), (data[8], data[9]),
+                     (data[12], data[13]), (data[16], data[17]))
+        velocities = tuple(vel)
         cycle = state.cycle + 1
-        positions, velocities = tuple(pos), tuple(vel)
         holder = self._possession(positions, velocities, holder, cycle, passer, lockout_until, rng)
-        new = DrillState(positions, velocities, holder, cycle, passer, lockout_until)
+        new = _new_state(DrillState, (positions, velocities, holder, cycle, passer, lockout_until))
         self.state = new
         self._judge(new)
         return new
@@ -232,6 +268,25 @@ def _turn_toward(fx: float, fy: float, tx: float, ty: float) -> tuple[float, flo
     delta = (b - a + math.pi) % (2 * math.pi) - math.pi
     a += max(-_MAX_TURN, min(_MAX_TURN, delta))
     return math.cos(a), math.sin(a)
+
+
+def _check_batch_order(
+    space: pymunk.Space, bodies: tuple[pymunk.Body, ...], buffer: pymunk.batch.Buffer
+) -> None:
+    """Check that pymunk's batched reads list ``bodies`` first, in their order.
+
+    :meth:`Drill.step` reads every body at once through ``pymunk.batch`` (an API pymunk
+    calls experimental) and relies on that order; a pymunk release that changed it would
+    otherwise mix the bodies up silently.
+    """
+    buffer.clear()
+    get_space_bodies(space, pymunk.batch.BodyFields.BODY_ID, buffer)
+    ids = memoryview(buffer.int_buf()).cast("P").tolist()
+    if ids[: len(bodies)] != [body.id for body in bodies]:
+        raise RuntimeError(
+            f"pymunk {pymunk.version}'s batch API lists the space's bodies in an "
+            "unexpected order; this pymunk version is not supported by soccer_drill"
+        )
 
 
 def _capped(v: tuple[float, float], cap: float) -> tuple[float, float]:

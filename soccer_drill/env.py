@@ -9,7 +9,6 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import EzPickle
 from pettingzoo import AECEnv, ParallelEnv
-from pettingzoo.utils import AgentSelector
 
 from soccer_drill.config import DrillConfig
 from soccer_drill.core import (
@@ -308,7 +307,7 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``render_mode`` | ``None`` | ``"human"`` (a window) or ``"rgb_array"`` (off-screen) |
     | ``illegal_action`` | ``"default"`` | ``"default"`` (replace a masked action by the role's default, reported in infos) or ``"raise"`` (a masked action is an error) |
-    | ``team_timeout`` | ``1.0`` | seconds each ``reset``/``act`` call of the scripted team may take before it is stopped with ``TeamError`` naming it; ``None``: no bound (e.g. to debug a team). See ``soccer_drill.teams.TeamDriver`` |
+    | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the scripted team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound. See ``soccer_drill.teams.TeamDriver`` |
     | ``obs_format`` | ``"dict"`` | ``"dict"`` (observation and mask together) or ``"flat"`` (a ``Box``; the mask in infos and ``action_mask()``) |
     | ``shared_spaces`` | ``False`` | ``True``: every agent has the same action and observation spaces (for self-play through SuperSuit or Tianshou) |
 
@@ -352,8 +351,12 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
             self.infos = {agent: self._step_info(agent, None) for agent in self.agents}
             self._reported: set[str] = set()  # agents whose info reports a replaced action
             self._commands: list = [None] * 4
-            self._selector = AgentSelector(self.agents)
-            self.agent_selection = self._selector.next()
+            # The turn order (PettingZoo's AgentSelector, as a lookup): every live agent
+            # in order, the cycle advancing after the last.
+            order = self.agents
+            self._next_agent = dict(zip(order, order[1:] + order[:1], strict=True))
+            self._last_agent = order[-1]
+            self.agent_selection = order[0]
         if self.render_mode == "human":
             self.render()
 
@@ -367,7 +370,14 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
         """``(observation, reward, termination, truncation, info)`` of the selected agent."""
         if not self._has_reset:
             raise not_reset("last")
-        return super().last(observe)
+        agent = self.agent_selection
+        return (
+            self.observe(agent) if observe else None,
+            self._cumulative_rewards[agent],
+            self.terminations[agent],
+            self.truncations[agent],
+            self.infos[agent],
+        )
 
     def action_mask(self, agent: str | None = None) -> np.ndarray:
         """The current action mask of ``agent`` (default: the selected agent; int8, read-only)."""
@@ -410,7 +420,7 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
             self.infos[agent] = self._step_info(agent, None)
             self._reported.discard(agent)
         self._cumulative_rewards[agent] = 0.0
-        if self._selector.is_last():
+        if agent == self._last_agent:
             core.advance(self._commands)
             self._commands = [None] * 4
             drill = core.drill
@@ -430,7 +440,7 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
                 self.render()
         else:
             self._clear_rewards()
-        self.agent_selection = self._selector.next()
+        self.agent_selection = self._next_agent[agent]
         self._accumulate_rewards()
 
 

@@ -23,11 +23,15 @@ pass; values are clipped into them so observations always lie in the space.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
 from soccer_drill.config import DrillConfig
 from soccer_drill.state import BALL, DrillState
+
+Bounds = np.ndarray | Sequence[float]
+"""Observation bounds: a float32 array, or its values as Python floats."""
 
 FEATURE_NAMES: tuple[str, ...] = (
     "dist_mate",
@@ -53,22 +57,17 @@ def feature_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
     return low, high
 
 
-def _angle(ax: float, ay: float, na: float, bx: float, by: float) -> float:
-    """Unsigned angle between vector a (of norm ``na``) and vector b, degrees."""
-    nb = math.hypot(bx, by)
-    if na < 1e-9 or nb < 1e-9:
-        return 180.0
-    c = (ax * bx + ay * by) / (na * nb)
-    return _DEGREES * math.acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
-
-
 _DEGREES = 180.0 / math.pi
+_hypot, _acos = math.hypot, math.acos
 
 
 def features(
-    state: DrillState, player: int, cfg: DrillConfig, low: np.ndarray, high: np.ndarray
+    state: DrillState, player: int, cfg: DrillConfig, low: Bounds, high: Bounds
 ) -> np.ndarray:
-    """The 9 features of ``player`` (see the module table), clipped to the bounds."""
+    """The 9 features of ``player`` (see the module table), clipped to the bounds.
+
+    ``low`` and ``high`` are :func:`feature_bounds` (arrays, or their ``tolist()``: faster).
+    """
     pos = state.pos
     sx, sy = pos[player]
     mx, my = pos[player ^ 1]
@@ -76,14 +75,53 @@ def features(
     ax, ay = pos[o1][0] - sx, pos[o1][1] - sy  # opponents relative to self
     bx, by = pos[o2][0] - sx, pos[o2][1] - sy
     ux, uy = mx - sx, my - sy  # mate relative to self
-    da, db, dm = math.hypot(ax, ay), math.hypot(bx, by), math.hypot(ux, uy)
+    da, db, dm = _hypot(ax, ay), _hypot(bx, by), _hypot(ux, uy)
     near, far = (da, db) if da <= db else (db, da)
-    mate_opp = min(math.hypot(ax - ux, ay - uy), math.hypot(bx - ux, by - uy))
-    pass_angle = min(_angle(ux, uy, dm, ax, ay), _angle(ux, uy, dm, bx, by))
-    dribble_angle = min(_angle(0.0, -1.0, 1.0, ax, ay), _angle(0.0, -1.0, 1.0, bx, by))
-    raw = (dm, near, far, mate_opp, pass_angle, sy, sx - cfg.field_size / 2, my, dribble_angle)
-    out = np.array(raw, dtype=np.float32)
-    return np.clip(out, low, high, out=out)
+    ma, mb = _hypot(ax - ux, ay - uy), _hypot(bx - ux, by - uy)
+    mate_opp = mb if mb < ma else ma  # min(ma, mb)
+    # Angles at self between the mate, or the goal direction (0, -1), and each opponent:
+    # acos of the normalised dot product (clamped to [-1, 1]), 180 for a zero-length side.
+    if da < 1e-9:
+        pa = ga = 180.0
+    else:
+        if dm < 1e-9:
+            pa = 180.0
+        else:
+            c = (ux * ax + uy * ay) / (dm * da)
+            pa = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
+        c = (0.0 * ax + -1.0 * ay) / (1.0 * da)
+        ga = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
+    if db < 1e-9:
+        pb = gb = 180.0
+    else:
+        if dm < 1e-9:
+            pb = 180.0
+        else:
+            c = (ux * bx + uy * by) / (dm * db)
+            pb = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
+        c = (0.0 * bx + -1.0 * by) / (1.0 * db)
+        gb = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
+    raw = (dm, near, far, mate_opp, pb if pb < pa else pa, sy, sx - cfg.field_size / 2, my,
+           gb if gb < ga else ga)
+    return _clipped(raw, low, high)
+
+
+def _clipped(values: Sequence[float], low: Bounds, high: Bounds) -> np.ndarray:
+    """``np.clip(np.array(values, float32), low, high)``, bit for bit, but faster.
+
+    Clipping the float64 values before rounding them to float32 gives the same floats
+    (``low`` and ``high`` are float32 and rounding is monotonic); each comparison is
+    NumPy's own (``max(v, lo)`` is ``v if v > lo or v is NaN else lo``), so even the
+    sign of a clipped zero is NumPy's. Bounds given as lists of floats (``low.tolist()``)
+    are compared fastest.
+    """
+    return np.array(
+        [  # m = max(v, lo), then min(m, hi), each as NumPy compares
+            m if ((m := v if v > lo or v != v else lo) < hi or m != m) else hi
+            for v, lo, hi in zip(values, low, high, strict=True)
+        ],
+        dtype=np.float32,
+    )
 
 
 KINEMATIC_SIZE = 26
@@ -104,9 +142,7 @@ def kinematic_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
     return low, high
 
 
-def kinematics(
-    state: DrillState, player: int, low: np.ndarray, high: np.ndarray
-) -> np.ndarray:
+def kinematics(state: DrillState, player: int, low: Bounds, high: Bounds) -> np.ndarray:
     """Egocentric kinematic observation of ``player`` (26 values).
 
     ``[x, y, vx, vy]`` of self, then for mate, opponent 0, opponent 1 and ball
@@ -130,7 +166,7 @@ def kinematics(
         float(player < 2),
         float(state.passer == player and state.cycle < state.lockout_until),
     ]
-    return np.clip(np.array(values, dtype=np.float32), low, high)
+    return _clipped(values, low, high)
 
 
 STATE_SIZE = 29

@@ -98,7 +98,7 @@ class HolderEnv(gym.Env):
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``render_mode`` | ``None`` | ``"human"``, ``"rgb_array"`` or ``"rgb_array_list"`` (see Rendering) |
     | ``decision_cycles`` | ``4`` | cycles a ``HOLD`` or ``DRIBBLE`` lasts (fewer if possession changes); ``PASS`` lasts until an attacker controls the ball |
-    | ``team_timeout`` | ``1.0`` | seconds each ``reset``/``act`` call of the team may take before it is stopped with ``TeamError`` naming it; ``None``: no bound (see ``soccer_drill.teams.TeamDriver``) |
+    | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound (see ``soccer_drill.teams.TeamDriver``) |
     """
 
     metadata: ClassVar[dict] = {

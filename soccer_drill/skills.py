@@ -167,22 +167,34 @@ def dribble_heading(state: DrillState, player: int, cfg: DrillConfig) -> tuple[f
     px, py = state.pos[player]
     size = cfg.field_size
     best, best_score = (0.0, -1.0), -math.inf
-    for deg in range(-70, 71, 10):
-        a = math.radians(deg)
-        hx, hy = math.sin(a), -math.cos(a)
-        score = math.cos(a)
-        for d in state.opponents_of(player):
-            rx, ry = state.pos[d][0] - px, state.pos[d][1] - py
-            ahead = rx * hx + ry * hy
-            if 0.0 < ahead < 12.0:
-                clearance = abs(rx * hy - ry * hx)
-                score -= 2.0 * max(0.0, 1.0 - clearance / 4.0) * (1.0 - ahead / 12.0)
+    d1, d2 = state.opponents_of(player)
+    r1x, r1y = state.pos[d1][0] - px, state.pos[d1][1] - py
+    r2x, r2y = state.pos[d2][0] - px, state.pos[d2][1] - py
+    for hx, hy, score in _HEADINGS:
+        # Each opponent ahead within 12 m costs more the closer it is to the heading line.
+        ahead = r1x * hx + r1y * hy
+        if 0.0 < ahead < 12.0:
+            free = 1.0 - abs(r1x * hy - r1y * hx) / 4.0
+            score -= 2.0 * (free if free > 0.0 else 0.0) * (1.0 - ahead / 12.0)
+        ahead = r2x * hx + r2y * hy
+        if 0.0 < ahead < 12.0:
+            free = 1.0 - abs(r2x * hy - r2y * hx) / 4.0
+            score -= 2.0 * (free if free > 0.0 else 0.0) * (1.0 - ahead / 12.0)
         ex = px + hx * 4.0
         if not 1.0 <= ex <= size - 1.0:
             score -= 3.0
         if score > best_score:
             best, best_score = (hx, hy), score
     return best
+
+
+def _heading(deg: int) -> tuple[float, float, float]:
+    """Unit heading ``deg`` degrees off straight down the field, and its initial score."""
+    a = math.radians(deg)
+    return math.sin(a), -math.cos(a), math.cos(a)
+
+
+_HEADINGS = tuple(_heading(deg) for deg in range(-70, 71, 10))  # the candidates, tried in order
 
 
 def shield_direction(state: DrillState, player: int) -> tuple[float, float]:
@@ -214,6 +226,14 @@ def pass_velocity(
     return speed * math.cos(angle), speed * math.sin(angle)
 
 
+# The members as module constants: reading ``Skill.HOLD`` costs ~0.2 us (an enum
+# class attribute), and execute() runs for every player every cycle.
+_HOLD, _PASS, _DRIBBLE = Skill.HOLD, Skill.PASS, Skill.DRIBBLE
+_GET_OPEN, _MARK, _GUARD_LINE = Skill.GET_OPEN, Skill.MARK, Skill.GUARD_LINE
+_TO_BALL = (Skill.GO_TO_BALL, Skill.INTERCEPT)
+_motion = tuple.__new__  # a Motion from all five fields, without its __new__'s defaults
+
+
 def execute(
     state: DrillState,
     player: int,
@@ -227,11 +247,11 @@ def execute(
     is_attacker = player < 2
     top = cfg.attacker_speed if is_attacker else cfg.defender_speed
     vmax = top * command.speed
-    if skill is Skill.DRIBBLE:
+    if skill is _DRIBBLE:
         hx, hy = dribble_heading(state, player, cfg)
         v = cfg.dribble_speed * command.speed
-        return Motion(hx * v, hy * v, CONTROL, hx, hy)
-    if skill is Skill.HOLD:
+        return _motion(Motion, (hx * v, hy * v, CONTROL, hx, hy))
+    if skill is _HOLD:
         sx, sy = shield_direction(state, player)
         v = cfg.hold_speed * command.speed
         vx, vy = sx * v, sy * v
@@ -247,24 +267,24 @@ def execute(
             sx, sy = 0.0, (1.0 if sy > 0 else -1.0)
         if py > hi and sy > 0:
             sx, sy = (1.0 if sx > 0 else -1.0), 0.0
-        return Motion(vx, vy, CONTROL, sx, sy)
-    if skill is Skill.PASS:
+        return _motion(Motion, (vx, vy, CONTROL, sx, sy))
+    if skill is _PASS:
         kx, ky = pass_velocity(state, player, cfg, rng)
-        return Motion(0.0, 0.0, KICK, kx, ky)
-    if skill is Skill.GET_OPEN:
+        return _motion(Motion, (0.0, 0.0, KICK, kx, ky))
+    if skill is _GET_OPEN:
         tx, ty = support_spot(state, player, cfg)
-    elif skill in (Skill.GO_TO_BALL, Skill.INTERCEPT):
+    elif skill in _TO_BALL:
         tx, ty = ball_interception_point(state, player, vmax, cfg)
-    elif skill is Skill.MARK:
+    elif skill is _MARK:
         bx, by = state.pos[4]
         free = state.free_opponent_of(player)
         fx, fy = state.pos[free]
         tx, ty = fx + 0.35 * (bx - fx), fy + 0.35 * (by - fy)
-    elif skill is Skill.GUARD_LINE:
+    elif skill is _GUARD_LINE:
         tx = min(max(state.pos[4][0], 4.0), cfg.field_size - 4.0)
         ty = GUARD_DEPTH
     else:  # MOVE_TO
         assert command.target is not None
         tx, ty = command.target
     vx, vy = seek(px, py, tx, ty, vmax)
-    return Motion(vx, vy, NO_BALL)
+    return _motion(Motion, (vx, vy, NO_BALL, 0.0, 0.0))

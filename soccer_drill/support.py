@@ -10,6 +10,8 @@ from soccer_drill.state import BALL, DrillState
 
 _RESAMPLE_CYCLES = 10  # how often the support spot's random offset changes
 _OFFSET_STD = 2.0  # metres
+_GO_TO_BALL = Command(Skill.GO_TO_BALL)  # immutable, so one serves every cycle
+_MOVE_TO = Skill.MOVE_TO  # read once: an enum member lookup costs ~0.2 us
 
 
 class SupportPlayer:
@@ -39,11 +41,11 @@ class SupportPlayer:
             mate = player ^ 1
             mate_locked = state.passer == mate and state.cycle < state.lockout_until
             if mate_locked or state.distance(player, BALL) <= state.distance(mate, BALL):
-                return Command(Skill.GO_TO_BALL)
+                return _GO_TO_BALL
         x, y = support_spot(state, player, cfg)
         size = cfg.field_size
         target = (
             min(max(x + self._offset[0], 1.0), size - 1.0),
             min(max(y + self._offset[1], 1.0), size - 1.0),
         )
-        return Command(Skill.MOVE_TO, target)
+        return Command(_MOVE_TO, target)

@@ -19,17 +19,16 @@ and :func:`broken_teams` lists it. A declared id that is not valid is refused th
 same way; an id declared by two distributions warns, naming both, and the first one
 found on ``sys.path`` is used.
 
-Every call of a team's ``reset`` and ``act`` is bounded in time (``team_timeout``,
-1 s by default; see :class:`TeamDriver`), so a team that hangs fails with a
-:class:`TeamError` naming it instead of freezing an experiment.
+Every call of a team's ``reset`` and ``act`` is bounded in CPU time (``team_timeout``,
+1 s by default; see :class:`TeamDriver`), so a team stuck computing fails with a
+:class:`TeamError` naming it instead of freezing an experiment, and a loaded machine
+never fails an honest team.
 """
 
 from __future__ import annotations
 
 import math
 import numbers
-import signal
-import threading
 import time
 import warnings
 from collections.abc import Callable, Mapping
@@ -41,24 +40,15 @@ import numpy as np
 
 from soccer_drill.skills import BALL_SKILLS, Command, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillView
+from soccer_drill.time_bound import Overrun, call_within
 
 ENTRY_POINT_GROUP = "soccer_drill.opponents"
+_MOVE_TO = Skill.MOVE_TO  # read once: an enum member lookup costs ~0.2 us
 DEFAULT_TEAM_TIMEOUT = 1.0
-"""Seconds a team's ``reset`` or ``act`` may take (real time) before it is stopped."""
+"""Seconds of CPU time a team's ``reset`` or ``act`` may take before it is stopped."""
 TEAM_TIMEOUT_RANGE = (0.001, 86_400.0)
 """Allowed ``team_timeout`` values, in seconds (``None`` means no bound). Far inside
 what ``setitimer`` takes (about 9.2e9 s, or 2**31 s with a 32-bit ``time_t``)."""
-
-try:
-    # The C functions under ``signal``'s enum wrappers: ``signal.signal`` costs ~2.7 us a
-    # call (it converts the returned handler to an enum through an exception), these
-    # ~0.3 us, which matters at two calls per drill cycle.
-    import _signal as _sig
-except ImportError:  # pragma: no cover - other Python implementations
-    _sig = signal  # type: ignore[assignment]
-_CAN_INTERRUPT = hasattr(signal, "setitimer") and hasattr(signal, "SIGALRM")
-_MAIN_THREAD = threading.main_thread().ident
-
 
 @runtime_checkable
 class Team(Protocol):
@@ -78,13 +68,6 @@ class TeamError(RuntimeError):
 
 class PluginWarning(UserWarning):
     """A team plugin is broken or ambiguous; the other teams are unaffected."""
-
-
-class _Overrun(BaseException):
-    """Raised inside a team's call when its time bound passes.
-
-    A ``BaseException``, so the ``except Exception`` blocks of a team do not swallow it.
-    """
 
 
 def check_team_timeout(team_timeout: object) -> float | None:
@@ -296,27 +279,35 @@ def make_team(team_id: str, **params: Any) -> Team:
 
 
 class TeamDriver:
-    """Runs a team inside the drill, bounds the time of each call and checks every command.
+    """Runs a team inside the drill, bounds the CPU time of each call, checks every command.
 
     Args:
         team: the team.
         name: its id, named in every error.
         players: the players it drives.
-        team_timeout: seconds (real time) each ``reset`` or ``act`` call may take, in
+        team_timeout: seconds of CPU time each ``reset`` or ``act`` call may take, in
             :data:`TEAM_TIMEOUT_RANGE` (1 ms to one day), or ``None`` for no bound. A
             call that exceeds it raises :class:`TeamError`.
 
-    How a call is bounded: on the main thread of a Unix process a real-time interval
-    timer (``signal.setitimer(ITIMER_REAL)``) is armed around the call and its
-    ``SIGALRM`` interrupts the team, even in a pure-Python infinite loop or a
-    ``time.sleep``; the previous ``SIGALRM`` handler is restored after every call,
-    also when the call or the arming of the timer fails. Off the main thread, on
-    platforms without ``setitimer`` (Windows), or when another real-time timer is
-    already armed (it is left alone), the call's duration is measured and the error
-    raised *after* it returns, so a team that never returns there hangs the drill.
-    Code stuck inside a C extension cannot be interrupted either way: it is reported
-    when it returns. The bound is real time, so a debugger paused in a team's code
-    trips it: pass ``team_timeout=None`` to debug a team.
+    What the bound counts is the CPU time of the thread running the team during the call
+    (``time.thread_time``), less garbage collections (see
+    :mod:`soccer_drill.time_bound`):
+
+    | the team's call | counted | stopped |
+    |---|---|---|
+    | computing (Python code, NumPy, any C code) | yes | on the main thread of a Unix process: interrupted inside the call once past the bound, also in a pure-Python infinite loop and after swallowing the first interruption (the timer re-fires); elsewhere: when the call returns |
+    | stuck inside one C call that never returns | yes | no (Python cannot interrupt C code) |
+    | waiting: descheduled on a loaded machine, ``time.sleep``, I/O, a lock, a debugger's pause | no | no: a call blocked forever hangs the drill |
+    | garbage collections it triggers (and the finalisers they run) | no | - |
+    | threads it starts | no (their own CPU time) | - |
+
+    A loaded machine therefore never turns an honest team into a :class:`TeamError`.
+    Interruption uses ``setitimer(ITIMER_PROF)``/``SIGPROF``; the previous ``SIGPROF``
+    handler is restored after every call, also when the call or the arming of the
+    timer fails. Off the main thread, on platforms without ``setitimer`` (Windows), or
+    when another ``ITIMER_PROF`` timer is already armed (a profiler's; it is left
+    alone), the call's CPU time is measured and the error raised *after* it returns.
+    Pass ``team_timeout=None`` for no bound at all.
 
     After the error the environment stays usable: its next ``reset()`` resets the team.
     """
@@ -331,13 +322,14 @@ class TeamDriver:
         self.team, self.name, self.players = team, name, players
         self.team_timeout = check_team_timeout(team_timeout)
         self._indices = tuple(PLAYER_NAMES.index(p) for p in players)
+        self._player_set = frozenset(players)
 
     def reset(self, view: DrillView, rng: np.random.Generator) -> None:
         """Reset the team, naming it in any error it raises."""
         start = time.perf_counter()
         try:
             self._call(self.team.reset, view, rng)
-        except (_Overrun, Exception) as exc:
+        except (Overrun, Exception) as exc:
             raise self._failure("reset()", "", exc, start) from _cause(exc)
 
     def act(self, view: DrillView) -> list[tuple[int, Command]]:
@@ -345,7 +337,7 @@ class TeamDriver:
         start = time.perf_counter()
         try:
             commands = self._call(self.team.act, view)
-        except (_Overrun, Exception) as exc:
+        except (Overrun, Exception) as exc:
             raise self._failure("act()", f" at cycle {view.cycle}", exc, start) from _cause(exc)
         try:
             return self._commands(commands, view.cycle)
@@ -358,7 +350,11 @@ class TeamDriver:
             ) from exc
 
     def _commands(self, commands: object, cycle: int) -> list[tuple[int, Command]]:
-        if not isinstance(commands, Mapping) or set(commands) != set(self.players):
+        # The common case first (a dict; its keys compared as a set, without copying).
+        if not (
+            (type(commands) is dict and commands.keys() == self._player_set)
+            or (isinstance(commands, Mapping) and set(commands) == self._player_set)
+        ):
             got = sorted(commands, key=repr) if isinstance(commands, Mapping) else (
                 type(commands).__name__
             )
@@ -372,41 +368,19 @@ class TeamDriver:
         return out
 
     def _call(self, method: Callable[..., Any], *args: Any) -> Any:
-        """``method(*args)`` within the time bound; raises :class:`_Overrun` past it."""
+        """``method(*args)`` within the CPU-time bound; raises :class:`Overrun` past it."""
         timeout = self.team_timeout
         if timeout is None:
             return method(*args)
-        start = time.perf_counter()
-        if (
-            _CAN_INTERRUPT
-            and threading.get_ident() == _MAIN_THREAD
-            and _sig.getitimer(signal.ITIMER_REAL)[0] == 0.0  # nobody else's alarm pending
-            and _sig.getsignal(signal.SIGALRM) is not None  # a handler we can put back
-        ):
-            previous = _sig.signal(signal.SIGALRM, _on_alarm)
-            try:
-                # An interval, not a one-shot: a team that swallows the first interruption
-                # (a bare ``except:``) is interrupted again. Armed inside the ``try``, so
-                # the previous handler is put back even if arming fails.
-                _sig.setitimer(signal.ITIMER_REAL, timeout, timeout)
-                result = method(*args)
-            finally:
-                _sig.setitimer(signal.ITIMER_REAL, 0.0)
-                _drain()  # run an alarm that fired just before the disarm while ours is set
-                _sig.signal(signal.SIGALRM, previous)
-        else:
-            result = method(*args)
-        if time.perf_counter() - start > timeout:  # e.g. off the main thread
-            raise _Overrun
-        return result
+        return call_within(timeout, method, *args)
 
     def _failure(self, call: str, when: str, exc: BaseException, start: float) -> TeamError:
-        elapsed = time.perf_counter() - start
-        bound = self.team_timeout
-        if isinstance(exc, _Overrun) or (bound is not None and elapsed > bound):
+        if isinstance(exc, Overrun):
             return TeamError(
-                f"team {self.name!r} exceeded its time bound of {bound:g} s in {call}{when} "
-                f"(stopped after {elapsed:.2f} s); fix the team or pass a larger team_timeout"
+                f"team {self.name!r} exceeded its time bound of {self.team_timeout:g} s of "
+                f"CPU time in {call}{when} (stopped after {exc.cpu:.2f} s of CPU time, "
+                f"{time.perf_counter() - start:.2f} s in all); fix the team or pass a larger "
+                "team_timeout"
             )
         return TeamError(f"team {self.name!r} raised in {call}{when}: {exc!r}")
 
@@ -427,11 +401,12 @@ class TeamDriver:
                 f"allowed: {[s.name for s in Skill if s not in BALL_SKILLS]}"
             )
         plain = type(command) is Command and (type(speed) is float or type(speed) is int)
-        checked = float(speed) if not plain and _is_real(speed) else speed  # type: ignore[arg-type]
-        if not (_is_real(checked) and 0.0 < checked <= 1.0):  # type: ignore[operator]
-            raise self._invalid(player, cycle, f"speed must be in (0, 1], got {speed!r}")
-        speed = checked
-        if skill is not Skill.MOVE_TO:
+        if not (plain and 0.0 < speed <= 1.0):  # else the general check, and a copy
+            checked = float(speed) if not plain and _is_real(speed) else speed  # type: ignore[arg-type]
+            if not (_is_real(checked) and 0.0 < checked <= 1.0):  # type: ignore[operator]
+                raise self._invalid(player, cycle, f"speed must be in (0, 1], got {speed!r}")
+            speed = checked
+        if skill is not _MOVE_TO:
             return command if plain else Command(skill, None, speed)  # type: ignore[arg-type]
         if not (  # the common case, already immutable and plain: no copy needed
             type(target) is tuple
@@ -451,23 +426,6 @@ class TeamDriver:
 
     def _invalid(self, player: str, cycle: int, what: str) -> TeamError:
         return TeamError(f"team {self.name!r}, player {player!r}, cycle {cycle}: {what}")
-
-
-def _drain() -> None:
-    """Nothing; calling a Python function runs the signal handlers pending by then."""
-
-
-# Frames where an alarm must not raise: the driver's own bookkeeping around the call.
-_DRIVER_CODES = (TeamDriver._call.__code__, _drain.__code__)
-
-
-def _on_alarm(signum: int, frame: Any) -> None:
-    """SIGALRM while a team runs: stop it by raising inside its code."""
-    if frame is not None and frame.f_code in _DRIVER_CODES:
-        # Raising here could skip the cleanup (disarm, restore the previous handler);
-        # the call's elapsed time is checked after it anyway.
-        return
-    raise _Overrun
 
 
 def _is_real(value: object) -> bool:
@@ -491,4 +449,4 @@ def _point(target: object) -> tuple[float, float] | None:
 
 def _cause(exc: BaseException) -> BaseException | None:
     """The exception to chain a :class:`TeamError` to (not the internal interruption)."""
-    return None if isinstance(exc, _Overrun) else exc
+    return None if isinstance(exc, Overrun) else exc
