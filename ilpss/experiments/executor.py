@@ -63,7 +63,9 @@ class RayExecutor:
         if not ray.is_initialized():
             kwargs: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False}
             if address is None:
-                kwargs["num_cpus"] = workers
+                # "local" always starts a fresh instance: with None, Ray would join
+                # whatever cluster RAY_ADDRESS or /tmp/ray names, and then refuse num_cpus.
+                address, kwargs["num_cpus"] = "local", workers
             ray.init(address=address, **kwargs)
         self.workers, self.progress = workers, progress
 
