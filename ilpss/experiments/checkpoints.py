@@ -84,6 +84,7 @@ OWNER = "owner.json"
 OWNER_SCHEMA = "ilpss.storage_owner/1"
 _URI = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*://")
 _CHECKPOINT = re.compile(r"trial_\d{4,}")
+_TEMPORARY = re.compile(r"\.LATEST\.[0-9a-f]{32}\.tmp")
 
 
 class StorageError(RuntimeError):
@@ -285,13 +286,16 @@ class UriStore:
         self._fs.delete_dir_contents(remote, missing_dir_ok=True)
         self._copy(os.fspath(target), remote, upload=True)
         self._publish(self._remote(key, "LATEST"), target.name.encode())
-        # Only now that LATEST names the new checkpoint may older ones go.
+        # Only now that LATEST names the new checkpoint may older ones go, and the
+        # temporaries of a LATEST that an earlier attempt did not move into place.
         selector = self._pafs.FileSelector(self._remote(key))
         for info in self._fs.get_file_info(selector):
             name = info.path.rstrip("/").rpartition("/")[2]
             if (info.type == self._pafs.FileType.Directory and _CHECKPOINT.fullmatch(name)
                     and name < target.name):
                 self._fs.delete_dir(info.path)
+            elif info.type == self._pafs.FileType.File and _TEMPORARY.fullmatch(name):
+                self._fs.delete_file(info.path)
 
     def records(self, key: str) -> list[TrialRecord] | None:
         local = self._local(".records", key)
