@@ -4,6 +4,7 @@ still ends with the results of an uninterrupted local run."""
 
 from __future__ import annotations
 
+import itertools
 import threading
 import time
 
@@ -44,9 +45,21 @@ def test_a_run_survives_a_lost_node_and_equals_the_local_run(tmp_path, monkeypat
         # Joined through RAY_ADDRESS: ray.init gets no num_cpus (it refuses them when
         # joining), and the cluster's CPUs are its nodes', whatever --workers says.
         monkeypatch.setenv("RAY_ADDRESS", cluster.address)
-        RayExecutor(workers=1, progress=False)
+        executor = RayExecutor(workers=1, progress=False)
         assert ray.cluster_resources()["CPU"] == 2
         monkeypatch.delenv("RAY_ADDRESS")
+
+        def span(_: int) -> tuple[float, float]:
+            start = time.time()
+            time.sleep(1.0)
+            return start, time.time()
+
+        # --workers bounds the tasks in flight: one at a time although two CPUs are free.
+        spans = executor.map(span, range(3))
+        assert all(a[1] <= b[0] for a, b in itertools.pairwise(spans)), spans
+        executor.workers = 2
+        (a, b) = executor.map(span, range(2))
+        assert max(a[0], b[0]) < min(a[1], b[1]), (a, b)  # and two at a time with 2
 
         remote = cfg.with_overrides(executor="ray", storage=storage.as_uri())
         finished, errors, done = [], [], []

@@ -138,3 +138,13 @@ def test_storage_locations_that_cannot_be_one_are_refused_by_name(tmp_path, monk
     with pytest.raises(StorageError, match=r"a URI needs pyarrow \(pip install "
                                            r"'soccer-drill-ilpss\[cluster\]'\)"):
         open_store("s3://bucket/run")
+
+
+def test_a_ray_address_needs_the_ray_executor(tmp_path, capsys):
+    from ilpss.experiments.cli import main
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--ray-address", "head:6379", "--out", str(tmp_path / "run")])
+    assert exit_info.value.code == 2
+    assert "--ray-address needs --executor ray" in capsys.readouterr().err
+    assert not (tmp_path / "run").exists()

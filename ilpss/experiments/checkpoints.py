@@ -28,8 +28,8 @@ the agreement of the files); :func:`run_lifelong` then refuses a checkpoint of a
 run (its provenance) before resuming from it. So a job restarted on another node resumes
 from its last trial, and ends as it would have uninterrupted.
 
-A storage other than the run folder is *claimed* by the run that uses it: its driver
-writes ``owner.json`` (a token) into it, and every job checks the token before it starts
+A storage is *claimed* by the run that uses it when its jobs run on Ray or it is not
+the run folder: the driver writes ``owner.json`` (a token) into it, and every job checks the token before it starts
 and before each checkpoint it writes. A job that cannot read the token (a path that its
 node does not share) stops with an error saying so, and so do the jobs of a run whose
 storage another run has claimed since.
@@ -360,7 +360,8 @@ def run_lifelong(
     cfg, stream = job.cfg, job.stream
     store = _Guarded(job.store, job.token)
     key = checkpoint_key(job.seed, job.stream_index, method)
-    space = make_env(cfg.env_id, stream.tasks[0]).observation_space
+    env0 = make_env(cfg.env_id, stream.tasks[0])
+    space = env0.observation_space
     provenance = {"experiment": cfg.results_record(), "method": method, "seed": job.seed,
                   "stream": stream.name, "tasks": [t.name for t in stream.tasks]}
     branches = stream.shared_start and len(job.targets) > 1
@@ -369,9 +370,8 @@ def run_lifelong(
                        range(1, main_line + 1))
     resumed = 0 if learner is None else learner.n_trials
     if learner is None:
-        env0 = make_env(cfg.env_id, stream.tasks[0])
-        learner = LifelongLearner(config, env0.observation_space, int(env0.action_space.n),
-                                  job.seed, provenance=provenance)
+        learner = LifelongLearner(config, space, int(env0.action_space.n), job.seed,
+                                  provenance=provenance)
     for t in range(learner.n_trials, main_line):
         task = stream.tasks[t]
         learner.run_trial(make_env(cfg.env_id, task), task.name)
