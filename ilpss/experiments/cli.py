@@ -5,6 +5,12 @@ Examples::
     ilpss-experiment --protocol A --seeds 30 --out results/protocol_a
     ilpss-experiment --protocol C --seeds 10 --episodes 200 --out results/protocol_c
     ilpss-experiment --config results/protocol_a/config.json --out results/protocol_a  # resume
+    # the paper's three sources learnt once per seed, then each of three targets from there
+    ilpss-experiment --protocol A --teams interceptors_press interceptors_cover \
+        interceptor_guard --targets goal_guards chasers parametric --out results/targets
+    # on a running Ray cluster, checkpoints where every node reaches them
+    ilpss-experiment --executor ray --ray-address HEAD:6379 --workers 16 \
+        --storage s3://bucket/ilpss/protocol_a --out results/protocol_a
 """
 
 from __future__ import annotations
@@ -15,6 +21,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from ilpss._io import FolderInUseError
+from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.methods import METHODS
 from ilpss.experiments.protocols import PROTOCOLS
@@ -32,7 +39,8 @@ def build_config(args: argparse.Namespace) -> ExperimentConfig:
         cfg = ExperimentConfig(protocol=args.protocol or "A")
     flags = {"protocol": "protocol", "seeds": "n_seeds", "first_seed": "first_seed",
              "methods": "methods", "workers": "workers", "executor": "executor",
-             "stream_length": "stream_length"}
+             "stream_length": "stream_length", "teams": "teams", "targets": "targets",
+             "storage": "storage"}
     changes: dict = {field: getattr(args, flag) for flag, field in flags.items()
                      if getattr(args, flag) is not None}
     lifelong: dict = {field: getattr(args, flag) for flag, field in
@@ -77,12 +85,25 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--rollouts", type=int, help="greedy rollouts per trial (default 50)")
     p.add_argument("--stream-length", type=int, help="protocol C: opponents in the stream")
     p.add_argument("--methods", nargs="+", choices=METHODS.names())
+    p.add_argument("--teams", nargs="+", metavar="TEAM",
+                   help="protocols A and B: the teams (A: the last one is held out, unless "
+                   "--targets are given; then all of them are sources)")
+    p.add_argument("--targets", nargs="+", metavar="TEAM",
+                   help="protocol A: held-out teams, each learnt from the state after the "
+                   "sources (learnt once per seed); results per target and pooled")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="a LifelongConfig field (or learner.FIELD, library.FIELD), value as "
                    "JSON; repeatable, e.g. --set n_kernels=2 --set learner.intra_option=true "
                    "--set library.continuation_exponent=0.5")
-    p.add_argument("--workers", type=int, help="parallel seeds (default 2)")
+    p.add_argument("--workers", type=int,
+                   help="parallel jobs (default 2); on a Ray cluster, the most in flight")
     p.add_argument("--executor", choices=["local", "ray"])
+    p.add_argument("--ray-address", metavar="ADDRESS",
+                   help="with --executor ray: join the running cluster at ADDRESS (default: "
+                   "RAY_ADDRESS if set, else start a local Ray instance)")
+    p.add_argument("--storage", metavar="PATH_OR_URI",
+                   help="where the checkpoints go (default: the run folder); on a cluster, a "
+                   "path or URI every node reaches (s3://..., gs://..., file:///...)")
     p.add_argument("--out", required=True, help="output folder (one per run)")
     p.add_argument("--no-report", action="store_true", help="skip figures and tables")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -99,9 +120,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error(f"--config {args.config}: {exc.strerror or exc}")
     except (ValueError, TypeError) as exc:
         p.error(str(exc))
+    if args.ray_address is not None and cfg.executor != "ray":
+        p.error("--ray-address needs --executor ray")
     try:
-        results = run_experiment(cfg, args.out, progress=not args.quiet)
-    except (FolderInUseError, ValueError) as exc:  # a folder of another run, a bad file
+        results = run_experiment(cfg, args.out, progress=not args.quiet,
+                                 ray_address=args.ray_address,
+                                 on_done=None if args.quiet else _say_resumed)
+    except (FolderInUseError, StorageError, ValueError) as exc:  # another run's, a bad file
         p.exit(1, f"{p.prog}: error: {exc}\n")
     if not args.no_report:
         from ilpss.experiments.report import write_report
@@ -109,6 +134,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         path = write_report(cfg, results, args.out)
         print(f"report: {path}")
     return 0
+
+
+def _say_resumed(spec, done) -> None:
+    """Name the methods of a finished job that resumed from checkpoints."""
+    resumed = {m: n for m, n in done.resumed.items() if n}
+    if resumed:
+        from tqdm.auto import tqdm
+
+        said = ", ".join(f"{m} after {n} trial(s)" for m, n in resumed.items())
+        tqdm.write(f"seed {spec.seed}, stream {spec.stream_index}: resumed {said}")
 
 
 if __name__ == "__main__":

@@ -8,7 +8,7 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Literal
 
-from ilpss._check import Integer, ListOf, Name, Text, check_fields, from_json
+from ilpss._check import Integer, ListOf, Name, NoneOr, Text, check_fields, from_json
 from ilpss.baselines import PrqConfig
 from ilpss.experiments import drill
 from ilpss.experiments.executor import EXECUTOR
@@ -17,14 +17,26 @@ from ilpss.experiments.protocols import PROTOCOLS, Stream, Task
 from ilpss.experiments.registry import SAMPLERS, check_env_id
 from ilpss.lifelong import LearnerConfig, LifelongConfig
 
-__all__ = ["EPISODE_REWARDS", "RUN_ONLY_FIELDS", "ExperimentConfig", "Stream", "Task"]
+__all__ = [
+    "EPISODE_REWARDS",
+    "RECORDED_IF_SET",
+    "RUN_ONLY_FIELDS",
+    "ExperimentConfig",
+    "Stream",
+    "Task",
+]
 
 EPISODE_REWARDS = {drill.ENV_ID: drill.EPISODE_REWARD,
                    drill.ENV_ID.partition(":")[2]: drill.EPISODE_REWARD}
 """Range of an episode's total reward, per environment id (other environments: any
 finite number); results are checked against it."""
-RUN_ONLY_FIELDS = ("executor", "workers")
-"""Fields of :class:`ExperimentConfig` that say where seeds run, not what they compute."""
+RUN_ONLY_FIELDS = ("executor", "workers", "storage")
+"""Fields of :class:`ExperimentConfig` that say where jobs run and keep their checkpoints,
+not what they compute."""
+RECORDED_IF_SET = {"targets": []}
+"""Fields that results and checkpoints record only when they differ from their default
+(as JSON), so that the records of runs made before the field existed stay the records
+of the same configuration."""
 
 EXPERIMENT_CONSTRAINTS = {
     # Upper bounds far above any useful value: each seed, stream, opponent and worker
@@ -33,11 +45,13 @@ EXPERIMENT_CONSTRAINTS = {
     "first_seed": Integer(0, 2**32 - 1),
     "methods": ListOf(Name(), min_len=1, unique=True),
     "teams": ListOf(Text(), min_len=1),
+    "targets": ListOf(Text(), max_len=1000),
     "n_shuffles": Integer(0, 1000),
     "stream_length": Integer(1, 10_000),
     "sampler_team": Text(),
     "executor": EXECUTOR,
     "workers": Integer(1, 1024),
+    "storage": NoneOr(Text()),
 }
 """What the plain fields of :class:`ExperimentConfig` allow (the protocol, methods,
 environment and sampler are names looked up in their registries)."""
@@ -65,7 +79,13 @@ class ExperimentConfig:
     env_id: str = drill.ENV_ID
     """Gymnasium id of the environment (see :func:`~ilpss.experiments.registry.check_env_id`)."""
     teams: tuple[str, ...] = drill.PAPER_TEAMS
-    """Protocols A and B: the teams; in A the last one is held out."""
+    """Protocols A and B: the teams; in A the last one is held out (unless ``targets``
+    are given: then all of them are sources)."""
+    targets: tuple[str, ...] = ()
+    """Protocol A: the held-out teams, each learnt after all of ``teams`` from the same
+    state (the sources are learnt once per seed and method); results, curves and
+    verdicts per target, and pooled over them. Empty: the last of ``teams`` is the one
+    target (the paper's)."""
     n_shuffles: int = 1
     """Protocol B: shuffled source orders per held-out team (besides the given one)."""
     stream_length: int = 20
@@ -86,13 +106,17 @@ class ExperimentConfig:
     executor: Literal["local", "ray"] = "local"
     """Where seeds run: local processes or a Ray cluster."""
     workers: int = 2
-    """Parallel seeds."""
+    """Parallel jobs: local processes, or the most Ray tasks in flight at once."""
+    storage: str | None = None
+    """Where the lifelong checkpoints go: ``None``, the run folder; else a path or a URI
+    (``s3://bucket/prefix``, ``gs://...``, ``file:///...``, as Ray's ``storage_path``)
+    that every node of a cluster can reach (:mod:`ilpss.experiments.checkpoints`)."""
 
     def __post_init__(self) -> None:
         # Every field is checked here, with its name and what is allowed, because configs
         # come from JSON files (``--config``) and a bad value found later would surface
         # mid-run as an unrelated error, after ``config.json`` was written.
-        for name in ("methods", "teams"):  # JSON gives lists
+        for name in ("methods", "teams", "targets"):  # JSON gives lists
             if isinstance(getattr(self, name), list):
                 object.__setattr__(self, name, tuple(getattr(self, name)))
         PROTOCOLS.check("ExperimentConfig.protocol", self.protocol)
@@ -114,7 +138,13 @@ class ExperimentConfig:
                     f"ExperimentConfig.{name} must be a {kind.__name__} (from_dict takes a "
                     f"dict), got {type(getattr(self, name)).__name__}"
                 )
-        PROTOCOLS.get(self.protocol).check(self)
+        protocol = PROTOCOLS.get(self.protocol)
+        if self.targets and not protocol.takes_targets:
+            raise ValueError(
+                f"ExperimentConfig.targets: protocol {self.protocol} takes no targets (its "
+                f"streams say which tasks are targets), got {self.targets!r}"
+            )
+        protocol.check(self)
 
     @property
     def reward_range(self) -> tuple[float, float]:
@@ -136,12 +166,16 @@ class ExperimentConfig:
 
     def results_record(self) -> dict[str, Any]:
         """The fields that decide the results, as JSON values: every field but
-        ``executor`` and ``workers`` (where seeds run changes nothing). Every result and
-        checkpoint of a run records this, and a resume compares it."""
-        values = self.to_dict()
+        :data:`RUN_ONLY_FIELDS` (where jobs run changes nothing), and those of
+        :data:`RECORDED_IF_SET` only when set. Every result and checkpoint of a run
+        records this, and a resume compares it."""
+        values = json.loads(json.dumps(self.to_dict()))
         for name in RUN_ONLY_FIELDS:
             del values[name]
-        return json.loads(json.dumps(values))
+        for name, default in RECORDED_IF_SET.items():
+            if values[name] == default:
+                del values[name]
+        return values
 
     def to_json(self) -> str:
         """Pretty JSON of :meth:`to_dict`, keys sorted."""

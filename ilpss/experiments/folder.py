@@ -5,6 +5,8 @@
     <root>/config.json                          the configuration (ExperimentConfig)
     <root>/seed_SSS/stream_TT/result.json       one job's curves and series, checked
     <root>/seed_SSS/stream_TT/<method>/         a lifelong method's checkpoints
+    <root>/seed_SSS/stream_TT/<method>/target_KK/   ... of each target, when a stream's
+                                                targets all start after its sources
     <root>/report.md, <root>/*.png              the report and its figures
     <root>/wall_time.json                       ilpss-results' timing record
 """
@@ -20,9 +22,16 @@ from typing import Any
 
 from ilpss._io import atomic_write_bytes, read_json
 
-__all__ = ["RunFolder"]
+__all__ = ["RunFolder", "checkpoint_key"]
 
 _SEED = re.compile(r"seed_(\d{3,})")
+
+
+def checkpoint_key(seed: int, stream_index: int, method: str, target: int | None = None) -> str:
+    """Where a checkpoint folder lies below the run folder or the checkpoint storage (a
+    ``/``-separated relative path; see :mod:`ilpss.experiments.checkpoints`)."""
+    key = f"seed_{seed:03d}/stream_{stream_index:02d}/{method}"
+    return key if target is None else f"{key}/target_{target:02d}"
 
 
 @dataclass(frozen=True, init=False)
@@ -62,9 +71,12 @@ class RunFolder:
         """A job's ``result.json``."""
         return self.job(seed, stream_index) / "result.json"
 
-    def checkpoints(self, seed: int, stream_index: int, method: str) -> Path:
-        """The checkpoint folder of a lifelong method in a job."""
-        return self.job(seed, stream_index) / method
+    def checkpoints(
+        self, seed: int, stream_index: int, method: str, target: int | None = None
+    ) -> Path:
+        """The checkpoint folder of a lifelong method in a job (of one ``target`` task, in
+        a stream whose targets all start from the state after its sources)."""
+        return self.root / checkpoint_key(seed, stream_index, method, target)
 
     def wall_time(self) -> dict[str, Any] | None:
         """The timing record (``seconds``, ``workers``, ``executor``), if there is one."""

@@ -18,12 +18,10 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field, replace
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ilpss._io import json_differences
 from ilpss.baselines import PrqLearner
-from ilpss.experiments.folder import RunFolder
+from ilpss.experiments.checkpoints import CheckpointStore, run_lifelong
 from ilpss.experiments.protocols import Stream, make_env
 from ilpss.experiments.registry import Registry
 from ilpss.lifelong import (
@@ -56,14 +54,27 @@ class Job:
     seed: int
     stream_index: int
     stream: Stream
-    folder: RunFolder
+    store: CheckpointStore
+    """Where the lifelong methods' checkpoints are kept (:mod:`~ilpss.experiments.checkpoints`)."""
+    token: str | None = None
+    """The run's claim on ``store``, checked before every checkpoint (``None``: unclaimed)."""
     learners: dict[str, LifelongLearner] = field(default_factory=dict)
-    """The lifelong learners of the methods run so far, by method name."""
+    """The lifelong learners of the methods run so far, by method name. In a stream whose
+    targets share their start it is the learner after the sources, so its policies are
+    the ones every target follows (``policies[:t]`` holds no other target's)."""
+    resumed: dict[str, int] = field(default_factory=dict)
+    """Per lifelong method, the trials found done in its checkpoints."""
 
     @property
     def targets(self) -> range:
         """Indices of the tasks whose learning curves are compared."""
         return range(self.stream.first_target, len(self.stream.tasks))
+
+    def tasks_before(self, t: int) -> int:
+        """How many tasks precede task ``t`` in its learner's history: all earlier ones,
+        or only the sources when the stream's targets all start after them."""
+        first = self.stream.first_target
+        return first if self.stream.shared_start and t >= first else t
 
 
 class Method:
@@ -103,9 +114,9 @@ class LifelongMethod(Method):
         return replace(base, **self.changes(base))
 
     def run(self, job: Job) -> dict[str, Any]:
-        learner = run_lifelong(job, self.name, self.config(job.cfg.lifelong))
+        learner, records = run_lifelong(job, self.name, self.config(job.cfg.lifelong))
         job.learners[self.name] = learner
-        return lifelong_entry(learner.records, job.targets)
+        return lifelong_entry(records, job.targets)
 
 
 def lifelong_entry(records: Sequence[TrialRecord], targets: Iterable[int]) -> dict[str, Any]:
@@ -133,7 +144,7 @@ class PrqMethod(Method):
         lc = cfg.lifelong.learner
         curves = {}
         for t in job.targets:
-            learner_seed, env_seed, _, _ = trial_seeds(job.seed, t)
+            learner_seed, env_seed, _, _ = trial_seeds(job.seed, job.tasks_before(t))
             prq = PrqLearner(
                 scratch.n_primitive, scratch.tile_coder, scratch.policies[:t],
                 alpha=lc.alpha, epsilon=lc.epsilon, gamma=lc.gamma,
@@ -144,50 +155,6 @@ class PrqMethod(Method):
             results = prq.train(env, cfg.lifelong.train_episodes, seed=env_seed)
             curves[str(t)] = [float(r.total_reward) for r in results]
         return {"curves": curves}
-
-
-def run_lifelong(job: Job, method: str, config: LifelongConfig) -> LifelongLearner:
-    """One lifelong method over the whole stream, resuming from its checkpoint (which
-    must come from this very job: a checkpoint of another configuration is refused)."""
-    cfg, stream = job.cfg, job.stream
-    directory = job.folder.checkpoints(job.seed, job.stream_index, method)
-    env0 = make_env(cfg.env_id, stream.tasks[0])
-    provenance = {"experiment": cfg.results_record(), "method": method, "seed": job.seed,
-                  "stream": stream.name, "tasks": [t.name for t in stream.tasks]}
-    if (directory / "LATEST").exists():
-        learner = LifelongLearner.load(directory, env0.observation_space)
-        _check_resumable(learner, provenance, directory, cfg.reward_range)
-    else:
-        learner = LifelongLearner(config, env0.observation_space, int(env0.action_space.n),
-                                  job.seed, provenance=provenance)
-    for t in range(learner.n_trials, len(stream.tasks)):
-        task = stream.tasks[t]
-        learner.run_trial(make_env(cfg.env_id, task), task.name)
-        learner.save(directory)
-    return learner
-
-
-def _check_resumable(
-    learner: LifelongLearner, provenance: dict, directory: Path,
-    reward_range: tuple[float, float],
-) -> None:
-    """Refuse a checkpoint that another configuration or job wrote, naming the field, or
-    whose rewards the environment cannot have paid."""
-    hint = "delete that folder to run this method of the job again"
-    if learner.provenance is None:
-        raise ValueError(f"{directory}: the checkpoint records no provenance; {hint}")
-    diffs = json_differences(learner.provenance, provenance)
-    if diffs:
-        raise ValueError(
-            f"{directory}: the checkpoint comes from another run ({'; '.join(diffs)}); {hint}"
-        )
-    low, high = reward_range
-    for i, record in enumerate(learner.records):
-        if not all(low <= r <= high for r in record.rewards):
-            raise ValueError(
-                f"{directory}: records[{i}].rewards lie outside the environment's range "
-                f"[{low:g}, {high:g}]; {hint}"
-            )
 
 
 def _plus(base: LifelongConfig) -> dict[str, Any]:

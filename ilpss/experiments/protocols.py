@@ -56,6 +56,9 @@ class Stream:
     """The instances in the order the lifelong learner meets them."""
     first_target: int
     """Index of the first task whose learning curves are compared."""
+    shared_start: bool = False
+    """Whether every target starts from the learner's state after the tasks before
+    ``first_target`` (the sources), rather than after the targets before it too."""
 
 
 def team_task(team: str) -> Task:
@@ -83,6 +86,8 @@ class Protocol:
 
     name = ""
     title = ""
+    takes_targets = False
+    """Whether the protocol reads ``ExperimentConfig.targets`` (others refuse them)."""
     page_section: str | None = None
     """The function of :mod:`ilpss.experiments.sections` that writes its section of the
     results page (``None``: :meth:`results_section`'s default)."""
@@ -156,25 +161,65 @@ class _HeldOutTeams(Protocol):
 
 
 class HeldOutTeam(_HeldOutTeams):
-    """A: teams 1-3 in order, then the held-out team 4 (the paper's Figure 3)."""
+    """A: teams 1-3 in order, then the held-out team 4 (the paper's Figure 3).
+
+    With ``ExperimentConfig.targets``, every team of ``teams`` is a source and each
+    target is learnt after all of them, from the same state: one stream per seed whose
+    sources are learnt once, the targets' curves compared per target and pooled.
+    """
 
     name = "A"
     title = "the paper's Figure 3"
     page_section = "section_a"
+    takes_targets = True
 
     def check(self, cfg: ExperimentConfig) -> None:
-        _check_teams(cfg, distinct=False)
+        if not cfg.targets:
+            _check_teams(cfg, distinct=False)
+            return
+        if len(set(cfg.targets)) != len(cfg.targets):
+            raise ValueError(
+                f"ExperimentConfig.targets must not repeat a team, got {cfg.targets!r}"
+            )
+        both = [t for t in cfg.targets if t in cfg.teams]
+        if both:
+            raise ValueError(
+                f"ExperimentConfig.targets: {both} are also sources; with targets, "
+                f"ExperimentConfig.teams lists the sources only (e.g. --teams "
+                f"{' '.join(t for t in cfg.teams if t not in both)} --targets "
+                f"{' '.join(cfg.targets)})"
+            )
+
+    def sources_and_targets(self, cfg: ExperimentConfig) -> tuple[tuple[str, ...],
+                                                                  tuple[str, ...]]:
+        """The source teams and the target teams of ``cfg``."""
+        if cfg.targets:
+            return cfg.teams, cfg.targets
+        return cfg.teams[:-1], cfg.teams[-1:]
 
     def streams(self, cfg: ExperimentConfig, seed: int) -> list[Stream]:
-        tasks = tuple(team_task(t) for t in cfg.teams)
-        return [Stream(f"held_out={cfg.teams[-1]}", tasks, len(tasks) - 1)]
+        sources, targets = self.sources_and_targets(cfg)
+        tasks = tuple(team_task(t) for t in (*sources, *targets))
+        return [Stream(f"held_out={'+'.join(targets)}", tasks, len(sources),
+                       shared_start=True)]
 
     def describe(self, cfg: ExperimentConfig) -> str:
         others = _methods(cfg, ("ilpss", "scratch"))
-        return (f"Opponent teams {_teams(cfg.teams[:-1])} in sequence, with extraction after "
-                f"each; then against the held-out team `{cfg.teams[-1]}`: learning with the "
+        sources, targets = self.sources_and_targets(cfg)
+        against = (f"the held-out team `{targets[0]}`" if len(targets) == 1 else
+                   f"each of the held-out teams {_teams(targets)}, every one from the state "
+                   "after the sources")
+        return (f"Opponent teams {_teams(sources)} in sequence, with extraction after "
+                f"each; then against {against}: learning with the "
                 "extracted options (ILPSS) against learning anew"
                 + (f", beside {others} under the same budget." if others else "."))
+
+    def report(self, cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path) -> list[str]:
+        if len(self.sources_and_targets(cfg)[1]) == 1:
+            return super().report(cfg, results, out)
+        from ilpss.experiments.report import several_targets_sections
+
+        return several_targets_sections(cfg, results, out)
 
 
 class EveryTeamHeldOut(_HeldOutTeams):

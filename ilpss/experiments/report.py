@@ -559,6 +559,88 @@ def parametric_stream_sections(
             *protocol_c_lines(jumpstarts, sizes, "stream.png")]
 
 
+def several_targets_sections(
+    cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path
+) -> list[str]:
+    """The body of the report of a stream with several targets that all start from the
+    state after its sources (protocol A with ``targets``): the primary verdicts on each
+    seed's curves pooled over the targets, the seeds on which each method is ahead and
+    the score distributions, a descriptive row per target; then per target its curves and
+    the metrics of every method against learning anew (descriptive, unadjusted)."""
+    ((_, methods),) = collect(results).items()
+    names = results[0]["tasks"]
+    episodes = cfg.lifelong.train_episodes
+    per_target = per_target_curves(methods)
+    lines: list[str] = []
+    if all(comparable(c) for c in per_target.values()):
+        estimates = {t: compare_to_scratch(c) for t, c in per_target.items()}
+        lines += ["## Pooled over the targets (primary)", "", structure_targets(len(per_target)),
+                  "", *pooled_lines(list(per_target.values()), episodes,
+                                    f"the {len(per_target)} targets", out / "profiles.png",
+                                    "profiles.png"),
+                  *target_tables(estimates, names)]
+    for t, curves in per_target.items():
+        fig = _figure(curves, out / f"curves_00_{t:02d}.png",
+                      f"{names[t]}: learning against the held-out opponent")
+        lines += [f"## Target `{names[t]}`", "", f"![learning curves]({fig.name})", ""]
+        if not comparable(curves):
+            lines += ["Transfer metrics need learning anew on at least 2 seeds.", ""]
+            continue
+        for method, est in compare_to_scratch(curves).items():
+            lines += [f"### {label(method)} vs learning anew", "",
+                      f"Descriptive (one target, unadjusted): {verdict(est)}.", "",
+                      metrics.format_metrics_markdown(est), ""]
+    return lines
+
+
+def per_target_curves(methods: dict[str, dict[int, np.ndarray]]) -> dict[int, dict[str, np.ndarray]]:
+    """``{target task index: {method: curves (n_seeds, episodes)}}``, targets in order."""
+    targets = sorted(next(iter(methods.values())))
+    return {t: {m: by_task[t] for m, by_task in methods.items()} for t in targets}
+
+
+def structure_targets(n: int) -> str:
+    """Several targets after one source history: what they are, and what they are not."""
+    return (f"The {n} targets all start from each seed's state after the sources, and learn "
+            "with the same seeds of that trial: they share the seed's source history, so "
+            f"they are {n} looks after one history, not {n} independent confirmations. "
+            "Per-target rows are descriptive: they are neither adjusted for multiplicity "
+            "nor counted as confirmations; the primary endpoints are the pooled ones.")
+
+
+def comparison_row(name: str, est: dict[str, metrics.MetricEstimate]) -> str:
+    """One row of a per-stream or per-target table: the four metrics against learning
+    anew with their intervals, and the seeds that reach the threshold."""
+    n = est["jumpstart"].n
+    reached = (f"{round(est['threshold_reached_transfer'].value * n)}/{n}, "
+               f"{round(est['threshold_reached_baseline'].value * n)}/{n}")
+    return (f"| {name} | {interval_text(est['jumpstart'], '+.3f')} | "
+            f"{interval_text(est['total_reward_gain'], '+.1f')} | "
+            f"{interval_text(est['final_gain'], '+.3f')} | "
+            f"{interval_text(est['time_to_threshold_ratio'], '.2f')} | {reached} |")
+
+
+def comparison_head(what: str) -> list[str]:
+    """The head of a table of :func:`comparison_row` rows."""
+    return [f"| {what} | jumpstart [95% CI] | total-reward gain [95% CI] | final performance "
+            "gain [95% CI] | time to threshold ratio [95% CI] | seeds reaching the threshold "
+            "(method, anew) |", "|---|---:|---:|---:|---:|---:|"]
+
+
+def target_tables(estimates: dict[int, dict[str, dict[str, metrics.MetricEstimate]]],
+                  names: Sequence[str]) -> list[str]:
+    """Per method, a descriptive row per target (``{target: {method: metrics}}``)."""
+    lines: list[str] = []
+    for method in next(iter(estimates.values())):
+        lines += [f"### {label(method)} vs learning anew, per target (descriptive)", "",
+                  *comparison_head("target"),
+                  *[comparison_row(f"`{names[t]}`", est[method]) for t, est in estimates.items()],
+                  ""]
+    n = next(iter(next(iter(estimates.values())).values()))["jumpstart"].n
+    return [*lines, f"Unadjusted 95% intervals over the {n} seeds of each of the "
+            f"{len(estimates)} targets; the pooled rows are the verdicts above.", ""]
+
+
 def target_sections(
     cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path
 ) -> list[str]:

@@ -40,7 +40,7 @@ from ilpss.experiments.report import (
 from ilpss.experiments.run import load_result, read_config, run_experiment
 
 PAGE = {
-    "A": {"teams": "teams"},
+    "A": {"teams": "teams", "targets": "targets"},
     "B": {"teams": "teams", "n_shuffles": "shuffles"},
     "C": {"stream_length": "stream_length",
           "methods": ("ilpss", "scratch", "whole_policies", "prq", "ilpss_plus",
@@ -79,8 +79,11 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--stream-length", type=int, default=20,
                    help="protocol C: opponents in the stream (default 20)")
     p.add_argument("--teams", nargs="+", default=list(PAPER_TEAMS),
-                   help="protocols A and B: the teams, the last one held out in A "
-                        "(default: the paper's four)")
+                   help="protocols A and B: the teams, the last one held out in A unless "
+                        "--targets are given (default: the paper's four)")
+    p.add_argument("--targets", nargs="+", default=[],
+                   help="protocol A: held-out teams, each learnt from the state after all of "
+                        "--teams (default: none, the last team is held out)")
     p.add_argument("--workers", type=int, default=2, help="parallel jobs (default 2)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     return p
@@ -131,8 +134,9 @@ def protocol_config(protocol: str, args: argparse.Namespace) -> ExperimentConfig
     }
     for field, value in PAGE[protocol].items():
         changes[field] = getattr(args, value) if isinstance(value, str) else value
-    if "teams" in changes:
-        changes["teams"] = tuple(changes["teams"])
+    for name in ("teams", "targets"):
+        if name in changes:
+            changes[name] = tuple(changes[name])
     lifelong: dict[str, Any] = {"train_episodes": args.episodes}
     if args.rollouts is not None:
         lifelong["rollout_episodes"] = args.rollouts
@@ -159,6 +163,9 @@ def command_for(configs: dict[str, ExperimentConfig], runs: str, docs: str) -> s
     argv += ["--episodes", str(episodes.pop()), "--rollouts", str(rollouts.pop())]
     if teams and teams != {PAPER_TEAMS}:
         argv += ["--teams", *next(iter(teams))]
+    targets = [cfg.targets for p, cfg in configs.items() if "targets" in PAGE[p]]
+    if targets and targets[0]:
+        argv += ["--targets", *targets[0]]
     for field, flag in (("n_shuffles", "shuffles"), ("stream_length", "stream_length")):
         values = {getattr(cfg, field) for p, cfg in configs.items() if field in PAGE[p]}
         if len(values) > 1:
@@ -167,7 +174,8 @@ def command_for(configs: dict[str, ExperimentConfig], runs: str, docs: str) -> s
             argv += [f"--{flag.replace('_', '-')}", str(values.pop())]
     args = parser().parse_args(argv)
     for p, cfg in configs.items():
-        if protocol_config(p, args) != replace(cfg, workers=args.workers, executor="local"):
+        if protocol_config(p, args) != replace(cfg, workers=args.workers, executor="local",
+                                               storage=None):
             return None
     return "ilpss-results " + " ".join(shlex.quote(a) for a in argv)
 

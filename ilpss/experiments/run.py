@@ -1,18 +1,24 @@
 """Run an experiment: every seed and stream, every method, checkpointed and resumable.
 
-Read top to bottom: :func:`run_experiment` writes the configuration, runs one job
-per (seed, stream) through an executor, and gathers the learning curves;
-:func:`run_stream` is one job: each method of the configuration runs on the stream
-(:mod:`ilpss.experiments.methods`; a lifelong method checkpoints after every trial, and
-PRQ-learning reuses the policies learnt anew), and the job's ``result.json`` is written.
-A job whose ``result.json`` exists is not run again (it is read, checked), and a job that
-was interrupted resumes from its last checkpoints, so a resumed experiment ends
-identical to an uninterrupted one. The folder's layout is :class:`RunFolder`'s.
+Read top to bottom: :func:`run_stream` is one job: each method of the configuration
+runs on the stream (:mod:`ilpss.experiments.methods`; a lifelong method checkpoints
+after every trial into the run's checkpoint storage, :mod:`ilpss.experiments.checkpoints`,
+and PRQ-learning reuses the policies learnt anew), and the job returns its result.
+:func:`run_experiment` writes the configuration, runs the jobs that have no
+``result.json`` yet through an executor (local processes or Ray tasks, on any node), and
+writes each job's ``result.json`` as its result arrives: a job never writes into the run
+folder itself. A job whose ``result.json`` exists is not run again (it is read,
+checked), and a job that was interrupted resumes from its last checkpoints, so a resumed
+experiment ends identical to an uninterrupted one. The folder's layout is
+:class:`RunFolder`'s.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -26,33 +32,70 @@ from ilpss._io import (
     read_json,
     remove_stale_temporaries,
 )
+from ilpss.experiments.checkpoints import (
+    CheckpointStore,
+    LocalStore,
+    is_uri,
+    open_store,
+    stream_records,
+)
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.executor import make_executor
-from ilpss.experiments.folder import RunFolder
+from ilpss.experiments.folder import RunFolder, checkpoint_key
 from ilpss.experiments.methods import METHODS, Job, LifelongMethod, lifelong_entry
 from ilpss.experiments.protocols import Stream, make_env
-from ilpss.lifelong import latest_checkpoint, read_state
 
-__all__ = ["RESULT_SCHEMA", "load_result", "read_config", "run_experiment", "run_stream"]
+__all__ = [
+    "RESULT_SCHEMA",
+    "JobDone",
+    "JobSpec",
+    "checkpoint_store",
+    "load_result",
+    "read_config",
+    "run_experiment",
+    "run_stream",
+]
 
 RESULT_SCHEMA = "ilpss.experiment_result/2"
 
 
-def run_stream(job: tuple[ExperimentConfig, int, int, str]) -> dict[str, Any]:
-    """One (seed, stream) job; returns (and saves) its learning curves."""
-    cfg, seed, stream_index, out_dir = job
+@dataclass(frozen=True)
+class JobSpec:
+    """What a job needs, wherever it runs: nothing of the run folder but its storage."""
+
+    cfg: ExperimentConfig
+    seed: int
+    stream_index: int
+    storage: str
+    """The checkpoint storage: a path (absolute) or a URI."""
+    token: str | None = None
+    """The run's claim on the storage (``None``: the run folder, unclaimed)."""
+
+
+@dataclass(frozen=True)
+class JobDone:
+    """What a job sends back to the driver."""
+
+    result: dict[str, Any]
+    """Its ``result.json``, which the driver writes."""
+    resumed: dict[str, int] = field(default_factory=dict)
+    """Per lifelong method, the trials that were found done in its checkpoints."""
+
+
+def run_stream(spec: JobSpec) -> JobDone:
+    """One (seed, stream) job: every method on the stream; returns its result."""
+    cfg, seed, stream_index = spec.cfg, spec.seed, spec.stream_index
     stream = cfg.streams(seed)[stream_index]
-    folder = RunFolder(out_dir)
-    done = folder.result(seed, stream_index)
-    if done.exists():
-        return load_result(done, cfg, seed, stream_index, stream)
-    folder.job(seed, stream_index).mkdir(parents=True, exist_ok=True)
-    # The run holds the run folder's lock: temporaries in the job's folder are stale.
-    remove_stale_temporaries(folder.job(seed, stream_index))
-    context = Job(cfg, seed, stream_index, stream, folder)
-    # Methods that reuse other methods' learners run after them.
-    order = sorted(cfg.methods, key=lambda m: bool(METHODS.get(m).reuses))
-    methods = {name: METHODS.get(name).run(context) for name in order}
+    store = open_store(spec.storage)
+    try:
+        if spec.token is not None:
+            store.check(spec.token)
+        context = Job(cfg, seed, stream_index, stream, store, spec.token)
+        # Methods that reuse other methods' learners run after them.
+        order = sorted(cfg.methods, key=lambda m: bool(METHODS.get(m).reuses))
+        methods = {name: METHODS.get(name).run(context) for name in order}
+    finally:
+        store.close()
     result = {
         "schema": RESULT_SCHEMA,
         "config": cfg.results_record(),
@@ -63,8 +106,7 @@ def run_stream(job: tuple[ExperimentConfig, int, int, str]) -> dict[str, Any]:
         "first_target": stream.first_target,
         "methods": methods,
     }
-    atomic_write_bytes(done, json_record_bytes(result))
-    return result
+    return JobDone(result, dict(context.resumed))
 
 
 RESULT_FIELDS = ("schema", "config", "seed", "stream", "stream_index", "tasks", "first_target",
@@ -79,10 +121,12 @@ LIFELONG_SERIES = {
 
 
 def load_result(
-    path: Path, cfg: ExperimentConfig, seed: int, stream_index: int, stream: Stream
+    path: Path, cfg: ExperimentConfig, seed: int, stream_index: int, stream: Stream,
+    store: CheckpointStore | None = None,
 ) -> dict[str, Any]:
     """A job's saved ``result.json``, every field checked against the job and its
-    configuration, and against the job's checkpoints when they are there.
+    configuration, and against the job's checkpoints (in ``store``, by default the run's
+    checkpoint storage) when they are there.
 
     Raises
     ------
@@ -116,56 +160,75 @@ def load_result(
     curve = ListOf(Real(low, high), cfg.lifelong.train_episodes, cfg.lifelong.train_episodes)
     series = {name: ListOf(c, len(tasks), len(tasks)) for name, c in LIFELONG_SERIES.items()}
     targets = [str(t) for t in range(stream.first_target, len(tasks))]
-    try:
-        for method, values in methods.items():
-            field = f"{path}: methods.{method}"
-            if not isinstance(values, dict):
-                raise ValueError(f"{field} must be an object")
-            lifelong = isinstance(METHODS.get(method), LifelongMethod)
-            check_keys(field, values, ("curves", *series) if lifelong else ("curves",))
-            if not isinstance(values["curves"], dict) or sorted(values["curves"]) != targets:
-                raise ValueError(f"{field}.curves must have the targets {targets} as keys")
-            check_fields(f"{field}.curves", values["curves"], dict.fromkeys(targets, curve),
-                         dict.get)
-            if lifelong:
-                check_fields(field, values, series, dict.get)
-                checkpoints = RunFolder(path.parents[2]).checkpoints(seed, stream_index, method)
-                _check_against_checkpoint(checkpoints, values, stream, field)
-    except ValueError as exc:
-        raise ValueError(f"{exc}; {hint}") from exc
+    with contextlib.ExitStack() as stack:
+        if store is None:
+            store = checkpoint_store(cfg, path.parents[2])
+            stack.callback(store.close)
+        try:
+            for method, values in methods.items():
+                field = f"{path}: methods.{method}"
+                if not isinstance(values, dict):
+                    raise ValueError(f"{field} must be an object")
+                lifelong = isinstance(METHODS.get(method), LifelongMethod)
+                check_keys(field, values, ("curves", *series) if lifelong else ("curves",))
+                if not isinstance(values["curves"], dict) or \
+                        sorted(values["curves"]) != sorted(targets):
+                    raise ValueError(f"{field}.curves must have the targets {targets} as keys")
+                check_fields(f"{field}.curves", values["curves"],
+                             dict.fromkeys(targets, curve), dict.get)
+                if lifelong:
+                    check_fields(field, values, series, dict.get)
+                    _check_against_checkpoint(store, seed, stream_index, method, values,
+                                              stream, field)
+        except ValueError as exc:
+            raise ValueError(f"{exc}; {hint}") from exc
     return result
 
 
 def _check_against_checkpoint(
-    directory: Path, values: dict[str, Any], stream: Stream, field: str
+    store: CheckpointStore, seed: int, stream_index: int, method: str,
+    values: dict[str, Any], stream: Stream, field: str,
 ) -> None:
-    """A lifelong method's result equals what its last checkpoint records (if kept)."""
-    if not (directory / "LATEST").exists():
+    """A lifelong method's result equals what its last checkpoints record (if kept)."""
+    records = stream_records(store, seed, stream_index, method, stream)
+    if records is None:
         return  # the checkpoints may be deleted once a job is done
-    _, _, records = read_state(latest_checkpoint(directory))
+    where = f"{store.location}/{checkpoint_key(seed, stream_index, method)}"
     if len(records) != len(stream.tasks):
         raise ValueError(
-            f"{field}: the job is done, but {directory} holds a checkpoint of "
+            f"{field}: the job is done, but {where} holds a checkpoint of "
             f"{len(records)} of its {len(stream.tasks)} trials"
         )
     mine = lifelong_entry(records, range(stream.first_target, len(stream.tasks)))
     diffs = json_differences(values, mine, field.split(": ")[-1])
     if diffs:
         raise ValueError(
-            f"{field} disagrees with the checkpoint in {directory} ({diffs[0]} in the result, "
+            f"{field} disagrees with the checkpoint in {where} ({diffs[0]} in the result, "
             "in the checkpoint)"
         )
 
 
+def checkpoint_store(cfg: ExperimentConfig, root: str | os.PathLike[str]) -> CheckpointStore:
+    """The checkpoint storage of a run of ``cfg`` whose run folder is ``root``."""
+    return open_store(cfg.storage) if cfg.storage is not None else LocalStore(root)
+
+
 def run_experiment(
-    cfg: ExperimentConfig, out_dir: str | os.PathLike[str], progress: bool = True
+    cfg: ExperimentConfig, out_dir: str | os.PathLike[str], progress: bool = True, *,
+    ray_address: str | None = None, on_done: Callable[[JobSpec, JobDone], None] | None = None,
 ) -> list[dict[str, Any]]:
     """Run (or resume) every job of ``cfg`` into ``out_dir``; return the job results.
+
+    With the Ray executor, ``ray_address`` (else ``RAY_ADDRESS``) names a cluster to
+    join; ``cfg.workers`` then bounds the jobs in flight. ``on_done`` is called here as
+    each job's ``result.json`` is written.
 
     Raises
     ------
     FolderInUseError
-        If another run is writing into ``out_dir``.
+        If another run is writing into ``out_dir`` or into its checkpoint storage path.
+    StorageError
+        If a job's node cannot reach the checkpoint storage, or another run claimed it.
     ValueError
         If ``out_dir`` is not a folder that can be written, holds a run of another
         configuration, or a file of it is damaged; a task's environment cannot be made.
@@ -178,18 +241,65 @@ def run_experiment(
         env = make_env(cfg.env_id, task)
         cfg.lifelong.learner.tile_coder(env.observation_space)  # widths that fit, at most
         env.close()  # MAX_WEIGHTS tiles: refused before config.json is written
+    folder = RunFolder(out)
+    jobs = [(seed, index, stream) for seed in cfg.seeds
+            for index, stream in enumerate(cfg.streams(seed))]
     # One run at a time writes into a folder: a second one gets a clear error rather than
     # mixing its configuration, checkpoints and results with the first one's.
-    with locked_folder(out, "run folder"):
+    with locked_folder(out, "run folder"), _storage(cfg, out) as (store, location):
         remove_stale_temporaries(out)
-        _write_or_check_config(cfg, RunFolder(out))
-        jobs = [
-            (cfg, seed, index, os.fspath(out))
-            for seed in cfg.seeds
-            for index in range(len(cfg.streams(seed)))
-        ]
-        executor = make_executor(cfg.executor, cfg.workers, progress)
-        return executor.map(run_stream, jobs, desc=f"protocol {cfg.protocol}")
+        _write_or_check_config(cfg, folder)
+        results: dict[int, dict[str, Any]] = {}
+        for i, (seed, index, stream) in enumerate(jobs):
+            if folder.job(seed, index).is_dir():  # stale: this run holds the lock
+                remove_stale_temporaries(folder.job(seed, index))
+            if folder.result(seed, index).exists():
+                results[i] = load_result(folder.result(seed, index), cfg, seed, index, stream,
+                                         store)
+        todo = [i for i in range(len(jobs)) if i not in results]
+        # A storage that is not this process's own run folder is claimed: a job that
+        # cannot reach it, or finds another run's claim, stops with an error saying so.
+        claim = cfg.executor == "ray" or location != os.fspath(out.resolve())
+        token = store.claim(os.fspath(out.resolve())) if claim and todo else None
+        specs = [JobSpec(cfg, jobs[i][0], jobs[i][1], location, token) for i in todo]
+
+        def write(k: int, done: JobDone) -> None:
+            seed, index, _ = jobs[todo[k]]
+            folder.job(seed, index).mkdir(parents=True, exist_ok=True)
+            atomic_write_bytes(folder.result(seed, index), json_record_bytes(done.result))
+            results[todo[k]] = done.result
+            if on_done is not None:
+                on_done(specs[k], done)
+
+        if specs:
+            executor = make_executor(cfg.executor, cfg.workers, progress, ray_address)
+            executor.map(run_stream, specs, desc=f"protocol {cfg.protocol}", done=write)
+    return [results[i] for i in range(len(jobs))]
+
+
+@contextlib.contextmanager
+def _storage(cfg: ExperimentConfig, out: Path) -> Iterator[tuple[CheckpointStore, str]]:
+    """The run's checkpoint storage and its location as jobs get it (an absolute path or
+    a URI); a path other than the run folder is held locked, as the run folder is."""
+    location = os.fspath(out.resolve()) if cfg.storage is None else cfg.storage
+    if not is_uri(location):
+        location = os.path.abspath(location)
+        if Path(location).resolve() == out.resolve():
+            location = os.fspath(out.resolve())
+    store = open_store(location)
+    try:
+        if isinstance(store, LocalStore) and location != os.fspath(out.resolve()):
+            try:
+                store.root.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise ValueError(f"{location}: cannot create the checkpoint storage "
+                                 f"({exc.strerror})") from exc
+            with locked_folder(store.root, "checkpoint storage"):
+                yield store, location
+        else:
+            yield store, location
+    finally:
+        store.close()
 
 
 def check_out_dir(out_dir: str | os.PathLike[str]) -> Path:

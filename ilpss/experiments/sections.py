@@ -18,7 +18,7 @@ import numpy as np
 from ilpss import metrics
 from ilpss._io import atomic_write_bytes
 from ilpss.experiments.config import ExperimentConfig
-from ilpss.experiments.folder import RunFolder
+from ilpss.experiments.folder import checkpoint_key
 from ilpss.experiments.methods import METHODS, LifelongMethod
 from ilpss.experiments.protocols import Protocol
 from ilpss.experiments.report import (
@@ -26,9 +26,13 @@ from ilpss.experiments.report import (
     PRIMARY,
     collect,
     comparable,
+    compare_to_scratch,
+    comparison_head,
+    comparison_row,
     interval_text,
     label,
     library_sizes,
+    per_target_curves,
     plot_held_out_panels,
     pooled_lines,
     protocol_c_lines,
@@ -36,7 +40,9 @@ from ilpss.experiments.report import (
     stream_jumpstarts,
     stream_trend,
     structure_b,
+    structure_targets,
     target_curves,
+    target_tables,
     trend_line,
     verdict_lines,
     windows,
@@ -64,9 +70,12 @@ def report_section(
 
 
 def section_a(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Path) -> list[str]:
-    """Protocol A: curves, verdicts, diagnostics, full metric tables, kernels and GIF."""
+    """Protocol A: curves, verdicts, diagnostics, full metric tables, kernels and GIF
+    (with several targets: :func:`section_a_targets`)."""
     table = collect(results)
     ((stream, methods),) = table.items()
+    if len(next(iter(methods.values()))) > 1:
+        return section_a_targets(cfg, results, folder, docs)
     curves = target_curves(methods)
     figure = docs / "figures" / "protocol_a_curves.png"
     atomic_write_bytes(figure, (folder / "curves_00.png").read_bytes())
@@ -83,24 +92,56 @@ def section_a(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Pa
     return lines + kernels_and_gif(cfg, folder, docs)
 
 
+def section_a_targets(
+    cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Path
+) -> list[str]:
+    """Protocol A with several targets: the curves against each, the primary verdicts
+    pooled over the targets with a descriptive table per method, diagnostics, the
+    kernels and a GIF against the first target."""
+    ((_, methods),) = collect(results).items()
+    names = results[0]["tasks"]
+    per_target = per_target_curves(methods)
+    lines = []
+    for t in per_target:
+        figure = docs / "figures" / f"protocol_a_curves_{t:02d}.png"
+        atomic_write_bytes(figure, (folder / f"curves_00_{t:02d}.png").read_bytes())
+        lines += [f"![protocol A learning curves against {names[t]}](figures/{figure.name})", ""]
+    if not all(comparable(c) for c in per_target.values()):
+        return [*lines, "Transfer metrics need at least 2 seeds.", "",
+                *diagnostics(cfg, results), *kernels_and_gif(cfg, folder, docs)]
+    profiles = docs / "figures" / "protocol_a_profiles.png"
+    estimates = {t: compare_to_scratch(c) for t, c in per_target.items()}
+    lines += [structure_targets(len(per_target)), "", "### Verdicts", "",
+              *pooled_lines(list(per_target.values()), cfg.lifelong.train_episodes,
+                            f"the {len(per_target)} targets", profiles,
+                            f"figures/{profiles.name}"),
+              *target_tables(estimates, names)]
+    return [*lines, *diagnostics(cfg, results), *kernels_and_gif(cfg, folder, docs)]
+
+
 def diagnostics(cfg: ExperimentConfig, results: list[dict]) -> list[str]:
     """Protocol A: per lifelong method, the greedy rollouts' success on every trial, and
-    the options offered and used against the held-out team, mean over seeds."""
-    tasks, target = results[0]["tasks"], results[0]["first_target"]
+    the options offered and used against the held-out team (each target), mean over
+    seeds."""
+    tasks, first = results[0]["tasks"], results[0]["first_target"]
+    targets = range(first, len(tasks))
     lifelong = [m for m in cfg.methods if isinstance(METHODS.get(m), LifelongMethod)]
-    head = ["method", *(f"rollout success vs `{t}`" for t in tasks),
-            "options offered at the target", "options used at the target",
-            "options active after the target"]
+    at = (["options offered at the target", "options used at the target",
+           "options active after the target"] if len(targets) == 1 else
+          [f"options offered / used / active at `{tasks[t]}`" for t in targets])
+    head = ["method", *(f"rollout success vs `{t}`" for t in tasks), *at]
     rows = ["| " + " | ".join(head) + " |", "|---|" + "---:|" * (len(head) - 1)]
     for method in lifelong:
         def mean(key: str, m: str = method) -> np.ndarray:
             return np.mean([r["methods"][m][key] for r in results], axis=0)
         success = mean("rollout_success_rate")
+        offered, used, active = mean("options_offered"), mean("options_used"), \
+            mean("library_size")
+        cells = ([f"{offered[first]:.1f}", f"{used[first]:.1f}", f"{active[first]:.1f}"]
+                 if len(targets) == 1 else
+                 [f"{offered[t]:.1f} / {used[t]:.1f} / {active[t]:.1f}" for t in targets])
         rows.append("| " + " | ".join([
-            label(method), *(f"{100 * s:.0f} %" for s in success),
-            f"{mean('options_offered')[target]:.1f}", f"{mean('options_used')[target]:.1f}",
-            f"{mean('library_size')[target]:.1f}",
-        ]) + " |")
+            label(method), *(f"{100 * s:.0f} %" for s in success), *cells]) + " |")
     return [
         "### Diagnostics", "",
         f"Means over {len(results)} seeds. Rollout success: share of the "
@@ -126,13 +167,24 @@ def kernels_and_gif(cfg: ExperimentConfig, folder: Path, docs: Path) -> list[str
         plot_kernels_on_field,
         write_agent_gif,
     )
-    from ilpss.lifelong import LifelongLearner
+    from ilpss.experiments.run import checkpoint_store
 
-    held_out = cfg.teams[-1]
+    (stream,) = cfg.streams(cfg.first_seed)
+    held_out = stream.tasks[stream.first_target].name
+    several = len(stream.tasks) - stream.first_target > 1
     seed = cfg.first_seed
     env = gym.make(cfg.env_id, opponent=held_out, disable_env_checker=True)
-    learner = LifelongLearner.load(RunFolder(folder).checkpoints(seed, 0, "ilpss"),
-                                   env.observation_space)
+    key = checkpoint_key(seed, 0, "ilpss", stream.first_target if several else None)
+    store = checkpoint_store(cfg, folder)
+    try:
+        learner = store.restore(key, env.observation_space)
+    finally:
+        store.close()
+    if learner is None:
+        env.close()
+        return ["### The kernels and the agent", "",
+                f"Seed {seed}'s ILPSS checkpoint is not kept ({store.location}/{key}), so "
+                "there is no kernel picture or GIF.", ""]
     lines = ["### The kernels and the agent", ""]
     if learner.kernel_model is not None:
         kernels = plot_kernels_on_field(learner, docs / "figures" / "protocol_a_kernels.png")
@@ -197,26 +249,13 @@ def section_b(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Pa
     n = len(table)
     for method in compared:
         lines += [f"### {label(method)} vs learning anew, per stream "
-                  "(descriptive)", "",
-                  "| stream | jumpstart [95% CI] | total-reward gain [95% CI] | final "
-                  "performance gain [95% CI] | time to threshold ratio [95% CI] | seeds "
-                  "reaching the threshold (method, anew) |", "|---|---:|---:|---:|---:|---:|"]
+                  "(descriptive)", "", *comparison_head("stream")]
         for stream in table:
-            lines.append(_row(stream, per_stream[stream][method]))
+            lines.append(comparison_row(stream, per_stream[stream][method]))
         lines.append("")
     lines.append(f"Unadjusted 95% intervals over the {cfg.n_seeds} seeds of each of the {n} "
                  "streams; the pooled rows are the verdicts above.")
     return [*lines, ""]
-
-
-def _row(name: str, est: dict) -> str:
-    n = est["jumpstart"].n
-    reached = (f"{round(est['threshold_reached_transfer'].value * n)}/{n}, "
-               f"{round(est['threshold_reached_baseline'].value * n)}/{n}")
-    return (f"| {name} | {interval_text(est['jumpstart'], '+.3f')} | "
-            f"{interval_text(est['total_reward_gain'], '+.1f')} | "
-            f"{interval_text(est['final_gain'], '+.3f')} | "
-            f"{interval_text(est['time_to_threshold_ratio'], '.2f')} | {reached} |")
 
 
 def discounting_lines(methods: dict[str, dict[int, np.ndarray]], targets: list[int],
