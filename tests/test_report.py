@@ -9,6 +9,8 @@ from ilpss import metrics
 from ilpss.experiments.report import (
     compare_to_scratch,
     holm_primary,
+    success_lines,
+    success_rates,
     stream_trend,
     structure_b,
     verdict,
@@ -109,3 +111,23 @@ def test_protocol_c_trend_is_one_test_with_seeds_as_clusters():
     flat = {"scratch": scratch, "ilpss": {t: _curves(rng) for t in targets}}
     _, low, high, _, _ = stream_trend(flat)
     assert low < 0 < high
+
+
+def _result(seed, tasks, curves):
+    return {"seed": seed, "stream": "s", "stream_index": 0, "tasks": tasks,
+            "methods": {m: {"curves": {"1": list(c)}} for m, c in curves.items()}}
+
+
+def test_success_rates_count_successes_early_and_late_per_target():
+    # 60 episodes: the first 20 and the last 50 (both windows shortened to the curve).
+    early_then_late = np.r_[np.full(10, 0.6), np.full(50, -1.0)]  # 10 wins, all early
+    anew = np.r_[np.full(30, -1.0), np.full(30, 0.5)]  # wins only from episode 31
+    results = [_result(seed, ["a", "held"], {"scratch": anew, "ilpss": early_then_late})
+               for seed in range(3)]
+    lines = success_lines(results)
+    (row,) = [line for line in lines if line.startswith("| s |")]
+    assert row == "| s | `held` | 0 % -> 60 % | 50 % -> 0 % |"
+    assert success_rates(np.vstack([anew, early_then_late])) == (0.25, 0.3)
+    # Opponents drawn per seed: the row names the task index, not one seed's team.
+    results[1]["tasks"] = ["a", "other"]
+    assert "opponent 1 (drawn per seed)" in "\n".join(success_lines(results))

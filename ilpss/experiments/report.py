@@ -497,9 +497,51 @@ def write_report(
         "",
     ]
     lines += PROTOCOLS.get(cfg.protocol).report(cfg, results, out)
+    lines += success_lines(results)
     path = out / "report.md"
     atomic_write_bytes(path, "\n".join(lines).encode())
     return path
+
+
+def success_rates(curves: np.ndarray) -> tuple[float, float]:
+    """Share of successful episodes (reward above 0: the drill pays at least 0.5 for a
+    success and -1 otherwise) over the first and over the last episodes of
+    :func:`windows`, pooled over the seeds of ``curves`` (n_seeds, episodes)."""
+    first, last, _ = windows(curves.shape[1])
+    won = curves > 0
+    return float(won[:, :first].mean()), float(won[:, -last:].mean())
+
+
+def success_lines(results: list[dict[str, Any]]) -> list[str]:
+    """Per target (stream and task) and method, the success rate early and late in
+    learning it: the reward curves say how well, this says how often."""
+    table = collect(results)
+    names: dict[str, set[tuple[str, ...]]] = defaultdict(set)
+    for res in results:
+        names[res["stream"]].add(tuple(res["tasks"]))
+    methods = list(next(iter(table.values())))
+    rows, episodes = [], 0
+    for stream, by_method in table.items():
+        (tasks,) = names[stream] if len(names[stream]) == 1 else (None,)
+        for t in sorted(next(iter(by_method.values()))):
+            cells = []
+            for m in methods:
+                curves = by_method.get(m, {}).get(t)
+                if curves is None:
+                    cells.append("-")
+                    continue
+                early, late = success_rates(curves)
+                episodes = curves.shape[1]
+                cells.append(f"{100 * early:.0f} % -> {100 * late:.0f} %")
+            # Protocol C draws each seed's opponents: a task index names no one team.
+            target = f"`{tasks[t]}`" if tasks else f"opponent {t} (drawn per seed)"
+            rows.append(f"| {stream} | {target} | " + " | ".join(cells) + " |")
+    first, last, _ = windows(episodes)
+    return ["## Success rate on each target (descriptive)", "",
+            f"Share of episodes that end in a success, over the first {first} and the last "
+            f"{last} episodes of learning the target, all seeds pooled (first -> last).", "",
+            "| stream | target | " + " | ".join(label(m) for m in methods) + " |",
+            "|---|---|" + "---:|" * len(methods), *rows, ""]
 
 
 def held_out_sections(
