@@ -45,13 +45,13 @@ PAGE = {
           "methods": ("ilpss", "scratch", "whole_policies", "prq", "ilpss_plus")},
     "C": {"stream_length": "stream_length",
           "methods": ("ilpss", "scratch", "whole_policies", "prq", "ilpss_plus",
-                      "whole_policies_plus", "ilpss_no_discount", "ilpss_plus_no_discount")},
+                      "ilpss_plus_no_discount")},
 }
 """The protocols of the page, in its order, and the fields of each configuration that the
-page sets: from the named argument, or to the given value. Protocol C also runs ILPSS and
-ILPSS+ without option discounting, to measure what discounting costs; protocol B, the
-longest (80 jobs), leaves out whole policies at ILPSS+'s settings, the ablation that A and
-C measure. Everything else is ``ExperimentConfig``'s default."""
+page sets: from the named argument, or to the given value. Protocol C also runs ILPSS+
+without option discounting, to measure what discounting costs; B and C leave out whole
+policies at ILPSS+'s settings, the ablation that A measures (B and C are the long ones).
+Everything else is ``ExperimentConfig``'s default."""
 PROTOCOLS = tuple(PAGE)
 DEFAULT_RUNS, DEFAULT_DOCS = "results", "docs"
 
