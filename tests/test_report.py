@@ -9,10 +9,10 @@ from ilpss import metrics
 from ilpss.experiments.report import (
     compare_to_scratch,
     holm_primary,
-    success_lines,
-    success_rates,
     stream_trend,
     structure_b,
+    success_lines,
+    success_rates,
     verdict,
     verdict_lines,
 )
