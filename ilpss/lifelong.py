@@ -223,7 +223,7 @@ def handing_back(config: LifelongConfig) -> LifelongConfig:
     are followed first and hand control back to the primitives as these learn.
 
     Every change is a switch whose default is the paper's; this is where they are set
-    together (``docs/discussion.md`` measures each alone and all together):
+    together (``docs/discussion.md`` records how they were chosen and what they give):
 
     ==========================================  =========  ==========  ======================
     setting                                     the paper  ILPSS+      why
