@@ -69,7 +69,7 @@ def test_commands_are_written_only_when_they_reproduce_the_configuration():
     args = parser().parse_args(["--seeds-a", "3", "--episodes", "7"])
     a, c = protocol_config("A", args), protocol_config("C", args)
     assert c.methods == ("ilpss", "scratch", "whole_policies", "prq", "ilpss_plus",
-                         "ilpss_plus_no_discount")
+                         "whole_policies_plus", "ilpss_plus_no_discount")
     assert a.lifelong.learner == ExperimentConfig().lifelong.learner  # defaults, not flags
     rollouts = ExperimentConfig().lifelong.rollout_episodes
     assert command_for({"A": a}, "results", "docs") == (

@@ -41,17 +41,15 @@ from ilpss.experiments.run import load_result, read_config, run_experiment
 
 PAGE = {
     "A": {"teams": "teams", "targets": "targets"},
-    "B": {"teams": "teams", "n_shuffles": "shuffles",
-          "methods": ("ilpss", "scratch", "whole_policies", "prq", "ilpss_plus")},
+    "B": {"teams": "teams", "n_shuffles": "shuffles"},
     "C": {"stream_length": "stream_length",
           "methods": ("ilpss", "scratch", "whole_policies", "prq", "ilpss_plus",
-                      "ilpss_plus_no_discount")},
+                      "whole_policies_plus", "ilpss_plus_no_discount")},
 }
 """The protocols of the page, in its order, and the fields of each configuration that the
 page sets: from the named argument, or to the given value. Protocol C also runs ILPSS+
-without option discounting, to measure what discounting costs; B and C leave out whole
-policies at ILPSS+'s settings, the ablation that A measures (B and C are the long ones).
-Everything else is ``ExperimentConfig``'s default."""
+without option discounting, to measure what discounting costs. Everything else is
+``ExperimentConfig``'s default."""
 PROTOCOLS = tuple(PAGE)
 DEFAULT_RUNS, DEFAULT_DOCS = "results", "docs"
 
