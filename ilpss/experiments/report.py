@@ -622,16 +622,24 @@ def several_targets_sections(
                                     "profiles.png"),
                   *target_tables(estimates, names)]
     for t, curves in per_target.items():
-        fig = _figure(curves, out / f"curves_00_{t:02d}.png",
-                      f"{names[t]}: learning against the held-out opponent")
-        lines += [f"## Target `{names[t]}`", "", f"![learning curves]({fig.name})", ""]
-        if not comparable(curves):
-            lines += ["Transfer metrics need learning anew on at least 2 seeds.", ""]
-            continue
-        for method, est in compare_to_scratch(curves).items():
-            lines += [f"### {label(method)} vs learning anew", "",
-                      f"Descriptive (one target, unadjusted): {verdict(est)}.", "",
-                      metrics.format_metrics_markdown(est), ""]
+        lines += descriptive_lines(curves, out / f"curves_00_{t:02d}.png",
+                                   f"{names[t]}: learning against the held-out opponent",
+                                   f"Target `{names[t]}`", "one target, unadjusted")
+    return lines
+
+
+def descriptive_lines(curves: dict[str, np.ndarray], figure: Path, title: str, heading: str,
+                      scope: str) -> list[str]:
+    """One comparison's section: its curves (written to ``figure``) and, per method, the
+    verdict and every metric against learning anew, marked descriptive (``scope``)."""
+    fig = _figure(curves, figure, title)
+    lines = [f"## {heading}", "", f"![learning curves]({fig.name})", ""]
+    if not comparable(curves):
+        return [*lines, "Transfer metrics need learning anew on at least 2 seeds.", ""]
+    for method, est in compare_to_scratch(curves).items():
+        lines += [f"### {label(method)} vs learning anew", "",
+                  f"Descriptive ({scope}): {verdict(est)}.", "",
+                  metrics.format_metrics_markdown(est), ""]
     return lines
 
 
@@ -692,16 +700,9 @@ def target_sections(
     for s, (stream, methods) in enumerate(collect(results).items()):
         for t in sorted(next(iter(methods.values()))):
             curves = {m: by_task[t] for m, by_task in methods.items()}
-            fig = _figure(curves, out / f"curves_{s:02d}_{t:02d}.png",
-                          f"{stream}: learning on task {t}")
-            lines += [f"## {stream}, task {t}", "", f"![learning curves]({fig.name})", ""]
-            if not comparable(curves):
-                lines += ["Transfer metrics need learning anew on at least 2 seeds.", ""]
-                continue
-            for method, est in compare_to_scratch(curves).items():
-                lines += [f"### {label(method)} vs learning anew", "",
-                          f"Descriptive (unadjusted): {verdict(est)}.", "",
-                          metrics.format_metrics_markdown(est), ""]
+            lines += descriptive_lines(curves, out / f"curves_{s:02d}_{t:02d}.png",
+                                       f"{stream}: learning on task {t}",
+                                       f"{stream}, task {t}", "unadjusted")
     return lines
 
 
