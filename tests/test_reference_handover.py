@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import json
 import sys
-import tempfile
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -27,7 +26,7 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from synthetic_smdp import ZoneCorridor
-from test_reference_runs import _array_digests, _json, _lifelong, _same
+from test_reference_runs import _array_digests, _json, _lifelong, _same, record
 
 FIXTURE = Path(__file__).resolve().parent / "data" / "reference_handover.json"
 HANDOVER_LEARNER = {
@@ -119,18 +118,7 @@ def test_a_short_protocol_a_with_the_handover_switches_is_unchanged(tmp_path):
     _same(_json(drill_run(tmp_path)), _recorded()["drill"], "drill")
 
 
-def record() -> None:
-    """Write the fixture from the code as it is."""
-    with tempfile.TemporaryDirectory() as tmp:
-        synthetic, longest = synthetic_run(Path(tmp) / "synthetic")
-        assert longest >= 2, f"no option pointer was followed (longest chain {longest})"
-        data = {"synthetic": synthetic, "drill": drill_run(Path(tmp) / "drill")}
-    FIXTURE.parent.mkdir(exist_ok=True)
-    FIXTURE.write_text(json.dumps(_json(data), indent=1, sort_keys=True) + "\n")
-    print(f"wrote {FIXTURE} ({FIXTURE.stat().st_size:,} bytes); longest pointer chain {longest}")
-
-
 if __name__ == "__main__":
     if sys.argv[1:] != ["--record"]:
         raise SystemExit("usage: python tests/test_reference_handover.py --record")
-    record()
+    record(FIXTURE, synthetic_run, drill_run)

@@ -188,15 +188,17 @@ def test_a_short_protocol_a_on_the_drill_is_unchanged(tmp_path):
     _same(_json(drill_run(tmp_path)), _recorded()["drill"], "drill")
 
 
-def record() -> None:
-    """Write the fixture from the code as it is."""
+def record(fixture: Path = FIXTURE, synthetic: Any = None, drill: Any = None) -> None:
+    """Write ``fixture`` from the code as it is: the runs of ``synthetic`` and ``drill``
+    (by default this file's)."""
+    synthetic, drill = synthetic or synthetic_run, drill or drill_run
     with tempfile.TemporaryDirectory() as tmp:
-        synthetic, longest = synthetic_run(Path(tmp) / "synthetic")
+        runs, longest = synthetic(Path(tmp) / "synthetic")
         assert longest >= 2, f"no option pointer was followed (longest chain {longest})"
-        data = {"synthetic": synthetic, "drill": drill_run(Path(tmp) / "drill")}
-    FIXTURE.parent.mkdir(exist_ok=True)
-    FIXTURE.write_text(json.dumps(_json(data), indent=1, sort_keys=True) + "\n")
-    print(f"wrote {FIXTURE} ({FIXTURE.stat().st_size:,} bytes); longest pointer chain {longest}")
+        data = {"synthetic": runs, "drill": drill(Path(tmp) / "drill")}
+    fixture.parent.mkdir(exist_ok=True)
+    fixture.write_text(json.dumps(_json(data), indent=1, sort_keys=True) + "\n")
+    print(f"wrote {fixture} ({fixture.stat().st_size:,} bytes); longest pointer chain {longest}")
 
 
 if __name__ == "__main__":
