@@ -338,6 +338,14 @@ class LinearPolicy(_LinearQ):
         """
         self._by_tile[active, choice] += step
 
+    def add_at(self, tiles: np.ndarray, choices: np.ndarray, steps: np.ndarray) -> None:
+        """Add ``steps[i]`` to the weight of choice ``choices[i]`` at tile ``tiles[i]``.
+
+        The (tile, choice) pairs must be unique, so that each weight gets one addition
+        (exact, as :meth:`update` on each pair would be).
+        """
+        self._by_tile[tiles, choices] += steps
+
     def value(self, active: np.ndarray, choice: int) -> float:
         """``Q(s, choice)`` from the active tiles of ``s`` (one choice of
         :meth:`q_from_tiles`, the same number)."""
