@@ -79,7 +79,7 @@ from scipy.optimize import linear_sum_assignment
 
 from ilpss._check import Integer, NoneOr, Real, check_fields, from_json
 from ilpss._io import load_npz, save_npz_atomic
-from ilpss.policy import FrozenPolicy, greedy_choice
+from ilpss.policy import FrozenPolicy
 from ilpss.tiles import TileCoder
 
 __all__ = [
@@ -676,11 +676,10 @@ class OptionLibrary:
             active = tiles.get(pol.tile_coder)
             if active is None:
                 active = tiles[pol.tile_coder] = pol.tile_coder.active(x)
-            q = pol.q_from_tiles(active)
             if depth == max_depth:
                 # At the bound: best primitive of this policy.
-                return greedy_choice(q[: pol.n_primitive], rng), tuple(path)
-            c = greedy_choice(q, rng)
+                return pol.greedy_from_tiles(active, rng, primitive_only=True), tuple(path)
+            c = pol.greedy_from_tiles(active, rng)
             if c < pol.n_primitive:
                 return c, tuple(path)
             pid = self.policy_of(pol.option_ids[c - pol.n_primitive])
