@@ -572,6 +572,8 @@ class OptionLibrary:
                 f"kernel_model.membership returned {m.size} values for one state, "
                 f"expected {self.n_kernels}"
             )
+        if 0.0 <= m.min() and m.max() <= 1.0:  # what np.clip would return, and cheaper
+            return m.copy()
         if not np.isfinite(m).all():
             raise ValueError("kernel_model.membership returned NaN or infinity")
         return np.clip(m, 0.0, 1.0)
@@ -619,7 +621,10 @@ class OptionLibrary:
         """:meth:`continuation_probabilities` of active option ``option_id`` at ``state``."""
         j = self.position(option_id)
         m = self.membership(state) if membership is None else membership
-        return float(self.continuation_probabilities(m)[j])
+        # Of one kernel only, as continuation_probabilities computes it.
+        value = float(m[self.option_kernel[j]])
+        e = self.settings.continuation_exponent
+        return value if e == 1.0 else value**e
 
     def continues(
         self,
