@@ -214,6 +214,10 @@ class _LinearQ:
         bit for bit the same as ``np.take(weights, active, axis=1).sum(axis=1)``,
         whichever choices are asked for.
         """
+        if choices is not None and 4 * len(choices) <= self.n_choices:
+            # A few choices: read only their weights, straight into one row per choice.
+            flat = active * self.n_choices + np.asarray(choices)[:, None]
+            return np.take(self._by_tile.reshape(-1), flat).sum(axis=1)
         by_tile = np.take(self._by_tile, active, axis=0)  # (n_active, n_choices)
         if choices is not None:
             by_tile = by_tile[:, choices]
