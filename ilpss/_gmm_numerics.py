@@ -90,15 +90,26 @@ def sq_mahalanobis(
     has it already (a fitted model keeps it: it matters when scoring single states).
     """
     p_all, b, block_sum = stack_components(means, prec_chol) if stacked is None else stacked
-    out = np.empty((Z.shape[0], means.shape[0]))
-    for start in range(0, Z.shape[0], CHUNK):
-        y = Z[start : start + CHUNK] @ p_all
-        y -= b
-        np.square(y, out=y)
-        np.matmul(y, block_sum, out=out[start : start + CHUNK])
+    if Z.shape[0] <= CHUNK:  # one block (a learner asks for one state at every decision)
+        out = _block_sq_mahalanobis(Z, p_all, b, block_sum)
+    else:
+        out = np.empty((Z.shape[0], means.shape[0]))
+        for start in range(0, Z.shape[0], CHUNK):
+            out[start : start + CHUNK] = _block_sq_mahalanobis(Z[start : start + CHUNK],
+                                                               p_all, b, block_sum)
     # A NaN here only comes from an overflow (inf * 0 in the block sum, inf - inf): the
     # distance is beyond float64, so it is +inf. fmin(x, inf) is x for every other value.
     return np.fmin(out, np.inf, out=out)
+
+
+def _block_sq_mahalanobis(
+    Z: Array, p_all: Array, b: Array, block_sum: Array
+) -> Array:
+    """:func:`sq_mahalanobis` of at most :data:`CHUNK` rows, before the overflow fix."""
+    y = Z @ p_all
+    y -= b
+    np.square(y, out=y)
+    return y @ block_sum
 
 
 def _log_det_half(prec_chol: Array) -> Array:

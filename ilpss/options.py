@@ -79,7 +79,7 @@ from scipy.optimize import linear_sum_assignment
 
 from ilpss._check import Integer, NoneOr, Real, check_fields, from_json
 from ilpss._io import load_npz, save_npz_atomic
-from ilpss.policy import FrozenPolicy, greedy_choice
+from ilpss.policy import FrozenPolicy
 from ilpss.tiles import TileCoder
 
 __all__ = [
@@ -572,6 +572,8 @@ class OptionLibrary:
                 f"kernel_model.membership returned {m.size} values for one state, "
                 f"expected {self.n_kernels}"
             )
+        if 0.0 <= m.min() and m.max() <= 1.0:  # what np.clip would return, and cheaper
+            return m.copy()
         if not np.isfinite(m).all():
             raise ValueError("kernel_model.membership returned NaN or infinity")
         return np.clip(m, 0.0, 1.0)
@@ -619,7 +621,10 @@ class OptionLibrary:
         """:meth:`continuation_probabilities` of active option ``option_id`` at ``state``."""
         j = self.position(option_id)
         m = self.membership(state) if membership is None else membership
-        return float(self.continuation_probabilities(m)[j])
+        # Of one kernel only, as continuation_probabilities computes it.
+        value = float(m[self.option_kernel[j]])
+        e = self.settings.continuation_exponent
+        return value if e == 1.0 else value**e
 
     def continues(
         self,
@@ -676,11 +681,10 @@ class OptionLibrary:
             active = tiles.get(pol.tile_coder)
             if active is None:
                 active = tiles[pol.tile_coder] = pol.tile_coder.active(x)
-            q = pol.q_from_tiles(active)
             if depth == max_depth:
                 # At the bound: best primitive of this policy.
-                return greedy_choice(q[: pol.n_primitive], rng), tuple(path)
-            c = greedy_choice(q, rng)
+                return pol.greedy_from_tiles(active, rng, primitive_only=True), tuple(path)
+            c = pol.greedy_from_tiles(active, rng)
             if c < pol.n_primitive:
                 return c, tuple(path)
             pid = self.policy_of(pol.option_ids[c - pol.n_primitive])

@@ -95,6 +95,21 @@ def _check_option_ids(option_ids: Sequence[int] | np.ndarray) -> tuple[int, ...]
     return out
 
 
+def _sum_gap(n: int, bound: float) -> float | None:
+    """The largest difference between two float64 sums of the same ``n`` numbers of
+    magnitude at most ``bound``, added in any two orders (``None`` if a sum may overflow).
+
+    Any order is within ``gamma_n * n * bound`` of the exact sum, with
+    ``gamma_n = n u / (1 - n u)`` and ``u = 2 ** -53`` (Higham, *Accuracy and Stability
+    of Numerical Algorithms*, section 4.2).
+    """
+    total = n * bound
+    if not total < 1e300:
+        return None
+    u = 2.0**-53
+    return 2.0 * n * u / (1.0 - n * u) * total
+
+
 class _LinearQ:
     """Shared read-only behaviour of mutable and frozen linear action values."""
 
@@ -199,12 +214,46 @@ class _LinearQ:
         bit for bit the same as ``np.take(weights, active, axis=1).sum(axis=1)``,
         whichever choices are asked for.
         """
+        if choices is not None and 4 * len(choices) <= self.n_choices:
+            # A few choices: read only their weights, straight into one row per choice.
+            flat = active * self.n_choices + np.asarray(choices)[:, None]
+            return np.take(self._by_tile.reshape(-1), flat).sum(axis=1)
         by_tile = np.take(self._by_tile, active, axis=0)  # (n_active, n_choices)
         if choices is not None:
             by_tile = by_tile[:, choices]
         # One contiguous row per choice, as np.take(weights, active, axis=1) gives: the
         # same reduction over the same numbers in the same order.
         return np.ascontiguousarray(by_tile.T).sum(axis=1)
+
+    def greedy_from_tiles(
+        self, active: np.ndarray, rng: np.random.Generator, primitive_only: bool = False
+    ) -> int:
+        """:func:`greedy_choice` of :meth:`q_from_tiles` (of the primitives only if
+        ``primitive_only``): the same choice, with the same draws from ``rng``.
+
+        Only the choices that may be the best are summed exactly. A sum of the same
+        numbers in another order (a matrix-vector product, much cheaper) is within
+        ``gap`` of each exact value (:func:`_sum_gap`), so every choice whose exact value
+        is the largest has a rough sum within ``2 gap`` of the largest rough sum; when one
+        choice alone does, it is the greedy choice, with no tie to break.
+        """
+        by_tile = np.take(self._by_tile, active, axis=0)  # (n_active, n_choices)
+        if primitive_only:
+            by_tile = by_tile[:, : self.n_primitive]
+        gap = _sum_gap(active.shape[0], self._abs_bound(by_tile))
+        if gap is None:
+            return greedy_choice(np.ascontiguousarray(by_tile.T).sum(axis=1), rng)
+        rough = np.ones(active.shape[0]) @ by_tile
+        # 4 gaps rather than 2: room for the rounding of the subtraction.
+        near = np.flatnonzero(rough >= rough.max() - 4.0 * gap)
+        if near.shape[0] == 1:
+            return int(near[0])
+        exact = np.ascontiguousarray(by_tile[:, near].T).sum(axis=1)  # as q_from_tiles
+        return int(near[greedy_choice(exact, rng)])
+
+    def _abs_bound(self, by_tile: np.ndarray) -> float:
+        """A bound on the magnitude of the weights in ``by_tile``."""
+        return float(np.abs(by_tile).max())
 
     def q_values(self, state: np.ndarray) -> np.ndarray:
         """Action values of every choice at ``state``, shape (n_choices,)."""
@@ -338,6 +387,14 @@ class LinearPolicy(_LinearQ):
         """
         self._by_tile[active, choice] += step
 
+    def add_at(self, tiles: np.ndarray, choices: np.ndarray, steps: np.ndarray) -> None:
+        """Add ``steps[i]`` to the weight of choice ``choices[i]`` at tile ``tiles[i]``.
+
+        The (tile, choice) pairs must be unique, so that each weight gets one addition
+        (exact, as :meth:`update` on each pair would be).
+        """
+        self._by_tile[tiles, choices] += steps
+
     def value(self, active: np.ndarray, choice: int) -> float:
         """``Q(s, choice)`` from the active tiles of ``s`` (one choice of
         :meth:`q_from_tiles`, the same number)."""
@@ -370,12 +427,16 @@ class FrozenPolicy(_LinearQ):
     ) -> None:
         self._init(tile_coder, n_primitive, option_ids, weights, 0.0)
         self._by_tile.flags.writeable = False
+        self._abs_max = float(np.abs(self._by_tile).max())
         self._frozen = True
 
     def __setattr__(self, name: str, value: object) -> None:
         if getattr(self, "_frozen", False):
             raise AttributeError(f"FrozenPolicy is immutable; cannot set {name!r}")
         super().__setattr__(name, value)
+
+    def _abs_bound(self, by_tile: np.ndarray) -> float:
+        return self._abs_max  # the weights never change
 
     def freeze(self) -> FrozenPolicy:
         """Already frozen: returns ``self``."""

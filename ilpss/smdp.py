@@ -253,6 +253,7 @@ class SmdpLearner(EpisodicLearner):
         self._lib_version: tuple[int, int] | None = None
         self._lib_pos = np.zeros(0, dtype=np.int64)
         self._lib_ok = np.zeros(0, dtype=bool)
+        self._lib_any = self._lib_same = False
 
     # ---------------------------------------------------------------- helpers
     @classmethod
@@ -302,6 +303,10 @@ class SmdpLearner(EpisodicLearner):
         pos = lib.positions(self.option_ids)
         self._lib_ok = pos >= 0
         self._lib_pos = np.where(self._lib_ok, pos, 0)
+        self._lib_any = bool(self._lib_ok.any())
+        # Every option offered is the library's option at the same position (no
+        # pruning since): its availability is the library's, as it comes.
+        self._lib_same = bool(np.array_equal(pos, np.arange(len(lib))))
         self._lib_version = version
 
     def _choice_mask(
@@ -314,13 +319,25 @@ class SmdpLearner(EpisodicLearner):
         lib = self.library
         assert lib is not None
         self._sync_library()
-        if not self._lib_ok.any():  # every offered option was pruned or retired
+        if not self._lib_any:  # every offered option was pruned or retired
             mask[self.n_primitive :] = False
             return mask, membership
         m = lib.membership(state) if membership is None else membership
         avail = lib.available(state, self.rng, membership=m)
-        mask[self.n_primitive :] = self._lib_ok & avail[self._lib_pos]
+        mask[self.n_primitive :] = avail if self._lib_same else self._lib_ok & avail[self._lib_pos]
         return mask, m
+
+    def _choice_values(self, active: np.ndarray, mask: np.ndarray) -> np.ndarray:
+        """The values a choice point reads: those of the allowed choices (the others are
+        -inf and never read, as :meth:`_choose` and :meth:`_bootstrap` look at the
+        allowed ones only), or every value when a bonus is on, whose bootstrap may read
+        a value outside ``mask`` if every allowed one is -inf."""
+        if self._bonus or self.n_choices == self.n_primitive:
+            return self.q.q_from_tiles(active)
+        allowed = np.flatnonzero(mask)
+        q = np.full(self.n_choices, -np.inf)
+        q[allowed] = self.q.q_from_tiles(active, allowed)
+        return q
 
     def option_bonus_at(self, episode: int) -> float:
         """The options' bonus in learning episode ``episode`` (0-based) of this learner."""
@@ -444,7 +461,7 @@ class SmdpLearner(EpisodicLearner):
         traces = ReplacingTraces(self.q) if self.trace_decay > 0.0 else None
         active = self.tile_coder.active(s)
         mask, m = self._choice_mask(s)
-        choice, explored = self._choose(self.q.q_from_tiles(active), mask, epsilon)
+        choice, explored = self._choose(self._choice_values(active, mask), mask, epsilon)
         while True:  # one iteration per choice point: `choice` made at `s`
             log.choose(choice, explored)
             end = self._run_choice(env, log, choice, explored, s, active, m, learn)
@@ -452,8 +469,8 @@ class SmdpLearner(EpisodicLearner):
                 if learn:
                     self._td_update(traces, active, choice, end.ret, 0.0, True)
                 break
-            q = self.q.q_from_tiles(end.active)
             mask, m = self._choice_mask(end.state, end.membership)
+            q = self._choice_values(end.active, mask)
             next_choice, explored = self._choose(q, mask, epsilon)
             if learn:
                 target = end.ret + end.disc * self._bootstrap(q, mask, next_choice)

@@ -31,26 +31,33 @@ MIN_TRACE = 0.01
 class ReplacingTraces:
     """The eligibility traces of one episode over the weights of ``q``.
 
-    Kept sparse: for each choice with eligible tiles, those tiles and their
-    eligibilities (all of them at least :data:`MIN_TRACE`). The update touches only
-    eligible weights, with the numbers the dense rule gives: elsewhere it would add
-    ``step * delta * 0``, which changes no weight (only a weight of ``-0.0`` would
-    become ``+0.0``, and no update makes one); a non-finite ``step * delta`` is
-    applied densely, as the rule says.
+    Kept sparse: the eligible (tile, choice) pairs side by side in three flat arrays
+    (tiles, choices, eligibilities, all of these at least :data:`MIN_TRACE`), so that an
+    update costs the same few array operations however many choices hold eligible
+    tiles. The update touches only eligible weights, with the numbers the dense rule
+    gives: elsewhere it would add ``step * delta * 0``, which changes no weight (only a
+    weight of ``-0.0`` would become ``+0.0``, and no update makes one); a non-finite
+    ``step * delta`` is applied densely, as the rule says.
     """
 
     def __init__(self, q: LinearPolicy) -> None:
         self.q = q
-        # choice -> (tiles, eligibilities), for every choice with eligible tiles
-        self.rows: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+        self._tiles = np.zeros(0, dtype=np.int64)
+        self._choices = np.zeros(0, dtype=np.int64)
+        self._values = np.zeros(0)
         self._marked = np.zeros(q.tile_coder.n_weights, dtype=bool)  # scratch: tiles of s
+
+    @property
+    def rows(self) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        """``{choice: (tiles, eligibilities)}`` for every choice with eligible tiles."""
+        return {int(c): (self._tiles[self._choices == c], self._values[self._choices == c])
+                for c in np.unique(self._choices)}
 
     def eligibility(self, choice: int) -> np.ndarray:
         """Eligibilities of ``choice``'s weights, shape (n_weights,) (dense, a copy)."""
         out = np.zeros(self.q.tile_coder.n_weights)
-        if choice in self.rows:
-            tiles, values = self.rows[choice]
-            out[tiles] = values
+        mine = self._choices == choice
+        out[self._tiles[mine]] = self._values[mine]
         return out
 
     def update(
@@ -59,36 +66,39 @@ class ReplacingTraces:
     ) -> None:
         """Move ``Q(s, choice)`` (tiles ``active``) toward ``target`` and every eligible
         weight with it, then decay the traces by ``decay`` (or clear them if ``cut``)."""
-        q, rows, marked = self.q, self.rows, self._marked
+        q, marked = self.q, self._marked
         delta = target - q.value(active, choice)
+        scaled = step * delta
+        if not math.isfinite(scaled):
+            # The dense rule: every choice with eligible tiles before or after the
+            # replacement below gets its whole row of weights moved.
+            rows = set(self._choices.tolist()) | {choice}
         # Replacing: the tiles of s lose their eligibility for every other choice ...
         marked[active] = True
-        for row, (tiles, values) in list(rows.items()):
-            keep = ~marked[tiles]
-            if not keep.all():
-                rows[row] = (tiles[keep], values[keep])
+        keep = ~marked[self._tiles]
         marked[active] = False
         # ... and get eligibility 1 for the choice made.
-        tiles, values = rows.get(choice, (active[:0], np.zeros(0)))
-        rows[choice] = (np.concatenate((tiles, active)),
-                        np.concatenate((values, np.ones(active.shape[0]))))
-        scaled = step * delta
-        weights = q.weights
-        for row, (tiles, values) in rows.items():
-            if math.isfinite(scaled):
-                weights[row, tiles] += scaled * values
-            else:
+        tiles = np.concatenate((self._tiles[keep], active))
+        choices = np.concatenate((self._choices[keep], np.full(active.shape[0], choice)))
+        values = np.concatenate((self._values[keep], np.ones(active.shape[0])))
+        self._tiles, self._choices, self._values = tiles, choices, values
+        if math.isfinite(scaled):
+            q.add_at(tiles, choices, scaled * values)  # unique pairs: one addition each
+        else:
+            weights = q.weights
+            for row in sorted(rows):
                 weights[row] += scaled * self.eligibility(row)
         if cut:
-            rows.clear()
+            self.clear()
             return
-        for row, (tiles, values) in list(rows.items()):
-            values = values * decay
-            keep = ~(values < MIN_TRACE)
-            if keep.any():
-                rows[row] = (tiles[keep], values[keep])
-            else:
-                del rows[row]
+        values = values * decay
+        keep = ~(values < MIN_TRACE)
+        self._tiles, self._choices, self._values = tiles[keep], choices[keep], values[keep]
+
+    def clear(self) -> None:
+        """Drop every eligibility."""
+        self._tiles, self._choices, self._values = self._tiles[:0], self._choices[:0], \
+            self._values[:0]
 
 
 def td_update(

@@ -12,6 +12,7 @@ import pytest
 from scipy import stats
 from scipy.optimize import linear_sum_assignment
 
+from ilpss import _gmm_numerics as num
 from ilpss import _io
 from ilpss.kernels import (
     KernelConvergenceWarning,
@@ -607,3 +608,23 @@ def test_membership_lies_in_0_1_for_every_finite_state(feature_scales) -> None:
         assert (m >= 0).all() and (m <= 1).all()
     assert (d2 >= 0).all() and not np.isnan(d2).any()
     assert (batch[-8:] == 0).all()  # the largest floats are outside every kernel
+
+
+@pytest.mark.parametrize("n", [1, 7, num.CHUNK, num.CHUNK + 1, 2 * num.CHUNK + 5])
+def test_sq_mahalanobis_is_the_blockwise_products_bit_for_bit(n: int) -> None:
+    """One state (a learner's every decision) or many, the numbers of products over
+    blocks of at most CHUNK rows written into one array."""
+    rng = np.random.default_rng(n)
+    means = rng.normal(size=(5, 9))
+    prec_chol = np.linalg.cholesky(np.linalg.inv(
+        np.array([np.cov(rng.normal(size=(40, 9)), rowvar=False) for _ in range(5)])))
+    Z = rng.normal(size=(n, 9)) * 3.0
+    p_all, b, block_sum = num.stack_components(means, prec_chol)
+    expected = np.empty((n, 5))
+    for start in range(0, n, num.CHUNK):
+        y = Z[start : start + num.CHUNK] @ p_all
+        y -= b
+        np.square(y, out=y)
+        np.matmul(y, block_sum, out=expected[start : start + num.CHUNK])
+    got = num.sq_mahalanobis(Z, means, prec_chol)
+    assert got.tobytes() == np.fmin(expected, np.inf).tobytes()

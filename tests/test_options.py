@@ -84,6 +84,35 @@ def test_membership_shapes_and_state_checks() -> None:
         OptionLibrary(wrong, [constant_policy(0)]).membership(np.array([1.0]))
 
 
+def test_membership_is_the_models_clipped_bit_for_bit() -> None:
+    """In range (signed zeros included) the model's values as they come, else clipped."""
+    values = [[0.0, -0.0, 1.0, 0.3], [-0.0, 0.5, 0.5, 1e-300], [1.5, -0.2, 0.4, -0.0],
+              [-1e-300, 0.1, 1.0 + 1e-16, 0.9]]
+    means, covs = np.zeros((4, 1)), np.ones((4, 1, 1))
+    for row in values:
+        model = FunctionKernels([lambda x, v=v: v for v in row], means, covs)
+        lib = OptionLibrary(model, [constant_policy(0)])
+        got = lib.membership(np.array([1.0]))
+        assert got.tobytes() == np.clip(np.array(row), 0.0, 1.0).tobytes()
+        got[0] = 0.7  # a copy: the next call is unchanged
+        assert lib.membership(np.array([1.0])).tobytes() == np.clip(row, 0.0, 1.0).tobytes()
+
+
+@pytest.mark.parametrize("exponent", [1.0, 0.0, 0.5, 2.0, 1.7])
+def test_continuation_of_one_option_is_its_entry_of_every_option(exponent: float) -> None:
+    rng = np.random.default_rng(int(exponent * 10))
+    model = FunctionKernels([lambda x, k=k: (np.sin(x[0] * (k + 1)) + 1) / 2 for k in range(3)],
+                            np.zeros((3, 1)), np.ones((3, 1, 1)))
+    lib = OptionLibrary(model, [constant_policy(0), constant_policy(1)],
+                        OptionSettings(continuation_exponent=exponent))
+    for x in rng.uniform(0.0, 9.0, 50):
+        m = lib.membership(np.array([x]))
+        every = lib.continuation_probabilities(m)
+        for j, oid in enumerate(lib.option_ids):
+            assert lib.continuation_probability(int(oid), np.array([x]), m) == every[j]
+            assert lib.continuation_probability(int(oid), np.array([x])) == every[j]
+
+
 # --------------------------------------------------------------------------- semantics
 def test_initiation_frequency_matches_scale_times_membership() -> None:
     model = constant_kernels([0.3, 0.8])

@@ -60,10 +60,67 @@ def test_q_values_are_numpys_row_sums_bit_for_bit(n_tilings: int, n_choices: int
         a = c.active(rng.uniform(-1.0, 11.0, 9))
         expected = np.take(weights, a, axis=1).sum(axis=1)
         subset = np.flatnonzero(rng.random(n_choices) < 0.3)
+        few = rng.choice(n_choices, max(1, n_choices // 8), replace=False)  # any order
         for policy in (pol, frozen):
             assert policy.q_from_tiles(a).tobytes() == expected.tobytes()
             assert policy.q_from_tiles(a, subset).tobytes() == expected[subset].tobytes()
+            assert policy.q_from_tiles(a, few).tobytes() == expected[few].tobytes()
         assert [pol.value(a, k) for k in range(n_choices)] == expected.tolist()
+
+
+def near_tie_weights(n_choices: int, n_weights: int, seed: int) -> np.ndarray:
+    """Weights whose choices tie exactly (copies) or nearly (a few ulps apart at many
+    tiles, so that sums in another order often rank them the other way) at every
+    state, or are clearly worse, at magnitudes from 1e-3 to 1e3."""
+    rng = np.random.default_rng(seed)
+    base = rng.normal(size=n_weights) * rng.choice([1e-3, 1.0, 1e3])
+    rows = [base]
+    for _ in range(n_choices - 1):
+        kind = rng.integers(3)
+        if kind == 0:  # an exact copy of an earlier choice
+            rows.append(rows[rng.integers(len(rows))].copy())
+        elif kind == 1:  # base, a few ulps off at a third of the tiles
+            ulps = rng.integers(-3, 4, n_weights) * (rng.random(n_weights) < 0.3)
+            rows.append(base + ulps * np.spacing(base))
+        else:  # clearly worse
+            rows.append(base - abs(rng.normal(size=n_weights)) * abs(base).mean())
+    return np.array(rows)
+
+
+@pytest.mark.parametrize("frozen", [False, True])
+@pytest.mark.parametrize("n_choices", [1, 3, 4, 40, 183])
+def test_greedy_from_tiles_is_the_greedy_choice_of_the_values(frozen: bool, n_choices: int) -> None:
+    """The same choice and the same draws from the generator as ``greedy_choice`` of
+    every value, with exact and near ties, of every choice or of the primitives."""
+    c = TileCoder([0.0] * 9, [10.0] * 9, [0.7] * 9, n_tilings=32)
+    weights = near_tie_weights(n_choices, c.n_weights, n_choices)
+    n_primitive = min(3, n_choices)
+    pol = LinearPolicy(c, n_primitive, tuple(range(n_choices - n_primitive)), weights=weights)
+    policy = pol.freeze() if frozen else pol
+    rng = np.random.default_rng(1)
+    ties = 0
+    for t in range(300):
+        a = c.active(rng.uniform(-1.0, 11.0, 9))
+        for primitive_only in (False, True):
+            q = policy.q_from_tiles(a)[: n_primitive if primitive_only else None]
+            expected_rng, got_rng = np.random.default_rng(t), np.random.default_rng(t)
+            expected = greedy_choice(q, expected_rng)
+            got = policy.greedy_from_tiles(a, got_rng, primitive_only=primitive_only)
+            assert got == expected, (t, primitive_only)
+            assert got_rng.random() == expected_rng.random()  # the same draws
+            ties += int((q == q.max()).sum() > 1)
+    assert n_choices < 4 or ties > 0
+
+
+def test_greedy_from_tiles_sums_exactly_when_sums_may_overflow() -> None:
+    c = TileCoder([0.0], [10.0], [1.0], n_tilings=4)
+    weights = np.array([[1e308] * c.n_weights, [-1e308] * c.n_weights, [1e308] * c.n_weights])
+    policy = FrozenPolicy(c, 3, (), weights)
+    with np.errstate(over="ignore"):
+        q = policy.q_from_tiles(c.active([5.0]))
+        assert np.isinf(q).all()
+        expected = greedy_choice(q, np.random.default_rng(0))
+        assert policy.greedy_from_tiles(c.active([5.0]), np.random.default_rng(0)) == expected
 
 
 def test_weights_can_be_replaced_in_place() -> None:

@@ -17,7 +17,7 @@ from synthetic_smdp import (
     optimal_value,
 )
 
-from ilpss.options import OptionLibrary
+from ilpss.options import OptionLibrary, OptionSettings
 from ilpss.smdp import EpisodeResult, SmdpLearner, options_used
 from ilpss.tiles import TileCoder
 
@@ -344,6 +344,36 @@ def test_same_seed_same_learning_curve(with_options: bool) -> None:
     np.testing.assert_array_equal(w1, w2)
     r3, d3, _ = _curve(8, with_options)
     assert (r3, d3) != (r1, d1)
+
+
+def _pruned_run(method: str, every_value: bool, monkeypatch: pytest.MonkeyPatch):
+    """200 episodes with 9 options, a third of them pruned half-way."""
+    if every_value:  # the plain path: every choice's value at every choice point
+        monkeypatch.setattr(SmdpLearner, "_choice_values",
+                            lambda self, active, mask: self.q.q_from_tiles(active))
+    coder = corridor_coder()
+    model = IntervalKernels([(0, 4), (2, 7), (5, 9)], inside=[0.5, 0.3, 0.6], outside=0.05)
+    lib = OptionLibrary(model, [constant_policy(a, coder=coder) for a in (0, 1, 2)],
+                        OptionSettings(discount=0.25))
+    learner = SmdpLearner(3, coder, lib, gamma=GAMMA, method=method, trace_decay=0.9,
+                          initial_value=1.0, epsilon=0.1, seed=3)
+    results = learner.train(ZoneCorridor(), 100, seed=1)
+    for _ in range(2):
+        lib.end_trial(used=[int(o) for o in lib.option_ids if o % 3])
+    assert len(lib) == 6
+    results += learner.train(ZoneCorridor(), 100, seed=2)
+    return ([(r.total_reward, r.decisions, [(o.option_id, o.n_decisions) for o in r.option_runs])
+             for r in results], learner.q.weights.copy())
+
+
+@pytest.mark.parametrize("method", ["sarsa", "q"])
+def test_choice_points_reading_only_allowed_values_change_nothing(
+    method: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    runs, weights = _pruned_run(method, False, monkeypatch)
+    assert sum(len(r[2]) for r in runs[100:]) > 0  # options still ran after the pruning
+    plain_runs, plain_weights = _pruned_run(method, True, monkeypatch)
+    assert runs == plain_runs and weights.tobytes() == plain_weights.tobytes()
 
 
 def test_from_policy_rolls_out_identically() -> None:
