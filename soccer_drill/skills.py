@@ -121,24 +121,42 @@ def ball_interception_point(
         hvx, hvy = state.vel[state.holder]
         lead = min(math.hypot(bx - px, by - py) / vmax, _LEAD_SECONDS) if vmax > 0 else 0.0
         return bx + hvx * lead, by + hvy * lead
-    if math.hypot(bvx, bvy) < 1.0 or state.holder >= 0:
+    ball_speed = math.hypot(bvx, bvy)
+    if ball_speed < 1.0 or state.holder >= 0:
         return bx, by
-    x = y = 0.0
-    reach = cfg.control_radius
-    for t, travelled in _roll_table(cfg.ball_damping, cfg.cycle_seconds):
+    times, travels, slowing, spacing = _roll_table(cfg.ball_damping, cfg.cycle_seconds)
+    reach, last = cfg.control_radius, len(times) - 1
+    # The first point of the table within reach, as a scan of every point finds it, but
+    # skipping points that cannot be: after a point the gap (the distance to the ball's
+    # point less the reach) shrinks per second by at most vmax plus the ball's speed
+    # there (it only slows down). The bound is widened far beyond rounding errors.
+    vmax_step = vmax * spacing
+    k = 0
+    while True:
+        travelled = travels[k]
         x, y = bx + bvx * travelled, by + bvy * travelled
-        r = vmax * t + reach
-        if (x - px) ** 2 + (y - py) ** 2 <= r * r:
+        r = vmax * times[k] + reach
+        d2 = (x - px) ** 2 + (y - py) ** 2
+        if d2 <= r * r or k == last:
             return x, y
-    return x, y
+        gap = math.sqrt(d2) - r - 1e-9 * (r + 1.0)
+        closing = (ball_speed * slowing[k] + vmax_step) * (1.0 + 1e-9)
+        k = min(k + math.ceil(gap / closing), last) if gap > closing else k + 1
 
 
 @functools.lru_cache(maxsize=64)
-def _roll_table(damping: float, cycle: float) -> tuple[tuple[float, float], ...]:
-    """``(t, distance per unit initial speed)`` of a rolling ball, every 2 cycles for 3 s."""
+def _roll_table(
+    damping: float, cycle: float
+) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], float]:
+    """A rolling ball every 2 cycles for 3 s: the times; per unit of initial speed, the
+    distance travelled by then and the most it travels to the next point; the time
+    between two points."""
     k = -math.log(max(damping, 1e-6))
-    times = [step * cycle for step in range(1, round(3.0 / cycle) + 1, 2)]
-    return tuple((t, (1.0 - math.exp(-k * t)) / k if k > 0 else t) for t in times)
+    times = tuple(step * cycle for step in range(1, round(3.0 / cycle) + 1, 2))
+    travels = tuple((1.0 - math.exp(-k * t)) / k if k > 0 else t for t in times)
+    spacing = 2 * cycle
+    slowing = tuple(math.exp(-k * t) * spacing for t in times)  # speed there x spacing
+    return times, travels, slowing, spacing
 
 
 def support_spot(state: DrillState, player: int, cfg: DrillConfig) -> tuple[float, float]:

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
 import soccer_drill
 from soccer_drill import drill as drill_module
 from soccer_drill.config import DrillConfig
+from soccer_drill.skills import _roll_table, ball_interception_point
+from soccer_drill.state import DrillState
 from soccer_drill.features import (
     _clipped,
     feature_bounds,
@@ -74,3 +78,43 @@ def test_a_drill_with_its_batch_buffer_pickles_and_continues_identically():
         if drill.outcome is not None:
             break
         assert drill.step(commands, rng) == copy.step(commands, copy_rng)
+
+
+def _scanned_interception_point(state, player, vmax, cfg):
+    """The interception point by trying every point of the roll table in turn."""
+    bx, by = state.pos[4]
+    bvx, bvy = state.vel[4]
+    px, py = state.pos[player]
+    times, travels, _, _ = _roll_table(cfg.ball_damping, cfg.cycle_seconds)
+    x = y = 0.0
+    for t, travelled in zip(times, travels, strict=True):
+        x, y = bx + bvx * travelled, by + bvy * travelled
+        r = vmax * t + cfg.control_radius
+        if (x - px) ** 2 + (y - py) ** 2 <= r * r:
+            return x, y
+    return x, y
+
+
+@pytest.mark.parametrize("damping", [1e-9, 0.05, 0.4, 0.9, 1.0])
+@pytest.mark.parametrize("cycle", [0.01, 0.1, 0.5])
+def test_the_interception_search_finds_the_point_a_full_scan_finds(damping, cycle):
+    cfg = DrillConfig(ball_damping=damping, cycle_seconds=cycle)
+    times, travels, _, _ = _roll_table(damping, cycle)
+    rng = np.random.default_rng(0)
+    for _ in range(1500):
+        ball, player = rng.uniform(-5, 40, size=2), rng.uniform(-5, 40, size=2)
+        speed = float(rng.choice([1.5, 3.0, 10.0, cfg.ball_max_speed, 100.0]))  # rolling
+        angle = rng.uniform(0, 2 * math.pi)
+        velocity = (speed * math.cos(angle), speed * math.sin(angle))
+        vmax = float(rng.choice([0.0, 1e-3, 1.0, 5.0, 20.0]))
+        if rng.random() < 0.5:  # a player placed exactly at the reach of one point
+            k = int(rng.integers(len(times)))
+            r = vmax * times[k] + cfg.control_radius
+            px = ball[0] + velocity[0] * travels[k] + r * math.cos(angle + 1.0)
+            py = ball[1] + velocity[1] * travels[k] + r * math.sin(angle + 1.0)
+            player = (px, py)
+        pos = ((float(player[0]), float(player[1])), (0.0, 0.0), (0.0, 0.0), (0.0, 0.0),
+               (float(ball[0]), float(ball[1])))
+        state = DrillState(pos, ((0.0, 0.0),) * 4 + (velocity,), -1, 0)
+        assert (ball_interception_point(state, 0, vmax, cfg)
+                == _scanned_interception_point(state, 0, vmax, cfg))
