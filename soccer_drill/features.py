@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from operator import lt as _lt
 
 import numpy as np
 
@@ -112,9 +113,12 @@ def _clipped(values: Sequence[float], low: Bounds, high: Bounds) -> np.ndarray:
     Clipping the float64 values before rounding them to float32 gives the same floats
     (``low`` and ``high`` are float32 and rounding is monotonic); each comparison is
     NumPy's own (``max(v, lo)`` is ``v if v > lo or v is NaN else lo``), so even the
-    sign of a clipped zero is NumPy's. Bounds given as lists of floats (``low.tolist()``)
-    are compared fastest.
+    sign of a clipped zero is NumPy's. Values strictly inside their bounds (the usual
+    case) are kept as they are, which is what those comparisons give them. Bounds given
+    as lists of floats (``low.tolist()``) are compared fastest.
     """
+    if all(map(_lt, low, values)) and all(map(_lt, values, high)):
+        return np.array(values, dtype=np.float32)
     return np.array(
         [  # m = max(v, lo), then min(m, hi), each as NumPy compares
             m if ((m := v if v > lo or v != v else lo) < hi or m != m) else hi

@@ -38,6 +38,22 @@ def test_the_clip_is_numpys_bit_for_bit_with_nan_signed_zeros_and_equal_bounds()
         assert got.dtype == np.float32 and got.tobytes() == expected.tobytes()
 
 
+def test_values_inside_their_bounds_keep_their_bits_and_one_outside_is_clipped():
+    low, high = [-1.0, 0.0, 0.0], [1.0, 2.0, 3.0]
+    low32, high32 = np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
+    inside = [-0.0, 1e-300, 2.9999999]  # a negative zero, an underflow to float32's zero
+    expected = np.clip(np.array(inside, dtype=np.float32), low32, high32)
+    assert _clipped(inside, low, high).tobytes() == expected.tobytes()
+    for k, outside in enumerate((-1.5, -0.0, 3.5)):  # -0.0 is not inside [0, 2]: made +0.0
+        values = inside.copy()
+        values[k] = outside
+        expected = np.clip(np.array(values, dtype=np.float32), low32, high32)
+        assert _clipped(values, low, high).tobytes() == expected.tobytes()
+    nan = [0.5, float("nan"), 1.0]
+    assert _clipped(nan, low, high).tobytes() == np.clip(
+        np.array(nan, dtype=np.float32), low32, high32).tobytes()
+
+
 def test_observations_are_the_same_with_array_and_float_bounds():
     cfg = DrillConfig()
     env = soccer_drill.env(opponent="chasers")
