@@ -181,14 +181,22 @@ def support_spot(state: DrillState, player: int, cfg: DrillConfig) -> tuple[floa
 
 
 def dribble_heading(state: DrillState, player: int, cfg: DrillConfig) -> tuple[float, float]:
-    """Unit heading toward the goal line that keeps clear of defenders and touchlines."""
+    """Unit heading toward the goal line that keeps clear of defenders and touchlines.
+
+    The candidate with the highest score wins, the first in ``_HEADINGS``' order among
+    equals. A candidate's score is its initial score less penalties, so candidates are
+    tried from the highest initial score down, and the search stops once no candidate
+    left could reach the best score found.
+    """
     px, py = state.pos[player]
     size = cfg.field_size
-    best, best_score = (0.0, -1.0), -math.inf
+    best, best_score, best_order = (0.0, -1.0), -math.inf, len(_HEADINGS)
     d1, d2 = state.opponents_of(player)
     r1x, r1y = state.pos[d1][0] - px, state.pos[d1][1] - py
     r2x, r2y = state.pos[d2][0] - px, state.pos[d2][1] - py
-    for hx, hy, score in _HEADINGS:
+    for order, hx, hy, score in _HEADINGS_BY_SCORE:
+        if score < best_score:
+            break
         # Each opponent ahead within 12 m costs more the closer it is to the heading line.
         ahead = r1x * hx + r1y * hy
         if 0.0 < ahead < 12.0:
@@ -201,8 +209,8 @@ def dribble_heading(state: DrillState, player: int, cfg: DrillConfig) -> tuple[f
         ex = px + hx * 4.0
         if not 1.0 <= ex <= size - 1.0:
             score -= 3.0
-        if score > best_score:
-            best, best_score = (hx, hy), score
+        if score > best_score or (score == best_score and order < best_order):
+            best, best_score, best_order = (hx, hy), score, order
     return best
 
 
@@ -212,17 +220,23 @@ def _heading(deg: int) -> tuple[float, float, float]:
     return math.sin(a), -math.cos(a), math.cos(a)
 
 
-_HEADINGS = tuple(_heading(deg) for deg in range(-70, 71, 10))  # the candidates, tried in order
+_HEADINGS = tuple(_heading(deg) for deg in range(-70, 71, 10))  # the candidates, in order
+# (position in _HEADINGS, hx, hy, initial score), highest initial score first.
+_HEADINGS_BY_SCORE = tuple(sorted(
+    ((order, *heading) for order, heading in enumerate(_HEADINGS)),
+    key=lambda item: (-item[3], item[0]),
+))
 
 
 def shield_direction(state: DrillState, player: int) -> tuple[float, float]:
     """Unit direction away from the nearest opponent: where a shielded ball is kept."""
     px, py = state.pos[player]
-    nearest = min(
-        state.opponents_of(player),
-        key=lambda d: math.hypot(state.pos[d][0] - px, state.pos[d][1] - py),
-    )
-    return _unit(px - state.pos[nearest][0], py - state.pos[nearest][1])
+    d1, d2 = state.opponents_of(player)
+    x1, y1 = state.pos[d1]
+    x2, y2 = state.pos[d2]
+    if math.hypot(x2 - px, y2 - py) < math.hypot(x1 - px, y1 - py):  # the first if equal
+        x1, y1 = x2, y2
+    return _unit(px - x1, py - y1)
 
 
 def pass_velocity(

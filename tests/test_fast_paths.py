@@ -10,8 +10,6 @@ import pytest
 import soccer_drill
 from soccer_drill import drill as drill_module
 from soccer_drill.config import DrillConfig
-from soccer_drill.skills import _roll_table, ball_interception_point
-from soccer_drill.state import DrillState
 from soccer_drill.features import (
     _clipped,
     feature_bounds,
@@ -19,6 +17,15 @@ from soccer_drill.features import (
     kinematic_bounds,
     kinematics,
 )
+from soccer_drill.skills import (
+    _HEADINGS,
+    _roll_table,
+    _unit,
+    ball_interception_point,
+    dribble_heading,
+    shield_direction,
+)
+from soccer_drill.state import DrillState
 
 
 def test_the_clip_is_numpys_bit_for_bit_with_nan_signed_zeros_and_equal_bounds():
@@ -134,3 +141,49 @@ def test_the_interception_search_finds_the_point_a_full_scan_finds(damping, cycl
         state = DrillState(pos, ((0.0, 0.0),) * 4 + (velocity,), -1, 0)
         assert (ball_interception_point(state, 0, vmax, cfg)
                 == _scanned_interception_point(state, 0, vmax, cfg))
+
+
+def _dribble_heading_trying_every_candidate(state, player, cfg):
+    px, py = state.pos[player]
+    best, best_score = (0.0, -1.0), -math.inf
+    d1, d2 = state.opponents_of(player)
+    r1x, r1y = state.pos[d1][0] - px, state.pos[d1][1] - py
+    r2x, r2y = state.pos[d2][0] - px, state.pos[d2][1] - py
+    for hx, hy, score in _HEADINGS:
+        for rx, ry in ((r1x, r1y), (r2x, r2y)):
+            ahead = rx * hx + ry * hy
+            if 0.0 < ahead < 12.0:
+                free = 1.0 - abs(rx * hy - ry * hx) / 4.0
+                score -= 2.0 * (free if free > 0.0 else 0.0) * (1.0 - ahead / 12.0)
+        if not 1.0 <= px + hx * 4.0 <= cfg.field_size - 1.0:
+            score -= 3.0
+        if score > best_score:
+            best, best_score = (hx, hy), score
+    return best
+
+
+def _shield_direction_by_min(state, player):
+    px, py = state.pos[player]
+    nearest = min(state.opponents_of(player),
+                  key=lambda d: math.hypot(state.pos[d][0] - px, state.pos[d][1] - py))
+    return _unit(px - state.pos[nearest][0], py - state.pos[nearest][1])
+
+
+def test_dribbling_and_shielding_choose_what_trying_every_candidate_chooses():
+    cfg = DrillConfig()
+    rng = np.random.default_rng(0)
+    for k in range(20000):
+        pos = [tuple(map(float, rng.uniform(-1, 36, size=2))) for _ in range(5)]
+        player = int(rng.integers(4))
+        if k % 3 == 0:  # an opponent straight ahead, or both at the same distance
+            ox, oy = pos[player]
+            opponents = (2, 3) if player < 2 else (0, 1)
+            pos[opponents[0]] = (ox + float(rng.uniform(-1, 1)), oy - float(rng.uniform(0, 12)))
+            if k % 2 == 0:
+                pos[opponents[1]] = (2 * ox - pos[opponents[0]][0], 2 * oy - pos[opponents[0]][1])
+        if k % 5 == 0:  # on a touchline, where every heading costs the same
+            pos[player] = (float(rng.choice([0.5, 34.5])), pos[player][1])
+        state = DrillState(tuple(pos), ((0.0, 0.0),) * 5, player, 0)
+        assert dribble_heading(state, player, cfg) == _dribble_heading_trying_every_candidate(
+            state, player, cfg)
+        assert shield_direction(state, player) == _shield_direction_by_min(state, player)
