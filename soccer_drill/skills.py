@@ -89,6 +89,7 @@ class Motion(NamedTuple):
 
 
 NO_BALL, CONTROL, KICK = 0, 1, 2
+_sqrt, _ceil = math.sqrt, math.ceil
 _ARRIVE_SECONDS = 0.3  # slow down this long before a target, so players do not orbit it
 _HOLD_EDGE = 3.0  # a shielding holder stops backing away this close to a touchline
 _LEAD_SECONDS = 1.5  # how far ahead a defender aims at a dribbling holder
@@ -105,7 +106,9 @@ def seek(px: float, py: float, tx: float, ty: float, vmax: float) -> tuple[float
     dist = math.hypot(dx, dy)
     if dist < 1e-6:
         return 0.0, 0.0
-    speed = min(vmax, dist / _ARRIVE_SECONDS)
+    speed = dist / _ARRIVE_SECONDS
+    if not speed < vmax:  # min(vmax, speed), as min() compares
+        speed = vmax
     return dx / dist * speed, dy / dist * speed
 
 
@@ -129,8 +132,9 @@ def ball_interception_point(
     # The first point of the table within reach, as a scan of every point finds it, but
     # skipping points that cannot be: after a point the gap (the distance to the ball's
     # point less the reach) shrinks per second by at most vmax plus the ball's speed
-    # there (it only slows down). The bound is widened far beyond rounding errors.
-    vmax_step = vmax * spacing
+    # there (it only slows down), and by vmax alone once the ball rolls away from the
+    # player. The bound is widened far beyond rounding errors.
+    vmax_step = vmax * spacing * (1.0 + 1e-9)
     k = 0
     while True:
         travelled = travels[k]
@@ -139,9 +143,17 @@ def ball_interception_point(
         d2 = (x - px) ** 2 + (y - py) ** 2
         if d2 <= r * r or k == last:
             return x, y
-        gap = math.sqrt(d2) - r - 1e-9 * (r + 1.0)
-        closing = (ball_speed * slowing[k] + vmax_step) * (1.0 + 1e-9)
-        k = min(k + math.ceil(gap / closing), last) if gap > closing else k + 1
+        gap = _sqrt(d2) - r - 1e-9 * (r + 1.0)
+        if (x - px) * bvx + (y - py) * bvy >= 0.0:  # rolling away: no nearer from here on
+            closing = vmax_step
+        else:
+            closing = ball_speed * slowing[k] * (1.0 + 1e-9) + vmax_step
+        if gap <= closing:
+            k += 1
+        elif gap >= closing * (last - k):  # none left can be reached: the last point
+            k = last
+        else:
+            k += _ceil(gap / closing)
 
 
 @functools.lru_cache(maxsize=64)

@@ -187,3 +187,24 @@ def test_dribbling_and_shielding_choose_what_trying_every_candidate_chooses():
         assert dribble_heading(state, player, cfg) == _dribble_heading_trying_every_candidate(
             state, player, cfg)
         assert shield_direction(state, player) == _shield_direction_by_min(state, player)
+
+
+@pytest.mark.parametrize("shared_spaces", [False, True])
+@pytest.mark.parametrize("illegal_action", ["raise", "default"])
+def test_a_plain_int_action_gets_what_a_numpy_integer_gets(shared_spaces, illegal_action):
+    """The shortcut for plain ints against the general path NumPy integers take."""
+    env = soccer_drill.env(shared_spaces=shared_spaces, illegal_action=illegal_action)
+    env.reset(seed=1)
+    core = env._core
+    for holder in (-1, 0, 1):
+        core.drill.state = core.drill.state._replace(holder=holder)
+        for index, agent in enumerate(env.possible_agents):
+            for action in range(-1, 7):
+                outcomes = []
+                for given in (action, np.int64(action)):
+                    core.replaced = None
+                    try:
+                        outcomes.append((core.command_for(agent, index, given), core.replaced))
+                    except ValueError as exc:
+                        outcomes.append(str(exc))
+                assert outcomes[0] == outcomes[1], (holder, agent, action)
