@@ -109,6 +109,7 @@ class DrillCore:
         self.shared_spaces = shared_spaces
         self._defender_mask = _SHARED_DEFENDER_MASK if shared_spaces else _DEFENDER_MASK
         self._defender_legal = tuple(bool(x) for x in self._defender_mask)
+        self._defender_commands = _legal_commands(DEFENDER_ACTIONS, self._defender_legal)
         self.replaced: tuple[int, int] | None = None
         self.busy = threading.Lock()
         self.team_name: str | None
@@ -214,6 +215,15 @@ class DrillCore:
     # --------------------------------------------------------------- actions
     def command_for(self, agent: str, index: int, action: object) -> Command:
         """Check ``action`` of ``agent`` and turn it into a command."""
+        if type(action) is int:  # the common case: a legal plain int (a bool is not one)
+            if index >= 2:
+                legal = self._defender_commands
+            elif self.drill.state.holder == index:
+                legal = _HOLDER_COMMANDS
+            else:
+                legal = _OFF_BALL_COMMANDS
+            if 0 <= action < len(legal) and (command := legal[action]) is not None:
+                return command
         actions = ATTACKER_ACTIONS if index < 2 else DEFENDER_ACTIONS
         n = len(ATTACKER_ACTIONS) if self.shared_spaces else len(actions)
         if type(action) is int:  # the common case: a plain int (a bool is not one)
@@ -282,6 +292,18 @@ def _names(actions: tuple[Skill, ...], n: int) -> str:
 
 
 _COMMANDS = {skill: Command(skill) for skill in Skill if skill is not Skill.MOVE_TO}
+
+
+def _legal_commands(actions: tuple[Skill, ...], legal: tuple[bool, ...]) -> tuple:
+    """Per action index, its command if the mask allows it, else ``None``."""
+    return tuple(
+        _COMMANDS[actions[a]] if ok and a < len(actions) else None for a, ok in enumerate(legal)
+    )
+
+
+# command_for's shortcut for a legal action: the command of each action index, by role.
+_HOLDER_COMMANDS = _legal_commands(ATTACKER_ACTIONS, _ATTACKER_HOLDER_LEGAL)
+_OFF_BALL_COMMANDS = _legal_commands(ATTACKER_ACTIONS, _ATTACKER_OFF_BALL_LEGAL)
 
 
 def action_spaces() -> tuple[spaces.Discrete, spaces.Discrete]:

@@ -21,7 +21,7 @@ import pymunk.batch
 from pymunk.batch import get_space_bodies
 
 from soccer_drill.config import DrillConfig
-from soccer_drill.skills import BALL_SKILLS, CONTROL, KICK, Command, execute
+from soccer_drill.skills import CONTROL, KICK, NO_BALL, Command, execute
 from soccer_drill.state import BALL, DrillState
 
 Outcome = Literal["success", "interception", "out", "timeout"]
@@ -113,10 +113,6 @@ class Drill:
             _set_filter(wall, _WALL_FILTER)
             shapes.append(wall)
         self._bodies = (*self._players, self._ball)
-        # Per body: where its velocity is in a batched read, the body, its speed cap (squared).
-        self._readback = tuple(
-            zip((2, 6, 10, 14, 18), self._bodies, self._caps, self._caps2, strict=True)
-        )
         space.add(*self._bodies, *shapes)
         self._space = space
 
@@ -162,7 +158,7 @@ class Drill:
                 dvx, dvy = dvx * accel / dv, dvy * accel / dv
             vx, vy = vx0 + dvx, vy0 + dvy
             set_velocity(body, (vx, vy))
-            if i != holder or command.skill not in BALL_SKILLS:
+            if ball_action == NO_BALL or i != holder:  # only the ball skills move the ball
                 continue
             if ball_action == KICK:
                 ball_velocity = (mbx, mby)
@@ -190,23 +186,34 @@ class Drill:
         buffer = self._buffer
         buffer.clear()
         get_space_bodies(self._space, _POSITION_VELOCITY, buffer)
-        data = memoryview(buffer.float_buf()).cast("d").tolist()
-        vel = []
-        for k, body, cap, cap2 in self._readback:
-            vx, vy = data[k], data[k + 1]
-            if vx * vx + vy * vy > cap2:  # a collision pushed it past its cap
-                vx, vy = _capped((vx, vy), cap)
-                set_velocity(body, (vx, vy))
-            vel.append((vx, vy))
-        positions = ((data[0], data[1]), (data[4], data[5]), (data[8], data[9]),
-                     (data[12], data[13]), (data[16], data[17]))
-        velocities = tuple(vel)
+        (x0, y0, vx0, vy0, x1, y1, vx1, vy1, x2, y2, vx2, vy2, x3, y3, vx3, vy3,
+         x4, y4, vx4, vy4, *_) = memoryview(buffer.float_buf()).cast("d").tolist()
+        # A collision can push a body past its speed cap: capped, and set back on it.
+        c0, c1, c2, c3, c4 = self._caps2
+        if vx0 * vx0 + vy0 * vy0 > c0:
+            vx0, vy0 = self._recap(0, vx0, vy0)
+        if vx1 * vx1 + vy1 * vy1 > c1:
+            vx1, vy1 = self._recap(1, vx1, vy1)
+        if vx2 * vx2 + vy2 * vy2 > c2:
+            vx2, vy2 = self._recap(2, vx2, vy2)
+        if vx3 * vx3 + vy3 * vy3 > c3:
+            vx3, vy3 = self._recap(3, vx3, vy3)
+        if vx4 * vx4 + vy4 * vy4 > c4:
+            vx4, vy4 = self._recap(4, vx4, vy4)
+        positions = ((x0, y0), (x1, y1), (x2, y2), (x3, y3), (x4, y4))
+        velocities = ((vx0, vy0), (vx1, vy1), (vx2, vy2), (vx3, vy3), (vx4, vy4))
         cycle = state.cycle + 1
         holder = self._possession(positions, velocities, holder, cycle, passer, lockout_until, rng)
         new = _new_state(DrillState, (positions, velocities, holder, cycle, passer, lockout_until))
         self.state = new
         self._judge(new)
         return new
+
+    def _recap(self, body: int, vx: float, vy: float) -> tuple[float, float]:
+        """Body ``body``'s velocity capped at its top speed, and set on it."""
+        v = _capped((vx, vy), self._caps[body])
+        _set_velocity(self._bodies[body], v)
+        return v
 
     def _possession(
         self,
@@ -225,19 +232,23 @@ class Drill:
         cfg = self.config
         bx, by = pos[BALL]
         bvx, bvy = vel[BALL]
+        radius, speed, hypot = cfg.control_radius, cfg.control_speed, math.hypot
+        locked_out = passer if cycle < lockout_until else -1
         in_control = []
         for i in range(4):
-            if i == passer and cycle < lockout_until:
-                continue
             px, py = pos[i]
-            dist = math.hypot(px - bx, py - by)
-            if dist <= cfg.control_radius:
+            dist = hypot(px - bx, py - by)
+            if dist <= radius and i != locked_out:
                 vx, vy = vel[i]
-                if math.hypot(bvx - vx, bvy - vy) <= cfg.control_speed:
+                if hypot(bvx - vx, bvy - vy) <= speed:
                     in_control.append((dist, i))
         in_control.sort()
-        if holder >= 0 and all(i != holder for _, i in in_control):
-            holder = -1  # the holder lost touch with the ball
+        if holder >= 0:
+            for _, i in in_control:
+                if i == holder:
+                    break
+            else:
+                holder = -1  # the holder lost touch with the ball
         if holder >= 0:
             for _, i in in_control:
                 if (i >= 2) != (holder >= 2) and rng.random() < cfg.tackle_probability:

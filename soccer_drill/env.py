@@ -433,15 +433,15 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
                     self.terminations[name] = done
                     self.truncations[name] = not done
                     self.infos[name] = {**self.infos[name], **info}
+                # The only cycle with rewards: before it they are all zero, so clearing
+                # and accumulating them on every step would change nothing.
+                self._accumulate_rewards()
             elif self._flat:  # masks change with possession
                 for name in self.agents:
                     self.infos[name]["action_mask"] = core.mask(self._index[name])
             if self.render_mode == "human":
                 self.render()
-        else:
-            self._clear_rewards()
         self.agent_selection = self._next_agent[agent]
-        self._accumulate_rewards()
 
 
 def env(**kwargs: Any) -> raw_env:

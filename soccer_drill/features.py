@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from operator import lt as _lt
 
 import numpy as np
 
@@ -71,9 +72,9 @@ def features(
     pos = state.pos
     sx, sy = pos[player]
     mx, my = pos[player ^ 1]
-    o1, o2 = (2, 3) if player < 2 else (0, 1)
-    ax, ay = pos[o1][0] - sx, pos[o1][1] - sy  # opponents relative to self
-    bx, by = pos[o2][0] - sx, pos[o2][1] - sy
+    (o1x, o1y), (o2x, o2y) = (pos[2], pos[3]) if player < 2 else (pos[0], pos[1])
+    ax, ay = o1x - sx, o1y - sy  # opponents relative to self
+    bx, by = o2x - sx, o2y - sy
     ux, uy = mx - sx, my - sy  # mate relative to self
     da, db, dm = _hypot(ax, ay), _hypot(bx, by), _hypot(ux, uy)
     near, far = (da, db) if da <= db else (db, da)
@@ -81,6 +82,8 @@ def features(
     mate_opp = mb if mb < ma else ma  # min(ma, mb)
     # Angles at self between the mate, or the goal direction (0, -1), and each opponent:
     # acos of the normalised dot product (clamped to [-1, 1]), 180 for a zero-length side.
+    # With the goal direction that product is -y / d (exactly, but for the sign of a zero,
+    # which acos ignores).
     if da < 1e-9:
         pa = ga = 180.0
     else:
@@ -89,7 +92,7 @@ def features(
         else:
             c = (ux * ax + uy * ay) / (dm * da)
             pa = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
-        c = (0.0 * ax + -1.0 * ay) / (1.0 * da)
+        c = -ay / da
         ga = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
     if db < 1e-9:
         pb = gb = 180.0
@@ -99,7 +102,7 @@ def features(
         else:
             c = (ux * bx + uy * by) / (dm * db)
             pb = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
-        c = (0.0 * bx + -1.0 * by) / (1.0 * db)
+        c = -by / db
         gb = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
     raw = (dm, near, far, mate_opp, pb if pb < pa else pa, sy, sx - cfg.field_size / 2, my,
            gb if gb < ga else ga)
@@ -112,9 +115,12 @@ def _clipped(values: Sequence[float], low: Bounds, high: Bounds) -> np.ndarray:
     Clipping the float64 values before rounding them to float32 gives the same floats
     (``low`` and ``high`` are float32 and rounding is monotonic); each comparison is
     NumPy's own (``max(v, lo)`` is ``v if v > lo or v is NaN else lo``), so even the
-    sign of a clipped zero is NumPy's. Bounds given as lists of floats (``low.tolist()``)
-    are compared fastest.
+    sign of a clipped zero is NumPy's. Values strictly inside their bounds (the usual
+    case) are kept as they are, which is what those comparisons give them. Bounds given
+    as lists of floats (``low.tolist()``) are compared fastest.
     """
+    if all(map(_lt, low, values)) and all(map(_lt, values, high)):
+        return np.array(values, dtype=np.float32)
     return np.array(
         [  # m = max(v, lo), then min(m, hi), each as NumPy compares
             m if ((m := v if v > lo or v != v else lo) < hi or m != m) else hi

@@ -89,6 +89,7 @@ class Motion(NamedTuple):
 
 
 NO_BALL, CONTROL, KICK = 0, 1, 2
+_sqrt, _ceil = math.sqrt, math.ceil
 _ARRIVE_SECONDS = 0.3  # slow down this long before a target, so players do not orbit it
 _HOLD_EDGE = 3.0  # a shielding holder stops backing away this close to a touchline
 _LEAD_SECONDS = 1.5  # how far ahead a defender aims at a dribbling holder
@@ -105,7 +106,9 @@ def seek(px: float, py: float, tx: float, ty: float, vmax: float) -> tuple[float
     dist = math.hypot(dx, dy)
     if dist < 1e-6:
         return 0.0, 0.0
-    speed = min(vmax, dist / _ARRIVE_SECONDS)
+    speed = dist / _ARRIVE_SECONDS
+    if not speed < vmax:  # min(vmax, speed), as min() compares
+        speed = vmax
     return dx / dist * speed, dy / dist * speed
 
 
@@ -121,24 +124,51 @@ def ball_interception_point(
         hvx, hvy = state.vel[state.holder]
         lead = min(math.hypot(bx - px, by - py) / vmax, _LEAD_SECONDS) if vmax > 0 else 0.0
         return bx + hvx * lead, by + hvy * lead
-    if math.hypot(bvx, bvy) < 1.0 or state.holder >= 0:
+    ball_speed = math.hypot(bvx, bvy)
+    if ball_speed < 1.0 or state.holder >= 0:
         return bx, by
-    x = y = 0.0
-    reach = cfg.control_radius
-    for t, travelled in _roll_table(cfg.ball_damping, cfg.cycle_seconds):
+    times, travels, slowing, spacing = _roll_table(cfg.ball_damping, cfg.cycle_seconds)
+    reach, last = cfg.control_radius, len(times) - 1
+    # The first point of the table within reach, as a scan of every point finds it, but
+    # skipping points that cannot be: after a point the gap (the distance to the ball's
+    # point less the reach) shrinks per second by at most vmax plus the ball's speed
+    # there (it only slows down), and by vmax alone once the ball rolls away from the
+    # player. The bound is widened far beyond rounding errors.
+    vmax_step = vmax * spacing * (1.0 + 1e-9)
+    k = 0
+    while True:
+        travelled = travels[k]
         x, y = bx + bvx * travelled, by + bvy * travelled
-        r = vmax * t + reach
-        if (x - px) ** 2 + (y - py) ** 2 <= r * r:
+        r = vmax * times[k] + reach
+        d2 = (x - px) ** 2 + (y - py) ** 2
+        if d2 <= r * r or k == last:
             return x, y
-    return x, y
+        gap = _sqrt(d2) - r - 1e-9 * (r + 1.0)
+        if (x - px) * bvx + (y - py) * bvy >= 0.0:  # rolling away: no nearer from here on
+            closing = vmax_step
+        else:
+            closing = ball_speed * slowing[k] * (1.0 + 1e-9) + vmax_step
+        if gap <= closing:
+            k += 1
+        elif gap >= closing * (last - k):  # none left can be reached: the last point
+            k = last
+        else:
+            k += _ceil(gap / closing)
 
 
 @functools.lru_cache(maxsize=64)
-def _roll_table(damping: float, cycle: float) -> tuple[tuple[float, float], ...]:
-    """``(t, distance per unit initial speed)`` of a rolling ball, every 2 cycles for 3 s."""
+def _roll_table(
+    damping: float, cycle: float
+) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], float]:
+    """A rolling ball every 2 cycles for 3 s: the times; per unit of initial speed, the
+    distance travelled by then and the most it travels to the next point; the time
+    between two points."""
     k = -math.log(max(damping, 1e-6))
-    times = [step * cycle for step in range(1, round(3.0 / cycle) + 1, 2)]
-    return tuple((t, (1.0 - math.exp(-k * t)) / k if k > 0 else t) for t in times)
+    times = tuple(step * cycle for step in range(1, round(3.0 / cycle) + 1, 2))
+    travels = tuple((1.0 - math.exp(-k * t)) / k if k > 0 else t for t in times)
+    spacing = 2 * cycle
+    slowing = tuple(math.exp(-k * t) * spacing for t in times)  # speed there x spacing
+    return times, travels, slowing, spacing
 
 
 def support_spot(state: DrillState, player: int, cfg: DrillConfig) -> tuple[float, float]:
@@ -163,14 +193,22 @@ def support_spot(state: DrillState, player: int, cfg: DrillConfig) -> tuple[floa
 
 
 def dribble_heading(state: DrillState, player: int, cfg: DrillConfig) -> tuple[float, float]:
-    """Unit heading toward the goal line that keeps clear of defenders and touchlines."""
+    """Unit heading toward the goal line that keeps clear of defenders and touchlines.
+
+    The candidate with the highest score wins, the first in ``_HEADINGS``' order among
+    equals. A candidate's score is its initial score less penalties, so candidates are
+    tried from the highest initial score down, and the search stops once no candidate
+    left could reach the best score found.
+    """
     px, py = state.pos[player]
     size = cfg.field_size
-    best, best_score = (0.0, -1.0), -math.inf
+    best, best_score, best_order = (0.0, -1.0), -math.inf, len(_HEADINGS)
     d1, d2 = state.opponents_of(player)
     r1x, r1y = state.pos[d1][0] - px, state.pos[d1][1] - py
     r2x, r2y = state.pos[d2][0] - px, state.pos[d2][1] - py
-    for hx, hy, score in _HEADINGS:
+    for order, hx, hy, score in _HEADINGS_BY_SCORE:
+        if score < best_score:
+            break
         # Each opponent ahead within 12 m costs more the closer it is to the heading line.
         ahead = r1x * hx + r1y * hy
         if 0.0 < ahead < 12.0:
@@ -183,8 +221,8 @@ def dribble_heading(state: DrillState, player: int, cfg: DrillConfig) -> tuple[f
         ex = px + hx * 4.0
         if not 1.0 <= ex <= size - 1.0:
             score -= 3.0
-        if score > best_score:
-            best, best_score = (hx, hy), score
+        if score > best_score or (score == best_score and order < best_order):
+            best, best_score, best_order = (hx, hy), score, order
     return best
 
 
@@ -194,17 +232,23 @@ def _heading(deg: int) -> tuple[float, float, float]:
     return math.sin(a), -math.cos(a), math.cos(a)
 
 
-_HEADINGS = tuple(_heading(deg) for deg in range(-70, 71, 10))  # the candidates, tried in order
+_HEADINGS = tuple(_heading(deg) for deg in range(-70, 71, 10))  # the candidates, in order
+# (position in _HEADINGS, hx, hy, initial score), highest initial score first.
+_HEADINGS_BY_SCORE = tuple(sorted(
+    ((order, *heading) for order, heading in enumerate(_HEADINGS)),
+    key=lambda item: (-item[3], item[0]),
+))
 
 
 def shield_direction(state: DrillState, player: int) -> tuple[float, float]:
     """Unit direction away from the nearest opponent: where a shielded ball is kept."""
     px, py = state.pos[player]
-    nearest = min(
-        state.opponents_of(player),
-        key=lambda d: math.hypot(state.pos[d][0] - px, state.pos[d][1] - py),
-    )
-    return _unit(px - state.pos[nearest][0], py - state.pos[nearest][1])
+    d1, d2 = state.opponents_of(player)
+    x1, y1 = state.pos[d1]
+    x2, y2 = state.pos[d2]
+    if math.hypot(x2 - px, y2 - py) < math.hypot(x1 - px, y1 - py):  # the first if equal
+        x1, y1 = x2, y2
+    return _unit(px - x1, py - y1)
 
 
 def pass_velocity(

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -15,6 +17,15 @@ from soccer_drill.features import (
     kinematic_bounds,
     kinematics,
 )
+from soccer_drill.skills import (
+    _HEADINGS,
+    _roll_table,
+    _unit,
+    ball_interception_point,
+    dribble_heading,
+    shield_direction,
+)
+from soccer_drill.state import DrillState
 
 
 def test_the_clip_is_numpys_bit_for_bit_with_nan_signed_zeros_and_equal_bounds():
@@ -32,6 +43,22 @@ def test_the_clip_is_numpys_bit_for_bit_with_nan_signed_zeros_and_equal_bounds()
         expected = np.clip(np.array(values, dtype=np.float32), low, high)
         got = _clipped(values.tolist(), low.tolist(), high.tolist())
         assert got.dtype == np.float32 and got.tobytes() == expected.tobytes()
+
+
+def test_values_inside_their_bounds_keep_their_bits_and_one_outside_is_clipped():
+    low, high = [-1.0, 0.0, 0.0], [1.0, 2.0, 3.0]
+    low32, high32 = np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
+    inside = [-0.0, 1e-300, 2.9999999]  # a negative zero, an underflow to float32's zero
+    expected = np.clip(np.array(inside, dtype=np.float32), low32, high32)
+    assert _clipped(inside, low, high).tobytes() == expected.tobytes()
+    for k, outside in enumerate((-1.5, -0.0, 3.5)):  # -0.0 is not inside [0, 2]: made +0.0
+        values = inside.copy()
+        values[k] = outside
+        expected = np.clip(np.array(values, dtype=np.float32), low32, high32)
+        assert _clipped(values, low, high).tobytes() == expected.tobytes()
+    nan = [0.5, float("nan"), 1.0]
+    assert _clipped(nan, low, high).tobytes() == np.clip(
+        np.array(nan, dtype=np.float32), low32, high32).tobytes()
 
 
 def test_observations_are_the_same_with_array_and_float_bounds():
@@ -74,3 +101,110 @@ def test_a_drill_with_its_batch_buffer_pickles_and_continues_identically():
         if drill.outcome is not None:
             break
         assert drill.step(commands, rng) == copy.step(commands, copy_rng)
+
+
+def _scanned_interception_point(state, player, vmax, cfg):
+    """The interception point by trying every point of the roll table in turn."""
+    bx, by = state.pos[4]
+    bvx, bvy = state.vel[4]
+    px, py = state.pos[player]
+    times, travels, _, _ = _roll_table(cfg.ball_damping, cfg.cycle_seconds)
+    x = y = 0.0
+    for t, travelled in zip(times, travels, strict=True):
+        x, y = bx + bvx * travelled, by + bvy * travelled
+        r = vmax * t + cfg.control_radius
+        if (x - px) ** 2 + (y - py) ** 2 <= r * r:
+            return x, y
+    return x, y
+
+
+@pytest.mark.parametrize("damping", [1e-9, 0.05, 0.4, 0.9, 1.0])
+@pytest.mark.parametrize("cycle", [0.01, 0.1, 0.5])
+def test_the_interception_search_finds_the_point_a_full_scan_finds(damping, cycle):
+    cfg = DrillConfig(ball_damping=damping, cycle_seconds=cycle)
+    times, travels, _, _ = _roll_table(damping, cycle)
+    rng = np.random.default_rng(0)
+    for _ in range(1500):
+        ball, player = rng.uniform(-5, 40, size=2), rng.uniform(-5, 40, size=2)
+        speed = float(rng.choice([1.5, 3.0, 10.0, cfg.ball_max_speed, 100.0]))  # rolling
+        angle = rng.uniform(0, 2 * math.pi)
+        velocity = (speed * math.cos(angle), speed * math.sin(angle))
+        vmax = float(rng.choice([0.0, 1e-3, 1.0, 5.0, 20.0]))
+        if rng.random() < 0.5:  # a player placed exactly at the reach of one point
+            k = int(rng.integers(len(times)))
+            r = vmax * times[k] + cfg.control_radius
+            px = ball[0] + velocity[0] * travels[k] + r * math.cos(angle + 1.0)
+            py = ball[1] + velocity[1] * travels[k] + r * math.sin(angle + 1.0)
+            player = (px, py)
+        pos = ((float(player[0]), float(player[1])), (0.0, 0.0), (0.0, 0.0), (0.0, 0.0),
+               (float(ball[0]), float(ball[1])))
+        state = DrillState(pos, ((0.0, 0.0),) * 4 + (velocity,), -1, 0)
+        assert (ball_interception_point(state, 0, vmax, cfg)
+                == _scanned_interception_point(state, 0, vmax, cfg))
+
+
+def _dribble_heading_trying_every_candidate(state, player, cfg):
+    px, py = state.pos[player]
+    best, best_score = (0.0, -1.0), -math.inf
+    d1, d2 = state.opponents_of(player)
+    r1x, r1y = state.pos[d1][0] - px, state.pos[d1][1] - py
+    r2x, r2y = state.pos[d2][0] - px, state.pos[d2][1] - py
+    for hx, hy, score in _HEADINGS:
+        for rx, ry in ((r1x, r1y), (r2x, r2y)):
+            ahead = rx * hx + ry * hy
+            if 0.0 < ahead < 12.0:
+                free = 1.0 - abs(rx * hy - ry * hx) / 4.0
+                score -= 2.0 * (free if free > 0.0 else 0.0) * (1.0 - ahead / 12.0)
+        if not 1.0 <= px + hx * 4.0 <= cfg.field_size - 1.0:
+            score -= 3.0
+        if score > best_score:
+            best, best_score = (hx, hy), score
+    return best
+
+
+def _shield_direction_by_min(state, player):
+    px, py = state.pos[player]
+    nearest = min(state.opponents_of(player),
+                  key=lambda d: math.hypot(state.pos[d][0] - px, state.pos[d][1] - py))
+    return _unit(px - state.pos[nearest][0], py - state.pos[nearest][1])
+
+
+def test_dribbling_and_shielding_choose_what_trying_every_candidate_chooses():
+    cfg = DrillConfig()
+    rng = np.random.default_rng(0)
+    for k in range(20000):
+        pos = [tuple(map(float, rng.uniform(-1, 36, size=2))) for _ in range(5)]
+        player = int(rng.integers(4))
+        if k % 3 == 0:  # an opponent straight ahead, or both at the same distance
+            ox, oy = pos[player]
+            opponents = (2, 3) if player < 2 else (0, 1)
+            pos[opponents[0]] = (ox + float(rng.uniform(-1, 1)), oy - float(rng.uniform(0, 12)))
+            if k % 2 == 0:
+                pos[opponents[1]] = (2 * ox - pos[opponents[0]][0], 2 * oy - pos[opponents[0]][1])
+        if k % 5 == 0:  # on a touchline, where every heading costs the same
+            pos[player] = (float(rng.choice([0.5, 34.5])), pos[player][1])
+        state = DrillState(tuple(pos), ((0.0, 0.0),) * 5, player, 0)
+        assert dribble_heading(state, player, cfg) == _dribble_heading_trying_every_candidate(
+            state, player, cfg)
+        assert shield_direction(state, player) == _shield_direction_by_min(state, player)
+
+
+@pytest.mark.parametrize("shared_spaces", [False, True])
+@pytest.mark.parametrize("illegal_action", ["raise", "default"])
+def test_a_plain_int_action_gets_what_a_numpy_integer_gets(shared_spaces, illegal_action):
+    """The shortcut for plain ints against the general path NumPy integers take."""
+    env = soccer_drill.env(shared_spaces=shared_spaces, illegal_action=illegal_action)
+    env.reset(seed=1)
+    core = env._core
+    for holder in (-1, 0, 1):
+        core.drill.state = core.drill.state._replace(holder=holder)
+        for index, agent in enumerate(env.possible_agents):
+            for action in range(-1, 7):
+                outcomes = []
+                for given in (action, np.int64(action)):
+                    core.replaced = None
+                    try:
+                        outcomes.append((core.command_for(agent, index, given), core.replaced))
+                    except ValueError as exc:
+                        outcomes.append(str(exc))
+                assert outcomes[0] == outcomes[1], (holder, agent, action)
