@@ -5,8 +5,13 @@
 Each loop below runs in short blocks (``--block`` cycles), the loops taking turns, for
 ``--rounds`` rounds; a block's cost is the CPU time of this thread per cycle
 (``time.thread_time``), so time the process spends descheduled on a loaded machine is
-not counted. A loop's cost is its fastest block (the least disturbed by other jobs),
-and the table shows the ratio of those costs to the floor's, and of the medians.
+not counted. A loop's cost is its fastest block (the least disturbed by other jobs).
+The table shows three ratios to the floor: of the fastest blocks, of the median blocks,
+and the median over rounds of each round's ratio (a loop's block against the floor's
+block of the same round, measured within a second of each other), with its interquartile
+range. The paired one moves least between runs on a shared machine, where the speed of
+the whole machine drifts: a fastest block is one extreme of 25, and the floor's
+fastest block decides every ratio of the first column.
 
 The loops: the bare pymunk cycle of the drill's own space (one velocity set per body,
 then the sub-steps: the floor); an AEC cycle through ``soccer_drill.env()`` (scripted
@@ -279,15 +284,20 @@ def main() -> None:
           f"{os.cpu_count()} CPUs; load average {load_before[0]:.1f} before, "
           f"{load_after[0]:.1f} after; {args.rounds} blocks of {args.block} cycles per loop")
     print()
-    print("| loop | CPU us per cycle (fastest block) | x physics floor | x floor (median blocks) |")
-    print("|---|---:|---:|---:|")
+    paired = {name: sorted(v / p for v, p in zip(values, costs["physics"], strict=True))
+              for name, values in costs.items()}
+    print("| loop | CPU us per cycle (fastest block) | x physics floor | x floor (median "
+          "blocks) | x floor (paired by round: median [quartiles]) |")
+    print("|---|---:|---:|---:|---:|")
     for key, label in (("physics", "bare pymunk cycle (10 sub-steps, same bodies)"),
                        ("aec", "AEC cycle via env(), chasers, 2 agent turns"),
                        ("aec_wrapped", "same, behind PettingZoo's standard wrappers"),
                        ("parallel", "parallel_env cycle, chasers"),
                        ("holder", "holder env cycle (random policy)")):
+        quartiles = statistics.quantiles(paired[key], n=4)
         print(f"| {label} | {best[key]:.1f} | {best[key] / phys:.2f} | "
-              f"{median[key] / phys_median:.2f} |")
+              f"{median[key] / phys_median:.2f} | {statistics.median(paired[key]):.2f} "
+              f"[{quartiles[0]:.2f}, {quartiles[2]:.2f}] |")
     print(f"(a holder decision lasts {holder.cycles / holder.decisions:.1f} cycles on average)")
     cycle = best["aec"]
     print()

@@ -1,6 +1,6 @@
 """Where an environment cycle's time goes: a sampling profile, per component.
 
-    python benchmarks/profile_env.py [--cycles 40000] [--loop aec|parallel|holder]
+    python benchmarks/profile_env.py [--cycles 40000] [--loop aec|parallel|holder] [--bytecodes]
 
 Runs a loop of ``bench_env.py`` and samples the running Python stack every 0.5 ms of
 this process's user CPU time (``ITIMER_VIRTUAL``, so time spent descheduled on a loaded
@@ -11,6 +11,11 @@ samples taken inside an episode's reset are counted apart. Samples come at the k
 CPU-time accounting ticks (a few hundred per CPU second), hence the default length.
 Prints a markdown table: the share of samples and the microseconds per cycle that share
 is of the loop's CPU time per cycle. Unlike ``cProfile`` the loop runs at full speed.
+
+``--bytecodes`` counts instead the Python bytecodes each component executes per cycle
+(``sys.settrace`` opcode events, components as above): exact and the same in every run
+of the same code, so two versions compare without noise, but blind to time spent in C
+(pymunk's physics, NumPy) and slow (use ``--cycles 2000``).
 """
 
 from __future__ import annotations
@@ -97,6 +102,35 @@ def profile(loop, cycles: int, interval: float = 0.0005) -> tuple[Counter, float
     return samples, (time.thread_time() - start) / done * 1e6
 
 
+def bytecodes(loop, cycles: int) -> tuple[Counter, float]:
+    """Python bytecodes executed per component, and per cycle, in ``loop.run(cycles)``.
+
+    Counted with ``sys.settrace``'s opcode events, each bytecode going to the component
+    of the frame executing it (so a C function's own work is not counted): the same for
+    every run of the same code, whatever the load, unlike the sampled CPU time.
+    """
+    counts: Counter = Counter()
+
+    def on_call(frame, event, arg):
+        frame.f_trace_opcodes, frame.f_trace_lines = True, False
+        name = component(frame)  # once per call: the stack decides, as for a sample
+
+        def on_opcode(frame, event, arg):
+            if event == "opcode":
+                counts[name] += 1
+            return on_opcode
+
+        return on_opcode
+
+    loop.run(min(cycles, 2000))  # warm up
+    sys.settrace(on_call)
+    try:
+        done = loop.run(cycles)
+    finally:
+        sys.settrace(None)
+    return counts, sum(counts.values()) / done
+
+
 LOOPS = {"aec": AecLoop, "parallel": ParallelLoop, "holder": HolderLoop}
 
 
@@ -104,7 +138,20 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=int, default=40_000)
     parser.add_argument("--loop", choices=sorted(LOOPS), default="aec")
+    parser.add_argument("--bytecodes", action="store_true",
+                        help="count the Python bytecodes per component instead of sampling "
+                             "CPU time (deterministic; use --cycles 2000: tracing is slow)")
     args = parser.parse_args()
+    if args.bytecodes:
+        counts, per_cycle = bytecodes(LOOPS[args.loop](), args.cycles)
+        total = sum(counts.values())
+        print(f"{args.loop}: {args.cycles} cycles, {per_cycle:.0f} Python bytecodes per cycle")
+        print()
+        print("| component | share | bytecodes per cycle |")
+        print("|---|---:|---:|")
+        for name, count in sorted(counts.items(), key=lambda kv: -kv[1]):
+            print(f"| {name} | {count / total:.1%} | {count / args.cycles:.0f} |")
+        return
     samples, per_cycle = profile(LOOPS[args.loop](), args.cycles)
     total = sum(samples.values())
     print(f"{args.loop}: {args.cycles} cycles, {per_cycle:.1f} CPU us per cycle, "
