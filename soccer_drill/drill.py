@@ -203,7 +203,7 @@ class Drill:
         positions = ((x0, y0), (x1, y1), (x2, y2), (x3, y3), (x4, y4))
         velocities = ((vx0, vy0), (vx1, vy1), (vx2, vy2), (vx3, vy3), (vx4, vy4))
         cycle = state.cycle + 1
-        holder = self._possession(positions, velocities, holder, cycle, passer, lockout_until, rng)
+        holder = self._holder_after(positions, velocities, holder, cycle, passer, lockout_until, rng)
         new = _new_state(DrillState, (positions, velocities, holder, cycle, passer, lockout_until))
         self.state = new
         self._judge(new)
@@ -215,7 +215,7 @@ class Drill:
         _set_velocity(self._bodies[body], v)
         return v
 
-    def _possession(
+    def _holder_after(
         self,
         pos: tuple[tuple[float, float], ...],
         vel: tuple[tuple[float, float], ...],
