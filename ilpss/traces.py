@@ -97,8 +97,9 @@ class ReplacingTraces:
 
     def clear(self) -> None:
         """Drop every eligibility."""
-        self._tiles, self._choices, self._values = self._tiles[:0], self._choices[:0], \
-            self._values[:0]
+        self._tiles = self._tiles[:0]
+        self._choices = self._choices[:0]
+        self._values = self._values[:0]
 
 
 def td_update(
