@@ -186,7 +186,8 @@ class DrillCore:
         self.drill.reset(self.np_random)
         # Children draw from their own streams so a team's draws never shift the physics noise.
         support_seed, team_seed = self.np_random.integers(2**63, size=2)
-        self.support.reset(np.random.default_rng(int(support_seed)))
+        if self.scripted_attackers:  # else nothing draws from it: not made (~15 us)
+            self.support.reset(np.random.default_rng(int(support_seed)))
         if self._driver is not None:
             self._driver.reset(self.view, np.random.default_rng(int(team_seed)))
 

@@ -372,7 +372,7 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
             raise not_reset("last")
         agent = self.agent_selection
         return (
-            self.observe(agent) if observe else None,
+            self._observation(agent) if observe else None,  # observe() without its check
             self._cumulative_rewards[agent],
             self.terminations[agent],
             self.truncations[agent],
@@ -515,7 +515,9 @@ class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
             raise not_reset("step")
         if not self.agents:
             raise RuntimeError("step() called after the episode ended; call reset()")
-        if not isinstance(actions, Mapping) or set(actions) != set(self.agents):
+        if not (type(actions) is dict or isinstance(actions, Mapping)) or (
+            actions.keys() != set(self.agents)  # a keys view compares as a set
+        ):
             got = sorted(actions) if isinstance(actions, Mapping) else type(actions).__name__
             raise ValueError(
                 f"actions must be a mapping with one action per live agent {self.agents}, "

@@ -60,6 +60,7 @@ def feature_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
 
 _DEGREES = 180.0 / math.pi
 _hypot, _acos = math.hypot, math.acos
+_FLOAT32 = np.float32  # passed by position: np.array's keyword costs ~0.2 us a call
 
 
 def features(
@@ -106,7 +107,22 @@ def features(
         gb = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
     raw = (dm, near, far, mate_opp, pb if pb < pa else pa, sy, sx - cfg.field_size / 2, my,
            gb if gb < ga else ga)
+    if _inside(raw, low, high):  # the usual case: nothing to clip
+        return np.array(raw, _FLOAT32)
     return _clipped(raw, low, high)
+
+
+def _inside(values: Sequence[float], low: Bounds, high: Bounds) -> bool:
+    """Whether each of the nine values lies strictly inside its bounds.
+
+    The comparisons of :func:`_clipped`'s shortcut written out: a third of the cost of
+    ``all(map(...))`` over the nine.
+    """
+    v0, v1, v2, v3, v4, v5, v6, v7, v8 = values
+    l0, l1, l2, l3, l4, l5, l6, l7, l8 = low
+    h0, h1, h2, h3, h4, h5, h6, h7, h8 = high
+    return (l0 < v0 < h0 and l1 < v1 < h1 and l2 < v2 < h2 and l3 < v3 < h3 and l4 < v4 < h4
+            and l5 < v5 < h5 and l6 < v6 < h6 and l7 < v7 < h7 and l8 < v8 < h8)
 
 
 def _clipped(values: Sequence[float], low: Bounds, high: Bounds) -> np.ndarray:
@@ -120,13 +136,13 @@ def _clipped(values: Sequence[float], low: Bounds, high: Bounds) -> np.ndarray:
     as lists of floats (``low.tolist()``) are compared fastest.
     """
     if all(map(_lt, low, values)) and all(map(_lt, values, high)):
-        return np.array(values, dtype=np.float32)
+        return np.array(values, _FLOAT32)
     return np.array(
         [  # m = max(v, lo), then min(m, hi), each as NumPy compares
             m if ((m := v if v > lo or v != v else lo) < hi or m != m) else hi
             for v, lo, hi in zip(values, low, high, strict=True)
         ],
-        dtype=np.float32,
+        _FLOAT32,
     )
 
 
@@ -227,4 +243,4 @@ def global_state(
     values += [float(holder == i) for i in range(4)]
     values += [float(locked and passer == i) for i in range(4)]
     values.append(state.cycle / cfg.max_cycles)
-    return np.clip(np.array(values, dtype=np.float32), low, high)
+    return np.clip(np.array(values, _FLOAT32), low, high)

@@ -122,7 +122,9 @@ def ball_interception_point(
     if state.holder >= 0 and state.holder != player:
         # Aim where a carried ball will be when we get there, so chasers do not trail.
         hvx, hvy = state.vel[state.holder]
-        lead = min(math.hypot(bx - px, by - py) / vmax, _LEAD_SECONDS) if vmax > 0 else 0.0
+        lead = math.hypot(bx - px, by - py) / vmax if vmax > 0 else 0.0
+        if _LEAD_SECONDS < lead:  # min(lead, _LEAD_SECONDS), as min() compares
+            lead = _LEAD_SECONDS
         return bx + hvx * lead, by + hvy * lead
     ball_speed = math.hypot(bvx, bvy)
     if ball_speed < 1.0 or state.holder >= 0:
@@ -135,19 +137,21 @@ def ball_interception_point(
     # there (it only slows down), and by vmax alone once the ball rolls away from the
     # player. The bound is widened far beyond rounding errors.
     vmax_step = vmax * spacing * (1.0 + 1e-9)
+    speed_bound = ball_speed * (1.0 + 1e-9)
     k = 0
     while True:
         travelled = travels[k]
         x, y = bx + bvx * travelled, by + bvy * travelled
+        dx, dy = x - px, y - py
         r = vmax * times[k] + reach
-        d2 = (x - px) ** 2 + (y - py) ** 2
+        d2 = dx * dx + dy * dy
         if d2 <= r * r or k == last:
             return x, y
         gap = _sqrt(d2) - r - 1e-9 * (r + 1.0)
-        if (x - px) * bvx + (y - py) * bvy >= 0.0:  # rolling away: no nearer from here on
+        if dx * bvx + dy * bvy >= 0.0:  # rolling away: no nearer from here on
             closing = vmax_step
         else:
-            closing = ball_speed * slowing[k] * (1.0 + 1e-9) + vmax_step
+            closing = speed_bound * slowing[k] + vmax_step
         if gap <= closing:
             k += 1
         elif gap >= closing * (last - k):  # none left can be reached: the last point
@@ -174,22 +178,27 @@ def _roll_table(
 def support_spot(state: DrillState, player: int, cfg: DrillConfig) -> tuple[float, float]:
     """Where an off-ball attacker gets open: wide of the ball and a little ahead of it."""
     size = cfg.field_size
-    bx, by = state.pos[4]
-    px, _ = state.pos[player]
-    side = 1.0 if px >= bx else -1.0
+    pos = state.pos
+    bx, by = pos[4]
+    side = 1.0 if pos[player][0] >= bx else -1.0
     if not 3.0 <= bx + side * 11.0 <= size - 3.0:
         side = -side
-    tx = min(max(bx + side * 11.0, 2.0), size - 2.0)
-    ty = min(max(by - 3.0, 2.0), size - 2.0)
+    # Each clamp is min(max(v, lo), hi) written out (the same floats, NaN included, for
+    # lo < hi): the two builtin calls cost more than the rest of the line.
+    lo, hi = 2.0, size - 2.0
+    tx, ty = bx + side * 11.0, by - 3.0
+    tx = lo if tx < lo else hi if tx > hi else tx
+    ty = lo if ty < lo else hi if ty > hi else ty
     # Step away from a defender standing on the spot.
-    for d in state.opponents_of(player):
-        dx, dy = tx - state.pos[d][0], ty - state.pos[d][1]
+    for d in (2, 3) if player < 2 else (0, 1):  # the opponents
+        dx, dy = tx - pos[d][0], ty - pos[d][1]
         dist = math.hypot(dx, dy)
         if dist < 5.0:
             ux, uy = _unit(dx, dy)
             tx += ux * (5.0 - dist)
             ty += uy * (5.0 - dist)
-    return min(max(tx, 1.0), size - 1.0), min(max(ty, 1.0), size - 1.0)
+    lo, hi = 1.0, size - 1.0
+    return (lo if tx < lo else hi if tx > hi else tx), (lo if ty < lo else hi if ty > hi else ty)
 
 
 def dribble_heading(state: DrillState, player: int, cfg: DrillConfig) -> tuple[float, float]:

@@ -43,9 +43,7 @@ class SupportPlayer:
             if mate_locked or state.distance(player, BALL) <= state.distance(mate, BALL):
                 return _GO_TO_BALL
         x, y = support_spot(state, player, cfg)
-        size = cfg.field_size
-        target = (
-            min(max(x + self._offset[0], 1.0), size - 1.0),
-            min(max(y + self._offset[1], 1.0), size - 1.0),
-        )
-        return Command(_MOVE_TO, target)
+        x, y = x + self._offset[0], y + self._offset[1]
+        lo, hi = 1.0, cfg.field_size - 1.0  # each clamp min(max(v, lo), hi), written out
+        return Command(_MOVE_TO, (lo if x < lo else hi if x > hi else x,
+                                  lo if y < lo else hi if y > hi else y))

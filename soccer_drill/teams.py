@@ -44,6 +44,7 @@ from soccer_drill.time_bound import Overrun, call_within
 
 ENTRY_POINT_GROUP = "soccer_drill.opponents"
 _MOVE_TO = Skill.MOVE_TO  # read once: an enum member lookup costs ~0.2 us
+_UNSET = object()  # no command seen yet (``None`` is a command to refuse)
 DEFAULT_TEAM_TIMEOUT = 1.0
 """Seconds of CPU time a team's ``reset`` or ``act`` may take before it is stopped."""
 TEAM_TIMEOUT_RANGE = (0.001, 86_400.0)
@@ -305,8 +306,8 @@ class TeamDriver:
     Interruption uses ``setitimer(ITIMER_PROF)``/``SIGPROF``; the previous ``SIGPROF``
     handler is restored after every call, also when the call or the arming of the
     timer fails. Off the main thread, on platforms without ``setitimer`` (Windows), or
-    when another ``ITIMER_PROF`` timer is already armed (a profiler's; it is left
-    alone), the call's CPU time is measured and the error raised *after* it returns.
+    when another ``ITIMER_PROF`` timer is already armed (a profiler's; it is put back
+    at once), the call's CPU time is measured and the error raised *after* it returns.
     Pass ``team_timeout=None`` for no bound at all.
 
     After the error the environment stays usable: its next ``reset()`` resets the team.
@@ -363,8 +364,12 @@ class TeamDriver:
                 f"drives {sorted(self.players)}, got {got} at cycle {cycle}"
             )
         out = []
+        given = checked = _UNSET
         for player, index in zip(self.players, self._indices, strict=True):
-            out.append((index, self._check(player, commands[player], cycle)))
+            command = commands[player]
+            if command is not given:  # one object for several players is checked once
+                given, checked = command, self._check(player, command, cycle)
+            out.append((index, checked))
         return out
 
     def _call(self, method: Callable[..., Any], *args: Any) -> Any:

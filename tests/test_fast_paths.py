@@ -12,6 +12,7 @@ from soccer_drill import drill as drill_module
 from soccer_drill.config import DrillConfig
 from soccer_drill.features import (
     _clipped,
+    _inside,
     feature_bounds,
     features,
     kinematic_bounds,
@@ -24,6 +25,7 @@ from soccer_drill.skills import (
     ball_interception_point,
     dribble_heading,
     shield_direction,
+    support_spot,
 )
 from soccer_drill.state import DrillState
 
@@ -43,6 +45,21 @@ def test_the_clip_is_numpys_bit_for_bit_with_nan_signed_zeros_and_equal_bounds()
         expected = np.clip(np.array(values, dtype=np.float32), low, high)
         got = _clipped(values.tolist(), low.tolist(), high.tolist())
         assert got.dtype == np.float32 and got.tobytes() == expected.tobytes()
+
+
+def test_the_features_inside_check_is_every_comparison_made_in_turn():
+    rng = np.random.default_rng(1)
+    low, high = (bound.tolist() for bound in feature_bounds(DrillConfig()))
+    for _ in range(5000):
+        values = [float(rng.uniform(lo - 1.0, hi + 1.0)) for lo, hi in zip(low, high, strict=True)]
+        k = int(rng.integers(9))  # one value on a bound, NaN, or just inside
+        values[k] = float(rng.choice([low[k], high[k], math.nan, -0.0, np.nextafter(high[k], 0)]))
+        if rng.random() < 0.5:  # most of the time every value is inside
+            values = [min(max(v, lo + 1e-6), hi - 1e-6) if v == v else v
+                      for v, lo, hi in zip(values, low, high, strict=True)]
+        expected = all(lo < v for v, lo in zip(values, low, strict=True)) and all(
+            v < hi for v, hi in zip(values, high, strict=True))
+        assert _inside(values, low, high) is expected
 
 
 def test_values_inside_their_bounds_keep_their_bits_and_one_outside_is_clipped():
@@ -141,6 +158,46 @@ def test_the_interception_search_finds_the_point_a_full_scan_finds(damping, cycl
         state = DrillState(pos, ((0.0, 0.0),) * 4 + (velocity,), -1, 0)
         assert (ball_interception_point(state, 0, vmax, cfg)
                 == _scanned_interception_point(state, 0, vmax, cfg))
+
+
+def _support_spot_by_min_and_max(state, player, cfg):
+    size = cfg.field_size
+    bx, by = state.pos[4]
+    side = 1.0 if state.pos[player][0] >= bx else -1.0
+    if not 3.0 <= bx + side * 11.0 <= size - 3.0:
+        side = -side
+    tx = min(max(bx + side * 11.0, 2.0), size - 2.0)
+    ty = min(max(by - 3.0, 2.0), size - 2.0)
+    for d in state.opponents_of(player):
+        dx, dy = tx - state.pos[d][0], ty - state.pos[d][1]
+        dist = math.hypot(dx, dy)
+        if dist < 5.0:
+            ux, uy = _unit(dx, dy)
+            tx, ty = tx + ux * (5.0 - dist), ty + uy * (5.0 - dist)
+    return min(max(tx, 1.0), size - 1.0), min(max(ty, 1.0), size - 1.0)
+
+
+@pytest.mark.parametrize("size", [35.0, 60.0, 100.0])
+def test_the_support_spot_and_a_held_balls_lead_are_what_min_and_max_give(size):
+    cfg = DrillConfig(field_size=size)
+    rng = np.random.default_rng(0)
+    for k in range(5000):
+        pos = [tuple(map(float, rng.uniform(-3, size + 3, size=2))) for _ in range(5)]
+        player = int(rng.integers(2))
+        if k % 4 == 0:  # an opponent near the spot, or exactly on it
+            spot = _support_spot_by_min_and_max(DrillState(tuple(pos), ((0.0, 0.0),) * 5, -1, 0),
+                                                player, cfg)
+            pos[2 + k % 8 // 4] = spot if k % 3 == 0 else (spot[0] + 1.0, spot[1] - 2.0)
+        state = DrillState(tuple(pos), ((0.0, 0.0),) * 5, -1, 0)
+        assert support_spot(state, player, cfg) == _support_spot_by_min_and_max(state, player, cfg)
+        # A ball held by the other side: aimed at where it will be, at most 1.5 s ahead.
+        holder, vmax = 2 + k % 2, float(rng.choice([0.0, 0.1, 1.0, 5.0, 50.0]))
+        vel = tuple(tuple(map(float, rng.uniform(-6, 6, size=2))) for _ in range(5))
+        state = DrillState(tuple(pos), vel, holder, 0)
+        (bx, by), (px, py), (hvx, hvy) = pos[4], pos[player], vel[holder]
+        lead = min(math.hypot(bx - px, by - py) / vmax, 1.5) if vmax > 0 else 0.0
+        assert ball_interception_point(state, player, vmax, cfg) == (bx + hvx * lead,
+                                                                     by + hvy * lead)
 
 
 def _dribble_heading_trying_every_candidate(state, player, cfg):

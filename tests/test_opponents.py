@@ -21,7 +21,7 @@ from opponents.calibrate import main as calibrate_main
 from opponents.cli import main as list_teams
 from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
-from soccer_drill.skills import Skill, ball_interception_point
+from soccer_drill.skills import Command, Skill, ball_interception_point
 from soccer_drill.state import BALL
 from soccer_drill.teams import make_team
 
@@ -238,3 +238,17 @@ def test_family_rejects_bad_parameters_by_name():
 def test_press_team_matches_the_independent_chasers():
     for seed in (0, 3):
         assert _trajectory("interceptors_press", seed=seed) == _trajectory("chasers", seed=seed)
+
+
+def test_chasers_give_one_command_per_episode_at_the_speed_set_then():
+    from opponents.chasers import Chasers
+
+    team = Chasers(speed=0.5)
+    env = HolderEnv(opponent=team)
+    env.reset(seed=0)
+    first = team.act(env._core.view)
+    assert first["defender_0"] is first["defender_1"] is team.act(env._core.view)["defender_0"]
+    assert first["defender_0"] == Command(Skill.INTERCEPT, speed=0.5)
+    team.speed = 1.0  # taken up at the next episode
+    env.reset(seed=0)
+    assert team.act(env._core.view)["defender_0"] == Command(Skill.INTERCEPT, speed=1.0)

@@ -372,15 +372,15 @@ def test_a_slow_call_off_the_main_thread_is_reported_when_it_returns():
 @pytest.mark.skipif(not UNIX_TIMER, reason="setitimer (Unix)")
 def test_another_armed_cpu_timer_is_left_alone(sentinel_prof_handler):
     """With someone else's CPU-time timer armed (a profiler's), the driver measures instead."""
-    signal.setitimer(signal.ITIMER_PROF, 600.0)
+    signal.setitimer(signal.ITIMER_PROF, 600.0, 300.0)
     team = _Hanging("act", "loop", hang_seconds=0.4)
     env = soccer_drill.HolderEnv(opponent=team, team_timeout=0.1)
     env.reset(seed=0)
     with pytest.raises(TeamError, match=r"bound of 0.1 s .*stopped after (0\.[4-9]|[1-9])"):
         _steps(env, "holder", 10)
     assert team.cpu >= 0.4
-    remaining, interval = signal.getitimer(signal.ITIMER_PROF)
-    assert 500.0 < remaining <= 600.0 and interval == 0.0
+    remaining, interval = signal.getitimer(signal.ITIMER_PROF)  # its value and interval back
+    assert 500.0 < remaining <= 600.0 and interval == 300.0
     assert signal.getsignal(signal.SIGPROF) is sentinel_prof_handler
 
 
@@ -627,6 +627,34 @@ def test_a_move_to_target_is_copied_when_checked():
     assert math.hypot(state.pos[2][0] - 5.0, state.pos[2][1] - 5.0) < 1.0
     assert math.hypot(state.pos[3][0] - 30.0, state.pos[3][1] - 5.0) < 1.0
     assert all(t.reads == 1 for t in targets)
+
+
+@pytest.mark.parametrize("bad", [Command(Skill.MARK, speed=0), None, Command(Skill.PASS)])
+def test_each_players_command_is_checked_when_the_two_are_different_objects(bad):
+    """One object for both players is checked once; a second, different one on its own."""
+    team = _Scripted(lambda p: {p[0]: Command(Skill.MARK), p[1]: bad})
+    env = soccer_drill.parallel_env(opponent=team)
+    obs, _ = env.reset(seed=0)
+    with pytest.raises(TeamError, match=r"player 'defender_1', cycle 0"):
+        env.step({a: int(np.flatnonzero(o["action_mask"])[0]) for a, o in obs.items()})
+
+
+def test_one_command_object_for_both_players_is_read_once_and_drives_both():
+    targets = []
+
+    def act(players):
+        targets.append(_Flip())
+        return dict.fromkeys(players, Command(Skill.MOVE_TO, targets[-1]))
+
+    env = soccer_drill.HolderEnv(opponent=_Scripted(act), decision_cycles=1)
+    env.reset(seed=0)
+    for _ in range(50):  # 5 s: long enough for both to get there from their starts
+        env.step(0)
+    state = env.drill_state
+    assert state.cycle == 50 and all(math.isfinite(c) for p in state.pos for c in p)
+    for defender in (2, 3):  # both went to the point read once (side by side), not to NaN
+        assert math.hypot(state.pos[defender][0] - 5.0, state.pos[defender][1] - 5.0) < 1.5
+    assert len(targets) == 50 and all(t.reads == 1 for t in targets)
 
 
 @pytest.mark.parametrize("params", [[1, 2], "speed", {1: 2}, 3.0])
