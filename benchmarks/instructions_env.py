@@ -4,8 +4,10 @@
 
 CPU time on a shared or virtual machine varies from run to run by more than the changes
 one wants to see (``bench_env.py``'s ratios moved by 10% between runs on the machine
-behind ``docs/benchmarks.md``). The number of instructions a loop executes does not: it
-depends on the code and the episodes only. Each loop of ``bench_env.py`` runs under
+behind ``docs/benchmarks.md``). The number of instructions a loop executes should not:
+it depends on the code and the episodes. Yet runs of the same code have differed by
+0.1% on one day and by up to 5% on another (not traced), so run each version more than
+once and trust only changes well beyond that spread. Each loop of ``bench_env.py`` runs under
 ``valgrind --tool=cachegrind`` twice, once for a warm-up only and once for ``--cycles``
 more cycles; the difference over ``--cycles`` is the instructions per cycle. The ratio
 to the bare pymunk cycle is the floor ratio in instructions. An instruction of the
