@@ -219,8 +219,9 @@ def team_check_costs(number: int = 20_000, repeat: int = 30) -> dict[str, float]
     """Microseconds per cycle of the team's safety checks, each alone.
 
     ``bound``: ``TeamDriver.act`` with the time bound against the same driver without it.
-    ``commands``: checking the two commands the team returned. ``action``: checking one
-    agent's action (``DrillCore.command_for``).
+    ``commands``: checking the commands the team returned (the chasers give one object
+    to both players, checked once). ``action``: checking one agent's action
+    (``DrillCore.command_for``).
     """
     env = soccer_drill.env(opponent="chasers")
     env.reset(seed=0)
@@ -306,7 +307,7 @@ def main() -> None:
     for label, per_call, calls in (
         ("thread guard (per `step`)", low["guard"], 2),
         ("team time bound (per `act`)", checks["bound"], 1),
-        ("team command checks (2 commands)", checks["commands"], 1),
+        ("team command checks (the chasers' 2 commands: one object)", checks["commands"], 1),
         ("agent action check (per action)", checks["action"], 2),
     ):
         print(f"| {label} | {per_call:.2f} | {per_call * calls:.2f} | "

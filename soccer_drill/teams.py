@@ -336,10 +336,8 @@ class TeamDriver:
     def act(self, view: DrillView) -> list[tuple[int, Command]]:
         """Commands as ``(player index, command)`` pairs, validated."""
         start = time.perf_counter()
-        timeout = self.team_timeout
-        try:  # _call() written out: this runs every cycle
-            commands = (self.team.act(view) if timeout is None
-                        else call_within(timeout, self.team.act, view))
+        try:
+            commands = self._call(self.team.act, view)
         except (Overrun, Exception) as exc:
             raise self._failure("act()", f" at cycle {view.cycle}", exc, start) from _cause(exc)
         try:
