@@ -20,6 +20,10 @@ Everything ``ilpss`` saves (kernel models, policies, option libraries, checkpoin
   :func:`read_json` reads any JSON file with errors that name it.
 * :func:`locked_folder` holds an exclusive lock on a folder while a run writes into it, so
   that a second writer gets a clear error instead of mixing its files with the first's.
+* :func:`read_regular` and :func:`sha256_file` read regular files only (never a device, a
+  FIFO or a socket, which could block or never end), bounded as they read;
+  :func:`check_inside` refuses a path below a folder that leaves it through a symbolic
+  link, so that a data folder never leads a read, a write or a deletion outside itself.
 
 Shape templates
 ---------------
@@ -37,9 +41,11 @@ import contextlib
 import hashlib
 import io
 import json
+import math
 import os
 import re
 import secrets
+import stat
 import zipfile
 from collections.abc import Iterator, Mapping
 from pathlib import Path
@@ -50,15 +56,19 @@ import numpy as np
 __all__ = [
     "FolderInUseError",
     "atomic_write_bytes",
+    "check_inside",
     "json_differences",
     "json_record_bytes",
     "load_json_record",
     "load_npz",
     "locked_folder",
     "read_json",
+    "read_regular",
+    "release_inherited_locks",
     "remove_stale_temporaries",
     "save_figure",
     "save_npz_atomic",
+    "sha256_file",
 ]
 
 #: Name of the archive member that holds the JSON record.
@@ -67,6 +77,9 @@ META_KEY = "__meta__"
 CONTAINER = "ilpss.npz/1"
 #: Largest JSON file :func:`read_json` reads (and largest record of an archive).
 MAX_JSON_BYTES = 64 * 2**20
+#: Largest archive :func:`load_npz` reads, and file :func:`sha256_file` hashes: far above
+#: any ilpss archive (a policy holds at most ``tiles.MAX_WEIGHTS`` weights per choice).
+MAX_ARCHIVE_BYTES = 2**34
 
 ShapeTemplate = tuple[int | str | None, ...]
 
@@ -90,22 +103,37 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
     path = Path(path)
     directory = path.parent if str(path.parent) else Path(".")
     tmp = directory / f".{path.name}.{os.getpid()}.{secrets.token_hex(6)}.tmp"
-    # O_EXCL: never clobber another writer's temporary; mode 0o666 lets the umask decide
-    # the permissions, as for any ordinary new file.
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+    try:
+        # O_EXCL: never clobber another writer's temporary; mode 0o666 lets the umask
+        # decide the permissions, as for any ordinary new file.
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0),
+                     0o666)
+    except OSError as exc:
+        raise _naming(exc, path) from exc
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as exc:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(exc, OSError):
+            raise _naming(exc, path) from exc
         raise
     _fsync_directory(directory)
+
+
+def _naming(exc: OSError, path: Path) -> OSError:
+    """``exc`` as the same kind of error, saying which file could not be written (a full
+    disk's ``OSError`` otherwise names only the temporary, or nothing)."""
+    if exc.filename == os.fspath(path):
+        return exc
+    return type(exc)(exc.errno, f"cannot write {os.fspath(path)}: "
+                     f"{exc.strerror or exc}", os.fspath(path))
 
 
 _TEMPORARY = re.compile(r"\..+\.\d+\.[0-9a-f]{12}\.tmp")
@@ -165,8 +193,9 @@ def locked_folder(path: str | os.PathLike[str], what: str = "folder") -> Iterato
     """Hold an exclusive lock on the existing folder ``path`` for the ``with`` block.
 
     The lock is :func:`fcntl.flock` on the folder itself (no lock file is left behind) and
-    is released when the block ends or the process dies, ``SIGKILL`` included. Processes
-    forked inside the block (local worker processes) share it. It does not wait: a second
+    is released when the block ends or the process dies, ``SIGKILL`` included. A process
+    forked inside the block shares it until it calls :func:`release_inherited_locks`
+    (local worker processes do, first thing). It does not wait: a second
     holder gets :class:`FolderInUseError` at once. A process must not lock one folder
     twice. Where ``fcntl`` is missing (Windows) nothing is locked.
 
@@ -190,9 +219,29 @@ def locked_folder(path: str | os.PathLike[str], what: str = "folder") -> Iterato
                 f"{os.fspath(path)}: this {what} is being written by another process; wait "
                 "for it to finish or use another folder"
             ) from None
+        _HELD_LOCKS.add(fd)
         yield
     finally:
+        _HELD_LOCKS.discard(fd)
         os.close(fd)  # releases the lock
+
+
+_HELD_LOCKS: set[int] = set()
+"""The descriptors of the folder locks this process holds (:func:`locked_folder`)."""
+
+
+def release_inherited_locks() -> None:
+    """Close, in a forked child, the descriptors of the folder locks its parent holds.
+
+    An ``flock`` belongs to the open file, which a forked child shares: a child that kept
+    the descriptor would keep the folder locked after its parent died. Closing the
+    child's copy leaves the parent's lock as it is. Call it first in every forked worker
+    (:class:`~ilpss.experiments.executor.LocalExecutor` does).
+    """
+    for fd in list(_HELD_LOCKS):
+        with contextlib.suppress(OSError):
+            os.close(fd)
+    _HELD_LOCKS.clear()
 
 
 def json_differences(saved: Any, current: Any, prefix: str = "") -> list[str]:
@@ -224,10 +273,18 @@ def _refuse_constant(name: str) -> Any:
     raise ValueError(f"{name} is not a JSON number")
 
 
+def _finite_float(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):  # 1e400: a number JSON allows, which float cannot hold
+        raise ValueError(f"the number {text[:40]} is too large for a float")
+    return value
+
+
 def _parse_json(text: str | bytes, where: str) -> Any:
-    """Strict JSON (no NaN or Infinity); errors name ``where``."""
+    """Strict JSON (no NaN or Infinity, no number beyond float's range); errors name
+    ``where``."""
     try:
-        return json.loads(text, parse_constant=_refuse_constant)
+        return json.loads(text, parse_constant=_refuse_constant, parse_float=_finite_float)
     except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError, NaN
         raise ValueError(f"{where}: not valid JSON ({exc})") from exc
     except RecursionError:
@@ -245,16 +302,102 @@ def read_json(path: str | os.PathLike[str]) -> Any:
         Naming the file: it is a folder, larger than :data:`MAX_JSON_BYTES`, not UTF-8
         JSON, or nested too deeply to parse.
     """
-    path = Path(path)
+    return _parse_json(read_regular(path, MAX_JSON_BYTES, "a JSON record"), os.fspath(path))
+
+
+_KINDS = {stat.S_IFDIR: "a folder", stat.S_IFCHR: "a character device",
+          stat.S_IFBLK: "a block device", stat.S_IFIFO: "a FIFO (named pipe)",
+          stat.S_IFSOCK: "a socket"}
+
+
+@contextlib.contextmanager
+def _open_regular(path: str | os.PathLike[str], what: str) -> Iterator[int]:
+    """A read-only descriptor of the regular file ``path`` (a symbolic link is followed);
+    anything else is refused before a byte is read. ``O_NONBLOCK``: opening a FIFO
+    returns at once (and is then refused) instead of waiting for a writer."""
     where = os.fspath(path)
-    if path.is_dir():
-        raise ValueError(f"{where}: a folder, where a JSON file was expected")
-    size = path.stat().st_size
-    if size > MAX_JSON_BYTES:
-        raise ValueError(
-            f"{where}: {size:,} bytes, more than the {MAX_JSON_BYTES:,} a JSON record may have"
-        )
-    return _parse_json(path.read_bytes(), where)
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0)
+    try:
+        fd = os.open(path, flags)
+    except IsADirectoryError:
+        raise ValueError(f"{where}: a folder, where {what} was expected") from None
+    try:
+        mode = os.fstat(fd).st_mode
+        if not stat.S_ISREG(mode):
+            kind = _KINDS.get(stat.S_IFMT(mode), "not a regular file")
+            raise ValueError(f"{where}: {kind}, where {what} (a regular file) was expected")
+        yield fd
+    finally:
+        os.close(fd)
+
+
+def read_regular(path: str | os.PathLike[str], limit: int, what: str = "a file") -> bytes:
+    """The contents of the regular file ``path``, refused if it holds more than ``limit``
+    bytes: the bound is kept while reading (a file that grows, or a ``stat`` size that
+    lies, cannot make it read more than ``limit + 1`` bytes).
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        Naming the file: a folder, a device, a FIFO or a socket, or larger than ``limit``.
+    """
+    with _open_regular(path, what) as fd:
+        chunks, total = [], 0
+        while True:
+            chunk = os.read(fd, min(2**20, limit + 1 - total))
+            if not chunk:
+                return b"".join(chunks)
+            total += len(chunk)
+            if total > limit:
+                raise ValueError(f"{os.fspath(path)}: more than the {limit:,} bytes "
+                                 f"{what} may have")
+            chunks.append(chunk)
+
+
+def sha256_file(path: str | os.PathLike[str], limit: int = MAX_ARCHIVE_BYTES) -> str:
+    """The SHA-256 of the regular file ``path``, read in blocks (at most ``limit`` bytes;
+    errors as :func:`read_regular`'s)."""
+    digest = hashlib.sha256()
+    with _open_regular(path, "a saved file") as fd:
+        total = 0
+        while chunk := os.read(fd, 2**20):
+            total += len(chunk)
+            if total > limit:
+                raise ValueError(f"{os.fspath(path)}: more than the {limit:,} bytes any "
+                                 "ilpss file has")
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def check_inside(root: str | os.PathLike[str], path: str | os.PathLike[str],
+                 what: str = "folder") -> Path:
+    """``path``, after checking that it lies below ``root`` without leaving it: written
+    below it, with no ``..``, and no component after ``root`` a symbolic link (which could
+    lead a read, a write or a deletion anywhere). ``root`` itself may be a link.
+
+    Raises
+    ------
+    ValueError
+        Naming the link or the path, and the ``what`` it would leave.
+    """
+    root, path = Path(root), Path(path)
+    try:
+        parts = path.relative_to(root).parts
+    except ValueError:
+        raise ValueError(f"{path}: not inside the {what} {root}") from None
+    current = root
+    for part in parts:
+        if part == "..":
+            raise ValueError(f"{path}: leaves the {what} {root} ('..')")
+        current = current / part
+        if current.is_symlink():
+            raise ValueError(
+                f"{current}: a symbolic link inside the {what} {root}; everything a run "
+                f"reads, writes or deletes there must lie inside it (remove the link)"
+            )
+    return path
 
 
 def json_record_bytes(record: Mapping[str, Any]) -> bytes:
@@ -405,7 +548,12 @@ def load_npz(
     """
     where = os.fspath(path)
     optional = optional or {}
-    with open(path, "rb") as fh:  # FileNotFoundError, IsADirectoryError, PermissionError
+    with _open_regular(path, "an .npz archive") as fd, \
+            os.fdopen(os.dup(fd), "rb") as fh:  # FileNotFoundError, PermissionError
+        size = os.fstat(fd).st_size
+        if size > MAX_ARCHIVE_BYTES:
+            raise ValueError(f"{where}: {size:,} bytes, more than any ilpss archive has "
+                             f"({MAX_ARCHIVE_BYTES:,})")
         if fh.read(6) == b"\x93NUMPY":
             raise ValueError(f"{where}: not an .npz archive (a single .npy array?)")
         try:
@@ -511,6 +659,11 @@ def _member_headers(
             raise ValueError(
                 f"not a readable .npz archive: member {member!r} holds pickled Python "
                 "objects (dtype object), which are never loaded"
+            )
+        if any(n > MAX_ARCHIVE_BYTES for n in shape):  # (0, 10**30) holds 0 bytes, but
+            raise ValueError(                        # no array can have that shape
+                f"{where}: member {member!r} declares shape {shape}, an axis longer than "
+                "any ilpss array has"
             )
         size = int(np.prod(shape, dtype=object)) * dtype.itemsize
         if header + size != info.file_size:

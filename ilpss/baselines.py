@@ -84,7 +84,7 @@ from ilpss.episode import (
 from ilpss.policy import FrozenPolicy, LinearPolicy, epsilon_greedy_choice, greedy_choice
 from ilpss.smdp import SMDP_CONSTRAINTS, SmdpLearner
 from ilpss.tiles import KEEPAWAY_ALPHA, TileCoder
-from ilpss.traces import ReplacingTraces, td_update
+from ilpss.traces import DivergedError, ReplacingTraces, td_update
 
 __all__ = ["PRQ_CONSTRAINTS", "PrqConfig", "PrqLearner"]
 
@@ -313,6 +313,17 @@ class PrqLearner(EpisodicLearner):
         return action, explored, False
 
     # --------------------------------------------------------------- episodes
+    def _update(self, traces: ReplacingTraces | None, active: np.ndarray, action: int,
+                target: float, decay: float, cut: bool) -> None:
+        try:
+            td_update(self.q, traces, active, action, target, self._step, decay, cut)
+        except DivergedError as exc:
+            raise DivergedError(
+                f"PRQ-learning diverged: {exc}; the step size (alpha={self.alpha:g}) or the "
+                "initial value is too large for this environment's rewards "
+                "(LearnerConfig.alpha, .initial_value)"
+            ) from None
+
     def run_episode(
         self, env: Any, learn: bool = True, *, seed: int | None = None
     ) -> EpisodeResult:
@@ -372,7 +383,7 @@ class PrqLearner(EpisodicLearner):
             next_s = observation(obs, n_features) if (not ended or bootstrap_end) else None
             log.step(obs, reward, d, terminated, truncated, info)
             if next_s is None:
-                td_update(self.q, traces, active, action, reward, self._step, 0.0, True)
+                self._update(traces, active, action, reward, 0.0, True)
                 break
             next_active = coder.active(next_s)
             q = self.q.q_from_tiles(next_active)
@@ -382,8 +393,8 @@ class PrqLearner(EpisodicLearner):
             # Watkins's Q(lambda): the traces are cut after an exploratory action (as in
             # SmdpLearner) and after the reused policy's action where Q prefers another.
             cut = ended or explored or (follow and q[next_action] < q.max())
-            td_update(self.q, traces, active, action, reward + self.gamma**d * float(q.max()),
-                      self._step, self.gamma**d * self.trace_decay, cut)
+            self._update(traces, active, action, reward + self.gamma**d * float(q.max()),
+                         self.gamma**d * self.trace_decay, cut)
             if ended:
                 break
             s, active, action = next_s, next_active, next_action

@@ -107,11 +107,15 @@ def validate_bags(bags: Sequence[ArrayLike], n_features: int | None = None) -> l
     out: list[Array] = []
     for i, bag in enumerate(bags):
         try:
-            a = np.ascontiguousarray(bag, dtype=np.float64)
+            raw = np.asarray(bag)
+            if raw.dtype.kind != "c":
+                a = np.ascontiguousarray(raw, dtype=np.float64)
         except (TypeError, ValueError) as exc:
             raise ValueError(
                 f"instance {i}: cannot convert to a float array (n_states, n_features): {exc}"
             ) from exc
+        if raw.dtype.kind == "c":
+            _real(raw, f"instance {i}")  # raises, saying so
         if a.ndim != 2:
             raise ValueError(
                 f"instance {i}: expected a 2-D array (n_states, n_features), got shape "
@@ -137,9 +141,18 @@ def validate_bags(bags: Sequence[ArrayLike], n_features: int | None = None) -> l
     return out
 
 
+def _real(a: np.ndarray, what: str) -> Array:
+    """``a`` as float64, refusing complex values (a cast would drop the imaginary part)."""
+    if a.dtype.kind == "c":
+        raise ValueError(f"{what}: complex values ({a.dtype}); states are real feature vectors")
+    return a.astype(np.float64, copy=False)
+
+
 def _as_states(X: ArrayLike, n_features: int) -> tuple[Array, bool]:
     """``X`` as a (n, d) float array; ``True`` if a single 1-D state was given."""
-    a = np.asarray(X, dtype=np.float64)
+    a = np.asarray(X)
+    if a.dtype != np.float64:
+        a = _real(a, "states")
     single = a.ndim == 1
     if single:
         a = a[None, :]
@@ -155,7 +168,9 @@ def _as_states(X: ArrayLike, n_features: int) -> tuple[Array, bool]:
 
 KERNEL_CONSTRAINTS = {
     "n_components": Integer(1, 1000),
-    "reg_covar": Real(0.0),
+    # The features are standardised (unit variance): far beyond 1e6 nothing of the data
+    # is left, and 1e308 overflows the determinant.
+    "reg_covar": Real(0.0, 1e6),
     "tol": Real(0.0),
     "max_iter": Integer(0, 1_000_000),
     "n_init": Integer(1, 1000),
@@ -914,7 +929,8 @@ class UniformKernel:
     n_components = 1
 
     def __init__(self, n_features: int) -> None:
-        check("n_features", n_features, Integer(1))
+        # Bounded: a saved file names this count, and the covariance is n x n.
+        check("n_features", n_features, Integer(1, 1024))
         self.n_features_in_ = int(n_features)
         self.means_ = np.zeros((1, self.n_features_in_))
         self.covariances_ = np.eye(self.n_features_in_)[None]
@@ -936,6 +952,7 @@ class UniformKernel:
         """Load a file written by :meth:`save` (refuses any other schema)."""
         _, meta = load_npz(path, UNIFORM_SCHEMA, {})
         n = meta.get("n_features")
-        if not isinstance(n, int) or n < 1:
-            raise ValueError(f"{os.fspath(path)}: malformed n_features {n!r}")
+        if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 1024:
+            raise ValueError(f"{os.fspath(path)}: malformed n_features {n!r} (an integer "
+                             "in [1, 1024])")
         return cls(n)

@@ -19,7 +19,6 @@ The loop talks to environments only through the Gymnasium API.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import re
@@ -44,12 +43,15 @@ from ilpss._check import (
 )
 from ilpss._io import (
     atomic_write_bytes,
+    check_inside,
     json_record_bytes,
     load_json_record,
     load_npz,
     locked_folder,
+    read_regular,
     remove_stale_temporaries,
     save_npz_atomic,
+    sha256_file,
 )
 from ilpss.episode import EpisodeResult, options_used
 from ilpss.kernels import KERNEL_CONSTRAINTS, SharedKernelModel, UniformKernel
@@ -491,9 +493,13 @@ class LifelongLearner:
         with locked_folder(root, "checkpoint folder"):
             target = root / f"trial_{self.n_trials:04d}"
             building = root / f".building_{self.n_trials:04d}"
-            for stale in root.glob(".building_*"):  # left by a crash: no one else is here
-                shutil.rmtree(stale, ignore_errors=True)
+            for stale in _own_entries(root, _BUILDING_NAME):  # left by a crash: no one
+                shutil.rmtree(stale, ignore_errors=True)       # else is here
             remove_stale_temporaries(root)
+            for own in (target, root / "LATEST"):
+                if own.is_symlink():
+                    raise ValueError(f"{own}: a symbolic link where this checkpoint folder's "
+                                     "own entry belongs; remove it")
             building.mkdir()
             for i, policy in enumerate(self.policies):
                 policy.save(building / f"policy_{i}.npz")
@@ -506,7 +512,7 @@ class LifelongLearner:
             )
             # A digest of every file, so a load refuses files mixed from different checkpoints.
             files = {
-                p.relative_to(building).as_posix(): _sha256(p)
+                p.relative_to(building).as_posix(): sha256_file(p)
                 for p in sorted(building.rglob("*")) if p.is_file()
             }
             state = {
@@ -523,8 +529,10 @@ class LifelongLearner:
             shutil.rmtree(target, ignore_errors=True)
             os.replace(building, target)
             atomic_write_bytes(root / "LATEST", target.name.encode())
-            # Only now that LATEST names the new checkpoint may older ones go.
-            for old in root.glob("trial_*"):
+            # Only now that LATEST names the new checkpoint may older ones go: only the
+            # checkpoints this class writes (trial_ and digits, real folders), never
+            # anything else a user keeps beside them.
+            for old in _own_entries(root, _CHECKPOINT_NAME):
                 if old.name < target.name:
                     shutil.rmtree(old, ignore_errors=True)
             return target
@@ -548,6 +556,9 @@ class LifelongLearner:
             For any damaged, modified, inconsistent or mixed-up checkpoint.
         """
         ckpt = latest_checkpoint(directory)
+        check_inside(directory, ckpt, "checkpoint folder")
+        for path in ckpt.rglob("*"):  # every file read below lies inside the checkpoint
+            check_inside(ckpt, path, "checkpoint")
         state, config, records = read_state(ckpt)
         where = ckpt / "state.json"
         n = len(records)
@@ -607,12 +618,14 @@ class LifelongLearner:
         # load but were mixed in from another checkpoint.
         for rel, digest in state["files"].items():
             path = ckpt / rel
-            if not path.is_file() or _sha256(path) != digest:
+            if not path.is_file() or sha256_file(path) != digest:
                 raise ValueError(f"{path}: missing, modified, or from another checkpoint")
         return learner
 
 
 _CHECKPOINT_NAME = re.compile(r"trial_\d{4,}")
+_BUILDING_NAME = re.compile(r"\.building_\d{4,}")
+_LATEST_BYTES = 64
 _FILE_NAME = re.compile(r"(policy_\d+|bags|library/(kernels|library|policy_\d+))\.npz")
 STATE_CONSTRAINTS = {
     "seed": Integer(0),
@@ -632,13 +645,21 @@ def latest_checkpoint(directory: str | os.PathLike[str]) -> Path:
     if latest.is_dir():
         raise ValueError(f"{latest}: a folder, where the file naming the checkpoint belongs")
     try:
-        data = latest.read_bytes()
+        data = read_regular(latest, _LATEST_BYTES, "the file naming the checkpoint")
     except FileNotFoundError:
         raise FileNotFoundError(f"no checkpoint in {root} (no LATEST file)") from None
     name = data.decode("ascii", errors="replace").strip()
-    if len(data) > 64 or not _CHECKPOINT_NAME.fullmatch(name):
-        raise ValueError(f"{latest}: malformed checkpoint name {name[:64]!r}")
+    if not _CHECKPOINT_NAME.fullmatch(name):
+        # Its content is not echoed: LATEST may name, or be, any file of the machine.
+        raise ValueError(f"{latest}: does not name a checkpoint (trial_ and 4 or more digits)")
     return root / name
+
+
+def _own_entries(root: Path, name: re.Pattern[str]) -> list[Path]:
+    """The entries of ``root`` whose names are this module's own (``name``), and that are
+    real folders: a symbolic link is never followed into, whatever its name."""
+    return [p for p in root.iterdir()
+            if name.fullmatch(p.name) and p.is_dir() and not p.is_symlink()]
 
 
 def read_state(checkpoint: Path) -> tuple[dict[str, Any], LifelongConfig, list[TrialRecord]]:
@@ -739,6 +760,3 @@ def _check_library(learner: LifelongLearner, ckpt: Path) -> None:
                 "library never issued"
             )
 
-
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()

@@ -67,7 +67,6 @@ policies are never removed, because later policies may point to them.
 
 from __future__ import annotations
 
-import hashlib
 import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, fields
@@ -78,7 +77,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ilpss._check import Integer, NoneOr, Real, check_fields, from_json
-from ilpss._io import load_npz, save_npz_atomic
+from ilpss._io import check_inside, load_npz, save_npz_atomic, sha256_file
 from ilpss.policy import FrozenPolicy
 from ilpss.tiles import TileCoder
 
@@ -857,11 +856,11 @@ class OptionLibrary:
         root = Path(directory)
         root.mkdir(parents=True, exist_ok=True)
         save(root / _KERNELS_FILE)
-        digests = {_KERNELS_FILE: _sha256(root / _KERNELS_FILE)}
+        digests = {_KERNELS_FILE: sha256_file(root / _KERNELS_FILE)}
         for pid, pol in enumerate(self.policies):
             name = f"policy_{pid}.npz"
             pol.save(root / name)
-            digests[name] = _sha256(root / name)
+            digests[name] = sha256_file(root / name)
         reg = sorted(self.registry.items())
         pruned = sorted(self.pruned)
         arrays = {
@@ -926,16 +925,19 @@ class OptionLibrary:
         n_policies = meta.get("n_policies")
         if not isinstance(files, dict) or not isinstance(n_policies, int) or n_policies < 0:
             raise ValueError(f"{where}: malformed meta record")
+        if n_policies != len(files) - 1:  # bounded by the record before anything is built
+            raise ValueError(f"{where}: n_policies is {n_policies}, but the record lists "
+                             f"{len(files)} files (the kernels and one per policy)")
         expected = {_KERNELS_FILE} | {f"policy_{p}.npz" for p in range(n_policies)}
         if set(files) != expected:
             raise ValueError(
                 f"{where}: meta lists files {sorted(files)}, expected {sorted(expected)}"
             )
         for name, digest in files.items():
-            path = root / name
+            path = check_inside(root, root / name, "option library folder")
             if not path.is_file():
                 raise ValueError(f"{root}: missing file {name}")
-            if _sha256(path) != digest:
+            if sha256_file(path) != digest:
                 raise ValueError(
                     f"{path}: content differs from the file saved with {where} "
                     "(modified, or from another save)"
@@ -985,6 +987,3 @@ class OptionLibrary:
             f"n_options={len(self)}, pruned={len(self.pruned)})"
         )
 
-
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()

@@ -73,7 +73,6 @@ the same environment seed, the same learner seed gives the same learning curve.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -93,7 +92,7 @@ from ilpss.episode import (
 from ilpss.options import OptionLibrary
 from ilpss.policy import EPSILON, FrozenPolicy, LinearPolicy, epsilon_greedy_choice
 from ilpss.tiles import KEEPAWAY_ALPHA, TileCoder
-from ilpss.traces import ReplacingTraces, td_update
+from ilpss.traces import DivergedError, ReplacingTraces, td_update
 
 __all__ = [
     "SMDP_CONSTRAINTS",
@@ -104,7 +103,9 @@ __all__ = [
 ]
 
 SMDP_CONSTRAINTS = {
-    "alpha": Real(0.0, math.inf, low_open=True),
+    # Spread over the active tiles, so 1 moves a value all the way to its target; beyond
+    # 1 every update overshoots, and with traces the values diverge.
+    "alpha": Real(0.0, 1.0, low_open=True),
     "epsilon": EPSILON,
     "gamma": Real(0.0, 1.0),
     "method": OneOf(("sarsa", "q")),
@@ -114,8 +115,9 @@ SMDP_CONSTRAINTS = {
     "option_bonus": Real(0.0, 100.0),
     "option_bonus_episodes": Integer(1, 1_000_000),
     "bootstrap_on_truncation": Bool(),
-    "initial_value": Real(),
-    "option_initial_value": NoneOr(Real()),
+    # Far beyond any return; 1e308 would overflow the first update.
+    "initial_value": Real(-1e6, 1e6),
+    "option_initial_value": NoneOr(Real(-1e6, 1e6)),
     "trace_decay": Real(0.0, 1.0),
     "max_decisions": Integer(1),
 }
@@ -559,4 +561,12 @@ class SmdpLearner(EpisodicLearner):
         (:mod:`ilpss.traces`); ``decay`` is ``gamma ** D * lambda`` for the choice's
         duration ``D``; ``cut`` clears the traces afterwards (episode end, or an
         exploratory choice next in Q-learning)."""
-        td_update(self.q, traces, active, choice, target, self._step, decay, cut)
+        try:
+            td_update(self.q, traces, active, choice, target, self._step, decay, cut)
+        except DivergedError as exc:
+            raise DivergedError(
+                f"SMDP learning diverged in learning episode {self.learning_episodes}: {exc}; "
+                f"the step size (alpha={self.alpha:g}) or the initial values are too large "
+                "for this environment's rewards (LearnerConfig.alpha, .initial_value, "
+                ".option_initial_value)"
+            ) from None

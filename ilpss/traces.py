@@ -22,7 +22,11 @@ import numpy as np
 
 from ilpss.policy import LinearPolicy
 
-__all__ = ["MIN_TRACE", "ReplacingTraces", "td_update"]
+__all__ = ["MIN_TRACE", "DivergedError", "ReplacingTraces", "td_update"]
+
+
+class DivergedError(FloatingPointError):
+    """Learning diverged: an update met a value that is not finite."""
 
 MIN_TRACE = 0.01
 """Eligibilities below this are dropped (keepaway's cut-off)."""
@@ -106,7 +110,17 @@ def td_update(
     q: LinearPolicy, traces: ReplacingTraces | None, active: np.ndarray, choice: int,
     target: float, step: float, decay: float, cut: bool,
 ) -> None:
-    """One choice point's update: along ``traces``, or one-step when they are ``None``."""
+    """One choice point's update: along ``traces``, or one-step when they are ``None``.
+
+    Raises
+    ------
+    DivergedError
+        If ``target`` is not finite: the action values have diverged (a step size or
+        initial values too large for the rewards), and every later update would only
+        spread NaN.
+    """
+    if not math.isfinite(target):
+        raise DivergedError(f"a TD target of {target} (the action values are no longer finite)")
     if traces is None:
         q.update_toward(active, choice, target, step)
     else:

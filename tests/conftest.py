@@ -1,7 +1,24 @@
-"""Test-wide setup: no display, no audio (pygame's render tests run headless)."""
+"""Test-wide setup: no display, no audio (pygame's render tests run headless), and the
+BLAS kernels the recorded fixtures were computed with.
+
+OpenBLAS picks its kernels by CPU, and kernels for different CPUs round matrix products
+differently in the last bit; a lifelong run amplifies such a bit into other choices and
+other curves. The fixtures of ``tests/data`` (the reference runs) were recorded with
+OpenBLAS's ``Haswell`` kernels, so they are asked for here, before numpy is imported,
+wherever the CPU can run them (AVX2 and FMA: nearly every x86-64 machine) and
+``OPENBLAS_CORETYPE`` does not already name kernels. Elsewhere the reference tests say
+why they cannot compare bits (``tests/blas.py``).
+"""
 
 import os
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from blas import pin_recorded_kernels
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+pin_recorded_kernels()

@@ -401,8 +401,8 @@ def _rewrite_bags(checkpoint: Path, edit) -> None:
 @pytest.mark.parametrize(
     ("tamper", "match"),
     [
-        (lambda c: (c / "LATEST").write_text(""), "malformed checkpoint name ''"),
-        (lambda c: (c / "LATEST").write_text("../../etc"), "malformed checkpoint name"),
+        (lambda c: (c / "LATEST").write_text(""), "LATEST: does not name a checkpoint"),
+        (lambda c: (c / "LATEST").write_text("../../etc"), "LATEST: does not name a checkpoint"),
         (lambda c: (c / "LATEST").write_text("trial_0042"), r"trial_0042/state.json: unreadable"),
         (lambda c: (c / "trial_0001" / "state.json").write_text('{"schema": "ilpss.lif'),
          "state.json: not valid JSON"),

@@ -25,8 +25,12 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+from blas import reason_bits_differ
 from synthetic_smdp import ZoneCorridor
 from test_reference_runs import _array_digests, _json, _lifelong, _same, record
+
+_DIFFERS = reason_bits_differ()
+pytestmark = pytest.mark.skipif(_DIFFERS is not None, reason=str(_DIFFERS))
 
 FIXTURE = Path(__file__).resolve().parent / "data" / "reference_handover.json"
 HANDOVER_LEARNER = {

@@ -13,6 +13,9 @@ A change that alters any number of these fails here. Record the file again only 
 change of behaviour is intended (and say so in its commit)::
 
     python tests/test_reference_runs.py --record
+
+The digests hold for one set of OpenBLAS kernels (``tests/blas.py``): on a CPU that cannot
+run them, these tests are skipped with the reason, and recording is refused.
 """
 
 from __future__ import annotations
@@ -25,12 +28,18 @@ from dataclasses import asdict, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-import pytest
-
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from synthetic_smdp import ZoneCorridor
+from blas import pin_recorded_kernels, reason_bits_differ
+
+pin_recorded_kernels()  # as conftest.py does, for ``--record`` run as a script
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+from synthetic_smdp import ZoneCorridor  # noqa: E402
+
+_DIFFERS = reason_bits_differ()
+pytestmark = pytest.mark.skipif(_DIFFERS is not None, reason=str(_DIFFERS))
 
 FIXTURE = Path(__file__).resolve().parent / "data" / "reference_runs.json"
 SYNTHETIC_METHODS = ("ilpss", "scratch", "whole_policies", "ilpss_no_discount")
@@ -191,6 +200,8 @@ def test_a_short_protocol_a_on_the_drill_is_unchanged(tmp_path):
 def record(fixture: Path = FIXTURE, synthetic: Any = None, drill: Any = None) -> None:
     """Write ``fixture`` from the code as it is: the runs of ``synthetic`` and ``drill``
     (by default this file's)."""
+    if reason_bits_differ():
+        raise SystemExit(f"not recording: {reason_bits_differ()}")
     synthetic, drill = synthetic or synthetic_run, drill or drill_run
     with tempfile.TemporaryDirectory() as tmp:
         runs, longest = synthetic(Path(tmp) / "synthetic")

@@ -814,7 +814,7 @@ def test_cli_config_that_is_not_json_gives_a_clear_error(tmp_path, capsys):
 @pytest.mark.parametrize(
     ("field", "value", "message"),
     [
-        ("alpha", math.nan, r"LearnerConfig.alpha must be a finite number > 0"),
+        ("alpha", math.nan, r"LearnerConfig.alpha must be a finite number in \(0, 1\]"),
         ("epsilon", "0.1", r"LearnerConfig.epsilon must be a finite number in \[0, 1\]"),
         ("epsilon", 1.5, r"LearnerConfig.epsilon must be a finite number in \[0, 1\]"),
         ("gamma", -0.1, r"LearnerConfig.gamma must be a finite number in \[0, 1\]"),

@@ -123,7 +123,7 @@ def _alpha(value: float) -> ExperimentConfig:
 
 
 def test_a_resume_refuses_checkpoints_and_results_of_another_configuration(tmp_path):
-    from ilpss.experiments.run import run_experiment
+    from ilpss.experiments.run import JobError, run_experiment
 
     run_experiment(_alpha(0.125), tmp_path, progress=False)
     (tmp_path / "config.json").unlink()
@@ -134,7 +134,7 @@ def test_a_resume_refuses_checkpoints_and_results_of_another_configuration(tmp_p
     # Nor is its checkpoint continued.
     (tmp_path / "config.json").unlink()
     (tmp_path / "seed_000" / "stream_00" / "result.json").unlink()
-    with pytest.raises(ValueError, match=r"scratch: the checkpoint comes from another run "
+    with pytest.raises(JobError, match=r"seed 0, stream 0: ValueError: .*scratch: the checkpoint comes from another run "
                        r"\(experiment.lifelong.learner.alpha: 0.125 saved, 0.5 here\)"):
         run_experiment(_alpha(0.5), tmp_path, progress=False)
     # The folder's own configuration still resumes.
@@ -270,7 +270,7 @@ def test_tile_widths_that_would_need_terabytes_are_refused_before_anything_is_wr
 # ------------------------------------------------------------- records with integrity checks
 def test_a_resume_refuses_rewards_the_environment_cannot_pay(tmp_path):
     from ilpss import _io
-    from ilpss.experiments.run import run_experiment
+    from ilpss.experiments.run import JobError, run_experiment
 
     run_experiment(_tiny(), tmp_path, progress=False)
     job = tmp_path / "seed_000" / "stream_00"
@@ -280,7 +280,7 @@ def test_a_resume_refuses_rewards_the_environment_cannot_pay(tmp_path):
     del record["sha256"]
     record["records"][0]["rewards"][0] = -9.0  # with a valid digest
     state.write_bytes(_io.json_record_bytes(record))
-    with pytest.raises(ValueError, match=r"records\[0\].rewards lie outside the environment's "
+    with pytest.raises(JobError, match=r"ValueError: .*records\[0\].rewards lie outside the environment's "
                        r"range \[-1, 1\]"):
         run_experiment(_tiny(), tmp_path, progress=False)
 

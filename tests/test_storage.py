@@ -12,7 +12,7 @@ import pytest
 from ilpss._io import FolderInUseError, locked_folder
 from ilpss.experiments.checkpoints import OWNER, StorageError, UriStore, open_store
 from ilpss.experiments.config import ExperimentConfig
-from ilpss.experiments.run import JobSpec, run_experiment, run_stream
+from ilpss.experiments.run import JobError, JobSpec, run_experiment, run_stream
 from ilpss.lifelong import LifelongLearner
 
 pytest.importorskip("pyarrow.fs", reason="a storage URI needs pyarrow (the 'cluster' extra)")
@@ -73,7 +73,7 @@ def test_a_crash_at_an_upload_leaves_the_last_checkpoint_current(tmp_path, strai
         return real(self, path, data)
 
     monkeypatch.setattr(UriStore, "_publish", publish)
-    with pytest.raises(OSError, match="connection reset"):
+    with pytest.raises(JobError, match="seed 0, stream 0: OSError: connection reset"):
         run_experiment(cfg, tmp_path / "run", progress=False)
     ilpss = storage / "seed_000/stream_00/ilpss"
     assert (ilpss / "LATEST").read_text() == "trial_0001"  # the upload before is current
@@ -94,7 +94,7 @@ def test_a_storage_claimed_by_another_run_stops_the_first_ones_jobs(tmp_path, mo
         return real(self, env, name, callback)
 
     monkeypatch.setattr(LifelongLearner, "run_trial", run_trial)
-    with pytest.raises(StorageError, match=r"claimed since by another run \(run folder "
+    with pytest.raises(JobError, match=r"StorageError: .*claimed since by another run \(run folder "
                                            r"'.*other' on '.*'\); one run at a time"):
         run_experiment(_tiny(storage=uri), tmp_path / "run", progress=False)
     ilpss = tmp_path / "storage/seed_000/stream_00/ilpss"
@@ -131,7 +131,7 @@ def test_storage_locations_that_cannot_be_one_are_refused_by_name(tmp_path, monk
     store = open_store((tmp_path / "s").as_uri())
     (tmp_path / "s" / "k").mkdir(parents=True)
     (tmp_path / "s" / "k" / "LATEST").write_text("../../../etc")
-    with pytest.raises(ValueError, match=r"s/k/LATEST: malformed checkpoint name"):
+    with pytest.raises(ValueError, match=r"s/k/LATEST: does not name a checkpoint"):
         store.restore("k", None)
     store.close()
     monkeypatch.setitem(sys.modules, "pyarrow.fs", None)  # pyarrow not installed

@@ -16,7 +16,7 @@ from ilpss.experiments.report import write_report
 from ilpss.experiments.results_doc import main as results_main
 from ilpss.experiments.results_doc import parser as results_parser
 from ilpss.experiments.results_doc import protocol_config
-from ilpss.experiments.run import run_experiment
+from ilpss.experiments.run import JobError, run_experiment
 from ilpss.lifelong import LifelongLearner
 
 SOURCES = ("interceptors_press", "interceptor_guard")
@@ -134,7 +134,7 @@ def test_a_crash_after_the_first_target_resumes_without_relearning_the_sources(
     branch = job / "ilpss" / "target_03"
     shutil.rmtree(branch)
     shutil.copytree(job / "ilpss" / "target_02", branch)
-    with pytest.raises(ValueError, match=r"target_03: the checkpoint comes from another run "
+    with pytest.raises(JobError, match=r"ValueError: .*target_03: the checkpoint comes from another run "
                                          r"\(target: 2 saved, 3 here\)"):
         run_experiment(cfg, out, progress=False)
 

@@ -49,10 +49,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from ilpss._io import (
+    MAX_JSON_BYTES,
     atomic_write_bytes,
+    check_inside,
     json_differences,
     json_record_bytes,
     load_json_record,
+    read_regular,
 )
 from ilpss.experiments.folder import checkpoint_key
 from ilpss.experiments.protocols import Stream, make_env
@@ -85,6 +88,7 @@ OWNER_SCHEMA = "ilpss.storage_owner/1"
 _URI = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*://")
 _CHECKPOINT = re.compile(r"trial_\d{4,}")
 _TEMPORARY = re.compile(r"\.LATEST\.[0-9a-f]{32}\.tmp")
+_LATEST_BYTES = 64
 
 
 class StorageError(RuntimeError):
@@ -164,17 +168,21 @@ class LocalStore:
         self.root = Path(root)
         self.location = os.fspath(root)
 
+    def _path(self, key: str) -> Path:
+        """``<root>/<key>``, refused if a symbolic link below the root leads it outside."""
+        return check_inside(self.root, self.root / key, "checkpoint storage")
+
     def restore(self, key: str, observation_space: Any) -> LifelongLearner | None:
-        directory = self.root / key
+        directory = self._path(key)
         if not (directory / "LATEST").exists():
             return None
         return LifelongLearner.load(directory, observation_space)
 
     def save(self, key: str, learner: LifelongLearner) -> None:
-        learner.save(self.root / key)
+        learner.save(self._path(key))
 
     def records(self, key: str) -> list[TrialRecord] | None:
-        directory = self.root / key
+        directory = self._path(key)
         if not (directory / "LATEST").exists():
             return None
         return read_state(latest_checkpoint(directory))[2]
@@ -182,12 +190,12 @@ class LocalStore:
     def claim(self, run: str) -> str:
         self.root.mkdir(parents=True, exist_ok=True)
         token, data = _owner_record(run)
-        atomic_write_bytes(self.root / OWNER, data)
+        atomic_write_bytes(self._path(OWNER), data)
         return token
 
     def check(self, token: str) -> None:
-        path = self.root / OWNER
-        data = path.read_bytes() if path.is_file() else None
+        path = self._path(OWNER)
+        data = read_regular(path, MAX_JSON_BYTES, "an owner record") if path.exists() else None
         with tempfile.TemporaryDirectory(prefix="ilpss-owner-") as tmp:
             _check_owner(self.location, data, token, Path(tmp) / OWNER)
 
@@ -230,11 +238,27 @@ class UriStore:
             self._work = Path(tempfile.mkdtemp(prefix="ilpss-job-"))
         return self._work.joinpath(*parts)
 
-    def _read(self, path: str) -> bytes | None:
-        if self._fs.get_file_info(path).type == self._pafs.FileType.NotFound:
+    def _read(self, path: str, limit: int = MAX_JSON_BYTES) -> bytes | None:
+        """A small file of the storage (at most ``limit`` bytes), or ``None``."""
+        self._check_local(path)
+        info = self._fs.get_file_info(path)
+        if info.type == self._pafs.FileType.NotFound:
             return None
+        if info.type != self._pafs.FileType.File:
+            raise ValueError(f"{self.location}: {path} is not a file")
         with self._fs.open_input_stream(path) as f:
-            return f.read()
+            data = f.read(limit + 1)  # bounded as it reads, whatever the listing said
+        if len(data) > limit:
+            raise ValueError(f"{self.location}: {path} holds more than {limit:,} bytes")
+        return data
+
+    def _check_local(self, path: str, tree: bool = False) -> None:
+        """On a local file system (``file://``), refuse a path that a symbolic link below
+        the storage's root leads outside it (with ``tree``, also anything below it)."""
+        if isinstance(self._fs, self._pafs.LocalFileSystem):
+            check_inside(self._base, path, "checkpoint storage")
+            for inner in Path(path).rglob("*") if tree else ():
+                check_inside(path, inner, "checkpoint")
 
     def _publish(self, path: str, data: bytes) -> None:
         """Write a small file so that readers see the old or the new content, whole."""
@@ -259,7 +283,7 @@ class UriStore:
     def _latest(self, key: str, local: Path) -> Path | None:
         """The checkpoint that the storage's ``<key>/LATEST`` names, as a local path
         below ``local`` (whose ``LATEST`` is written), or ``None``."""
-        name = self._read(self._remote(key, "LATEST"))
+        name = self._read(self._remote(key, "LATEST"), _LATEST_BYTES)
         if name is None:
             return None
         shutil.rmtree(local, ignore_errors=True)
@@ -276,12 +300,14 @@ class UriStore:
         checkpoint = self._latest(key, local)
         if checkpoint is None:
             return None
+        self._check_local(self._remote(key, checkpoint.name), tree=True)
         self._copy(self._remote(key, checkpoint.name), os.fspath(checkpoint), upload=False)
         return LifelongLearner.load(local, observation_space)
 
     def save(self, key: str, learner: LifelongLearner) -> None:
         target = learner.save(self._local(key))
         remote = self._remote(key, target.name)
+        self._check_local(remote)
         # Left by an attempt that died while uploading: not named by LATEST, so unused.
         self._fs.delete_dir_contents(remote, missing_dir_ok=True)
         self._copy(os.fspath(target), remote, upload=True)

@@ -23,9 +23,10 @@ from pathlib import Path
 from ilpss._io import FolderInUseError
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.executor import stop_on_sigterm
 from ilpss.experiments.methods import METHODS
 from ilpss.experiments.protocols import PROTOCOLS
-from ilpss.experiments.run import read_config, run_experiment
+from ilpss.experiments.run import JobError, read_config, run_experiment
 
 
 def build_config(args: argparse.Namespace) -> ExperimentConfig:
@@ -122,12 +123,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error(str(exc))
     if args.ray_address is not None and cfg.executor != "ray":
         p.error("--ray-address needs --executor ray")
+    stop_on_sigterm()
     try:
         results = run_experiment(cfg, args.out, progress=not args.quiet,
                                  ray_address=args.ray_address,
                                  on_done=None if args.quiet else _say_resumed)
-    except (FolderInUseError, StorageError, ValueError) as exc:  # another run's, a bad file
-        p.exit(1, f"{p.prog}: error: {exc}\n")
+    except (FolderInUseError, StorageError, JobError, ValueError) as exc:
+        p.exit(1, f"{p.prog}: error: {exc}\n")  # another run's folder, a bad file, a job
     if not args.no_report:
         from ilpss.experiments.report import write_report
 

@@ -14,18 +14,25 @@ run with the largest value of each is named with a simultaneous interval (Bonfer
 over the runs), which stays valid after picking the largest; the plain intervals do not.
 Runs with the same seeds meet the same opponents with the same environment and learner
 seeds, so an ablation run with one method can be compared with the baseline of another
-run. The configurations must agree on the stream; the table is printed as markdown.
+run. The runs must agree with the baseline on the stream (tasks, target, environment and
+budget) on every seed they share, else the comparison is refused; the table is printed
+as markdown. Labels and folders may hold ``=``: an item is split where a run folder
+follows, and refused if that is ambiguous.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ilpss import metrics
+from ilpss._io import json_differences
+from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.folder import RunFolder
 from ilpss.experiments.report import PRIMARY, interval_text, threshold_for, windows
 from ilpss.experiments.run import load_result, read_config
@@ -38,14 +45,58 @@ def _parse(spec: str) -> tuple[Path, str]:
     return Path(folder), method
 
 
+def split_run(item: str) -> tuple[str, Path, str]:
+    """``LABEL=FOLDER:METHOD`` as ``(label, folder, method)``.
+
+    Labels and folders may both hold ``=`` (``K = 1=results/alpha=0.5:ilpss``), so the
+    item is split at the ``=`` after which a run folder (one with a ``config.json``)
+    follows; where none or several splits name one, the item is refused as ambiguous
+    rather than read from a folder it did not mean.
+    """
+    candidates = []
+    for i, char in enumerate(item):
+        if char != "=":
+            continue
+        label, spec = item[:i], item[i + 1:]
+        folder, sep, method = spec.rpartition(":")
+        if label and sep and folder and method and (Path(folder) / "config.json").is_file():
+            candidates.append((label, Path(folder), method))
+    if len(candidates) == 1:
+        return candidates[0]
+    if not candidates:
+        raise ValueError(f"expected LABEL=FOLDER:METHOD with FOLDER a run folder (holding "
+                         f"config.json), got {item!r}")
+    shown = ", ".join(f"{os.fspath(f)!r}" for _, f, _ in candidates)
+    raise ValueError(f"{item!r} is ambiguous: it can be read with the run folders {shown}; "
+                     "rename a folder or the label")
+
+
+def _stream_of(cfg: ExperimentConfig, seed: int) -> dict[str, Any]:
+    """What must agree between two runs compared seed by seed: the first target of stream
+    0 after the same tasks, the same budget and reward range."""
+    stream = cfg.streams(seed)[0]
+    return {"protocol": cfg.protocol, "env_id": cfg.env_id,
+            "tasks": [t.name for t in stream.tasks],
+            "task_settings": [t.env_kwargs for t in stream.tasks],
+            "first_target": stream.first_target, "shared_start": stream.shared_start,
+            "train_episodes": cfg.lifelong.train_episodes}
+
+
 def target_curves(folder: Path, method: str) -> dict[int, tuple[list[float], dict]]:
     """``{seed: (curve on the first target of stream 0, that method's result)}``."""
+    return _target_curves(folder, method)[0]
+
+
+def _target_curves(
+    folder: Path, method: str
+) -> tuple[dict[int, tuple[list[float], dict]], dict[int, dict[str, Any]]]:
+    """:func:`target_curves` and, per seed, what it was compared on (:func:`_stream_of`)."""
     run = RunFolder(folder)
     config = run.config
     if not config.is_file():
         raise ValueError(f"{folder}: no config.json (not a folder written by ilpss-experiment)")
     cfg = read_config(config)
-    out = {}
+    out, streams = {}, {}
     for seed in run.finished_seeds(stream_index=0):
         path = run.result(seed, 0)
         result = load_result(path, cfg, seed, 0, cfg.streams(seed)[0])  # checked, clear errors
@@ -53,15 +104,33 @@ def target_curves(folder: Path, method: str) -> dict[int, tuple[list[float], dic
             raise ValueError(f"{path}: no method {method!r}; it has {sorted(result['methods'])}")
         data = result["methods"][method]
         out[int(result["seed"])] = (data["curves"][str(result["first_target"])], data)
+        streams[int(result["seed"])] = _stream_of(cfg, seed)
     if not out:
         raise ValueError(f"{folder}: no finished seeds (seed_*/stream_00/result.json)")
-    return out
+    return out, streams
 
 
 def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]]) -> list[str]:
-    """The markdown table comparing every run with the baseline, and the best of them."""
-    base = target_curves(*baseline)
-    loaded = {label: target_curves(*spec) for label, spec in runs.items()}
+    """The markdown table comparing every run with the baseline, and the best of them.
+
+    Raises
+    ------
+    ValueError
+        If a run's stream differs from the baseline's on a seed both finished (other
+        tasks, target, environment or budget): its curves would not be paired.
+    """
+    base, base_streams = _target_curves(*baseline)
+    loaded = {}
+    for label, spec in runs.items():
+        loaded[label], streams = _target_curves(*spec)
+        for seed in sorted(set(streams) & set(base_streams)):
+            diffs = json_differences(base_streams[seed], streams[seed])
+            if diffs:
+                raise ValueError(
+                    f"{label} ({spec[0]}) does not learn what the baseline ({baseline[0]}) "
+                    f"learns on seed {seed}: {'; '.join(diffs[:3])} (baseline first); only "
+                    "runs of the same stream, target and budget can be paired by seed"
+                )
     seeds = sorted(set(base).intersection(*(set(r) for r in loaded.values())))
     if len(seeds) < 2:
         raise ValueError(f"need at least 2 seeds finished by every run, got {seeds}")
@@ -127,10 +196,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         runs = {}
         for item in args.runs:
-            label, sep, spec = item.rpartition("=")  # labels may hold "=" (K = 1)
-            if not sep:
-                raise ValueError(f"expected LABEL=FOLDER:METHOD, got {item!r}")
-            runs[label] = _parse(spec)
+            label, folder, method = split_run(item)
+            runs[label] = (folder, method)
         print("\n".join(compare_runs(_parse(args.baseline), runs)))
     except (ValueError, OSError, KeyError) as exc:
         p.error(str(exc))

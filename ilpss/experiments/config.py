@@ -185,10 +185,20 @@ class ExperimentConfig:
     def from_dict(cls, values: Mapping[str, Any]) -> ExperimentConfig:
         """Inverse of :meth:`to_dict`; unknown keys and ill-typed values are refused by name.
 
+        The nested objects may be partial: what they leave out is this class's default
+        (``{"lifelong": {"train_episodes": 50}}`` keeps the drill's tile widths), exactly
+        as with :meth:`with_overrides` and the command line's ``--set``.
+
         Raises:
             ValueError: ``values`` is not a mapping, has unknown keys, or a field is invalid
                 (the message names the field and what it allows).
         """
+        if isinstance(values, Mapping):
+            values = dict(values)
+            defaults = cls()
+            for name in ("lifelong", "prq"):
+                if isinstance(values.get(name), Mapping):
+                    values[name] = _merged(getattr(defaults, name).to_dict(), values[name], name)
         return from_json(cls, values, nested={"lifelong": LifelongConfig, "prq": PrqConfig})
 
     def with_overrides(self, **changes: Any) -> ExperimentConfig:

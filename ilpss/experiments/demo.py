@@ -18,11 +18,15 @@ from pathlib import Path
 
 import gymnasium as gym
 
+from ilpss._io import FolderInUseError
+from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.executor import stop_on_sigterm
 from ilpss.experiments.figures import plot_kernels_on_field, write_agent_gif
 from ilpss.experiments.folder import RunFolder
+from ilpss.experiments.outputs import check_out_dir
 from ilpss.experiments.report import write_report
-from ilpss.experiments.run import run_experiment
+from ilpss.experiments.run import JobError, run_experiment
 from ilpss.lifelong import LifelongLearner
 
 
@@ -34,11 +38,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", default="results/demo")
     args = parser.parse_args(argv)
-    cfg = ExperimentConfig(protocol="A", n_seeds=args.seeds, workers=args.workers).with_overrides(
-        lifelong={"train_episodes": args.episodes, "rollout_episodes": 30}
-    )
+    try:  # the output folder and the configuration, before any work
+        check_out_dir(args.out)
+        cfg = ExperimentConfig(protocol="A", n_seeds=args.seeds,
+                               workers=args.workers).with_overrides(
+            lifelong={"train_episodes": args.episodes, "rollout_episodes": 30})
+    except ValueError as exc:
+        parser.error(str(exc))
+    stop_on_sigterm()
     start = time.perf_counter()
-    results = run_experiment(cfg, args.out)
+    try:
+        results = run_experiment(cfg, args.out)
+    except (FolderInUseError, StorageError, JobError, ValueError) as exc:
+        parser.exit(1, f"{parser.prog}: error: {exc}\n")
     report = write_report(cfg, results, args.out)
     out = Path(args.out)
     held_out = cfg.teams[-1]

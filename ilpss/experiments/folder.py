@@ -20,7 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ilpss._io import atomic_write_bytes, read_json
+from ilpss._io import atomic_write_bytes, check_inside, read_json
 
 __all__ = ["RunFolder", "checkpoint_key"]
 
@@ -44,39 +44,45 @@ class RunFolder:
     def __init__(self, root: str | os.PathLike[str]) -> None:
         object.__setattr__(self, "root", Path(root))
 
+    def _inside(self, path: Path) -> Path:
+        """``path``, refused if a symbolic link below the root leads it outside: every
+        path this class gives is checked, so a run never reads, writes or deletes
+        outside its folder (the root itself may be a link)."""
+        return check_inside(self.root, path, "run folder")
+
     @property
     def config(self) -> Path:
         """``config.json``."""
-        return self.root / "config.json"
+        return self._inside(self.root / "config.json")
 
     @property
     def report(self) -> Path:
         """``report.md``."""
-        return self.root / "report.md"
+        return self._inside(self.root / "report.md")
 
     @property
     def timing(self) -> Path:
         """The wall-time record of ``ilpss-results``."""
-        return self.root / "wall_time.json"
+        return self._inside(self.root / "wall_time.json")
 
     def figure(self, name: str) -> Path:
         """A figure of the report."""
-        return self.root / name
+        return self._inside(self.root / name)
 
     def job(self, seed: int, stream_index: int) -> Path:
         """The folder of one (seed, stream) job."""
-        return self.root / f"seed_{seed:03d}" / f"stream_{stream_index:02d}"
+        return self._inside(self.root / f"seed_{seed:03d}" / f"stream_{stream_index:02d}")
 
     def result(self, seed: int, stream_index: int) -> Path:
         """A job's ``result.json``."""
-        return self.job(seed, stream_index) / "result.json"
+        return self._inside(self.job(seed, stream_index) / "result.json")
 
     def checkpoints(
         self, seed: int, stream_index: int, method: str, target: int | None = None
     ) -> Path:
         """The checkpoint folder of a lifelong method in a job (of one ``target`` task, in
         a stream whose targets all start from the state after its sources)."""
-        return self.root / checkpoint_key(seed, stream_index, method, target)
+        return self._inside(self.root / checkpoint_key(seed, stream_index, method, target))
 
     def wall_time(self) -> dict[str, Any] | None:
         """The timing record (``seconds``, ``workers``, ``executor``), if there is one."""

@@ -27,7 +27,6 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Sequence
-from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -36,6 +35,7 @@ import numpy as np
 from ilpss._io import atomic_write_bytes
 from ilpss.experiments.drill import ENV_ID, HOLDER_RULES, PAPER_TEAMS, TILE_WIDTHS, drill_object
 from ilpss.experiments.executor import LocalExecutor
+from ilpss.experiments.outputs import check_out_file
 from ilpss.lifelong import LearnerConfig
 from ilpss.metrics import holm, improvement_test, t_interval, t_test_pvalue, wilson_interval
 from ilpss.smdp import SmdpLearner
@@ -132,9 +132,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.seeds < 2:
         p.error(f"--seeds must be >= 2 (the interval is over learning seeds), got {args.seeds}")
-    lc = LearnerConfig(alpha=args.alpha, method=args.method, initial_value=args.initial_value,
-                       trace_decay=args.trace_decay,
-                       tile_widths=TILE_WIDTHS)
+    for flag in ("episodes", "eval", "workers"):
+        if getattr(args, flag) < 1:
+            p.error(f"--{flag} must be at least 1, got {getattr(args, flag)}")
+    try:  # before hours of learning, not after
+        out = check_out_file(args.out)
+        lc = LearnerConfig(alpha=args.alpha, method=args.method,
+                           initial_value=args.initial_value, trace_decay=args.trace_decay,
+                           tile_widths=TILE_WIDTHS)
+    except ValueError as exc:
+        p.error(str(exc))
     start = time.perf_counter()
     pool = LocalExecutor(args.workers)
     learnt = pool.map(learn_and_evaluate,
@@ -208,8 +215,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     for t, c in curves.items():
         cells = [f"{np.mean(c[i:i + 100]):+.2f}" for i in blocks]
         lines.append(f"| {t} | " + " | ".join(cells) + " |")
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_bytes(out, ("\n".join(lines) + "\n").encode())
     print("\n".join(lines))
     return 0

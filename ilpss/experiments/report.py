@@ -241,22 +241,24 @@ def verdict_lines(estimates: dict[str, dict[str, metrics.MetricEstimate]],
     return lines
 
 
-def metrics_note() -> str:
-    """The paragraph defining the metrics and intervals of every report."""
+def metrics_note(n_episodes: int | None = None) -> str:
+    """The paragraph defining the metrics and intervals of every report; with
+    ``n_episodes`` (the curves' length), its windows as :func:`windows` shortens them."""
+    first, last, smoothing = (windows(n_episodes) if n_episodes is not None else
+                              (JUMPSTART_EPISODES, FINAL_EPISODES, SMOOTHING))
     return (
         f"Metrics (Taylor & Stone 2009), each against learning anew with the same seeds, "
         f"counting only the episodes on the target task (the source tasks' episodes are not "
         f"charged to transfer: weak-transfer accounting): jumpstart over the first "
-        f"{JUMPSTART_EPISODES} episodes; final performance within the budget, the mean of "
-        f"the last {FINAL_EPISODES} (not an asymptote: the learners may still be "
+        f"{first} episodes; final performance within the budget, the mean of "
+        f"the last {last} (not an asymptote: the learners may still be "
         f"improving); total reward (area); transfer ratio (areas above the floor -1); time "
         f"to threshold ({THRESHOLD_SHARE:.0%} of the way from -1 to learning anew's final "
-        f"performance, on a {SMOOTHING}-episode trailing mean), taken per seed and censored "
+        f"performance, on a {smoothing}-episode trailing mean), taken per seed and censored "
         "at the budget, summarised by the restricted mean time, the Kaplan-Meier median and "
         "the share of seeds that reach it. Intervals: 95%, over seeds (the seed is the unit; "
         "differences are paired by seed): Student t for means and differences, Fieller for "
-        "ratios of means, Wilson for shares, order statistics for medians. The paired "
-        "percentile bootstrap used before covers about 0.90 at 10 seeds; why these "
+        "ratios of means, Wilson for shares, order statistics for medians; why these "
         "intervals, and their simulated coverage, is in [`statistics.md`](statistics.md)."
     )
 
@@ -493,7 +495,7 @@ def write_report(
         "",
         f"Command: `{command}`; configuration: [`config.json`](config.json).",
         "",
-        metrics_note(),
+        metrics_note(cfg.lifelong.train_episodes),
         "",
     ]
     lines += PROTOCOLS.get(cfg.protocol).report(cfg, results, out)

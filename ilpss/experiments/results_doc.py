@@ -28,16 +28,19 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from ilpss._io import atomic_write_bytes
+from ilpss._io import FolderInUseError, atomic_write_bytes
+from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.drill import PAPER_TEAMS
+from ilpss.experiments.executor import stop_on_sigterm
 from ilpss.experiments.folder import RunFolder
+from ilpss.experiments.outputs import check_out_dir
 from ilpss.experiments.protocols import PROTOCOLS as PROTOCOLS_REGISTRY
 from ilpss.experiments.report import (
     metrics_note,
     write_report,
 )
-from ilpss.experiments.run import load_result, read_config, run_experiment
+from ilpss.experiments.run import JobError, load_result, read_config, run_experiment
 
 PAGE = {
     "A": {"teams": "teams", "targets": "targets"},
@@ -91,17 +94,27 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run or resume the chosen protocols and regenerate ``<docs>/results.md``."""
-    args = parser().parse_args(argv)
-    runs, docs = Path(args.runs), Path(args.docs)
-    for sub in ("figures", "results"):
-        (docs / sub).mkdir(parents=True, exist_ok=True)
+    p = parser()
+    args = p.parse_args(argv)
+    try:  # every output and every configuration checked before any work
+        runs = check_out_dir(args.runs, "--runs", run_folder=False)
+        docs = check_out_dir(args.docs, "--docs", run_folder=False)
+        for sub in ("figures", "results"):
+            check_out_dir(docs / sub, "--docs", run_folder=False)
+        chosen = {protocol: protocol_config(protocol, args) for protocol in args.protocols}
+    except ValueError as exc:
+        p.error(str(exc))
+    stop_on_sigterm()
     configs: dict[str, ExperimentConfig] = {}
     sections: list[str] = []
     for protocol in PROTOCOLS:
         folder = RunFolder(runs / f"protocol_{protocol.lower()}")
-        if protocol in args.protocols:
-            cfg = protocol_config(protocol, args)
-            results = run_timed(cfg, folder, progress=not args.quiet)
+        if protocol in chosen:
+            cfg = chosen[protocol]
+            try:
+                results = run_timed(cfg, folder, progress=not args.quiet)
+            except (FolderInUseError, StorageError, JobError, ValueError) as exc:
+                p.exit(1, f"{p.prog}: error: protocol {protocol}: {exc}\n")
         else:  # keep the section of an earlier, finished run
             if not folder.config.exists():
                 continue
@@ -236,8 +249,14 @@ def intro(configs: dict[str, ExperimentConfig], runs: str, docs: str) -> list[st
         "figure and verdict below is computed from those files. What they mean, and what "
         "to try next, is discussed in [`discussion.md`](discussion.md).", "",
         every, "",
-        metrics_note(), "",
+        metrics_note(_episodes(configs)), "",
     ]
+
+
+def _episodes(configs: dict[str, ExperimentConfig]) -> int | None:
+    """The learning episodes per task of every configuration, if they agree."""
+    episodes = {cfg.lifelong.train_episodes for cfg in configs.values()}
+    return episodes.pop() if len(episodes) == 1 else None
 
 
 def header(cfg: ExperimentConfig, folder: RunFolder, command: str | None,

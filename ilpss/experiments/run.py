@@ -40,14 +40,16 @@ from ilpss.experiments.checkpoints import (
     stream_records,
 )
 from ilpss.experiments.config import ExperimentConfig
-from ilpss.experiments.executor import make_executor
+from ilpss.experiments.executor import JobsFailed, check_ray_address, make_executor
 from ilpss.experiments.folder import RunFolder, checkpoint_key
 from ilpss.experiments.methods import METHODS, Job, LifelongMethod, lifelong_entry
+from ilpss.experiments.outputs import check_out_dir
 from ilpss.experiments.protocols import Stream, make_env
 
 __all__ = [
     "RESULT_SCHEMA",
     "JobDone",
+    "JobError",
     "JobSpec",
     "checkpoint_store",
     "load_result",
@@ -234,6 +236,8 @@ def run_experiment(
         configuration, or a file of it is damaged; a task's environment cannot be made.
     """
     out = check_out_dir(out_dir)
+    if cfg.executor == "ray":  # a wrong address fails now, not after config.json
+        check_ray_address(ray_address)
     # Build every distinct task's environment once, so that a mistyped team fails now
     # rather than after hours of earlier trials.
     tasks = {repr(t): t for seed in cfg.seeds for s in cfg.streams(seed) for t in s.tasks}
@@ -273,8 +277,29 @@ def run_experiment(
 
         if specs:
             executor = make_executor(cfg.executor, cfg.workers, progress, ray_address)
-            executor.map(run_stream, specs, desc=f"protocol {cfg.protocol}", done=write)
+            try:
+                executor.map(run_stream, specs, desc=f"protocol {cfg.protocol}", done=write)
+            except JobsFailed as exc:
+                raise JobError(exc, [specs[k] for k in exc.failures], len(jobs),
+                               len(results)) from exc
     return [results[i] for i in range(len(jobs))]
+
+
+class JobError(RuntimeError):
+    """Some jobs of a run failed; the others' results are written (a resume runs only
+    the failed ones again). The message names each failed job and what it raised."""
+
+    def __init__(self, failed: JobsFailed, specs: list[JobSpec], n_jobs: int,
+                 n_done: int) -> None:
+        self.failures = {(spec.seed, spec.stream_index): exc
+                         for spec, exc in zip(specs, failed.failures.values(), strict=True)}
+        lines = [f"seed {seed}, stream {index}: {type(exc).__name__}: {exc}"
+                 for (seed, index), exc in self.failures.items()]
+        super().__init__(
+            f"{len(specs)} of {n_jobs} job(s) failed:\n  " + "\n  ".join(lines) +
+            f"\nThe {n_done} finished job(s) are kept; run the same command again to run "
+            "only the failed one(s)"
+        )
 
 
 @contextlib.contextmanager
@@ -300,22 +325,6 @@ def _storage(cfg: ExperimentConfig, out: Path) -> Iterator[tuple[CheckpointStore
             yield store, location
     finally:
         store.close()
-
-
-def check_out_dir(out_dir: str | os.PathLike[str]) -> Path:
-    """The output folder, created if needed; a clear error if it cannot be one."""
-    if not os.fspath(out_dir).strip():
-        raise ValueError(f"the output folder must be a path, got {os.fspath(out_dir)!r}")
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise ValueError(f"{out}: exists and is not a folder; choose another output folder")
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ValueError(f"{out}: cannot create the output folder ({exc.strerror})") from exc
-    if not os.access(out, os.W_OK | os.X_OK):
-        raise ValueError(f"{out}: the output folder is not writable")
-    return out
 
 
 def read_config(path: Path) -> ExperimentConfig:

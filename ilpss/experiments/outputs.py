@@ -1,0 +1,89 @@
+"""Where a command writes: every output path checked before the work starts.
+
+A run of hours must not fail at its end because ``--out`` names a folder where a file
+belongs, a file where a folder belongs, or a place that cannot be written. Every command
+of ``ilpss`` checks its outputs with these functions before it computes anything.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+__all__ = ["check_out_dir", "check_out_file"]
+
+_JOB_FOLDER = re.compile(r"seed_\d{3,}")
+
+
+def _refuse_file_system_root(path: Path, flag: str) -> None:
+    resolved = path.resolve()
+    if resolved == Path(resolved.anchor):
+        raise ValueError(f"{flag} {path}: the root of a file system; give a folder of its own "
+                         "(e.g. results/my_run)")
+
+
+def check_out_dir(out_dir: str | os.PathLike[str], flag: str = "--out",
+                  run_folder: bool = True) -> Path:
+    """The output folder, created if needed; a clear error if it cannot be one.
+
+    With ``run_folder``, the folder must be new, empty, or a run folder already (it holds
+    a ``config.json`` or ``seed_*`` folders): a run writes ``seed_*`` folders and ``config.json`` into it, which
+    would litter a folder of other files (``--out ~``).
+
+    Raises
+    ------
+    ValueError
+        Naming ``flag``: an empty path, the root of a file system, an existing file, a
+        path under a file, a folder that cannot be created or written, or (with
+        ``run_folder``) a folder of other files.
+    """
+    if not os.fspath(out_dir).strip():
+        raise ValueError(f"{flag}: the output folder must be a path, got {os.fspath(out_dir)!r}")
+    out = Path(out_dir)
+    _refuse_file_system_root(out, flag)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"{flag} {out}: exists and is not a folder; choose another output folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"{flag} {out}: cannot create the output folder ({exc.strerror})") from exc
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise ValueError(f"{flag} {out}: the output folder is not writable")
+    if run_folder and any(out.iterdir()) and not any(
+            p.name == "config.json" or _JOB_FOLDER.fullmatch(p.name) for p in out.iterdir()):
+        raise ValueError(
+            f"{flag} {out}: holds other files and no config.json, so it is not a run folder; "
+            "give a new or empty folder (a run writes config.json and seed_* folders into it)"
+        )
+    return out
+
+
+def check_out_file(path: str | os.PathLike[str], flag: str = "--out") -> Path:
+    """An output file's path, its folder created if needed; a clear error if a file
+    cannot be written there.
+
+    Raises
+    ------
+    ValueError
+        Naming ``flag``: an empty path, an existing folder (or a path ending in ``/``), a
+        folder that is a file or cannot be created, or a place that is not writable.
+    """
+    text = os.fspath(path)
+    if not text.strip():
+        raise ValueError(f"{flag}: the output file must be a path, got {text!r}")
+    out = Path(text)
+    if text.endswith(("/", os.sep)) or out.is_dir():
+        raise ValueError(f"{flag} {text}: a folder, where the output file belongs; name the "
+                         "file (e.g. docs/learning.md)")
+    parent = out.parent
+    if parent.exists() and not parent.is_dir():
+        raise ValueError(f"{flag} {text}: {parent} is a file, not a folder")
+    try:
+        parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(f"{flag} {text}: cannot create its folder {parent} "
+                         f"({exc.strerror})") from exc
+    if not os.access(parent, os.W_OK | os.X_OK) or (out.exists() and not os.access(out, os.W_OK)):
+        raise ValueError(f"{flag} {text}: not writable")
+    return out

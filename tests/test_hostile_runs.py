@@ -1,0 +1,546 @@
+"""Run folders, saved files and commands as an attacker or a careless user would treat
+them: links out of the folder, files that never end, workers left behind, failing jobs,
+mismatched comparisons, settings that diverge, outputs that cannot be written."""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import threading
+import time
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ilpss import _io
+from ilpss._io import locked_folder
+from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.run import JobError, read_config, run_experiment
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+
+def _tiny(**changes) -> ExperimentConfig:
+    lifelong = changes.pop("lifelong", {})
+    fields = {"n_seeds": 1, "workers": 1, "methods": ("scratch",), **changes}
+    return ExperimentConfig(**fields).with_overrides(
+        lifelong={"train_episodes": 3, "rollout_episodes": 1, **lifelong})
+
+
+# ------------------------------------------------------------ a folder that leads outside
+def _outside_folder(tmp_path: Path) -> Path:
+    """A folder elsewhere, holding what a user keeps there."""
+    outside = tmp_path / "elsewhere"
+    for name in ("trial_0001", "trial_0000_notes", ".building_keep"):
+        (outside / name).mkdir(parents=True)
+        (outside / name / "keep.txt").write_text("mine")
+    return outside
+
+
+def test_a_symlinked_checkpoint_folder_is_refused_and_nothing_outside_changes(tmp_path):
+    run, cfg = tmp_path / "run", _tiny(n_seeds=2)
+    run_experiment(cfg, run, progress=False)
+    outside = _outside_folder(tmp_path)
+    before = sorted(p.relative_to(outside) for p in outside.rglob("*"))
+    job = run / "seed_001" / "stream_00"
+    (job / "result.json").unlink()
+    shutil.rmtree(job / "scratch")
+    (job / "scratch").symlink_to(outside, target_is_directory=True)
+    with pytest.raises(JobError, match=r"seed_001/stream_00/scratch: a symbolic link inside "
+                                       r"the checkpoint storage"):
+        run_experiment(cfg, run, progress=False)
+    assert sorted(p.relative_to(outside) for p in outside.rglob("*")) == before
+    assert not (outside / "LATEST").exists()
+
+
+def test_a_symlinked_job_folder_is_refused_before_anything_is_read_or_written(tmp_path):
+    run, cfg = tmp_path / "run", _tiny()
+    run_experiment(cfg, run, progress=False)
+    outside = tmp_path / "elsewhere"
+    shutil.move(run / "seed_000", outside)
+    (run / "seed_000").symlink_to(outside, target_is_directory=True)
+    stale = outside / "stream_00" / f".result.json.{os.getpid()}.{'a' * 12}.tmp"
+    stale.write_text("theirs")
+    with pytest.raises(ValueError, match=r"seed_000: a symbolic link inside the run folder"):
+        run_experiment(cfg, run, progress=False)
+    assert stale.read_text() == "theirs"  # not removed as a stale temporary of ours
+
+
+def test_save_deletes_only_its_own_checkpoints_and_never_follows_a_link(tmp_path):
+    from test_io import _corridor_learner
+
+    learner, _ = _corridor_learner(1)
+    folder = tmp_path / "ckpt"
+    outside = _outside_folder(tmp_path)
+    folder.mkdir()
+    for name in ("trial_0000_notes", ".building_keep"):
+        (folder / name).mkdir()
+    (folder / "trial_0000").symlink_to(outside, target_is_directory=True)
+    learner.save(folder)
+    assert (folder / "trial_0000_notes").is_dir() and (folder / ".building_keep").is_dir()
+    assert (folder / "trial_0000").is_symlink()
+    assert sorted(p.name for p in outside.iterdir()) == [
+        ".building_keep", "trial_0000_notes", "trial_0001"]
+    # A link where the new checkpoint belongs is refused, not written through.
+    (folder / "trial_0002").symlink_to(outside, target_is_directory=True)
+    learner.records.append(learner.records[-1])
+    with pytest.raises(ValueError, match="trial_0002: a symbolic link where this checkpoint"):
+        learner.save(folder)
+
+
+def test_a_checkpoint_whose_file_links_outside_is_refused(tmp_path):
+    from test_io import _corridor_learner
+
+    from ilpss.lifelong import LifelongLearner
+
+    learner, space = _corridor_learner(1, tmp_path / "ckpt")
+    policy = tmp_path / "ckpt" / "trial_0001" / "policy_0.npz"
+    shutil.move(policy, tmp_path / "policy_0.npz")
+    policy.symlink_to(tmp_path / "policy_0.npz")
+    with pytest.raises(ValueError, match=r"policy_0.npz: a symbolic link inside the checkpoint"):
+        LifelongLearner.load(tmp_path / "ckpt", space)
+
+
+# ------------------------------------------------------------ files that never end
+@pytest.mark.parametrize("name", ["config.json", "LATEST"])
+def test_a_device_in_place_of_a_small_file_is_refused_without_reading_it(tmp_path, name):
+    from ilpss.lifelong import latest_checkpoint
+
+    (tmp_path / name).symlink_to("/dev/zero")
+    with pytest.raises(ValueError, match=rf"{name}: a character device, where .* \(a regular "
+                                         r"file\) was expected"):
+        if name == "config.json":
+            read_config(tmp_path / name)
+        else:
+            latest_checkpoint(tmp_path)
+
+
+def test_a_fifo_in_place_of_result_json_is_refused_at_once(tmp_path):
+    fifo = tmp_path / "result.json"
+    os.mkfifo(fifo)
+    outcome: list[BaseException] = []
+
+    def read() -> None:
+        try:
+            _io.load_json_record(fifo, "ilpss.experiment_result/2")
+        except BaseException as exc:
+            outcome.append(exc)
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    reader.join(timeout=10)
+    if reader.is_alive():  # release the blocked reader before failing
+        with open(fifo, "wb"):
+            pass
+        pytest.fail("reading a FIFO blocked")
+    assert "a FIFO (named pipe), where a JSON record" in str(outcome[0])
+
+
+def test_reads_are_bounded_as_they_read_whatever_stat_said(tmp_path, monkeypatch):
+    path = tmp_path / "big.json"
+    path.write_bytes(b" " * 2000 + b"{}")
+    monkeypatch.setattr(_io, "MAX_JSON_BYTES", 1000)
+    with pytest.raises(ValueError, match="more than the 1,000 bytes a JSON record may have"):
+        _io.read_json(path)
+
+
+def test_latest_naming_another_file_does_not_print_it(tmp_path):
+    from ilpss.lifelong import latest_checkpoint
+
+    secret = tmp_path / "secret"
+    secret.write_text("hunter2 hunter2")
+    (tmp_path / "ckpt").mkdir()
+    (tmp_path / "ckpt" / "LATEST").symlink_to(secret)
+    with pytest.raises(ValueError) as err:
+        latest_checkpoint(tmp_path / "ckpt")
+    assert "hunter2" not in str(err.value)
+    assert "does not name a checkpoint" in str(err.value)
+
+
+def test_counts_in_a_library_record_are_bounded_before_use(tmp_path):
+    from test_io import _corridor_learner
+
+    from ilpss.options import LIBRARY_SCHEMA, OptionLibrary
+
+    learner, _ = _corridor_learner(1)
+    folder = tmp_path / "library"
+    learner.library.save(folder)
+    path = folder / "library.npz"
+    arrays, meta = _io.load_npz(path, LIBRARY_SCHEMA, {}, {
+        k: ((None,), "iuf") for k in np.load(path).files if k != "__meta__"})
+    _io.save_npz_atomic(path, arrays, {**meta, "n_policies": 10**9})  # a valid digest
+    start = time.process_time()
+    with pytest.raises(ValueError, match=r"n_policies is 1000000000, but the record lists"):
+        OptionLibrary.load(folder)
+    assert time.process_time() - start < 5  # no set of 10**9 names was built
+
+
+def test_a_uniform_kernel_naming_a_billion_features_is_refused(tmp_path):
+    from ilpss.kernels import UNIFORM_SCHEMA, UniformKernel
+
+    path = tmp_path / "kernels.npz"
+    _io.save_npz_atomic(path, {}, {"schema": UNIFORM_SCHEMA, "n_features": 10**9})
+    with pytest.raises(ValueError, match=r"malformed n_features 1000000000"):
+        UniformKernel.load(path)
+
+
+def test_an_npz_header_with_an_absurd_axis_is_refused_by_name(tmp_path):
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w") as archive:
+        member = io.BytesIO()
+        np.lib.format.write_array_header_1_0(
+            member, {"descr": "<f8", "fortran_order": False, "shape": (0, 10**30)})
+        archive.writestr("weights.npy", member.getvalue())
+    path = tmp_path / "bomb.npz"
+    path.write_bytes(buffer.getvalue())
+    with pytest.raises(ValueError, match=r"bomb.npz: member 'weights.npy' declares shape .*an "
+                                         r"axis longer than any ilpss array has"):
+        _io.load_npz(path, "x/1", {"weights": ((None, None), "f")})
+
+
+def test_json_numbers_beyond_float_are_refused_naming_the_file(tmp_path):
+    path = tmp_path / "config.json"
+    path.write_text('{"n_seeds": 1e400}')
+    with pytest.raises(ValueError, match=r"config.json: not valid JSON \(the number 1e400 is "
+                                         r"too large for a float\)"):
+        read_config(path)
+
+
+def test_a_full_disk_names_the_file_it_could_not_write(tmp_path, monkeypatch):
+    import errno
+
+    real = os.fdopen
+
+    class Full:
+        def __init__(self, fh):
+            self.fh = fh
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self.fh.close()
+
+        def write(self, data):
+            raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(os, "fdopen", lambda fd, *a, **k: Full(real(fd, *a, **k)))
+    with pytest.raises(OSError, match=r"cannot write .*result.json: No space left on device"):
+        _io.atomic_write_bytes(tmp_path / "result.json", b"{}")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_complex_states_are_refused_not_cut_to_their_real_part():
+    from ilpss.kernels import SharedKernelModel
+
+    model = SharedKernelModel(1, random_state=0).fit([np.random.default_rng(0).normal(size=(40, 2))])
+    with pytest.raises(ValueError, match="complex values"):
+        model.membership(np.array([0.5 + 3j, 0.0]))
+    with pytest.raises(ValueError, match="instance 0: complex values"):
+        SharedKernelModel(1).fit([np.ones((5, 2)) * (1 + 1j)])
+
+
+# ------------------------------------------------------------ workers and the lock
+def _started_run(tmp_path: Path, workers: int = 2) -> tuple[subprocess.Popen, Path]:
+    """``ilpss-experiment`` running 2 long jobs, once both workers have started."""
+    run = tmp_path / "run"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "ilpss.experiments.cli", "--protocol", "A", "--seeds", "2",
+         "--methods", "scratch", "--episodes", "100000", "--workers", str(workers),
+         "--quiet", "--no-report", "--out", str(run)],
+        env={**os.environ, "PYTHONPATH": str(ROOT)}, stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE, start_new_session=True)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline and len(_workers_of(proc.pid)) < workers:
+        time.sleep(0.2)
+    assert len(_workers_of(proc.pid)) == workers, "the workers did not start"
+    time.sleep(1.0)  # inside their jobs
+    return proc, run
+
+
+def _workers_of(pid: int) -> list[int]:
+    """The child processes of ``pid`` (Linux /proc)."""
+    children = Path(f"/proc/{pid}/task/{pid}/children")
+    try:
+        return [int(c) for c in children.read_text().split()]
+    except OSError:
+        return []
+
+
+def _alive(pids: list[int]) -> list[int]:
+    out = []
+    for pid in pids:
+        try:
+            status = Path(f"/proc/{pid}/status").read_text()
+        except OSError:
+            continue
+        if "State:\tZ" not in status:
+            out.append(pid)
+    return out
+
+
+def _wait_gone(pids: list[int], seconds: float) -> list[int]:
+    deadline = time.monotonic() + seconds
+    while _alive(pids) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    return _alive(pids)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGTERM, signal.SIGINT])
+def test_a_signal_to_the_driver_stops_its_workers_and_frees_the_run_folder(tmp_path, sig):
+    proc, run = _started_run(tmp_path)
+    workers = _workers_of(proc.pid)
+    start = time.monotonic()
+    os.kill(proc.pid, sig)
+    proc.wait(timeout=30)
+    left = _wait_gone(workers, 10)
+    try:
+        assert left == [], f"workers {left} outlived the driver"
+        assert time.monotonic() - start < 10, "the driver waited for the running jobs"
+        with locked_folder(run, "run folder"):  # nobody holds it any more
+            pass
+    finally:
+        for pid in _alive(workers):
+            os.kill(pid, signal.SIGKILL)
+    if sig != signal.SIGKILL:
+        assert proc.returncode != 0
+
+
+def test_forked_workers_do_not_hold_the_drivers_folder_lock(tmp_path):
+    """The lock goes with the driver: a worker that outlives it (on a platform without
+    PR_SET_PDEATHSIG) does not keep the folder locked."""
+    from ilpss.experiments.executor import _worker_start
+
+    started_r, started_w = os.pipe()
+    ready, release = os.pipe()
+    with locked_folder(tmp_path, "run folder"):
+        pid = os.fork()
+        if pid == 0:  # the worker: starts as a pool's worker does, then outlives its job
+            try:
+                _worker_start(os.getppid())
+                os.write(started_w, b"x")
+                os.read(ready, 1)
+            finally:
+                os._exit(0)
+        os.read(started_r, 1)
+    try:
+        with locked_folder(tmp_path, "run folder"):  # the driver let go; the worker lives
+            pass
+    finally:
+        os.write(release, b"x")
+        os.waitpid(pid, 0)
+
+
+# ------------------------------------------------------------ failing jobs
+def test_a_failing_job_keeps_the_others_results_and_names_itself(tmp_path, monkeypatch):
+    from ilpss.lifelong import LifelongLearner
+
+    real = LifelongLearner.run_trial
+
+    def run_trial(self, env, name, callback=None):
+        if self.seed == 1:
+            raise RuntimeError("the team of seed 1 broke")
+        return real(self, env, name, callback)
+
+    monkeypatch.setattr(LifelongLearner, "run_trial", run_trial)
+    cfg = _tiny(n_seeds=3, workers=2)
+    with pytest.raises(JobError, match=r"1 of 3 job\(s\) failed:\n  seed 1, stream 0: "
+                                       r"RuntimeError: the team of seed 1 broke\nThe 2 "
+                                       r"finished job\(s\) are kept"):
+        run_experiment(cfg, tmp_path, progress=False)
+    assert [p.parent.parent.name for p in sorted(tmp_path.glob("seed_*/*/result.json"))] == [
+        "seed_000", "seed_002"]
+    monkeypatch.undo()
+    ran = []
+    run_experiment(cfg, tmp_path, progress=False, on_done=lambda spec, done: ran.append(spec.seed))
+    assert ran == [1]
+
+
+def test_sys_exit_in_a_job_is_a_failure_of_that_job_not_a_clean_exit(tmp_path, monkeypatch,
+                                                                     capsys):
+    from ilpss.experiments import cli
+    from ilpss.lifelong import LifelongLearner
+
+    def run_trial(self, env, name, callback=None):
+        sys.exit()
+
+    monkeypatch.setattr(LifelongLearner, "run_trial", run_trial)
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(["--protocol", "A", "--seeds", "1", "--methods", "scratch", "--episodes", "3",
+                  "--rollouts", "1", "--workers", "1", "--quiet", "--out", str(tmp_path)])
+    assert exit_info.value.code == 1
+    assert "seed 0, stream 0: RuntimeError: the job's code called sys.exit(None)" in \
+        capsys.readouterr().err
+
+
+# ------------------------------------------------------------ comparisons and settings
+def test_compare_refuses_runs_of_another_stream(tmp_path):
+    from ilpss.experiments.compare import compare_runs
+
+    base, other = tmp_path / "base", tmp_path / "other"
+    run_experiment(_tiny(n_seeds=2), base, progress=False)
+    run_experiment(_tiny(n_seeds=2, teams=("interceptors_press", "interceptors_cover",
+                                           "interceptor_guard"),
+                         targets=("chasers",)), other, progress=False)
+    with pytest.raises(ValueError, match=r"does not learn what the baseline .* learns on seed "
+                                         r"0: .*tasks: .*goal_guards.* saved, .*chasers.* here"):
+        compare_runs((base, "scratch"), {"other": (other, "scratch")})
+
+
+def test_compare_splits_an_item_where_a_run_folder_follows(tmp_path, monkeypatch):
+    from ilpss.experiments.compare import split_run
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "runs" / "alpha=0.5").mkdir(parents=True)
+    (tmp_path / "runs" / "alpha=0.5" / "config.json").write_text("{}")
+    assert split_run("A=runs/alpha=0.5:scratch") == ("A", Path("runs/alpha=0.5"), "scratch")
+    assert split_run("K = 1=runs/alpha=0.5:ilpss") == ("K = 1", Path("runs/alpha=0.5"), "ilpss")
+    (tmp_path / "0.5").mkdir()  # another run, which splitting at the last "=" would read
+    (tmp_path / "0.5" / "config.json").write_text("{}")
+    with pytest.raises(ValueError, match=r"ambiguous: it can be read with the run folders "
+                                         r"'runs/alpha=0.5', '0.5'"):
+        split_run("A=runs/alpha=0.5:scratch")
+    with pytest.raises(ValueError, match="FOLDER a run folder"):
+        split_run("A=nowhere:scratch")
+
+
+def test_a_partial_config_keeps_the_experiments_defaults(tmp_path):
+    path = tmp_path / "config.json"
+    path.write_text(json.dumps({"protocol": "A", "lifelong": {"train_episodes": 50,
+                                                              "learner": {"alpha": 0.25}}}))
+    cfg = read_config(path)
+    default = ExperimentConfig()
+    assert cfg.lifelong.learner.tile_widths == default.lifelong.learner.tile_widths
+    assert (cfg.lifelong.train_episodes, cfg.lifelong.learner.alpha) == (50, 0.25)
+    assert cfg == default.with_overrides(lifelong={"train_episodes": 50,
+                                                   "learner": {"alpha": 0.25}})
+
+
+@pytest.mark.parametrize("item, match", [
+    ("learner.alpha=100", r"LearnerConfig.alpha must be a finite number in \(0, 1\]"),
+    ("learner.initial_value=1e308", r"LearnerConfig.initial_value must be a finite number in"),
+    ("kernel_reg_covar=1e308", r"LifelongConfig.kernel_reg_covar must be a finite number in "
+                               r"\[0, 1e\+06\]"),
+])
+def test_settings_that_would_diverge_are_refused_before_config_json(tmp_path, capsys, item,
+                                                                    match):
+    from ilpss.experiments import cli
+
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(["--seeds", "1", "--set", item, "--out", str(tmp_path / "run")])
+    assert exit_info.value.code == 2
+    assert __import__("re").search(match, capsys.readouterr().err)
+    assert not (tmp_path / "run").exists()
+
+
+def test_learning_that_diverges_stops_at_once_naming_the_settings():
+    from synthetic_smdp import ZoneCorridor
+
+    from ilpss.smdp import SmdpLearner
+    from ilpss.tiles import TileCoder
+    from ilpss.traces import DivergedError
+
+    class Overflowing(ZoneCorridor):
+        def step(self, action):
+            obs, reward, terminated, truncated, info = super().step(action)
+            return obs, reward * 1e308 * 10, terminated, truncated, info  # inf
+
+    env = Overflowing(cost=0.05, n_features=2)
+    coder = TileCoder.from_space(env.observation_space, np.array([1.0, 0.5]), 4)
+    learner = SmdpLearner(3, coder, None, seed=0)
+    with pytest.raises(DivergedError, match=r"SMDP learning diverged in learning episode 1: a "
+                                            r"TD target of -?inf .*alpha=0.125"):
+        learner.train(env, 3, seed=0)
+
+
+# ------------------------------------------------------------ outputs checked first
+def test_holder_learning_checks_its_output_before_learning(tmp_path, monkeypatch, capsys):
+    from ilpss.experiments import holder_learning
+    from ilpss.experiments.executor import LocalExecutor
+
+    monkeypatch.setattr(LocalExecutor, "map", lambda *a, **k: pytest.fail("it learnt"))
+    (tmp_path / "file").write_text("x")
+    for out, said in ((tmp_path, "a folder, where the output file belongs"),
+                      (tmp_path / "file" / "learning.md", "file is a file, not a folder")):
+        with pytest.raises(SystemExit) as exit_info:
+            holder_learning.main(["--teams", "chasers", "--episodes", "1", "--eval", "1",
+                                  "--out", str(out)])
+        assert exit_info.value.code == 2
+        assert said in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, said", [
+    (["--runs", "{file}"], "--runs {file}: exists and is not a folder"),
+    (["--docs", "{file}"], "--docs {file}: exists and is not a folder"),
+    (["--seeds-a", "0"], "ExperimentConfig.n_seeds must be an integer in [1, 100,000], got 0"),
+])
+def test_results_checks_its_arguments_before_any_run(tmp_path, monkeypatch, capsys, argv, said):
+    from ilpss.experiments import results_doc
+
+    monkeypatch.setattr(results_doc, "run_experiment", lambda *a, **k: pytest.fail("it ran"))
+    monkeypatch.chdir(tmp_path)
+    file = tmp_path / "file"
+    file.write_text("x")
+    with pytest.raises(SystemExit) as exit_info:
+        results_doc.main([a.format(file=file) for a in argv])
+    assert exit_info.value.code == 2
+    assert said.format(file=file) in capsys.readouterr().err
+
+
+def test_demo_checks_its_output_folder_first(tmp_path, capsys):
+    from ilpss.experiments import demo
+
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(SystemExit) as exit_info:
+        demo.main(["--out", str(tmp_path / "file")])
+    assert exit_info.value.code == 2
+    assert "exists and is not a folder" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("out, said", [
+    ("/", "the root of a file system"),
+    ("{home}", "holds other files and no config.json, so it is not a run folder"),
+])
+def test_an_output_folder_that_is_not_a_run_folder_is_refused(tmp_path, capsys, out, said):
+    from ilpss.experiments import cli
+
+    home = tmp_path / "home"
+    home.mkdir()
+    (home / "notes.txt").write_text("mine")
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(["--seeds", "1", "--out", out.format(home=home)])
+    assert exit_info.value.code == 1
+    assert said in capsys.readouterr().err
+    assert sorted(p.name for p in home.iterdir()) == ["notes.txt"]
+
+
+def test_a_ray_address_where_nothing_listens_fails_at_once_before_config_json(tmp_path):
+    from ilpss.experiments.executor import check_ray_address
+
+    start = time.monotonic()
+    with pytest.raises(ValueError, match=r"Ray address 127.0.0.1:1: no cluster answers there"):
+        run_experiment(_tiny(executor="ray"), tmp_path / "run", ray_address="127.0.0.1:1")
+    assert time.monotonic() - start < 10
+    assert not (tmp_path / "run" / "config.json").exists()
+    with pytest.raises(ValueError, match="expected HOST:PORT"):
+        check_ray_address("nohost")
+
+
+def test_the_report_names_the_windows_its_curves_have(tmp_path):
+    from ilpss.experiments.report import write_report
+
+    cfg = _tiny(n_seeds=2)
+    results = run_experiment(cfg, tmp_path, progress=False)
+    text = write_report(cfg, results, tmp_path, command="x").read_text()
+    assert "jumpstart over the first 3 episodes" in text
+    assert "the mean of the last 3" in text and "first 20" not in text
