@@ -107,24 +107,32 @@ class BatchCore:
         if self.team is not None:
             self.team.reset(drills, team_gens)
 
-    def support_commands(self, drills: np.ndarray, player: int) -> None:
-        """The support behaviour's command for attacker ``player`` in each of ``drills``."""
-        if not len(drills):
+    def support_commands(self, first: np.ndarray, second: np.ndarray) -> None:
+        """The support behaviour's commands: for attacker 0 in the drills ``first`` and
+        attacker 1 in the drills ``second`` (in that order, as the single drill asks)."""
+        if not (len(first) or len(second)):
             return
         b, cfg = self.batch, self.config
-        resample = drills[b.cycle[drills] % _RESAMPLE_CYCLES == 0]
-        if len(resample):
-            dx = self.support_rng.random(resample)
-            dy = self.support_rng.random(resample)
-            self.support_offset[resample, 0] = _OFFSET_STD * dx
-            self.support_offset[resample, 1] = _OFFSET_STD * dy
+        drills = np.concatenate((first, second))
+        player = np.concatenate((np.zeros(len(first), np.int64), np.ones(len(second), np.int64)))
+        offsets = []
+        for part in (first, second):  # attacker 0 draws (and uses its offset), then attacker 1
+            resample = part[b.cycle[part] % _RESAMPLE_CYCLES == 0]
+            if len(resample):
+                dx = self.support_rng.random(resample)
+                dy = self.support_rng.random(resample)
+                self.support_offset[resample, 0] = _OFFSET_STD * dx
+                self.support_offset[resample, 1] = _OFFSET_STD * dy
+            offsets.append(self.support_offset[part])
+        offset = np.concatenate(offsets)
         pos = b.pos[drills]
+        rows = np.arange(len(drills))
         mate = player ^ 1
-        d_self = np.hypot(pos[:, player, 0] - pos[:, 4, 0], pos[:, player, 1] - pos[:, 4, 1])
-        d_mate = np.hypot(pos[:, mate, 0] - pos[:, 4, 0], pos[:, mate, 1] - pos[:, 4, 1])
+        d_self = np.hypot(pos[rows, player, 0] - pos[:, 4, 0], pos[rows, player, 1] - pos[:, 4, 1])
+        d_mate = np.hypot(pos[rows, mate, 0] - pos[:, 4, 0], pos[rows, mate, 1] - pos[:, 4, 1])
         locked = (b.passer[drills] == mate) & (b.cycle[drills] < b.lockout_until[drills])
         chase = (b.holder[drills] < 0) & (locked | (d_self <= d_mate))
-        spot = support_spots(pos, cfg)[:, player] + self.support_offset[drills]
+        spot = support_spots(pos, cfg)[rows, player] + offset
         lo, hi = 1.0, cfg.field_size - 1.0
         self.skill[drills, player] = np.where(chase, _GO_TO_BALL, _MOVE_TO)
         self.target[drills, player] = np.clip(spot, lo, hi)

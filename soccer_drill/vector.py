@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
@@ -86,7 +86,7 @@ class HolderVectorEnv(VectorEnv):
     where contacts are solved in an order that depends on the other drills, and the
     drills' positions are shifted into their own regions of the space (rounding). The
     single environment is the reference: ``tests/test_vector.py`` checks the rules
-    against it step by step, and ``soccer-drill-vector-agreement`` (a ``slow`` test runs a
+    against it step by step, and ``python -m opponents.agreement`` (a ``slow`` test runs a
     small version) that success rates agree within 95% intervals.
 
     ## Errors
@@ -166,6 +166,11 @@ class HolderVectorEnv(VectorEnv):
         self._has_reset = False
         self._autoreset = np.zeros(n, dtype=bool)
         self.ended_last = np.zeros(n, dtype=bool)
+        self._running = np.zeros(n, dtype=bool)
+        self._in_action = np.zeros(n, dtype=bool)
+        self._decider = np.zeros(n, dtype=np.int64)
+        self._action = np.zeros(n, dtype=np.int64)
+        self._left = np.zeros(n, dtype=np.int64)
 
     # ------------------------------------------------------------------ reset
     def reset(
@@ -239,33 +244,16 @@ class HolderVectorEnv(VectorEnv):
             raise RuntimeError("step() called before reset(); call reset() first")
         a = self._check_actions(actions)
         core, b, n = self._core, self._core.batch, self.num_envs
+        self._running[:] = False
         resetting = np.flatnonzero(self._autoreset)
         if len(resetting):
             core.reset(resetting)
         stepping = ~self._autoreset
         start = b.cycle.copy()
-        decider = b.holder.copy()
-        # Per drill: the command's cycles left (the action phase), then cycles until an
-        # attacker holds the ball again (the free phase); a drill done stands still.
-        left = np.where(a == _PASS, 1, self.decision_cycles)
-        in_action = stepping.copy()
-        running = stepping.copy()
-        skill, target, speed = core.skill, core.target, core.speed
-        while running.any():
-            act = np.flatnonzero(in_action)
-            free = np.flatnonzero(running & ~in_action)
-            skill[act, decider[act]] = _HOLDER_SKILLS[a[act]]
-            speed[act, decider[act]] = 1.0
-            mates = decider[act] ^ 1
-            core.support_commands(act[mates == 0], 0)
-            core.support_commands(free, 0)
-            core.support_commands(act[mates == 1], 1)
-            core.support_commands(free, 1)
-            core.advance(running)
-            ended = b.outcome != 0
-            left = left - in_action
-            in_action &= ~ended & (b.holder == decider) & (left > 0)
-            running &= ~ended & (in_action | ((b.holder != 0) & (b.holder != 1)))
+        self._begin(np.flatnonzero(stepping), a)
+        while self._running.any():
+            self._cycle()
+        decider = self._decider
         obs = self._observe(decider)
         ended = stepping & (b.outcome != 0)
         rewards = np.where(ended, b.attacker_reward, 0.0)
@@ -295,6 +283,39 @@ class HolderVectorEnv(VectorEnv):
             self._autoreset = ended
         return obs, rewards, terminated, truncated, infos
 
+    def _begin(self, drills: np.ndarray, actions: np.ndarray) -> None:
+        """The holders of ``drills`` take ``actions[drills]``: their drills run again."""
+        b = self._core.batch
+        self._decider[drills] = b.holder[drills]
+        self._action[drills] = actions[drills]
+        self._left[drills] = np.where(actions[drills] == _PASS, 1, self.decision_cycles)
+        self._in_action[drills] = True
+        self._running[drills] = True
+
+    def _cycle(self) -> None:
+        """One cycle of the running drills, as ``HolderEnv.step``'s loops run it.
+
+        A drill runs its holder's command for its cycles (HOLD and DRIBBLE
+        ``decision_cycles``, PASS one) while the holder keeps the ball, then cycles until
+        an attacker holds it again; then (or at an outcome) it stops running.
+        """
+        core, b = self._core, self._core.batch
+        running, in_action, decider = self._running, self._in_action, self._decider
+        act = np.flatnonzero(in_action)
+        free = np.flatnonzero(running & ~in_action)
+        core.skill[act, decider[act]] = _HOLDER_SKILLS[self._action[act]]
+        core.speed[act, decider[act]] = 1.0
+        mates = decider[act] ^ 1
+        core.support_commands(
+            np.sort(np.concatenate((act[mates == 0], free))),
+            np.sort(np.concatenate((act[mates == 1], free))),
+        )
+        core.advance(running)
+        ended = b.outcome != 0
+        self._left -= in_action
+        in_action &= ~ended & (b.holder == decider) & (self._left > 0)
+        running &= ~ended & (in_action | ((b.holder != 0) & (b.holder != 1)))
+
     # ------------------------------------------------------------- results
     def _observe(self, decider: np.ndarray | None = None) -> np.ndarray:
         """The 9 features of each drill's holder (at an end, of the last attacker holding it)."""
@@ -319,3 +340,63 @@ class HolderVectorEnv(VectorEnv):
 
     def close_extras(self, **kwargs: Any) -> None:
         """Nothing to close (no window, no worker)."""
+
+
+def play_episodes(
+    env: HolderVectorEnv,
+    policy: Callable[[np.ndarray, np.random.Generator], int],
+    seeds: Sequence[int],
+) -> list[tuple[float, str]]:
+    """Play one episode per seed with a fixed holder ``policy``, no drill ever waiting.
+
+    Episode ``k`` is a ``HolderEnv`` episode from ``reset(seed=seeds[k])`` (up to the
+    batch's physics, see the class docstring); ``policy(obs, rng)`` (a rule of
+    :mod:`soccer_drill.policies`) decides each time the holder may, with ``rng`` a
+    generator of that episode (``np.random.default_rng(seeds[k])``). As soon as a
+    drill's holder reaches a decision it gets its action and runs on, and a drill whose
+    episode ends starts the next seed, so the batch stays full: what a Gymnasium
+    ``step`` cannot do (each of its drills waits for the others' decisions).
+    Returns ``(total reward, outcome)`` per seed, in the order of ``seeds``. The
+    environment must then be ``reset()`` before it is stepped.
+    """
+    core, b, n = env._core, env._core.batch, env.num_envs
+    seeds = [int(s) for s in seeds]
+    results: list[tuple[float, str] | None] = [None] * len(seeds)
+    episode = np.full(n, -1)  # the seed index each drill plays, -1: none left
+    rngs: list[np.random.Generator | None] = [None] * n
+    following = 0
+    env._running[:] = False
+    env._in_action[:] = False
+
+    def start(drills: np.ndarray) -> None:
+        nonlocal following
+        take = drills[: max(0, len(seeds) - following)]
+        for i in take.tolist():
+            core.generators[i] = np.random.default_rng(seeds[following])
+            rngs[i] = np.random.default_rng(seeds[following])
+            episode[i] = following
+            following += 1
+        episode[drills[len(take):]] = -1
+        if len(take):
+            core.reset(take)
+
+    start(np.arange(n))
+    while (episode >= 0).any():
+        deciding = np.flatnonzero((episode >= 0) & ~env._running)
+        if len(deciding):
+            obs = env._observe()
+            actions = np.zeros(n, dtype=np.int64)
+            for i in deciding.tolist():
+                actions[i] = policy(obs[i], rngs[i])  # type: ignore[arg-type]
+            env._begin(deciding, actions)
+        env._cycle()
+        ended = np.flatnonzero((episode >= 0) & (b.outcome != 0))
+        if len(ended):
+            from soccer_drill.batch import OUTCOME_NAMES
+
+            for i in ended.tolist():
+                results[episode[i]] = (float(b.attacker_reward[i]), str(OUTCOME_NAMES[b.outcome[i]]))
+            env._running[ended] = False
+            start(ended)
+    env._has_reset = False
+    return results  # type: ignore[return-value]
