@@ -70,6 +70,8 @@ class BatchDrill:
         self.lockout_until = np.zeros(n, dtype=np.int64)
         self.outcome = np.zeros(n, dtype=np.int8)
         self.attacker_reward = np.zeros(n)
+        self.cycles_run = 0
+        """Drill-cycles advanced since construction (for benchmarks)."""
         self._roll = cfg.ball_damping**cfg.cycle_seconds
         self._top = np.array([cfg.attacker_speed] * 2 + [cfg.defender_speed] * 2)
         self._caps = np.array([*self._top, cfg.ball_max_speed])
@@ -189,6 +191,7 @@ class BatchDrill:
         self.passer[kicked] = h[kicked]
         self.lockout_until[kicked] = self.cycle[kicked] + 1 + cfg.pass_lockout_cycles
         self.cycle[a] += 1
+        self.cycles_run += len(a)
         self._possession(a, before, rngs)
         self._judge(a)
 
