@@ -37,11 +37,11 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_env import AecLoop, PhysicsLoop  # noqa: E402
+from bench_env import AecLoop, PhysicsLoop
 
-from soccer_drill.policies import HOLDER_POLICIES  # noqa: E402
-from soccer_drill.vector import HolderVectorEnv, play_episodes  # noqa: E402
-from soccer_drill.vector_agents import ParallelVectorEnv  # noqa: E402
+from soccer_drill.policies import HOLDER_POLICIES
+from soccer_drill.vector import HolderVectorEnv, play_episodes
+from soccer_drill.vector_agents import ParallelVectorEnv
 
 
 class HolderStep:

@@ -19,7 +19,6 @@ from soccer_drill.batch_physics import DRILLS_PER_SPACE, BatchPhysics
 from soccer_drill.batch_skills import (
     CONTROL,
     KICK,
-    NO_BALL,
     holder_motion,
     off_ball_targets,
     toward,

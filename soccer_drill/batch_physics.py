@@ -123,7 +123,7 @@ class BatchPhysics:
         out_pos = np.empty_like(pos)
         out_vel = np.empty_like(vel)
         get, buffer = pmb.get_space_bodies, self._get_buffer
-        for sl, array, space in zip(self._slices, self._arrays, self.spaces, strict=True):
+        for sl, space in zip(self._slices, self.spaces, strict=True):
             buffer.clear()
             get(space, _FIELDS, buffer)
             rows = np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 4)[:-1]

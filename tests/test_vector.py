@@ -7,10 +7,9 @@ import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode, VectorEnv
 
-import soccer_drill  # noqa: F401  (registers Holder-v0)
+import soccer_drill
 from opponents.agreement import agreement
 from opponents.parametric import ParametricTeam, sample_opponents
-from soccer_drill.batch import BatchDrill
 from soccer_drill.batch_features import batch_features
 from soccer_drill.batch_skills import (
     dribble_headings,
@@ -22,7 +21,12 @@ from soccer_drill.batch_teams import BatchCommands
 from soccer_drill.features import feature_bounds, features
 from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
-from soccer_drill.skills import ball_interception_point, dribble_heading, shield_direction, support_spot
+from soccer_drill.skills import (
+    ball_interception_point,
+    dribble_heading,
+    shield_direction,
+    support_spot,
+)
 from soccer_drill.teams import TeamError
 from soccer_drill.vector import HolderVectorEnv, play_episodes
 from soccer_drill.vector_agents import ParallelVectorEnv
