@@ -2,6 +2,7 @@
 
     soccer-drill-calibrate [--teams ID ...] [--episodes 500] [--out results/calibration]
                            [--no-gifs] [--sampled 20] [--sampled-episodes 100] [--workers 2]
+                           [--drills 64]
 
 For each team (by default the paper's four and ``chasers``; ``--teams`` names any
 installed ones, e.g. a plugin's beside ours): success rate (95% Wilson interval),
@@ -10,7 +11,9 @@ holder rule of :mod:`soccer_drill.policies`; the three criteria the drill is tun
 for, with their measured figures; optionally the same for members of the parametric
 family drawn by :func:`opponents.sample_opponents`; and a small GIF of each team.
 Episode ``i`` of every cell uses seed ``i``, so cells are paired and the run is
-reproducible.
+reproducible. The episodes of a cell run ``--drills`` at a time in the batched drill
+(:func:`soccer_drill.vector.play_episodes`; ``--drills 1`` plays them one by one in
+``HolderEnv``, the reference the batched drill agrees with in distribution).
 
 The page is written to ``<out>/opponents.md`` and the GIFs to ``<out>/gifs/``; the
 default folder is ``results/calibration``, never ``docs/``. This project's
@@ -38,6 +41,7 @@ from soccer_drill.gif import record_episode, save_gif
 from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.teams import describe, team_ids
+from soccer_drill.vector import HolderVectorEnv, play_episodes
 
 TEAMS = (*PAPER_TEAMS, "chasers")
 """Teams in the main table by default, in the paper's order, then ``chasers``."""
@@ -46,6 +50,8 @@ DEFAULT_OUT = "results/calibration"
 
 GIF_FPS = 8
 """GIF frame rate: 0.125 s per 0.1 s cycle, slightly slowed down, and small files."""
+DEFAULT_DRILLS = 64
+"""Episodes of a cell played at once in the batched drill."""
 _GIF_SEARCH = 40  # seeds tried to find an episode the team's best rule wins
 _OUTCOMES = ("success", "interception", "out", "timeout")
 
@@ -89,13 +95,22 @@ def evaluate(
     first_seed: int = 0,
     params: Mapping[str, Any] | None = None,
     label: str | None = None,
+    drills: int = DEFAULT_DRILLS,
 ) -> Cell:
-    """Play ``episodes`` seeded episodes of ``rule`` against ``team`` (with ``params``)."""
-    env = HolderEnv(opponent=team, opponent_params=params)
+    """Play ``episodes`` seeded episodes of ``rule`` against ``team`` (with ``params``),
+    ``drills`` at a time in the batched drill (1: one by one in ``HolderEnv``)."""
     policy = HOLDER_POLICIES[rule]
-    rng = np.random.default_rng(first_seed)
     rewards = np.empty(episodes)
     outcomes: Counter[str] = Counter()
+    if drills > 1:
+        venv = HolderVectorEnv(num_envs=min(drills, episodes), opponent=team, opponent_params=params)
+        played = play_episodes(venv, policy, range(first_seed, first_seed + episodes))
+        for i, (total, outcome) in enumerate(played):
+            rewards[i] = total
+            outcomes[outcome] += 1
+        return _cell(label or team, rule, rewards, outcomes)
+    env = HolderEnv(opponent=team, opponent_params=params)
+    rng = np.random.default_rng(first_seed)
     for i in range(episodes):
         obs, info = env.reset(seed=first_seed + i)
         done, total = False, 0.0
@@ -106,13 +121,18 @@ def evaluate(
         outcomes[info["outcome"]] += 1
         rewards[i] = total
     env.close()
+    return _cell(label or team, rule, rewards, outcomes)
+
+
+def _cell(team: str, rule: str, rewards: np.ndarray, outcomes: Counter[str]) -> Cell:
+    episodes = len(rewards)
     mean = float(rewards.mean())
     half = (
         float(stats.t.ppf(0.975, episodes - 1) * rewards.std(ddof=1) / np.sqrt(episodes))
         if episodes > 1 else float("nan")
     )
     return Cell(
-        label or team, rule, outcomes["success"], episodes, mean, mean - half, mean + half,
+        team, rule, outcomes["success"], episodes, mean, mean - half, mean + half,
         {k: outcomes[k] for k in _OUTCOMES},
     )
 
@@ -126,20 +146,26 @@ def calibrate(
     teams: Sequence[str] = TEAMS,
     workers: int = 2,
     rules: Sequence[str] | None = None,
+    drills: int = DEFAULT_DRILLS,
 ) -> dict[tuple[str, str], Cell]:
     """Every (team, rule) cell, in ``workers`` processes (1: in this process)."""
     rules = list(rules or HOLDER_POLICIES)
-    return _run([(t, r, episodes) for t in teams for r in rules], workers)
+    return _run([(t, r, episodes, 0, None, None, drills) for t in teams for r in rules], workers)
 
 
 def calibrate_family(
-    n: int, seed: int, episodes: int, workers: int = 2, rules: Sequence[str] | None = None
+    n: int,
+    seed: int,
+    episodes: int,
+    workers: int = 2,
+    rules: Sequence[str] | None = None,
+    drills: int = DEFAULT_DRILLS,
 ) -> tuple[dict[tuple[str, str], Cell], dict[str, dict[str, Any]]]:
     """Cells for ``n`` members of the parametric family, labelled ``p00``, ``p01``, ..."""
     rules = list(rules or HOLDER_POLICIES)
     members = {f"p{i:02d}": params for i, params in enumerate(sample_opponents(n, seed))}
     jobs = [
-        ("parametric", r, episodes, 0, params, label)
+        ("parametric", r, episodes, 0, params, label, drills)
         for label, params in members.items() for r in rules
     ]
     return _run(jobs, workers), members
@@ -473,11 +499,18 @@ def main(argv: Sequence[str] | None = None) -> int:
         help="also tabulate this many members of the parametric family (seed 0)",
     )
     parser.add_argument("--sampled-episodes", type=int, default=100, help="episodes per family cell")
+    parser.add_argument(
+        "--drills", type=int, default=DEFAULT_DRILLS,
+        help=f"episodes of a cell played at once in the batched drill (default {DEFAULT_DRILLS}; "
+        "1: one by one in HolderEnv)",
+    )
     args = parser.parse_args(argv)
     if args.episodes < 2 or (args.sampled and args.sampled_episodes < 2):
         parser.error("--episodes and --sampled-episodes must be at least 2")
     if args.sampled < 0:
         parser.error("--sampled must be >= 0")
+    if args.drills < 1:
+        parser.error("--drills must be >= 1")
     known = team_ids()
     unknown = [t for t in args.teams if t not in known]
     if unknown:
@@ -487,9 +520,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not args.out or out_dir.is_file():
         parser.error(f"--out must name a folder (opponents.md and gifs/ go in it), got {args.out!r}")
     start = time.perf_counter()
-    cells = calibrate(args.episodes, teams=teams, workers=args.workers)
+    cells = calibrate(args.episodes, teams=teams, workers=args.workers, drills=args.drills)
     family = (
-        calibrate_family(args.sampled, 0, args.sampled_episodes, args.workers)
+        calibrate_family(args.sampled, 0, args.sampled_episodes, args.workers, drills=args.drills)
         if args.sampled else None
     )
     gifs: dict[str, tuple[str, str, int, str]] = {}
@@ -506,6 +539,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         command += f" --sampled {args.sampled} --sampled-episodes {args.sampled_episodes}"
     if args.no_gifs:
         command += " --no-gifs"
+    if args.drills != DEFAULT_DRILLS:
+        command += f" --drills {args.drills}"
     command += f" --out {args.out}"
     seconds = time.perf_counter() - start
     timing = f"It took {seconds / 60:.1f} min with {args.workers} worker process(es)."

@@ -6,6 +6,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from soccer_drill.batch_teams import BatchCommands
 from soccer_drill.skills import Command, Skill
 from soccer_drill.state import DrillView
 
@@ -34,3 +35,24 @@ class Chasers:
     def act(self, view: DrillView) -> Mapping[str, Command]:
         """INTERCEPT for both defenders."""
         return dict.fromkeys(self._players, self._command)
+
+    def batch(self, n: int) -> BatchChasers:
+        """This team for ``n`` drills at once (``soccer_drill.batch_teams``)."""
+        return BatchChasers(self.speed)
+
+
+class BatchChasers:
+    """:class:`Chasers` in many drills at once: INTERCEPT for both defenders everywhere."""
+
+    def __init__(self, speed: float) -> None:
+        self.speed = speed
+
+    def reset(self, view: object, drills: np.ndarray, rng: object) -> None:
+        """Nothing to remember."""
+
+    def act(self, view: object, drills: np.ndarray) -> BatchCommands:
+        """INTERCEPT at ``speed`` for both defenders of each drill."""
+        m = len(drills)
+        return BatchCommands(
+            np.full((m, 2), int(Skill.INTERCEPT)), np.zeros((m, 2, 2)), np.full((m, 2), self.speed)
+        )

@@ -197,6 +197,10 @@ class ParametricTeam:
             commands[player] = Command(skill, target, speed)
         return commands
 
+    def batch(self, n: int) -> ParametricBatch:
+        """This team's behaviour for ``n`` drills at once (see :class:`ParametricBatch`)."""
+        return ParametricBatch(self, n)
+
     # ------------------------------------------------------------------ behaviour
     def _plan(
         self, s: DrillState, size: float
@@ -339,3 +343,139 @@ def spec_label(params: Mapping[str, Any]) -> str:
     if delay:
         label += f"-d{delay}"
     return label
+
+
+# ---------------------------------------------------------------------- batched
+class ParametricBatch:
+    """:class:`ParametricTeam`'s behaviour for ``n`` drills at once (``team.batch(n)``).
+
+    The same plan as :meth:`ParametricTeam.act` (sorties, the presser's hysteresis, the
+    reaction delay, every target), computed for all drills acting in a cycle on arrays
+    (:mod:`soccer_drill.batch_teams`); each drill's sortie draws come from its own
+    generator in the order the single team makes them.
+    """
+
+    def __init__(self, team: ParametricTeam, n: int) -> None:
+        self.team, self.n = team, n
+        depth = team.reaction_delay + 1
+        self._pos = np.zeros((n, depth, 5, 2))
+        self._vel = np.zeros((n, depth, 5, 2))
+        self._holder = np.zeros((n, depth), dtype=np.int64)
+        self._count = np.zeros(n, dtype=np.int64)
+        self._sortie_left = np.zeros((n, 2), dtype=np.int64)
+        self._presser = np.full(n, -1, dtype=np.int64)
+        self.sorties = np.zeros(n, dtype=np.int64)
+        """Sorties started in each drill's episode."""
+        self._rng: Any = None
+
+    def reset(self, view: Any, drills: np.ndarray, rng: Any) -> None:
+        """Start an episode in ``drills``; ``rng`` (a ``BatchRandom``) feeds the sorties."""
+        if len(view.players) != 2:
+            raise ValueError(f"this team drives two defenders, got players {view.players!r}")
+        self._rng = rng
+        self._count[drills] = 0
+        self._sortie_left[drills] = 0
+        self._presser[drills] = -1
+        self.sorties[drills] = 0
+
+    def _seen(self, view: Any, drills: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The states ``reaction_delay`` cycles old (or the oldest since reset)."""
+        pos, vel, holder = view.pos[drills], view.vel[drills], view.holder[drills]
+        depth = self.team.reaction_delay + 1
+        if depth == 1:
+            return pos, vel, holder
+        count = self._count[drills] + 1
+        self._count[drills] = count
+        slot = (count - 1) % depth
+        self._pos[drills, slot] = pos
+        self._vel[drills, slot] = vel
+        self._holder[drills, slot] = holder
+        oldest = np.where(count <= depth, 0, count % depth)
+        return self._pos[drills, oldest], self._vel[drills, oldest], self._holder[drills, oldest]
+
+    def act(self, view: Any, drills: np.ndarray) -> Any:
+        """The two defenders' commands in each of ``drills``."""
+        from soccer_drill.batch_skills import interception_points, mark_targets
+        from soccer_drill.batch_teams import BatchCommands
+
+        t, cfg = self.team, view.config
+        size = cfg.field_size
+        pos, vel, holder = self._seen(view, drills)
+        m = len(drills)
+        bx, by = pos[:, BALL, 0], pos[:, BALL, 1]
+        skill = np.full((m, 2), int(Skill.INTERCEPT), dtype=np.int64)
+        target = np.zeros((m, 2, 2))
+        guards = [k for k in (0, 1) if t.roles[k] == "guard"]
+        for n_guard, k in enumerate(guards):
+            left = self._sortie_left[drills, k]
+            on_line = left == 0
+            gx, gy = pos[:, 2 + k, 0], pos[:, 2 + k, 1]
+            start = on_line & (t.guard_reach > 0) & (np.hypot(bx - gx, by - gy) <= t.guard_reach)
+            if t.press_probability > 0 and on_line.any():
+                draws = np.zeros(m, dtype=bool)
+                draws[on_line] = self._rng.random(drills[on_line]) < t.press_probability
+                start |= draws & on_line
+            left = np.where(start, t.sortie_cycles, left)
+            self.sorties[drills[start]] += 1
+            out = left > 0
+            self._sortie_left[drills, k] = np.where(out, left - 1, left)
+            spot_skill, spot = self._guard_spots(n_guard, len(guards), bx, size)
+            skill[:, k] = np.where(out, int(Skill.INTERCEPT), spot_skill)
+            target[:, k] = np.where(out[:, None], 0.0, spot)
+        interceptors = [k for k in (0, 1) if t.roles[k] == "interceptor"]
+        if len(interceptors) == 2 and t.coordination != "press":
+            d = np.hypot(pos[:, 2:4, 0] - bx[:, None], pos[:, 2:4, 1] - by[:, None])
+            r = np.arange(m)
+            presser = self._presser[drills]
+            p = np.where(presser >= 0, presser, 0)
+            switch = (presser < 0) | (d[r, 1 - p] + _SWITCH_MARGIN < d[r, p])
+            presser = np.where(switch, np.where(d[:, 0] <= d[:, 1], 0, 1), presser)
+            self._presser[drills] = presser
+            other = 1 - presser
+            second = ~((holder < 0) & t.chase_loose)
+            if t.coordination == "cover":
+                if t.mark_fraction == _MARK_FRACTION:
+                    what, where = int(Skill.MARK), np.zeros((m, 2))
+                else:
+                    spots = mark_targets(pos, holder, t.mark_fraction)
+                    what, where = int(Skill.MOVE_TO), spots[r, 2 + other]
+            else:  # screen
+                what = int(Skill.MOVE_TO)
+                where = np.stack(
+                    (np.minimum(np.maximum(bx, 1.0), size - 1.0),
+                     np.maximum(by - t.screen_distance, 1.0)), axis=1)
+            rows = r[second]
+            skill[rows, other[second]] = what
+            target[rows, other[second]] = where[second] if where.ndim == 2 else where
+        speed = np.broadcast_to(np.array(t.speeds), (m, 2)).copy()
+        if t.reaction_delay > 0:
+            # React to the old state: go where the skill would have gone back then.
+            vmax = np.ones((m, 4))
+            vmax[:, 2:] = cfg.defender_speed * speed
+            to_ball = interception_points(pos, vel, holder, vmax, cfg)[:, 2:]
+            marks = mark_targets(pos, holder)[:, 2:]
+            line = np.stack(
+                (np.minimum(np.maximum(bx, 4.0), size - 4.0), np.full(m, GUARD_DEPTH)), axis=1)
+            own = np.stack([skill == int(s) for s in (Skill.INTERCEPT, Skill.MARK, Skill.GUARD_LINE)])
+            target = np.where(own[0][..., None], to_ball, target)
+            target = np.where(own[1][..., None], marks, target)
+            target = np.where(own[2][..., None], line[:, None, :], target)
+            skill = np.where(own.any(axis=0), int(Skill.MOVE_TO), skill)
+        return BatchCommands(skill, target, speed)
+
+    def _guard_spots(
+        self, n_guard: int, count: int, bx: np.ndarray, size: float
+    ) -> tuple[int | np.ndarray, np.ndarray]:
+        t = self.team
+        if count == 1:
+            if t.guard_track == 1.0 and t.guard_depth == GUARD_DEPTH:
+                return int(Skill.GUARD_LINE), np.zeros((len(bx), 2))
+            home, offset = size / 2, 0.0
+        else:
+            home = size * (n_guard + 1) / 3
+            offset = (n_guard - 0.5) * t.guard_spacing
+        x = home + t.guard_track * (bx + offset - home)
+        spot = np.stack(
+            (np.minimum(np.maximum(x, _EDGE), size - _EDGE), np.full(len(bx), t.guard_depth)),
+            axis=1)
+        return int(Skill.MOVE_TO), spot

@@ -38,4 +38,8 @@ __all__ = [
 
 HOLDER_ENV_ID = "soccer_drill/Holder-v0"
 if HOLDER_ENV_ID not in gymnasium.registry:
-    gymnasium.register(id=HOLDER_ENV_ID, entry_point="soccer_drill.holder:HolderEnv")
+    gymnasium.register(
+        id=HOLDER_ENV_ID,
+        entry_point="soccer_drill.holder:HolderEnv",
+        vector_entry_point="soccer_drill.vector:HolderVectorEnv",
+    )

@@ -372,6 +372,22 @@ class TeamDriver:
             out.append((index, checked))
         return out
 
+    def call(self, call: str, when: str, method: Callable[..., Any], *args: Any) -> Any:
+        """``method(*args)`` within this driver's time bound; any failure a :class:`TeamError`.
+
+        For drivers that run a team another way than :meth:`act` (the batched drill's
+        batched ``act``, whose commands are checked inside ``method``, so the bound covers
+        the check). ``call`` and ``when`` name the call in the error (``"act()"``,
+        ``" at cycle 3"``).
+        """
+        start = time.perf_counter()
+        try:
+            return self._call(method, *args)
+        except TeamError:
+            raise
+        except (Overrun, Exception) as exc:
+            raise self._failure(call, when, exc, start) from _cause(exc)
+
     def _call(self, method: Callable[..., Any], *args: Any) -> Any:
         """``method(*args)`` within the CPU-time bound; raises :class:`Overrun` past it."""
         timeout = self.team_timeout

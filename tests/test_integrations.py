@@ -25,6 +25,7 @@ RECIPES = {m.group(1): m.group(2) for m in FENCE.finditer(PAGE.read_text(encodin
 EXPECTED = {
     "pettingzoo_tests": r"Passed API test[\s\S]*cycles per second",
     "gymnasium_vector": r"sync: obs \(4, 9\) float32, \d+ episodes[\s\S]*async: obs \(4, 9\) float32, [1-9]\d* episodes",
+    "batched_vector": r"buffer \(32, 64, 9\), [1-9]\d* episodes, mean return [-+][\d.]+[\s\S]*agents \['attacker_0', 'attacker_1'\]: obs \(64, 9\), masks \(64, 5\)",
     "wrappers": r"20 episodes, [\d.]+ decisions each[\s\S]*aec_to_parallel: [1-9]\d* identical cycles; parallel_to_aec agents \['attacker_0', 'attacker_1', 'defender_0', 'defender_1'\]",
     "supersuit": r"opponent: 4 agent slots, obs \(4, 9\), [1-9]\d* agent-episodes ended, [1-9]\d* masked actions replaced[\s\S]*self-play: 8 agent slots, obs \(8, 10\), [1-9]\d* agent-episodes ended, [1-9]\d* masked[\s\S]*refused: ",
     "sb3_holder": r"PPO: mean reward over 50 episodes [-+][\d.]+[\s\S]*DQN: mean reward[\s\S]*random holder: mean reward",

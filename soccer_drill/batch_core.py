@@ -1,0 +1,152 @@
+"""What the batched environments share: the drills, their seed streams, team and support."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from soccer_drill.batch import RUNNING, BatchDrill
+from soccer_drill.batch_skills import support_spots
+from soccer_drill.batch_teams import BatchRandom, BatchTeamDriver
+from soccer_drill.config import DrillConfig
+from soccer_drill.skills import Skill
+from soccer_drill.support import _OFFSET_STD, _RESAMPLE_CYCLES
+from soccer_drill.teams import Team, check_team_timeout
+
+_GO_TO_BALL, _MOVE_TO = int(Skill.GO_TO_BALL), int(Skill.MOVE_TO)
+
+
+def check_num_envs(num_envs: object) -> int:
+    """``num_envs`` as an int, or ``ValueError`` saying what is allowed."""
+    if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or not (
+        1 <= num_envs <= 1_000_000
+    ):
+        raise ValueError(f"num_envs must be an integer in 1..1000000, got {num_envs!r}")
+    return int(num_envs)
+
+
+class BatchCore:
+    """``n`` drills with their generators, scripted team and support players.
+
+    Args:
+        n: number of drills.
+        opponent: team id, ``Team`` instance, or ``None`` (no scripted team).
+        opponent_params: keyword parameters of the team factory.
+        config: the drills' parameters.
+        team_timeout: CPU-time bound of one batched team call (``None``: no bound).
+        support: the attackers not given a command are driven by the support behaviour.
+        drills_per_space: drills sharing one pymunk space.
+
+    Seeding: drill ``i`` has its own generator, the stream that a single environment's
+    ``reset(seed=s_i)`` starts (``np.random.default_rng(s_i)``); at each of its episode's
+    starts it draws the start as :meth:`Drill.reset` does, then the seeds of its support
+    player's and its team's own generators, as :class:`~soccer_drill.core.DrillCore` does.
+    """
+
+    def __init__(
+        self,
+        n: int,
+        opponent: str | Team | None,
+        opponent_params: Mapping[str, Any] | None,
+        config: DrillConfig,
+        team_timeout: float | None,
+        support: bool,
+        drills_per_space: int,
+    ) -> None:
+        team_timeout = check_team_timeout(team_timeout)
+        self.n, self.config = n, config
+        self.batch = BatchDrill(n, config, drills_per_space)
+        self.generators = [np.random.default_rng(s) for s in np.random.SeedSequence().spawn(n)]
+        if opponent is None:
+            if opponent_params:
+                raise ValueError("opponent_params given but opponent is None")
+            self.team = None
+        else:
+            self.team = BatchTeamDriver(opponent, opponent_params, self.batch, team_timeout)
+        self.support = support
+        self.support_rng = BatchRandom(n, normal=True)
+        self.support_offset = np.zeros((n, 2))
+        self.skill = np.zeros((n, 4), dtype=np.int64)
+        self.target = np.zeros((n, 4, 2))
+        self.speed = np.ones((n, 4))
+
+    def seed(self, seed: int | Sequence[int | None] | None) -> None:
+        """Reseed every drill: an int ``s`` gives drill ``i`` the seed ``s + i``, a list one
+        seed (or ``None``: keep) per drill, ``None`` keeps every stream."""
+        if seed is None:
+            return
+        if isinstance(seed, int | np.integer) and not isinstance(seed, bool):
+            seeds: list = [int(seed) + i for i in range(self.n)]
+        else:
+            seeds = list(seed)  # type: ignore[arg-type]
+            if len(seeds) != self.n:
+                raise ValueError(
+                    f"seed must be None, an int or a list of {self.n} seeds (one per drill), "
+                    f"got a list of {len(seeds)}"
+                )
+        for i, s in enumerate(seeds):
+            if s is not None:
+                self.generators[i] = np.random.default_rng(s)
+        self.batch.rebuild()  # fresh physics: the run depends on the seeds alone
+
+    def reset(self, drills: np.ndarray) -> None:
+        """Start a new episode in each of ``drills``."""
+        gens = [self.generators[i] for i in drills.tolist()]
+        self.batch.reset(drills, gens)
+        support_gens, team_gens = [], []
+        for g in gens:
+            support_seed, team_seed = g.integers(2**63, size=2)
+            if self.support:
+                support_gens.append(np.random.default_rng(int(support_seed)))
+            team_gens.append(np.random.default_rng(int(team_seed)))
+        if self.support:
+            self.support_rng.seed(drills, support_gens)
+            self.support_offset[drills] = 0.0
+        if self.team is not None:
+            self.team.reset(drills, team_gens)
+
+    def support_commands(self, first: np.ndarray, second: np.ndarray) -> None:
+        """The support behaviour's commands: for attacker 0 in the drills ``first`` and
+        attacker 1 in the drills ``second`` (in that order, as the single drill asks)."""
+        if not (len(first) or len(second)):
+            return
+        b, cfg = self.batch, self.config
+        drills = np.concatenate((first, second))
+        player = np.concatenate((np.zeros(len(first), np.int64), np.ones(len(second), np.int64)))
+        offsets = []
+        for part in (first, second):  # attacker 0 draws (and uses its offset), then attacker 1
+            resample = part[b.cycle[part] % _RESAMPLE_CYCLES == 0]
+            if len(resample):
+                dx = self.support_rng.random(resample)
+                dy = self.support_rng.random(resample)
+                self.support_offset[resample, 0] = _OFFSET_STD * dx
+                self.support_offset[resample, 1] = _OFFSET_STD * dy
+            offsets.append(self.support_offset[part])
+        offset = np.concatenate(offsets)
+        pos = b.pos[drills]
+        rows = np.arange(len(drills))
+        mate = player ^ 1
+        d_self = np.hypot(pos[rows, player, 0] - pos[:, 4, 0], pos[rows, player, 1] - pos[:, 4, 1])
+        d_mate = np.hypot(pos[rows, mate, 0] - pos[:, 4, 0], pos[rows, mate, 1] - pos[:, 4, 1])
+        locked = (b.passer[drills] == mate) & (b.cycle[drills] < b.lockout_until[drills])
+        chase = (b.holder[drills] < 0) & (locked | (d_self <= d_mate))
+        spot = support_spots(pos, cfg)[rows, player] + offset
+        lo, hi = 1.0, cfg.field_size - 1.0
+        self.skill[drills, player] = np.where(chase, _GO_TO_BALL, _MOVE_TO)
+        self.target[drills, player] = np.clip(spot, lo, hi)
+        self.speed[drills, player] = 1.0
+
+    def advance(self, active: np.ndarray) -> None:
+        """One cycle of the drills where ``active``, with the commands set in the arrays
+        (the team's written here)."""
+        drills = np.flatnonzero(active)
+        if self.team is not None:
+            self.team.act(drills, self.skill, self.target, self.speed)
+        self.batch.step(active, self.skill, self.target, self.speed, self.generators)
+
+    @property
+    def ended(self) -> np.ndarray:
+        """``(n,)`` bool: the drills whose episode has an outcome."""
+        return self.batch.outcome != RUNNING

@@ -1,0 +1,133 @@
+"""The players of many drills in a few pymunk spaces, moved by batched reads and writes.
+
+Each drill's four players and its four walls sit in a space of their own region, the
+regions ``spacing`` metres apart so that no two drills' shapes ever meet, and each
+space holds up to ``drills_per_space`` drills (``benchmarks/bench_vector.py`` measures
+the layouts: one space per 64 drills costs least per drill at every batch size tried).
+The ball touches nothing, so it is not a pymunk body: its sub-steps are the same
+additions pymunk makes (``p + v * dt``, ``substeps`` times), on arrays.
+
+One cycle is one batched write of every player's position and velocity per space
+(``pymunk.batch.set_space_bodies``), ``substeps`` calls of ``Space.step`` per space, and
+one batched read back. Writing the positions too lets a drill stand still (a drill
+waiting for its holder's decision, or one just reset): it is written where it stood
+with no velocity before every cycle, and after it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pymunk
+import pymunk.batch as pmb
+
+from soccer_drill.config import DrillConfig
+from soccer_drill.drill import _PLAYER_MASS
+
+_FIELDS = pmb.BodyFields.POSITION | pmb.BodyFields.VELOCITY
+DRILLS_PER_SPACE = 64
+"""The default number of drills sharing one pymunk space."""
+
+
+class BatchPhysics:
+    """The pymunk side of ``n`` drills: players and walls, stepped one cycle at a time.
+
+    Args:
+        n: number of drills.
+        config: the drills' parameters (one for all).
+        drills_per_space: drills sharing one space (the last space may hold fewer).
+    """
+
+    def __init__(self, n: int, config: DrillConfig, drills_per_space: int = DRILLS_PER_SPACE) -> None:
+        if not isinstance(drills_per_space, int) or isinstance(drills_per_space, bool) or (
+            drills_per_space < 1
+        ):
+            raise ValueError(f"drills_per_space must be an integer >= 1, got {drills_per_space!r}")
+        self.n, self.config = n, config
+        self.drills_per_space = drills_per_space
+        self._sub_dt = config.cycle_seconds / config.substeps
+        span = config.field_size + 2 * config.wall_margin
+        self.spacing = span + 4 * config.field_size  # far beyond any reach of a player
+        self.build()
+
+    def build(self) -> None:
+        """New spaces and bodies (every contact cache and bias velocity forgotten)."""
+        cfg, g = self.config, self.drills_per_space
+        cols = max(1, math.ceil(math.sqrt(g)))
+        self.spaces: list[pymunk.Space] = []
+        self._slices: list[slice] = []
+        self._arrays: list[np.ndarray] = []
+        self._set_buffers: list[pmb.Buffer] = []
+        self._get_buffer = pmb.Buffer()
+        offsets = np.zeros((self.n, 2))
+        for first in range(0, self.n, g):
+            count = min(g, self.n - first)
+            space = pymunk.Space()
+            objects: list = []
+            for j in range(count):
+                ox, oy = (j % cols) * self.spacing, (j // cols) * self.spacing
+                offsets[first + j] = (ox, oy)
+                for _ in range(4):
+                    body = pymunk.Body(_PLAYER_MASS, math.inf)
+                    body.position = (ox, oy)
+                    objects += [body, pymunk.Circle(body, cfg.player_radius)]
+                lo, hi = -cfg.wall_margin, cfg.field_size + cfg.wall_margin
+                corners = [(ox + a, oy + b) for a, b in ((lo, lo), (hi, lo), (hi, hi), (lo, hi))]
+                for a, b in zip(corners, corners[1:] + corners[:1], strict=True):
+                    objects.append(pymunk.Segment(space.static_body, a, b, 0.1))
+            space.add(*objects)
+            self._check_order(space, count)
+            array = np.zeros((4 * count + 1, 4))  # x, y, vx, vy per body, then the static body
+            self._get_buffer.clear()
+            pmb.get_space_bodies(space, _FIELDS, self._get_buffer)
+            array[:] = np.frombuffer(self._get_buffer.float_buf(), dtype=np.float64).reshape(-1, 4)
+            buffer = pmb.Buffer()
+            buffer.set_float_buf(array)  # shares the array's memory: written in place
+            self.spaces.append(space)
+            self._slices.append(slice(first, first + count))
+            self._arrays.append(array)
+            self._set_buffers.append(buffer)
+        self.offsets = offsets  # (n, 2): where each drill's region starts in its space
+
+    def _check_order(self, space: pymunk.Space, count: int) -> None:
+        """The batched reads list the players first, in the order added (as the drill checks)."""
+        buffer = pmb.Buffer()
+        pmb.get_space_bodies(space, pmb.BodyFields.BODY_ID, buffer)
+        ids = memoryview(buffer.int_buf()).cast("P").tolist()
+        bodies = [b.id for b in space.bodies if b.body_type == pymunk.Body.DYNAMIC]
+        if ids[: 4 * count] != bodies:
+            raise RuntimeError(
+                f"pymunk {pymunk.version}'s batch API lists the space's bodies in an "
+                "unexpected order; this pymunk version is not supported by soccer_drill"
+            )
+
+    def cycle(self, pos: np.ndarray, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """One cycle of the players from ``pos``/``vel`` (``(n, 4, 2)``, field coordinates).
+
+        Returns the players' positions and velocities after the ``substeps`` steps.
+        """
+        offsets = self.offsets[:, None, :]
+        world = pos + offsets
+        sub_dt, substeps = self._sub_dt, self.config.substeps
+        for sl, array, buffer, space in zip(
+            self._slices, self._arrays, self._set_buffers, self.spaces, strict=True
+        ):
+            array[:-1, 0:2] = world[sl].reshape(-1, 2)
+            array[:-1, 2:4] = vel[sl].reshape(-1, 2)
+            pmb.set_space_bodies(space, _FIELDS, buffer)
+        for space in self.spaces:
+            step = space.step
+            for _ in range(substeps):
+                step(sub_dt)
+        out_pos = np.empty_like(pos)
+        out_vel = np.empty_like(vel)
+        get, buffer = pmb.get_space_bodies, self._get_buffer
+        for sl, space in zip(self._slices, self.spaces, strict=True):
+            buffer.clear()
+            get(space, _FIELDS, buffer)
+            rows = np.frombuffer(buffer.float_buf(), dtype=np.float64).reshape(-1, 4)[:-1]
+            out_pos[sl] = rows[:, 0:2].reshape(-1, 4, 2)
+            out_vel[sl] = rows[:, 2:4].reshape(-1, 4, 2)
+        out_pos -= offsets
+        return out_pos, out_vel

@@ -1,0 +1,336 @@
+"""Scripted teams in the batched drill: a batched ``act`` for all drills, or one team per drill.
+
+A team can offer a batched version of itself: a method ``batch(n)`` returning an
+object with
+
+| method | does |
+|---|---|
+| ``reset(view, drills, rng)`` | start an episode in each of ``drills`` (an int array); ``rng`` is a :class:`BatchRandom` drawing from each drill's own generator |
+| ``act(view, drills)`` | a :class:`BatchCommands` with one row per drill of ``drills``, in that order: the commands of the team's two players |
+
+``view`` is a :class:`BatchView` (read-only arrays of every drill). The paper's teams and
+the parametric family (:mod:`opponents.parametric`) and ``chasers`` have one. A team
+without ``batch`` runs as one copy per drill, each behind its own
+:class:`~soccer_drill.teams.TeamDriver` (its checks, as in the single environment).
+
+:class:`BatchTeamDriver` runs either kind: one CPU-time bound per cycle of the batch
+(``team_timeout`` for a batched team; ``team_timeout`` times the drills acting, for the
+copies), and the commands checked, a bad one named by drill, player and cycle.
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Mapping
+from typing import Any, NamedTuple, Protocol, runtime_checkable
+
+import numpy as np
+
+from soccer_drill.config import DrillConfig
+from soccer_drill.skills import BALL_SKILLS, Skill
+from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView
+from soccer_drill.teams import Team, TeamDriver, TeamError, make_team, team_parameters
+
+_ALLOWED = np.array(sorted(int(s) for s in Skill if s not in BALL_SKILLS))
+_MOVE_TO = int(Skill.MOVE_TO)
+
+
+class BatchCommands(NamedTuple):
+    """The commands of a team's two players in ``m`` drills.
+
+    Attributes:
+        skill: ``(m, 2)`` integers, :class:`~soccer_drill.skills.Skill` values.
+        target: ``(m, 2, 2)`` floats, the ``MOVE_TO`` targets (ignored for other skills).
+        speed: ``(m, 2)`` floats in ``(0, 1]``.
+    """
+
+    skill: np.ndarray
+    target: np.ndarray
+    speed: np.ndarray
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    view = array.view()
+    view.flags.writeable = False
+    return view
+
+
+class BatchView:
+    """A read-only window on every drill of a batch, handed to batched teams.
+
+    The arrays are read-only views of the batch's own state (current at every call).
+    """
+
+    __slots__ = ("_batch", "_players")
+
+    def __init__(self, batch: object, players: tuple[str, ...]) -> None:
+        object.__setattr__(self, "_batch", batch)
+        object.__setattr__(self, "_players", tuple(players))
+
+    def __setattr__(self, name: str, value: object) -> None:
+        raise AttributeError(f"BatchView is read-only: cannot set {name!r}")
+
+    @property
+    def n(self) -> int:
+        """Number of drills."""
+        return self._batch.n  # type: ignore[attr-defined]
+
+    @property
+    def players(self) -> tuple[str, ...]:
+        """Names of the players the team drives."""
+        return self._players
+
+    @property
+    def config(self) -> DrillConfig:
+        """The drills' configuration."""
+        return self._batch.config  # type: ignore[attr-defined]
+
+    @property
+    def pos(self) -> np.ndarray:
+        """``(n, 5, 2)``: the four players (``PLAYER_NAMES`` order) then the ball, metres."""
+        return _read_only(self._batch.pos)  # type: ignore[attr-defined]
+
+    @property
+    def vel(self) -> np.ndarray:
+        """``(n, 5, 2)`` velocities, m/s."""
+        return _read_only(self._batch.vel)  # type: ignore[attr-defined]
+
+    @property
+    def holder(self) -> np.ndarray:
+        """``(n,)`` index of the player in possession, -1 for a loose ball."""
+        return _read_only(self._batch.holder)  # type: ignore[attr-defined]
+
+    @property
+    def cycle(self) -> np.ndarray:
+        """``(n,)`` cycles since each drill's reset."""
+        return _read_only(self._batch.cycle)  # type: ignore[attr-defined]
+
+    @property
+    def passer(self) -> np.ndarray:
+        """``(n,)`` the last player who passed, or -1."""
+        return _read_only(self._batch.passer)  # type: ignore[attr-defined]
+
+    @property
+    def lockout_until(self) -> np.ndarray:
+        """``(n,)`` the passer cannot regain the ball before this cycle."""
+        return _read_only(self._batch.lockout_until)  # type: ignore[attr-defined]
+
+
+class BatchRandom:
+    """Uniform draws from each drill's own generator, ``block`` at a time.
+
+    ``random(drills)`` gives one uniform per drill of ``drills`` (distinct indices), each
+    the next ``Generator.random()`` of that drill's generator: the same numbers, in the
+    same order, as calling each generator one draw at a time.
+    """
+
+    def __init__(self, n: int, block: int = 64, normal: bool = False) -> None:
+        self._generators: list[np.random.Generator | None] = [None] * n
+        self._block = block
+        self._buffer = np.empty((n, block))
+        self._next = np.full(n, block)
+        self._normal = normal
+
+    def seed(self, drills: np.ndarray, generators: list[np.random.Generator]) -> None:
+        """Draw from now on from ``generators`` for ``drills``."""
+        for i, g in zip(drills.tolist(), generators, strict=True):
+            self._generators[i] = g
+        self._next[drills] = self._block
+
+    def random(self, drills: np.ndarray) -> np.ndarray:
+        """The next draw of each drill in ``drills`` (standard normals if ``normal``)."""
+        empty = drills[self._next[drills] >= self._block]
+        for i in empty.tolist():
+            g = self._generators[i]
+            if g is None:
+                raise RuntimeError(f"drill {i}: no generator; reset the drill first")
+            if self._normal:
+                g.standard_normal(out=self._buffer[i])
+            else:
+                g.random(out=self._buffer[i])
+        self._next[empty] = 0
+        k = self._next[drills]
+        self._next[drills] = k + 1
+        return self._buffer[drills, k]
+
+
+@runtime_checkable
+class BatchTeam(Protocol):
+    """What a team's ``batch(n)`` returns (see the module docstring)."""
+
+    def reset(self, view: BatchView, drills: np.ndarray, rng: BatchRandom) -> None: ...
+
+    def act(self, view: BatchView, drills: np.ndarray) -> BatchCommands: ...
+
+
+class _Slot:
+    """What a :class:`DrillView` reads for one drill of a batch: its state and config."""
+
+    __slots__ = ("config", "state")
+
+    def __init__(self, config: DrillConfig) -> None:
+        self.config = config
+        self.state: DrillState
+
+
+class BatchTeamDriver:
+    """The scripted team of ``n`` drills: batched if the team offers it, else one per drill.
+
+    Args:
+        opponent: a team id or a :class:`~soccer_drill.teams.Team` instance (copied
+            with ``copy.deepcopy`` for each drill when it has no batched version).
+        opponent_params: keyword parameters of the team factory (with an id).
+        n: number of drills.
+        config: the drills' configuration.
+        team_timeout: the CPU-time bound of one batched call (see the module docstring).
+    """
+
+    def __init__(
+        self,
+        opponent: str | Team,
+        opponent_params: Mapping[str, Any] | None,
+        batch: Any,
+        team_timeout: float | None,
+    ) -> None:
+        players = PLAYER_NAMES[2:]
+        if isinstance(opponent, str):
+            params = team_parameters(opponent_params)
+            team, self.name = make_team(opponent, **params), opponent
+        elif isinstance(opponent, Team):
+            if opponent_params:
+                raise ValueError("opponent_params given with a Team instance")
+            team, self.name, params = opponent, type(opponent).__name__, {}
+        else:
+            raise TypeError(f"opponent must be a team id or a Team instance, got {opponent!r}")
+        n = batch.n
+        self._batch = batch
+        self.view = BatchView(batch, players)
+        self._bound = TeamDriver(team, self.name, players, team_timeout)
+        self.batched: BatchTeam | None = None
+        make_batch = getattr(team, "batch", None)
+        if callable(make_batch):
+            self.batched = self._bound.call("batch()", "", make_batch, n)
+            if not isinstance(self.batched, BatchTeam):
+                raise TeamError(
+                    f"team {self.name!r}: batch({n}) returned {type(self.batched).__name__}, "
+                    "which lacks reset(view, drills, rng) and act(view, drills)"
+                )
+            self.rng = BatchRandom(n)
+            self._drivers: list[TeamDriver] = []
+        else:
+            copies = [team] + [
+                make_team(opponent, **params) if isinstance(opponent, str) else copy.deepcopy(team)
+                for _ in range(n - 1)
+            ]
+            self._drivers = [TeamDriver(t, self.name, players, None) for t in copies]
+            # One bound around the calls of all drills acting in a cycle (their own: none).
+            self._each_bound = TeamDriver(team, self.name, players, team_timeout)
+            self._slots = [_Slot(batch.config) for _ in range(n)]
+            self._views = [DrillView(slot, players) for slot in self._slots]
+        self._timeout = team_timeout
+
+    def _refresh(self, drills: np.ndarray) -> None:
+        for i in drills.tolist():
+            self._slots[i].state = self._batch.state_of(i)
+
+    def reset(self, drills: np.ndarray, generators: list[np.random.Generator]) -> None:
+        """Start an episode in each of ``drills``; ``generators`` are their teams' streams."""
+        if self.batched is not None:
+            self.rng.seed(drills, generators)
+            self._bound.call("reset()", "", self.batched.reset, self.view, drills, self.rng)
+            return
+        self._refresh(drills)
+        for i, g in zip(drills.tolist(), generators, strict=True):
+            self._drivers[i].reset(self._views[i], g)
+
+    def act(self, drills: np.ndarray, skill: np.ndarray, target: np.ndarray, speed: np.ndarray) -> None:
+        """Write the team's commands for ``drills`` into columns 2 and 3 of the arrays."""
+        if not len(drills):
+            return
+        cycles = self._batch.cycle
+        if self.batched is not None:
+            when = f" at cycle {int(cycles[drills[0]])} of drill {int(drills[0])}"
+            commands = self._bound.call(
+                "act()", when, self._checked_act, drills
+            )
+        else:
+            self._refresh(drills)
+            self._each_bound.team_timeout = self._scaled(drills)
+            commands = self._each_bound.call("act()", "", self._each_act, drills)
+        sk, tg, sp = commands
+        skill[drills, 2:] = sk
+        target[drills, 2:] = tg
+        speed[drills, 2:] = sp
+
+    def _scaled(self, drills: np.ndarray) -> float | None:
+        return None if self._timeout is None else self._timeout * len(drills)
+
+    def _each_act(self, drills: np.ndarray) -> BatchCommands:
+        m = len(drills)
+        skill = np.empty((m, 2), dtype=np.int64)
+        target = np.zeros((m, 2, 2))
+        speed = np.empty((m, 2))
+        for r, i in enumerate(drills.tolist()):
+            for index, command in self._drivers[i].act(self._views[i]):
+                k = index - 2
+                skill[r, k] = int(command.skill)
+                speed[r, k] = command.speed
+                if command.target is not None:
+                    target[r, k] = command.target
+        return BatchCommands(skill, target, speed)
+
+    def _checked_act(self, drills: np.ndarray) -> BatchCommands:
+        assert self.batched is not None
+        out = self.batched.act(self.view, drills)
+        return check_commands(out, drills, self._batch.cycle, self.name, self.view.players)
+
+
+def check_commands(
+    commands: object, drills: np.ndarray, cycles: np.ndarray, team: str, players: tuple[str, ...]
+) -> BatchCommands:
+    """``commands`` as plain arrays if they are valid for ``drills``, else :class:`TeamError`.
+
+    The error names the first bad drill, its player and cycle, what was wrong and what is
+    allowed. The arrays returned are copies, so the team cannot change them afterwards.
+    """
+    m = len(drills)
+    if not isinstance(commands, BatchCommands):
+        raise TeamError(
+            f"team {team!r}: a batched act() must return BatchCommands(skill, target, speed), "
+            f"got {type(commands).__name__}"
+        )
+    try:
+        skill = np.array(commands.skill, dtype=np.int64, copy=True)
+        target = np.array(commands.target, dtype=np.float64, copy=True)
+        speed = np.array(commands.speed, dtype=np.float64, copy=True)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise TeamError(f"team {team!r}: batched commands are not numeric arrays: {exc}") from exc
+    for name, array, shape in (
+        ("skill", skill, (m, 2)), ("target", target, (m, 2, 2)), ("speed", speed, (m, 2)),
+    ):
+        if array.shape != shape:
+            raise TeamError(
+                f"team {team!r}: batched commands' {name} must have shape {shape} (one row per "
+                f"drill acting, one column per player), got {array.shape}"
+            )
+
+    def fail(r: int, k: int, what: str) -> TeamError:
+        return TeamError(
+            f"team {team!r}, drill {int(drills[r])}, player {players[k]!r}, cycle "
+            f"{int(cycles[drills[r]])}: {what}"
+        )
+
+    bad = ~np.isin(skill, _ALLOWED)
+    if bad.any():
+        r, k = map(int, np.argwhere(bad)[0])
+        raise fail(r, k, f"skill {int(skill[r, k])} is not allowed for a scripted defender; "
+                         f"allowed: {[Skill(s).name + '=' + str(int(s)) for s in _ALLOWED]}")
+    bad = ~((speed > 0.0) & (speed <= 1.0))  # NaN fails too
+    if bad.any():
+        r, k = map(int, np.argwhere(bad)[0])
+        raise fail(r, k, f"speed must be in (0, 1], got {float(speed[r, k])!r}")
+    bad = (skill == _MOVE_TO) & ~np.isfinite(target).all(axis=2)
+    if bad.any():
+        r, k = map(int, np.argwhere(bad)[0])
+        raise fail(r, k, f"MOVE_TO needs a finite (x, y) target, got {tuple(target[r, k].tolist())}")
+    return BatchCommands(skill, target, speed)

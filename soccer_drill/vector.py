@@ -1,0 +1,402 @@
+"""Many ball-holder drills as one Gymnasium ``VectorEnv``: ``soccer_drill/Holder-v0`` batched."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from soccer_drill.batch_core import BatchCore, check_num_envs
+from soccer_drill.batch_features import batch_features
+from soccer_drill.batch_physics import DRILLS_PER_SPACE
+from soccer_drill.config import DrillConfig
+from soccer_drill.core import make_config
+from soccer_drill.features import feature_bounds
+from soccer_drill.skills import HOLDER_ACTIONS
+from soccer_drill.state import PLAYER_NAMES
+from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
+
+_HOLDER_SKILLS = np.array([int(s) for s in HOLDER_ACTIONS])
+_PASS = 1
+_NAMES = np.array([*PLAYER_NAMES, None], dtype=object)  # index -1: None
+_TIMEOUT = 4  # the outcome code of a timeout (truncation)
+
+
+class HolderVectorEnv(VectorEnv):
+    """``num_envs`` ball-holder drills stepped together: :class:`~soccer_drill.holder.HolderEnv` batched.
+
+    Made by ``gymnasium.make_vec("soccer_drill/Holder-v0", num_envs=N,
+    vectorization_mode="vector_entry_point", opponent=...)``. Each drill is a
+    ``HolderEnv``: the same actions, observations, rewards, episode end and infos (see
+    its docstring), with a leading batch axis. Drill ``i``'s step runs, as
+    ``HolderEnv.step`` does, from its holder's decision to the next one or to the end;
+    the drills whose step is over stand still until every drill's step is, then all
+    return together (so a step costs the cycles of its longest drill, and the cost per
+    drill-cycle falls as ``N`` grows: ``docs/benchmarks.md``).
+
+    ## Spaces
+
+    | space | value |
+    |---|---|
+    | ``single_action_space`` | ``Discrete(3)``: 0 HOLD, 1 PASS, 2 DRIBBLE |
+    | ``action_space`` | ``MultiDiscrete([3] * N)``: one action per drill |
+    | ``single_observation_space`` | ``Box(9,)`` float32, the holder's 9 features |
+    | ``observation_space`` | ``Box((N, 9))`` float32 |
+
+    ## Rewards and episode end
+
+    As ``HolderEnv``, per drill: zero until the episode ends, then the attackers' reward;
+    ``terminated`` on success, interception or out, ``truncated`` on timeout.
+
+    ## Autoreset
+
+    ``autoreset_mode`` as Gymnasium's vector envs (``metadata["autoreset_mode"]``):
+
+    | mode | a drill whose episode ended at step ``t`` |
+    |---|---|
+    | ``NEXT_STEP`` (default, as ``SyncVectorEnv``) | returns its final observation at ``t``; at ``t + 1`` it is reset (its action ignored) and returns the first observation, reward 0, ``terminated = truncated = False`` and the reset's info |
+    | ``SAME_STEP`` | is reset within step ``t``: the observation is the new episode's first, ``infos["final_obs"]`` (an object array, ``infos["_final_obs"]`` its mask) holds the final one and ``infos["final_info"]`` the final step's info |
+
+    ## Info
+
+    The ``HolderEnv`` keys, batched as Gymnasium's vector envs batch infos: per key an
+    array over drills (``"duration"``, ``"cycles"``: int; ``"outcome"``, ``"holder"``:
+    object, ``None`` or a name) and a boolean mask ``"_<key>"`` of the drills that have it
+    (all of them here).
+
+    ## Seeding
+
+    | call | drill ``i`` |
+    |---|---|
+    | ``reset(seed=s)`` (an int) | its episode starts from the generator of a single ``HolderEnv``'s ``reset(seed=s + i)`` (as ``SyncVectorEnv`` seeds its ``i``-th env), and the physics is rebuilt |
+    | ``reset(seed=[s_0, ..., s_N-1])`` | seed ``s_i`` (``None``: keep its stream) |
+    | ``reset()`` | every stream goes on (fresh entropy the first time) |
+    | an autoreset | its own stream goes on |
+
+    So ``reset(seed=s)`` with the same actions gives the same observations, rewards and
+    infos, whatever ran before. Drill ``i`` starts exactly where ``HolderEnv`` started
+    with ``reset(seed=s + i)`` does, and its rules (skills, support player, team,
+    possession, outcome) are the single drill's formulas in the same order, with its
+    random draws in the same order from the same streams; its episode is not
+    bit-identical to the single environment's, because the drills share pymunk spaces,
+    where contacts are solved in an order that depends on the other drills, and the
+    drills' positions are shifted into their own regions of the space (rounding). The
+    single environment is the reference: ``tests/test_vector.py`` checks the rules
+    against it step by step, and ``python -m opponents.agreement`` (a ``slow`` test runs a
+    small version) that success rates agree within 95% intervals.
+
+    ## Errors
+
+    An action out of range raises ``ValueError`` naming the drill (``drill 17: action
+    must be an integer in 0..2 ...``) before any drill moves, so the others are not
+    changed. A team's failure raises ``TeamError`` naming the team; then call ``reset()``.
+
+    ## Arguments
+
+    | argument | default | meaning |
+    |---|---|---|
+    | ``num_envs`` | ``1`` | number of drills |
+    | ``opponent`` | ``"chasers"`` | team id or a ``Team`` instance (copied per drill if it has no batched ``act``) |
+    | ``opponent_params`` | ``None`` | keyword parameters of the team factory |
+    | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` |
+    | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
+    | ``decision_cycles`` | ``4`` | cycles a HOLD or DRIBBLE lasts |
+    | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take (a team without a batched ``act``: that times the drills acting) |
+    | ``autoreset_mode`` | ``NEXT_STEP`` | see Autoreset |
+    | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
+    | ``render_mode`` | ``None`` | only ``None``: render a single ``HolderEnv`` |
+    """
+
+    metadata: ClassVar[dict] = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        opponent: str | Team = "chasers",
+        opponent_params: Mapping[str, Any] | None = None,
+        max_cycles: int | None = None,
+        config: DrillConfig | Mapping[str, Any] | None = None,
+        decision_cycles: int = 4,
+        team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
+        autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
+        drills_per_space: int = DRILLS_PER_SPACE,
+        render_mode: str | None = None,
+    ) -> None:
+        n = check_num_envs(num_envs)
+        if not isinstance(decision_cycles, int) or isinstance(decision_cycles, bool) or not (
+            1 <= decision_cycles <= 50
+        ):
+            raise ValueError(f"decision_cycles must be an integer in 1..50, got {decision_cycles!r}")
+        if opponent is None:
+            raise ValueError("HolderVectorEnv needs a scripted opponent team (a team id or Team)")
+        if render_mode is not None:
+            raise ValueError(
+                f"HolderVectorEnv draws nothing (render_mode must be None, got {render_mode!r}); "
+                "render a single HolderEnv"
+            )
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            raise ValueError(
+                f"autoreset_mode must be one of {[m.value for m in AutoresetMode if m != AutoresetMode.DISABLED]}, "
+                f"got {autoreset_mode!r}"
+            ) from None
+        if mode == AutoresetMode.DISABLED:
+            raise ValueError("autoreset_mode DISABLED is not supported: use NEXT_STEP or SAME_STEP")
+        self.num_envs = n
+        self.autoreset_mode = mode
+        self.metadata = {**self.metadata, "autoreset_mode": mode}
+        self.render_mode = None
+        self.decision_cycles = decision_cycles
+        self.config = make_config(config, max_cycles)
+        self._core = BatchCore(
+            n, opponent, opponent_params, self.config, team_timeout, True, drills_per_space
+        )
+        low, high = feature_bounds(self.config)
+        self._low, self._high = low.astype(np.float64), high.astype(np.float64)
+        self.single_observation_space = spaces.Box(low, high, dtype=np.float32)
+        self.single_action_space = spaces.Discrete(len(HOLDER_ACTIONS))
+        self.observation_space = batch_space(self.single_observation_space, n)
+        self.action_space = batch_space(self.single_action_space, n)
+        self._all = np.arange(n)
+        self._has_reset = False
+        self._autoreset = np.zeros(n, dtype=bool)
+        self.ended_last = np.zeros(n, dtype=bool)
+        self._running = np.zeros(n, dtype=bool)
+        self._in_action = np.zeros(n, dtype=bool)
+        self._decider = np.zeros(n, dtype=np.int64)
+        self._action = np.zeros(n, dtype=np.int64)
+        self._left = np.zeros(n, dtype=np.int64)
+
+    # ------------------------------------------------------------------ reset
+    def reset(
+        self,
+        *,
+        seed: int | Sequence[int | None] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Reset every drill (or those of ``options["reset_mask"]``); see Seeding."""
+        core = self._core
+        mask = None if options is None else options.get("reset_mask")
+        if mask is not None:
+            mask = np.asarray(mask)
+            if mask.shape != (self.num_envs,) or mask.dtype != np.bool_ or not mask.any():
+                raise ValueError(
+                    f"options['reset_mask'] must be a bool array of shape ({self.num_envs},) "
+                    "with at least one True"
+                )
+            if not self._has_reset:
+                raise RuntimeError("reset() with a reset_mask before the first full reset()")
+            drills = np.flatnonzero(mask)
+            if seed is not None:
+                seeds = [seed + i for i in range(self.num_envs)] if isinstance(seed, int) else list(seed)
+                for i in drills.tolist():
+                    if seeds[i] is not None:
+                        core.generators[i] = np.random.default_rng(seeds[i])
+        else:
+            core.seed(seed)
+            drills = self._all
+        core.reset(drills)
+        self._autoreset[drills] = False
+        self._has_reset = True
+        obs = self._observe()
+        return obs, self._infos(np.zeros(self.num_envs, dtype=np.int64))
+
+    # ------------------------------------------------------------------- step
+    def _check_actions(self, actions: object) -> np.ndarray:
+        a = np.asarray(actions)
+        n = self.num_envs
+        if a.shape != (n,):
+            raise ValueError(
+                f"actions must be an array of shape ({n},): one action per drill, got shape {a.shape}"
+            )
+        if a.dtype.kind not in "iu":
+            bad = next(
+                (i for i, x in enumerate(a.tolist()) if not (isinstance(x, int) and not isinstance(x, bool))),
+                0,
+            ) if a.dtype.kind != "b" else 0
+            if a.dtype.kind == "f" and np.all(np.isfinite(a)) and np.all(a == np.round(a)):
+                a = a.astype(np.int64)
+            else:
+                raise ValueError(
+                    f"drill {bad}: action must be an integer in 0..2 (0=HOLD, 1=PASS, 2=DRIBBLE), "
+                    f"got {a[bad]!r} (actions of dtype {a.dtype})"
+                )
+        bad_rows = np.flatnonzero((a < 0) | (a >= len(HOLDER_ACTIONS)))
+        bad_rows = bad_rows[~self._autoreset[bad_rows]]  # ignored for drills being reset
+        if len(bad_rows):
+            i = int(bad_rows[0])
+            raise ValueError(
+                f"drill {i}: action must be an integer in 0..2 (0=HOLD, 1=PASS, 2=DRIBBLE), "
+                f"got {a[i]!r}" + (f" ({len(bad_rows)} drills had bad actions)" if len(bad_rows) > 1 else "")
+            )
+        return a.astype(np.int64)
+
+    def step(
+        self, actions: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Each drill's holder acts and its drill runs to the next decision or the end."""
+        if not self._has_reset:
+            raise RuntimeError("step() called before reset(); call reset() first")
+        a = self._check_actions(actions)
+        core, b, n = self._core, self._core.batch, self.num_envs
+        self._running[:] = False
+        resetting = np.flatnonzero(self._autoreset)
+        if len(resetting):
+            core.reset(resetting)
+        stepping = ~self._autoreset
+        start = b.cycle.copy()
+        self._begin(np.flatnonzero(stepping), a)
+        while self._running.any():
+            self._cycle()
+        decider = self._decider
+        obs = self._observe(decider)
+        ended = stepping & (b.outcome != 0)
+        rewards = np.where(ended, b.attacker_reward, 0.0)
+        truncated = ended & (b.outcome == _TIMEOUT)
+        terminated = ended & ~truncated
+        duration = np.where(stepping, b.cycle - start, 0)
+        infos = self._infos(duration)
+        self.ended_last = ended
+        if self.autoreset_mode == AutoresetMode.SAME_STEP and ended.any():
+            done = np.flatnonzero(ended)
+            final_obs = np.full(n, None, dtype=object)
+            for i in done.tolist():
+                final_obs[i] = obs[i].copy()
+            final_info = {k: v.copy() for k, v in infos.items()}
+            for k in [k for k in final_info if k.startswith("_")]:
+                final_info[k] = ended.copy()
+            core.reset(done)
+            obs = self._observe()
+            reset_infos = self._infos(np.zeros(n, dtype=np.int64))
+            for k, v in reset_infos.items():
+                if not k.startswith("_"):
+                    infos[k][done] = v[done]
+            infos["final_obs"], infos["_final_obs"] = final_obs, ended.copy()
+            infos["final_info"], infos["_final_info"] = final_info, ended.copy()
+            self._autoreset[:] = False
+        else:
+            self._autoreset = ended
+        return obs, rewards, terminated, truncated, infos
+
+    def _begin(self, drills: np.ndarray, actions: np.ndarray) -> None:
+        """The holders of ``drills`` take ``actions[drills]``: their drills run again."""
+        b = self._core.batch
+        self._decider[drills] = b.holder[drills]
+        self._action[drills] = actions[drills]
+        self._left[drills] = np.where(actions[drills] == _PASS, 1, self.decision_cycles)
+        self._in_action[drills] = True
+        self._running[drills] = True
+
+    def _cycle(self) -> None:
+        """One cycle of the running drills, as ``HolderEnv.step``'s loops run it.
+
+        A drill runs its holder's command for its cycles (HOLD and DRIBBLE
+        ``decision_cycles``, PASS one) while the holder keeps the ball, then cycles until
+        an attacker holds it again; then (or at an outcome) it stops running.
+        """
+        core, b = self._core, self._core.batch
+        running, in_action, decider = self._running, self._in_action, self._decider
+        act = np.flatnonzero(in_action)
+        free = np.flatnonzero(running & ~in_action)
+        core.skill[act, decider[act]] = _HOLDER_SKILLS[self._action[act]]
+        core.speed[act, decider[act]] = 1.0
+        mates = decider[act] ^ 1
+        core.support_commands(
+            np.sort(np.concatenate((act[mates == 0], free))),
+            np.sort(np.concatenate((act[mates == 1], free))),
+        )
+        core.advance(running)
+        ended = b.outcome != 0
+        self._left -= in_action
+        in_action &= ~ended & (b.holder == decider) & (self._left > 0)
+        running &= ~ended & (in_action | ((b.holder != 0) & (b.holder != 1)))
+
+    # ------------------------------------------------------------- results
+    def _observe(self, decider: np.ndarray | None = None) -> np.ndarray:
+        """The 9 features of each drill's holder (at an end, of the last attacker holding it)."""
+        b = self._core.batch
+        holder = b.holder
+        who = holder if decider is None else np.where((holder == 0) | (holder == 1), holder, decider)
+        return batch_features(b.pos, who, self.config, self._low, self._high)
+
+    def _infos(self, duration: np.ndarray) -> dict[str, Any]:
+        b = self._core.batch
+        from soccer_drill.batch import OUTCOME_NAMES
+
+        outcome = np.array(OUTCOME_NAMES, dtype=object)[b.outcome]
+        holder = np.where(b.outcome == 0, b.holder, -1)
+        everyone = np.ones(self.num_envs, dtype=bool)
+        return {
+            "duration": duration.astype(np.int64), "_duration": everyone,
+            "cycles": b.cycle.copy(), "_cycles": everyone.copy(),
+            "outcome": outcome, "_outcome": everyone.copy(),
+            "holder": _NAMES[holder], "_holder": everyone.copy(),
+        }
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Nothing to close (no window, no worker)."""
+
+
+def play_episodes(
+    env: HolderVectorEnv,
+    policy: Callable[[np.ndarray, np.random.Generator], int],
+    seeds: Sequence[int],
+) -> list[tuple[float, str]]:
+    """Play one episode per seed with a fixed holder ``policy``, no drill ever waiting.
+
+    Episode ``k`` is a ``HolderEnv`` episode from ``reset(seed=seeds[k])`` (up to the
+    batch's physics, see the class docstring); ``policy(obs, rng)`` (a rule of
+    :mod:`soccer_drill.policies`) decides each time the holder may, with ``rng`` a
+    generator of that episode (``np.random.default_rng(seeds[k])``). As soon as a
+    drill's holder reaches a decision it gets its action and runs on, and a drill whose
+    episode ends starts the next seed, so the batch stays full: what a Gymnasium
+    ``step`` cannot do (each of its drills waits for the others' decisions).
+    Returns ``(total reward, outcome)`` per seed, in the order of ``seeds``. The
+    environment must then be ``reset()`` before it is stepped.
+    """
+    core, b, n = env._core, env._core.batch, env.num_envs
+    seeds = [int(s) for s in seeds]
+    results: list[tuple[float, str] | None] = [None] * len(seeds)
+    episode = np.full(n, -1)  # the seed index each drill plays, -1: none left
+    rngs: list[np.random.Generator | None] = [None] * n
+    following = 0
+    env._running[:] = False
+    env._in_action[:] = False
+
+    def start(drills: np.ndarray) -> None:
+        nonlocal following
+        take = drills[: max(0, len(seeds) - following)]
+        for i in take.tolist():
+            core.generators[i] = np.random.default_rng(seeds[following])
+            rngs[i] = np.random.default_rng(seeds[following])
+            episode[i] = following
+            following += 1
+        episode[drills[len(take):]] = -1
+        if len(take):
+            core.reset(take)
+
+    start(np.arange(n))
+    while (episode >= 0).any():
+        deciding = np.flatnonzero((episode >= 0) & ~env._running)
+        if len(deciding):
+            obs = env._observe()
+            actions = np.zeros(n, dtype=np.int64)
+            for i in deciding.tolist():
+                actions[i] = policy(obs[i], rngs[i])  # type: ignore[arg-type]
+            env._begin(deciding, actions)
+        env._cycle()
+        ended = np.flatnonzero((episode >= 0) & (b.outcome != 0))
+        if len(ended):
+            from soccer_drill.batch import OUTCOME_NAMES
+
+            for i in ended.tolist():
+                results[episode[i]] = (float(b.attacker_reward[i]), str(OUTCOME_NAMES[b.outcome[i]]))
+            env._running[ended] = False
+            start(ended)
+    env._has_reset = False
+    return results  # type: ignore[return-value]

@@ -1,0 +1,275 @@
+"""Many drills as one batched multi-agent environment: ``parallel_env`` with a leading batch axis."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from soccer_drill.batch import OUTCOME_NAMES, RUNNING
+from soccer_drill.batch_core import BatchCore, check_num_envs
+from soccer_drill.batch_features import batch_features, batch_kinematics
+from soccer_drill.batch_physics import DRILLS_PER_SPACE
+from soccer_drill.config import DrillConfig
+from soccer_drill.core import IllegalAction, ObsType, make_config
+from soccer_drill.features import feature_bounds, kinematic_bounds
+from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
+from soccer_drill.state import PLAYER_NAMES
+from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
+
+_HOLDER_MASK = np.array([1, 1, 1, 0, 0], dtype=np.int8)
+_OFF_BALL_MASK = np.array([0, 0, 0, 1, 1], dtype=np.int8)
+_ATTACKER_SKILLS = np.array([int(s) for s in ATTACKER_ACTIONS])
+_DEFENDER_SKILLS = np.array([int(s) for s in DEFENDER_ACTIONS])
+_DEFAULT_ATTACKER = (3, 0)  # off the ball: GET_OPEN; holder: HOLD
+_OUTCOMES = np.array(OUTCOME_NAMES, dtype=object)
+
+
+class ParallelVectorEnv:
+    """``num_envs`` drills as one multi-agent environment, every array with a leading batch axis.
+
+    The drill of :func:`soccer_drill.parallel_env` (its docstring is the reference of the
+    game), batched: the same agents, actions, masks, observations, rewards and episode
+    end, each a ``(num_envs, ...)`` array per agent. With ``opponent`` a team id the
+    agents are the two attackers and the team drives the defenders (batched when it has
+    a batched ``act``: :mod:`soccer_drill.batch_teams`); with ``opponent=None`` all four
+    players are agents.
+
+    ## Spaces (per agent; batched values add a leading ``num_envs`` axis)
+
+    | agent | action space | actions | observation |
+    |---|---|---|---|
+    | attacker | ``Discrete(5)`` | 0 HOLD, 1 PASS, 2 DRIBBLE (holder only), 3 GET_OPEN, 4 GO_TO_BALL (off the ball only) | ``Box(9,)`` features, or ``Box(26,)`` with ``obs_type="kinematic"`` |
+    | defender | ``Discrete(3)`` | 0 INTERCEPT, 1 MARK, 2 GUARD_LINE (always legal) | the same, from the defender's side |
+
+    ``observation_space(agent)`` and ``action_space(agent)`` are one drill's spaces.
+
+    ## Calls
+
+    | call | returns |
+    |---|---|
+    | ``reset(seed=None)`` | ``(observations, infos)`` |
+    | ``step(actions)`` | ``(observations, rewards, terminations, truncations, infos)`` |
+    | ``action_masks()`` | ``{agent: (num_envs, n) int8}``, 1 = legal now |
+
+    ``actions`` is ``{agent: (num_envs,) ints}``. ``observations[agent]`` is
+    ``{"observation": (num_envs, d) float32, "action_mask": (num_envs, n) int8}``;
+    ``rewards[agent]`` ``(num_envs,)`` float64; ``terminations[agent]`` and
+    ``truncations[agent]`` ``(num_envs,)`` bool. ``infos`` holds per-drill arrays:
+    ``"outcome"`` (object: ``None`` or the outcome), ``"cycles"`` (int) and, per agent,
+    ``infos["illegal_action"][agent]`` and ``infos["action_taken"][agent]`` (int, -1
+    where the action was legal).
+
+    ## Rewards and episode end
+
+    Zero until a drill's last cycle; then the attackers get the attackers' reward and
+    the defenders its negative. ``terminations`` on success, interception or out,
+    ``truncations`` on timeout, for every agent of that drill.
+
+    ## Autoreset
+
+    As Gymnasium's ``NEXT_STEP``: a drill whose episode ended at step ``t`` is reset at
+    step ``t + 1`` (its actions ignored): it returns its first observation, reward 0 and
+    no termination.
+
+    ## Illegal actions
+
+    ``illegal_action="default"`` (default, as ``parallel_env``) replaces a masked action by
+    the role's default (HOLD for the holder, GET_OPEN off the ball) and reports it in
+    ``infos``; ``"raise"`` raises ``ValueError`` naming the drill, the agent, the action
+    and the legal ones, before any drill moves. An action out of range always raises,
+    naming the drill.
+
+    ## Seeding
+
+    As :class:`~soccer_drill.vector.HolderVectorEnv`: ``reset(seed=s)`` starts drill
+    ``i`` from the generator of a single environment's ``reset(seed=s + i)`` and
+    rebuilds the physics, so the batch's episodes are a function of ``s`` and the
+    actions; a list gives one seed per drill; ``reset()`` and autoresets continue each
+    drill's stream. Episodes agree with the single environment's in distribution, not
+    bit for bit (shared physics spaces; see ``HolderVectorEnv``).
+
+    ## Arguments
+
+    | argument | default | meaning |
+    |---|---|---|
+    | ``num_envs`` | ``1`` | number of drills |
+    | ``opponent`` | ``None`` | team id, ``Team`` instance, or ``None`` (the defenders are agents) |
+    | ``opponent_params`` | ``None`` | keyword parameters of the team factory |
+    | ``obs_type`` | ``"features"`` | ``"features"`` or ``"kinematic"`` |
+    | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` |
+    | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
+    | ``illegal_action`` | ``"default"`` | ``"default"`` or ``"raise"`` |
+    | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take |
+    | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
+    """
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        opponent: str | Team | None = None,
+        opponent_params: Mapping[str, Any] | None = None,
+        obs_type: ObsType = "features",
+        max_cycles: int | None = None,
+        config: DrillConfig | Mapping[str, Any] | None = None,
+        illegal_action: IllegalAction = "default",
+        team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
+        drills_per_space: int = DRILLS_PER_SPACE,
+    ) -> None:
+        n = check_num_envs(num_envs)
+        if obs_type not in ("features", "kinematic"):
+            raise ValueError(f"obs_type must be 'features' or 'kinematic', got {obs_type!r}")
+        if illegal_action not in ("raise", "default"):
+            raise ValueError(f"illegal_action must be 'raise' or 'default', got {illegal_action!r}")
+        self.num_envs, self.obs_type, self.illegal_action = n, obs_type, illegal_action
+        self.config = make_config(config, max_cycles)
+        self._core = BatchCore(
+            n, opponent, opponent_params, self.config, team_timeout, False, drills_per_space
+        )
+        indices = (0, 1) if opponent is not None else (0, 1, 2, 3)
+        self.possible_agents = [PLAYER_NAMES[i] for i in indices]
+        self.agents = list(self.possible_agents)
+        self._index = {a: PLAYER_NAMES.index(a) for a in self.possible_agents}
+        bounds = feature_bounds(self.config) if obs_type == "features" else kinematic_bounds(self.config)
+        self._low, self._high = (x.astype(np.float64) for x in bounds)
+        self._obs_box = spaces.Box(*bounds, dtype=np.float32)
+        self._spaces = {
+            a: spaces.Discrete(len(ATTACKER_ACTIONS if i < 2 else DEFENDER_ACTIONS))
+            for a, i in self._index.items()
+        }
+        self._autoreset = np.zeros(n, dtype=bool)
+        self._has_reset = False
+
+    def observation_space(self, agent: str) -> spaces.Box:
+        """One drill's observation ``Box`` of ``agent``."""
+        return self._obs_box
+
+    def action_space(self, agent: str) -> spaces.Discrete:
+        """One drill's action space of ``agent``."""
+        return self._spaces[agent]
+
+    # -------------------------------------------------------------- episodes
+    def reset(
+        self, seed: int | Sequence[int | None] | None = None, options: dict | None = None
+    ) -> tuple[dict[str, Any], dict[str, Any]]:
+        """Start an episode in every drill (see Seeding)."""
+        core = self._core
+        core.seed(seed)
+        core.reset(np.arange(self.num_envs))
+        self._autoreset[:] = False
+        self._has_reset = True
+        none = np.full(self.num_envs, -1)
+        return self._observations(), self._infos({a: none for a in self.agents}, {a: none for a in self.agents})
+
+    def action_masks(self) -> dict[str, np.ndarray]:
+        """``{agent: (num_envs, n) int8}``: the legal actions of each drill now."""
+        holder = self._core.batch.holder
+        out = {}
+        for agent, i in self._index.items():
+            if i >= 2:
+                out[agent] = np.ones((self.num_envs, 3), dtype=np.int8)
+            else:
+                out[agent] = np.where((holder == i)[:, None], _HOLDER_MASK, _OFF_BALL_MASK)
+        return out
+
+    def _observations(self) -> dict[str, Any]:
+        b = self._core.batch
+        masks = self.action_masks()
+        out = {}
+        locked = np.where(b.cycle < b.lockout_until, b.passer, -1)
+        for agent, i in self._index.items():
+            if self.obs_type == "features":
+                obs = batch_features(b.pos, np.full(self.num_envs, i), self.config, self._low, self._high)
+            else:
+                obs = batch_kinematics(b.pos, b.vel, b.holder, locked, i, self._low, self._high)
+            out[agent] = {"observation": obs, "action_mask": masks[agent]}
+        return out
+
+    def _infos(self, illegal: dict, taken: dict) -> dict[str, Any]:
+        b = self._core.batch
+        return {
+            "outcome": _OUTCOMES[b.outcome], "cycles": b.cycle.copy(),
+            "illegal_action": illegal, "action_taken": taken,
+        }
+
+    def _commands(self, actions: Mapping[str, Any], stepping: np.ndarray) -> tuple[dict, dict]:
+        """Check every drill's actions (nothing changes on an error), then set the commands."""
+        if not isinstance(actions, Mapping) or set(actions) != set(self.agents):
+            got = sorted(actions) if isinstance(actions, Mapping) else type(actions).__name__
+            raise ValueError(f"actions must be a mapping of every agent {self.agents} to "
+                             f"({self.num_envs},) integers, got {got}")
+        b, core = self._core.batch, self._core
+        masks = self.action_masks()
+        checked, illegal, taken = {}, {}, {}
+        for agent, i in self._index.items():
+            a = np.asarray(actions[agent])
+            n_actions = self._spaces[agent].n
+            if a.shape != (self.num_envs,) or a.dtype.kind not in "iu":
+                raise ValueError(
+                    f"actions[{agent!r}] must be an integer array of shape ({self.num_envs},), "
+                    f"got {a.dtype} of shape {a.shape}"
+                )
+            bad = np.flatnonzero(stepping & ((a < 0) | (a >= n_actions)))
+            if len(bad):
+                d = int(bad[0])
+                raise ValueError(
+                    f"drill {d}: action {int(a[d])} for {agent!r} is out of range; allowed: "
+                    f"0..{n_actions - 1} ({_names(i)})"
+                )
+            legal = masks[agent][np.arange(self.num_envs), np.clip(a, 0, n_actions - 1)] == 1
+            masked = np.flatnonzero(stepping & ~legal)
+            given = np.full(self.num_envs, -1)
+            done = np.full(self.num_envs, -1)
+            if len(masked):
+                if self.illegal_action == "raise":
+                    d = int(masked[0])
+                    legal_now = [f"{k}={ATTACKER_ACTIONS[k].name}" for k in np.flatnonzero(masks[agent][d])]
+                    raise ValueError(
+                        f"drill {d}: action {int(a[d])} ({ATTACKER_ACTIONS[int(a[d])].name}) is "
+                        f"masked for {agent!r} at cycle {int(b.cycle[d])}; legal actions now: "
+                        f"{legal_now}. illegal_action='default' replaces a masked action by the "
+                        "role's default action instead (and reports it in infos)"
+                    )
+                given[masked] = a[masked]
+                a = a.copy()
+                a[masked] = np.where(b.holder[masked] == i, _DEFAULT_ATTACKER[1], _DEFAULT_ATTACKER[0])
+                done[masked] = a[masked]
+            checked[agent], illegal[agent], taken[agent] = a, given, done
+        for agent, i in self._index.items():
+            table = _ATTACKER_SKILLS if i < 2 else _DEFENDER_SKILLS
+            core.skill[:, i] = table[checked[agent]]
+            core.speed[:, i] = 1.0
+        return illegal, taken
+
+    def step(self, actions: Mapping[str, Any]):
+        """One cycle of every drill (drills ended at the last step are reset instead)."""
+        if not self._has_reset:
+            raise RuntimeError("step() called before reset(); call reset() first")
+        core, b = self._core, self._core.batch
+        stepping = ~self._autoreset
+        illegal, taken = self._commands(actions, stepping)
+        resetting = np.flatnonzero(self._autoreset)
+        if len(resetting):
+            core.reset(resetting)
+        core.advance(stepping)
+        ended = stepping & (b.outcome != RUNNING)
+        reward = np.where(ended, b.attacker_reward, 0.0)
+        truncated = ended & (b.outcome == 4)
+        terminated = ended & ~truncated
+        self._autoreset = ended
+        rewards = {a: (reward if i < 2 else -reward) for a, i in self._index.items()}
+        return (
+            self._observations(), rewards,
+            {a: terminated.copy() for a in self.agents}, {a: truncated.copy() for a in self.agents},
+            self._infos(illegal, taken),
+        )
+
+    def close(self) -> None:
+        """Nothing to close."""
+
+
+def _names(index: int) -> str:
+    actions = ATTACKER_ACTIONS if index < 2 else DEFENDER_ACTIONS
+    return ", ".join(f"{k}={s.name}" for k, s in enumerate(actions))
