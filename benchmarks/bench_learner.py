@@ -44,11 +44,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from dataclasses import replace
+
 from ilpss.kernels import SharedKernelModel
 from ilpss.lifelong import LearnerConfig
 from ilpss.options import OptionLibrary
 from ilpss.policy import FrozenPolicy
-from ilpss.smdp import SmdpLearner
+from ilpss.smdp import KEEPAWAY, SmdpLearner
 from ilpss.tiles import KEEPAWAY_ANGLE_WIDTH, KEEPAWAY_DISTANCE_WIDTH, TileCoder
 
 DRILL_ID = "soccer_drill/Holder-v0"
@@ -246,18 +248,12 @@ def main(argv: list[str] | None = None) -> dict[str, Any]:
     library = build_library(env, coder, args.seed)
     assert len(library) == 15
     learners = {
-        "learner (3 primitives)": SmdpLearner(3, coder, seed=args.seed),
-        "learner + 15 options": SmdpLearner(3, coder, library, seed=args.seed),
-        "learner + 15 options + intra-option": SmdpLearner(
-            3, coder, library, intra_option=True, seed=args.seed
-        ),
+        "learner (3 primitives)": SmdpLearner(3, coder, config=KEEPAWAY, seed=args.seed),
+        "learner + 15 options": SmdpLearner(3, coder, library, config=KEEPAWAY, seed=args.seed),
+        "learner + 15 options + intra-option": SmdpLearner(3, coder, library, config=replace(KEEPAWAY, intra_option=True), seed=args.seed),
         # LearnerConfig's defaults: Watkins's Q(0.9), replacing traces, optimistic values.
-        "Q(0.9) learner (3 primitives)": SmdpLearner(
-            3, coder, method="q", trace_decay=0.9, initial_value=1.0, seed=args.seed
-        ),
-        "Q(0.9) learner + 15 options": SmdpLearner(
-            3, coder, library, method="q", trace_decay=0.9, initial_value=1.0, seed=args.seed
-        ),
+        "Q(0.9) learner (3 primitives)": SmdpLearner(3, coder, config=LearnerConfig(method="q", trace_decay=0.9, initial_value=1.0), seed=args.seed),
+        "Q(0.9) learner + 15 options": SmdpLearner(3, coder, library, config=LearnerConfig(method="q", trace_decay=0.9, initial_value=1.0), seed=args.seed),
     }
     rng = np.random.default_rng(args.seed)
     timed = TimedEnv(env)

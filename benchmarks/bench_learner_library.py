@@ -57,7 +57,7 @@ from ilpss.kernels import SharedKernelModel
 from ilpss.lifelong import LearnerConfig
 from ilpss.options import OptionLibrary, OptionSettings
 from ilpss.policy import FrozenPolicy
-from ilpss.smdp import SmdpLearner
+from ilpss.smdp import KEEPAWAY, SmdpLearner
 from ilpss.tiles import TileCoder
 
 N_KERNELS = 5
@@ -155,7 +155,7 @@ class CpuTimedEnv(TimedEnv):
 
 
 def make_learner(library: OptionLibrary | None, coder: TileCoder, seed: int) -> SmdpLearner:
-    return SmdpLearner(N_PRIMITIVE, coder, library, seed=seed, **LearnerConfig().smdp_kwargs())
+    return SmdpLearner(N_PRIMITIVE, coder, library, LearnerConfig(), config=KEEPAWAY, seed=seed)
 
 
 def run_learner(env: TimedEnv, learner: SmdpLearner, n: int) -> tuple[float, float]:

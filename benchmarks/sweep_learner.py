@@ -18,6 +18,7 @@ import argparse
 import json
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 import gymnasium as gym
@@ -29,7 +30,7 @@ from ilpss.experiments.drill import TILE_WIDTHS as DRILL_TILE_WIDTHS
 from ilpss.experiments.executor import LocalExecutor
 from ilpss.experiments.holder_learning import evaluation_rewards
 from ilpss.lifelong import LearnerConfig
-from ilpss.smdp import SmdpLearner
+from ilpss.smdp import KEEPAWAY, SmdpLearner
 
 BLOCK = 100
 
@@ -39,7 +40,7 @@ def job(args: tuple[str, int, int, int, dict[str, Any]]) -> tuple[str, int, list
     team, seed, episodes, n_eval, kwargs = args
     env = gym.make(DRILL_ENV_ID, opponent=team, disable_env_checker=True)
     coder = LearnerConfig(tile_widths=DRILL_TILE_WIDTHS).tile_coder(env.observation_space)
-    learner = SmdpLearner(3, coder, seed=seed, **kwargs)
+    learner = SmdpLearner(3, coder, None, replace(KEEPAWAY, **kwargs), seed=seed)
     curve: list[float] = []
     best_score, best_weights = -np.inf, learner.q.weights.copy()
     for b in range(episodes // BLOCK):
@@ -58,7 +59,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run one setting of the sweep and print its line."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("name")
-    p.add_argument("kwargs", help="SmdpLearner keyword arguments as JSON")
+    p.add_argument("kwargs", help="LearnerConfig fields as JSON (on top of keepaway's Sarsa(0))")
     p.add_argument("--episodes", type=int, default=1000)
     p.add_argument("--seeds", type=int, default=3)
     p.add_argument("--eval", type=int, default=150)

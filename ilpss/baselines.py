@@ -67,7 +67,7 @@ learnt values (:meth:`SmdpLearner.from_policy`).
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -82,8 +82,8 @@ from ilpss.episode import (
     step_duration,
 )
 from ilpss.policy import FrozenPolicy, LinearPolicy, epsilon_greedy_choice, greedy_choice
-from ilpss.smdp import SMDP_CONSTRAINTS, SmdpLearner
-from ilpss.tiles import KEEPAWAY_ALPHA, TileCoder
+from ilpss.smdp import SMDP_CONSTRAINTS, LearnerConfig, SmdpLearner
+from ilpss.tiles import TileCoder
 from ilpss.traces import DivergedError, ReplacingTraces, td_update
 
 __all__ = ["PRQ_CONSTRAINTS", "PrqConfig", "PrqLearner"]
@@ -96,8 +96,6 @@ PRQ_CONSTRAINTS = {
     "trace_decay": NoneOr(SMDP_CONSTRAINTS["trace_decay"]),
 }
 """What each reuse setting of PRQ-learning allows."""
-_BASE_SETTINGS = ("alpha", "epsilon", "gamma", "initial_value", "trace_decay",
-                  "bootstrap_on_truncation", "max_decisions")
 
 
 @dataclass(frozen=True)
@@ -130,12 +128,10 @@ class PrqConfig:
         """A JSON-ready dict of the fields."""
         return asdict(self)
 
-    def learner_kwargs(self, trace_decay: float) -> dict[str, float]:
-        """Keyword arguments of :class:`PrqLearner` for these settings, with
-        ``trace_decay`` (the learner's) where :attr:`trace_decay` is ``None``."""
-        kwargs = {k: v for k, v in asdict(self).items() if k != "trace_decay"}
-        return {**kwargs, "trace_decay": trace_decay if self.trace_decay is None
-                else self.trace_decay}
+    def trace_decay_for(self, learner: LearnerConfig) -> float:
+        """The ``lambda`` PRQ-learning uses with the base learner ``learner``: this
+        configuration's :attr:`trace_decay`, or the learner's where it is ``None``."""
+        return learner.trace_decay if self.trace_decay is None else self.trace_decay
 
 
 class PrqLearner(EpisodicLearner):
@@ -152,30 +148,19 @@ class PrqLearner(EpisodicLearner):
     past_policies : iterable of FrozenPolicy
         The library ``Pi_1 .. Pi_n`` (may be empty). Their choices must be primitive
         actions only; a :class:`~ilpss.policy.LinearPolicy` is frozen (copied).
-    alpha : float, default 0.125
-        Step size, divided by the number of active tiles (keepaway).
-    epsilon : float, default 0.01
-        Exploration of the epsilon-greedy choices on the new Q.
-    gamma : float, default 1.0
-        Discount per cycle; a step of duration ``d`` is discounted by ``gamma ** d``.
-    psi, upsilon, tau0, delta_tau : float
-        The reuse settings (defaults: :class:`PrqConfig`'s);
-        ``**PrqConfig(...).learner_kwargs(trace_decay)`` passes them whole.
-    initial_value : float, default 0.0
-        Initial value of every Q(s, a).
-    trace_decay : float, default 0.0
-        ``lambda`` of Watkins's Q(lambda) with replacing traces (:mod:`ilpss.traces`),
-        whose traces are cut after an exploratory action and after the reused policy's
-        action where Q prefers another; 0: the paper's one-step Q-learning.
-    bootstrap_on_truncation : bool, default False
-        Bootstrap from the last state of a truncated episode (default: terminal).
+    config : LearnerConfig, default LearnerConfig()
+        The base learner's settings, the same as every other method's: its step size,
+        exploration, discount, initial value, ``trace_decay`` (unless ``reuse`` sets one),
+        truncation and decision bound. PRQ-learning is Q-learning: ``config.method`` must
+        be ``"q"``; the option settings do not apply (it reuses whole policies).
+    reuse : PrqConfig, default PrqConfig()
+        The reuse settings.
     seed : int or numpy.random.Generator, optional
         Source of every random draw (policy choice, pi-reuse, exploration, ties).
-    max_decisions : int, default 100_000
-        Safety bound on the steps of one episode (an error beyond it).
 
-    The learning settings are checked with :data:`~ilpss.smdp.SMDP_CONSTRAINTS`, the reuse
-    settings with :data:`PRQ_CONSTRAINTS`.
+    Watkins's Q(lambda) with replacing traces (:mod:`ilpss.traces`) cuts its traces
+    after an exploratory action and after the reused policy's action where Q prefers
+    another; ``lambda = 0`` is the paper's one-step Q-learning.
 
     Attributes
     ----------
@@ -206,52 +191,36 @@ class PrqLearner(EpisodicLearner):
         n_primitive: int,
         tile_coder: TileCoder,
         past_policies: Iterable[FrozenPolicy],
+        config: LearnerConfig | None = None,
+        reuse: PrqConfig | None = None,
         *,
-        alpha: float = KEEPAWAY_ALPHA,
-        epsilon: float = 0.01,
-        gamma: float = 1.0,
-        psi: float = 1.0,
-        upsilon: float = 0.95,
-        tau0: float = 0.0,
-        delta_tau: float = 0.05,
-        initial_value: float = 0.0,
-        trace_decay: float = 0.0,
-        bootstrap_on_truncation: bool = False,
         seed: int | np.random.Generator | None = None,
-        max_decisions: int = 100_000,
     ) -> None:
-        base = {"alpha": alpha, "epsilon": epsilon, "gamma": gamma,
-                "initial_value": initial_value, "trace_decay": trace_decay,
-                "bootstrap_on_truncation": bootstrap_on_truncation,
-                "max_decisions": max_decisions}
-        check_fields("PrqLearner", base, {k: SMDP_CONSTRAINTS[k] for k in _BASE_SETTINGS},
-                     dict.get)
-        reuse = {"psi": psi, "upsilon": upsilon, "tau0": tau0, "delta_tau": delta_tau}
-        check_fields("PrqLearner", reuse, PRQ_CONSTRAINTS, dict.get)
+        config = LearnerConfig() if config is None else config
+        reuse = PrqConfig() if reuse is None else reuse
+        if not isinstance(config, LearnerConfig):
+            raise TypeError(f"config must be a LearnerConfig, got {type(config).__name__}")
+        if not isinstance(reuse, PrqConfig):
+            raise TypeError(f"reuse must be a PrqConfig, got {type(reuse).__name__}")
+        if config.method != "q":
+            raise ValueError(f"PRQ-learning is Q-learning: config.method must be 'q', got "
+                             f"{config.method!r}")
         if not isinstance(tile_coder, TileCoder):
             raise TypeError(f"tile_coder must be a TileCoder, got {type(tile_coder).__name__}")
-        self.q = LinearPolicy(tile_coder, n_primitive, (), initial_value=initial_value)
+        self.config, self.reuse = config, reuse
+        self.q = LinearPolicy(tile_coder, n_primitive, (), initial_value=config.initial_value)
         self.n_primitive = self.q.n_primitive
         self.tile_coder = tile_coder
-        self.alpha = float(alpha)
-        self.epsilon = float(epsilon)
-        self.gamma = float(gamma)
-        self.trace_decay = float(trace_decay)
-        self.bootstrap_on_truncation = bool(bootstrap_on_truncation)
-        self.max_decisions = int(max_decisions)
-        self.psi = float(psi)
-        self.upsilon = float(upsilon)
-        self.tau0 = float(tau0)
-        self.delta_tau = float(delta_tau)
+        self.trace_decay = reuse.trace_decay_for(config)
         self.rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
         self.past_policies = self._check_policies(past_policies)
         n = len(self.past_policies)
         self.reuse_gains = np.zeros(n + 1)
         self.reuse_counts = np.zeros(n + 1, dtype=np.int64)
-        self.tau = self.tau0
+        self.tau = reuse.tau0
         self.reused: list[int] = []
         self.followed_past: list[bool] = []
-        self._step = self.alpha / tile_coder.n_active
+        self._step = config.alpha / tile_coder.n_active
         self._mask = np.ones(self.n_primitive, dtype=bool)
 
     def _check_policies(self, policies: Iterable[FrozenPolicy]) -> tuple[FrozenPolicy, ...]:
@@ -309,7 +278,7 @@ class PrqLearner(EpisodicLearner):
         """pi-reuse choice: ``(action, explored, followed the past policy)``."""
         if past is not None and psi_h > 0.0 and self.rng.random() < psi_h:
             return greedy_choice(past.q_from_tiles(active), self.rng), False, True
-        action, explored = epsilon_greedy_choice(q, self.rng, self.epsilon, self._mask)
+        action, explored = epsilon_greedy_choice(q, self.rng, self.config.epsilon, self._mask)
         return action, explored, False
 
     # --------------------------------------------------------------- episodes
@@ -319,7 +288,7 @@ class PrqLearner(EpisodicLearner):
             td_update(self.q, traces, active, action, target, self._step, decay, cut)
         except DivergedError as exc:
             raise DivergedError(
-                f"PRQ-learning diverged: {exc}; the step size (alpha={self.alpha:g}) or the "
+                f"PRQ-learning diverged: {exc}; the step size (alpha={self.config.alpha:g}) or the "
                 "initial value is too large for this environment's rewards "
                 "(LearnerConfig.alpha, .initial_value)"
             ) from None
@@ -337,11 +306,8 @@ class PrqLearner(EpisodicLearner):
         options are ever run.
         """
         if not learn:
-            greedy = SmdpLearner.from_policy(
-                self.q, epsilon=0.0, gamma=self.gamma, seed=self.rng,
-                bootstrap_on_truncation=self.bootstrap_on_truncation,
-                max_decisions=self.max_decisions,
-            )
+            greedy = SmdpLearner.from_policy(self.q, None, replace(self.config, epsilon=0.0),
+                                             seed=self.rng)
             res = greedy.run_episode(env, learn=False, seed=seed)
             self.followed_past = [False] * res.decisions
             return res
@@ -352,7 +318,7 @@ class PrqLearner(EpisodicLearner):
             self.reuse_counts[k] + 1
         )
         self.reuse_counts[k] += 1
-        self.tau += self.delta_tau
+        self.tau += self.reuse.delta_tau
         self.reused.append(k)
         return res
 
@@ -362,12 +328,12 @@ class PrqLearner(EpisodicLearner):
         """pi-reuse of ``past`` (epsilon-greedy on Q when None) with Q-learning updates."""
         coder = self.tile_coder
         n_features = coder.n_features
-        psi_h = self.psi if past is not None else 0.0
+        psi_h = self.reuse.psi if past is not None else 0.0
         obs, _ = env.reset(seed=seed)
         s = observation(obs, n_features)
         active = coder.active(s)
         q = self.q.q_from_tiles(active)
-        log = EpisodeLog(self.gamma, n_features, self.max_decisions)
+        log = EpisodeLog(self.config.gamma, n_features, self.config.max_decisions)
         traces = ReplacingTraces(self.q) if self.trace_decay > 0.0 else None
         followed: list[bool] = []
         action, explored, follow = self._decide(active, q, past, psi_h)
@@ -379,7 +345,7 @@ class PrqLearner(EpisodicLearner):
             reward = float(reward)
             d = step_duration(info)
             ended = bool(terminated or truncated)
-            bootstrap_end = bool(truncated and not terminated and self.bootstrap_on_truncation)
+            bootstrap_end = bool(truncated and not terminated and self.config.bootstrap_on_truncation)
             next_s = observation(obs, n_features) if (not ended or bootstrap_end) else None
             log.step(obs, reward, d, terminated, truncated, info)
             if next_s is None:
@@ -388,13 +354,13 @@ class PrqLearner(EpisodicLearner):
             next_active = coder.active(next_s)
             q = self.q.q_from_tiles(next_active)
             if not ended:  # choose at s' with the values before this step's update
-                psi_h *= self.upsilon
+                psi_h *= self.reuse.upsilon
                 next_action, explored, follow = self._decide(next_active, q, past, psi_h)
             # Watkins's Q(lambda): the traces are cut after an exploratory action (as in
             # SmdpLearner) and after the reused policy's action where Q prefers another.
             cut = ended or explored or (follow and q[next_action] < q.max())
-            self._update(traces, active, action, reward + self.gamma**d * float(q.max()),
-                         self.gamma**d * self.trace_decay, cut)
+            self._update(traces, active, action, reward + self.config.gamma**d * float(q.max()),
+                         self.config.gamma**d * self.trace_decay, cut)
             if ended:
                 break
             s, active, action = next_s, next_active, next_action

@@ -57,108 +57,10 @@ from ilpss.episode import EpisodeResult, options_used
 from ilpss.kernels import KERNEL_CONSTRAINTS, SharedKernelModel, UniformKernel
 from ilpss.options import OptionLibrary, OptionSettings
 from ilpss.policy import FrozenPolicy
-from ilpss.smdp import SMDP_CONSTRAINTS, SmdpLearner
-from ilpss.tiles import TILE_CONSTRAINTS, TileCoder
+from ilpss.smdp import LearnerConfig, SmdpLearner
 
 CHECKPOINT_SCHEMA = "ilpss.lifelong/2"
 OptionSource = Literal["kernels", "whole_policies", "none"]
-
-
-LEARNER_CONSTRAINTS = {
-    **{name: SMDP_CONSTRAINTS[name] for name in (
-        "alpha", "epsilon", "gamma", "method", "intra_option", "intra_option_primitives",
-        "interruption", "option_bonus", "option_bonus_episodes", "initial_value",
-        "option_initial_value", "trace_decay")},
-    "n_tilings": TILE_CONSTRAINTS["n_tilings"],
-    "tile_widths": NoneOr(ListOf(TILE_CONSTRAINTS["width"], min_len=1)),
-}
-"""What each field of :class:`LearnerConfig` allows: the learner's own constraints
-(:data:`~ilpss.smdp.SMDP_CONSTRAINTS`, :data:`~ilpss.tiles.TILE_CONSTRAINTS`)."""
-
-
-@dataclass(frozen=True)
-class LearnerConfig:
-    """SMDP learner hyper-parameters.
-
-    Keepaway's tile coding, step size and exploration, with Watkins's Q(lambda) and
-    optimistic initial values instead of one-step Sarsa: on the drill, one-step Sarsa
-    and Q-learning rise and then collapse, while Q(0.9) with replacing traces learns
-    within a few hundred episodes and stays up (the sweep is in
-    ``docs/learning_sweep.md``).
-    """
-
-    alpha: float = 0.125
-    """Step size, spread over the active tiles."""
-    epsilon: float = 0.01
-    """Exploration rate of epsilon-greedy."""
-    gamma: float = 1.0
-    """Discount per cycle; a step of ``d`` cycles is discounted by ``gamma ** d``."""
-    method: str = "q"
-    """``"sarsa"`` or ``"q"`` (Q-learning; Watkins's Q(lambda) with traces)."""
-    intra_option: bool = False
-    """Also apply intra-option updates."""
-    intra_option_primitives: bool = False
-    """While an option runs, give the primitive it takes the one-step Q-learning update of
-    each step, so the primitives learn from the options' experience (the paper: false)."""
-    interruption: bool = False
-    """Stop a running option where the best primitive is worth more than it (plus the
-    bonus); the paper: false, options stop only by their kernel."""
-    option_bonus: float = 0.0
-    """Bonus of the options' values when the learner chooses, in its first learning
-    episode, fading linearly to 0 over ``option_bonus_episodes``: options first, then
-    the primitives as they learn (the paper: 0)."""
-    option_bonus_episodes: int = 1
-    """Learning episodes over which the option bonus fades to 0."""
-    initial_value: float = 1.0
-    """Initial action value of every choice (1.0, the best reward: optimistic)."""
-    option_initial_value: float | None = None
-    """Initial value of every option's Q (``None``: ``initial_value``)."""
-    trace_decay: float = 0.9
-    """``lambda`` of the replacing eligibility traces (0: one-step updates)."""
-    n_tilings: int = 32
-    """One-dimensional tilings per feature."""
-    tile_widths: tuple[float, ...] | None = None
-    """Tile width per feature, in its units; ``None``: a tenth of each feature's range."""
-
-    def __post_init__(self) -> None:
-        # Checked here, by name: configurations come from JSON files, and a bad value
-        # would otherwise only be refused at the first trial.
-        check_fields("LearnerConfig", self, LEARNER_CONSTRAINTS)
-        if self.tile_widths is not None:  # JSON gives lists, and ints for whole numbers
-            object.__setattr__(self, "tile_widths", tuple(float(w) for w in self.tile_widths))
-
-    @classmethod
-    def from_dict(cls, values: Mapping[str, Any]) -> LearnerConfig:
-        """Inverse of ``dataclasses.asdict``; unknown keys are refused by name."""
-        return from_json(cls, values)
-
-    def tile_coder(self, observation_space: Any) -> TileCoder:
-        """The tile coder of these settings over a 1-D ``Box`` observation space.
-
-        Raises
-        ------
-        ValueError
-            The widths do not fit the space (one per feature, at most
-            :data:`~ilpss.tiles.MAX_WEIGHTS` tiles in all); the message names the field.
-        """
-        widths = None if self.tile_widths is None else np.asarray(self.tile_widths, dtype=float)
-        try:
-            return TileCoder.from_space(observation_space, widths, self.n_tilings)
-        except ValueError as exc:
-            raise ValueError(f"LearnerConfig.tile_widths / n_tilings: {exc}") from exc
-
-    def smdp_kwargs(self) -> dict[str, Any]:
-        """Keyword arguments of :class:`~ilpss.smdp.SmdpLearner` for these settings."""
-        return {
-            "alpha": self.alpha, "epsilon": self.epsilon, "gamma": self.gamma,
-            "method": self.method, "intra_option": self.intra_option,
-            "intra_option_primitives": self.intra_option_primitives,
-            "interruption": self.interruption, "option_bonus": self.option_bonus,
-            "option_bonus_episodes": self.option_bonus_episodes,
-            "initial_value": self.initial_value,
-            "option_initial_value": self.option_initial_value,
-            "trace_decay": self.trace_decay,
-        }
 
 
 LIFELONG_CONSTRAINTS = {
@@ -383,8 +285,7 @@ class LifelongLearner:
         """A fresh SMDP learner offered the current options (or none)."""
         lc = self.config.learner
         library = self.library if with_options and self.config.options != "none" else None
-        return SmdpLearner(self.n_primitive, self.tile_coder, library, seed=seed,
-                           **lc.smdp_kwargs())
+        return SmdpLearner(self.n_primitive, self.tile_coder, library, lc, seed=seed)
 
     def learn(
         self,

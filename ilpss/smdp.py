@@ -73,12 +73,13 @@ the same environment seed, the same learner seed gives the same learning curve.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from ilpss._check import Bool, Integer, NoneOr, OneOf, Real, check_fields
+from ilpss._check import Bool, Integer, ListOf, NoneOr, OneOf, Real, check_fields, from_json
 from ilpss.episode import (
     EpisodeLog,
     EpisodeResult,
@@ -91,12 +92,15 @@ from ilpss.episode import (
 )
 from ilpss.options import OptionLibrary
 from ilpss.policy import EPSILON, FrozenPolicy, LinearPolicy, epsilon_greedy_choice
-from ilpss.tiles import KEEPAWAY_ALPHA, TileCoder
+from ilpss.tiles import KEEPAWAY_ALPHA, TILE_CONSTRAINTS, TileCoder
 from ilpss.traces import DivergedError, ReplacingTraces, td_update
 
 __all__ = [
+    "KEEPAWAY",
+    "LEARNER_CONSTRAINTS",
     "SMDP_CONSTRAINTS",
     "EpisodeResult",
+    "LearnerConfig",
     "OptionRun",
     "SmdpLearner",
     "options_used",
@@ -121,8 +125,100 @@ SMDP_CONSTRAINTS = {
     "trace_decay": Real(0.0, 1.0),
     "max_decisions": Integer(1),
 }
-"""What each setting of an SMDP learner allows; :class:`~ilpss.lifelong.LearnerConfig`
-and :class:`~ilpss.baselines.PrqLearner` check their fields of the same name with these."""
+"""What each setting of an SMDP learner allows (the fields of :class:`LearnerConfig`)."""
+LEARNER_CONSTRAINTS = {
+    **SMDP_CONSTRAINTS,
+    "n_tilings": TILE_CONSTRAINTS["n_tilings"],
+    "tile_widths": NoneOr(ListOf(TILE_CONSTRAINTS["width"], min_len=1)),
+}
+"""What each field of :class:`LearnerConfig` allows: :data:`SMDP_CONSTRAINTS` and the tile
+coder's (:data:`~ilpss.tiles.TILE_CONSTRAINTS`)."""
+
+
+@dataclass(frozen=True)
+class LearnerConfig:
+    """The SMDP learner's settings, passed whole to :class:`SmdpLearner` (and, for its base
+    learner, to :class:`~ilpss.baselines.PrqLearner`).
+
+    The defaults are the project's learner: keepaway's tile coding, step size and
+    exploration, with Watkins's Q(lambda) and optimistic initial values instead of
+    one-step Sarsa. On the drill, one-step Sarsa and Q-learning rise and then collapse,
+    while Q(0.9) with replacing traces learns within a few hundred episodes and stays up
+    (the sweep is in ``docs/learning_sweep.md``). :data:`KEEPAWAY` is keepaway's own
+    SMDP Sarsa(0) with values starting at 0.
+    """
+
+    alpha: float = KEEPAWAY_ALPHA
+    """Step size, spread over the active tiles (1 moves a value all the way to its target)."""
+    epsilon: float = 0.01
+    """Exploration rate of epsilon-greedy."""
+    gamma: float = 1.0
+    """Discount per cycle; a step of ``d`` cycles is discounted by ``gamma ** d``."""
+    method: str = "q"
+    """``"sarsa"`` or ``"q"`` (Q-learning; Watkins's Q(lambda) with traces)."""
+    intra_option: bool = False
+    """Also apply intra-option updates (see the module docstring)."""
+    intra_option_primitives: bool = False
+    """While an option runs, give the primitive it takes the one-step Q-learning update of
+    each step, so the primitives learn from the options' experience (the paper: false)."""
+    interruption: bool = False
+    """Stop a running option where the best primitive is worth more than it (plus the
+    bonus); the paper: false, options stop only by their kernel."""
+    option_bonus: float = 0.0
+    """Bonus of the options' values when the learner chooses, in its first learning
+    episode, fading linearly to 0 over ``option_bonus_episodes``: options first, then
+    the primitives as they learn (the paper: 0)."""
+    option_bonus_episodes: int = 1
+    """Learning episodes over which the option bonus fades to 0."""
+    initial_value: float = 1.0
+    """Initial action value of every choice (1.0, the best reward: optimistic)."""
+    option_initial_value: float | None = None
+    """Initial value of every option's Q (``None``: ``initial_value``). Above
+    ``initial_value`` the learner tries the options before the primitives: the paper's
+    "search for a solution first in the policy subspace spanned by behaviours that proved
+    useful in the past"."""
+    trace_decay: float = 0.9
+    """``lambda`` of the replacing eligibility traces (0: one-step updates)."""
+    bootstrap_on_truncation: bool = False
+    """Bootstrap from the last state of a truncated episode (default: truncation is
+    terminal: the drill pays its failure reward at its time limit)."""
+    max_decisions: int = 100_000
+    """Safety bound on the decisions of one episode (an error beyond it)."""
+    n_tilings: int = 32
+    """One-dimensional tilings per feature."""
+    tile_widths: tuple[float, ...] | None = None
+    """Tile width per feature, in its units; ``None``: a tenth of each feature's range."""
+
+    def __post_init__(self) -> None:
+        # Checked here, by name: configurations come from JSON files, and a bad value
+        # would otherwise only be refused at the first trial.
+        check_fields("LearnerConfig", self, LEARNER_CONSTRAINTS)
+        if self.tile_widths is not None:  # JSON gives lists, and ints for whole numbers
+            object.__setattr__(self, "tile_widths", tuple(float(w) for w in self.tile_widths))
+
+    @classmethod
+    def from_dict(cls, values: Mapping[str, Any]) -> LearnerConfig:
+        """Inverse of ``dataclasses.asdict``; unknown keys are refused by name."""
+        return from_json(cls, values)
+
+    def tile_coder(self, observation_space: Any) -> TileCoder:
+        """The tile coder of these settings over a 1-D ``Box`` observation space.
+
+        Raises
+        ------
+        ValueError
+            The widths do not fit the space (one per feature, at most
+            :data:`~ilpss.tiles.MAX_WEIGHTS` tiles in all); the message names the field.
+        """
+        widths = None if self.tile_widths is None else np.asarray(self.tile_widths, dtype=float)
+        try:
+            return TileCoder.from_space(observation_space, widths, self.n_tilings)
+        except ValueError as exc:
+            raise ValueError(f"LearnerConfig.tile_widths / n_tilings: {exc}") from exc
+
+
+KEEPAWAY = LearnerConfig(method="sarsa", initial_value=0.0, trace_decay=0.0)
+"""Keepaway's learner (Stone, Sutton and Kuhlmann 2005): SMDP Sarsa(0), values from 0."""
 
 
 @dataclass
@@ -148,38 +244,9 @@ class SmdpLearner(EpisodicLearner):
     library : OptionLibrary, optional
         Options to offer: its active options at construction, in its order. An offered
         option that the library later deactivates is never available.
-    alpha : float, default 0.125
-        Step size, divided by the number of active tiles (keepaway).
-    epsilon : float, default 0.01
-    gamma : float, default 1.0
-        Discount per cycle; a step of duration ``d`` is discounted by ``gamma ** d``.
-    method : {"sarsa", "q"}, default "sarsa"
-    intra_option : bool, default False
-        Also apply intra-option updates (see the module docstring).
-    intra_option_primitives : bool, default False
-        While an option runs, give the primitive it takes each step's one-step update.
-    interruption : bool, default False
-        Stop a running option where the best primitive is worth more than it.
-    option_bonus : float, default 0.0
-        The options' bonus when choosing in the first learning episode, fading linearly
-        to 0 over ``option_bonus_episodes`` learning episodes (module docstring).
-    option_bonus_episodes : int, default 1
-    bootstrap_on_truncation : bool, default False
-    initial_value : float, default 0.0
-        Initial value of every Q(s, c).
-    option_initial_value : float, optional
-        Initial value of every option's Q(s, o) (default: ``initial_value``). Above
-        ``initial_value`` the learner tries the options before the primitives: the
-        paper's "search for a solution first in the policy subspace spanned by
-        behaviours that proved useful in the past".
-    trace_decay : float, default 0.0
-        ``lambda`` of eligibility traces over choice points (0: one-step SMDP updates).
-        See the module docstring.
+    config : LearnerConfig, default LearnerConfig()
+        Every learning setting (its tile settings are ``tile_coder``'s business).
     seed : int or numpy.random.Generator, optional
-    max_decisions : int, default 100_000
-        Safety bound on the steps of one episode (an error beyond it).
-
-    Every setting is checked with :data:`SMDP_CONSTRAINTS`.
     """
 
     def __init__(
@@ -187,35 +254,15 @@ class SmdpLearner(EpisodicLearner):
         n_primitive: int,
         tile_coder: TileCoder,
         library: OptionLibrary | None = None,
+        config: LearnerConfig | None = None,
         *,
-        alpha: float = KEEPAWAY_ALPHA,
-        epsilon: float = 0.01,
-        gamma: float = 1.0,
-        method: str = "sarsa",
-        intra_option: bool = False,
-        intra_option_primitives: bool = False,
-        interruption: bool = False,
-        option_bonus: float = 0.0,
-        option_bonus_episodes: int = 1,
-        bootstrap_on_truncation: bool = False,
-        initial_value: float = 0.0,
-        option_initial_value: float | None = None,
-        trace_decay: float = 0.0,
         seed: int | np.random.Generator | None = None,
-        max_decisions: int = 100_000,
     ) -> None:
         if not isinstance(tile_coder, TileCoder):
             raise TypeError(f"tile_coder must be a TileCoder, got {type(tile_coder).__name__}")
-        settings = {
-            "alpha": alpha, "epsilon": epsilon, "gamma": gamma, "method": method,
-            "intra_option": intra_option, "intra_option_primitives": intra_option_primitives,
-            "interruption": interruption, "option_bonus": option_bonus,
-            "option_bonus_episodes": option_bonus_episodes,
-            "bootstrap_on_truncation": bootstrap_on_truncation,
-            "initial_value": initial_value, "option_initial_value": option_initial_value,
-            "trace_decay": trace_decay, "max_decisions": max_decisions,
-        }
-        check_fields("SmdpLearner", settings, SMDP_CONSTRAINTS, dict.get)
+        config = LearnerConfig() if config is None else config
+        if not isinstance(config, LearnerConfig):
+            raise TypeError(f"config must be a LearnerConfig, got {type(config).__name__}")
         if library is not None:
             if not isinstance(library, OptionLibrary):
                 raise TypeError("library must be an OptionLibrary")
@@ -230,28 +277,18 @@ class SmdpLearner(EpisodicLearner):
                     f"expected {n_primitive}"
                 )
         option_ids = () if library is None else tuple(int(o) for o in library.option_ids)
-        self.q = LinearPolicy(tile_coder, n_primitive, option_ids, initial_value=initial_value)
-        if option_initial_value is not None:
-            self.q.weights[n_primitive:] = option_initial_value / tile_coder.n_active
+        self.q = LinearPolicy(tile_coder, n_primitive, option_ids,
+                              initial_value=config.initial_value)
+        if config.option_initial_value is not None:
+            self.q.weights[n_primitive:] = config.option_initial_value / tile_coder.n_active
+        self.config = config
         self.tile_coder = tile_coder
         self.library = library
         self.n_primitive = int(n_primitive)
-        self.alpha = float(alpha)
-        self.epsilon = float(epsilon)
-        self.gamma = float(gamma)
-        self.method = method
-        self.intra_option = bool(intra_option)
-        self.intra_option_primitives = bool(intra_option_primitives)
-        self.interruption = bool(interruption)
-        self.option_bonus = float(option_bonus)
-        self.option_bonus_episodes = int(option_bonus_episodes)
         self.learning_episodes = 0  # learning episodes run so far: the bonus's clock
         self._bonus = 0.0  # the options' bonus in the running episode
-        self.bootstrap_on_truncation = bool(bootstrap_on_truncation)
-        self.trace_decay = float(trace_decay)
-        self.max_decisions = int(max_decisions)
         self.rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-        self._step = self.alpha / tile_coder.n_active
+        self._step = config.alpha / tile_coder.n_active
         self._lib_version: tuple[int, int] | None = None
         self._lib_pos = np.zeros(0, dtype=np.int64)
         self._lib_ok = np.zeros(0, dtype=bool)
@@ -263,7 +300,9 @@ class SmdpLearner(EpisodicLearner):
         cls,
         policy: FrozenPolicy | LinearPolicy,
         library: OptionLibrary | None = None,
-        **kwargs: Any,
+        config: LearnerConfig | None = None,
+        *,
+        seed: int | np.random.Generator | None = None,
     ) -> SmdpLearner:
         """A learner that starts from ``policy``'s weights and option ids.
 
@@ -272,7 +311,7 @@ class SmdpLearner(EpisodicLearner):
         """
         if policy.option_ids and library is None:
             raise ValueError("this policy chooses options; pass the library that issued them")
-        learner = cls(policy.n_primitive, policy.tile_coder, library, **kwargs)
+        learner = cls(policy.n_primitive, policy.tile_coder, library, config, seed=seed)
         if library is not None:
             for oid in policy.option_ids:
                 library.policy_of(oid)  # KeyError for ids the library never issued
@@ -343,9 +382,9 @@ class SmdpLearner(EpisodicLearner):
 
     def option_bonus_at(self, episode: int) -> float:
         """The options' bonus in learning episode ``episode`` (0-based) of this learner."""
-        if not self.option_bonus or not self.option_ids:
+        if not self.config.option_bonus or not self.option_ids:
             return 0.0
-        return self.option_bonus * max(0.0, 1.0 - episode / self.option_bonus_episodes)
+        return self.config.option_bonus * max(0.0, 1.0 - episode / self.config.option_bonus_episodes)
 
     def _behaviour_values(self, q: np.ndarray) -> np.ndarray:
         """The values the learner chooses by: the options' with this episode's bonus."""
@@ -359,7 +398,7 @@ class SmdpLearner(EpisodicLearner):
         return epsilon_greedy_choice(self._behaviour_values(q), self.rng, epsilon, mask)
 
     def _bootstrap(self, q: np.ndarray, mask: np.ndarray, choice: int) -> float:
-        if self.method != "q":
+        if self.config.method != "q":
             return float(q[choice])
         if not self._bonus:
             return float(np.max(np.where(mask, q, -np.inf)))
@@ -388,7 +427,7 @@ class SmdpLearner(EpisodicLearner):
             if self.option_ids:
                 assert lib is not None
                 cont = lib.continuation_probabilities(lib.membership(next_state))[self._lib_pos]
-        disc = self.gamma**duration
+        disc = self.config.gamma**duration
         targets: dict[int, float] = {}
         if action != running:
             if q_next is None:
@@ -398,7 +437,7 @@ class SmdpLearner(EpisodicLearner):
                 targets[action] = reward + disc * self._bootstrap(q_next, every, action)
             else:
                 targets[action] = reward + disc * float(q_next.max())
-        if self.intra_option and self.option_ids and m is not None:
+        if self.config.intra_option and self.option_ids and m is not None:
             assert lib is not None
             tiles = {self.tile_coder: s_active}
             inside = lib.memberships(m)[self._lib_pos] > 0.0
@@ -452,15 +491,15 @@ class SmdpLearner(EpisodicLearner):
         """
         n_features = self.tile_coder.n_features
         check_env(env, self.n_primitive, n_features)
-        epsilon = self.epsilon if (learn if explore is None else explore) else 0.0
+        epsilon = self.config.epsilon if (learn if explore is None else explore) else 0.0
         self._bonus = self.option_bonus_at(self.learning_episodes) if learn else 0.0
         if learn:
             self.learning_episodes += 1
         obs, _ = env.reset(seed=seed)
         s = observation(obs, n_features)
-        log = EpisodeLog(self.gamma, n_features, self.max_decisions)
+        log = EpisodeLog(self.config.gamma, n_features, self.config.max_decisions)
         # One eligibility per weight, only when lambda > 0.
-        traces = ReplacingTraces(self.q) if self.trace_decay > 0.0 else None
+        traces = ReplacingTraces(self.q) if self.config.trace_decay > 0.0 else None
         active = self.tile_coder.active(s)
         mask, m = self._choice_mask(s)
         choice, explored = self._choose(self._choice_values(active, mask), mask, epsilon)
@@ -477,8 +516,8 @@ class SmdpLearner(EpisodicLearner):
             if learn:
                 target = end.ret + end.disc * self._bootstrap(q, mask, next_choice)
                 # Watkins's Q(lambda): an exploratory choice cuts the traces.
-                cut = self.method == "q" and explored
-                self._td_update(traces, active, choice, target, end.disc * self.trace_decay, cut)
+                cut = self.config.method == "q" and explored
+                self._td_update(traces, active, choice, target, end.disc * self.config.trace_decay, cut)
             if end.ended:  # a truncation bootstrapped from its last state
                 break
             s, active, choice = end.state, end.active, next_choice
@@ -517,14 +556,14 @@ class SmdpLearner(EpisodicLearner):
             reward = float(reward)
             d = step_duration(info)
             ended = bool(terminated or truncated)
-            bootstrap_end = bool(truncated and not terminated and self.bootstrap_on_truncation)
+            bootstrap_end = bool(truncated and not terminated and self.config.bootstrap_on_truncation)
             next_s = observation(obs, s.shape[0]) if (not ended or bootstrap_end) else None
             if learn and (
-                self.intra_option or (self.intra_option_primitives and option_id is not None)
+                self.config.intra_option or (self.config.intra_option_primitives and option_id is not None)
             ):
                 self._intra_option_update(active, s, m, action, choice, reward, d, next_s)
             ret += disc * reward
-            disc *= self.gamma**d
+            disc *= self.config.gamma**d
             log.step(obs, reward, d, terminated, truncated, info)
             run_cycles += d
             if ended:
@@ -537,7 +576,7 @@ class SmdpLearner(EpisodicLearner):
             m = lib.membership(s)  # type: ignore[union-attr]
             if not lib.continues(option_id, s, self.rng, membership=m):  # type: ignore[union-attr]
                 break
-            if self.interruption:
+            if self.config.interruption:
                 q_here = self.q.q_from_tiles(active)
                 if q_here[: self.n_primitive].max() > q_here[choice] + self._bonus:
                     interrupted = True
@@ -566,7 +605,7 @@ class SmdpLearner(EpisodicLearner):
         except DivergedError as exc:
             raise DivergedError(
                 f"SMDP learning diverged in learning episode {self.learning_episodes}: {exc}; "
-                f"the step size (alpha={self.alpha:g}) or the initial values are too large "
+                f"the step size (alpha={self.config.alpha:g}) or the initial values are too large "
                 "for this environment's rewards (LearnerConfig.alpha, .initial_value, "
                 ".option_initial_value)"
             ) from None

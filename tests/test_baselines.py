@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -18,13 +19,16 @@ from synthetic_smdp import (
     zone,
 )
 
-from ilpss.baselines import PrqLearner
+from ilpss.baselines import PrqConfig, PrqLearner
 from ilpss.policy import FrozenPolicy
-from ilpss.smdp import EpisodeResult
+from ilpss.smdp import EpisodeResult, LearnerConfig
 from ilpss.tiles import TileCoder
 
 GAMMA = 0.9
 Z999 = 3.29
+
+ONE_STEP = LearnerConfig(trace_decay=0.0, initial_value=0.0)
+"""The paper's PRQ base learner: one-step Q-learning from values 0."""
 
 
 def cell_coder() -> TileCoder:
@@ -81,13 +85,11 @@ def test_optimal_past_policy_is_reused_and_speeds_up_learning() -> None:
     n_early = 50
     diffs = []
     for seed in seeds:
-        prq = PrqLearner(
-            3, cell_coder(), [zone_policy(FAST)], gamma=GAMMA, initial_value=1.0, seed=seed
-        )
+        prq = PrqLearner(3, cell_coder(), [zone_policy(FAST)], config=LearnerConfig(trace_decay=0.0, initial_value=1.0, gamma=GAMMA), seed=seed)
         p0 = prq.selection_probabilities()
         np.testing.assert_allclose(p0, [0.5, 0.5])  # tau0 = 0: uniform at first
         curve = prq.train(ZoneCorridor(), 300, seed=100 + seed)
-        scratch = PrqLearner(3, cell_coder(), [], gamma=GAMMA, initial_value=1.0, seed=seed)
+        scratch = PrqLearner(3, cell_coder(), [], config=LearnerConfig(trace_decay=0.0, initial_value=1.0, gamma=GAMMA), seed=seed)
         base = scratch.train(ZoneCorridor(), n_early, seed=100 + seed)
         diffs.append(mean_reward(curve[:n_early]) - mean_reward(base))
         # Its gain exceeds that of the new policy, so its probability grows to ~1.
@@ -103,9 +105,7 @@ def test_optimal_past_policy_is_reused_and_speeds_up_learning() -> None:
 
 def test_bad_past_policy_is_abandoned_and_the_optimum_learnt() -> None:
     for seed in range(3):
-        prq = PrqLearner(
-            3, cell_coder(), [zone_policy(FATAL)], gamma=GAMMA, initial_value=1.0, seed=seed
-        )
+        prq = PrqLearner(3, cell_coder(), [zone_policy(FATAL)], config=LearnerConfig(trace_decay=0.0, initial_value=1.0, gamma=GAMMA), seed=seed)
         curve = prq.train(ZoneCorridor(), 1500, seed=200 + seed)
         reused = np.array(prq.reused)
         # psi_0 = 1: every reuse episode starts with the fatal action.
@@ -140,17 +140,7 @@ def test_pi_reuse_follows_the_past_policy_with_decaying_probability() -> None:
     H, psi, upsilon = 30, 0.8, 0.9
     coder = chain_coder(H)
     env = ScriptedChain([0.0] * (H - 1) + [1.0], [1] * H)
-    prq = PrqLearner(
-        3,
-        coder,
-        [constant_policy(2, coder=coder)],
-        alpha=0.01,  # slow: Q(s, 2) stays below Q(s, 1) = 1 (no ties)
-        epsilon=0.0,
-        psi=psi,
-        upsilon=upsilon,
-        delta_tau=0.0,  # tau stays 0: each policy half of the time
-        seed=5,
-    )
+    prq = PrqLearner(3, coder, [constant_policy(2, coder=coder)], config=replace(ONE_STEP, alpha=0.01, epsilon=0.0), reuse=PrqConfig(psi=psi, upsilon=upsilon, delta_tau=0.0), seed=5)
     prq.q.weights[1] = 1.0 / coder.n_active
     hits = np.zeros(H, dtype=np.int64)
     n_reuse = 0
@@ -182,7 +172,7 @@ def test_policy_choice_follows_the_softmax_of_the_gains() -> None:
     coder = chain_coder(1)
     env = ScriptedChain([0.5], [1])
     past = [constant_policy(a, coder=coder) for a in (0, 1)]
-    prq = PrqLearner(3, coder, past, tau0=2.0, delta_tau=0.0, seed=3)
+    prq = PrqLearner(3, coder, past, config=ONE_STEP, reuse=PrqConfig(tau0=2.0, delta_tau=0.0), seed=3)
     prq.reuse_gains[:] = [0.5, -0.3, 0.1]
     prq.reuse_counts[:] = 10**12
     expected = np.exp(2.0 * prq.reuse_gains)
@@ -200,9 +190,7 @@ def test_policy_choice_follows_the_softmax_of_the_gains() -> None:
 
 
 def test_gains_counts_and_tau_follow_the_update_rule() -> None:
-    prq = PrqLearner(
-        3, cell_coder(), [zone_policy(FAST), zone_policy(FATAL)], gamma=GAMMA, tau0=0.5, seed=1
-    )
+    prq = PrqLearner(3, cell_coder(), [zone_policy(FAST), zone_policy(FATAL)], config=replace(ONE_STEP, gamma=GAMMA), reuse=PrqConfig(tau0=0.5), seed=1)
     curve = prq.train(ZoneCorridor(), 200, seed=3)
     reused = np.array(prq.reused)
     rewards = np.array([r.total_reward for r in curve])
@@ -220,18 +208,7 @@ def test_q_learning_update_with_durations_in_a_reuse_episode() -> None:
     env = ScriptedChain(rewards, durations)
     coder = chain_coder(3)
     alpha, gamma = 0.5, 0.8
-    prq = PrqLearner(
-        3,
-        coder,
-        [constant_policy(2, coder=coder)],
-        alpha=alpha,
-        epsilon=0.0,
-        gamma=gamma,
-        psi=1.0,
-        upsilon=1.0,  # always follow the past policy
-        tau0=50.0,
-        seed=0,
-    )
+    prq = PrqLearner(3, coder, [constant_policy(2, coder=coder)], config=replace(ONE_STEP, alpha=alpha, epsilon=0.0, gamma=gamma), reuse=PrqConfig(psi=1.0, upsilon=1.0, tau0=50.0), seed=0)
     prq.reuse_gains[0] = 1.0  # P(reuse) = 1 - 1e-22
     a1 = coder.active([1.0])
     a2 = coder.active([2.0])
@@ -254,15 +231,7 @@ def test_q_learning_update_with_durations_in_a_reuse_episode() -> None:
 
 # ------------------------------------------------------------------ API behaviour
 def _curve(seed: int) -> tuple[list[float], list[int], np.ndarray, np.ndarray]:
-    prq = PrqLearner(
-        3,
-        cell_coder(),
-        [zone_policy(FAST), zone_policy(FATAL)],
-        gamma=GAMMA,
-        epsilon=0.1,
-        psi=0.9,
-        seed=seed,
-    )
+    prq = PrqLearner(3, cell_coder(), [zone_policy(FAST), zone_policy(FATAL)], config=replace(ONE_STEP, gamma=GAMMA, epsilon=0.1), reuse=PrqConfig(psi=0.9), seed=seed)
     results = prq.train(ZoneCorridor(), 150, seed=21)
     return [r.total_reward for r in results], prq.reused, prq.q.weights.copy(), prq.reuse_gains
 
@@ -279,7 +248,7 @@ def test_same_seed_same_learning_curve() -> None:
 
 def test_evaluation_reuses_nothing_and_changes_no_gain() -> None:
     """(Greedy and leaving Q alone: tests/test_episode.py, for every learner.)"""
-    prq = PrqLearner(3, cell_coder(), [zone_policy(FAST)], gamma=GAMMA, epsilon=0.5, seed=0)
+    prq = PrqLearner(3, cell_coder(), [zone_policy(FAST)], config=replace(ONE_STEP, gamma=GAMMA, epsilon=0.5), seed=0)
     prq.train(ZoneCorridor(), 30, seed=1)
     state = (prq.reuse_gains.copy(), prq.reuse_counts.copy(), prq.tau)
     results = prq.evaluate(ZoneCorridor(), 20, seed=2)
@@ -291,12 +260,12 @@ def test_evaluation_reuses_nothing_and_changes_no_gain() -> None:
 
 
 def test_frozen_policy_can_join_the_next_library() -> None:
-    prq = PrqLearner(3, cell_coder(), [], gamma=GAMMA, initial_value=1.0, seed=0)
+    prq = PrqLearner(3, cell_coder(), [], config=LearnerConfig(trace_decay=0.0, initial_value=1.0, gamma=GAMMA), seed=0)
     prq.train(ZoneCorridor(), 200, seed=0)
     frozen = prq.freeze()
     assert isinstance(frozen, FrozenPolicy) and frozen.option_ids == ()
     np.testing.assert_array_equal(frozen.weights, prq.q.weights)
-    nxt = PrqLearner(3, cell_coder(), [frozen, prq.q], seed=1)  # a LinearPolicy is frozen
+    nxt = PrqLearner(3, cell_coder(), [frozen, prq.q], config=ONE_STEP, seed=1)  # a LinearPolicy is frozen
     assert all(isinstance(p, FrozenPolicy) for p in nxt.past_policies)
     assert nxt.reuse_gains.shape == (3,) and "n_past=2" in repr(nxt)
 
@@ -311,26 +280,26 @@ def test_frozen_policy_can_join_the_next_library() -> None:
         ({"tau0": -1.0}, ValueError, "tau0"),
         ({"tau0": float("inf")}, ValueError, "tau0"),
         ({"delta_tau": -0.05}, ValueError, "delta_tau"),
-        ({"delta_tau": "0.1"}, ValueError, r"PrqLearner.delta_tau must be a finite number >= 0"),
-        ({"psi": True}, ValueError, r"PrqLearner.psi must be a finite number in \[0, 1\], got True"),
+        ({"delta_tau": "0.1"}, ValueError, r"PrqConfig.delta_tau must be a finite number >= 0"),
+        ({"psi": True}, ValueError, r"PrqConfig.psi must be a finite number in \[0, 1\], got True"),
     ],
 )
 def test_bad_hyper_parameters(kwargs: dict, error: type, match: str) -> None:
     with pytest.raises(error, match=match):
-        PrqLearner(3, cell_coder(), [], **kwargs)
+        PrqConfig(**kwargs)
 
 
 def test_bad_past_policies() -> None:
     coder = cell_coder()
     with pytest.raises(TypeError, match="TileCoder"):
-        PrqLearner(3, None, [])  # type: ignore[arg-type]
+        PrqLearner(3, None, [], config=ONE_STEP)  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="options"):
-        PrqLearner(3, coder, [constant_policy(0, option_ids=(4,), coder=coder)])
+        PrqLearner(3, coder, [constant_policy(0, option_ids=(4,), coder=coder)], config=ONE_STEP)
     with pytest.raises(ValueError, match="tile coder"):
-        PrqLearner(3, coder, [zone_policy(FAST), constant_policy(0, coder=corridor_coder())])
+        PrqLearner(3, coder, [zone_policy(FAST), constant_policy(0, coder=corridor_coder())], config=ONE_STEP)
     with pytest.raises(ValueError, match="primitive"):
-        PrqLearner(3, coder, [constant_policy(0, n_primitive=4, coder=coder)])
+        PrqLearner(3, coder, [constant_policy(0, n_primitive=4, coder=coder)], config=ONE_STEP)
     with pytest.raises(TypeError, match="FrozenPolicy"):
-        PrqLearner(3, coder, [np.zeros((3, coder.n_weights))])  # type: ignore[list-item]
+        PrqLearner(3, coder, [np.zeros((3, coder.n_weights))], config=ONE_STEP)  # type: ignore[list-item]
     with pytest.raises(TypeError, match="sequence"):
-        PrqLearner(3, coder, zone_policy(FAST))  # type: ignore[arg-type]
+        PrqLearner(3, coder, zone_policy(FAST), config=ONE_STEP)  # type: ignore[arg-type]

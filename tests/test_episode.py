@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 from synthetic_smdp import FAST, NoDurationEnv, ZoneCorridor, zone
 
-from ilpss.baselines import PrqLearner
+from ilpss.baselines import PrqConfig, PrqLearner
 from ilpss.episode import EpisodeLog, EpisodicLearner, check_env, observation, step_duration
 from ilpss.policy import FrozenPolicy
-from ilpss.smdp import SmdpLearner
+from ilpss.smdp import LearnerConfig, SmdpLearner
 from ilpss.tiles import TileCoder
 
 GAMMA = 0.9
@@ -33,10 +33,16 @@ def fast_policy() -> FrozenPolicy:
     return FrozenPolicy(c, 3, (), w)
 
 
+def _config(settings: dict) -> LearnerConfig:
+    """One-step Q-learning from values 0, with ``settings`` changed."""
+    return LearnerConfig(**{"method": "q", "trace_decay": 0.0, "initial_value": 0.0, **settings})
+
+
 LEARNERS = {
-    "smdp": lambda **kw: SmdpLearner(3, coder(), method="q", **kw),
-    "prq": lambda **kw: PrqLearner(3, coder(), [], **kw),
-    "prq_reusing": lambda **kw: PrqLearner(3, coder(), [fast_policy()], psi=0.9, **kw),
+    "smdp": lambda seed=None, **kw: SmdpLearner(3, coder(), None, _config(kw), seed=seed),
+    "prq": lambda seed=None, **kw: PrqLearner(3, coder(), [], _config(kw), seed=seed),
+    "prq_reusing": lambda seed=None, **kw: PrqLearner(3, coder(), [fast_policy()], _config(kw),
+                                                      PrqConfig(psi=0.9), seed=seed),
 }
 learners = pytest.mark.parametrize("kind", sorted(LEARNERS))
 
@@ -203,7 +209,7 @@ def test_bad_environments_and_arguments_are_refused(kind) -> None:
             capped.run_episode(ZoneCorridor(start_high=0.5), learn, seed=0)
     for name, value in (("alpha", 0.0), ("epsilon", 2.0), ("gamma", 1.5),
                         ("max_decisions", 0), ("initial_value", np.nan)):
-        with pytest.raises(ValueError, match=rf"Learner.{name} must be"):
+        with pytest.raises(ValueError, match=rf"LearnerConfig.{name} must be"):
             make(kind, **{name: value})
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Iterator
+from dataclasses import replace
 
 import pytest
 from synthetic_smdp import ZoneCorridor
@@ -68,8 +69,8 @@ class _LearnAnewPerTarget(Method):
         for t in job.targets:
             env = make_env(job.cfg.env_id, job.stream.tasks[t])
             learner_seed, env_seed, _, _ = trial_seeds(job.seed, t)
-            learner = SmdpLearner(3, lc.tile_coder(env.observation_space), seed=learner_seed,
-                                  **lc.smdp_kwargs())
+            learner = SmdpLearner(3, lc.tile_coder(env.observation_space), None, lc,
+                                  seed=learner_seed)
             results = learner.train(env, job.cfg.lifelong.train_episodes, seed=env_seed)
             curves[str(t)] = [r.total_reward for r in results]
         return {"curves": curves}
@@ -151,15 +152,9 @@ def test_a_new_team_is_taken_by_name(tmp_path) -> None:
 def test_every_setting_is_declared_once_and_reaches_its_user() -> None:
     from ilpss.baselines import PRQ_CONSTRAINTS, PrqConfig, PrqLearner
     from ilpss.kernels import KERNEL_CONSTRAINTS
-    from ilpss.lifelong import (
-        LEARNER_CONSTRAINTS,
-        LIFELONG_CONSTRAINTS,
-        LearnerConfig,
-        LifelongConfig,
-        LifelongLearner,
-    )
+    from ilpss.lifelong import LIFELONG_CONSTRAINTS, LifelongConfig, LifelongLearner
     from ilpss.options import OPTION_CONSTRAINTS, OptionSettings
-    from ilpss.smdp import SMDP_CONSTRAINTS, SmdpLearner
+    from ilpss.smdp import LEARNER_CONSTRAINTS, SMDP_CONSTRAINTS, LearnerConfig, SmdpLearner
     from ilpss.tiles import TILE_CONSTRAINTS
 
     nested = {"lifelong", "prq", "library", "learner"}
@@ -184,14 +179,13 @@ def test_every_setting_is_declared_once_and_reaches_its_user() -> None:
     env = ZoneCorridor()
     coder = lc.tile_coder(env.observation_space)
     assert (coder.n_tilings, coder.widths.tolist()) == (4, [0.5])
-    smdp = SmdpLearner(3, coder, **lc.smdp_kwargs())
-    for name in lc.smdp_kwargs():
-        assert getattr(smdp, name, getattr(lc, name)) == getattr(lc, name)
-    prq = PrqLearner(3, coder, [], **PrqConfig(psi=0.5, upsilon=0.8, tau0=0.1,
-                                                delta_tau=0.2).learner_kwargs(lc.trace_decay))
-    assert (prq.psi, prq.upsilon, prq.tau0, prq.delta_tau) == (0.5, 0.8, 0.1, 0.2)
+    smdp = SmdpLearner(3, coder, None, lc)
+    assert smdp.config is lc  # the whole object, not its fields copied one by one
+    reuse = PrqConfig(psi=0.5, upsilon=0.8, tau0=0.1, delta_tau=0.2)
+    prq = PrqLearner(3, coder, [], replace(lc, method="q"), reuse)
+    assert prq.reuse is reuse and prq.config == replace(lc, method="q")
     assert prq.trace_decay == lc.trace_decay  # the same base learner, unless told otherwise
-    assert PrqConfig(trace_decay=0.0).learner_kwargs(0.9)["trace_decay"] == 0.0
+    assert PrqConfig(trace_decay=0.0).trace_decay_for(lc) == 0.0
     settings = OptionSettings(discount=0.25, max_depth=2, continuation_exponent=0.5)
     cfg = LifelongConfig(library=settings, learner=lc, options="whole_policies",
                          train_episodes=2, rollout_episodes=1)

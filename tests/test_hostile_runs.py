@@ -23,6 +23,7 @@ from ilpss import _io
 from ilpss._io import locked_folder
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.run import JobError, read_config, run_experiment
+from ilpss.smdp import KEEPAWAY
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -457,7 +458,7 @@ def test_learning_that_diverges_stops_at_once_naming_the_settings():
 
     env = Overflowing(cost=0.05, n_features=2)
     coder = TileCoder.from_space(env.observation_space, np.array([1.0, 0.5]), 4)
-    learner = SmdpLearner(3, coder, None, seed=0)
+    learner = SmdpLearner(3, coder, None, config=KEEPAWAY, seed=0)
     with pytest.raises(DivergedError, match=r"SMDP learning diverged in learning episode 1: a "
                                             r"TD target of -?inf .*alpha=0.125"):
         learner.train(env, 3, seed=0)

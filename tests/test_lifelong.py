@@ -144,7 +144,6 @@ def test_tiny_loop_on_the_drill():
 
 def test_every_learner_setting_reaches_the_smdp_learner() -> None:
     """A new LearnerConfig field must be wired to SmdpLearner (or be a tile setting)."""
-    from dataclasses import fields
 
     from ilpss.lifelong import LearnerConfig
     from ilpss.smdp import SmdpLearner
@@ -152,8 +151,6 @@ def test_every_learner_setting_reaches_the_smdp_learner() -> None:
 
     lc = LearnerConfig(alpha=0.05, method="sarsa", trace_decay=0.5, initial_value=0.5,
                        option_initial_value=0.25)
-    kwargs = lc.smdp_kwargs()
-    assert set(kwargs) == {f.name for f in fields(LearnerConfig)} - {"n_tilings", "tile_widths"}
-    learner = SmdpLearner(3, TileCoder([0.0], [1.0], [0.5]), **kwargs)
-    assert (learner.alpha, learner.method, learner.trace_decay) == (0.05, "sarsa", 0.5)
+    learner = SmdpLearner(3, TileCoder([0.0], [1.0], [0.5]), None, lc)
+    assert learner.config is lc
     assert learner.q.q_values([0.3])[0] == pytest.approx(0.5)

@@ -6,6 +6,8 @@ answers that each does what its docstring claims.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from synthetic_smdp import (
@@ -19,7 +21,7 @@ from synthetic_smdp import (
 from ilpss.baselines import PrqLearner
 from ilpss.episode import EpisodeResult, OptionRun, options_used
 from ilpss.options import OptionLibrary
-from ilpss.smdp import SmdpLearner
+from ilpss.smdp import KEEPAWAY, LearnerConfig, SmdpLearner
 from ilpss.tiles import TileCoder
 
 
@@ -48,7 +50,7 @@ def _everywhere_option(length: int, action: int = 2):
 def test_interruption_stops_an_option_where_a_primitive_is_worth_more(interruption: bool):
     length = 6
     coder, lib = _everywhere_option(length)
-    learner = SmdpLearner(3, coder, lib, epsilon=0.0, interruption=interruption, seed=0)
+    learner = SmdpLearner(3, coder, lib, config=replace(KEEPAWAY, epsilon=0.0, interruption=interruption), seed=0)
     for x in range(length):
         set_q(learner, x, 3, 1.0)  # the option is worth 1 everywhere ...
     set_q(learner, 3.0, 0, 2.0)  # ... but HOLD is worth more at x = 3
@@ -68,9 +70,8 @@ def test_primitives_learn_from_the_steps_of_a_running_option():
     length, alpha = 4, 0.5
     coder, lib = _everywhere_option(length, action=2)
     rewards = [0.0, 0.0, 0.0, 1.0]
-    plain = SmdpLearner(3, coder, lib, alpha=alpha, epsilon=0.0, seed=0)
-    learner = SmdpLearner(3, coder, lib, alpha=alpha, epsilon=0.0, seed=0,
-                          intra_option_primitives=True)
+    plain = SmdpLearner(3, coder, lib, config=replace(KEEPAWAY, alpha=alpha, epsilon=0.0), seed=0)
+    learner = SmdpLearner(3, coder, lib, config=replace(KEEPAWAY, alpha=alpha, epsilon=0.0, intra_option_primitives=True), seed=0)
     for lrn in (plain, learner):
         set_q(lrn, 0.0, 3, 1.0)  # the option is chosen at the start and runs to the end
         lrn.run_episode(ScriptedChain(rewards, [1] * length))
@@ -88,17 +89,16 @@ def test_primitives_learn_from_the_steps_of_a_running_option():
 # --------------------------------------------------------------- option bonus
 def test_option_bonus_fades_linearly_over_the_learning_episodes():
     _, lib = _everywhere_option(3)
-    learner = SmdpLearner(3, chain_coder(3), lib, option_bonus=1.5, option_bonus_episodes=4)
+    learner = SmdpLearner(3, chain_coder(3), lib, config=replace(KEEPAWAY, option_bonus=1.5, option_bonus_episodes=4))
     assert [learner.option_bonus_at(e) for e in range(6)] == [1.5, 1.125, 0.75, 0.375, 0.0, 0.0]
-    without_options = SmdpLearner(3, chain_coder(3), option_bonus=1.5, option_bonus_episodes=4)
+    without_options = SmdpLearner(3, chain_coder(3), config=replace(KEEPAWAY, option_bonus=1.5, option_bonus_episodes=4))
     assert without_options.option_bonus_at(0) == 0.0
 
 
 def test_option_bonus_makes_the_learner_follow_options_first_then_hand_back():
     length = 3
     coder, lib = _everywhere_option(length, action=2)
-    learner = SmdpLearner(3, coder, lib, epsilon=0.0, alpha=1e-9, seed=0,
-                          option_bonus=1.0, option_bonus_episodes=2)
+    learner = SmdpLearner(3, coder, lib, config=replace(KEEPAWAY, epsilon=0.0, alpha=1e-9, option_bonus=1.0, option_bonus_episodes=2), seed=0)
     for x in range(length):
         set_q(learner, x, 0, 0.8)  # HOLD is worth more than the option ...
         set_q(learner, x, 3, 0.5)  # ... but by less than the bonus
@@ -107,8 +107,7 @@ def test_option_bonus_makes_the_learner_follow_options_first_then_hand_back():
     learner.run_episode(ScriptedChain([0.0] * length, [1] * length))  # bonus 0.5 > 0.3
     third = learner.run_episode(ScriptedChain([0.0] * length, [1] * length))  # bonus 0
     assert third.options_chosen == [] and third.choices == [0] * length
-    rollout = SmdpLearner(3, coder, lib, epsilon=0.0, option_bonus=1.0,
-                          option_bonus_episodes=10, seed=0)
+    rollout = SmdpLearner(3, coder, lib, config=replace(KEEPAWAY, epsilon=0.0, option_bonus=1.0, option_bonus_episodes=10), seed=0)
     rollout.q.weights[:] = learner.q.weights
     assert rollout.run_episode(ScriptedChain([0.0] * length, [1] * length),
                                learn=False).options_chosen == []  # no bonus when not learning
@@ -122,8 +121,7 @@ def test_with_a_bonus_the_target_is_the_value_of_the_bonus_greedy_choice():
     model = FunctionKernels([lambda s: 1.0 if s[0] >= 1 else 0.0], [[1.0]], [[[1.0]]])
     lib = OptionLibrary(model, [constant_policy(2, coder=coder)])
     alpha = 0.5
-    learner = SmdpLearner(3, coder, lib, alpha=alpha, epsilon=0.0, method="q", seed=0,
-                          option_bonus=1.0, option_bonus_episodes=100)
+    learner = SmdpLearner(3, coder, lib, config=LearnerConfig(method="q", trace_decay=0.0, initial_value=0.0, alpha=alpha, epsilon=0.0, option_bonus=1.0, option_bonus_episodes=100), seed=0)
     set_q(learner, 0.0, 0, 0.1)  # HOLD is greedy at x = 0 (the option cannot start there)
     set_q(learner, 1.0, 2, 0.6)  # raw values at x = 1: DRIBBLE 0.6, the option 0.2
     set_q(learner, 1.0, 3, 0.2)  # with the bonus the option is chosen (1.2 > 0.6)
@@ -154,13 +152,13 @@ def _corridor_coder() -> TileCoder:
 
 
 def test_prq_with_traces_on_an_empty_library_is_watkins_q_lambda():
-    kw = {"gamma": 0.9, "epsilon": 0.1, "initial_value": 1.0, "trace_decay": 0.8, "seed": 4}
-    prq = PrqLearner(3, _corridor_coder(), [], **kw)
-    smdp = SmdpLearner(3, _corridor_coder(), method="q", **kw)
+    lc = LearnerConfig(gamma=0.9, epsilon=0.1, initial_value=1.0, trace_decay=0.8)
+    prq = PrqLearner(3, _corridor_coder(), [], lc, seed=4)
+    smdp = SmdpLearner(3, _corridor_coder(), None, lc, seed=4)
     a = prq.train(ZoneCorridor(), 200, seed=8)
     b = smdp.train(ZoneCorridor(), 200, seed=8)
     assert [r.choices for r in a] == [r.choices for r in b]
     np.testing.assert_array_equal(prq.q.weights, smdp.q.weights)
-    one_step = PrqLearner(3, _corridor_coder(), [], **{**kw, "trace_decay": 0.0})
+    one_step = PrqLearner(3, _corridor_coder(), [], replace(lc, trace_decay=0.0), seed=4)
     one_step.train(ZoneCorridor(), 200, seed=8)
     assert not np.array_equal(one_step.q.weights, prq.q.weights)

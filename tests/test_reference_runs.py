@@ -91,7 +91,7 @@ def _corridors() -> list[ZoneCorridor]:
 
 def synthetic_run(root: Path) -> tuple[dict[str, Any], int]:
     """Every method on four corridors; also the longest pointer chain that was followed."""
-    from ilpss.baselines import PrqLearner
+    from ilpss.baselines import PrqConfig, PrqLearner
     from ilpss.experiments.methods import METHODS
     from ilpss.lifelong import LearnerConfig, LifelongConfig, LifelongLearner, trial_seeds
     from ilpss.options import OptionLibrary
@@ -133,9 +133,8 @@ def synthetic_run(root: Path) -> tuple[dict[str, Any], int]:
         learner_seed, env_seed, _, _ = trial_seeds(11, t)
         lc = base.learner
         prq = PrqLearner(scratch.n_primitive, scratch.tile_coder, scratch.policies[:t],
-                         alpha=lc.alpha, epsilon=lc.epsilon, gamma=lc.gamma,
-                         initial_value=lc.initial_value, psi=1.0, upsilon=0.9,
-                         delta_tau=0.1, seed=learner_seed)
+                         replace(lc, trace_decay=0.0),
+                         PrqConfig(psi=1.0, upsilon=0.9, delta_tau=0.1), seed=learner_seed)
         results = prq.train(_corridors()[t], base.train_episodes, seed=env_seed)
         rollouts = prq.evaluate(_corridors()[t], 3, seed=env_seed + 1)
         prq_curves[str(t)] = [r.total_reward for r in results]

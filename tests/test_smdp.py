@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from synthetic_smdp import (
@@ -18,7 +20,7 @@ from synthetic_smdp import (
 )
 
 from ilpss.options import OptionLibrary, OptionSettings
-from ilpss.smdp import EpisodeResult, SmdpLearner, options_used
+from ilpss.smdp import KEEPAWAY, EpisodeResult, LearnerConfig, SmdpLearner, options_used
 from ilpss.tiles import TileCoder
 
 GAMMA = 0.9
@@ -67,9 +69,7 @@ def set_q(learner: SmdpLearner, x: float, choice: int, value: float) -> None:
 @pytest.mark.parametrize("method", ["sarsa", "q"])
 def test_converges_to_the_optimal_policy_without_options(method: str) -> None:
     env = ZoneCorridor()
-    learner = SmdpLearner(
-        3, corridor_coder(), gamma=GAMMA, method=method, initial_value=1.0, seed=0
-    )
+    learner = SmdpLearner(3, corridor_coder(), config=LearnerConfig(method=method, trace_decay=0.0, initial_value=1.0, gamma=GAMMA), seed=0)
     curve = learner.train(env, 2000, seed=10)
     rng = np.random.default_rng(0)
     assert all(greedy_primitive(learner, x, rng) == optimal_action(x) for x in interior_points())
@@ -94,7 +94,7 @@ def test_durations_are_discounted_per_cycle() -> None:
     is shared by both methods and checked exactly in the tests below.
     """
     env = ZoneCorridor(cost=0.0)
-    learner = SmdpLearner(3, corridor_coder(), gamma=GAMMA, method="q", initial_value=1.0, seed=1)
+    learner = SmdpLearner(3, corridor_coder(), config=LearnerConfig(method="q", trace_decay=0.0, initial_value=1.0, gamma=GAMMA), seed=1)
     learner.train(env, 2000, seed=4)
     rng = np.random.default_rng(0)
     # In the last cell both reach the goal within the step, whose reward is not
@@ -106,7 +106,7 @@ def test_durations_are_discounted_per_cycle() -> None:
     assert np.mean([is_optimal_episode(r, cost=0.0) for r in evaluation]) >= 0.8
     # Blind to durations (no "duration" in info: 1 cycle assumed), slow steps look as
     # good as fast ones, and the learnt policy wastes cycles.
-    blind = SmdpLearner(3, corridor_coder(), gamma=GAMMA, method="q", initial_value=1.0, seed=1)
+    blind = SmdpLearner(3, corridor_coder(), config=LearnerConfig(method="q", trace_decay=0.0, initial_value=1.0, gamma=GAMMA), seed=1)
     blind.train(NoDurationEnv(ZoneCorridor(cost=0.0)), 2000, seed=4)
     evaluation = blind.evaluate(env_eval, 300, seed=9)
     assert np.mean([is_optimal_episode(r, cost=0.0) for r in evaluation]) < 0.7
@@ -119,9 +119,7 @@ def test_converges_with_options(intra_option: bool) -> None:
     bad = constant_policy(0, coder=coder)  # the fatal action of zone B
     lib = OptionLibrary(IntervalKernels([(3, 6)], inside=0.9), [good, bad])
     env = ZoneCorridor()
-    learner = SmdpLearner(
-        3, coder, lib, gamma=GAMMA, initial_value=1.0, intra_option=intra_option, seed=0
-    )
+    learner = SmdpLearner(3, coder, lib, config=LearnerConfig(method="sarsa", trace_decay=0.0, initial_value=1.0, gamma=GAMMA, intra_option=intra_option), seed=0)
     assert learner.option_ids == (0, 1)
     learner.train(env, 2000, seed=4)
     rng = np.random.default_rng(0)
@@ -146,7 +144,7 @@ def test_converges_with_options_on_the_real_kernel_model() -> None:
     lib = OptionLibrary(model, [constant_policy(1, coder=coder)])
     m = [lib.membership(np.array([x]))[0] for x in (1.0, 4.5, 8.0)]
     assert m[1] > 0.8 and m[0] < 0.01 and m[2] < 0.01
-    learner = SmdpLearner(3, coder, lib, gamma=GAMMA, initial_value=1.0, seed=0)
+    learner = SmdpLearner(3, coder, lib, config=LearnerConfig(method="sarsa", trace_decay=0.0, initial_value=1.0, gamma=GAMMA), seed=0)
     learner.train(ZoneCorridor(), 2000, seed=6)
     evaluation = learner.evaluate(ZoneCorridor(), 300, seed=99)
     assert np.mean([is_optimal_episode(r) for r in evaluation]) >= 0.9
@@ -158,7 +156,7 @@ def test_good_option_is_used_and_discounting_follows() -> None:
     bad = constant_policy(0, coder=coder)
     lib = OptionLibrary(IntervalKernels([(3, 6)], inside=0.9), [good, bad])
     # Prefer options a priori (as after a transfer) so that the greedy policy keeps them.
-    learner = SmdpLearner(3, coder, lib, gamma=GAMMA, method="q", seed=2)
+    learner = SmdpLearner(3, coder, lib, config=LearnerConfig(method="q", trace_decay=0.0, initial_value=0.0, gamma=GAMMA), seed=2)
     learner.q.weights[3:] += 1.0 / coder.n_active
     learner.train(ZoneCorridor(), 1500, seed=5)
     used = options_used(learner.evaluate(ZoneCorridor(), 200, seed=7))
@@ -178,9 +176,7 @@ def test_option_update_spans_start_to_termination(method: str) -> None:
     model = FunctionKernels([lambda s: 1.0 if s[0] < 3 else 0.0], [[1.0]], [[[1.0]]])
     lib = OptionLibrary(model, [constant_policy(2, coder=coder)])
     alpha, gamma = 0.5, 0.8
-    learner = SmdpLearner(
-        3, coder, lib, alpha=alpha, epsilon=0.0, gamma=gamma, method=method, seed=0
-    )
+    learner = SmdpLearner(3, coder, lib, config=LearnerConfig(method=method, trace_decay=0.0, initial_value=0.0, alpha=alpha, epsilon=0.0, gamma=gamma), seed=0)
     set_q(learner, 0.0, 3, 5.0)  # the option is the greedy choice at x = 0
     set_q(learner, 3.0, 1, 0.7)  # the best choice at x = 3 (where the option is unavailable)
     set_q(learner, 3.0, 0, 0.2)
@@ -211,7 +207,7 @@ def test_primitive_updates_and_terminal_target() -> None:
     env = ScriptedChain(rewards, durations)
     coder = chain_coder(2)
     alpha, gamma = 0.25, 0.5
-    learner = SmdpLearner(3, coder, alpha=alpha, epsilon=0.0, gamma=gamma, seed=0)
+    learner = SmdpLearner(3, coder, config=replace(KEEPAWAY, alpha=alpha, epsilon=0.0, gamma=gamma), seed=0)
     set_q(learner, 0.0, 1, 1.0)
     set_q(learner, 1.0, 2, 4.0)
     learner.run_episode(env)
@@ -225,8 +221,7 @@ def test_primitive_updates_and_terminal_target() -> None:
 def test_eligibility_traces_carry_later_errors_back(lam: float) -> None:
     env = ScriptedChain([1.0, 2.0], [3, 2])
     alpha, gamma = 0.25, 0.5
-    learner = SmdpLearner(3, chain_coder(2), alpha=alpha, epsilon=0.0, gamma=gamma,
-                          trace_decay=lam, seed=0)
+    learner = SmdpLearner(3, chain_coder(2), config=LearnerConfig(method="sarsa", trace_decay=lam, initial_value=0.0, alpha=alpha, epsilon=0.0, gamma=gamma), seed=0)
     set_q(learner, 0.0, 1, 1.0)
     set_q(learner, 1.0, 2, 4.0)
     learner.run_episode(env)
@@ -242,8 +237,7 @@ def test_traces_replace_rather_than_accumulate_on_shared_tiles() -> None:
     env = ScriptedChain([1.0, 2.0], [3, 2])
     alpha, gamma, lam = 0.25, 0.5, 0.7
     coder = TileCoder([0.0], [2.0], [10.0], n_tilings=1)  # states 0 and 1 share the tile
-    learner = SmdpLearner(3, coder, alpha=alpha, epsilon=0.0, gamma=gamma, trace_decay=lam,
-                          seed=0)
+    learner = SmdpLearner(3, coder, config=LearnerConfig(method="sarsa", trace_decay=lam, initial_value=0.0, alpha=alpha, epsilon=0.0, gamma=gamma), seed=0)
     learner.q.weights[1] = 1.0  # action 1 is greedy everywhere
     learner.run_episode(env)
     assert env.actions == [1, 1]
@@ -256,20 +250,18 @@ def test_watkins_traces_are_cut_by_exploratory_choices() -> None:
     """With epsilon = 1 every choice explores, so Q(lambda) equals one-step Q-learning."""
     weights = []
     for lam in (0.0, 0.9):
-        learner = SmdpLearner(3, corridor_coder(), method="q", epsilon=1.0, trace_decay=lam,
-                              seed=3)
+        learner = SmdpLearner(3, corridor_coder(), config=LearnerConfig(method="q", trace_decay=lam, initial_value=0.0, epsilon=1.0), seed=3)
         learner.train(ZoneCorridor(), 30, seed=1)
         weights.append(learner.q.weights.copy())
     np.testing.assert_array_equal(weights[0], weights[1])
-    sarsa = SmdpLearner(3, corridor_coder(), epsilon=1.0, trace_decay=0.9, seed=3)
+    sarsa = SmdpLearner(3, corridor_coder(), config=LearnerConfig(method="sarsa", trace_decay=0.9, initial_value=0.0, epsilon=1.0), seed=3)
     sarsa.train(ZoneCorridor(), 30, seed=1)
     assert not np.array_equal(sarsa.q.weights, weights[0])  # Sarsa(lambda) keeps its traces
 
 
 @pytest.mark.parametrize("method", ["sarsa", "q"])
 def test_converges_with_eligibility_traces(method: str) -> None:
-    learner = SmdpLearner(3, corridor_coder(), gamma=GAMMA, method=method, initial_value=1.0,
-                          trace_decay=0.8, seed=0)
+    learner = SmdpLearner(3, corridor_coder(), config=LearnerConfig(method=method, trace_decay=0.8, initial_value=1.0, gamma=GAMMA), seed=0)
     learner.train(ZoneCorridor(), 2000, seed=10)
     rng = np.random.default_rng(0)
     assert all(greedy_primitive(learner, x, rng) == optimal_action(x) for x in interior_points())
@@ -278,7 +270,7 @@ def test_converges_with_eligibility_traces(method: str) -> None:
 
 def test_trace_decay_outside_unit_interval_is_refused() -> None:
     with pytest.raises(ValueError, match="trace_decay"):
-        SmdpLearner(3, corridor_coder(), trace_decay=1.5)
+        SmdpLearner(3, corridor_coder(), config=LearnerConfig(method="sarsa", trace_decay=1.5, initial_value=0.0))
 
 
 # ------------------------------------------------------------ option statistics
@@ -288,7 +280,7 @@ def _forced_option_runs(k: float, c_scale_trials: int, n_episodes: int, seed: in
     for _ in range(c_scale_trials):
         lib.end_trial(used=[])  # scale 0.5 ** trials
     env = ScriptedChain([0.0] * 400, [1] * 400)
-    learner = SmdpLearner(3, coder, lib, epsilon=0.0, seed=seed)
+    learner = SmdpLearner(3, coder, lib, config=replace(KEEPAWAY, epsilon=0.0), seed=seed)
     learner.q.weights[3] = 1.0  # the option is preferred whenever it is available
     return lib, [learner.run_episode(env, learn=False) for _ in range(n_episodes)]
 
@@ -310,7 +302,7 @@ def test_option_termination_and_initiation_frequencies_in_episodes() -> None:
 def test_pruned_option_is_never_offered_again() -> None:
     lib, _ = _forced_option_runs(0.9, c_scale_trials=0, n_episodes=0, seed=0)
     coder = lib.policies[0].tile_coder
-    learner = SmdpLearner(3, coder, lib, epsilon=0.0, seed=0)
+    learner = SmdpLearner(3, coder, lib, config=replace(KEEPAWAY, epsilon=0.0), seed=0)
     learner.q.weights[3] = 1.0
     for _ in range(4):
         lib.end_trial(used=[])
@@ -327,7 +319,7 @@ def _curve(seed: int, with_options: bool) -> tuple[list[float], list[int], np.nd
         lib = OptionLibrary(
             IntervalKernels([(3, 6)], inside=0.9), [constant_policy(1, coder=coder)]
         )
-    learner = SmdpLearner(3, coder, lib, gamma=GAMMA, epsilon=0.1, seed=seed)
+    learner = SmdpLearner(3, coder, lib, config=replace(KEEPAWAY, gamma=GAMMA, epsilon=0.1), seed=seed)
     results = learner.train(ZoneCorridor(), 150, seed=21)
     return (
         [r.total_reward for r in results],
@@ -355,8 +347,7 @@ def _pruned_run(method: str, every_value: bool, monkeypatch: pytest.MonkeyPatch)
     model = IntervalKernels([(0, 4), (2, 7), (5, 9)], inside=[0.5, 0.3, 0.6], outside=0.05)
     lib = OptionLibrary(model, [constant_policy(a, coder=coder) for a in (0, 1, 2)],
                         OptionSettings(discount=0.25))
-    learner = SmdpLearner(3, coder, lib, gamma=GAMMA, method=method, trace_decay=0.9,
-                          initial_value=1.0, epsilon=0.1, seed=3)
+    learner = SmdpLearner(3, coder, lib, config=LearnerConfig(method=method, trace_decay=0.9, initial_value=1.0, gamma=GAMMA, epsilon=0.1), seed=3)
     results = learner.train(ZoneCorridor(), 100, seed=1)
     for _ in range(2):
         lib.end_trial(used=[int(o) for o in lib.option_ids if o % 3])
@@ -379,17 +370,17 @@ def test_choice_points_reading_only_allowed_values_change_nothing(
 def test_from_policy_rolls_out_identically() -> None:
     coder = corridor_coder()
     lib = OptionLibrary(IntervalKernels([(3, 6)], inside=0.9), [constant_policy(1, coder=coder)])
-    learner = SmdpLearner(3, coder, lib, gamma=GAMMA, seed=0)
+    learner = SmdpLearner(3, coder, lib, config=replace(KEEPAWAY, gamma=GAMMA), seed=0)
     learner.train(ZoneCorridor(), 200, seed=1)
     frozen = learner.freeze()
-    a = SmdpLearner.from_policy(frozen, lib, seed=5).evaluate(ZoneCorridor(), 30, seed=2)
-    b = SmdpLearner.from_policy(frozen, lib, seed=5).evaluate(ZoneCorridor(), 30, seed=2)
+    a = SmdpLearner.from_policy(frozen, lib, config=KEEPAWAY, seed=5).evaluate(ZoneCorridor(), 30, seed=2)
+    b = SmdpLearner.from_policy(frozen, lib, config=KEEPAWAY, seed=5).evaluate(ZoneCorridor(), 30, seed=2)
     assert [r.choices for r in a] == [r.choices for r in b]
     with pytest.raises(ValueError, match="library"):
-        SmdpLearner.from_policy(frozen, None)
+        SmdpLearner.from_policy(frozen, None, config=KEEPAWAY)
     other = OptionLibrary(IntervalKernels([(0, 1)]), [])
     with pytest.raises(KeyError, match="unknown option id"):
-        SmdpLearner.from_policy(frozen, other)
+        SmdpLearner.from_policy(frozen, other, config=KEEPAWAY)
 
 
 # ------------------------------------------------------------------ intra-option
@@ -398,9 +389,7 @@ def test_intra_option_updates_consistent_options_only() -> None:
     coder = chain_coder(2)
     model = constant_kernels([0.5])
     lib = OptionLibrary(model, [constant_policy(1, coder=coder), constant_policy(0, coder=coder)])
-    learner = SmdpLearner(
-        3, coder, lib, alpha=1.0, epsilon=0.0, gamma=1.0, method="q", intra_option=True, seed=0
-    )
+    learner = SmdpLearner(3, coder, lib, config=LearnerConfig(method="q", trace_decay=0.0, initial_value=0.0, alpha=1.0, epsilon=0.0, gamma=1.0, intra_option=True), seed=0)
     set_q(learner, 0.0, 1, 0.1)  # primitive 1 is the greedy choice at x = 0 (options: 0)
     learner.run_episode(env)
     q0 = learner.q.q_values(np.array([0.0]))
@@ -414,18 +403,18 @@ def test_intra_option_updates_consistent_options_only() -> None:
 # ------------------------------------------------------------------ bad inputs
 def test_bad_inputs_give_clear_errors() -> None:
     coder = corridor_coder()
-    with pytest.raises(ValueError, match=r"SmdpLearner\.method must be 'sarsa' or 'q', got 'td'"):
-        SmdpLearner(3, coder, method="td")
+    with pytest.raises(ValueError, match=r"LearnerConfig\.method must be 'sarsa' or 'q', got 'td'"):
+        SmdpLearner(3, coder, config=LearnerConfig(method="td", trace_decay=0.0, initial_value=0.0))
     with pytest.raises(TypeError, match="TileCoder"):
-        SmdpLearner(3, None)  # type: ignore[arg-type]
+        SmdpLearner(3, None, config=KEEPAWAY)  # type: ignore[arg-type]
     lib2 = OptionLibrary(
         IntervalKernels([(0, 3)], n_features=2),
         [constant_policy(0, coder=TileCoder([0, 0], [9, 1], [1, 1], 2))],
     )
     with pytest.raises(ValueError, match="features"):
-        SmdpLearner(3, coder, lib2)
+        SmdpLearner(3, coder, lib2, config=KEEPAWAY)
     lib4 = OptionLibrary(IntervalKernels([(0, 3)]), [constant_policy(0, n_primitive=4)])
     with pytest.raises(ValueError, match="primitive"):
-        SmdpLearner(3, coder, lib4)
+        SmdpLearner(3, coder, lib4, config=KEEPAWAY)
 
     # Bad environments and the shared settings: tests/test_episode.py, for every learner.

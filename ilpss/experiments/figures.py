@@ -9,6 +9,7 @@ kernel, projected on those two features, is an ellipse on the field.
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -97,7 +98,8 @@ def greedy_episodes(
     policy = learner.policies[policy_index]
     out = []
     for seed in seeds:
-        agent = SmdpLearner.from_policy(policy, learner.library, epsilon=0.0, seed=seed)
+        agent = SmdpLearner.from_policy(policy, learner.library,
+                                        replace(learner.config.learner, epsilon=0.0), seed=seed)
         result = agent.run_episode(env, learn=False, seed=seed)
         out.append({"seed": seed, "outcome": result.outcome, "reward": result.total_reward,
                     "options": [run.option_id for run in result.option_runs]})
@@ -133,7 +135,8 @@ def write_agent_gif(
             f"got {getattr(env, 'render_mode', None)!r}"
         )
     policy = learner.policies[policy_index]
-    agent = SmdpLearner.from_policy(policy, learner.library, epsilon=0.0, seed=seed)
+    agent = SmdpLearner.from_policy(policy, learner.library,
+                                        replace(learner.config.learner, epsilon=0.0), seed=seed)
     frames: list[np.ndarray] = []
     starts: list[int] = []
     actions: list[int] = []

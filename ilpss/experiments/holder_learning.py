@@ -67,7 +67,7 @@ def learn_and_evaluate(job: tuple[str, int, int, int, LearnerConfig]) -> dict[st
     team, seed, episodes, n_eval, lc = job
     env = gym.make(ENV_ID, opponent=team, disable_env_checker=True)
     coder = lc.tile_coder(env.observation_space)
-    learner = SmdpLearner(int(env.action_space.n), coder, seed=seed, **lc.smdp_kwargs())
+    learner = SmdpLearner(int(env.action_space.n), coder, None, lc, seed=seed)
     curve = [r.total_reward for r in learner.train(env, episodes, seed=seed)]
     rng = np.random.default_rng(seed)
     rewards = evaluation_rewards(env, lambda obs: learner.q.greedy(np.asarray(obs, float), rng), n_eval)

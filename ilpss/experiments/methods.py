@@ -145,12 +145,8 @@ class PrqMethod(Method):
         curves = {}
         for t in job.targets:
             learner_seed, env_seed, _, _ = trial_seeds(job.seed, job.tasks_before(t))
-            prq = PrqLearner(
-                scratch.n_primitive, scratch.tile_coder, scratch.policies[:t],
-                alpha=lc.alpha, epsilon=lc.epsilon, gamma=lc.gamma,
-                initial_value=lc.initial_value, seed=learner_seed,
-                **cfg.prq.learner_kwargs(lc.trace_decay),
-            )
+            prq = PrqLearner(scratch.n_primitive, scratch.tile_coder, scratch.policies[:t],
+                             lc, cfg.prq, seed=learner_seed)
             env = make_env(cfg.env_id, job.stream.tasks[t])
             results = prq.train(env, cfg.lifelong.train_episodes, seed=env_seed)
             curves[str(t)] = [float(r.total_reward) for r in results]
