@@ -26,13 +26,14 @@ import shutil
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 
 from ilpss._check import (
     Integer,
     ListOf,
+    Name,
     NoneOr,
     OneOf,
     Real,
@@ -57,10 +58,10 @@ from ilpss.episode import EpisodeResult, options_used
 from ilpss.kernels import KERNEL_CONSTRAINTS, SharedKernelModel, UniformKernel
 from ilpss.options import OptionLibrary, OptionSettings
 from ilpss.policy import FrozenPolicy
+from ilpss.reuse import KERNEL_LOADERS, REUSES, Fresh, Reuse
 from ilpss.smdp import LearnerConfig, SmdpLearner
 
 CHECKPOINT_SCHEMA = "ilpss.lifelong/2"
-OptionSource = Literal["kernels", "whole_policies", "none"]
 
 
 LIFELONG_CONSTRAINTS = {
@@ -69,7 +70,7 @@ LIFELONG_CONSTRAINTS = {
     # here rather than after hours.
     "train_episodes": Integer(0, 1_000_000),
     "rollout_episodes": Integer(0, 100_000),
-    "options": OneOf(("kernels", "whole_policies", "none")),
+    "options": Name(),  # and registered: checked against REUSES
     "kernel_n_init": KERNEL_CONSTRAINTS["n_init"],
     "kernel_max_iter": KERNEL_CONSTRAINTS["max_iter"],
     "kernel_reg_covar": KERNEL_CONSTRAINTS["reg_covar"],
@@ -88,9 +89,12 @@ class LifelongConfig:
     """Learning episodes per task instance."""
     rollout_episodes: int = 50
     """Greedy rollouts of the learnt policy: its traces and the options it uses."""
-    options: OptionSource = "kernels"
-    """``"kernels"`` (ILPSS), ``"whole_policies"`` (ablation: past policies as options
-    that start anywhere and never stop) or ``"none"`` (learning anew every time)."""
+    options: str = "kernels"
+    """How past policies are reused: the name of a registered :class:`~ilpss.reuse.Reuse`
+    (:data:`~ilpss.reuse.REUSES`): ``"kernels"`` (ILPSS), ``"whole_policies"`` (ablation:
+    past policies as options that start anywhere and never stop), ``"none"`` (learning
+    anew every time), ``"finetune_latest"`` / ``"finetune_best"`` (start from a past
+    policy's values)."""
     kernel_n_init: int = 3
     """EM restarts per fit."""
     kernel_max_iter: int = 200
@@ -104,6 +108,7 @@ class LifelongConfig:
 
     def __post_init__(self) -> None:
         check_fields("LifelongConfig", self, LIFELONG_CONSTRAINTS)
+        REUSES.check("LifelongConfig.options", self.options)
         for name, kind in (("library", OptionSettings), ("learner", LearnerConfig)):
             if not isinstance(getattr(self, name), kind):
                 raise ValueError(
@@ -114,6 +119,11 @@ class LifelongConfig:
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict."""
         return asdict(self)
+
+    @property
+    def reuse(self) -> Reuse:
+        """The registered way of reusing past policies that :attr:`options` names."""
+        return REUSES.get(self.options)
 
     @classmethod
     def from_dict(cls, values: Mapping[str, Any]) -> LifelongConfig:
@@ -223,6 +233,12 @@ def trial_seeds(seed: int, trial: int) -> tuple[int, int, int, int]:
     return tuple(int(s) for s in child)  # type: ignore[return-value]
 
 
+def choice_seed(seed: int, trial: int) -> int:
+    """The seed of the episodes a start rule spends choosing among the past policies
+    (independent of :func:`trial_seeds`, which keep their values)."""
+    return int(np.random.SeedSequence([seed, trial, 1]).generate_state(1, dtype=np.uint32)[0])
+
+
 class LifelongLearner:
     """ILPSS across a sequence of task instances (Algorithm 1).
 
@@ -284,7 +300,7 @@ class LifelongLearner:
     def make_learner(self, seed: int, with_options: bool = True) -> SmdpLearner:
         """A fresh SMDP learner offered the current options (or none)."""
         lc = self.config.learner
-        library = self.library if with_options and self.config.options != "none" else None
+        library = self.library if with_options and self.config.reuse.offers_options else None
         return SmdpLearner(self.n_primitive, self.tile_coder, library, lc, seed=seed)
 
     def learn(
@@ -298,14 +314,20 @@ class LifelongLearner:
         """Learn on ``env`` for ``train_episodes``, without changing the lifelong state.
 
         ``trial`` (default: the next trial index) chooses the seeds, so learning with
-        and without options on the same trial sees the same environment seeds.
+        and without options on the same trial sees the same environment seeds. The
+        reuse's start rule sets the learner's initial values first; any episodes it
+        spends choosing them are the first of the ``train_episodes`` (its greedy
+        episodes seeded apart from the learning episodes, which are the same as without
+        them).
         """
         index = self.n_trials if trial is None else trial
         learner_seed, env_seed, _, _ = trial_seeds(self.seed, index)
         learner = self.make_learner(learner_seed, with_options)
-        results = learner.train(
-            env, self.config.train_episodes, seed=env_seed, callback=callback
-        )
+        start = self.config.reuse.start if with_options else Fresh()
+        spent = start.start(learner, self.policies, env, choice_seed(self.seed, index))
+        budget = self.config.train_episodes
+        results = spent[:budget] + learner.train(env, max(budget - len(spent), 0),
+                                                 seed=env_seed, callback=callback)
         return learner, results
 
     def run_trial(
@@ -360,17 +382,12 @@ class LifelongLearner:
     def _refit(self, kernel_seed: int) -> None:
         """Refit the kernels on all bags and rebuild the library (identities kept)."""
         cfg = self.config
-        if cfg.options == "none":
+        regions = cfg.reuse.regions
+        if regions is None:
             return
-        if cfg.options == "whole_policies":
-            model: SharedKernelModel | UniformKernel = UniformKernel(self.tile_coder.n_features)
-        else:
-            if sum(len(b) for b in self.bags) < cfg.n_kernels * 2:
-                return  # too few successful states to fit: keep the options we have
-            model = SharedKernelModel(
-                cfg.n_kernels, reg_covar=cfg.kernel_reg_covar, max_iter=cfg.kernel_max_iter,
-                n_init=cfg.kernel_n_init, random_state=kernel_seed,
-            ).fit(self.bags)
+        model = regions.fit(self.bags, self.tile_coder.n_features, cfg, kernel_seed)
+        if model is None:
+            return
         if self.library is None:
             # Policies learnt before any options existed never point to options.
             self.library = OptionLibrary(model, self.policies, cfg.library)
@@ -506,8 +523,8 @@ class LifelongLearner:
                 f"{ckpt}: holds an option library, but kernel in {where} is null"
             )
         if state["kernel"] is not None:
-            loader = UniformKernel.load if state["kernel"] == "UniformKernel" else None
-            learner.library = OptionLibrary.load(library, kernel_loader=loader)
+            learner.library = OptionLibrary.load(library,
+                                                 kernel_loader=KERNEL_LOADERS[state["kernel"]])
             learner.kernel_model = learner.library.kernel_model
             _check_library(learner, ckpt)
         elif n and records[-1].library_size:
@@ -531,12 +548,10 @@ _FILE_NAME = re.compile(r"(policy_\d+|bags|library/(kernels|library|policy_\d+))
 STATE_CONSTRAINTS = {
     "seed": Integer(0),
     "n_primitive": Integer(1),
-    "kernel": NoneOr(OneOf(("SharedKernelModel", "UniformKernel"))),
+    "kernel": NoneOr(OneOf(tuple(KERNEL_LOADERS))),
 }
 """What the scalar fields of ``state.json`` may hold (``config`` is a LifelongConfig,
 ``records`` TrialRecords, ``files`` the digests, ``provenance`` an object or null)."""
-KERNELS_OF = {"kernels": "SharedKernelModel", "whole_policies": "UniformKernel", "none": None}
-"""The kernel model that each ``LifelongConfig.options`` builds."""
 
 
 def latest_checkpoint(directory: str | os.PathLike[str]) -> Path:
@@ -589,7 +604,7 @@ def read_state(checkpoint: Path) -> tuple[dict[str, Any], LifelongConfig, list[T
         raise ValueError(
             f"{checkpoint}: holds {n} trial records, but its name says {checkpoint.name}"
         )
-    kernel = KERNELS_OF[config.options]
+    kernel = config.reuse.model_name
     if state["kernel"] not in (None, kernel):
         raise ValueError(
             f"{where}: kernel {state['kernel']!r} is not what options={config.options!r} "
@@ -611,7 +626,7 @@ def read_state(checkpoint: Path) -> tuple[dict[str, Any], LifelongConfig, list[T
                 f"{field}.rollout_success_rate {r.rollout_success_rate!r} is not a share of "
                 f"{rollouts} rollouts consistent with bag_size {r.bag_size}"
             )
-        if (i == 0 or config.options == "none") and r.options_offered:
+        if (i == 0 or not config.reuse.offers_options) and r.options_offered:
             raise ValueError(f"{field}.options_offered must be 0 (no options to offer yet)")
     files = state["files"]
     expected = {f"policy_{i}.npz" for i in range(n)} | {"bags.npz"}

@@ -320,6 +320,23 @@ class SmdpLearner(EpisodicLearner):
         )
         return learner
 
+    def start_from(self, policy: FrozenPolicy | LinearPolicy) -> None:
+        """Start from ``policy``'s values of the primitive actions (fine-tuning); the
+        options' values are left as they are.
+
+        Raises
+        ------
+        ValueError
+            If ``policy`` has another tile coder or number of primitive actions.
+        """
+        if policy.tile_coder != self.tile_coder or policy.n_primitive != self.n_primitive:
+            raise ValueError(
+                f"cannot start from a policy of {policy.n_primitive} primitive actions over "
+                f"another tile coder (this learner: {self.n_primitive} actions); the past "
+                "policies must come from the same state space and actions"
+            )
+        self.q.weights[: self.n_primitive] = policy.weights[: policy.n_primitive]
+
     @property
     def option_ids(self) -> tuple[int, ...]:
         """Ids of the options this learner offers, in choice order."""

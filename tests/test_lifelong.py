@@ -114,8 +114,8 @@ def test_config_round_trip_and_validation():
     assert LifelongConfig.from_dict(json.loads(json.dumps(cfg.to_dict()))) == cfg
     with pytest.raises(ValueError, match=r"unknown LifelongConfig field\(s\) \['kernels'\]"):
         LifelongConfig.from_dict({"kernels": 5})
-    with pytest.raises(ValueError, match="options must be one of 'kernels', 'whole_policies' or "
-                       "'none'"):
+    with pytest.raises(ValueError, match=r"LifelongConfig.options must name a registered reuse "
+                       r".*got 'all'; registered: \['finetune_best', 'finetune_latest', 'kernels'"):
         LifelongConfig(options="all")
     with pytest.raises(ValueError, match=r"OptionSettings.discount must be a finite number in "
                        r"\(0, 1\], got 1.5"):

@@ -1,0 +1,235 @@
+"""Ways of reusing past policies: what a lifelong learner offers its learner at a new task.
+
+A :class:`Reuse` is named by ``LifelongConfig.options`` and answers, for the lifelong loop
+(:class:`~ilpss.lifelong.LifelongLearner`), the two questions in which reuse methods
+differ; the loop itself knows no method by name:
+
+===============================  ============================================================
+question                         answered by
+===============================  ============================================================
+the regions of the options, and  :attr:`Reuse.regions`, a :class:`Regions`: the kernel model
+whether there are options        refitted after every trial on all bags of states (EM for
+                                 ILPSS, one kernel over everything for whole policies,
+                                 ``None``: no options); the option library built from it
+                                 and the past policies is what is kept between trials, with
+                                 the policies and the bags
+the values the new learner       :attr:`Reuse.start`, a :class:`StartRule`: nothing (values
+starts from, and any episodes    from the learner's initial value), the latest past policy's
+it spends on the task choosing   values (fine-tuning), or the values of the past policy that
+                                 does best in a few greedy episodes on the task; the episodes
+                                 spent choosing are charged to the task's budget and are the
+                                 first points of its learning curve
+===============================  ============================================================
+
+The registrations (:data:`REUSES`; more with :func:`register_reuse` or the entry-point
+group ``ilpss.reuses``):
+
+====================  ====================================  =================================
+name                  regions                               start
+====================  ====================================  =================================
+``kernels``           shared-kernel EM (the paper)          fresh
+``whole_policies``    one region everywhere (ablation)      fresh
+``none``              no options (learning anew)            fresh
+``finetune_latest``   no options                            the latest past policy
+``finetune_best``     no options                            the best past policy on the task,
+                                                            10 greedy episodes each (charged)
+====================  ====================================  =================================
+
+A start rule also serves methods outside the lifelong loop (the fine-tuning baselines of
+:mod:`ilpss.experiments.methods` start from the policies that learning anew learnt).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+
+from ilpss._check import Integer, check
+from ilpss._registry import Registry
+from ilpss.episode import EpisodeResult
+from ilpss.kernels import SharedKernelModel, UniformKernel
+from ilpss.policy import FrozenPolicy
+from ilpss.smdp import SmdpLearner
+
+if TYPE_CHECKING:
+    from ilpss.lifelong import LifelongConfig
+
+__all__ = [
+    "KERNEL_LOADERS",
+    "REUSES",
+    "BestOfPast",
+    "EmKernels",
+    "Fresh",
+    "LatestPast",
+    "Regions",
+    "Reuse",
+    "StartRule",
+    "Uniform",
+    "register_reuse",
+]
+
+
+# ---------------------------------------------------------------------- regions
+class Regions(Protocol):
+    """How the regions of the options are made after every trial."""
+
+    model_name: str
+    """The class name of the kernel model it builds, as checkpoints record it."""
+
+    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: LifelongConfig,
+            seed: int) -> Any | None:
+        """The kernel model over all bags of states so far, or ``None`` to keep the
+        options as they are (too few states to fit)."""
+        ...
+
+
+@dataclass(frozen=True)
+class EmKernels:
+    """ILPSS's regions: ``n_kernels`` Gaussian kernels shared by every task, fitted by EM
+    on all bags of states (:class:`~ilpss.kernels.SharedKernelModel`)."""
+
+    model_name: str = "SharedKernelModel"
+
+    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: LifelongConfig,
+            seed: int) -> SharedKernelModel | None:
+        if sum(len(b) for b in bags) < config.n_kernels * 2:
+            return None  # too few successful states to fit: keep the options we have
+        return SharedKernelModel(
+            config.n_kernels, reg_covar=config.kernel_reg_covar,
+            max_iter=config.kernel_max_iter, n_init=config.kernel_n_init, random_state=seed,
+        ).fit(bags)
+
+
+@dataclass(frozen=True)
+class Uniform:
+    """One region over the whole state space: every past policy becomes an option that
+    starts anywhere and runs as the whole policy would (the ablation without kernels)."""
+
+    model_name: str = "UniformKernel"
+
+    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: LifelongConfig,
+            seed: int) -> UniformKernel:
+        return UniformKernel(n_features)
+
+
+KERNEL_LOADERS: dict[str, Callable[[Any], Any]] = {
+    "SharedKernelModel": SharedKernelModel.load,
+    "UniformKernel": UniformKernel.load,
+}
+"""How a checkpoint's kernel model is read back, by the class name it records."""
+
+
+# ---------------------------------------------------------------------- starts
+class StartRule(Protocol):
+    """The values a new learner starts from, chosen among the past policies."""
+
+    def start(self, learner: SmdpLearner, policies: Sequence[FrozenPolicy], env: Any,
+              seed: int) -> list[EpisodeResult]:
+        """Set ``learner``'s initial values from ``policies``; return the episodes spent
+        on ``env`` to choose (charged to the task's budget: the first points of its
+        curve), seeded from ``seed``."""
+        ...
+
+
+@dataclass(frozen=True)
+class Fresh:
+    """Start from the learner's own initial values (the paper, learning anew)."""
+
+    def start(self, learner: SmdpLearner, policies: Sequence[FrozenPolicy], env: Any,
+              seed: int) -> list[EpisodeResult]:
+        return []
+
+
+@dataclass(frozen=True)
+class LatestPast:
+    """Fine-tuning: start from the primitives' values of the latest past policy (none
+    yet: fresh), spending no episode."""
+
+    def start(self, learner: SmdpLearner, policies: Sequence[FrozenPolicy], env: Any,
+              seed: int) -> list[EpisodeResult]:
+        if policies:
+            learner.start_from(policies[-1])
+        return []
+
+
+@dataclass(frozen=True)
+class BestOfPast:
+    """Fine-tuning from the past policy that does best on the task: each past policy is
+    run greedily for ``episodes`` episodes on the same episode seeds, and the learner
+    starts from the one with the highest mean reward (ties: the latest). Those
+    ``episodes x len(policies)`` episodes are charged to the task's budget."""
+
+    episodes: int = 10
+
+    def __post_init__(self) -> None:
+        check("BestOfPast.episodes", self.episodes, Integer(1, 10_000))
+
+    def start(self, learner: SmdpLearner, policies: Sequence[FrozenPolicy], env: Any,
+              seed: int) -> list[EpisodeResult]:
+        if not policies:
+            return []
+        greedy = replace(learner.config, epsilon=0.0)
+        spent: list[EpisodeResult] = []
+        means = []
+        for k, policy in enumerate(policies):
+            runner = SmdpLearner.from_policy(policy, None, greedy, seed=[seed, k])
+            episodes = runner.evaluate(env, self.episodes, seed=seed)
+            spent += episodes
+            means.append(np.mean([e.total_reward for e in episodes]))
+        best = max(range(len(policies)), key=lambda k: (means[k], k))
+        learner.start_from(policies[best])
+        return spent
+
+
+# ---------------------------------------------------------------------- reuse
+@dataclass(frozen=True)
+class Reuse:
+    """One way of reusing past policies (see the module docstring).
+
+    Attributes
+    ----------
+    name : str
+        Its name in ``LifelongConfig.options``.
+    regions : Regions or None
+        How the options' regions are refitted after every trial; ``None``: no options.
+    start : StartRule
+        The values the learner of a new task starts from.
+    """
+
+    name: str
+    regions: Regions | None
+    start: StartRule = Fresh()
+
+    @property
+    def offers_options(self) -> bool:
+        """Whether a new task's learner is offered options."""
+        return self.regions is not None
+
+    @property
+    def model_name(self) -> str | None:
+        """The kernel model its checkpoints hold (``None``: none)."""
+        return None if self.regions is None else self.regions.model_name
+
+
+REUSES = Registry("ilpss.reuses", "reuse")
+"""Every way of reusing past policies, by name (``LifelongConfig.options``)."""
+
+
+def register_reuse(reuse: Reuse, *, overwrite: bool = False) -> None:
+    """Register ``reuse`` under its ``name`` for this process."""
+    if not isinstance(reuse, Reuse):
+        raise TypeError(f"a reuse must be a Reuse, got {type(reuse).__name__}")
+    REUSES.register(reuse.name, reuse, overwrite=overwrite)
+
+
+for _reuse in (
+    Reuse("kernels", EmKernels()),
+    Reuse("whole_policies", Uniform()),
+    Reuse("none", None),
+    Reuse("finetune_latest", None, LatestPast()),
+    Reuse("finetune_best", None, BestOfPast()),
+):
+    register_reuse(_reuse)
