@@ -51,7 +51,7 @@ class _DrillEnvBase:
         illegal_action: IllegalAction,
         team_timeout: float | None,
         obs_format: ObsFormat,
-        shared_spaces: bool,
+        shared_spaces: bool | None,
     ) -> None:
         if render_mode is not None and render_mode not in _METADATA["render_modes"]:
             raise ValueError(
@@ -60,6 +60,13 @@ class _DrillEnvBase:
             )
         if obs_format not in ("dict", "flat"):
             raise ValueError(f"obs_format must be 'dict' or 'flat', got {obs_format!r}")
+        if shared_spaces is None:  # identical spaces whenever the defenders are agents too
+            shared_spaces = opponent is None
+        elif not isinstance(shared_spaces, bool):
+            raise TypeError(
+                "shared_spaces must be None (identical spaces when there is no opponent), "
+                f"True or False, got {shared_spaces!r}"
+            )
         cfg = make_config(config, max_cycles)
         core = self._core = DrillCore(
             opponent, opponent_params, cfg, obs_type, illegal_action, team_timeout=team_timeout,
@@ -198,13 +205,24 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     scripted and only the attackers are agents. All agents act once per cycle, in
     that order.
 
+    ## Spaces shared or per role
+
+    Every agent has the same action and observation spaces by default, the PettingZoo
+    convention that SuperSuit's vector environments, Tianshou's ``PettingZooEnv`` and
+    one shared policy need: with no opponent (``shared_spaces=None`` means ``True``
+    then) a defender gets the attackers' ``Discrete(5)`` with its last two actions
+    always masked, and every observation ends with a role flag (1 attacker, 0
+    defender); with an opponent the two attackers' spaces are identical anyway
+    (``None`` means ``False``). ``shared_spaces=False`` gives the per-role spaces
+    (defenders ``Discrete(3)``, no role flag), e.g. for one module per role.
+
     ## Action space
 
     | agent | space | actions |
     |-------|-------|---------|
     | attacker | ``Discrete(5)`` | 0 HOLD, 1 PASS, 2 DRIBBLE (ball holder only), 3 GET_OPEN, 4 GO_TO_BALL (off the ball only) |
-    | defender | ``Discrete(3)`` | 0 INTERCEPT, 1 MARK, 2 GUARD_LINE (always legal) |
-    | defender, ``shared_spaces=True`` | ``Discrete(5)`` | 0-2 as above; 3 and 4 always masked |
+    | defender (shared spaces: the default with no opponent) | ``Discrete(5)`` | 0 INTERCEPT, 1 MARK, 2 GUARD_LINE (always legal); 3 and 4 always masked |
+    | defender, ``shared_spaces=False`` | ``Discrete(3)`` | 0-2 as above |
 
     ## Illegal (masked) actions
 
@@ -237,15 +255,16 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     With ``obs_type="features"`` the ``Box`` holds the paper's 9 features from the
     agent's point of view (table in :mod:`soccer_drill.features`); with
     ``"kinematic"`` a 26-value egocentric vector of positions, velocities and
-    possession flags. With ``shared_spaces=True`` one more value ends it: 1 for an
-    attacker, 0 for a defender, so that one shared policy knows which side it plays.
+    possession flags. With shared spaces (the default with no opponent) one more value
+    ends it: 1 for an attacker, 0 for a defender, so that one shared policy knows
+    which side it plays.
 
     PettingZoo's ``api_test`` warns "Observation is not a NumPy array" and
     "Observation space for each agent probably should be gymnasium.spaces.box or
-    gymnasium.spaces.discrete" for the default ``Dict`` observation and, with defenders
-    as agents, "Agents have different observation space sizes" (their masks have 3
-    entries, the attackers' 5): all are expected, as for PettingZoo's classic games.
-    ``obs_format="flat"`` removes the first two and ``shared_spaces=True`` the third.
+    gymnasium.spaces.discrete" for the default ``Dict`` observation, as for
+    PettingZoo's classic games; ``obs_format="flat"`` removes both. With
+    ``shared_spaces=False`` and defenders as agents it also warns "Agents have
+    different observation space sizes" (their masks have 3 entries, the attackers' 5).
 
     ## Global state
 
@@ -309,7 +328,7 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     | ``illegal_action`` | ``"default"`` | ``"default"`` (replace a masked action by the role's default, reported in infos) or ``"raise"`` (a masked action is an error) |
     | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the scripted team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound. See ``soccer_drill.teams.TeamDriver`` |
     | ``obs_format`` | ``"dict"`` | ``"dict"`` (observation and mask together) or ``"flat"`` (a ``Box``; the mask in infos and ``action_mask()``) |
-    | ``shared_spaces`` | ``False`` | ``True``: every agent has the same action and observation spaces (for self-play through SuperSuit or Tianshou) |
+    | ``shared_spaces`` | ``None`` | ``None``: identical spaces for every agent (``True`` with no opponent, ``False`` with one, whose attackers' spaces are identical anyway); ``True``: always a role flag and 5 actions; ``False``: per-role spaces (see Spaces shared or per role) |
 
     ``env(...)`` returns this class: the order and bounds checks of PettingZoo's
     standard wrappers are built in (cheaply), so no wrapper chain is added.
@@ -326,7 +345,7 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
         illegal_action: IllegalAction = "default",
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
         obs_format: ObsFormat = "dict",
-        shared_spaces: bool = False,
+        shared_spaces: bool | None = None,
     ) -> None:
         EzPickle.__init__(
             self, opponent, opponent_params, obs_type, max_cycles, config, render_mode,
@@ -470,7 +489,7 @@ class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
         illegal_action: IllegalAction = "default",
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
         obs_format: ObsFormat = "dict",
-        shared_spaces: bool = False,
+        shared_spaces: bool | None = None,
     ) -> None:
         EzPickle.__init__(
             self, opponent, opponent_params, obs_type, max_cycles, config, render_mode,
