@@ -20,6 +20,7 @@ from soccer_drill.core import (
     not_reset,
 )
 from soccer_drill.features import global_state, state_bounds
+from soccer_drill.screen import RENDER_MODES, Screen, frames_per_second
 from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
@@ -27,10 +28,10 @@ from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
 ObsFormat = Literal["dict", "flat"]
 
 _METADATA = {
-    "render_modes": ["human", "rgb_array"],
+    "render_modes": list(RENDER_MODES),
     "name": "soccer_drill_v0",
     "is_parallelizable": True,
-    "render_fps": 10,
+    "render_fps": 10,  # per instance: 1 / cycle_seconds
 }
 _ROLE_FLAG = (np.zeros(1, dtype=np.float32), np.ones(1, dtype=np.float32))  # defender, attacker
 
@@ -53,11 +54,9 @@ class _DrillEnvBase:
         obs_format: ObsFormat,
         shared_spaces: bool | None,
     ) -> None:
-        if render_mode is not None and render_mode not in _METADATA["render_modes"]:
-            raise ValueError(
-                f"render_mode must be None or one of {_METADATA['render_modes']}, "
-                f"got {render_mode!r}"
-            )
+        cfg = make_config(config, max_cycles)
+        self.metadata = {**_METADATA, "render_fps": frames_per_second(cfg)}  # a frame a cycle
+        self._screen = Screen(cfg, render_mode, self.metadata["render_fps"])
         if obs_format not in ("dict", "flat"):
             raise ValueError(f"obs_format must be 'dict' or 'flat', got {obs_format!r}")
         if shared_spaces is None:  # identical spaces whenever the defenders are agents too
@@ -67,7 +66,6 @@ class _DrillEnvBase:
                 "shared_spaces must be None (identical spaces when there is no opponent), "
                 f"True or False, got {shared_spaces!r}"
             )
-        cfg = make_config(config, max_cycles)
         core = self._core = DrillCore(
             opponent, opponent_params, cfg, obs_type, illegal_action, team_timeout=team_timeout,
             shared_spaces=shared_spaces,
@@ -106,7 +104,6 @@ class _DrillEnvBase:
         low, high = state_bounds(cfg)
         self._state_bounds = (low, high)
         self.state_space = spaces.Box(low, high, dtype=np.float32)
-        self._renderer = None
 
     def observation_space(self, agent: str) -> spaces.Space:
         """The agent's observation space (see the class docstring); the same object every call."""
@@ -162,22 +159,22 @@ class _DrillEnvBase:
         self._require_reset("state")
         return global_state(self._core.drill.state, self.config, *self._state_bounds)
 
-    def render(self) -> np.ndarray | None:
-        """Draw the current cycle (see :mod:`soccer_drill.render`)."""
+    def render(self) -> np.ndarray | list[np.ndarray] | None:
+        """The current frame, the frames since the last call, or ``None`` (see Rendering)."""
         if self.render_mode is None:
             return None
         self._require_reset("render")
-        if self._renderer is None:
-            from soccer_drill.render import Renderer
+        drill = self._core.drill
+        return self._screen.render(drill.state, drill.outcome)
 
-            self._renderer = Renderer(self.config, self.render_mode, self.metadata["render_fps"])
-        return self._renderer.draw(self._core.drill.state, self._core.drill.outcome)
+    def _after_cycle(self) -> None:
+        """A cycle has run: what the render mode does with it (a window, a kept frame)."""
+        drill = self._core.drill
+        self._screen.after_cycle(drill.state, drill.outcome)
 
     def close(self) -> None:
         """Close the window, if any."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        self._screen.close()
 
     @property
     def drill_state(self):
@@ -308,6 +305,19 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     reset, so a team's draws never change the physics noise. Rendering changes nothing.
     Copies made with ``pickle`` rebuild the environment from its arguments.
 
+    ## Rendering
+
+    | ``render_mode`` | ``render()`` returns |
+    |-----------------|----------------------|
+    | ``"rgb_array"`` | the current frame, ``(H, W, 3)`` uint8 (in the AEC API the same frame at every turn of a cycle) |
+    | ``"rgb_array_list"`` | every frame since the last ``render()`` (or ``reset``): one per cycle, so a video written at ``metadata["render_fps"]`` plays at true speed |
+    | ``"human"`` | ``None``; a window shows every cycle at ``metadata["render_fps"]`` frames per second |
+
+    ``metadata["render_fps"]`` is ``1 / cycle_seconds`` (10 by default): one frame per
+    cycle is true speed. Calling ``render()`` in ``"rgb_array"`` mode after every AEC
+    turn gives one frame per agent and cycle; ``"rgb_array_list"`` gives one per cycle
+    whichever API and however often ``render()`` is called.
+
     ## Threads
 
     One environment must be stepped by one thread at a time: a ``step`` or ``reset``
@@ -324,7 +334,7 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     | ``obs_type`` | ``"features"`` | ``"features"`` or ``"kinematic"`` |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
-    | ``render_mode`` | ``None`` | ``"human"`` (a window) or ``"rgb_array"`` (off-screen) |
+    | ``render_mode`` | ``None`` | ``"human"``, ``"rgb_array"`` or ``"rgb_array_list"`` (see Rendering) |
     | ``illegal_action`` | ``"default"`` | ``"default"`` (replace a masked action by the role's default, reported in infos) or ``"raise"`` (a masked action is an error) |
     | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the scripted team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound. See ``soccer_drill.teams.TeamDriver`` |
     | ``obs_format`` | ``"dict"`` | ``"dict"`` (observation and mask together) or ``"flat"`` (a ``Box``; the mask in infos and ``action_mask()``) |
@@ -376,8 +386,8 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
             self._next_agent = dict(zip(order, order[1:] + order[:1], strict=True))
             self._last_agent = order[-1]
             self.agent_selection = order[0]
-        if self.render_mode == "human":
-            self.render()
+        if self._screen.each_cycle:
+            self._screen.start(self._core.drill.state, None)
 
     def observe(self, agent: str) -> dict[str, np.ndarray] | np.ndarray:
         """The observation of ``agent`` (see the class docstring)."""
@@ -458,8 +468,8 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
             elif self._flat:  # masks change with possession
                 for name in self.agents:
                     self.infos[name]["action_mask"] = core.mask(self._index[name])
-            if self.render_mode == "human":
-                self.render()
+            if self._screen.each_cycle:
+                self._after_cycle()
         self.agent_selection = self._next_agent[agent]
 
 
@@ -512,8 +522,8 @@ class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
                 {a: self._observation(a) for a in self.agents},
                 {a: self._step_info(a, None) for a in self.agents},
             )
-        if self.render_mode == "human":
-            self.render()
+        if self._screen.each_cycle:
+            self._screen.start(self._core.drill.state, None)
         return result
 
     def step(self, actions: Mapping[str, int]):
@@ -525,8 +535,8 @@ class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
             result = self._step(actions)
         finally:
             busy.release()
-        if self.render_mode == "human":
-            self.render()
+        if self._screen.each_cycle:
+            self._after_cycle()
         return result
 
     def _step(self, actions: Mapping[str, int]):
