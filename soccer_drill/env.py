@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from typing import Any, Literal
 
 import numpy as np
 from gymnasium import spaces
-from gymnasium.utils import EzPickle
 from pettingzoo import AECEnv, ParallelEnv
 
 from soccer_drill.config import DrillConfig
@@ -105,6 +105,10 @@ class _DrillEnvBase:
         self._state_bounds = (low, high)
         self.state_space = spaces.Box(low, high, dtype=np.float32)
 
+    def __copy__(self):
+        """An independent copy continuing the episode (see Copies in :class:`raw_env`)."""
+        return copy.deepcopy(self)
+
     def observation_space(self, agent: str) -> spaces.Space:
         """The agent's observation space (see the class docstring); the same object every call."""
         return self._observation_spaces[agent]
@@ -188,7 +192,7 @@ class _DrillEnvBase:
         return self._core.drill.outcome
 
 
-class raw_env(_DrillEnvBase, AECEnv, EzPickle):
+class raw_env(_DrillEnvBase, AECEnv):
     """The 2v2 soccer drill of the ILPSS paper, as a PettingZoo AEC environment.
 
     Two attackers try to carry the ball across the goal line (the bottom edge of a
@@ -303,7 +307,17 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     episodes after one seeded reset is reproducible too. The scripted team and the
     support player draw from their own generators, seeded from the drill's at each
     reset, so a team's draws never change the physics noise. Rendering changes nothing.
-    Copies made with ``pickle`` rebuild the environment from its arguments.
+
+    ## Copies
+
+    ``copy.deepcopy``, ``copy.copy`` and ``pickle`` all give an independent environment
+    that continues the episode where the original is: the same drill state, agents,
+    turn, generators and team, so the same actions give bit-identical steps in both,
+    and stepping one never moves the other (``copy.copy`` copies deeply too: a copy
+    sharing the physics engine would be two environments stepping one drill). A copy
+    of an environment never reset is one never reset. Windows and renderers are not
+    copied: a copy draws with its own. The scripted team is copied with the rest, so a
+    ``Team`` instance given as ``opponent`` must be picklable for ``pickle``.
 
     ## Rendering
 
@@ -357,10 +371,6 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
         obs_format: ObsFormat = "dict",
         shared_spaces: bool | None = None,
     ) -> None:
-        EzPickle.__init__(
-            self, opponent, opponent_params, obs_type, max_cycles, config, render_mode,
-            illegal_action, team_timeout, obs_format, shared_spaces,
-        )
         AECEnv.__init__(self)
         self._setup(
             opponent, opponent_params, obs_type, max_cycles, config, render_mode, illegal_action,
@@ -478,11 +488,11 @@ def env(**kwargs: Any) -> raw_env:
     return raw_env(**kwargs)
 
 
-class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
+class parallel_env(_DrillEnvBase, ParallelEnv):
     """The drill as a PettingZoo parallel environment: all agents act each cycle.
 
-    Spaces, illegal actions, rewards, episode end, global state, seeding, threads and
-    arguments are those of :class:`raw_env`. ``step`` takes one action per live agent;
+    Spaces, illegal actions, rewards, episode end, global state, seeding, copies,
+    rendering, threads and arguments are those of :class:`raw_env`. ``step`` takes one action per live agent;
     a missing, extra or out-of-range action raises ``ValueError`` naming the agent, and
     a masked one is replaced (reported in the returned infos) or raises, as
     ``illegal_action`` says. After the step that ends the episode, ``agents`` is empty.
@@ -501,10 +511,6 @@ class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
         obs_format: ObsFormat = "dict",
         shared_spaces: bool | None = None,
     ) -> None:
-        EzPickle.__init__(
-            self, opponent, opponent_params, obs_type, max_cycles, config, render_mode,
-            illegal_action, team_timeout, obs_format, shared_spaces,
-        )
         self._setup(
             opponent, opponent_params, obs_type, max_cycles, config, render_mode, illegal_action,
             team_timeout, obs_format, shared_spaces,

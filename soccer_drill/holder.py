@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -84,8 +85,14 @@ class HolderEnv(gym.Env):
     environment's ``reset(seed=s)`` with the same actions, whatever episodes ran before
     (the physics space is rebuilt on every reset), for every team. ``reset()`` without a
     seed continues the generator. The team and the support player draw from their own
-    generators, seeded from the drill's at each reset; rendering changes nothing; a
-    ``pickle`` copy reseeded with ``s`` plays the same episode.
+    generators, seeded from the drill's at each reset; rendering changes nothing.
+
+    ## Copies
+
+    ``copy.deepcopy``, ``copy.copy`` and ``pickle`` all give an independent environment
+    continuing the episode, as those of :class:`soccer_drill.raw_env` do: the same
+    actions give bit-identical steps in the copy and the original, and stepping one
+    never moves the other. Windows and renderers are not copied.
 
     ## Threads
 
@@ -136,6 +143,10 @@ class HolderEnv(gym.Env):
         )
         self.observation_space = self._core.obs_box
         self.action_space = spaces.Discrete(len(HOLDER_ACTIONS))
+
+    def __copy__(self) -> HolderEnv:
+        """An independent copy continuing the episode (see Copies)."""
+        return copy.deepcopy(self)
 
     @property
     def caption(self) -> str | None:
