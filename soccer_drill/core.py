@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import threading
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
@@ -270,13 +271,33 @@ class DrillCore:
 
 
 def concurrent_use(env: object, method: str) -> RuntimeError:
-    """The error for a second thread calling ``method`` while another thread is inside it."""
+    """The error for ``method`` called while the environment is inside a step or reset:
+    from that very step or reset (re-entrant: a scripted team's ``act()`` stepping the
+    environment that called it), or from another thread."""
+    if _inside_own_call(env):
+        return RuntimeError(
+            f"{type(env).__name__}.{method}() called from inside its own step() or reset() "
+            "(re-entrant: e.g. a scripted team's act() or reset() using the environment "
+            "that runs it); a team gets the drill through its view and must not step or "
+            "reset the environment"
+        )
     return RuntimeError(
         f"{type(env).__name__}.{method}() called from thread "
         f"{threading.current_thread().name!r} while another thread is stepping or resetting "
         "the same environment; an environment must not be used from two threads at once "
         "(give each thread its own environment)"
     )
+
+
+def _inside_own_call(env: object) -> bool:
+    """Whether this thread is inside a ``step`` or ``reset`` of ``env`` besides the call
+    that was refused (read only then, so it costs a step nothing)."""
+    calls, frame = 0, sys._getframe(1)
+    while frame is not None:
+        if frame.f_code.co_name in ("step", "reset") and frame.f_locals.get("self") is env:
+            calls += 1  # the refused call is one of them
+        frame = frame.f_back
+    return calls >= 2
 
 
 def not_reset(method: str) -> RuntimeError:

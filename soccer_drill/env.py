@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from typing import Any, Literal
 
 import numpy as np
 from gymnasium import spaces
-from gymnasium.utils import EzPickle
 from pettingzoo import AECEnv, ParallelEnv
 
 from soccer_drill.config import DrillConfig
@@ -20,6 +20,7 @@ from soccer_drill.core import (
     not_reset,
 )
 from soccer_drill.features import global_state, state_bounds
+from soccer_drill.screen import RENDER_MODES, Screen, frames_per_second
 from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
@@ -27,10 +28,10 @@ from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
 ObsFormat = Literal["dict", "flat"]
 
 _METADATA = {
-    "render_modes": ["human", "rgb_array"],
+    "render_modes": list(RENDER_MODES),
     "name": "soccer_drill_v0",
     "is_parallelizable": True,
-    "render_fps": 10,
+    "render_fps": 10,  # per instance: 1 / cycle_seconds
 }
 _ROLE_FLAG = (np.zeros(1, dtype=np.float32), np.ones(1, dtype=np.float32))  # defender, attacker
 
@@ -51,16 +52,20 @@ class _DrillEnvBase:
         illegal_action: IllegalAction,
         team_timeout: float | None,
         obs_format: ObsFormat,
-        shared_spaces: bool,
+        shared_spaces: bool | None,
     ) -> None:
-        if render_mode is not None and render_mode not in _METADATA["render_modes"]:
-            raise ValueError(
-                f"render_mode must be None or one of {_METADATA['render_modes']}, "
-                f"got {render_mode!r}"
-            )
+        cfg = make_config(config, max_cycles)
+        self.metadata = {**_METADATA, "render_fps": frames_per_second(cfg)}  # a frame a cycle
+        self._screen = Screen(cfg, render_mode, self.metadata["render_fps"])
         if obs_format not in ("dict", "flat"):
             raise ValueError(f"obs_format must be 'dict' or 'flat', got {obs_format!r}")
-        cfg = make_config(config, max_cycles)
+        if shared_spaces is None:  # identical spaces whenever the defenders are agents too
+            shared_spaces = opponent is None
+        elif not isinstance(shared_spaces, bool):
+            raise TypeError(
+                "shared_spaces must be None (identical spaces when there is no opponent), "
+                f"True or False, got {shared_spaces!r}"
+            )
         core = self._core = DrillCore(
             opponent, opponent_params, cfg, obs_type, illegal_action, team_timeout=team_timeout,
             shared_spaces=shared_spaces,
@@ -99,7 +104,10 @@ class _DrillEnvBase:
         low, high = state_bounds(cfg)
         self._state_bounds = (low, high)
         self.state_space = spaces.Box(low, high, dtype=np.float32)
-        self._renderer = None
+
+    def __copy__(self):
+        """An independent copy continuing the episode (see Copies in :class:`raw_env`)."""
+        return copy.deepcopy(self)
 
     def observation_space(self, agent: str) -> spaces.Space:
         """The agent's observation space (see the class docstring); the same object every call."""
@@ -155,22 +163,22 @@ class _DrillEnvBase:
         self._require_reset("state")
         return global_state(self._core.drill.state, self.config, *self._state_bounds)
 
-    def render(self) -> np.ndarray | None:
-        """Draw the current cycle (see :mod:`soccer_drill.render`)."""
+    def render(self) -> np.ndarray | list[np.ndarray] | None:
+        """The current frame, the frames since the last call, or ``None`` (see Rendering)."""
         if self.render_mode is None:
             return None
         self._require_reset("render")
-        if self._renderer is None:
-            from soccer_drill.render import Renderer
+        drill = self._core.drill
+        return self._screen.render(drill.state, drill.outcome)
 
-            self._renderer = Renderer(self.config, self.render_mode, self.metadata["render_fps"])
-        return self._renderer.draw(self._core.drill.state, self._core.drill.outcome)
+    def _after_cycle(self) -> None:
+        """A cycle has run: what the render mode does with it (a window, a kept frame)."""
+        drill = self._core.drill
+        self._screen.after_cycle(drill.state, drill.outcome)
 
     def close(self) -> None:
         """Close the window, if any."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        self._screen.close()
 
     @property
     def drill_state(self):
@@ -184,7 +192,7 @@ class _DrillEnvBase:
         return self._core.drill.outcome
 
 
-class raw_env(_DrillEnvBase, AECEnv, EzPickle):
+class raw_env(_DrillEnvBase, AECEnv):
     """The 2v2 soccer drill of the ILPSS paper, as a PettingZoo AEC environment.
 
     Two attackers try to carry the ball across the goal line (the bottom edge of a
@@ -198,13 +206,24 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     scripted and only the attackers are agents. All agents act once per cycle, in
     that order.
 
+    ## Spaces shared or per role
+
+    Every agent has the same action and observation spaces by default, the PettingZoo
+    convention that SuperSuit's vector environments, Tianshou's ``PettingZooEnv`` and
+    one shared policy need: with no opponent (``shared_spaces=None`` means ``True``
+    then) a defender gets the attackers' ``Discrete(5)`` with its last two actions
+    always masked, and every observation ends with a role flag (1 attacker, 0
+    defender); with an opponent the two attackers' spaces are identical anyway
+    (``None`` means ``False``). ``shared_spaces=False`` gives the per-role spaces
+    (defenders ``Discrete(3)``, no role flag), e.g. for one module per role.
+
     ## Action space
 
     | agent | space | actions |
     |-------|-------|---------|
     | attacker | ``Discrete(5)`` | 0 HOLD, 1 PASS, 2 DRIBBLE (ball holder only), 3 GET_OPEN, 4 GO_TO_BALL (off the ball only) |
-    | defender | ``Discrete(3)`` | 0 INTERCEPT, 1 MARK, 2 GUARD_LINE (always legal) |
-    | defender, ``shared_spaces=True`` | ``Discrete(5)`` | 0-2 as above; 3 and 4 always masked |
+    | defender (shared spaces: the default with no opponent) | ``Discrete(5)`` | 0 INTERCEPT, 1 MARK, 2 GUARD_LINE (always legal); 3 and 4 always masked |
+    | defender, ``shared_spaces=False`` | ``Discrete(3)`` | 0-2 as above |
 
     ## Illegal (masked) actions
 
@@ -237,15 +256,16 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     With ``obs_type="features"`` the ``Box`` holds the paper's 9 features from the
     agent's point of view (table in :mod:`soccer_drill.features`); with
     ``"kinematic"`` a 26-value egocentric vector of positions, velocities and
-    possession flags. With ``shared_spaces=True`` one more value ends it: 1 for an
-    attacker, 0 for a defender, so that one shared policy knows which side it plays.
+    possession flags. With shared spaces (the default with no opponent) one more value
+    ends it: 1 for an attacker, 0 for a defender, so that one shared policy knows
+    which side it plays.
 
     PettingZoo's ``api_test`` warns "Observation is not a NumPy array" and
     "Observation space for each agent probably should be gymnasium.spaces.box or
-    gymnasium.spaces.discrete" for the default ``Dict`` observation and, with defenders
-    as agents, "Agents have different observation space sizes" (their masks have 3
-    entries, the attackers' 5): all are expected, as for PettingZoo's classic games.
-    ``obs_format="flat"`` removes the first two and ``shared_spaces=True`` the third.
+    gymnasium.spaces.discrete" for the default ``Dict`` observation, as for
+    PettingZoo's classic games; ``obs_format="flat"`` removes both. With
+    ``shared_spaces=False`` and defenders as agents it also warns "Agents have
+    different observation space sizes" (their masks have 3 entries, the attackers' 5).
 
     ## Global state
 
@@ -287,7 +307,30 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     episodes after one seeded reset is reproducible too. The scripted team and the
     support player draw from their own generators, seeded from the drill's at each
     reset, so a team's draws never change the physics noise. Rendering changes nothing.
-    Copies made with ``pickle`` rebuild the environment from its arguments.
+
+    ## Copies
+
+    ``copy.deepcopy``, ``copy.copy`` and ``pickle`` all give an independent environment
+    that continues the episode where the original is: the same drill state, agents,
+    turn, generators and team, so the same actions give bit-identical steps in both,
+    and stepping one never moves the other (``copy.copy`` copies deeply too: a copy
+    sharing the physics engine would be two environments stepping one drill). A copy
+    of an environment never reset is one never reset. Windows and renderers are not
+    copied: a copy draws with its own. The scripted team is copied with the rest, so a
+    ``Team`` instance given as ``opponent`` must be picklable for ``pickle``.
+
+    ## Rendering
+
+    | ``render_mode`` | ``render()`` returns |
+    |-----------------|----------------------|
+    | ``"rgb_array"`` | the current frame, ``(H, W, 3)`` uint8 (in the AEC API the same frame at every turn of a cycle) |
+    | ``"rgb_array_list"`` | every frame since the last ``render()`` (or ``reset``): one per cycle, so a video written at ``metadata["render_fps"]`` plays at true speed |
+    | ``"human"`` | ``None``; a window shows every cycle at ``metadata["render_fps"]`` frames per second |
+
+    ``metadata["render_fps"]`` is ``1 / cycle_seconds`` (10 by default): one frame per
+    cycle is true speed. Calling ``render()`` in ``"rgb_array"`` mode after every AEC
+    turn gives one frame per agent and cycle; ``"rgb_array_list"`` gives one per cycle
+    whichever API and however often ``render()`` is called.
 
     ## Threads
 
@@ -305,11 +348,11 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
     | ``obs_type`` | ``"features"`` | ``"features"`` or ``"kinematic"`` |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
-    | ``render_mode`` | ``None`` | ``"human"`` (a window) or ``"rgb_array"`` (off-screen) |
+    | ``render_mode`` | ``None`` | ``"human"``, ``"rgb_array"`` or ``"rgb_array_list"`` (see Rendering) |
     | ``illegal_action`` | ``"default"`` | ``"default"`` (replace a masked action by the role's default, reported in infos) or ``"raise"`` (a masked action is an error) |
     | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the scripted team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound. See ``soccer_drill.teams.TeamDriver`` |
     | ``obs_format`` | ``"dict"`` | ``"dict"`` (observation and mask together) or ``"flat"`` (a ``Box``; the mask in infos and ``action_mask()``) |
-    | ``shared_spaces`` | ``False`` | ``True``: every agent has the same action and observation spaces (for self-play through SuperSuit or Tianshou) |
+    | ``shared_spaces`` | ``None`` | ``None``: identical spaces for every agent (``True`` with no opponent, ``False`` with one, whose attackers' spaces are identical anyway); ``True``: always a role flag and 5 actions; ``False``: per-role spaces (see Spaces shared or per role) |
 
     ``env(...)`` returns this class: the order and bounds checks of PettingZoo's
     standard wrappers are built in (cheaply), so no wrapper chain is added.
@@ -326,12 +369,8 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
         illegal_action: IllegalAction = "default",
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
         obs_format: ObsFormat = "dict",
-        shared_spaces: bool = False,
+        shared_spaces: bool | None = None,
     ) -> None:
-        EzPickle.__init__(
-            self, opponent, opponent_params, obs_type, max_cycles, config, render_mode,
-            illegal_action, team_timeout, obs_format, shared_spaces,
-        )
         AECEnv.__init__(self)
         self._setup(
             opponent, opponent_params, obs_type, max_cycles, config, render_mode, illegal_action,
@@ -357,8 +396,8 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
             self._next_agent = dict(zip(order, order[1:] + order[:1], strict=True))
             self._last_agent = order[-1]
             self.agent_selection = order[0]
-        if self.render_mode == "human":
-            self.render()
+        if self._screen.each_cycle:
+            self._screen.start(self._core.drill.state, None)
 
     def observe(self, agent: str) -> dict[str, np.ndarray] | np.ndarray:
         """The observation of ``agent`` (see the class docstring)."""
@@ -439,8 +478,8 @@ class raw_env(_DrillEnvBase, AECEnv, EzPickle):
             elif self._flat:  # masks change with possession
                 for name in self.agents:
                     self.infos[name]["action_mask"] = core.mask(self._index[name])
-            if self.render_mode == "human":
-                self.render()
+            if self._screen.each_cycle:
+                self._after_cycle()
         self.agent_selection = self._next_agent[agent]
 
 
@@ -449,11 +488,11 @@ def env(**kwargs: Any) -> raw_env:
     return raw_env(**kwargs)
 
 
-class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
+class parallel_env(_DrillEnvBase, ParallelEnv):
     """The drill as a PettingZoo parallel environment: all agents act each cycle.
 
-    Spaces, illegal actions, rewards, episode end, global state, seeding, threads and
-    arguments are those of :class:`raw_env`. ``step`` takes one action per live agent;
+    Spaces, illegal actions, rewards, episode end, global state, seeding, copies,
+    rendering, threads and arguments are those of :class:`raw_env`. ``step`` takes one action per live agent;
     a missing, extra or out-of-range action raises ``ValueError`` naming the agent, and
     a masked one is replaced (reported in the returned infos) or raises, as
     ``illegal_action`` says. After the step that ends the episode, ``agents`` is empty.
@@ -470,12 +509,8 @@ class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
         illegal_action: IllegalAction = "default",
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
         obs_format: ObsFormat = "dict",
-        shared_spaces: bool = False,
+        shared_spaces: bool | None = None,
     ) -> None:
-        EzPickle.__init__(
-            self, opponent, opponent_params, obs_type, max_cycles, config, render_mode,
-            illegal_action, team_timeout, obs_format, shared_spaces,
-        )
         self._setup(
             opponent, opponent_params, obs_type, max_cycles, config, render_mode, illegal_action,
             team_timeout, obs_format, shared_spaces,
@@ -493,8 +528,8 @@ class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
                 {a: self._observation(a) for a in self.agents},
                 {a: self._step_info(a, None) for a in self.agents},
             )
-        if self.render_mode == "human":
-            self.render()
+        if self._screen.each_cycle:
+            self._screen.start(self._core.drill.state, None)
         return result
 
     def step(self, actions: Mapping[str, int]):
@@ -506,8 +541,8 @@ class parallel_env(_DrillEnvBase, ParallelEnv, EzPickle):
             result = self._step(actions)
         finally:
             busy.release()
-        if self.render_mode == "human":
-            self.render()
+        if self._screen.each_cycle:
+            self._after_cycle()
         return result
 
     def _step(self, actions: Mapping[str, int]):

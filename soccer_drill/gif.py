@@ -2,13 +2,20 @@
 
 Command line::
 
-    soccer-drill-gif --team chasers --seed 0 --policy pass_first --fps 10 -o episode.gif
+    soccer-drill-gif --team chasers --seed 0 --policy pass_first -o episode.gif
+
+One frame per 0.1 s cycle, played at true speed (``--fps`` defaults to the
+environment's ``render_fps``). The output path, the team and ``--fps`` are checked
+before the episode is played.
 """
 
 from __future__ import annotations
 
 import argparse
+import errno
+import numbers
 import os
+import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -16,25 +23,72 @@ import numpy as np
 
 from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES, HolderPolicy, get_policy
+from soccer_drill.teams import team_ids
+
+FPS_RANGE = (1, 50)
+"""Frames per second a GIF can play: its frame delay is counted in hundredths of a second,
+and viewers play a delay under 20 ms (above 50 fps) as 100 ms."""
 
 
-def save_gif(frames: Sequence[np.ndarray], path: str | os.PathLike, fps: int = 10) -> Path:
-    """Save ``(H, W, 3)`` uint8 frames as an animated GIF, atomically."""
+def check_fps(fps: object) -> float:
+    """``fps`` as a number in :data:`FPS_RANGE`, else ``ValueError`` saying what is allowed."""
+    low, high = FPS_RANGE
+    if isinstance(fps, bool) or not isinstance(fps, numbers.Real) or not low <= fps <= high:
+        raise ValueError(
+            f"fps must be a number of frames per second in [{low}, {high}] (a GIF counts its "
+            f"frame delay in hundredths of a second; viewers play delays under 20 ms as "
+            f"100 ms), got {fps!r}"
+        )
+    return float(fps)
+
+
+def check_output_file(path: str | os.PathLike) -> Path:
+    """``path`` if a file can be written there, else ``ValueError`` naming the problem:
+    an empty path, a folder (an existing one, or a path ending in a separator), a path
+    under a file, or a folder that cannot be written."""
+    raw = os.fspath(path)
+    if not raw:
+        raise ValueError("the output must be a file path, got ''")
+    out = Path(raw)
+    if raw.endswith(("/", os.sep)) or out.is_dir():
+        raise ValueError(f"the output must name a file, got the folder {raw!r}; e.g. "
+                         f"{os.path.join(raw, 'episode.gif')!r}")
+    ancestor = out.parent
+    while not ancestor.exists():
+        ancestor = ancestor.parent
+    if not ancestor.is_dir():
+        raise ValueError(f"cannot write {raw!r}: {str(ancestor)!r} is a file, not a folder")
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise ValueError(f"cannot write {raw!r}: the folder {str(ancestor)!r} is not writable")
+    return out
+
+
+def save_gif(frames: Sequence[np.ndarray], path: str | os.PathLike, fps: float = 10) -> Path:
+    """Save ``(H, W, 3)`` uint8 frames as an animated GIF, atomically.
+
+    ``fps`` is checked by :func:`check_fps` and ``path`` by :func:`check_output_file`;
+    a failing write (a full disk) raises ``OSError`` naming ``path`` and leaves no
+    temporary file behind.
+    """
     from PIL import Image
 
     if not frames:
         raise ValueError("no frames to save")
-    if fps <= 0:
-        raise ValueError(f"fps must be > 0, got {fps!r}")
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    images = [Image.fromarray(f) for f in frames]
+    fps = check_fps(fps)
+    path = check_output_file(path)
     tmp = path.with_name(f".{path.name}.tmp")
-    images[0].save(
-        tmp, format="GIF", save_all=True, append_images=images[1:],
-        duration=round(1000 / fps), loop=0,
-    )
-    os.replace(tmp, path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        images = [Image.fromarray(f) for f in frames]
+        images[0].save(
+            tmp, format="GIF", save_all=True, append_images=images[1:],
+            duration=round(1000 / fps), loop=0,
+        )
+        os.replace(tmp, path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise OSError(exc.errno or errno.EIO, f"cannot write the GIF: {exc.strerror or exc}",
+                      str(path)) from exc
     return path
 
 
@@ -65,13 +119,19 @@ def write_episode_gif(
     team: str = "chasers",
     seed: int = 0,
     policy: str | HolderPolicy = "pass_first",
-    fps: int = 10,
+    fps: float | None = None,
     **env_kwargs,
 ) -> dict:
-    """Play one holder episode against ``team`` and write it to ``path``; return its info."""
+    """Play one holder episode against ``team`` and write it to ``path``; return its info.
+
+    ``fps=None`` plays it at true speed (the environment's ``render_fps``). The path and
+    ``fps`` are checked before the episode is played.
+    """
+    check_output_file(path)
     holder_policy = get_policy(policy) if isinstance(policy, str) else policy
     env = HolderEnv(opponent=team, **env_kwargs)
     try:
+        fps = check_fps(env.metadata["render_fps"] if fps is None else fps)
         frames, info = record_episode(env, holder_policy, seed)
     finally:
         env.close()
@@ -79,16 +139,48 @@ def write_episode_gif(
     return info
 
 
+def _fps(text: str) -> float:
+    try:
+        value: object = float(text)
+    except ValueError:
+        value = text
+    try:
+        return check_fps(value)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def _seed(text: str) -> int:
+    try:
+        seed = int(text)
+    except ValueError:
+        seed = -1
+    if not 0 <= seed < 2**63:
+        raise argparse.ArgumentTypeError(f"seed must be an integer in [0, 2**63), got {text!r}")
+    return seed
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point ``soccer-drill-gif``."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--team", default="chasers", help="opponent team id")
-    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--team", default="chasers", choices=team_ids(), metavar="TEAM",
+                        help="opponent team id (soccer-drill-teams lists them)")
+    parser.add_argument("--seed", type=_seed, default=0)
     parser.add_argument("--policy", default="pass_first", choices=sorted(HOLDER_POLICIES))
-    parser.add_argument("--fps", type=int, default=10)
-    parser.add_argument("-o", "--output", default="episode.gif")
+    parser.add_argument("--fps", type=_fps, default=None,
+                        help=f"frames per second in [{FPS_RANGE[0]}, {FPS_RANGE[1]}] "
+                        "(default: true speed, one frame per 0.1 s cycle)")
+    parser.add_argument("-o", "--output", default="episode.gif", help="the GIF file to write")
     args = parser.parse_args(argv)
-    info = write_episode_gif(args.output, args.team, args.seed, args.policy, args.fps)
+    try:
+        check_output_file(args.output)
+    except ValueError as exc:
+        parser.error(str(exc))
+    try:
+        info = write_episode_gif(args.output, args.team, args.seed, args.policy, args.fps)
+    except OSError as exc:
+        print(f"{parser.prog}: error: {exc}", file=sys.stderr)
+        return 1
     print(f"wrote {args.output}: {info['outcome']} after {info['cycles']} cycles")
     return 0
 

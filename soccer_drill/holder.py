@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -11,6 +12,7 @@ from gymnasium import spaces
 
 from soccer_drill.config import DrillConfig
 from soccer_drill.core import DrillCore, concurrent_use, make_config, not_reset
+from soccer_drill.screen import RENDER_MODES, Screen, frames_per_second
 from soccer_drill.skills import HOLDER_ACTIONS, Command
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
@@ -65,12 +67,16 @@ class HolderEnv(gym.Env):
     | ``render_mode`` | ``render()`` returns |
     |-----------------|----------------------|
     | ``"rgb_array"`` | the current frame, ``(H, W, 3)`` uint8 |
-    | ``"rgb_array_list"`` | every frame since the last ``render()`` (or ``reset``): one per 0.1 s cycle, so a video written at ``metadata["render_fps"]`` (10) plays at true speed, e.g. ``gymnasium.utils.save_video.save_video(env.render(), "videos", fps=10)`` (needs moviepy) |
-    | ``"human"`` | ``None``; a window shows every cycle at 10 frames per second |
+    | ``"rgb_array_list"`` | every frame since the last ``render()`` (or ``reset``): one per cycle, so a video written at ``metadata["render_fps"]`` plays at true speed |
+    | ``"human"`` | ``None``; a window shows every cycle at ``metadata["render_fps"]`` frames per second |
 
-    Gymnasium's ``RecordVideo`` keeps one frame per ``step`` (with a list it keeps the
-    last one), and a step lasts several cycles, so its videos play faster than the drill
-    ran; use ``"rgb_array_list"`` and ``save_video`` for true speed.
+    ``metadata["render_fps"]`` is ``1 / cycle_seconds`` (10 by default): one frame per
+    cycle is true speed. A step lasts several cycles, so Gymnasium's ``RecordVideo``,
+    which keeps one frame per step (the last of a list), plays fast:
+    :class:`soccer_drill.video.RecordVideo` takes the same arguments and keeps every
+    frame (``render_mode="rgb_array_list"``), and ``gymnasium.utils.save_video.save_video(
+    env.render(), "videos", fps=env.metadata["render_fps"])`` writes the frames of a
+    list at true speed too (both need moviepy).
 
     ## Seeding
 
@@ -79,8 +85,14 @@ class HolderEnv(gym.Env):
     environment's ``reset(seed=s)`` with the same actions, whatever episodes ran before
     (the physics space is rebuilt on every reset), for every team. ``reset()`` without a
     seed continues the generator. The team and the support player draw from their own
-    generators, seeded from the drill's at each reset; rendering changes nothing; a
-    ``pickle`` copy reseeded with ``s`` plays the same episode.
+    generators, seeded from the drill's at each reset; rendering changes nothing.
+
+    ## Copies
+
+    ``copy.deepcopy``, ``copy.copy`` and ``pickle`` all give an independent environment
+    continuing the episode, as those of :class:`soccer_drill.raw_env` do: the same
+    actions give bit-identical steps in the copy and the original, and stepping one
+    never moves the other. Windows and renderers are not copied.
 
     ## Threads
 
@@ -101,10 +113,7 @@ class HolderEnv(gym.Env):
     | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound (see ``soccer_drill.teams.TeamDriver``) |
     """
 
-    metadata: ClassVar[dict] = {
-        "render_modes": ["human", "rgb_array", "rgb_array_list"],
-        "render_fps": 10,
-    }
+    metadata: ClassVar[dict] = {"render_modes": list(RENDER_MODES), "render_fps": 10}
 
     def __init__(
         self,
@@ -123,24 +132,30 @@ class HolderEnv(gym.Env):
         self.decision_cycles = decision_cycles
         if opponent is None:
             raise ValueError("HolderEnv needs a scripted opponent team (a team id or Team)")
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
-                f"render_mode must be None or one of {self.metadata['render_modes']}, "
-                f"got {render_mode!r}"
-            )
         self.config = make_config(config, max_cycles)
+        # One frame per cycle: true speed at 1 / cycle_seconds frames per second.
+        self.metadata = {**HolderEnv.metadata, "render_fps": frames_per_second(self.config)}
+        self._screen = Screen(self.config, render_mode, self.metadata["render_fps"])
+        self.render_mode = render_mode
         self._core = DrillCore(
             opponent, opponent_params, self.config, "features", scripted_attackers=(0, 1),
             team_timeout=team_timeout,
         )
         self.observation_space = self._core.obs_box
         self.action_space = spaces.Discrete(len(HOLDER_ACTIONS))
-        self.render_mode = render_mode
-        self.caption: str | None = None
+
+    def __copy__(self) -> HolderEnv:
+        """An independent copy continuing the episode (see Copies)."""
+        return copy.deepcopy(self)
+
+    @property
+    def caption(self) -> str | None:
         """Extra text drawn on rendered frames (e.g. the active option)."""
-        self._renderers: dict = {}
-        self._frames: list[np.ndarray] | None = None
-        self._cycle_frames: list[np.ndarray] = []  # rgb_array_list: frames since render()
+        return self._screen.caption
+
+    @caption.setter
+    def caption(self, text: str | None) -> None:
+        self._screen.caption = text
 
     @property
     def drill_state(self):
@@ -151,9 +166,14 @@ class HolderEnv(gym.Env):
 
     def record_frames(self, frames: list[np.ndarray] | None) -> None:
         """Append an ``rgb_array`` frame to ``frames`` after every cycle (``None`` stops)."""
-        self._frames = frames
-        if frames is not None and self._core.has_reset:  # mid-episode: draw now
-            frames.append(self._draw("rgb_array"))
+        core = self._core
+        state = core.drill.state if core.has_reset else None  # mid-episode: draw now
+        self._screen.record(frames, state, core.drill.outcome)
+
+    def action_masks(self) -> np.ndarray:
+        """Which actions are legal now: all three, always (bool; for sb3-contrib's
+        ``MaskablePPO``, which asks every environment for ``action_masks()``)."""
+        return np.ones(len(HOLDER_ACTIONS), dtype=bool)
 
     def reset(
         self, *, seed: int | None = None, options: dict | None = None
@@ -164,8 +184,7 @@ class HolderEnv(gym.Env):
             super().reset(seed=seed)
             core.seed(seed)
             core.reset()
-            self._cycle_frames = []
-            self._after_cycle()
+            self._screen.start(core.drill.state, None)
             holder = core.drill.state.holder
             return core.observe(holder), {
                 "duration": 0, "cycles": 0, "outcome": None, "holder": PLAYER_NAMES[holder],
@@ -227,23 +246,10 @@ class HolderEnv(gym.Env):
         return obs, float(drill.attacker_reward), not truncated, truncated, info
 
     def _after_cycle(self) -> None:
-        if self.render_mode == "human":
-            self._draw("human")
-        elif self.render_mode == "rgb_array_list":
-            self._cycle_frames.append(self._draw("rgb_array"))
-        if self._frames is not None:
-            self._frames.append(self._draw("rgb_array"))
-
-    def _draw(self, mode: str) -> np.ndarray | None:
-        from soccer_drill.render import Renderer
-
-        renderer = self._renderers.get(mode)
-        if renderer is None:
-            renderer = self._renderers[mode] = Renderer(
-                self.config, mode, self.metadata["render_fps"]
-            )
-        drill = self._core.drill
-        return renderer.draw(drill.state, drill.outcome, self.caption)
+        screen = self._screen
+        if screen.each_cycle:
+            drill = self._core.drill
+            screen.after_cycle(drill.state, drill.outcome)
 
     def render(self) -> np.ndarray | list[np.ndarray] | None:
         """The current frame, the frames since the last call, or ``None`` (see Rendering)."""
@@ -251,13 +257,9 @@ class HolderEnv(gym.Env):
             return None
         if not self._core.has_reset:
             raise not_reset("render")
-        if self.render_mode == "rgb_array_list":
-            frames, self._cycle_frames = self._cycle_frames, []
-            return frames
-        return self._draw(self.render_mode)
+        drill = self._core.drill
+        return self._screen.render(drill.state, drill.outcome)
 
     def close(self) -> None:
         """Close any window opened by human rendering."""
-        for renderer in self._renderers.values():
-            renderer.close()
-        self._renderers = {}
+        self._screen.close()

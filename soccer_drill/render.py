@@ -97,3 +97,4 @@ class Renderer:
         if self._window is not None:
             pygame.display.quit()
             self._window = None
+

@@ -27,6 +27,8 @@ never fails an honest team.
 
 from __future__ import annotations
 
+import inspect
+import itertools
 import math
 import numbers
 import time
@@ -38,6 +40,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from soccer_drill.interruptions import MAX_ITEMS, delivered_by_signal, short_repr
 from soccer_drill.skills import BALL_SKILLS, Command, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillView
 from soccer_drill.time_bound import Overrun, call_within
@@ -265,18 +268,192 @@ def _lookup(team_id: str) -> Callable[..., Team]:
 
 
 def make_team(team_id: str, **params: Any) -> Team:
-    """Instantiate the team registered as ``team_id`` with keyword ``params``."""
+    """Instantiate the team registered as ``team_id`` with keyword ``params``.
+
+    Raises:
+        ValueError: ``params`` do not fit the factory's signature (the message lists
+            what it takes), or the factory refused them with a ``ValueError``.
+        TeamError: the factory failed otherwise (any other exception, ``SystemExit``
+            and a ``KeyboardInterrupt`` it raised included; a Ctrl-C is not caught, see
+            :mod:`soccer_drill.interruptions`), or built something that is not a team.
+    """
     factory = _lookup(team_id)
+    problem = _binding_problem(factory, params)
+    if problem is not None:
+        raise ValueError(f"bad parameters {short_repr(params)} for team {team_id!r}: {problem}")
     try:
         team = factory(**params)
-    except TypeError as exc:
-        raise ValueError(f"bad parameters {params!r} for team {team_id!r}: {exc}") from exc
+    except ValueError as exc:  # the usual way to refuse a parameter's value
+        raise ValueError(
+            f"team {team_id!r} refused its parameters {short_repr(params)}: {short_repr(exc)}"
+        ) from exc
+    except BaseException as exc:
+        if delivered_by_signal(exc):
+            raise
+        raise TeamError(
+            f"team {team_id!r} failed while being built with parameters "
+            f"{short_repr(params)}: {_what_happened(exc)}"
+        ) from exc
     if not isinstance(team, Team):
         raise TeamError(
             f"team {team_id!r}: factory returned {type(team).__name__}, which lacks "
             "reset(view, rng) and act(view)"
         )
     return team
+
+
+def _binding_problem(factory: Callable[..., Any], params: dict[str, Any]) -> str | None:
+    """Why ``params`` cannot be passed to ``factory`` (``None``: they can, or the
+    factory's signature cannot be read and the call will tell)."""
+    try:
+        signature = inspect.signature(factory)
+    except (TypeError, ValueError):
+        return None
+    try:
+        signature.bind(**params)
+    except TypeError as exc:
+        return f"{exc}; it takes {signature}"
+    return None
+
+
+def _what_happened(exc: BaseException) -> str:
+    """A team's exception, said for an error message (short, whatever its repr)."""
+    if isinstance(exc, SystemExit):
+        return (f"it called sys.exit({short_repr(exc.code)}) (SystemExit); a team must not "
+                "end the program, so it is reported as this error")
+    if isinstance(exc, KeyboardInterrupt):
+        return ("it raised KeyboardInterrupt itself (not a Ctrl-C, which stops the program "
+                f"as usual): {short_repr(exc)}")
+    return short_repr(exc)
+
+
+class _PlayerSet:
+    """The players a team drives, as :func:`check_commands` compares and indexes them."""
+
+    __slots__ = ("indices", "names", "set")
+
+    def __init__(self, players: tuple[str, ...]) -> None:
+        for player in players:
+            if player not in PLAYER_NAMES:
+                raise ValueError(f"unknown player {player!r}; players are {list(PLAYER_NAMES)}")
+        self.names, self.set = players, frozenset(players)
+        self.indices = tuple(PLAYER_NAMES.index(p) for p in players)
+
+
+_player_sets: dict[tuple[str, ...], _PlayerSet] = {}
+
+
+def check_commands(
+    commands: object, players: tuple[str, ...], team: str, cycle: int
+) -> list[tuple[int, Command]]:
+    """What a team's ``act()`` returned, checked: ``(player index, Command)`` pairs of
+    plain values (a ``Command`` of a ``Skill``, a ``float`` speed in (0, 1], a tuple of
+    two finite floats as a ``MOVE_TO`` target), one per player in ``players``.
+
+    Anything else raises :class:`TeamError` naming ``team``, the player and ``cycle``:
+    not a mapping with exactly those players (its size is read before its keys, so a
+    huge mapping is refused at once), not a ``Command``, a ball skill, a speed outside
+    (0, 1], a target that is not a finite ``(x, y)`` pair, or a mapping or value that
+    raises when read. Each value is read once, and what is returned is what was checked.
+    Messages are short whatever the team gave (:func:`~soccer_drill.interruptions.short_repr`).
+
+    This runs the team's own objects (a ``Mapping``'s ``__len__``, ``__iter__`` and
+    ``__getitem__``, a speed's ``__float__``, ``__repr__`` in a message): call it inside
+    the team's time bound, as :class:`TeamDriver` does, so that none of it escapes the
+    bound.
+    """
+    known = _player_sets.get(players)
+    if known is None:
+        known = _player_sets[players] = _PlayerSet(tuple(players))
+    try:
+        return _checked(commands, known, team, cycle)
+    except (TeamError, Overrun):
+        raise
+    except BaseException as exc:  # the team's own Mapping or Command type misbehaved
+        if delivered_by_signal(exc):
+            raise
+        raise TeamError(
+            f"team {team!r} returned commands that could not be checked at cycle "
+            f"{cycle}: {_what_happened(exc)}"
+        ) from exc
+
+
+def _checked(commands: object, known: _PlayerSet, team: str, cycle: int) -> list:
+    # The common case first (a dict; its keys compared as a set, without copying; a set
+    # comparison looks at the sizes first).
+    if not (
+        (type(commands) is dict and commands.keys() == known.set)
+        or (
+            isinstance(commands, Mapping)
+            and len(commands) == len(known.set)
+            and set(commands) == known.set
+        )
+    ):
+        if isinstance(commands, Mapping):
+            size = len(commands)
+            keys = sorted(short_repr(k) for k in itertools.islice(commands, MAX_ITEMS))
+            got = f"[{', '.join(keys)}]" if size <= MAX_ITEMS else (
+                f"{size:,} keys, the first {len(keys)} [{', '.join(keys)}, ...]"
+            )
+        else:
+            got = type(commands).__name__
+        raise TeamError(
+            f"team {team!r} must return a mapping with exactly the players it drives "
+            f"{sorted(known.names)}, got {got} at cycle {cycle}"
+        )
+    out = []
+    given = checked = _UNSET
+    for player, index in zip(known.names, known.indices, strict=True):
+        command = commands[player]
+        if command is not given:  # one object for several players is checked once
+            given, checked = command, _check(team, player, command, cycle)
+        out.append((index, checked))
+    return out
+
+
+def _check(team: str, player: str, command: object, cycle: int) -> Command:
+    """``command`` if it is valid and plain, else a plain copy of it.
+
+    Each field is read once and the copy holds what was checked: a ``MOVE_TO``
+    target becomes a ``(float, float)`` tuple, so an object that yields other
+    numbers when read again (or a ``Command`` subclass computing its fields)
+    cannot slip a NaN past the check.
+    """
+    if not isinstance(command, Command):
+        raise _invalid(team, player, cycle, f"expected a Command, got {short_repr(command)}")
+    skill, target, speed = command.skill, command.target, command.speed
+    if not isinstance(skill, Skill) or skill in BALL_SKILLS:
+        raise _invalid(
+            team, player, cycle, f"skill {short_repr(skill)} is not allowed for a scripted "
+            f"defender; allowed: {[s.name for s in Skill if s not in BALL_SKILLS]}"
+        )
+    plain = type(command) is Command and (type(speed) is float or type(speed) is int)
+    if not (plain and 0.0 < speed <= 1.0):  # else the general check, and a copy
+        checked = float(speed) if not plain and _is_real(speed) else speed  # type: ignore[arg-type]
+        if not (_is_real(checked) and 0.0 < checked <= 1.0):  # type: ignore[operator]
+            raise _invalid(team, player, cycle, f"speed must be in (0, 1], got {short_repr(speed)}")
+        speed = checked
+    if skill is not _MOVE_TO:
+        return command if plain else Command(skill, None, speed)  # type: ignore[arg-type]
+    if not (  # the common case, already immutable and plain: no copy needed
+        type(target) is tuple
+        and len(target) == 2
+        and type(target[0]) is float
+        and type(target[1]) is float
+        and math.isfinite(target[0])
+        and math.isfinite(target[1])
+    ):
+        point = _point(target)
+        if point is None:
+            raise _invalid(
+                team, player, cycle, f"MOVE_TO needs a finite (x, y) target, got {short_repr(target)}"
+            )
+        target, plain = point, False
+    return command if plain else Command(skill, target, speed)  # type: ignore[arg-type]
+
+
+def _invalid(team: str, player: str, cycle: int, what: str) -> TeamError:
+    return TeamError(f"team {team!r}, player {player!r}, cycle {cycle}: {what}")
 
 
 class TeamDriver:
@@ -297,6 +474,7 @@ class TeamDriver:
     | the team's call | counted | stopped |
     |---|---|---|
     | computing (Python code, NumPy, any C code) | yes | on the main thread of a Unix process: interrupted inside the call once past the bound, also in a pure-Python infinite loop and after swallowing the first interruption (the timer re-fires); elsewhere: when the call returns |
+    | checking what ``act()`` returned (:func:`check_commands`: the team's ``Mapping`` methods, a speed's ``__float__``, the ``__repr__`` of anything named in an error) and describing an exception it raised | yes: inside the same bound | as computing |
     | stuck inside one C call that never returns | yes | no (Python cannot interrupt C code) |
     | waiting: descheduled on a loaded machine, ``time.sleep``, I/O, a lock, a debugger's pause | no | no: a call blocked forever hangs the drill |
     | garbage collections it triggers (and the finalisers they run) | no | - |
@@ -310,6 +488,13 @@ class TeamDriver:
     at once), the call's CPU time is measured and the error raised *after* it returns.
     Pass ``team_timeout=None`` for no bound at all.
 
+    Whatever the team raises is reported as a :class:`TeamError` naming it, the call and
+    the cycle: any exception, ``SystemExit`` (``sys.exit()``) and a ``KeyboardInterrupt``
+    its code raises included. A Ctrl-C (``SIGINT``) arriving during the call, and an
+    exception that a signal handler of the program raises then, pass through unchanged,
+    so Ctrl-C still stops the program (how the two are told apart:
+    :mod:`soccer_drill.interruptions`).
+
     After the error the environment stays usable: its next ``reset()`` resets the team.
     """
 
@@ -320,57 +505,53 @@ class TeamDriver:
         players: tuple[str, ...],
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
     ) -> None:
-        self.team, self.name, self.players = team, name, players
+        self.team, self.name, self.players = team, name, tuple(players)
         self.team_timeout = check_team_timeout(team_timeout)
-        self._indices = tuple(PLAYER_NAMES.index(p) for p in players)
-        self._player_set = frozenset(players)
 
     def reset(self, view: DrillView, rng: np.random.Generator) -> None:
         """Reset the team, naming it in any error it raises."""
         start = time.perf_counter()
         try:
-            self._call(self.team.reset, view, rng)
-        except (Overrun, Exception) as exc:
-            raise self._failure("reset()", "", exc, start) from _cause(exc)
-
-    def act(self, view: DrillView) -> list[tuple[int, Command]]:
-        """Commands as ``(player index, command)`` pairs, validated."""
-        start = time.perf_counter()
-        try:
-            commands = self._call(self.team.act, view)
-        except (Overrun, Exception) as exc:
-            raise self._failure("act()", f" at cycle {view.cycle}", exc, start) from _cause(exc)
-        try:
-            return self._commands(commands, view.cycle)
+            self._call(self._bounded_reset, view, rng)
+        except Overrun as exc:
+            raise self._overrun("reset()", "", exc, start) from None
         except TeamError:
             raise
-        except Exception as exc:  # the team's own Mapping or Command type misbehaved
-            raise TeamError(
-                f"team {self.name!r} returned commands that could not be checked at cycle "
-                f"{view.cycle}: {exc!r}"
-            ) from exc
+        except Exception as exc:  # the bound itself failed (arming its timer)
+            raise self._unbounded("reset()", "", exc) from exc
 
-    def _commands(self, commands: object, cycle: int) -> list[tuple[int, Command]]:
-        # The common case first (a dict; its keys compared as a set, without copying).
-        if not (
-            (type(commands) is dict and commands.keys() == self._player_set)
-            or (isinstance(commands, Mapping) and set(commands) == self._player_set)
-        ):
-            got = sorted(commands, key=repr) if isinstance(commands, Mapping) else (
-                type(commands).__name__
-            )
-            raise TeamError(
-                f"team {self.name!r} must return a mapping with exactly the players it "
-                f"drives {sorted(self.players)}, got {got} at cycle {cycle}"
-            )
-        out = []
-        given = checked = _UNSET
-        for player, index in zip(self.players, self._indices, strict=True):
-            command = commands[player]
-            if command is not given:  # one object for several players is checked once
-                given, checked = command, self._check(player, command, cycle)
-            out.append((index, checked))
-        return out
+    def act(self, view: DrillView) -> list[tuple[int, Command]]:
+        """Commands as ``(player index, command)`` pairs, checked (within the bound)."""
+        start = time.perf_counter()
+        try:
+            return self._call(self._bounded_act, view)
+        except Overrun as exc:
+            raise self._overrun("act()", f" at cycle {view.cycle}", exc, start) from None
+        except TeamError:
+            raise
+        except Exception as exc:  # the bound itself failed (arming its timer)
+            raise self._unbounded("act()", f" at cycle {view.cycle}", exc) from exc
+
+    def _bounded_reset(self, view: DrillView, rng: np.random.Generator) -> None:
+        try:
+            self.team.reset(view, rng)
+        except Overrun:
+            raise
+        except BaseException as exc:
+            if delivered_by_signal(exc):
+                raise
+            raise self._raised("reset()", "", exc) from exc
+
+    def _bounded_act(self, view: DrillView) -> list[tuple[int, Command]]:
+        try:
+            commands = self.team.act(view)
+        except Overrun:
+            raise
+        except BaseException as exc:
+            if delivered_by_signal(exc):
+                raise
+            raise self._raised("act()", f" at cycle {view.cycle}", exc) from exc
+        return check_commands(commands, self.players, self.name, view.cycle)
 
     def call(self, call: str, when: str, method: Callable[..., Any], *args: Any) -> Any:
         """``method(*args)`` within this driver's time bound; any failure a :class:`TeamError`.
@@ -395,58 +576,22 @@ class TeamDriver:
             return method(*args)
         return call_within(timeout, method, *args)
 
-    def _failure(self, call: str, when: str, exc: BaseException, start: float) -> TeamError:
-        if isinstance(exc, Overrun):
-            return TeamError(
-                f"team {self.name!r} exceeded its time bound of {self.team_timeout:g} s of "
-                f"CPU time in {call}{when} (stopped after {exc.cpu:.2f} s of CPU time, "
-                f"{time.perf_counter() - start:.2f} s in all); fix the team or pass a larger "
-                "team_timeout"
-            )
-        return TeamError(f"team {self.name!r} raised in {call}{when}: {exc!r}")
+    def _raised(self, call: str, when: str, exc: BaseException) -> TeamError:
+        return TeamError(f"team {self.name!r} raised in {call}{when}: {_what_happened(exc)}")
 
-    def _check(self, player: str, command: object, cycle: int) -> Command:
-        """``command`` if it is valid and plain, else a plain copy of it.
+    def _unbounded(self, call: str, when: str, exc: Exception) -> TeamError:
+        return TeamError(
+            f"team {self.name!r}: its time bound could not be set for {call}{when}: "
+            f"{short_repr(exc)}"
+        )
 
-        Each field is read once and the copy holds what was checked: a ``MOVE_TO``
-        target becomes a ``(float, float)`` tuple, so an object that yields other
-        numbers when read again (or a ``Command`` subclass computing its fields)
-        cannot slip a NaN past the check.
-        """
-        if not isinstance(command, Command):
-            raise self._invalid(player, cycle, f"expected a Command, got {command!r}")
-        skill, target, speed = command.skill, command.target, command.speed
-        if not isinstance(skill, Skill) or skill in BALL_SKILLS:
-            raise self._invalid(
-                player, cycle, f"skill {skill!r} is not allowed for a scripted defender; "
-                f"allowed: {[s.name for s in Skill if s not in BALL_SKILLS]}"
-            )
-        plain = type(command) is Command and (type(speed) is float or type(speed) is int)
-        if not (plain and 0.0 < speed <= 1.0):  # else the general check, and a copy
-            checked = float(speed) if not plain and _is_real(speed) else speed  # type: ignore[arg-type]
-            if not (_is_real(checked) and 0.0 < checked <= 1.0):  # type: ignore[operator]
-                raise self._invalid(player, cycle, f"speed must be in (0, 1], got {speed!r}")
-            speed = checked
-        if skill is not _MOVE_TO:
-            return command if plain else Command(skill, None, speed)  # type: ignore[arg-type]
-        if not (  # the common case, already immutable and plain: no copy needed
-            type(target) is tuple
-            and len(target) == 2
-            and type(target[0]) is float
-            and type(target[1]) is float
-            and math.isfinite(target[0])
-            and math.isfinite(target[1])
-        ):
-            point = _point(target)
-            if point is None:
-                raise self._invalid(
-                    player, cycle, f"MOVE_TO needs a finite (x, y) target, got {target!r}"
-                )
-            target, plain = point, False
-        return command if plain else Command(skill, target, speed)  # type: ignore[arg-type]
-
-    def _invalid(self, player: str, cycle: int, what: str) -> TeamError:
-        return TeamError(f"team {self.name!r}, player {player!r}, cycle {cycle}: {what}")
+    def _overrun(self, call: str, when: str, exc: Overrun, start: float) -> TeamError:
+        return TeamError(
+            f"team {self.name!r} exceeded its time bound of {self.team_timeout:g} s of "
+            f"CPU time in {call}{when} (stopped after {exc.cpu:.2f} s of CPU time, "
+            f"{time.perf_counter() - start:.2f} s in all); fix the team or pass a larger "
+            "team_timeout"
+        )
 
 
 def _is_real(value: object) -> bool:
@@ -466,8 +611,3 @@ def _point(target: object) -> tuple[float, float] | None:
         return None
     point = (float(x), float(y))
     return point if math.isfinite(point[0]) and math.isfinite(point[1]) else None
-
-
-def _cause(exc: BaseException) -> BaseException | None:
-    """The exception to chain a :class:`TeamError` to (not the internal interruption)."""
-    return None if isinstance(exc, Overrun) else exc

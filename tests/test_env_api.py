@@ -88,7 +88,7 @@ def test_metadata_and_spaces_are_stable():
     assert env.metadata["is_parallelizable"] is True
     assert env.metadata["name"] == "soccer_drill_v0"
     assert env.metadata["render_fps"] > 0
-    assert set(env.metadata["render_modes"]) == {"human", "rgb_array"}
+    assert set(env.metadata["render_modes"]) == {"human", "rgb_array", "rgb_array_list"}
     assert env.possible_agents == ["attacker_0", "attacker_1", "defender_0", "defender_1"]
     for agent in env.possible_agents:
         assert env.observation_space(agent) is env.observation_space(agent)

@@ -60,7 +60,7 @@ def test_flat_parallel_masks_follow_possession():
 @pytest.mark.parametrize("obs_type", ["features", "kinematic"])
 def test_shared_spaces_give_every_agent_the_same_spaces_and_a_role_flag(obs_type):
     env = soccer_drill.parallel_env(obs_type=obs_type, shared_spaces=True)
-    plain = soccer_drill.parallel_env(obs_type=obs_type)
+    plain = soccer_drill.parallel_env(obs_type=obs_type, shared_spaces=False)
     agents = env.possible_agents
     assert len({repr(env.observation_space(a)) for a in agents}) == 1
     assert all(env.observation_space(a) == env.observation_space(agents[0]) for a in agents)
@@ -137,7 +137,8 @@ def test_calls_before_reset_say_so(call):
 def test_bad_option_values_are_refused():
     with pytest.raises(ValueError, match="obs_format must be 'dict' or 'flat', got 'box'"):
         soccer_drill.env(obs_format="box")
-    with pytest.raises(TypeError, match="shared_spaces must be True or False, got 1"):
+    with pytest.raises(TypeError, match=r"shared_spaces must be None \(identical spaces when "
+                       r"there is no opponent\), True or False, got 1"):
         soccer_drill.parallel_env(shared_spaces=1)
 
 

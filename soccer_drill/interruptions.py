@@ -1,0 +1,82 @@
+"""Which exceptions out of a team's code a signal delivered, and short descriptions of
+what a team gave or raised.
+
+A team's ``KeyboardInterrupt`` or ``SystemExit`` is the team's failure, to be reported
+as such; the user's Ctrl-C arriving while a team computes (or a ``SIGTERM`` handler
+calling ``sys.exit()`` then) must still stop the program. The two look alike, so
+:func:`delivered_by_signal` tells them apart from the traceback, only when such an
+exception occurs (nothing is added to a call that succeeds):
+
+| the exception | delivered by a signal when |
+|---|---|
+| ``KeyboardInterrupt`` | its innermost frame did not stop at a ``raise`` statement: Python's own ``SIGINT`` handler (C code) raises it wherever the interpreter was, never at a ``raise`` |
+| any | one of its frames runs a Python signal handler installed now (e.g. a ``SIGTERM`` handler calling ``sys.exit()``) |
+
+A team that catches the user's Ctrl-C and re-raises it (``raise`` alone) keeps the
+original traceback, so that is still the user's; a team that raises a new
+``KeyboardInterrupt`` is reported as the team's.
+"""
+
+from __future__ import annotations
+
+import dis
+import reprlib
+import signal
+from types import TracebackType
+
+_RAISE = dis.opmap["RAISE_VARARGS"]
+_short = reprlib.Repr()
+_short.maxlevel, _short.maxstring, _short.maxother, _short.maxlong = 2, 400, 400, 40
+_short.maxdict = _short.maxlist = _short.maxtuple = _short.maxset = 6
+MAX_ITEMS = 6
+"""How many keys or items an error message lists at most."""
+
+
+def short_repr(value: object) -> str:
+    """``repr(value)`` cut to about 400 characters (containers to a few items), for
+    error messages about what a team gave: a team's huge or hostile object must not make
+    a huge message. Run it inside the team's time bound: it runs the value's
+    ``__repr__``."""
+    try:
+        return _short.repr(value)
+    except Exception as exc:  # a __repr__ that raises
+        return f"<{type(value).__name__} whose repr() raised {type(exc).__name__}>"
+
+
+def _innermost(tb: TracebackType) -> TracebackType:
+    while tb.tb_next is not None:
+        tb = tb.tb_next
+    return tb
+
+
+def _handler_codes() -> set:
+    codes = set()
+    for signum in signal.valid_signals():
+        try:
+            handler = signal.getsignal(signum)
+        except (ValueError, OSError):  # pragma: no cover - signals Python cannot read
+            continue
+        code = getattr(handler, "__code__", None)
+        if code is not None:
+            codes.add(code)
+    return codes
+
+
+def delivered_by_signal(exc: BaseException) -> bool:
+    """Whether a signal delivered ``exc`` rather than code raising it (table above)."""
+    tb = exc.__traceback__
+    if tb is None:
+        return isinstance(exc, KeyboardInterrupt)  # nothing to tell by: the user's, to be safe
+    if isinstance(exc, KeyboardInterrupt):
+        last = _innermost(tb)
+        try:
+            if last.tb_frame.f_code.co_code[last.tb_lasti] != _RAISE:
+                return True
+        except IndexError:  # pragma: no cover - an offset outside the code: be safe
+            return True
+    codes = _handler_codes()
+    while tb is not None:
+        if tb.tb_frame.f_code in codes:
+            return True
+        tb = tb.tb_next
+    return False

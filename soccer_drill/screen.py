@@ -1,0 +1,118 @@
+"""What the three environments share about rendering: what each ``render_mode`` does
+after every cycle and on ``render()``, at one frame per cycle.
+
+pygame is imported only when a frame is first drawn (:mod:`soccer_drill.render`).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from soccer_drill.config import DrillConfig
+from soccer_drill.state import DrillState
+
+if TYPE_CHECKING:
+    from soccer_drill.render import Renderer
+
+RENDER_MODES = ("human", "rgb_array", "rgb_array_list")
+
+
+def frames_per_second(config: DrillConfig) -> float | int:
+    """One frame per cycle at true speed: ``1 / cycle_seconds`` (an int when it is one)."""
+    fps = 1.0 / config.cycle_seconds
+    return round(fps) if abs(fps - round(fps)) < 1e-9 else fps
+
+
+class Screen:
+    """An environment's drawing, by ``render_mode``:
+
+    | ``render_mode`` | after every cycle (and at reset) | ``render()`` returns |
+    |---|---|---|
+    | ``None`` | nothing | ``None`` |
+    | ``"human"`` | draws the window, at ``fps`` frames per second | ``None`` |
+    | ``"rgb_array"`` | nothing | the current frame, ``(H, W, 3)`` uint8 |
+    | ``"rgb_array_list"`` | draws the frame and keeps it | every frame kept since the last ``render()`` or reset |
+
+    So ``"rgb_array_list"`` gives one frame per cycle however the environment's steps
+    map onto cycles. :meth:`record` also hands an ``rgb_array`` frame of every cycle to
+    a list of the caller's, whatever the mode. Copies (``pickle``, ``copy``) keep the
+    frames but not the renderers: a copy draws with its own, opening its own window.
+
+    Args:
+        config: the drill's configuration (field size, radii, cycle length).
+        render_mode: one of :data:`RENDER_MODES` or ``None``.
+        fps: frames per second of the ``human`` window.
+    """
+
+    def __init__(self, config: DrillConfig, render_mode: str | None, fps: float) -> None:
+        if render_mode is not None and render_mode not in RENDER_MODES:
+            raise ValueError(
+                f"render_mode must be None or one of {list(RENDER_MODES)}, got {render_mode!r}"
+            )
+        self.config, self.render_mode, self.fps = config, render_mode, fps
+        self.caption: str | None = None
+        """Extra text drawn on every frame (e.g. the active option)."""
+        self._draws_cycles = render_mode in ("human", "rgb_array_list")
+        self.each_cycle = self._draws_cycles
+        """Whether :meth:`after_cycle` has anything to do (the mode draws every cycle, or
+        :meth:`record` is on)."""
+        self._frames: list[np.ndarray] = []  # rgb_array_list: kept since render()
+        self._recording: list[np.ndarray] | None = None
+        self._renderers: dict[str, Renderer] = {}
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["_renderers"] = {}  # pygame surfaces and windows are not copied
+        return state
+
+    def draw(self, mode: str, state: DrillState, outcome: str | None) -> np.ndarray | None:
+        """Draw ``state`` in ``mode`` (``"rgb_array"`` or ``"human"``)."""
+        renderer = self._renderers.get(mode)
+        if renderer is None:
+            from soccer_drill.render import Renderer
+
+            renderer = self._renderers[mode] = Renderer(self.config, mode, self.fps)
+        return renderer.draw(state, outcome, self.caption)
+
+    def start(self, state: DrillState, outcome: str | None) -> None:
+        """A new episode: the frames of the last one are dropped, the first is drawn."""
+        self._frames = []
+        self.after_cycle(state, outcome)
+
+    def after_cycle(self, state: DrillState, outcome: str | None) -> None:
+        """What the mode does with every cycle (see the table)."""
+        if self.render_mode == "human":
+            self.draw("human", state, outcome)
+        elif self.render_mode == "rgb_array_list":
+            self._frames.append(self.draw("rgb_array", state, outcome))  # type: ignore[arg-type]
+        if self._recording is not None:
+            self._recording.append(self.draw("rgb_array", state, outcome))  # type: ignore[arg-type]
+
+    def record(self, frames: list[np.ndarray] | None, state: DrillState | None,
+               outcome: str | None) -> None:
+        """Append an ``rgb_array`` frame to ``frames`` after every cycle, from ``state``
+        now if given (``None`` stops)."""
+        self._recording = frames
+        self.each_cycle = self._draws_cycles or frames is not None
+        if frames is not None and state is not None:
+            frames.append(self.draw("rgb_array", state, outcome))  # type: ignore[arg-type]
+
+    def render(self, state: DrillState, outcome: str | None):
+        """What ``render()`` returns (see the table)."""
+        if self.render_mode is None:
+            return None
+        if self.render_mode == "rgb_array_list":
+            frames, self._frames = self._frames, []
+            return frames
+        if self.render_mode == "human":
+            self.draw("human", state, outcome)
+            return None
+        return self.draw("rgb_array", state, outcome)
+
+    def close(self) -> None:
+        """Close any window."""
+        for renderer in self._renderers.values():
+            renderer.close()
+        self._renderers = {}
