@@ -58,7 +58,7 @@ from ilpss.episode import EpisodeResult, options_used
 from ilpss.kernels import KERNEL_CONSTRAINTS, SharedKernelModel, UniformKernel
 from ilpss.options import OptionLibrary, OptionSettings
 from ilpss.policy import FrozenPolicy
-from ilpss.reuse import KERNEL_LOADERS, REUSES, Fresh, Reuse
+from ilpss.reuse import KERNEL_LOADERS, REUSES, Fresh, Reuse, learn_with
 from ilpss.smdp import LearnerConfig, SmdpLearner
 
 CHECKPOINT_SCHEMA = "ilpss.lifelong/2"
@@ -324,10 +324,9 @@ class LifelongLearner:
         learner_seed, env_seed, _, _ = trial_seeds(self.seed, index)
         learner = self.make_learner(learner_seed, with_options)
         start = self.config.reuse.start if with_options else Fresh()
-        spent = start.start(learner, self.policies, env, choice_seed(self.seed, index))
-        budget = self.config.train_episodes
-        results = spent[:budget] + learner.train(env, max(budget - len(spent), 0),
-                                                 seed=env_seed, callback=callback)
+        results = learn_with(start, learner, self.policies, env, self.config.train_episodes,
+                             seed=env_seed, choice_seed=choice_seed(self.seed, index),
+                             callback=callback)
         return learner, results
 
     def run_trial(

@@ -42,11 +42,12 @@ curves shorter than a requested window raise :class:`ValueError`.
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -484,7 +485,7 @@ def _time_ratio(t_t: float, t_b: float) -> float:
 
 # --------------------------------------------------------------------------- censored times
 def threshold_times(
-    curves: ArrayLike, threshold: float, window: int = 1
+    curves: ArrayLike, threshold: float, window: int = 1, *, warmup: bool = False
 ) -> tuple[FloatArray, NDArray[np.bool_]]:
     """Each seed's time to threshold, censored at the budget: ``(times, reached)``.
 
@@ -503,6 +504,10 @@ def threshold_times(
         Reward level to reach.
     window : int
         Trailing-mean window (default 1), ``1 <= window <= n_episodes``.
+    warmup : bool
+        Also count the first ``window - 1`` episodes, on the mean of the episodes played
+        so far (``smooth``'s expanding edge): a learner at the threshold from its first
+        episode then has time 1, not ``window``. Default: full windows only.
 
     Returns
     -------
@@ -518,7 +523,10 @@ def threshold_times(
     arr = _as_curves(curves)
     threshold = _check_real(threshold, "threshold")
     window = _check_count(window, "window", arr.shape[1])
-    first = _first_crossing(smooth(arr, window, edges="valid"), threshold, window)
+    if warmup:
+        first = _first_crossing(smooth(arr, window, edges="expanding"), threshold, 1)
+    else:
+        first = _first_crossing(smooth(arr, window, edges="valid"), threshold, window)
     reached = np.isfinite(first)
     return np.where(reached, first, float(arr.shape[1])), reached
 
@@ -1135,6 +1143,35 @@ def mean_curve_band(
 
 
 # --------------------------------------------------------------------------- per-seed gains
+def largest_dip(curves: ArrayLike, window: int) -> FloatArray:
+    """How far each curve's trailing mean falls below its earlier maximum: per row, the
+    largest ``max(m[u] for u <= t) - m[t]`` over ``t``, where ``m`` is the trailing mean
+    over ``window`` episodes from the first full window on (episode ``window``, so that
+    no early few-episode mean counts as a maximum). 0 for a curve whose trailing mean
+    never falls. A 1-D curve gives a 0-D array.
+
+    A learner that starts high and then collapses before it recovers (a head start
+    handed over too early) has a large dip even when its total reward is good.
+    """
+    arr = np.asarray(curves, dtype=np.float64)
+    m = smooth(arr, _check_count(window, "window", arr.shape[-1]), edges="valid")
+    return np.max(np.maximum.accumulate(m, axis=-1) - m, axis=-1)
+
+
+def episodes_below(curves: ArrayLike, baseline: ArrayLike, window: int,
+                   margin: float = 0.05) -> FloatArray:
+    """Per row, the episodes (from the first full window on) at which the trailing mean
+    over ``window`` episodes of ``curves`` lies more than ``margin`` below that of the
+    paired ``baseline`` row: how long a method does worse than learning anew."""
+    t, b = np.asarray(curves, dtype=np.float64), np.asarray(baseline, dtype=np.float64)
+    if t.shape != b.shape:
+        raise ValueError(f"curves and baseline must have the same shape, got {t.shape} and "
+                         f"{b.shape}")
+    window = _check_count(window, "window", t.shape[-1])
+    below = smooth(t, window, edges="valid") < smooth(b, window, edges="valid") - margin
+    return below.sum(axis=-1).astype(np.float64)
+
+
 def per_seed_gains(
     transfer_curves: ArrayLike, baseline_curves: ArrayLike, *, first: int, last: int
 ) -> dict[str, FloatArray]:
@@ -1162,13 +1199,9 @@ def per_seed_gains(
     if t.shape != b.shape:
         raise ValueError(f"transfer_curves and baseline_curves must have the same shape, got "
                          f"{t.shape} and {b.shape}")
-    first = _check_count(first, "first", t.shape[1])
-    last = _check_count(last, "last", t.shape[1])
-    return {
-        "jumpstart": t[:, :first].mean(axis=1) - b[:, :first].mean(axis=1),
-        "final_gain": t[:, -last:].mean(axis=1) - b[:, -last:].mean(axis=1),
-        "total_reward_gain": t.sum(axis=1) - b.sum(axis=1),
-    }
+    paired = Paired(t, b, first=_check_count(first, "first", t.shape[1]),
+                    last=_check_count(last, "last", t.shape[1]))
+    return {m.name: m.values(paired) for m in METRICS if m.name in GAINS}
 
 
 # --------------------------------------------------------------------------- paired comparison
@@ -1210,6 +1243,235 @@ class MetricEstimate:
     p_value: float = math.nan
 
 
+@dataclass(frozen=True)
+class Paired:
+    """Paired curves and the windows of their metrics (what every :class:`Metric` reads).
+
+    ``transfer`` and ``baseline`` are ``(n_seeds, n_episodes)``, row ``s`` of both from
+    the same seed. The threshold times are computed once, when first read.
+    """
+
+    transfer: FloatArray
+    baseline: FloatArray
+    first: int
+    last: int
+    threshold: float | None = None
+    window: int = 1
+    floor: float = -1.0
+    warmup: bool = False
+
+    @property
+    def n_episodes(self) -> int:
+        """Episodes per curve."""
+        return int(self.transfer.shape[1])
+
+    @functools.cached_property
+    def times(self) -> tuple[tuple[FloatArray, NDArray[np.bool_]],
+                             tuple[FloatArray, NDArray[np.bool_]]]:
+        """``((times, reached) of transfer, (times, reached) of baseline)``."""
+        assert self.threshold is not None
+        return (threshold_times(self.transfer, self.threshold, self.window,
+                                warmup=self.warmup),
+                threshold_times(self.baseline, self.threshold, self.window,
+                                warmup=self.warmup))
+
+
+@dataclass(frozen=True)
+class Metric:
+    """One metric of :func:`compare`, declared once: how it is computed per seed, which
+    interval summarises it, its definition, and how reports name and format it.
+
+    ``kind``: ``"mean"`` (``values`` gives one value per seed; Student t, or a
+    percentile bootstrap), ``"ratio"`` (``values`` gives the per-seed numerators and
+    denominators; Fieller), ``"median"`` (censored times and whether each seed reached
+    the threshold; order statistics) or ``"share"`` (whether each seed reached it;
+    Wilson).
+    """
+
+    name: str
+    label: str
+    fmt: str
+    kind: Literal["mean", "ratio", "median", "share"]
+    values: Callable[[Paired], Any]
+    definition: Callable[[Paired], str]
+    test: bool = False
+    """Whether it carries the p-value of "no difference" (of a difference or a ratio)."""
+    threshold: bool = False
+    """Whether it needs the time-to-threshold level."""
+    better: int = 1
+    """+1: a larger value favours the method; -1: a smaller one does."""
+    headline: bool = False
+    """Shown in every report's table of each method against the baseline."""
+    pairwise: bool = False
+    """Compared method against method too (a paired difference: ``kind == "mean"``)."""
+
+    def estimate(self, paired: Paired, confidence: float = 0.95,
+                 weights: FloatArray | None = None) -> MetricEstimate:
+        """This metric over the seeds of ``paired``, with its interval (a percentile
+        bootstrap of the means and ratios when resampling ``weights`` are given)."""
+        values = self.values(paired)
+        n = paired.transfer.shape[0]
+        text = self.definition(paired)
+
+        def made(value: float, low: float, high: float, how: str,
+                 p: float = math.nan) -> MetricEstimate:
+            return MetricEstimate(self.name, float(value), float(low), float(high), n, text,
+                                  confidence, how, float(p))
+
+        if self.kind == "mean":
+            if weights is not None:
+                low, high = _percentile_interval(weights @ values, confidence)
+                return made(values.mean(), low, high, "percentile bootstrap")
+            value, low, high = t_interval(values, confidence)
+            return made(value, low, high, "Student t",
+                        t_test_pvalue(values) if self.test else math.nan)
+        if self.kind == "ratio":
+            num, den = values
+            if weights is not None:
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    reps = np.where(weights @ den == 0.0, np.nan,
+                                    (weights @ num) / (weights @ den))
+                low, high = _percentile_interval(reps, confidence, (0.0, math.inf))
+                value = num.mean() / den.mean() if den.mean() != 0.0 else math.nan
+                return made(value, low, high, "percentile bootstrap")
+            value, low, high = fieller_interval(num, den, confidence)
+            return made(value, low, high, "Fieller",
+                        t_test_pvalue(num - den) if self.test else math.nan)
+        if self.kind == "median":
+            times, reached = values
+            low, high = median_interval(times, reached, confidence)
+            return made(km_median(times, reached), low, high, "order statistics")
+        k = int(np.sum(values))
+        low, high = wilson_interval(k, n, confidence)
+        return made(k / n, low, high, "Wilson")
+
+
+def _first_mean(curves: FloatArray, p: Paired) -> FloatArray:
+    return curves[:, :p.first].mean(axis=1)
+
+
+def _last_mean(curves: FloatArray, p: Paired) -> FloatArray:
+    return curves[:, -p.last:].mean(axis=1)
+
+
+_PAIRED = "paired by seed"
+_FINAL = ("mean reward of the last {last} of the {n} episodes (final performance within the "
+          "budget), ")
+_TOTAL = "total reward = sum of the {n} per-episode rewards (discrete area), "
+_RMST = "restricted mean time to threshold (up to the budget): mean over seeds of "
+_DIP = ("mean over seeds of the largest fall of the {window}-episode trailing mean below its "
+        "earlier maximum (from episode {window} on), ")
+_MEDIAN = ("Kaplan-Meier median of the censored times to threshold, {who}; inf when fewer "
+           "than half of the seeds reach the threshold within the budget")
+_REACHED = ("share of seeds whose own trailing mean over {window} episodes reaches "
+            "{threshold:g} within the budget, {who}")
+
+
+def _crit(p: Paired) -> str:
+    """The time-to-threshold criterion, as :func:`compare` defines it for ``p``."""
+    if p.warmup:
+        return (f"the first episode number t (1-based = episodes played, t >= 1) at which "
+                f"the mean of the last {p.window} episodes (of all episodes so far before "
+                f"episode {p.window}) is >= {p.threshold:g}, censored at the budget of "
+                f"{p.n_episodes} episodes")
+    return (f"the first episode number t (1-based = episodes played, t >= {p.window}) at "
+            f"which the mean of episodes t-{p.window}+1..t is >= {p.threshold:g}, censored "
+            f"at the budget of {p.n_episodes} episodes")
+
+
+METRICS: tuple[Metric, ...] = (
+    Metric("jumpstart", "jumpstart", "+.3f", "mean",
+           lambda p: _first_mean(p.transfer, p) - _first_mean(p.baseline, p),
+           lambda p: f"mean over seeds of (mean reward of the first {p.first} episodes with "
+                     f"transfer) - (same for baseline), {_PAIRED}; reward units",
+           test=True, headline=True, pairwise=True),
+    Metric("final_transfer", "final performance", "+.3f", "mean",
+           lambda p: _last_mean(p.transfer, p),
+           lambda p: "mean over seeds of " + _FINAL.format(last=p.last, n=p.n_episodes)
+           + "transfer"),
+    Metric("final_baseline", "final performance of the baseline", "+.3f", "mean",
+           lambda p: _last_mean(p.baseline, p),
+           lambda p: "mean over seeds of " + _FINAL.format(last=p.last, n=p.n_episodes)
+           + "baseline"),
+    Metric("final_gain", "final performance gain", "+.3f", "mean",
+           lambda p: _last_mean(p.transfer, p) - _last_mean(p.baseline, p),
+           lambda p: f"mean over seeds of (mean reward of the last {p.last} episodes with "
+                     f"transfer) - (same for baseline), {_PAIRED}; final performance within "
+                     "the budget, not an asymptote; reward units",
+           test=True, headline=True, pairwise=True),
+    Metric("total_reward_transfer", "total reward", "+.1f", "mean",
+           lambda p: p.transfer.sum(axis=1),
+           lambda p: "mean over seeds of " + _TOTAL.format(n=p.n_episodes) + "transfer"),
+    Metric("total_reward_baseline", "total reward of the baseline", "+.1f", "mean",
+           lambda p: p.baseline.sum(axis=1),
+           lambda p: "mean over seeds of " + _TOTAL.format(n=p.n_episodes) + "baseline"),
+    Metric("total_reward_gain", "total-reward gain", "+.1f", "mean",
+           lambda p: p.transfer.sum(axis=1) - p.baseline.sum(axis=1),
+           lambda p: f"mean over seeds of (sum of the {p.n_episodes} rewards with transfer) "
+                     f"- (same for baseline), {_PAIRED}",
+           test=True, headline=True, pairwise=True),
+    Metric("transfer_ratio", "transfer ratio", ".2f", "ratio",
+           lambda p: ((p.transfer - p.floor).sum(axis=1), (p.baseline - p.floor).sum(axis=1)),
+           lambda p: f"ratio of mean areas: mean over seeds of sum(transfer - ({p.floor:g})) "
+                     f"/ mean over seeds of sum(baseline - ({p.floor:g})), areas above the "
+                     f"reward floor {p.floor:g}; > 1 favours transfer", test=True),
+    Metric("largest_dip_transfer", "largest dip", ".2f", "mean",
+           lambda p: largest_dip(p.transfer, p.window),
+           lambda p: _DIP.format(window=p.window) + "transfer; reward units",
+           better=-1, headline=True),
+    Metric("largest_dip_baseline", "largest dip of the baseline", ".2f", "mean",
+           lambda p: largest_dip(p.baseline, p.window),
+           lambda p: _DIP.format(window=p.window) + "baseline; reward units", better=-1),
+    Metric("largest_dip_gain", "largest-dip difference", "+.2f", "mean",
+           lambda p: largest_dip(p.transfer, p.window) - largest_dip(p.baseline, p.window),
+           lambda p: f"mean over seeds of (largest dip with transfer) - (same for baseline), "
+                     f"{_PAIRED}, dips of {p.window}-episode trailing means; < 0 favours "
+                     "transfer", test=True, better=-1),
+    Metric("episodes_below_baseline", "episodes below the baseline", ".1f", "mean",
+           lambda p: episodes_below(p.transfer, p.baseline, p.window),
+           lambda p: f"mean over seeds of the episodes (from episode {p.window} on) at which "
+                     f"the {p.window}-episode trailing mean with transfer lies more than 0.05 "
+                     f"below the baseline's, {_PAIRED}", better=-1, headline=True),
+    Metric("time_to_threshold_transfer", "time to threshold", ".1f", "mean",
+           lambda p: p.times[0][0], lambda p: _RMST + _crit(p) + ", transfer",
+           threshold=True, better=-1),
+    Metric("time_to_threshold_baseline", "time to threshold of the baseline", ".1f", "mean",
+           lambda p: p.times[1][0], lambda p: _RMST + _crit(p) + ", baseline",
+           threshold=True, better=-1),
+    Metric("time_to_threshold_gain", "time-to-threshold difference", "+.1f", "mean",
+           lambda p: p.times[0][0] - p.times[1][0],
+           lambda p: "mean over seeds of (censored time to threshold with transfer) - (same "
+                     f"for baseline), {_PAIRED}; episodes; < 0 favours transfer",
+           test=True, threshold=True, better=-1),
+    Metric("time_to_threshold_ratio", "time to threshold (ratio)", ".2f", "ratio",
+           lambda p: (p.times[0][0], p.times[1][0]),
+           lambda p: "time_to_threshold_transfer / time_to_threshold_baseline (ratio of the "
+                     "restricted mean times); < 1 favours transfer",
+           test=True, threshold=True, better=-1, headline=True),
+    Metric("median_time_to_threshold_transfer", "median time to threshold", ".0f", "median",
+           lambda p: p.times[0], lambda p: _MEDIAN.format(who="transfer"),
+           threshold=True, better=-1),
+    Metric("median_time_to_threshold_baseline", "median time to threshold of the baseline",
+           ".0f", "median", lambda p: p.times[1], lambda p: _MEDIAN.format(who="baseline"),
+           threshold=True, better=-1),
+    Metric("threshold_reached_transfer", "seeds reaching the threshold", ".0%", "share",
+           lambda p: p.times[0][1],
+           lambda p: _REACHED.format(window=p.window, threshold=p.threshold, who="transfer"),
+           threshold=True),
+    Metric("threshold_reached_baseline", "seeds of the baseline reaching the threshold",
+           ".0%", "share", lambda p: p.times[1][1],
+           lambda p: _REACHED.format(window=p.window, threshold=p.threshold, who="baseline"),
+           threshold=True),
+)
+"""Every metric of :func:`compare`, in its output's order. Adding a metric is one entry
+here: reports show the ``headline`` ones in their tables against the baseline and
+compare the ``pairwise`` ones method against method."""
+METRIC = {m.name: m for m in METRICS}
+"""The entries of :data:`METRICS` by name."""
+GAINS = ("jumpstart", "final_gain", "total_reward_gain")
+"""The paired per-seed differences that :func:`per_seed_gains` gives."""
+
+
 def compare(
     transfer_curves: ArrayLike,
     baseline_curves: ArrayLike,
@@ -1223,8 +1485,12 @@ def compare(
     n_boot: int = 10000,
     confidence: float = 0.95,
     seed: int = 0,
+    warmup: bool = False,
 ) -> dict[str, MetricEstimate]:
     """Paired, seed-level Taylor & Stone transfer metrics with intervals over seeds.
+
+    Every metric is one entry of :data:`METRICS` (its per-seed values, its interval, its
+    definition, how reports name and format it); this function estimates each of them.
 
     Row ``s`` of ``transfer_curves`` and of ``baseline_curves`` must come from the same
     seed (same opponent order / environment seed): every metric is first computed per
@@ -1273,7 +1539,7 @@ def compare(
     threshold : float or None
         Reward level for the time-to-threshold metrics; ``None`` omits them.
     window : int
-        Trailing-mean window for time to threshold.
+        Trailing-mean window for time to threshold and for the largest dip.
     floor : float
         Minimum possible reward, the zero of the areas in ``transfer_ratio`` (default -1).
     interval : {"t", "percentile"}
@@ -1284,13 +1550,18 @@ def compare(
         Interval coverage (default 0.95).
     seed : int
         Seed of the resampling for ``interval="percentile"``.
+    warmup : bool
+        Time to threshold also over the first ``window - 1`` episodes, on the mean so
+        far (:func:`threshold_times`); default: full windows only.
 
     Returns
     -------
     dict of str to MetricEstimate
         Keys, in order: ``jumpstart``, ``final_transfer``, ``final_baseline``,
         ``final_gain``, ``total_reward_transfer``, ``total_reward_baseline``,
-        ``total_reward_gain``, ``transfer_ratio`` and, if ``threshold`` is given,
+        ``total_reward_gain``, ``transfer_ratio``, ``largest_dip_transfer``,
+        ``largest_dip_baseline``, ``largest_dip_gain``, ``episodes_below_baseline`` and,
+        if ``threshold`` is given,
         ``time_to_threshold_transfer``, ``time_to_threshold_baseline``,
         ``time_to_threshold_gain``, ``time_to_threshold_ratio``,
         ``median_time_to_threshold_transfer``, ``median_time_to_threshold_baseline``,
@@ -1320,93 +1591,13 @@ def compare(
     _check_floor(b, floor, "baseline_curves")
     if threshold is not None:
         threshold = _check_real(threshold, "threshold")
-        window = _check_count(window, "window", n_eps)
-
+    window = _check_count(window, "window", n_eps)
+    paired = Paired(t, b, first=first, last=last, threshold=threshold, window=window,
+                    floor=floor, warmup=warmup)
     weights = (_resample_counts(n_seeds, n_boot, seed) / n_seeds
                if interval == "percentile" else None)
-    out: dict[str, MetricEstimate] = {}
-
-    def put(name: str, value: float, low: float, high: float, definition: str, how: str,
-            p: float = math.nan) -> None:
-        out[name] = MetricEstimate(name, float(value), float(low), float(high), n_seeds,
-                                   definition, confidence, how, float(p))
-
-    def add_mean(name: str, per_seed: FloatArray, definition: str, test: bool,
-                 prefix: str = "mean over seeds of ") -> None:
-        definition = prefix + definition
-        if weights is None:
-            value, low, high = t_interval(per_seed, confidence)
-            put(name, value, low, high, definition, "Student t",
-                t_test_pvalue(per_seed) if test else math.nan)
-        else:
-            low, high = _percentile_interval(weights @ per_seed, confidence)
-            put(name, per_seed.mean(), low, high, definition, "percentile bootstrap")
-
-    def add_ratio(name: str, num: FloatArray, den: FloatArray, definition: str) -> None:
-        if weights is None:
-            value, low, high = fieller_interval(num, den, confidence)
-            put(name, value, low, high, definition, "Fieller", t_test_pvalue(num - den))
-            return
-        with np.errstate(divide="ignore", invalid="ignore"):
-            reps = np.where(weights @ den == 0.0, np.nan, (weights @ num) / (weights @ den))
-        low, high = _percentile_interval(reps, confidence, (0.0, math.inf))
-        value = num.mean() / den.mean() if den.mean() != 0.0 else math.nan
-        put(name, value, low, high, definition, "percentile bootstrap")
-
-    paired = "paired by seed"
-    gains = per_seed_gains(t, b, first=first, last=last)
-    add_mean("jumpstart", gains["jumpstart"], f"(mean reward of the first {first} episodes with transfer) - "
-             f"(same for baseline), {paired}; reward units", test=True)
-    fin_t, fin_b = t[:, -last:].mean(axis=1), b[:, -last:].mean(axis=1)
-    final = f"mean reward of the last {last} of the {n_eps} episodes (final performance "
-    add_mean("final_transfer", fin_t, final + "within the budget), transfer", test=False)
-    add_mean("final_baseline", fin_b, final + "within the budget), baseline", test=False)
-    add_mean("final_gain", gains["final_gain"], f"(mean reward of the last {last} episodes with "
-             f"transfer) - (same for baseline), {paired}; final performance within the "
-             "budget, not an asymptote; reward units", test=True)
-    tot_t, tot_b = t.sum(axis=1), b.sum(axis=1)
-    total = f"total reward = sum of the {n_eps} per-episode rewards (discrete area), "
-    add_mean("total_reward_transfer", tot_t, total + "transfer", test=False)
-    add_mean("total_reward_baseline", tot_b, total + "baseline", test=False)
-    add_mean("total_reward_gain", gains["total_reward_gain"], f"(sum of the {n_eps} rewards with "
-             f"transfer) - (same for baseline), {paired}", test=True)
-    add_ratio("transfer_ratio", (t - floor).sum(axis=1), (b - floor).sum(axis=1),
-              f"ratio of mean areas: mean over seeds of sum(transfer - ({floor:g})) / mean "
-              f"over seeds of sum(baseline - ({floor:g})), areas above the reward floor "
-              f"{floor:g}; > 1 favours transfer")
-
-    if threshold is None:
-        return out
-    times_t, reached_t = threshold_times(t, threshold, window)
-    times_b, reached_b = threshold_times(b, threshold, window)
-    crit = (f"the first episode number t (1-based = episodes played, t >= {window}) at "
-            f"which the mean of episodes t-{window}+1..t is >= {threshold:g}, censored at "
-            f"the budget of {n_eps} episodes")
-    rmst = "restricted mean time to threshold (up to the budget): mean over seeds of "
-    add_mean("time_to_threshold_transfer", times_t, crit + ", transfer", test=False,
-             prefix=rmst)
-    add_mean("time_to_threshold_baseline", times_b, crit + ", baseline", test=False,
-             prefix=rmst)
-    add_mean("time_to_threshold_gain", times_t - times_b,
-             "(censored time to threshold with transfer) - (same for baseline), "
-             f"{paired}; episodes; < 0 favours transfer", test=True)
-    add_ratio("time_to_threshold_ratio", times_t, times_b,
-              "time_to_threshold_transfer / time_to_threshold_baseline (ratio of the "
-              "restricted mean times); < 1 favours transfer")
-    for label, times, reached in (("transfer", times_t, reached_t),
-                                  ("baseline", times_b, reached_b)):
-        low, high = median_interval(times, reached, confidence)
-        put(f"median_time_to_threshold_{label}", km_median(times, reached), low, high,
-            f"Kaplan-Meier median of the censored times to threshold, {label}; inf when "
-            "fewer than half of the seeds reach the threshold within the budget",
-            "order statistics")
-    for label, reached in (("transfer", reached_t), ("baseline", reached_b)):
-        k = int(reached.sum())
-        low, high = wilson_interval(k, n_seeds, confidence)
-        put(f"threshold_reached_{label}", k / n_seeds, low, high,
-            f"share of seeds whose own trailing mean over {window} episodes reaches "
-            f"{threshold:g} within the budget, {label}", "Wilson")
-    return out
+    return {m.name: m.estimate(paired, confidence, weights) for m in METRICS
+            if threshold is not None or not m.threshold}
 
 
 # --------------------------------------------------------------------------- reporting

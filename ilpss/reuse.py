@@ -33,6 +33,9 @@ name                  regions                               start
 ``finetune_latest``   no options                            the latest past policy
 ``finetune_best``     no options                            the best past policy on the task,
                                                             10 greedy episodes each (charged)
+``kernels_finetune``  shared-kernel EM                      the latest past policy
+``whole_policies_     one region everywhere                 the latest past policy
+finetune``
 ====================  ====================================  =================================
 
 A start rule also serves methods outside the lifelong loop (the fine-tuning baselines of
@@ -68,6 +71,7 @@ __all__ = [
     "Reuse",
     "StartRule",
     "Uniform",
+    "learn_with",
     "register_reuse",
 ]
 
@@ -184,6 +188,19 @@ class BestOfPast:
         return spent
 
 
+def learn_with(
+    start: StartRule, learner: SmdpLearner, policies: Sequence[FrozenPolicy], env: Any,
+    episodes: int, *, seed: int | None, choice_seed: int,
+    callback: Callable[[int, EpisodeResult], None] | None = None,
+) -> list[EpisodeResult]:
+    """``episodes`` episodes on ``env``: first those ``start`` spends choosing the
+    learner's initial values among ``policies`` (greedy, seeded by ``choice_seed``), then
+    learning for the rest of the budget (the first reset seeded by ``seed``, so the
+    learning episodes are the same ones with or without a choice before them)."""
+    spent = start.start(learner, policies, env, choice_seed)[:episodes]
+    return spent + learner.train(env, episodes - len(spent), seed=seed, callback=callback)
+
+
 # ---------------------------------------------------------------------- reuse
 @dataclass(frozen=True)
 class Reuse:
@@ -231,5 +248,7 @@ for _reuse in (
     Reuse("none", None),
     Reuse("finetune_latest", None, LatestPast()),
     Reuse("finetune_best", None, BestOfPast()),
+    Reuse("kernels_finetune", EmKernels(), LatestPast()),
+    Reuse("whole_policies_finetune", Uniform(), LatestPast()),
 ):
     register_reuse(_reuse)

@@ -122,6 +122,7 @@ SMDP_CONSTRAINTS = {
     # Far beyond any return; 1e308 would overflow the first update.
     "initial_value": Real(-1e6, 1e6),
     "option_initial_value": NoneOr(Real(-1e6, 1e6)),
+    "option_values": OneOf(("constant", "policy")),
     "trace_decay": Real(0.0, 1.0),
     "max_decisions": Integer(1),
 }
@@ -177,6 +178,12 @@ class LearnerConfig:
     ``initial_value`` the learner tries the options before the primitives: the paper's
     "search for a solution first in the policy subspace spanned by behaviours that proved
     useful in the past"."""
+    option_values: str = "constant"
+    """Where each option's values start: ``"constant"`` (the paper: everywhere
+    ``option_initial_value``) or ``"policy"``: from the values of the option's own past
+    policy, tile by tile the largest of its choices' weights, so that an option starts
+    at (a little above) what its policy expected to earn from each state, and the learner
+    takes it where that beats the primitives and learns its value on the task."""
     trace_decay: float = 0.9
     """``lambda`` of the replacing eligibility traces (0: one-step updates)."""
     bootstrap_on_truncation: bool = False
@@ -281,6 +288,12 @@ class SmdpLearner(EpisodicLearner):
                               initial_value=config.initial_value)
         if config.option_initial_value is not None:
             self.q.weights[n_primitive:] = config.option_initial_value / tile_coder.n_active
+        if config.option_values == "policy" and library is not None:
+            for j, oid in enumerate(option_ids):
+                # A sum of tile-wise maxima: at every state at least the policy's own
+                # greedy value (a linear start, so frozen policies keep it).
+                own = library.policies[library.policy_of(oid)].weights
+                self.q.weights[n_primitive + j] = own.max(axis=0)
         self.config = config
         self.tile_coder = tile_coder
         self.library = library
@@ -321,8 +334,9 @@ class SmdpLearner(EpisodicLearner):
         return learner
 
     def start_from(self, policy: FrozenPolicy | LinearPolicy) -> None:
-        """Start from ``policy``'s values of the primitive actions (fine-tuning); the
-        options' values are left as they are.
+        """Start from ``policy``'s values (fine-tuning): those of the primitive actions,
+        and of every option this learner offers that ``policy`` chose too (the same
+        option id); the other options' values are left as they are.
 
         Raises
         ------
@@ -336,6 +350,9 @@ class SmdpLearner(EpisodicLearner):
                 "policies must come from the same state space and actions"
             )
         self.q.weights[: self.n_primitive] = policy.weights[: policy.n_primitive]
+        for oid in set(policy.option_ids) & set(self.option_ids):
+            self.q.weights[self.q.choice_of_option(oid)] = \
+                policy.weights[policy.choice_of_option(oid)]
 
     @property
     def option_ids(self) -> tuple[int, ...]:

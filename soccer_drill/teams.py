@@ -562,12 +562,25 @@ class TeamDriver:
         ``" at cycle 3"``).
         """
         start = time.perf_counter()
+
+        def bounded(*inner: Any) -> Any:
+            try:
+                return method(*inner)
+            except (Overrun, TeamError):
+                raise
+            except BaseException as exc:
+                if delivered_by_signal(exc):
+                    raise
+                raise self._raised(call, when, exc) from exc
+
         try:
-            return self._call(method, *args)
+            return self._call(bounded, *args)
+        except Overrun as exc:
+            raise self._overrun(call, when, exc, start) from None
         except TeamError:
             raise
-        except (Overrun, Exception) as exc:
-            raise self._failure(call, when, exc, start) from _cause(exc)
+        except Exception as exc:  # the bound itself failed (arming its timer)
+            raise self._unbounded(call, when, exc) from exc
 
     def _call(self, method: Callable[..., Any], *args: Any) -> Any:
         """``method(*args)`` within the CPU-time bound; raises :class:`Overrun` past it."""

@@ -132,7 +132,7 @@ def test_compare_pairs_runs_by_seed_and_matches_the_report(tmp_path, capsys):
     cfg = _tiny(methods=("ilpss", "scratch"))
     results = run_experiment(cfg, tmp_path / "a", progress=False)
     # An ablation run with one method and 3 seeds: only the 2 shared seeds are paired.
-    run_experiment(_tiny(methods=("ilpss",)).with_overrides(
+    run_experiment(_tiny(methods=("ilpss",), baseline=None).with_overrides(
         n_seeds=3, lifelong={"n_kernels": 1}), tmp_path / "b", progress=False)
     assert compare_main(["--baseline", f"{tmp_path / 'a'}:scratch",
                          f"ILPSS (K = 2)={tmp_path / 'a'}:ilpss",

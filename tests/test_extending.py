@@ -50,7 +50,7 @@ def test_a_new_lifelong_method_runs_and_is_reported(tmp_path, registered) -> Non
         assert len(entry["library_size"]) == 4
     assert run_experiment(cfg, tmp_path, progress=False) == results  # read back, checked
     report = write_report(cfg, results, tmp_path).read_text()
-    assert "### ILPSS with one kernel vs learning anew" in report
+    assert "### ILPSS with one kernel vs the baseline" in report
 
 
 class _LearnAnewPerTarget(Method):
@@ -88,7 +88,7 @@ def test_a_new_learner_method_runs_and_is_reported(tmp_path, registered) -> None
         assert mine["curves"] == scratch["curves"]
     assert run_experiment(cfg, tmp_path, progress=False) == results
     report = write_report(cfg, results, tmp_path).read_text()
-    assert "### SMDP learning on the target alone vs learning anew" in report
+    assert "### SMDP learning on the target alone vs the baseline" in report
 
 
 # ---------------------------------------------------------------------- a protocol
@@ -126,7 +126,7 @@ def test_a_new_protocol_needs_no_change_elsewhere(tmp_path, registered, capsys) 
     for t in (1, 2):
         assert f"## first=interceptors_press, task {t}" in report
         assert (tmp_path / f"curves_00_{t:02d}.png").stat().st_size > 0
-    assert report.count("### PRQ-learning (policy reuse) vs learning anew") == 2
+    assert report.count("### PRQ-learning (policy reuse) vs the baseline") == 2
     # And its section of the results page, with the figures copied.
     from ilpss.experiments.sections import report_section
 

@@ -228,7 +228,7 @@ def test_compare_values_by_hand():
     # p-values exactly where there is a difference to test
     with_p = {k for k, e in est.items() if not math.isnan(e.p_value)}
     assert with_p == {"jumpstart", "final_gain", "total_reward_gain", "transfer_ratio",
-                      "time_to_threshold_gain", "time_to_threshold_ratio"}
+                      "largest_dip_gain", "time_to_threshold_gain", "time_to_threshold_ratio"}
     # the transfer ratio's test at 1 is the total-reward gain's test at 0
     assert est["transfer_ratio"].p_value == pytest.approx(est["total_reward_gain"].p_value)
 
@@ -672,3 +672,56 @@ def test_plot_score_profiles_writes_png(tmp_path):
     with pytest.raises(ValueError, match="finite"):
         plot_score_profiles({"j": {"a": [0.0, np.nan]}}, tmp_path / "x.png", title="t")
     assert not (tmp_path / "x.png").exists()
+
+
+def _dip_by_loops(curve, window):
+    means = [np.mean(curve[t - window + 1:t + 1]) for t in range(window - 1, len(curve))]
+    return max(max(means[:i + 1]) - m for i, m in enumerate(means))
+
+
+def test_largest_dip_and_episodes_below_against_plain_loops():
+    from ilpss.metrics import episodes_below, largest_dip
+
+    rng = np.random.default_rng(3)
+    curves = rng.uniform(-1, 1, size=(5, 40))
+    baseline = rng.uniform(-1, 1, size=(5, 40))
+    for window in (1, 4, 20):
+        assert largest_dip(curves, window) == pytest.approx(
+            [_dip_by_loops(c, window) for c in curves])
+        below = [sum(np.mean(c[t - window + 1:t + 1]) < np.mean(b[t - window + 1:t + 1]) - 0.05
+                     for t in range(window - 1, 40)) for c, b in zip(curves, baseline, strict=True)]
+        assert episodes_below(curves, baseline, window).tolist() == below
+    rising = np.linspace(-1, 1, 30)
+    assert largest_dip(rising[None], 5).tolist() == [0.0]  # never falls
+    start_high = np.r_[np.ones(10), -np.ones(10), np.ones(10)]  # a handover that collapses
+    assert largest_dip(start_high[None], 5)[0] == pytest.approx(2.0)
+
+
+def test_time_to_threshold_with_warmup_is_not_floored_by_the_window():
+    from ilpss.metrics import threshold_times
+
+    at_once = np.ones((1, 50))
+    assert threshold_times(at_once, 0.5, 20)[0].tolist() == [20.0]
+    assert threshold_times(at_once, 0.5, 20, warmup=True)[0].tolist() == [1.0]
+    late = np.r_[-np.ones(30), np.ones(20)][None]
+    assert threshold_times(late, 0.5, 10, warmup=True)[0].tolist() == \
+        threshold_times(late, 0.5, 10)[0].tolist() == [38.0]
+
+
+def test_every_metric_is_one_entry_that_compare_estimates():
+    from ilpss.metrics import METRICS
+
+    rng = np.random.default_rng(0)
+    est = compare(rng.uniform(-1, 1, (4, 30)), rng.uniform(-1, 1, (4, 30)), first=5, last=5,
+                  threshold=0.0, window=5)
+    assert list(est) == [m.name for m in METRICS]
+    for m in METRICS:
+        assert m.kind != "mean" or np.asarray(m.values(_paired(rng))).shape == (4,)
+        assert not m.pairwise or m.kind == "mean"
+
+
+def _paired(rng):
+    from ilpss.metrics import Paired
+
+    return Paired(rng.uniform(-1, 1, (4, 30)), rng.uniform(-1, 1, (4, 30)), first=5, last=5,
+                  threshold=0.0, window=5)

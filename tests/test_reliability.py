@@ -781,7 +781,7 @@ def test_config_must_be_an_object_and_direct_construction_is_checked_too():
         ExperimentConfig(lifelong={"train_episodes": 3})
     with pytest.raises(ValueError, match="prq must be a PrqConfig"):
         ExperimentConfig(prq={"psi": 1.0})
-    assert ExperimentConfig(methods=["ilpss"]).methods == ("ilpss",)  # JSON's lists: tuples
+    assert ExperimentConfig(methods=["ilpss", "scratch"]).methods == ("ilpss", "scratch")  # JSON's lists: tuples
 
 
 def test_an_unknown_team_fails_the_run_naming_it(tmp_path):

@@ -238,6 +238,24 @@ def test_a_bad_batched_command_names_the_team_drill_player_and_cycle():
         venv.step(np.zeros(6, dtype=int))
 
 
+class _RaisingBatch(_BadBatch):
+    def act(self, view, drills):
+        raise ZeroDivisionError("division by zero in the batched act")
+
+
+class _RaisingTeam(_Team):
+    def batch(self, n):
+        return _RaisingBatch()
+
+
+def test_a_batched_team_that_raises_is_a_team_error_naming_it():
+    venv = HolderVectorEnv(num_envs=4, opponent=_RaisingTeam())
+    venv.reset(seed=0)
+    with pytest.raises(TeamError, match=r"'_RaisingTeam' raised in act\(\).*ZeroDivisionError"
+                                        r"\('division by zero in the batched act'\)"):
+        venv.step(np.zeros(4, dtype=int))
+
+
 def test_a_per_drill_team_error_is_a_team_error():
     class Broken(_NoBatch):
         def act(self, view):

@@ -1,4 +1,4 @@
-"""Checkpoint storage: where a run's lifelong checkpoints live, and how a job resumes.
+"""Checkpoint storage: where a run's lifelong checkpoints live.
 
 A run keeps one checkpoint folder per job, lifelong method and (in a stream whose targets
 all start from the state after its sources) target, at the relative path
@@ -24,8 +24,9 @@ a URI: ``s3://bucket/prefix``,     resolved by ``pyarrow.fs.FileSystem.from_uri`
 
 A restore reads ``LATEST``, downloads the checkpoint it names into the job's working
 folder and loads it with every check of ``LifelongLearner.load`` (each file's digest,
-the agreement of the files); :func:`run_lifelong` then refuses a checkpoint of another
-run (its provenance) before resuming from it. So a job restarted on another node resumes
+the agreement of the files); the job that resumes from it
+(:func:`ilpss.experiments.methods.run_lifelong`) refuses a checkpoint of another run (its
+provenance) first. So a job restarted on another node resumes
 from its last trial, and ends as it would have uninterrupted.
 
 A storage is *claimed* by the run that uses it when its jobs run on Ray or it is not
@@ -37,14 +38,12 @@ storage another run has claimed since.
 
 from __future__ import annotations
 
-import copy
 import os
 import re
 import shutil
 import socket
 import tempfile
 import uuid
-from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
@@ -52,23 +51,16 @@ from ilpss._io import (
     MAX_JSON_BYTES,
     atomic_write_bytes,
     check_inside,
-    json_differences,
     json_record_bytes,
     load_json_record,
     read_regular,
 )
 from ilpss.experiments.folder import checkpoint_key
-from ilpss.experiments.protocols import Stream, make_env
-from ilpss.lifelong import (
-    LifelongConfig,
-    LifelongLearner,
-    TrialRecord,
-    latest_checkpoint,
-    read_state,
-)
+from ilpss.experiments.protocols import Stream
+from ilpss.lifelong import LifelongLearner, TrialRecord, latest_checkpoint, read_state
 
 if TYPE_CHECKING:
-    from ilpss.experiments.methods import Job
+    from ilpss.experiments.config import ExperimentConfig
 
 __all__ = [
     "OWNER",
@@ -76,9 +68,9 @@ __all__ = [
     "LocalStore",
     "StorageError",
     "UriStore",
+    "checkpoint_store",
     "is_uri",
     "open_store",
-    "run_lifelong",
     "stream_records",
 ]
 
@@ -350,114 +342,16 @@ class UriStore:
             self._work = None
 
 
+def checkpoint_store(cfg: ExperimentConfig, root: str | os.PathLike[str]) -> CheckpointStore:
+    """The checkpoint storage of a run of ``cfg`` whose run folder is ``root``."""
+    return open_store(cfg.storage) if cfg.storage is not None else LocalStore(root)
+
+
 def open_store(location: str) -> LocalStore | UriStore:
     """The checkpoint storage at a path or a URI (see the module's table)."""
     if not isinstance(location, str) or not location.strip():
         raise ValueError(f"a checkpoint storage must be a path or a URI, got {location!r}")
     return UriStore(location) if is_uri(location) else LocalStore(location)
-
-
-# ----------------------------------------------------------------- running and resuming
-@dataclass(frozen=True)
-class _Guarded:
-    """A store whose every write first checks the run's token (``None``: unclaimed)."""
-
-    store: CheckpointStore
-    token: str | None
-
-    def save(self, key: str, learner: LifelongLearner) -> None:
-        if self.token is not None:
-            self.store.check(self.token)
-        self.store.save(key, learner)
-
-
-def run_lifelong(
-    job: Job, method: str, config: LifelongConfig
-) -> tuple[LifelongLearner, list[TrialRecord]]:
-    """One lifelong method over the job's stream, resuming from its checkpoints (which
-    must come from this very job: a checkpoint of another configuration is refused).
-
-    Returns the learner and one trial record per task of the stream. In a stream whose
-    targets all start from the state after its sources (``Stream.shared_start``, with
-    two targets or more), the learner is the one after the sources, the targets' records
-    come from each target's own checkpoint, and a resumed job relearns neither the
-    sources nor a finished target.
-    """
-    cfg, stream = job.cfg, job.stream
-    store = _Guarded(job.store, job.token)
-    key = checkpoint_key(job.seed, job.stream_index, method)
-    env0 = make_env(cfg.env_id, stream.tasks[0])
-    space = env0.observation_space
-    provenance = {"experiment": cfg.results_record(), "method": method, "seed": job.seed,
-                  "stream": stream.name, "tasks": [t.name for t in stream.tasks]}
-    branches = stream.shared_start and len(job.targets) > 1
-    main_line = stream.first_target if branches else len(stream.tasks)
-    learner = _restore(job.store, key, space, provenance, cfg.reward_range,
-                       range(1, main_line + 1))
-    resumed = 0 if learner is None else learner.n_trials
-    if learner is None:
-        learner = LifelongLearner(config, space, int(env0.action_space.n), job.seed,
-                                  provenance=provenance)
-    for t in range(learner.n_trials, main_line):
-        task = stream.tasks[t]
-        learner.run_trial(make_env(cfg.env_id, task), task.name)
-        store.save(key, learner)
-    records = list(learner.records)
-    if branches:
-        for t in job.targets:
-            target_key = checkpoint_key(job.seed, job.stream_index, method, t)
-            mine = {**provenance, "target": t}
-            branch = _restore(job.store, target_key, space, mine, cfg.reward_range,
-                              range(main_line + 1, main_line + 2))
-            if branch is not None and branch.records[:main_line] != records:
-                raise ValueError(
-                    f"{job.store.location}: the checkpoint {target_key} does not start from "
-                    f"the state after the sources in {key}; delete it to run the target again"
-                )
-            if branch is None:
-                branch = copy.deepcopy(learner)  # the state after the sources
-                branch.provenance = mine
-                task = stream.tasks[t]
-                branch.run_trial(make_env(cfg.env_id, task), task.name)
-                store.save(target_key, branch)
-            else:
-                resumed += 1
-            records.append(branch.records[-1])
-    job.resumed[method] = resumed
-    return learner, records
-
-
-def _restore(
-    store: CheckpointStore, key: str, space: Any, provenance: dict, reward_range: tuple,
-    trials: range,
-) -> LifelongLearner | None:
-    """The checkpoint at ``key``, if there is one, refused (``ValueError`` naming the
-    field) if another configuration or job wrote it, if the number of its trials is not
-    in ``trials``, or if its rewards are ones the environment cannot have paid."""
-    learner = store.restore(key, space)
-    if learner is None:
-        return None
-    where = f"{store.location}/{key}" if is_uri(store.location) else os.fspath(
-        Path(store.location) / key)
-    hint = "delete that folder to run this method of the job again"
-    if learner.provenance is None:
-        raise ValueError(f"{where}: the checkpoint records no provenance; {hint}")
-    diffs = json_differences(learner.provenance, provenance)
-    if diffs:
-        raise ValueError(
-            f"{where}: the checkpoint comes from another run ({'; '.join(diffs)}); {hint}"
-        )
-    if learner.n_trials not in trials:
-        raise ValueError(f"{where}: the checkpoint holds {learner.n_trials} trials, this job "
-                         f"checkpoints {trials.start} to {trials.stop - 1} there; {hint}")
-    low, high = reward_range
-    for i, record in enumerate(learner.records):
-        if not all(low <= r <= high for r in record.rewards):
-            raise ValueError(
-                f"{where}: records[{i}].rewards lie outside the environment's range "
-                f"[{low:g}, {high:g}]; {hint}"
-            )
-    return learner
 
 
 def stream_records(

@@ -41,9 +41,15 @@ def build_config(args: argparse.Namespace) -> ExperimentConfig:
     flags = {"protocol": "protocol", "seeds": "n_seeds", "first_seed": "first_seed",
              "methods": "methods", "workers": "workers", "executor": "executor",
              "stream_length": "stream_length", "teams": "teams", "targets": "targets",
-             "storage": "storage"}
+             "storage": "storage", "baseline": "baseline", "featured": "featured"}
     changes: dict = {field: getattr(args, flag) for flag, field in flags.items()
                      if getattr(args, flag) is not None}
+    for role in ("baseline", "featured"):
+        if changes.get(role) == "none":
+            changes[role] = None
+    methods = changes.get("methods", cfg.methods)
+    if args.no_report and "baseline" not in changes and cfg.baseline not in methods:
+        changes["baseline"] = None  # an ablation run, compared by ilpss-compare
     lifelong: dict = {field: getattr(args, flag) for flag, field in
                       (("episodes", "train_episodes"), ("rollouts", "rollout_episodes"))
                       if getattr(args, flag) is not None}
@@ -86,6 +92,13 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--rollouts", type=int, help="greedy rollouts per trial (default 50)")
     p.add_argument("--stream-length", type=int, help="protocol C: opponents in the stream")
     p.add_argument("--methods", nargs="+", choices=METHODS.names())
+    p.add_argument("--baseline", metavar="METHOD",
+                   help="the method every other is compared with (default scratch: learning "
+                   "anew); 'none' for a run without a report (implied by --no-report when "
+                   "--methods leaves the baseline out)")
+    p.add_argument("--featured", metavar="METHOD",
+                   help="the method whose kernels and GIF the report shows (default: the "
+                   "first with ILPSS's kernels)")
     p.add_argument("--teams", nargs="+", metavar="TEAM",
                    help="protocols A and B: the teams (A: the last one is held out, unless "
                    "--targets are given; then all of them are sources)")

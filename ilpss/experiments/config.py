@@ -33,7 +33,7 @@ finite number); results are checked against it."""
 RUN_ONLY_FIELDS = ("executor", "workers", "storage")
 """Fields of :class:`ExperimentConfig` that say where jobs run and keep their checkpoints,
 not what they compute."""
-RECORDED_IF_SET = {"targets": []}
+RECORDED_IF_SET = {"targets": [], "baseline": "scratch", "featured": None}
 """Fields that results and checkpoints record only when they differ from their default
 (as JSON), so that the records of runs made before the field existed stay the records
 of the same configuration."""
@@ -52,6 +52,8 @@ EXPERIMENT_CONSTRAINTS = {
     "executor": EXECUTOR,
     "workers": Integer(1, 1024),
     "storage": NoneOr(Text()),
+    "baseline": NoneOr(Name()),
+    "featured": NoneOr(Name()),
 }
 """What the plain fields of :class:`ExperimentConfig` allow (the protocol, methods,
 environment and sampler are names looked up in their registries)."""
@@ -111,6 +113,14 @@ class ExperimentConfig:
     """Where the lifelong checkpoints go: ``None``, the run folder; else a path or a URI
     (``s3://bucket/prefix``, ``gs://...``, ``file:///...``, as Ray's ``storage_path``)
     that every node of a cluster can reach (:mod:`ilpss.experiments.checkpoints`)."""
+    baseline: str | None = "scratch"
+    """The method every report compares the others with (learning anew); it must be one
+    of :attr:`methods`. ``None``: a run without a report, compared with another run's
+    baseline by ``ilpss-compare`` (an ablation)."""
+    featured: str | None = None
+    """The method whose kernels, GIF and per-opponent head start the reports show; it must
+    be one of :attr:`methods`. ``None``: the first of :attr:`methods` whose options have
+    kernels fitted by EM (ILPSS's), if any (:attr:`featured_method`)."""
 
     def __post_init__(self) -> None:
         # Every field is checked here, with its name and what is allowed, because configs
@@ -138,6 +148,15 @@ class ExperimentConfig:
                     f"ExperimentConfig.{name} must be a {kind.__name__} (from_dict takes a "
                     f"dict), got {type(getattr(self, name)).__name__}"
                 )
+        for role in ("baseline", "featured"):
+            name = getattr(self, role)
+            if name is not None and name not in self.methods:
+                raise ValueError(
+                    f"ExperimentConfig.{role}: method {name!r} is not among the methods "
+                    f"{list(self.methods)}; add it to ExperimentConfig.methods"
+                    + (", or set baseline to null for a run without a report (compared "
+                       "with ilpss-compare)" if role == "baseline" else "")
+                )
         protocol = PROTOCOLS.get(self.protocol)
         if self.targets and not protocol.takes_targets:
             raise ValueError(
@@ -150,6 +169,19 @@ class ExperimentConfig:
     def reward_range(self) -> tuple[float, float]:
         """The range of an episode's total reward in this run's environment."""
         return EPISODE_REWARDS.get(self.env_id, (-math.inf, math.inf))
+
+    @property
+    def featured_method(self) -> str | None:
+        """:attr:`featured`, or the first of :attr:`methods` whose options have kernels
+        fitted by EM (``None`` if there is none)."""
+        if self.featured is not None:
+            return self.featured
+        for name in self.methods:
+            config = getattr(METHODS.get(name), "config", None)
+            if config is not None and config(self.lifelong).reuse.model_name == \
+                    "SharedKernelModel":
+                return name
+        return None
 
     @property
     def seeds(self) -> range:

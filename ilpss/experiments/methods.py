@@ -16,21 +16,30 @@ Methods are registered by name in :data:`METHODS`; a configuration names them in
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+import copy
+import os
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ilpss._check import Constraint, Integer, Real
+from ilpss._io import json_differences
 from ilpss.baselines import PrqLearner
-from ilpss.experiments.checkpoints import CheckpointStore, run_lifelong
+from ilpss.experiments.checkpoints import CheckpointStore, is_uri
+from ilpss.experiments.folder import checkpoint_key
 from ilpss.experiments.protocols import Stream, make_env
 from ilpss.experiments.registry import Registry
 from ilpss.lifelong import (
     LifelongConfig,
     LifelongLearner,
     TrialRecord,
+    choice_seed,
     handing_back,
     trial_seeds,
 )
+from ilpss.reuse import BestOfPast, LatestPast, StartRule, learn_with
+from ilpss.smdp import SmdpLearner
 
 if TYPE_CHECKING:
     from ilpss.experiments.config import ExperimentConfig
@@ -93,6 +102,13 @@ class Method:
     name = ""
     label = ""
     reuses: tuple[str, ...] = ()
+    ablates: tuple[str, str] | None = None
+    """``(method, what)``: this method is ``method`` without ``what`` (e.g. discounting);
+    reports compare the two, paired by seed, when both ran."""
+    series: Mapping[str, Constraint] = {}
+    """The series its entry of ``result.json`` holds beside ``"curves"``, one value per
+    task of the stream, each with the constraint of its values: what :meth:`run` records
+    and what a resume checks, the same declaration."""
 
     def run(self, job: Job) -> dict[str, Any]:  # pragma: no cover - interface
         """Run on ``job``; return this method's entry of the job's ``result.json``."""
@@ -108,6 +124,8 @@ class LifelongMethod(Method):
     changes: Callable[[LifelongConfig], dict[str, Any]] = lambda base: {}
     """The fields of the base configuration this method replaces (a function of it)."""
     reuses: tuple[str, ...] = ()
+    ablates: tuple[str, str] | None = None
+    series: Mapping[str, Constraint] = field(default_factory=lambda: dict(LIFELONG_SERIES))
 
     def config(self, base: LifelongConfig) -> LifelongConfig:
         """This method's lifelong configuration."""
@@ -117,6 +135,117 @@ class LifelongMethod(Method):
         learner, records = run_lifelong(job, self.name, self.config(job.cfg.lifelong))
         job.learners[self.name] = learner
         return lifelong_entry(records, job.targets)
+
+
+@dataclass(frozen=True)
+class _Guarded:
+    """A store whose every write first checks the run's token (``None``: unclaimed)."""
+
+    store: CheckpointStore
+    token: str | None
+
+    def save(self, key: str, learner: LifelongLearner) -> None:
+        if self.token is not None:
+            self.store.check(self.token)
+        self.store.save(key, learner)
+
+
+def run_lifelong(
+    job: Job, method: str, config: LifelongConfig
+) -> tuple[LifelongLearner, list[TrialRecord]]:
+    """One lifelong method over the job's stream, resuming from its checkpoints (which
+    must come from this very job: a checkpoint of another configuration is refused).
+
+    Returns the learner and one trial record per task of the stream. In a stream whose
+    targets all start from the state after its sources (``Stream.shared_start``, with
+    two targets or more), the learner is the one after the sources, the targets' records
+    come from each target's own checkpoint, and a resumed job relearns neither the
+    sources nor a finished target.
+    """
+    cfg, stream = job.cfg, job.stream
+    store = _Guarded(job.store, job.token)
+    key = checkpoint_key(job.seed, job.stream_index, method)
+    env0 = make_env(cfg.env_id, stream.tasks[0])
+    space = env0.observation_space
+    provenance = {"experiment": cfg.results_record(), "method": method, "seed": job.seed,
+                  "stream": stream.name, "tasks": [t.name for t in stream.tasks]}
+    branches = stream.shared_start and len(job.targets) > 1
+    main_line = stream.first_target if branches else len(stream.tasks)
+    learner = _restore(job.store, key, space, provenance, cfg.reward_range,
+                       range(1, main_line + 1))
+    resumed = 0 if learner is None else learner.n_trials
+    if learner is None:
+        learner = LifelongLearner(config, space, int(env0.action_space.n), job.seed,
+                                  provenance=provenance)
+    for t in range(learner.n_trials, main_line):
+        task = stream.tasks[t]
+        learner.run_trial(make_env(cfg.env_id, task), task.name)
+        store.save(key, learner)
+    records = list(learner.records)
+    if branches:
+        for t in job.targets:
+            target_key = checkpoint_key(job.seed, job.stream_index, method, t)
+            mine = {**provenance, "target": t}
+            branch = _restore(job.store, target_key, space, mine, cfg.reward_range,
+                              range(main_line + 1, main_line + 2))
+            if branch is not None and branch.records[:main_line] != records:
+                raise ValueError(
+                    f"{job.store.location}: the checkpoint {target_key} does not start from "
+                    f"the state after the sources in {key}; delete it to run the target again"
+                )
+            if branch is None:
+                branch = copy.deepcopy(learner)  # the state after the sources
+                branch.provenance = mine
+                task = stream.tasks[t]
+                branch.run_trial(make_env(cfg.env_id, task), task.name)
+                store.save(target_key, branch)
+            else:
+                resumed += 1
+            records.append(branch.records[-1])
+    job.resumed[method] = resumed
+    return learner, records
+
+
+def _restore(
+    store: CheckpointStore, key: str, space: Any, provenance: dict, reward_range: tuple,
+    trials: range,
+) -> LifelongLearner | None:
+    """The checkpoint at ``key``, if there is one, refused (``ValueError`` naming the
+    field) if another configuration or job wrote it, if the number of its trials is not
+    in ``trials``, or if its rewards are ones the environment cannot have paid."""
+    learner = store.restore(key, space)
+    if learner is None:
+        return None
+    where = f"{store.location}/{key}" if is_uri(store.location) else os.fspath(
+        Path(store.location) / key)
+    hint = "delete that folder to run this method of the job again"
+    if learner.provenance is None:
+        raise ValueError(f"{where}: the checkpoint records no provenance; {hint}")
+    diffs = json_differences(learner.provenance, provenance)
+    if diffs:
+        raise ValueError(
+            f"{where}: the checkpoint comes from another run ({'; '.join(diffs)}); {hint}"
+        )
+    if learner.n_trials not in trials:
+        raise ValueError(f"{where}: the checkpoint holds {learner.n_trials} trials, this job "
+                         f"checkpoints {trials.start} to {trials.stop - 1} there; {hint}")
+    low, high = reward_range
+    for i, record in enumerate(learner.records):
+        if not all(low <= r <= high for r in record.rewards):
+            raise ValueError(
+                f"{where}: records[{i}].rewards lie outside the environment's range "
+                f"[{low:g}, {high:g}]; {hint}"
+            )
+    return learner
+
+
+LIFELONG_SERIES: dict[str, Constraint] = {
+    "library_size": Integer(0),
+    "options_offered": Integer(0),
+    "options_used": Integer(0),
+    "rollout_success_rate": Real(0.0, 1.0),
+}
+"""A lifelong method's series, one value per task of the stream (from its trial records)."""
 
 
 def lifelong_entry(records: Sequence[TrialRecord], targets: Iterable[int]) -> dict[str, Any]:
@@ -153,11 +282,52 @@ class PrqMethod(Method):
         return {"curves": curves}
 
 
+@dataclass(frozen=True)
+class FineTuneMethod(Method):
+    """Fine-tuning on every target: a learner with the base learner's settings starts from
+    the values of a source policy that learning anew learnt (chosen by ``start``; any
+    episodes it spends choosing on the target are charged to the target's budget and are
+    the first points of its curve), then learns."""
+
+    name: str
+    label: str
+    start: StartRule = field(default_factory=LatestPast)
+    """How the source policy is chosen."""
+    reuses: tuple[str, ...] = ("scratch",)
+
+    def run(self, job: Job) -> dict[str, Any]:
+        scratch = job.learners["scratch"]
+        cfg = job.cfg
+        curves = {}
+        for t in job.targets:
+            before = job.tasks_before(t)
+            learner_seed, env_seed, _, _ = trial_seeds(job.seed, before)
+            learner = SmdpLearner(scratch.n_primitive, scratch.tile_coder, None,
+                                  cfg.lifelong.learner, seed=learner_seed)
+            results = learn_with(self.start, learner, scratch.policies[:before],
+                                 make_env(cfg.env_id, job.stream.tasks[t]),
+                                 cfg.lifelong.train_episodes, seed=env_seed,
+                                 choice_seed=choice_seed(job.seed, before))
+            curves[str(t)] = [float(r.total_reward) for r in results]
+        return {"curves": curves}
+
+
 def _plus(base: LifelongConfig) -> dict[str, Any]:
     """The fields that :func:`~ilpss.lifelong.handing_back` changes (ILPSS+)."""
     plus = handing_back(base)
     return {"kernel_reg_covar": plus.kernel_reg_covar, "learner": plus.learner,
             "library": plus.library}
+
+
+def _fine_tuned(base: LifelongConfig, options: str) -> dict[str, Any]:
+    """ILPSS-FT's fields: ILPSS+'s regions and library, a start from the latest past
+    policy's values (``options``: its reuse), options valued from their own policies,
+    handed back by value (interruption) rather than by a fading bonus."""
+    plus = handing_back(base)
+    return {"options": options, "kernel_reg_covar": plus.kernel_reg_covar,
+            "library": plus.library,
+            "learner": replace(base.learner, option_values="policy", interruption=True,
+                               intra_option_primitives=True)}
 
 
 METHODS = Registry("ilpss.methods", "method")
@@ -178,12 +348,21 @@ for _method in (
                    lambda base: {"options": "whole_policies"}),
     PrqMethod(),
     LifelongMethod("ilpss_no_discount", "ILPSS without discounting",
-                   lambda base: {"library": replace(base.library, discount=1.0)}),
+                   lambda base: {"library": replace(base.library, discount=1.0)},
+                   ablates=("ilpss", "discounting")),
     LifelongMethod("ilpss_plus", "ILPSS+ (options first, handed back)", _plus),
     LifelongMethod("whole_policies_plus", "whole past policies, ILPSS+'s settings",
                    lambda base: {**_plus(base), "options": "whole_policies"}),
     LifelongMethod("ilpss_plus_no_discount", "ILPSS+ without discounting",
                    lambda base: {**_plus(base), "library": replace(
-                       _plus(base)["library"], discount=1.0)}),
+                       _plus(base)["library"], discount=1.0)},
+                   ablates=("ilpss_plus", "discounting")),
+    FineTuneMethod("finetune", "fine-tuning from the latest source", LatestPast()),
+    FineTuneMethod("finetune_best", "fine-tuning from the best source (10 episodes each)",
+                   BestOfPast()),
+    LifelongMethod("ilpss_ft", "ILPSS-FT (fine-tuned start, options valued by their policies)",
+                   lambda base: _fine_tuned(base, "kernels_finetune")),
+    LifelongMethod("whole_policies_ft", "whole past policies, ILPSS-FT's settings",
+                   lambda base: _fine_tuned(base, "whole_policies_finetune")),
 ):
     register_method(_method)

@@ -2,19 +2,18 @@
 
 A :class:`Protocol` gives the streams of a configuration for one seed
 (:meth:`~Protocol.streams`), refuses a configuration it cannot run
-(:meth:`~Protocol.check`), says what it does (:meth:`~Protocol.describe`), and writes its
-part of ``report.md`` (:meth:`~Protocol.report`) and of ``docs/results.md``
-(:meth:`~Protocol.results_section`).
+(:meth:`~Protocol.check`) and says what its streams are (:meth:`~Protocol.describe`).
 Protocols are registered by name in :data:`PROTOCOLS` (``A``, ``B``, ``C`` here; more
 with :func:`register_protocol` or the entry-point group ``ilpss.protocols``), and the
-configuration, the runner and the reports only dispatch to them: a new protocol needs
-no change anywhere else.
+configuration and the runner only dispatch to them: a new protocol needs no change
+anywhere else. How a protocol's results are presented is the reports' business
+(:mod:`ilpss.experiments.report` and :mod:`ilpss.experiments.sections`, keyed by the
+protocol's name), not the protocol's.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
@@ -88,9 +87,6 @@ class Protocol:
     title = ""
     takes_targets = False
     """Whether the protocol reads ``ExperimentConfig.targets`` (others refuse them)."""
-    page_section: str | None = None
-    """The function of :mod:`ilpss.experiments.sections` that writes its section of the
-    results page (``None``: :meth:`results_section`'s default)."""
 
     def check(self, cfg: ExperimentConfig) -> None:
         """Refuse a configuration this protocol cannot run (``ValueError`` naming the
@@ -101,34 +97,9 @@ class Protocol:
         raise NotImplementedError
 
     def describe(self, cfg: ExperimentConfig) -> str:
-        """What the protocol does with ``cfg``, for the results page."""
-        return f"{self.title[:1].upper()}{self.title[1:]}, with {_methods(cfg)}."
-
-    def report(self, cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path) -> list[str]:
-        """The body of ``report.md`` (markdown lines; its figures written into ``out``). By
-        default, per stream and target, the curves and the metrics of every method against
-        learning anew (:func:`~ilpss.experiments.report.target_sections`)."""
-        from ilpss.experiments.report import target_sections
-
-        return target_sections(cfg, results, out)
-
-    def results_section(
-        self, cfg: ExperimentConfig, results: list[dict[str, Any]], folder: Path, docs: Path
-    ) -> list[str]:
-        """The body of this protocol's section of ``docs/results.md``: its
-        :attr:`page_section`'s, or by default that of :meth:`report`, its figures copied to
-        ``docs/figures``."""
-        from ilpss.experiments import sections
-
-        if self.page_section is None:
-            return sections.report_section(self, cfg, results, folder, docs)
-        return getattr(sections, self.page_section)(cfg, results, folder, docs)
-
-
-def _methods(cfg: ExperimentConfig, leave_out: tuple[str, ...] = ()) -> str:
-    from ilpss.experiments.report import label
-
-    return ", ".join(label(m) for m in cfg.methods if m not in leave_out)
+        """What the protocol's streams are with ``cfg``, in a sentence (for the results
+        page, which adds the methods)."""
+        return f"{self.title[:1].upper()}{self.title[1:]}."
 
 
 def _teams(teams: tuple[str, ...]) -> str:
@@ -152,12 +123,7 @@ class _HeldOutTeams(Protocol):
     """Streams whose last task, the held-out team, is their one target."""
 
     pooled = False
-    """Verdicts on the curves pooled over the streams (else per stream)."""
-
-    def report(self, cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path) -> list[str]:
-        from ilpss.experiments.report import held_out_sections
-
-        return held_out_sections(cfg, results, out, pooled=self.pooled)
+    """Whether the verdicts are on the curves pooled over the streams (else per stream)."""
 
 
 class HeldOutTeam(_HeldOutTeams):
@@ -170,7 +136,6 @@ class HeldOutTeam(_HeldOutTeams):
 
     name = "A"
     title = "the paper's Figure 3"
-    page_section = "section_a"
     takes_targets = True
 
     def check(self, cfg: ExperimentConfig) -> None:
@@ -204,22 +169,12 @@ class HeldOutTeam(_HeldOutTeams):
                        shared_start=True)]
 
     def describe(self, cfg: ExperimentConfig) -> str:
-        others = _methods(cfg, ("ilpss", "scratch"))
         sources, targets = self.sources_and_targets(cfg)
         against = (f"the held-out team `{targets[0]}`" if len(targets) == 1 else
                    f"each of the held-out teams {_teams(targets)}, every one from the state "
                    "after the sources")
         return (f"Opponent teams {_teams(sources)} in sequence, with extraction after "
-                f"each; then against {against}: learning with the "
-                "extracted options (ILPSS) against learning anew"
-                + (f", beside {others} under the same budget." if others else "."))
-
-    def report(self, cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path) -> list[str]:
-        if len(self.sources_and_targets(cfg)[1]) == 1:
-            return super().report(cfg, results, out)
-        from ilpss.experiments.report import several_targets_sections
-
-        return several_targets_sections(cfg, results, out)
+                f"each; then against {against}.")
 
 
 class EveryTeamHeldOut(_HeldOutTeams):
@@ -228,7 +183,6 @@ class EveryTeamHeldOut(_HeldOutTeams):
 
     name = "B"
     title = "every team held out in turn"
-    page_section = "section_b"
     pooled = True
 
     def check(self, cfg: ExperimentConfig) -> None:
@@ -247,10 +201,8 @@ class EveryTeamHeldOut(_HeldOutTeams):
         return streams
 
     def describe(self, cfg: ExperimentConfig) -> str:
-        others = _methods(cfg, ("ilpss", "scratch"))
         return (f"Each of {_teams(cfg.teams)} is held out in turn, after the others in the "
-                f"paper's order and in {cfg.n_shuffles} shuffled order(s) drawn per seed; "
-                "methods: ILPSS, learning anew" + (f", {others}." if others else "."))
+                f"paper's order and in {cfg.n_shuffles} shuffled order(s) drawn per seed.")
 
 
 class ParametricStream(Protocol):
@@ -259,7 +211,6 @@ class ParametricStream(Protocol):
 
     name = "C"
     title = "a long stream of parametric opponents"
-    page_section = "section_c"
 
     def check(self, cfg: ExperimentConfig) -> None:
         SAMPLERS.check("ExperimentConfig.sampler", cfg.sampler)
@@ -274,15 +225,8 @@ class ParametricStream(Protocol):
 
     def describe(self, cfg: ExperimentConfig) -> str:
         return (f"A stream of {cfg.stream_length} opponents of the `{cfg.sampler_team}` "
-                f"family (drawn per seed by the sampler `{cfg.sampler}`); from the second "
-                "on, ILPSS and "
-                f"{_methods(cfg, ('ilpss', 'scratch'))} against learning anew on every "
-                "opponent.")
-
-    def report(self, cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path) -> list[str]:
-        from ilpss.experiments.report import parametric_stream_sections
-
-        return parametric_stream_sections(cfg, results, out)
+                f"family (drawn per seed by the sampler `{cfg.sampler}`); every opponent "
+                "from the second on is a target.")
 
 
 PROTOCOLS = Registry("ilpss.protocols", "protocol")

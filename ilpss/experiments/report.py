@@ -1,10 +1,14 @@
 """Figures, tables and verdicts of an experiment, written as ``report.md`` in its folder.
 
-:func:`write_report` writes the head of the page and asks the run's protocol for its
-body (:meth:`ilpss.experiments.protocols.Protocol.report`); the sections here are the
-ones protocols use: :func:`held_out_sections` (one held-out target per stream: A and B),
-:func:`parametric_stream_sections` (a long stream: C) and :func:`target_sections` (any
-stream, every target: the default of a new protocol).
+:func:`write_report` writes the head of the page and the body that :data:`REPORT_BODIES`
+holds for the run's protocol (:func:`register_report_body`): :func:`held_out_sections`
+(one held-out target per stream: A, and B pooled), :func:`several_targets_sections` (A
+with several targets), :func:`parametric_stream_sections` (a long stream: C), and
+:func:`target_sections` (any stream, every target: the body of a protocol that registers
+none). The reports know no method by name: they compare every method with the run's
+baseline (``ExperimentConfig.baseline``) and every transfer method with every other, on
+the metrics of :data:`ilpss.metrics.METRICS`, and show the kernels of its featured method
+(``ExperimentConfig.featured_method``).
 """
 
 from __future__ import annotations
@@ -14,7 +18,8 @@ import os
 import shlex
 import sys
 from collections import defaultdict
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +29,6 @@ from ilpss import metrics
 from ilpss._io import atomic_write_bytes, save_figure
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.methods import METHODS, LifelongMethod
-from ilpss.experiments.protocols import PROTOCOLS
 from ilpss.plots import plot_learning_curves, plot_score_profiles
 
 JUMPSTART_EPISODES = 20
@@ -38,10 +42,18 @@ THRESHOLD_SHARE = 0.9
 """Time to threshold: the threshold is this share of the way from the floor (-1) to the
 baseline's mean final performance."""
 PRIMARY = ("jumpstart", "total_reward_gain")
-"""The primary endpoints of every protocol, per method against learning anew (pooled over
+"""The primary endpoints of every protocol, per method against the baseline (pooled over
 the protocol's comparisons); their p-values are Holm-adjusted across methods and endpoints.
-Everything else (final performance, time to threshold, per-stream and per-opponent rows)
-is descriptive."""
+Everything else (final performance, time to threshold, the dips, per-stream and
+per-opponent rows) is descriptive, and the method-against-method comparisons are their
+own family, Holm-adjusted within it."""
+HEADLINE = tuple(m for m in metrics.METRICS if m.headline)
+"""The metrics of every table of a method against the baseline (:data:`ilpss.metrics.METRICS`'s
+headline entries)."""
+PAIRWISE = tuple(m for m in metrics.METRICS if m.pairwise)
+"""The metrics compared method against method."""
+DIP_MARGIN = 0.05
+"""A trailing mean more than this below the baseline's counts as worse (the dips' table)."""
 ALPHA = 0.05
 """Family-wise error rate of the primary endpoints."""
 
@@ -77,19 +89,16 @@ def threshold_for(baseline: np.ndarray) -> float:
     return -1.0 + THRESHOLD_SHARE * (asym + 1.0)
 
 
-def compare_to_scratch(curves: dict[str, np.ndarray], seed: int = 0) -> dict[str, dict]:
-    """Taylor & Stone metrics of every method against learning anew."""
-    base = curves["scratch"]
+def compare_to_baseline(curves: dict[str, np.ndarray], baseline: str,
+                        seed: int = 0) -> dict[str, dict]:
+    """Taylor & Stone metrics of every method against ``baseline`` (time to threshold
+    with its first episodes counted, :func:`ilpss.metrics.threshold_times`' warmup)."""
+    base = curves[baseline]
     threshold = threshold_for(base)
     first, last, window = windows(base.shape[1])
-    out = {}
-    for method, c in curves.items():
-        if method == "scratch":
-            continue
-        out[method] = metrics.compare(
-            c, base, first=first, last=last, threshold=threshold, window=window, seed=seed
-        )
-    return out
+    return {method: metrics.compare(c, base, first=first, last=last, threshold=threshold,
+                                    window=window, seed=seed, warmup=True)
+            for method, c in curves.items() if method != baseline}
 
 
 def target_curves(methods: dict[str, dict[int, np.ndarray]]) -> dict[str, np.ndarray]:
@@ -99,19 +108,22 @@ def target_curves(methods: dict[str, dict[int, np.ndarray]]) -> dict[str, np.nda
     return {m: by_task[target] for m, by_task in methods.items()}
 
 
-def comparable(curves: dict[str, np.ndarray]) -> bool:
-    """Whether the metrics against learning anew are defined (it ran, on 2 seeds or more)."""
-    return "scratch" in curves and len(curves["scratch"]) >= 2
+def comparable(curves: dict[str, np.ndarray], baseline: str) -> bool:
+    """Whether the metrics against the baseline are defined (it ran, on 2 seeds or more)."""
+    return baseline in curves and len(curves[baseline]) >= 2
 
 
-def stream_estimates(table: dict) -> dict[str, dict[str, dict[str, metrics.MetricEstimate]]]:
-    """Protocols A and B: ``{stream: {method: metrics against learning anew}}`` on each
+def stream_estimates(
+    table: dict, baseline: str
+) -> dict[str, dict[str, dict[str, metrics.MetricEstimate]]]:
+    """Protocols A and B: ``{stream: {method: metrics against the baseline}}`` on each
     stream's held-out target (``{}`` for a stream where they are undefined, see
     :func:`comparable`). ``table`` is the output of :func:`collect`."""
     out = {}
     for stream, methods in table.items():
         curves = target_curves(methods)
-        out[stream] = compare_to_scratch(curves) if comparable(curves) else {}
+        out[stream] = compare_to_baseline(curves, baseline) if comparable(curves, baseline) \
+            else {}
     return out
 
 
@@ -166,19 +178,19 @@ def _effect(est: metrics.MetricEstimate, adjusted: float | None, up: str, down: 
 def time_text(est: dict[str, metrics.MetricEstimate]) -> str:
     """Time to threshold in words: censored per seed, with the shares that reach it.
 
-    "Never" (no seed of the method reaches the threshold while learning anew does) is a
+    "Never" (no seed of the method reaches the threshold while the baseline does) is a
     clear negative result and is said so; "neither reaches it" leaves the time undefined.
     """
     reached_t, reached_b = est["threshold_reached_transfer"], est["threshold_reached_baseline"]
     n = reached_t.n
     kt, kb = round(reached_t.value * n), round(reached_b.value * n)
-    shares = f"{kt} of {n} seeds reach the threshold, {kb} of {n} learning anew"
+    shares = f"{kt} of {n} seeds reach the threshold, {kb} of {n} of the baseline"
     if kt == 0 and kb == 0:
-        return ("time to threshold undefined: neither the method nor learning anew reaches "
+        return ("time to threshold undefined: neither the method nor the baseline reaches "
                 "the threshold within the budget on any seed")
     if kt == 0:
         return (f"time to threshold: never within the budget (no seed reaches the "
-                f"threshold, while {kb} of {n} learning anew do), a clear negative result")
+                f"threshold, while {kb} of {n} of the baseline do), a clear negative result")
 
     def median(e: metrics.MetricEstimate) -> str:
         return "beyond the budget" if e.value == math.inf else f"{e.value:.0f} episodes"
@@ -186,7 +198,7 @@ def time_text(est: dict[str, metrics.MetricEstimate]) -> str:
     ratio = est["time_to_threshold_ratio"]
     aim = "at most half: aim met" if ratio.high <= 0.5 else "aim of at most half not shown"
     return (f"time to threshold (restricted mean, censored at the budget) "
-            f"{interval_text(ratio, '.2f')} times that of learning anew ({aim}); {shares}; "
+            f"{interval_text(ratio, '.2f')} times that of the baseline ({aim}); {shares}; "
             f"Kaplan-Meier medians {median(est['median_time_to_threshold_transfer'])} and "
             f"{median(est['median_time_to_threshold_baseline'])}")
 
@@ -232,11 +244,11 @@ def verdict_lines(estimates: dict[str, dict[str, metrics.MetricEstimate]],
     adjusted = holm_primary(estimates)
     n = len(estimates) * len(PRIMARY)
     lines = [f"Primary endpoints{pooled}: per method, the jumpstart and the total-reward gain "
-             f"against learning anew, {n} tests in one family with Holm's adjustment "
+             f"against the baseline, {n} tests in one family with Holm's adjustment "
              f"(family-wise error {ALPHA:g}). Intervals are unadjusted 95% intervals; final "
              "performance and time to threshold are descriptive.", ""]
     for method, est in estimates.items():
-        lines.append(f"- **{label(method)}** vs learning anew: "
+        lines.append(f"- **{label(method)}** vs the baseline: "
                      f"{verdict(est, adjusted[method], episodes)}.")
     return lines
 
@@ -247,13 +259,13 @@ def metrics_note(n_episodes: int | None = None) -> str:
     first, last, smoothing = (windows(n_episodes) if n_episodes is not None else
                               (JUMPSTART_EPISODES, FINAL_EPISODES, SMOOTHING))
     return (
-        f"Metrics (Taylor & Stone 2009), each against learning anew with the same seeds, "
+        f"Metrics (Taylor & Stone 2009), each against the baseline with the same seeds, "
         f"counting only the episodes on the target task (the source tasks' episodes are not "
         f"charged to transfer: weak-transfer accounting): jumpstart over the first "
         f"{first} episodes; final performance within the budget, the mean of "
         f"the last {last} (not an asymptote: the learners may still be "
         f"improving); total reward (area); transfer ratio (areas above the floor -1); time "
-        f"to threshold ({THRESHOLD_SHARE:.0%} of the way from -1 to learning anew's final "
+        f"to threshold ({THRESHOLD_SHARE:.0%} of the way from -1 to the baseline's final "
         f"performance, on a {smoothing}-episode trailing mean), taken per seed and censored "
         "at the budget, summarised by the restricted mean time, the Kaplan-Meier median and "
         "the share of seeds that reach it. Intervals: 95%, over seeds (the seed is the unit; "
@@ -264,53 +276,56 @@ def metrics_note(n_episodes: int | None = None) -> str:
 
 
 # ---------------------------------------------------------------- pooled comparisons
-def pooled_estimates(curve_sets: Sequence[dict[str, np.ndarray]]) -> dict[str, dict]:
-    """Every method against learning anew on each seed's curves averaged over several
+def pooled_estimates(curve_sets: Sequence[dict[str, np.ndarray]],
+                     baseline: str) -> dict[str, dict]:
+    """Every method against the baseline on each seed's curves averaged over several
     comparisons (:func:`pool`): the primary comparison of protocols B and C."""
-    return compare_to_scratch(pool(curve_sets))
+    return compare_to_baseline(pool(curve_sets), baseline)
 
 
 ENDPOINT_LABELS = {"jumpstart": "jumpstart", "total_reward_gain": "total-reward gain"}
 
 
-def run_scores(curve_sets: Sequence[dict[str, np.ndarray]]) -> dict[str, dict[str, np.ndarray]]:
+def run_scores(curve_sets: Sequence[dict[str, np.ndarray]],
+               baseline: str) -> dict[str, dict[str, np.ndarray]]:
     """``{endpoint label: {method label: per-run value}}`` of the :data:`PRIMARY`
     endpoints, one value per seed and comparison (stream or opponent), every method
-    against learning anew. For pictures: runs of one seed are not independent."""
+    against the baseline. For pictures: runs of one seed are not independent."""
     out: dict[str, dict[str, list]] = {ENDPOINT_LABELS[e]: defaultdict(list) for e in PRIMARY}
     for curves in curve_sets:
-        first, last, _ = windows(curves["scratch"].shape[1])
+        first, last, _ = windows(curves[baseline].shape[1])
         for method, c in curves.items():
-            if method == "scratch":
+            if method == baseline:
                 continue
-            gains = metrics.per_seed_gains(c, curves["scratch"], first=first, last=last)
+            gains = metrics.per_seed_gains(c, curves[baseline], first=first, last=last)
             for e in PRIMARY:
                 out[ENDPOINT_LABELS[e]][label(method)].append(gains[e])
     return {e: {m: np.concatenate(v) for m, v in ms.items()} for e, ms in out.items()}
 
 
 def seed_improvements(
-    curve_sets: Sequence[dict[str, np.ndarray]],
+    curve_sets: Sequence[dict[str, np.ndarray]], baseline: str,
 ) -> dict[str, dict[str, metrics.ImprovementTest]]:
     """``{method: {endpoint: paired probability of improvement over seeds}}`` on each
     seed's pooled curves: the seed, not the run, is the unit of the sign and Wilcoxon
     tests."""
     pooled = pool(curve_sets)
-    first, last, _ = windows(pooled["scratch"].shape[1])
+    first, last, _ = windows(pooled[baseline].shape[1])
     out = {}
     for method, c in pooled.items():
-        if method != "scratch":
-            gains = metrics.per_seed_gains(c, pooled["scratch"], first=first, last=last)
+        if method != baseline:
+            gains = metrics.per_seed_gains(c, pooled[baseline], first=first, last=last)
             out[method] = {e: metrics.improvement_test(gains[e]) for e in PRIMARY}
     return out
 
 
-def pooled_lines(curve_sets: Sequence[dict[str, np.ndarray]], episodes: int, what: str,
-                 figure: Path, figure_link: str) -> list[str]:
-    """Protocols B and C: the primary verdicts on the pooled curves, the seeds on which
-    each method is ahead, and the score distributions over runs (written to ``figure``)."""
-    estimates = pooled_estimates(curve_sets)
-    n_seeds = len(curve_sets[0]["scratch"])
+def pooled_lines(curve_sets: Sequence[dict[str, np.ndarray]], baseline: str, episodes: int,
+                 what: str, figure: Path, figure_link: str) -> list[str]:
+    """Protocols B and C: the primary verdicts on the pooled curves, the headline table,
+    the dips, the methods against each other, the seeds on which each method is ahead,
+    and the score distributions over runs (written to ``figure``)."""
+    estimates = pooled_estimates(curve_sets, baseline)
+    n_seeds = len(curve_sets[0][baseline])
     lines = [
         f"Pooled over {what}: each seed's learning curves are averaged over them, and the "
         "metrics are computed on these pooled curves, over seeds. The pooled jumpstart and "
@@ -318,11 +333,14 @@ def pooled_lines(curve_sets: Sequence[dict[str, np.ndarray]], episodes: int, wha
         "pooled time to threshold is taken on each seed's pooled curve, censored at the "
         "budget.", "",
         *verdict_lines(estimates, episodes, pooled=" (pooled)"), "",
+        *headline_table(estimates, "pooled"), "",
+        *dip_lines(pool(curve_sets), baseline),
+        *pairwise_lines(pool(curve_sets), baseline),
         "Paired probability of improvement: the share of seeds on which the method's pooled "
-        "value beats learning anew's (ties count one half), with a two-sided sign test and "
+        "value beats the baseline's (ties count one half), with a two-sided sign test and "
         f"a Wilcoxon signed-rank test over the {n_seeds} seeds (descriptive):", "",
     ]
-    for method, tests in seed_improvements(curve_sets).items():
+    for method, tests in seed_improvements(curve_sets, baseline).items():
         cells = []
         for e in PRIMARY:
             t = tests[e]
@@ -332,15 +350,15 @@ def pooled_lines(curve_sets: Sequence[dict[str, np.ndarray]], episodes: int, wha
                          f"{t.worse} (probability {t.probability:.2f}; sign test p = {sign}, "
                          f"Wilcoxon p = {wil})")
         lines.append(f"- {label(method)}: " + "; ".join(cells) + ".")
-    scores = run_scores(curve_sets)
+    scores = run_scores(curve_sets, baseline)
     n_runs = len(next(iter(next(iter(scores.values())).values())))
     plot_score_profiles(scores, figure, title=f"Score distributions over {n_runs} runs "
-                        f"({n_seeds} seeds x {len(curve_sets)}), against learning anew")
+                        f"({n_seeds} seeds x {len(curve_sets)}), against the baseline")
     lines += ["", f"![score distributions]({figure_link})", "",
               f"Score distributions over the {n_runs} runs (one per seed and comparison): "
               "for each value on the x axis, the share of runs whose score is larger. A curve "
               "that lies above another everywhere dominates it; its height at 0 is the share "
-              "of runs where the method beats learning anew. The runs of a seed are not "
+              "of runs where the method beats the baseline. The runs of a seed are not "
               "independent, so the tests above are over seeds.", ""]
     return lines
 
@@ -353,31 +371,31 @@ def team_streams(table: dict) -> dict[str, list[str]]:
     return dict(out)
 
 
-def baseline_shared_across_orders(table: dict) -> bool:
-    """Protocol B: whether learning anew's curves against each held-out team are the same
-    in all of that team's source orders (learning anew never sees the sources)."""
+def baseline_shared_across_orders(table: dict, baseline: str) -> bool:
+    """Protocol B: whether the baseline's curves against each held-out team are the same
+    in all of that team's source orders (a baseline that never sees the sources)."""
     for streams in team_streams(table).values():
-        ref = target_curves(table[streams[0]]).get("scratch")
+        ref = target_curves(table[streams[0]]).get(baseline)
         for s in streams[1:]:
-            other = target_curves(table[s]).get("scratch")
+            other = target_curves(table[s]).get(baseline)
             if ref is None or other is None or not np.array_equal(ref, other):
                 return False
     return True
 
 
-def structure_b(table: dict) -> str:
+def structure_b(table: dict, baseline: str) -> str:
     """Protocol B: what its streams are, and what they are not."""
     teams = team_streams(table)
     orders = sorted({len(s) for s in teams.values()})
     k = orders[0] if len(orders) == 1 else f"{orders[0]}-{orders[-1]}"
     text = f"The {len(table)} streams are {len(teams)} held-out teams x {k} source orders. "
-    if baseline_shared_across_orders(table):
-        text += (f"Learning anew does not depend on the source order: its curves against a "
+    if baseline_shared_across_orders(table, baseline):
+        text += (f"The baseline does not depend on the source order: its curves against a "
                  f"team are identical in the team's {k} orders (checked on the result files). "
                  f"So the streams of a team share their baseline and their seeds; they are "
                  f"{k} looks at one team, not {k} independent confirmations.")
     else:
-        text += ("Learning anew's curves differ between the source orders of a team, yet the "
+        text += ("The baseline's curves differ between the source orders of a team, yet the "
                  "orders of a team share their seeds, so they are not independent "
                  "confirmations.")
     return text + (" Per-stream rows are descriptive: they are neither adjusted for "
@@ -386,7 +404,7 @@ def structure_b(table: dict) -> str:
 
 
 def stream_trend(
-    methods: dict[str, dict[int, np.ndarray]], method: str = "ilpss"
+    methods: dict[str, dict[int, np.ndarray]], method: str, baseline: str
 ) -> tuple[float, float, float, float, int] | None:
     """Protocol C: does ``method``'s jumpstart grow along the stream? One trend test.
 
@@ -397,12 +415,12 @@ def stream_trend(
     opponent, or ``None`` with fewer than 2 seeds or 2 opponents.
     """
     targets = sorted(methods[method])
-    if len(targets) < 2 or len(methods["scratch"][targets[0]]) < 2:
+    if len(targets) < 2 or len(methods[baseline][targets[0]]) < 2:
         return None
     per_target = []
     for t in targets:
-        first, last, _ = windows(methods["scratch"][t].shape[1])
-        gains = metrics.per_seed_gains(methods[method][t], methods["scratch"][t],
+        first, last, _ = windows(methods[baseline][t].shape[1])
+        gains = metrics.per_seed_gains(methods[method][t], methods[baseline][t],
                                        first=first, last=last)
         per_target.append(gains["jumpstart"])
     slopes = metrics.trend_slopes(np.stack(per_target, axis=1), np.asarray(targets, float))
@@ -498,7 +516,11 @@ def write_report(
         metrics_note(cfg.lifelong.train_episodes),
         "",
     ]
-    lines += PROTOCOLS.get(cfg.protocol).report(cfg, results, out)
+    if cfg.baseline is None:
+        raise ValueError("a report compares every method with the run's baseline, and this "
+                         "run has none (ExperimentConfig.baseline is null): compare it with "
+                         "ilpss-compare instead")
+    lines += report_body(cfg, results, out)
     lines += success_lines(results)
     path = out / "report.md"
     atomic_write_bytes(path, "\n".join(lines).encode())
@@ -551,15 +573,15 @@ def held_out_sections(
 ) -> list[str]:
     """The body of the report of protocols whose every stream has one target (the
     held-out team): per stream its curves and the metrics of every method against
-    learning anew, with verdicts; with ``pooled`` (several streams, as in B) the verdicts
+    the baseline, with verdicts; with ``pooled`` (several streams, as in B) the verdicts
     are on the curves pooled over the streams, and the per-stream ones descriptive."""
     table = collect(results)
-    episodes = cfg.lifelong.train_episodes
-    estimates = stream_estimates(table)
+    episodes, baseline = cfg.lifelong.train_episodes, cfg.baseline
+    estimates = stream_estimates(table, baseline)
     lines: list[str] = []
     if pooled and all(estimates.values()):
-        lines += ["## Pooled over the streams (primary)", "", structure_b(table), "",
-                  *pooled_lines([target_curves(m) for m in table.values()], episodes,
+        lines += ["## Pooled over the streams (primary)", "", structure_b(table, baseline), "",
+                  *pooled_lines([target_curves(m) for m in table.values()], baseline, episodes,
                                 f"the {len(table)} streams", out / "profiles.png",
                                 "profiles.png")]
     for s, (stream, methods) in enumerate(table.items()):
@@ -567,12 +589,14 @@ def held_out_sections(
         fig = _figure(curves, out / f"curves_{s:02d}.png",
                       f"{stream}: learning against the held-out opponent")
         lines += [f"## {stream}", "", f"![learning curves]({fig.name})", ""]
-        if "scratch" in curves and not comparable(curves):
+        if baseline in curves and not comparable(curves, baseline):
             lines += ["Transfer metrics need at least 2 seeds.", ""]
         elif not pooled and estimates[stream]:
-            lines += ["### Verdicts", "", *verdict_lines(estimates[stream], episodes), ""]
+            lines += ["### Verdicts", "", *verdict_lines(estimates[stream], episodes), "",
+                      *headline_table(estimates[stream], "one stream"), "",
+                      *dip_lines(curves, baseline), *pairwise_lines(curves, baseline)]
         for method, est in estimates[stream].items():
-            lines += [f"### {label(method)} vs learning anew", ""]
+            lines += [f"### {label(method)} vs the baseline", ""]
             if pooled:
                 lines += [f"Descriptive (one stream, unadjusted): {verdict(est)}.", ""]
             lines += [metrics.format_metrics_markdown(est), ""]
@@ -586,21 +610,22 @@ def parametric_stream_sections(
     target (protocol C): the verdicts pooled over the targets, the trend of the head
     start along the stream, and the jumpstart and library size on each new opponent."""
     (methods,) = collect(results).values()
-    episodes = cfg.lifelong.train_episodes
-    jumpstarts = stream_jumpstarts(methods)
-    sizes = library_sizes(results)
+    episodes, baseline, featured = cfg.lifelong.train_episodes, cfg.baseline, cfg.featured_method
+    jumpstarts = stream_jumpstarts(methods, featured, baseline) if featured else []
+    sizes = library_sizes(cfg, results)
     plot_stream(jumpstarts, sizes, out / "stream.png")
     lines: list[str] = []
-    if jumpstarts:
-        targets = sorted(methods["scratch"])
+    targets = sorted(methods[baseline])
+    if len(methods[baseline][targets[0]]) >= 2:
         lines += ["## Pooled over the opponents (primary)", "",
                   *pooled_lines([{m: methods[m][t] for m in methods} for t in targets],
-                                episodes, f"the {len(targets)} opponents after the first",
+                                baseline, episodes,
+                                f"the {len(targets)} opponents after the first",
                                 out / "profiles.png", "profiles.png"),
-                  *[trend_line(stream_trend(methods, m), label(m))
-                    for m in methods if m != "scratch"], ""]
+                  *[trend_line(stream_trend(methods, m, baseline), label(m))
+                    for m in methods if m != baseline], ""]
     return [*lines, "## Jumpstart on each new opponent of the stream (descriptive)", "",
-            *protocol_c_lines(jumpstarts, sizes, "stream.png")]
+            *protocol_c_lines(jumpstarts, sizes, "stream.png", featured)]
 
 
 def several_targets_sections(
@@ -610,36 +635,40 @@ def several_targets_sections(
     state after its sources (protocol A with ``targets``): the primary verdicts on each
     seed's curves pooled over the targets, the seeds on which each method is ahead and
     the score distributions, a descriptive row per target; then per target its curves and
-    the metrics of every method against learning anew (descriptive, unadjusted)."""
+    the metrics of every method against the baseline (descriptive, unadjusted)."""
     ((_, methods),) = collect(results).items()
     names = results[0]["tasks"]
-    episodes = cfg.lifelong.train_episodes
+    episodes, baseline = cfg.lifelong.train_episodes, cfg.baseline
     per_target = per_target_curves(methods)
     lines: list[str] = []
-    if all(comparable(c) for c in per_target.values()):
-        estimates = {t: compare_to_scratch(c) for t, c in per_target.items()}
+    if all(comparable(c, baseline) for c in per_target.values()):
+        estimates = {t: compare_to_baseline(c, baseline) for t, c in per_target.items()}
         lines += ["## Pooled over the targets (primary)", "", structure_targets(len(per_target)),
-                  "", *pooled_lines(list(per_target.values()), episodes,
+                  "", *pooled_lines(list(per_target.values()), baseline, episodes,
                                     f"the {len(per_target)} targets", out / "profiles.png",
                                     "profiles.png"),
-                  *target_tables(estimates, names)]
+                  *target_tables(estimates, names), *per_target_dips(per_target, names, baseline)]
     for t, curves in per_target.items():
-        lines += descriptive_lines(curves, out / f"curves_00_{t:02d}.png",
+        lines += descriptive_lines(curves, baseline, out / f"curves_00_{t:02d}.png",
                                    f"{names[t]}: learning against the held-out opponent",
                                    f"Target `{names[t]}`", "one target, unadjusted")
     return lines
 
 
-def descriptive_lines(curves: dict[str, np.ndarray], figure: Path, title: str, heading: str,
-                      scope: str) -> list[str]:
-    """One comparison's section: its curves (written to ``figure``) and, per method, the
-    verdict and every metric against learning anew, marked descriptive (``scope``)."""
+def descriptive_lines(curves: dict[str, np.ndarray], baseline: str, figure: Path, title: str,
+                      heading: str, scope: str) -> list[str]:
+    """One comparison's section: its curves (written to ``figure``), the headline table,
+    the dips, the methods against each other and, per method, the verdict and every
+    metric against the baseline, marked descriptive (``scope``)."""
     fig = _figure(curves, figure, title)
     lines = [f"## {heading}", "", f"![learning curves]({fig.name})", ""]
-    if not comparable(curves):
-        return [*lines, "Transfer metrics need learning anew on at least 2 seeds.", ""]
-    for method, est in compare_to_scratch(curves).items():
-        lines += [f"### {label(method)} vs learning anew", "",
+    if not comparable(curves, baseline):
+        return [*lines, "Transfer metrics need the baseline on at least 2 seeds.", ""]
+    estimates = compare_to_baseline(curves, baseline)
+    lines += [*headline_table(estimates, scope), "", *dip_lines(curves, baseline),
+              *pairwise_lines(curves, baseline)]
+    for method, est in estimates.items():
+        lines += [f"### {label(method)} vs the baseline", "",
                   f"Descriptive ({scope}): {verdict(est)}.", "",
                   metrics.format_metrics_markdown(est), ""]
     return lines
@@ -661,22 +690,157 @@ def structure_targets(n: int) -> str:
 
 
 def comparison_row(name: str, est: dict[str, metrics.MetricEstimate]) -> str:
-    """One row of a per-stream or per-target table: the four metrics against learning
-    anew with their intervals, and the seeds that reach the threshold."""
+    """One row of a table against the baseline: every :data:`HEADLINE` metric with its
+    interval, and the seeds that reach the threshold."""
     n = est["jumpstart"].n
     reached = (f"{round(est['threshold_reached_transfer'].value * n)}/{n}, "
                f"{round(est['threshold_reached_baseline'].value * n)}/{n}")
-    return (f"| {name} | {interval_text(est['jumpstart'], '+.3f')} | "
-            f"{interval_text(est['total_reward_gain'], '+.1f')} | "
-            f"{interval_text(est['final_gain'], '+.3f')} | "
-            f"{interval_text(est['time_to_threshold_ratio'], '.2f')} | {reached} |")
+    cells = [interval_text(est[m.name], m.fmt) for m in HEADLINE if m.name in est]
+    return f"| {name} | " + " | ".join(cells) + f" | {reached} |"
 
 
 def comparison_head(what: str) -> list[str]:
     """The head of a table of :func:`comparison_row` rows."""
-    return [f"| {what} | jumpstart [95% CI] | total-reward gain [95% CI] | final performance "
-            "gain [95% CI] | time to threshold ratio [95% CI] | seeds reaching the threshold "
-            "(method, anew) |", "|---|---:|---:|---:|---:|---:|"]
+    cells = [f"{m.label} [95% CI]" for m in HEADLINE]
+    return [f"| {what} | " + " | ".join(cells) + " | seeds reaching the threshold "
+            "(method, baseline) |", "|---|" + "---:|" * (len(cells) + 1)]
+
+
+def headline_table(estimates: dict[str, dict[str, metrics.MetricEstimate]],
+                   scope: str) -> list[str]:
+    """Every method against the baseline on the :data:`HEADLINE` metrics, one row each
+    (unadjusted 95% intervals; ``scope`` says over what)."""
+    return [f"Against the baseline ({scope}; unadjusted 95% intervals over seeds; the dip "
+            "and the episodes below the baseline are described under the next heading):", "",
+            *comparison_head("method"),
+            *[comparison_row(label(m), est) for m, est in estimates.items()]]
+
+
+def _trailing(curves: np.ndarray) -> np.ndarray:
+    """The seed-mean curve's trailing mean over the smoothing window (full windows)."""
+    window = windows(curves.shape[1])[2]
+    return metrics.smooth(curves.mean(axis=0), window, edges="valid")
+
+
+def dip_lines(curves: dict[str, np.ndarray], baseline: str) -> list[str]:
+    """The handover, per method: how far the seed-mean curve's trailing mean falls below
+    its earlier maximum, how many episodes it lies more than :data:`DIP_MARGIN` below the
+    baseline's, and the same per seed with an interval."""
+    window = windows(curves[baseline].shape[1])[2]
+    base = _trailing(curves[baseline])
+    rows = []
+    for method, c in curves.items():
+        mine = _trailing(c)
+        dip = float(metrics.largest_dip(mine, 1))
+        below = int(np.sum(mine < base - DIP_MARGIN))
+        per_seed = metrics.largest_dip(c, window)
+        value, low, high = (metrics.t_interval(per_seed) if len(per_seed) >= 2
+                            else (float(per_seed.mean()), math.nan, math.nan))
+        rows.append(f"| {label(method)} | {dip:.2f} | {below} | {value:.2f} "
+                    f"[{_signed(low, '.2f')}, {_signed(high, '.2f')}] |")
+    return [f"The handover (descriptive): the largest fall of the {window}-episode trailing "
+            "mean below its earlier maximum (from the first full window on), on the seed-mean "
+            "curve the figures show and per seed (mean, 95% t interval), and the episodes at "
+            f"which the seed-mean trailing mean lies more than {DIP_MARGIN:g} below the "
+            "baseline's.", "",
+            "| method | largest dip, seed-mean curve | episodes below the baseline | largest "
+            "dip per seed [95% CI] |", "|---|---:|---:|---:|", *rows, ""]
+
+
+def per_target_dips(per_target: dict[int, dict[str, np.ndarray]], names: Sequence[str],
+                    baseline: str) -> list[str]:
+    """Several targets: each method's seed-mean largest dip and episodes below the
+    baseline on every target (a method that never collapses does not on any)."""
+    methods = list(next(iter(per_target.values())))
+    head = "| method | " + " | ".join(f"`{names[t]}`: dip, below" for t in per_target) + " |"
+    rows = []
+    for method in methods:
+        cells = []
+        for curves in per_target.values():
+            mine, base = _trailing(curves[method]), _trailing(curves[baseline])
+            cells.append(f"{float(metrics.largest_dip(mine, 1)):.2f}, "
+                         f"{int(np.sum(mine < base - DIP_MARGIN))}")
+        rows.append(f"| {label(method)} | " + " | ".join(cells) + " |")
+    return ["### The handover on each target (descriptive)", "",
+            "Seed-mean curves: the largest fall of the trailing mean below its earlier "
+            f"maximum, and the episodes more than {DIP_MARGIN:g} below the baseline's.", "",
+            head, "|---|" + "---:|" * len(per_target), *rows, ""]
+
+
+def pairwise_estimates(
+    curves: dict[str, np.ndarray], baseline: str
+) -> dict[tuple[str, str], dict[str, tuple[float, float, float, float]]]:
+    """Every transfer method against every other, paired by seed, on the
+    :data:`PAIRWISE` metrics: ``{(a, b): {metric: (value, low, high, Holm p)}}``, the
+    p-values Holm-adjusted within this family (all pairs and metrics)."""
+    methods = [m for m in curves if m != baseline]
+    n_eps = curves[baseline].shape[1]
+    first, last, window = windows(n_eps)
+    pairs = [(a, b) for i, a in enumerate(methods) for b in methods[i + 1:]]
+    raw: dict[tuple[str, str], dict[str, tuple[float, float, float, float]]] = {}
+    for a, b in pairs:
+        paired = metrics.Paired(curves[a], curves[b], first=first, last=last, window=window)
+        raw[a, b] = {}
+        for m in PAIRWISE:
+            diff = m.values(paired)
+            value, low, high = metrics.t_interval(diff)
+            raw[a, b][m.name] = (value, low, high, float(metrics.t_test_pvalue(diff)))
+    keys = [(pair, m) for pair in raw for m in raw[pair]]
+    adjusted = metrics.holm([raw[pair][m][3] for pair, m in keys]) if keys else []
+    for (pair, m), p in zip(keys, adjusted, strict=True):
+        value, low, high, _ = raw[pair][m]
+        raw[pair][m] = (value, low, high, float(p))
+    return raw
+
+
+def pairwise_lines(curves: dict[str, np.ndarray], baseline: str) -> list[str]:
+    """The transfer methods against each other (:func:`pairwise_estimates`), as a table,
+    and the metrics on which one method beats every other by a Holm-adjusted test."""
+    if len(curves[baseline]) < 2 or len(curves) < 3:
+        return []
+    pairs = pairwise_estimates(curves, baseline)
+    rows = []
+    for (a, b), est in pairs.items():
+        cells = [f"{interval_text(_Estimate(*est[m.name][:3]), m.fmt)} "
+                 f"(p = {est[m.name][3]:.2g})" for m in PAIRWISE]
+        rows.append(f"| {label(a)} - {label(b)} | " + " | ".join(cells) + " |")
+    best = []
+    methods = [m for m in curves if m != baseline]
+    for m in PAIRWISE:
+        for a in methods:
+            wins = [_beats(pairs, a, b, m.name) for b in methods if b != a]
+            if wins and all(wins):
+                best.append(f"**{label(a)}** is the best on {m.label}: it beats every other "
+                            "transfer method, each difference above zero with a Holm-adjusted "
+                            f"p below {ALPHA:g}.")
+    said = best or ["No transfer method beats every other on any of these metrics by a "
+                    "Holm-adjusted test: no method is shown to be the best."]
+    return ["Method against method (descriptive family of its own): the paired difference "
+            "over seeds (the first named minus the second), 95% t interval, and the p-value "
+            f"Holm-adjusted across the {len(pairs)} pairs x {len(PAIRWISE)} metrics.", "",
+            "| methods | " + " | ".join(f"{m.label} [95% CI]" for m in PAIRWISE) + " |",
+            "|---|" + "---:|" * len(PAIRWISE), *rows, "", *[f"- {t}" for t in said], ""]
+
+
+@dataclass(frozen=True)
+class _Estimate:
+    """A value and its interval, for :func:`interval_text`."""
+
+    value: float
+    low: float
+    high: float
+
+
+def _beats(pairs: dict, a: str, b: str, metric: str) -> bool:
+    """Whether ``a`` beats ``b`` on ``metric`` (its sign of better) by a Holm-adjusted
+    test, whichever way round the pair was stored."""
+    better = metrics.METRIC[metric].better
+    if (a, b) in pairs:
+        value, _, _, p = pairs[a, b][metric]
+    else:
+        value, _, _, p = pairs[b, a][metric]
+        value = -value
+    return p < ALPHA and value * better > 0
 
 
 def target_tables(estimates: dict[int, dict[str, dict[str, metrics.MetricEstimate]]],
@@ -684,7 +848,7 @@ def target_tables(estimates: dict[int, dict[str, dict[str, metrics.MetricEstimat
     """Per method, a descriptive row per target (``{target: {method: metrics}}``)."""
     lines: list[str] = []
     for method in next(iter(estimates.values())):
-        lines += [f"### {label(method)} vs learning anew, per target (descriptive)", "",
+        lines += [f"### {label(method)} vs the baseline, per target (descriptive)", "",
                   *comparison_head("target"),
                   *[comparison_row(f"`{names[t]}`", est[method]) for t, est in estimates.items()],
                   ""]
@@ -697,40 +861,42 @@ def target_sections(
     cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path
 ) -> list[str]:
     """The body of a report for any stream: per stream and target task, the curves and
-    the metrics of every method against learning anew (descriptive, unadjusted)."""
+    the metrics of every method against the baseline (descriptive, unadjusted)."""
     lines: list[str] = []
     for s, (stream, methods) in enumerate(collect(results).items()):
         for t in sorted(next(iter(methods.values()))):
             curves = {m: by_task[t] for m, by_task in methods.items()}
-            lines += descriptive_lines(curves, out / f"curves_{s:02d}_{t:02d}.png",
+            lines += descriptive_lines(curves, cfg.baseline, out / f"curves_{s:02d}_{t:02d}.png",
                                        f"{stream}: learning on task {t}",
                                        f"{stream}, task {t}", "unadjusted")
     return lines
 
 
 def stream_jumpstarts(
-    methods: dict[str, dict[int, np.ndarray]], method: str = "ilpss"
+    methods: dict[str, dict[int, np.ndarray]], method: str, baseline: str
 ) -> list[tuple[int, metrics.MetricEstimate]]:
-    """Protocol C: ``(task index, jumpstart of method against learning anew)`` on every
+    """Protocol C: ``(task index, jumpstart of method against the baseline)`` on every
     target of the stream (none with fewer than 2 seeds)."""
     out: list[tuple[int, metrics.MetricEstimate]] = []
-    if len(methods["scratch"][min(methods["scratch"])]) < 2:
+    if len(methods[baseline][min(methods[baseline])]) < 2:
         return out
     for t in sorted(methods[method]):
-        first, last, window = windows(methods["scratch"][t].shape[1])
-        est = metrics.compare(methods[method][t], methods["scratch"][t], first=first,
+        first, last, window = windows(methods[baseline][t].shape[1])
+        est = metrics.compare(methods[method][t], methods[baseline][t], first=first,
                               last=last, threshold=None, window=window)
         out.append((t, est["jumpstart"]))
     return out
 
 
-def library_sizes(results: list[dict[str, Any]]) -> dict[str, np.ndarray]:
+def library_sizes(cfg: ExperimentConfig,
+                  results: list[dict[str, Any]]) -> dict[str, np.ndarray]:
     """``{method: active options after each trial, (n_seeds, n_trials)}`` of every lifelong
-    method that builds options (all but learning anew), seeds in order."""
+    method that offers options, seeds in order."""
     sizes: dict[str, list] = defaultdict(list)
+    with_options = {m for m in cfg.methods if _offers_options(m, cfg)}
     for res in sorted(results, key=lambda r: (r["stream_index"], r["seed"])):
         for method, data in res["methods"].items():
-            if method != "scratch" and isinstance(METHODS.get(method), LifelongMethod):
+            if method in with_options:
                 sizes[method].append(data["library_size"])
     return {m: np.asarray(runs, dtype=float) for m, runs in sizes.items()}
 
@@ -767,20 +933,58 @@ def plot_stream(
 
 def protocol_c_lines(
     jumpstarts: list[tuple[int, metrics.MetricEstimate]], sizes: dict[str, np.ndarray],
-    figure: str,
+    figure: str, featured: str | None,
 ) -> list[str]:
-    """Protocol C's figure link, jumpstart table and final library sizes, as markdown."""
+    """Protocol C's figure link, the featured method's jumpstart on each opponent and the
+    final library sizes, as markdown."""
     rows = ["Per opponent, descriptive: 95% t intervals over seeds, not adjusted for the "
             f"{len(jumpstarts)} opponents; the claim that the head start grows is the one "
             "trend test above.", "",
-            "| opponent | jumpstart (ILPSS - anew) | 95% CI |", "|---|---:|---|"]
+            f"| opponent | jumpstart ({label(featured or '')} - baseline) | 95% CI |",
+            "|---|---:|---|"]
     rows += [f"| {t} | {js.value:+.3f} | [{js.low:+.3f}, {js.high:+.3f}] |"
              for t, js in jumpstarts]
     if not jumpstarts:
-        rows = ["Transfer metrics need at least 2 seeds."]
+        rows = ["Transfer metrics need at least 2 seeds." if featured else
+                "No method of this run is featured (ExperimentConfig.featured)."]
     lines = [f"![stream]({figure})", "", *rows, ""]
     for method, runs in sizes.items():
         final = runs[:, -1]
         lines.append(f"- {label(method)}: {final.mean():.1f} active options after the last "
                      f"trial (min {final.min():.0f}, max {final.max():.0f} over seeds).")
     return lines
+
+
+def _offers_options(method: str, cfg: ExperimentConfig) -> bool:
+    """Whether ``method`` is a lifelong method whose learners are offered options."""
+    entry = METHODS.get(method)
+    return isinstance(entry, LifelongMethod) and entry.config(cfg.lifelong).reuse.offers_options
+
+
+def _held_out_a(cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path) -> list[str]:
+    """Protocol A: one held-out target per stream, or several from one source history."""
+    if len(results[0]["tasks"]) - results[0]["first_target"] > 1:
+        return several_targets_sections(cfg, results, out)
+    return held_out_sections(cfg, results, out, pooled=False)
+
+
+ReportBody = Callable[[ExperimentConfig, list[dict[str, Any]], Path], list[str]]
+REPORT_BODIES: dict[str, ReportBody] = {
+    "A": _held_out_a,
+    "B": lambda cfg, results, out: held_out_sections(cfg, results, out, pooled=True),
+    "C": parametric_stream_sections,
+}
+"""The body of ``report.md`` per protocol name; a protocol with none gets
+:func:`target_sections`."""
+
+
+def register_report_body(protocol: str, body: ReportBody, *, overwrite: bool = False) -> None:
+    """Write ``report.md``'s body of the protocol named ``protocol`` with ``body``."""
+    if protocol in REPORT_BODIES and not overwrite:
+        raise ValueError(f"protocol {protocol!r} has a report body; pass overwrite=True")
+    REPORT_BODIES[protocol] = body
+
+
+def report_body(cfg: ExperimentConfig, results: list[dict[str, Any]], out: Path) -> list[str]:
+    """The body of ``report.md`` for ``cfg``'s protocol (its figures written into ``out``)."""
+    return REPORT_BODIES.get(cfg.protocol, target_sections)(cfg, results, out)

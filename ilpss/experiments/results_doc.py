@@ -12,9 +12,8 @@ finished job is never run again; a folder holding another configuration is refus
 writes that folder's ``report.md``, and then assembles ``<docs>/results.md``: per
 protocol the command that regenerates it (:func:`command_for`), its saved configuration
 (copied to ``<docs>/results/``), its wall time, and the section that the protocol writes
-(:meth:`~ilpss.experiments.protocols.Protocol.results_section`, in
-:mod:`ilpss.experiments.sections`: figures copied to ``<docs>/figures/``, tables and
-verdicts, all computed from the result files). A protocol not chosen with
+(:func:`ilpss.experiments.sections.page_section`: figures copied to
+``<docs>/figures/``, tables and verdicts, all computed from the result files). A protocol not chosen with
 ``--protocols`` keeps its section if its folder holds a finished run.
 """
 
@@ -36,11 +35,9 @@ from ilpss.experiments.executor import stop_on_sigterm
 from ilpss.experiments.folder import RunFolder
 from ilpss.experiments.outputs import check_out_dir
 from ilpss.experiments.protocols import PROTOCOLS as PROTOCOLS_REGISTRY
-from ilpss.experiments.report import (
-    metrics_note,
-    write_report,
-)
+from ilpss.experiments.report import label, metrics_note, write_report
 from ilpss.experiments.run import JobError, load_result, read_config, run_experiment
+from ilpss.experiments.sections import page_section
 
 PAGE = {
     "A": {"teams": "teams", "targets": "targets"},
@@ -129,8 +126,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         config_copy = docs / "results" / f"protocol_{protocol.lower()}_config.json"
         atomic_write_bytes(config_copy, folder.config.read_bytes())
         sections += [*header(cfg, folder, command, config_copy.name),
-                     *PROTOCOLS_REGISTRY.get(protocol).results_section(cfg, results,
-                                                                       folder.root, docs)]
+                     *page_section(cfg, results, folder.root, docs)]
     text = [*intro(configs, args.runs, args.docs), *sections]
     path = docs / "results.md"
     atomic_write_bytes(path, ("\n".join(text).rstrip() + "\n").encode())
@@ -269,7 +265,9 @@ def header(cfg: ExperimentConfig, folder: RunFolder, command: str | None,
               f"{lc.n_kernels} kernels.")
     shown = f"`{command}`" if command else "not expressible as an `ilpss-results` command"
     return [
-        f"## Protocol {protocol.name}: {protocol.title}", "", protocol.describe(cfg), budget, "",
+        f"## Protocol {protocol.name}: {protocol.title}", "", protocol.describe(cfg),
+        f"Methods: {', '.join(label(m) for m in cfg.methods)}; each is compared with "
+        f"{label(cfg.baseline)}, and with every other.", budget, "",
         f"- Command: {shown}",
         f"- Configuration: [`results/{config_name}`](results/{config_name})",
         f"- Wall time: {wall_time(cfg, folder)}", "",

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ilpss._check import Integer, ListOf, Real, check_fields, check_keys
+from ilpss._check import ListOf, Real, check_fields, check_keys
 from ilpss._io import (
     atomic_write_bytes,
     json_differences,
@@ -35,6 +35,7 @@ from ilpss._io import (
 from ilpss.experiments.checkpoints import (
     CheckpointStore,
     LocalStore,
+    checkpoint_store,
     is_uri,
     open_store,
     stream_records,
@@ -51,7 +52,6 @@ __all__ = [
     "JobDone",
     "JobError",
     "JobSpec",
-    "checkpoint_store",
     "load_result",
     "read_config",
     "run_experiment",
@@ -113,13 +113,6 @@ def run_stream(spec: JobSpec) -> JobDone:
 
 RESULT_FIELDS = ("schema", "config", "seed", "stream", "stream_index", "tasks", "first_target",
                  "methods")
-LIFELONG_SERIES = {
-    "library_size": Integer(0),
-    "options_offered": Integer(0),
-    "options_used": Integer(0),
-    "rollout_success_rate": Real(0.0, 1.0),
-}
-"""Per lifelong method, one value per task of the stream (from its trial records)."""
 
 
 def load_result(
@@ -160,7 +153,6 @@ def load_result(
         )
     low, high = cfg.reward_range
     curve = ListOf(Real(low, high), cfg.lifelong.train_episodes, cfg.lifelong.train_episodes)
-    series = {name: ListOf(c, len(tasks), len(tasks)) for name, c in LIFELONG_SERIES.items()}
     targets = [str(t) for t in range(stream.first_target, len(tasks))]
     with contextlib.ExitStack() as stack:
         if store is None:
@@ -171,15 +163,17 @@ def load_result(
                 field = f"{path}: methods.{method}"
                 if not isinstance(values, dict):
                     raise ValueError(f"{field} must be an object")
-                lifelong = isinstance(METHODS.get(method), LifelongMethod)
-                check_keys(field, values, ("curves", *series) if lifelong else ("curves",))
+                declared = METHODS.get(method).series
+                series = {name: ListOf(c, len(tasks), len(tasks))
+                          for name, c in declared.items()}
+                check_keys(field, values, ("curves", *series))
                 if not isinstance(values["curves"], dict) or \
                         sorted(values["curves"]) != sorted(targets):
                     raise ValueError(f"{field}.curves must have the targets {targets} as keys")
                 check_fields(f"{field}.curves", values["curves"],
                              dict.fromkeys(targets, curve), dict.get)
-                if lifelong:
-                    check_fields(field, values, series, dict.get)
+                check_fields(field, values, series, dict.get)
+                if isinstance(METHODS.get(method), LifelongMethod):
                     _check_against_checkpoint(store, seed, stream_index, method, values,
                                               stream, field)
         except ValueError as exc:
@@ -208,11 +202,6 @@ def _check_against_checkpoint(
             f"{field} disagrees with the checkpoint in {where} ({diffs[0]} in the result, "
             "in the checkpoint)"
         )
-
-
-def checkpoint_store(cfg: ExperimentConfig, root: str | os.PathLike[str]) -> CheckpointStore:
-    """The checkpoint storage of a run of ``cfg`` whose run folder is ``root``."""
-    return open_store(cfg.storage) if cfg.storage is not None else LocalStore(root)
 
 
 def run_experiment(

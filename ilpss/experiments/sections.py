@@ -1,10 +1,10 @@
 """The sections of ``docs/results.md``, one per protocol, computed from its results.
 
 Protocols A, B and C have their own (:func:`section_a`, :func:`section_b`,
-:func:`section_c`); any other protocol gets its report's body with the figures copied
-(:func:`report_section`). ``ilpss-results`` (:mod:`ilpss.experiments.results_doc`)
-asks each protocol for its section
-(:meth:`~ilpss.experiments.protocols.Protocol.results_section`).
+:func:`section_c`, in :data:`PAGE_SECTIONS`, keyed by protocol name); any other protocol
+gets its report's body with the figures copied (:func:`report_section`).
+``ilpss-results`` (:mod:`ilpss.experiments.results_doc`) asks :func:`page_section` for
+each protocol's.
 """
 
 from __future__ import annotations
@@ -16,26 +16,31 @@ from typing import Any
 import numpy as np
 
 from ilpss import metrics
-from ilpss._io import atomic_write_bytes
+from ilpss._io import MAX_ARCHIVE_BYTES, atomic_write_bytes, check_inside, read_regular
+from ilpss.experiments.checkpoints import checkpoint_store
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.folder import checkpoint_key
 from ilpss.experiments.methods import METHODS, LifelongMethod
-from ilpss.experiments.protocols import Protocol
 from ilpss.experiments.report import (
     ENDPOINT_LABELS,
     PRIMARY,
     collect,
     comparable,
-    compare_to_scratch,
+    compare_to_baseline,
     comparison_head,
     comparison_row,
+    dip_lines,
+    headline_table,
     interval_text,
     label,
     library_sizes,
+    pairwise_lines,
     per_target_curves,
+    per_target_dips,
     plot_held_out_panels,
     pooled_lines,
     protocol_c_lines,
+    report_body,
     stream_estimates,
     stream_jumpstarts,
     stream_trend,
@@ -49,21 +54,27 @@ from ilpss.experiments.report import (
 )
 from ilpss.metrics import format_metrics_markdown
 
-__all__ = ["report_section", "section_a", "section_b", "section_c"]
+__all__ = ["PAGE_SECTIONS", "page_section", "report_section", "section_a", "section_b",
+           "section_c"]
 
 
-def report_section(
-    protocol: Protocol, cfg: ExperimentConfig, results: list[dict[str, Any]], folder: Path,
-    docs: Path,
-) -> list[str]:
+def _copy_figure(folder: Path, name: str, destination: Path) -> None:
+    """Copy the run folder's figure ``name`` to ``destination`` (a regular file inside
+    the run folder, bounded as any saved file)."""
+    source = check_inside(folder, folder / name, "run folder")
+    atomic_write_bytes(destination, read_regular(source, MAX_ARCHIVE_BYTES, "a figure"))
+
+
+def report_section(cfg: ExperimentConfig, results: list[dict[str, Any]], folder: Path,
+                   docs: Path) -> list[str]:
     """A protocol's report body as its section of the page: the same markdown, its
     figures copied to ``<docs>/figures`` as ``protocol_<name>_<figure>``, headings one
     level down."""
     lines = []
-    for line in protocol.report(cfg, results, folder):
+    for line in report_body(cfg, results, folder):
         for name in re.findall(r"\]\(([^)/]+\.png)\)", line):
-            copy = f"protocol_{protocol.name.lower()}_{name}"
-            atomic_write_bytes(docs / "figures" / copy, (folder / name).read_bytes())
+            copy = f"protocol_{cfg.protocol.lower()}_{name}"
+            _copy_figure(folder, name, docs / "figures" / copy)
             line = line.replace(f"]({name})", f"](figures/{copy})")
         lines.append("#" + line if line.startswith("#") else line)
     return lines
@@ -78,16 +89,18 @@ def section_a(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Pa
         return section_a_targets(cfg, results, folder, docs)
     curves = target_curves(methods)
     figure = docs / "figures" / "protocol_a_curves.png"
-    atomic_write_bytes(figure, (folder / "curves_00.png").read_bytes())
+    _copy_figure(folder, "curves_00.png", figure)
     lines = [f"![protocol A learning curves](figures/{figure.name})", ""]
-    estimates = stream_estimates(table)[stream]
-    if comparable(curves):
-        lines += ["### Verdicts", "", *verdict_lines(estimates, cfg.lifelong.train_episodes), ""]
+    estimates = stream_estimates(table, cfg.baseline)[stream]
+    if comparable(curves, cfg.baseline):
+        lines += ["### Verdicts", "", *verdict_lines(estimates, cfg.lifelong.train_episodes), "",
+                  *headline_table(estimates, f"{cfg.n_seeds} seeds"), "",
+                  *dip_lines(curves, cfg.baseline), *pairwise_lines(curves, cfg.baseline)]
     else:
         lines += ["Transfer metrics need at least 2 seeds.", ""]
     lines += diagnostics(cfg, results)
     for method, est in estimates.items():
-        lines += [f"### Every metric: {label(method)} vs learning anew", "",
+        lines += [f"### Every metric: {label(method)} vs the baseline", "",
                   format_metrics_markdown(est)]
     return lines + kernels_and_gif(cfg, folder, docs)
 
@@ -104,18 +117,19 @@ def section_a_targets(
     lines = []
     for t in per_target:
         figure = docs / "figures" / f"protocol_a_curves_{t:02d}.png"
-        atomic_write_bytes(figure, (folder / f"curves_00_{t:02d}.png").read_bytes())
+        _copy_figure(folder, f"curves_00_{t:02d}.png", figure)
         lines += [f"![protocol A learning curves against {names[t]}](figures/{figure.name})", ""]
-    if not all(comparable(c) for c in per_target.values()):
+    if not all(comparable(c, cfg.baseline) for c in per_target.values()):
         return [*lines, "Transfer metrics need at least 2 seeds.", "",
                 *diagnostics(cfg, results), *kernels_and_gif(cfg, folder, docs)]
     profiles = docs / "figures" / "protocol_a_profiles.png"
-    estimates = {t: compare_to_scratch(c) for t, c in per_target.items()}
+    estimates = {t: compare_to_baseline(c, cfg.baseline) for t, c in per_target.items()}
     lines += [structure_targets(len(per_target)), "", "### Verdicts", "",
-              *pooled_lines(list(per_target.values()), cfg.lifelong.train_episodes,
+              *pooled_lines(list(per_target.values()), cfg.baseline, cfg.lifelong.train_episodes,
                             f"the {len(per_target)} targets", profiles,
                             f"figures/{profiles.name}"),
-              *target_tables(estimates, names)]
+              *target_tables(estimates, names),
+              *per_target_dips(per_target, names, cfg.baseline)]
     return [*lines, *diagnostics(cfg, results), *kernels_and_gif(cfg, folder, docs)]
 
 
@@ -154,10 +168,13 @@ def diagnostics(cfg: ExperimentConfig, results: list[dict]) -> list[str]:
 
 
 def kernels_and_gif(cfg: ExperimentConfig, folder: Path, docs: Path) -> list[str]:
-    """The first seed's ILPSS learner: its kernels on the field, and a GIF against the
-    held-out team with the active option written under the field."""
-    if "ilpss" not in cfg.methods:
+    """The first seed's learner of the featured method (``ExperimentConfig.featured_method``):
+    its kernels on the field, and a GIF against the held-out team with the active option
+    written under the field."""
+    featured = cfg.featured_method
+    if featured is None:
         return []
+    name = label(featured)
     import gymnasium as gym
 
     from ilpss.experiments.figures import (
@@ -167,14 +184,12 @@ def kernels_and_gif(cfg: ExperimentConfig, folder: Path, docs: Path) -> list[str
         plot_kernels_on_field,
         write_agent_gif,
     )
-    from ilpss.experiments.run import checkpoint_store
-
     (stream,) = cfg.streams(cfg.first_seed)
     held_out = stream.tasks[stream.first_target].name
     several = len(stream.tasks) - stream.first_target > 1
     seed = cfg.first_seed
     env = gym.make(cfg.env_id, opponent=held_out, disable_env_checker=True)
-    key = checkpoint_key(seed, 0, "ilpss", stream.first_target if several else None)
+    key = checkpoint_key(seed, 0, featured, stream.first_target if several else None)
     store = checkpoint_store(cfg, folder)
     try:
         learner = store.restore(key, env.observation_space)
@@ -183,7 +198,7 @@ def kernels_and_gif(cfg: ExperimentConfig, folder: Path, docs: Path) -> list[str
     if learner is None:
         env.close()
         return ["### The kernels and the agent", "",
-                f"Seed {seed}'s ILPSS checkpoint is not kept ({store.location}/{key}), so "
+                f"Seed {seed}'s {name} checkpoint is not kept ({store.location}/{key}), so "
                 "there is no kernel picture or GIF.", ""]
     lines = ["### The kernels and the agent", ""]
     if learner.kernel_model is not None:
@@ -191,18 +206,18 @@ def kernels_and_gif(cfg: ExperimentConfig, folder: Path, docs: Path) -> list[str
         bags = ", ".join(f"{len(b)} ({r.name})" for b, r in
                          zip(learner.bags, learner.records, strict=True))
         lines += [f"![kernels](figures/{kernels.name})", "",
-                  f"The {learner.kernel_model.n_components} kernels of seed {seed}'s ILPSS "
+                  f"The {learner.kernel_model.n_components} kernels of seed {seed}'s {name} "
                   f"learner as they stand after its {learner.n_trials} trials, projected on the "
                   "holder's position, with the active options of each kernel (policy and "
                   "scale). Dots: the bags of states, from the successful greedy rollouts of "
                   f"each trial; states per bag: {bags}.", ""]
     else:
-        lines += [f"Seed {seed}'s ILPSS learner fitted no kernels at this budget (too few "
+        lines += [f"Seed {seed}'s {name} learner fitted no kernels at this budget (too few "
                   "states from successful rollouts), so there is no kernel picture.", ""]
     episodes = greedy_episodes(learner, env, GIF_SEEDS)
     with_options = [e for e in episodes if e["options"]]
     shown = gif_episode(episodes)
-    gif_path = docs / "figures" / f"ilpss_vs_{held_out}.gif"
+    gif_path = docs / "figures" / f"{featured}_vs_{held_out}.gif"
     filmed = gym.make(cfg.env_id, opponent=held_out, render_mode="rgb_array_list",
                       disable_env_checker=True)
     gif = write_agent_gif(learner, filmed, gif_path, seed=shown["seed"])
@@ -213,8 +228,8 @@ def kernels_and_gif(cfg: ExperimentConfig, folder: Path, docs: Path) -> list[str
     why = (("the first that runs an option" + (" and succeeds" if shown["outcome"] == "success"
                                                 else ""))
            if with_options else "no episode runs an option; the first one")
-    lines += [f"![ILPSS against {held_out}](figures/{gif_path.name})", "",
-              f"Seed {seed}'s ILPSS agent, greedy with the policy it learnt against "
+    lines += [f"![{name} against {held_out}](figures/{gif_path.name})", "",
+              f"Seed {seed}'s {name} agent, greedy with the policy it learnt against "
               f"`{held_out}` and the options as refitted at the end of that trial (the "
               f"checkpoint keeps no earlier library). Over {len(episodes)} greedy episodes (environment seeds "
               f"{GIF_SEEDS.start}-{GIF_SEEDS.stop - 1}) it succeeds in {successes} and runs an "
@@ -236,19 +251,19 @@ def section_b(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Pa
              "Each panel: the learning curves against one held-out team, each seed's curve "
              "averaged over its source orders (paper's and shuffled), mean over seeds with a "
              "95% bootstrap band (pointwise, for the eye).", "",
-             structure_b(table), ""]
-    per_stream = stream_estimates(table)
+             structure_b(table, cfg.baseline), ""]
+    per_stream = stream_estimates(table, cfg.baseline)
     if not all(per_stream.values()):
         return [*lines, "Transfer metrics need at least 2 seeds.", ""]
     profiles = docs / "figures" / "protocol_b_profiles.png"
     lines += ["### Verdicts", "",
-              *pooled_lines([target_curves(m) for m in table.values()],
+              *pooled_lines([target_curves(m) for m in table.values()], cfg.baseline,
                             cfg.lifelong.train_episodes, f"the {len(table)} streams", profiles,
                             f"figures/{profiles.name}")]
     compared = list(per_stream[next(iter(table))])
     n = len(table)
     for method in compared:
-        lines += [f"### {label(method)} vs learning anew, per stream "
+        lines += [f"### {label(method)} vs the baseline, per stream "
                   "(descriptive)", "", *comparison_head("stream")]
         for stream in table:
             lines.append(comparison_row(stream, per_stream[stream][method]))
@@ -258,53 +273,76 @@ def section_b(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Pa
     return [*lines, ""]
 
 
-def discounting_lines(methods: dict[str, dict[int, np.ndarray]], targets: list[int],
-                      sizes: dict[str, np.ndarray]) -> list[str]:
-    """Protocol C: ILPSS with against without option discounting, paired by seed: the
-    library's final size, and the pooled jumpstart and total-reward gain."""
-    if not {"ilpss", "ilpss_no_discount"} <= set(sizes) or len(sizes["ilpss"]) < 2:
-        return []
-    with_, without = sizes["ilpss"][:, -1], sizes["ilpss_no_discount"][:, -1]
-    value, low, high = metrics.t_interval(with_ - without)
-    effect = ("keeps the library smaller" if high < 0 else "makes the library larger"
-              if low > 0 else "shows no demonstrated effect on the library's size")
-    lines = [f"- **Option discounting** {effect}: after the last trial {with_.mean():.1f} "
-             f"active options with it, {without.mean():.1f} without; difference {value:+.1f}, "
-             f"95% interval [{low:+.1f}, {high:+.1f}] (paired by seed, Student t)."]
-    a = np.mean([methods["ilpss"][t] for t in targets], axis=0)
-    b = np.mean([methods["ilpss_no_discount"][t] for t in targets], axis=0)
-    first, last, _ = windows(a.shape[1])
-    est = metrics.compare(a, b, first=first, last=last, threshold=None, window=1)
-    cells = [f"{ENDPOINT_LABELS[e]} {interval_text(est[e], '+.3f' if e == 'jumpstart' else '+.1f')}"
-             f" (p = {est[e].p_value:.2g})" for e in PRIMARY]
-    said = ("costs transfer" if any(est[e].high < 0 for e in PRIMARY) else
-            "helps transfer" if any(est[e].low > 0 for e in PRIMARY) else
-            "shows no demonstrated effect on transfer")
-    lines.append(f"- **With against without discounting, paired by seed** (pooled over the "
-                 f"opponents, descriptive): discounting {said}: " + "; ".join(cells) + ".")
+def ablation_lines(cfg: ExperimentConfig, methods: dict[str, dict[int, np.ndarray]],
+                   targets: list[int], sizes: dict[str, np.ndarray]) -> list[str]:
+    """Protocol C: every method that ablates another (``Method.ablates``, e.g. a method
+    without discounting) against the method it ablates, paired by seed: the library's
+    final size, and the pooled jumpstart and total-reward gain."""
+    lines = []
+    for name in cfg.methods:
+        ablates = METHODS.get(name).ablates
+        if ablates is None or ablates[0] not in cfg.methods:
+            continue
+        full, what = ablates
+        if full in sizes and name in sizes and len(sizes[full]) >= 2:
+            with_, without = sizes[full][:, -1], sizes[name][:, -1]
+            value, low, high = metrics.t_interval(with_ - without)
+            effect = ("keeps the library smaller" if high < 0 else "makes the library larger"
+                      if low > 0 else "shows no demonstrated effect on the library's size")
+            lines.append(f"- **{what[:1].upper()}{what[1:]}** in {label(full)} {effect}: after "
+                         f"the last trial {with_.mean():.1f} active options with it, "
+                         f"{without.mean():.1f} without; difference {value:+.1f}, 95% "
+                         f"interval [{low:+.1f}, {high:+.1f}] (paired by seed, Student t).")
+        a = np.mean([methods[full][t] for t in targets], axis=0)
+        b = np.mean([methods[name][t] for t in targets], axis=0)
+        if len(a) < 2:
+            continue
+        first, last, _ = windows(a.shape[1])
+        est = metrics.compare(a, b, first=first, last=last, threshold=None, window=1)
+        cells = [f"{ENDPOINT_LABELS[e]} {interval_text(est[e], metrics.METRIC[e].fmt)}"
+                 f" (p = {est[e].p_value:.2g})" for e in PRIMARY]
+        said = ("costs transfer" if any(est[e].high < 0 for e in PRIMARY) else
+                "helps transfer" if any(est[e].low > 0 for e in PRIMARY) else
+                "shows no demonstrated effect on transfer")
+        lines.append(f"- **{label(full)} with against without {what}, paired by seed** "
+                     f"(pooled over the opponents, descriptive): {what} {said}: "
+                     + "; ".join(cells) + ".")
     return lines
 
 
 def section_c(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Path) -> list[str]:
     """Protocol C: the primary verdicts pooled over the stream's opponents, the seeds on
     which each method is ahead, the score distributions, the trend along the stream, the
-    effect of discounting, and the jumpstart on each new opponent."""
+    effect of each ablation, and the featured method's jumpstart on each new opponent."""
     table = collect(results)
     ((_, methods),) = table.items()
+    baseline, featured = cfg.baseline, cfg.featured_method
     figure = docs / "figures" / "protocol_c_stream.png"
-    atomic_write_bytes(figure, (folder / "stream.png").read_bytes())
-    sizes = library_sizes(results)
+    _copy_figure(folder, "stream.png", figure)
+    sizes = library_sizes(cfg, results)
     lines = []
     if len(results) >= 2:
-        targets = sorted(methods["scratch"])
+        targets = sorted(methods[baseline])
         profiles = docs / "figures" / "protocol_c_profiles.png"
         lines += ["### Verdicts", "",
                   *pooled_lines([{m: methods[m][t] for m in methods} for t in targets],
-                                cfg.lifelong.train_episodes,
+                                baseline, cfg.lifelong.train_episodes,
                                 f"the {len(targets)} opponents after the first", profiles,
                                 f"figures/{profiles.name}"),
-                  *[trend_line(stream_trend(methods, m), label(m))
-                    for m in methods if m != "scratch"],
-                  *discounting_lines(methods, targets, sizes), ""]
+                  *[trend_line(stream_trend(methods, m, baseline), label(m))
+                    for m in methods if m != baseline],
+                  *ablation_lines(cfg, methods, targets, sizes), ""]
+    jumpstarts = stream_jumpstarts(methods, featured, baseline) if featured else []
     return [*lines, "### Library size and jumpstart on each new opponent", "",
-            *protocol_c_lines(stream_jumpstarts(methods), sizes, f"figures/{figure.name}"), ""]
+            *protocol_c_lines(jumpstarts, sizes, f"figures/{figure.name}", featured), ""]
+
+
+PAGE_SECTIONS = {"A": section_a, "B": section_b, "C": section_c}
+"""The section of ``docs/results.md`` per protocol name; others get :func:`report_section`."""
+
+
+def page_section(cfg: ExperimentConfig, results: list[dict[str, Any]], folder: Path,
+                 docs: Path) -> list[str]:
+    """The body of ``cfg``'s protocol's section of the results page, its figures copied
+    to ``<docs>/figures``."""
+    return PAGE_SECTIONS.get(cfg.protocol, report_section)(cfg, results, folder, docs)
