@@ -8,6 +8,13 @@
 | ``goal_guards`` | paper team 4: two guards who seldom leave the line |
 | ``chasers`` | both defenders chase the ball (the simplest team) |
 | ``parametric`` | the family the paper teams belong to (keyword parameters) |
+| ``contain_cover`` | a slow presser that waits in the holder's path and a close marker |
+| ``press_far_contain_near`` | ``interceptors_press`` beyond 12 m of the goal line, ``contain_cover`` within it |
+| ``contain_left_press_right`` | ``contain_cover`` in the left half, ``interceptors_press`` in the right |
+| ``press_left_contain_right`` | ``interceptors_press`` in the left half, ``contain_cover`` in the right |
+
+:class:`RegionTeam` plays one team on each side of a :class:`Region`;
+:class:`RegionRule` plays one fixed holder rule on each side (``docs/regions.md``).
 
 :func:`sample_opponents` draws distinct members of the family for long streams.
 """
@@ -15,6 +22,7 @@
 from opponents.chasers import Chasers
 from opponents.paper import GoalGuards, InterceptorGuard, InterceptorsCover, InterceptorsPress
 from opponents.parametric import ParametricTeam, sample_opponents, spec_label
+from opponents.regions import Region, RegionRule, RegionTeam
 
 PAPER_TEAMS: tuple[str, str, str, str] = (
     "interceptors_press",
@@ -32,6 +40,9 @@ __all__ = [
     "InterceptorsCover",
     "InterceptorsPress",
     "ParametricTeam",
+    "Region",
+    "RegionRule",
+    "RegionTeam",
     "sample_opponents",
     "spec_label",
 ]

@@ -1,0 +1,261 @@
+"""Teams whose behaviour depends on where the ball is, and holder rules that switch with them.
+
+A :class:`Region` splits the field by one of the holder's features: ``dist_goal``
+(feature 5, the distance to the goal line) or ``lateral`` (feature 6, the offset from
+the line's centre), at a threshold. :class:`RegionTeam` plays one team while the ball
+is on one side of it and another team on the other side; :class:`RegionRule` plays one
+fixed holder rule on each side. Both decide by the same test on the same number, so
+at every decision of the holder the rule's region is exactly the team's::
+
+    from opponents.regions import Region, RegionRule, RegionTeam
+    import soccer_drill
+
+    near = Region("dist_goal", 12.0)          # below: within 12 m of the goal line
+    team = RegionTeam(above="interceptors_press", below="goal_guards", region=near)
+    env = soccer_drill.HolderEnv(opponent=team)
+    rule = RegionRule(above="late_pass", below="early_pass", region=near)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from soccer_drill.batch_teams import BatchCommands, BatchRandom
+from soccer_drill.features import FEATURE_NAMES
+from soccer_drill.policies import HOLDER_POLICIES
+from soccer_drill.state import BALL, DrillView
+from soccer_drill.teams import make_team
+
+REGION_FEATURES = ("dist_goal", "lateral")
+"""The features a :class:`Region` may split on (names of :data:`FEATURE_NAMES`)."""
+_BOUNDS = {"dist_goal": (0.0, 36.0), "lateral": (-18.5, 18.5)}  # the features' ranges
+_SEED_SCALE = 2**53  # a uniform draw in [0, 1) times this is a whole number: a seed
+
+
+@dataclass(frozen=True)
+class Region:
+    """A split of the field by one of the holder's features at a threshold.
+
+    A point is *below* when the feature's value there, rounded to float32 as the
+    observation is, is at most ``threshold`` (rounded the same way), and *above*
+    otherwise. The value at a point ``(x, y)``:
+
+    | feature | index | value | below means |
+    |---|---|---|---|
+    | ``dist_goal`` | 5 | ``y`` (the goal line is ``y = 0``) | within ``threshold`` metres of the goal line |
+    | ``lateral`` | 6 | ``x - field_size / 2`` | left of ``threshold`` (0: the left half) |
+
+    Args:
+        feature: ``"dist_goal"`` or ``"lateral"``.
+        threshold: metres, inside the feature's range ([0, 36] or [-18.5, 18.5] on the
+            default 35 m field).
+    """
+
+    feature: str
+    threshold: float
+
+    def __post_init__(self) -> None:
+        if self.feature not in REGION_FEATURES:
+            raise ValueError(f"Region feature must be one of {REGION_FEATURES}, got {self.feature!r}")
+        low, high = _BOUNDS[self.feature]
+        t = self.threshold
+        if isinstance(t, bool) or not isinstance(t, int | float) or not (
+            math.isfinite(t) and low <= t <= high
+        ):
+            raise ValueError(
+                f"Region threshold for {self.feature!r} must be a number in [{low}, {high}], "
+                f"got {t!r}"
+            )
+        object.__setattr__(self, "threshold", float(t))
+
+    @property
+    def index(self) -> int:
+        """The feature's index in the holder's 9 features."""
+        return FEATURE_NAMES.index(self.feature)
+
+    def below(self, value: float | np.ndarray) -> bool | np.ndarray:
+        """Whether feature values (one, or an array) lie below: float32, as observed."""
+        return np.float32(value) <= np.float32(self.threshold)
+
+    def observed_below(self, obs: np.ndarray) -> bool:
+        """Whether the holder whose 9 features are ``obs`` is below."""
+        return bool(self.below(obs[self.index]))
+
+    def value_at(self, x: float | np.ndarray, y: float | np.ndarray, field_size: float):
+        """The feature's value at field point ``(x, y)`` (arrays too)."""
+        return y if self.feature == "dist_goal" else x - field_size / 2
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: ``{"feature": ..., "threshold": ...}``."""
+        return {"feature": self.feature, "threshold": self.threshold}
+
+
+def _region(region: Region | Mapping[str, Any]) -> Region:
+    if isinstance(region, Region):
+        return region
+    if isinstance(region, Mapping):
+        return Region(**region)
+    raise TypeError(f"region must be a Region or a mapping of its fields, got {region!r}")
+
+
+def _children(u: float) -> list[np.random.Generator]:
+    """Two independent generators derived from one uniform draw of the team's own."""
+    return [np.random.default_rng(s) for s in np.random.SeedSequence(int(u * _SEED_SCALE)).spawn(2)]
+
+
+class RegionTeam:
+    """Defenders that play one team while the ball is above a :class:`Region` and another below.
+
+    The region is decided each cycle at the ball's carrier (the attacker in possession),
+    or at the ball itself while it is loose, by the same test a :class:`RegionRule`
+    makes on the holder's features: so whenever the holder decides, the team plays the
+    behaviour of the holder's region. Both teams are reset with the same view and act
+    every cycle (so their own state, such as a reaction delay's memory or a guard's
+    sortie, runs on in either region); the commands of the region's team are played.
+
+    ## Seeding
+
+    At ``reset`` one uniform draw from the generator given derives two independent
+    generators (``numpy.random.SeedSequence(...).spawn(2)``): the first for the team
+    above, the second for the team below. So an episode depends on that generator alone.
+
+    ## Batched drill
+
+    When both teams offer ``batch(n)`` (the parametric family, the paper's teams,
+    ``chasers``), so does this one: both batched teams act for every drill, and each
+    drill's row is taken from its region's team. Otherwise the batched drill runs one
+    copy of this team per drill.
+
+    ## Arguments
+
+    | argument | meaning |
+    |---|---|
+    | ``above`` | team id played while the ball is above the region's threshold |
+    | ``below`` | team id played while it is below |
+    | ``region`` | a :class:`Region`, or a mapping ``{"feature": ..., "threshold": ...}`` |
+    | ``above_params``, ``below_params`` | keyword parameters of those teams (``None``: none) |
+    """
+
+    def __init__(
+        self,
+        above: str,
+        below: str,
+        region: Region | Mapping[str, Any],
+        above_params: Mapping[str, Any] | None = None,
+        below_params: Mapping[str, Any] | None = None,
+    ) -> None:
+        for name, team in (("above", above), ("below", below)):
+            if not isinstance(team, str):
+                raise TypeError(f"RegionTeam {name} must be a team id (str), got {team!r}")
+        self.region = _region(region)
+        self.above_id, self.below_id = above, below
+        self.above_params = dict(above_params or {})
+        self.below_params = dict(below_params or {})
+        self.teams = (make_team(above, **self.above_params), make_team(below, **self.below_params))
+        self._players: tuple[str, ...] = ()
+        if all(callable(getattr(t, "batch", None)) for t in self.teams):
+            # Only then: the batched drill looks for ``batch`` and otherwise runs copies.
+            self.batch = self._batch
+
+    def params(self) -> dict[str, Any]:
+        """The keyword parameters that rebuild this team (JSON-ready)."""
+        return {
+            "above": self.above_id, "below": self.below_id, "region": self.region.to_dict(),
+            "above_params": dict(self.above_params), "below_params": dict(self.below_params),
+        }
+
+    def __repr__(self) -> str:
+        args = ", ".join(f"{k}={v!r}" for k, v in self.params().items())
+        return f"{type(self).__name__}({args})"
+
+    def reset(self, view: DrillView, rng: np.random.Generator) -> None:
+        """Reset both teams with ``view``, each with its own generator derived from ``rng``."""
+        self._players = tuple(view.players)
+        for team, child in zip(self.teams, _children(rng.random()), strict=True):
+            team.reset(view, child)
+
+    def below(self, view: DrillView) -> bool:
+        """Whether the ball's carrier (or the loose ball) is below the region's threshold."""
+        s = view.state
+        x, y = s.pos[s.holder if s.holder >= 0 else BALL]
+        return bool(self.region.below(self.region.value_at(x, y, view.config.field_size)))
+
+    def act(self, view: DrillView) -> dict[str, Any]:
+        """The commands of the region's team (both teams act)."""
+        above, below = (team.act(view) for team in self.teams)
+        chosen = below if self.below(view) else above
+        return {p: chosen[p] for p in self._players}
+
+    def _batch(self, n: int) -> RegionBatch:
+        """This team for ``n`` drills at once (see :class:`RegionBatch`)."""
+        return RegionBatch(self, n)
+
+
+class RegionBatch:
+    """:class:`RegionTeam` for ``n`` drills at once (``team.batch(n)``).
+
+    Each drill's two generators are derived as the single team derives them, from the
+    same draw of the drill's own generator; each batched team draws from its own.
+    """
+
+    def __init__(self, team: RegionTeam, n: int) -> None:
+        self.region = team.region
+        self.teams = tuple(t.batch(n) for t in team.teams)  # type: ignore[attr-defined]
+        self._streams = (BatchRandom(n), BatchRandom(n))
+
+    def reset(self, view: Any, drills: np.ndarray, rng: BatchRandom) -> None:
+        """Start an episode in ``drills``: derive each drill's two streams, reset both teams."""
+        children = [_children(u) for u in rng.random(drills).tolist()]
+        for k, (team, stream) in enumerate(zip(self.teams, self._streams, strict=True)):
+            stream.seed(drills, [pair[k] for pair in children])
+            team.reset(view, drills, stream)
+
+    def below(self, view: Any, drills: np.ndarray) -> np.ndarray:
+        """``(len(drills),)`` bool: the carrier (or loose ball) of each drill is below."""
+        holder = view.holder[drills]
+        where = view.pos[drills, np.where(holder >= 0, holder, BALL)]
+        return self.region.below(self.region.value_at(where[:, 0], where[:, 1], view.config.field_size))
+
+    def act(self, view: Any, drills: np.ndarray) -> BatchCommands:
+        """Each drill's row from the team of its region (both teams act for every drill)."""
+        above, below = (team.act(view, drills) for team in self.teams)
+        low = self.below(view, drills)
+        return BatchCommands(
+            np.where(low[:, None], below.skill, above.skill),
+            np.where(low[:, None, None], below.target, above.target),
+            np.where(low[:, None], below.speed, above.speed),
+        )
+
+
+@dataclass(frozen=True)
+class RegionRule:
+    """A fixed holder rule that plays rule ``above`` above a :class:`Region` and ``below`` below it.
+
+    The region is read from the holder's own features (``obs[region.index]``), with the
+    test of :class:`RegionTeam`. Rules are names of
+    :data:`soccer_drill.policies.HOLDER_POLICIES`. Called as ``rule(obs, rng)``, like them.
+    """
+
+    above: str
+    below: str
+    region: Region
+
+    def __post_init__(self) -> None:
+        for name in (self.above, self.below):
+            if name not in HOLDER_POLICIES:
+                raise ValueError(f"unknown holder rule {name!r}; known: {sorted(HOLDER_POLICIES)}")
+        object.__setattr__(self, "region", _region(self.region))
+
+    @property
+    def name(self) -> str:
+        """``"<above>|<below>"``, e.g. ``late_pass|shield_pass``."""
+        return f"{self.above}|{self.below}"
+
+    def __call__(self, obs: np.ndarray, rng: np.random.Generator) -> int:
+        rule = self.below if self.region.observed_below(obs) else self.above
+        return HOLDER_POLICIES[rule](obs, rng)
