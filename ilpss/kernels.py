@@ -47,7 +47,9 @@ __all__ = [
     "SCHEMA",
     "KernelConvergenceWarning",
     "NotFittedError",
+    "RegionKernels",
     "SharedKernelModel",
+    "UniformKernel",
     "select_n_components",
     "validate_bags",
 ]
@@ -956,3 +958,78 @@ class UniformKernel:
             raise ValueError(f"{os.fspath(path)}: malformed n_features {n!r} (an integer "
                              "in [1, 1024])")
         return cls(n)
+
+
+REGION_SCHEMA = "ilpss.region_kernels/1"
+
+
+class RegionKernels:
+    """Kernels that are given regions of the state space rather than fitted: kernel ``k``
+    has membership 1 where feature ``features[k]`` is at most ``thresholds[k]`` (compared
+    in float32, as observations often are) if ``below[k]``, where it is above otherwise,
+    and 0 elsewhere.
+
+    The oracle arm of a stream whose opponents change behaviour across known regions:
+    options built on it start and run exactly inside a region (``K(s)`` is 1 there, 0
+    outside), which separates "fragments of past policies help where regions matter" from
+    "EM finds the regions". It has the attributes the option library needs
+    (``n_components``, ``means_``, ``covariances_``): distinct means, so that refits
+    match every region with itself.
+
+    Parameters
+    ----------
+    n_features : int
+        Dimension of the states.
+    features, thresholds, below : sequences of equal length
+        Each region's feature index, threshold and side.
+    """
+
+    def __init__(self, n_features: int, features: Sequence[int], thresholds: Sequence[float],
+                 below: Sequence[bool]) -> None:
+        check("n_features", n_features, Integer(1, 1024))
+        self.n_features_in_ = int(n_features)
+        self.features = np.asarray(features, dtype=np.int64)
+        self.thresholds = np.asarray(thresholds, dtype=np.float64)
+        self.below = np.asarray(below, dtype=bool)
+        k = self.features.shape[0]
+        if not (1 <= k <= 1000 and self.features.shape == self.thresholds.shape
+                == self.below.shape == (k,)):
+            raise ValueError("RegionKernels: features, thresholds and below must be 1-D "
+                             f"sequences of one equal length in [1, 1000], got {k}")
+        if ((self.features < 0) | (self.features >= n_features)).any() or \
+                not np.isfinite(self.thresholds).all():
+            raise ValueError(f"RegionKernels: feature indices must lie in [0, {n_features}) "
+                             "and thresholds be finite")
+        self.n_components = k
+        # Pseudo-parameters for the library's matching: one distinct point per region.
+        self.means_ = np.zeros((k, n_features))
+        self.means_[np.arange(k), self.features] = self.thresholds + np.where(self.below, -1, 1)
+        self.covariances_ = np.repeat(np.eye(n_features)[None], k, axis=0)
+        self._thresholds32 = self.thresholds.astype(np.float32)
+
+    def membership(self, X: ArrayLike) -> Array:
+        """1 inside each region, 0 outside: shape (n, K) for a 2-D batch, (K,) for one state."""
+        X, single = _as_states(X, self.n_features_in_)
+        inside = (X[:, self.features].astype(np.float32) <= self._thresholds32) == self.below
+        out = inside.astype(np.float64)
+        return out[0] if single else out
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Save atomically (``.npz`` + JSON record, schema ``ilpss.region_kernels/1``)."""
+        save_npz_atomic(path, {"features": self.features, "thresholds": self.thresholds,
+                               "below": self.below},
+                        {"schema": REGION_SCHEMA, "n_features": self.n_features_in_})
+
+    @classmethod
+    def load(cls, path: str | os.PathLike[str]) -> RegionKernels:
+        """Load a file written by :meth:`save` (refuses any other schema)."""
+        arrays, meta = load_npz(path, REGION_SCHEMA, {
+            "features": (("K",), "iu"), "thresholds": (("K",), "f"), "below": (("K",), "b")})
+        n = meta.get("n_features")
+        if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 1024:
+            raise ValueError(f"{os.fspath(path)}: malformed n_features {n!r} (an integer "
+                             "in [1, 1024])")
+        try:
+            return cls(n, arrays["features"], arrays["thresholds"], arrays["below"])
+        except ValueError as exc:
+            raise ValueError(f"{os.fspath(path)}: {exc}") from exc

@@ -53,7 +53,7 @@ import numpy as np
 from ilpss._check import Integer, check
 from ilpss._registry import Registry
 from ilpss.episode import EpisodeResult
-from ilpss.kernels import SharedKernelModel, UniformKernel
+from ilpss.kernels import RegionKernels, SharedKernelModel, UniformKernel
 from ilpss.policy import FrozenPolicy
 from ilpss.smdp import SmdpLearner
 
@@ -66,6 +66,7 @@ __all__ = [
     "BestOfPast",
     "EmKernels",
     "Fresh",
+    "GivenRegions",
     "LatestPast",
     "Regions",
     "Reuse",
@@ -119,9 +120,25 @@ class Uniform:
         return UniformKernel(n_features)
 
 
+@dataclass(frozen=True)
+class GivenRegions:
+    """Regions that are given rather than fitted (:class:`~ilpss.kernels.RegionKernels`):
+    each as a ``(feature index, threshold, below)`` triple, the same after every trial.
+    The oracle arm of a stream whose regions are known."""
+
+    regions: tuple[tuple[int, float, bool], ...]
+    model_name: str = "RegionKernels"
+
+    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: LifelongConfig,
+            seed: int) -> RegionKernels:
+        features, thresholds, below = zip(*self.regions, strict=True)
+        return RegionKernels(n_features, features, thresholds, below)
+
+
 KERNEL_LOADERS: dict[str, Callable[[Any], Any]] = {
     "SharedKernelModel": SharedKernelModel.load,
     "UniformKernel": UniformKernel.load,
+    "RegionKernels": RegionKernels.load,
 }
 """How a checkpoint's kernel model is read back, by the class name it records."""
 

@@ -327,7 +327,3 @@ def _legal_commands(actions: tuple[Skill, ...], legal: tuple[bool, ...]) -> tupl
 _HOLDER_COMMANDS = _legal_commands(ATTACKER_ACTIONS, _ATTACKER_HOLDER_LEGAL)
 _OFF_BALL_COMMANDS = _legal_commands(ATTACKER_ACTIONS, _ATTACKER_OFF_BALL_LEGAL)
 
-
-def action_spaces() -> tuple[spaces.Discrete, spaces.Discrete]:
-    """Fresh (attacker, defender) action spaces."""
-    return spaces.Discrete(len(ATTACKER_ACTIONS)), spaces.Discrete(len(DEFENDER_ACTIONS))

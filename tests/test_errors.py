@@ -88,7 +88,14 @@ def test_wrong_action_type(action):
 
 def test_numpy_integer_actions_are_accepted():
     env, agent, mask = _first_turn()
-    env.step(np.int64(np.flatnonzero(mask)[0]))
+    legal = int(np.flatnonzero(mask)[0])
+    env.step(np.int64(legal))
+    plain, _, _ = _first_turn()
+    plain.step(legal)
+    # The NumPy integer is taken as the plain one: the same next turn, the same observation.
+    assert env.agent_selection == plain.agent_selection != agent
+    np.testing.assert_array_equal(env.observe(env.agent_selection)["observation"],
+                                  plain.observe(plain.agent_selection)["observation"])
 
 
 def test_parallel_missing_or_extra_agents():
@@ -195,11 +202,21 @@ def _boom(players):
     ],
 )
 def test_misbehaving_team_is_named(act, message):
-    env = soccer_drill.HolderEnv(opponent=_Team(act))
+    team = _Team(act)
+    env = soccer_drill.HolderEnv(opponent=team)
     env.reset(seed=0)
     with pytest.raises(TeamError, match=message):
         env.step(0)
-    # The drill stays usable: a new episode with a good team works.
-    good = soccer_drill.HolderEnv(opponent="chasers")
-    good.reset(seed=0)
-    good.step(0)
+    # The same environment stays usable: once its team behaves, its next reset gives the
+    # episode a fresh environment gives against a well-behaved team.
+    def marking(players):
+        return dict.fromkeys(players, Command(Skill.MARK))
+
+    team._act = marking  # the team mends its ways
+    fresh = soccer_drill.HolderEnv(opponent=_Team(marking))
+    for e in (env, fresh):
+        e.reset(seed=0)
+    for _ in range(3):
+        a, b = env.step(0), fresh.step(0)
+        np.testing.assert_array_equal(a[0], b[0])
+        assert a[1:4] == b[1:4]

@@ -10,10 +10,13 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Iterator
 from dataclasses import replace
+from types import MappingProxyType
 
+import numpy as np
 import pytest
 from synthetic_smdp import ZoneCorridor
 
+from ilpss._check import Real
 from ilpss.experiments.config import EXPERIMENT_CONSTRAINTS, ExperimentConfig
 from ilpss.experiments.methods import METHODS, Job, LifelongMethod, Method, register_method
 from ilpss.experiments.protocols import PROTOCOLS, Protocol, Stream, register_protocol, team_task
@@ -132,9 +135,104 @@ def test_a_new_protocol_needs_no_change_elsewhere(tmp_path, registered, capsys) 
 
     docs = tmp_path / "docs"
     (docs / "figures").mkdir(parents=True)
-    section = report_section(PROTOCOLS.get("D"), cfg, results, tmp_path, docs)
+    section = report_section(cfg, results, tmp_path, docs)
     assert "![learning curves](figures/protocol_d_curves_00_01.png)" in section
     assert (docs / "figures" / "protocol_d_curves_00_02.png").exists()
+
+
+# ------------------------------------------------------------------------- a reuse
+def test_a_new_reuse_is_one_registration(tmp_path, registered) -> None:
+    """Options on one region that covers everything, started from the latest past
+    policy: a Reuse made of the parts there are, registered and named by a method."""
+    from ilpss.reuse import REUSES, LatestPast, Reuse, Uniform, register_reuse
+
+    register_reuse(Reuse("whole_policies_from_latest", Uniform(), LatestPast()))
+    registered.append((REUSES, "whole_policies_from_latest"))
+    register_method(LifelongMethod("whole_from_latest", "whole policies on a fine-tuned start",
+                                   lambda base: {"options": "whole_policies_from_latest"}))
+    registered.append((METHODS, "whole_from_latest"))
+    cfg = _tiny(methods=("whole_from_latest", "scratch"))
+    results = run_experiment(cfg, tmp_path, progress=False)
+    assert all(r["methods"]["whole_from_latest"]["options_offered"][-1] == 3 for r in results)
+    assert run_experiment(cfg, tmp_path, progress=False) == results  # resumed, checked
+    assert "### whole policies on a fine-tuned start vs the baseline" in \
+        write_report(cfg, results, tmp_path).read_text()
+
+
+# ------------------------------------------------------------------------ a metric
+def test_a_new_metric_is_one_entry(tmp_path, monkeypatch) -> None:
+    """A headline metric added to the table reaches compare and every report's table."""
+    from ilpss import metrics
+    from ilpss.experiments import report
+
+    share = metrics.Metric(
+        "wins_gain", "share of wins gain", "+.2f", "mean",
+        lambda p: (p.transfer > 0).mean(axis=1) - (p.baseline > 0).mean(axis=1),
+        lambda p: "mean over seeds of (share of episodes won with transfer) - (the same "
+                  "for the baseline)", test=True, headline=True, pairwise=True)
+    monkeypatch.setattr(metrics, "METRICS", (*metrics.METRICS, share))
+    monkeypatch.setattr(report, "HEADLINE", (*report.HEADLINE, share))
+    monkeypatch.setattr(report, "PAIRWISE", (*report.PAIRWISE, share))
+    rng = np.random.default_rng(0)
+    est = metrics.compare(rng.uniform(-1, 1, (3, 8)), rng.uniform(-1, 1, (3, 8)), first=2,
+                          last=2, threshold=None, window=2)
+    assert list(est)[-1] == "wins_gain" and est["wins_gain"].interval == "Student t"
+    cfg = _tiny(methods=("ilpss", "whole_policies", "scratch"))
+    results = run_experiment(cfg, tmp_path, progress=False)
+    text = write_report(cfg, results, tmp_path).read_text()
+    assert "share of wins gain [95% CI]" in text  # in the table against the baseline
+    assert text.count("share of wins gain [95% CI]") >= 2  # and method against method
+
+
+# ---------------------------------------------------------------- a report section
+def test_a_new_report_section_is_one_registration(tmp_path, monkeypatch) -> None:
+    """A protocol's report body and its section of the results page, registered by the
+    protocol's name, without touching the protocol."""
+    from ilpss.experiments import report, sections
+
+    def body(cfg, results, out):
+        return ["## Just the success rates", ""]
+
+    monkeypatch.setitem(report.REPORT_BODIES, "A", body)
+    monkeypatch.setitem(sections.PAGE_SECTIONS, "A", lambda cfg, results, folder, docs:
+                        ["### A page section of its own"])
+    cfg = _tiny(methods=("scratch", "ilpss"))
+    results = run_experiment(cfg, tmp_path, progress=False)
+    text = write_report(cfg, results, tmp_path).read_text()
+    assert "## Just the success rates" in text and "### Verdicts" not in text
+    assert sections.page_section(cfg, results, tmp_path, tmp_path) == [
+        "### A page section of its own"]
+
+
+# ------------------------------------------------------------- a method's series
+class _WithExtraSeries(_LearnAnewPerTarget):
+    """A learner method that records one more series (its greedy reward per task)."""
+
+    name = "smdp_with_series"
+    label = "SMDP learning with a series"
+    series = MappingProxyType({"reuse_share": Real(0.0, 1.0)})
+
+    def run(self, job: Job) -> dict:
+        entry = super().run(job)
+        return {**entry, "reuse_share": [0.5] * len(job.stream.tasks)}
+
+
+def test_a_method_with_an_extra_series_resumes(tmp_path, registered) -> None:
+    register_method(_WithExtraSeries())
+    registered.append((METHODS, "smdp_with_series"))
+    cfg = _tiny(methods=("scratch", "smdp_with_series"))
+    results = run_experiment(cfg, tmp_path, progress=False)
+    assert results[0]["methods"]["smdp_with_series"]["reuse_share"] == [0.5] * 4
+    assert run_experiment(cfg, tmp_path, progress=False) == results  # read back, checked
+
+
+def test_a_protocol_run_that_cannot_be_reported_is_refused_up_front() -> None:
+    with pytest.raises(ValueError, match=r"ExperimentConfig.baseline: method 'scratch' is not "
+                                         r"among the methods \['ilpss'\]"):
+        ExperimentConfig(protocol="C", methods=("ilpss",))
+    with pytest.raises(ValueError, match=r"ExperimentConfig.featured: method 'prq' is not"):
+        ExperimentConfig(methods=("ilpss", "scratch"), featured="prq")
+    assert ExperimentConfig(methods=("ilpss",), baseline=None).baseline is None
 
 
 # -------------------------------------------------------------------------- a team

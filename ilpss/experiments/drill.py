@@ -20,6 +20,9 @@ fact                        used by
 :data:`LATERAL`,            the kernels drawn on the field
 :data:`GOAL_DISTANCE`,
 :data:`FIELD`
+:data:`REGION_SOURCES`,     protocol R (a stream where regions matter) and its oracle
+:data:`REGION_TARGETS`,     arm's regions
+:data:`REGION_SPLITS`
 :data:`HOLDER_RULES`        ``ilpss-holder-learning``'s fixed rules to beat
 :data:`GIF_WRITER`          the GIF of the agent (one GIF writer for the project)
 ==========================  =========================================================
@@ -55,6 +58,17 @@ LATERAL, GOAL_DISTANCE = 6, 5
 its distance to the goal line (metres)."""
 FIELD = 35.0
 """Side of the square field (metres)."""
+REGION_SOURCES = ("interceptors_press", "contain_cover")
+"""Protocol R's sources: two pure behaviours whose best fixed rules differ
+(``docs/regions.md``)."""
+REGION_TARGETS = ("press_far_contain_near", "contain_left_press_right",
+                  "press_left_contain_right")
+"""Protocol R's targets: the sources composed by region, each kept because the
+hand-composed rule beats the best single rule there (``docs/regions.md``)."""
+REGION_SPLITS = ((GOAL_DISTANCE, 12.0), (LATERAL, 0.0))
+"""The splits of protocol R's targets, as ``(feature index, threshold)``: within 12 m of
+the goal line, and the left half (``opponents.region_stream``); the oracle's regions are
+both sides of each."""
 HOLDER_RULES = "soccer_drill.policies:HOLDER_POLICIES"
 """Where the drill's fixed holder rules are: a mapping of name to ``rule(obs, rng)``."""
 GIF_WRITER = "soccer_drill.gif:save_gif"

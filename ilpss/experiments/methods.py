@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any
 from ilpss._check import Constraint, Integer, Real
 from ilpss._io import json_differences
 from ilpss.baselines import PrqLearner
+from ilpss.experiments import drill
 from ilpss.experiments.checkpoints import CheckpointStore, is_uri
 from ilpss.experiments.folder import checkpoint_key
 from ilpss.experiments.protocols import Stream, make_env
@@ -38,7 +39,15 @@ from ilpss.lifelong import (
     handing_back,
     trial_seeds,
 )
-from ilpss.reuse import BestOfPast, LatestPast, StartRule, learn_with
+from ilpss.reuse import (
+    BestOfPast,
+    GivenRegions,
+    LatestPast,
+    Reuse,
+    StartRule,
+    learn_with,
+    register_reuse,
+)
 from ilpss.smdp import SmdpLearner
 
 if TYPE_CHECKING:
@@ -330,6 +339,11 @@ def _fine_tuned(base: LifelongConfig, options: str) -> dict[str, Any]:
                                intra_option_primitives=True)}
 
 
+# The oracle's regions: both sides of each split of protocol R's targets.
+register_reuse(Reuse("oracle_regions_finetune", GivenRegions(tuple(
+    (feature, threshold, below) for feature, threshold in drill.REGION_SPLITS
+    for below in (True, False))), LatestPast()))
+
 METHODS = Registry("ilpss.methods", "method")
 """Every method, by name."""
 
@@ -364,5 +378,7 @@ for _method in (
                    lambda base: _fine_tuned(base, "kernels_finetune")),
     LifelongMethod("whole_policies_ft", "whole past policies, ILPSS-FT's settings",
                    lambda base: _fine_tuned(base, "whole_policies_finetune")),
+    LifelongMethod("ilpss_ft_oracle", "ILPSS-FT with the true regions as kernels (oracle)",
+                   lambda base: _fine_tuned(base, "oracle_regions_finetune")),
 ):
     register_method(_method)

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any
 import gymnasium as gym
 import numpy as np
 
+from ilpss.experiments import drill
 from ilpss.experiments.registry import SAMPLERS, Registry
 
 if TYPE_CHECKING:
@@ -177,6 +178,35 @@ class HeldOutTeam(_HeldOutTeams):
                 f"each; then against {against}.")
 
 
+class RegionStream(HeldOutTeam):
+    """R: a stream where regions matter. The sources are pure behaviours, the targets
+    teams that play one source's behaviour in one region of the field and another's in
+    another, each learnt from the state after the sources
+    (:data:`~ilpss.experiments.drill.REGION_SOURCES`,
+    :data:`~ilpss.experiments.drill.REGION_TARGETS`); ``teams`` and ``targets`` replace
+    both when ``targets`` are given."""
+
+    name = "R"
+    title = "a stream where regions matter"
+
+    def check(self, cfg: ExperimentConfig) -> None:
+        if cfg.targets:
+            super().check(cfg)
+
+    def sources_and_targets(self, cfg: ExperimentConfig) -> tuple[tuple[str, ...],
+                                                                  tuple[str, ...]]:
+        if cfg.targets:
+            return cfg.teams, cfg.targets
+        return drill.REGION_SOURCES, drill.REGION_TARGETS
+
+    def describe(self, cfg: ExperimentConfig) -> str:
+        sources, targets = self.sources_and_targets(cfg)
+        return (f"Sources {_teams(sources)}, pure behaviours, in sequence; then each of the "
+                f"targets {_teams(targets)}, which play one source's behaviour in one region "
+                "of the field and another's in another, every one from the state after the "
+                "sources.")
+
+
 class EveryTeamHeldOut(_HeldOutTeams):
     """B: every team held out in turn, after the others in the given order and in
     ``n_shuffles`` shuffled orders drawn per seed."""
@@ -240,5 +270,5 @@ def register_protocol(protocol: Protocol, *, overwrite: bool = False) -> None:
     PROTOCOLS.register(protocol.name, protocol, overwrite=overwrite)
 
 
-for _protocol in (HeldOutTeam(), EveryTeamHeldOut(), ParametricStream()):
+for _protocol in (HeldOutTeam(), EveryTeamHeldOut(), ParametricStream(), RegionStream()):
     register_protocol(_protocol)

@@ -808,7 +808,7 @@ def pairwise_lines(curves: dict[str, np.ndarray], baseline: str) -> list[str]:
     methods = [m for m in curves if m != baseline]
     for m in PAIRWISE:
         for a in methods:
-            wins = [_beats(pairs, a, b, m.name) for b in methods if b != a]
+            wins = [_beats(pairs, a, b, m) for b in methods if b != a]
             if wins and all(wins):
                 best.append(f"**{label(a)}** is the best on {m.label}: it beats every other "
                             "transfer method, each difference above zero with a Holm-adjusted "
@@ -831,16 +831,15 @@ class _Estimate:
     high: float
 
 
-def _beats(pairs: dict, a: str, b: str, metric: str) -> bool:
+def _beats(pairs: dict, a: str, b: str, metric: metrics.Metric) -> bool:
     """Whether ``a`` beats ``b`` on ``metric`` (its sign of better) by a Holm-adjusted
     test, whichever way round the pair was stored."""
-    better = metrics.METRIC[metric].better
     if (a, b) in pairs:
-        value, _, _, p = pairs[a, b][metric]
+        value, _, _, p = pairs[a, b][metric.name]
     else:
-        value, _, _, p = pairs[b, a][metric]
+        value, _, _, p = pairs[b, a][metric.name]
         value = -value
-    return p < ALPHA and value * better > 0
+    return p < ALPHA and value * metric.better > 0
 
 
 def target_tables(estimates: dict[int, dict[str, dict[str, metrics.MetricEstimate]]],
@@ -973,6 +972,7 @@ REPORT_BODIES: dict[str, ReportBody] = {
     "A": _held_out_a,
     "B": lambda cfg, results, out: held_out_sections(cfg, results, out, pooled=True),
     "C": parametric_stream_sections,
+    "R": _held_out_a,
 }
 """The body of ``report.md`` per protocol name; a protocol with none gets
 :func:`target_sections`."""

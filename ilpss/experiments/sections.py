@@ -81,14 +81,14 @@ def report_section(cfg: ExperimentConfig, results: list[dict[str, Any]], folder:
 
 
 def section_a(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Path) -> list[str]:
-    """Protocol A: curves, verdicts, diagnostics, full metric tables, kernels and GIF
+    """Protocol A (and R): curves, verdicts, diagnostics, full metric tables, kernels and GIF
     (with several targets: :func:`section_a_targets`)."""
     table = collect(results)
     ((stream, methods),) = table.items()
     if len(next(iter(methods.values()))) > 1:
         return section_a_targets(cfg, results, folder, docs)
     curves = target_curves(methods)
-    figure = docs / "figures" / "protocol_a_curves.png"
+    figure = docs / "figures" / f"protocol_{cfg.protocol.lower()}_curves.png"
     _copy_figure(folder, "curves_00.png", figure)
     lines = [f"![protocol A learning curves](figures/{figure.name})", ""]
     estimates = stream_estimates(table, cfg.baseline)[stream]
@@ -116,13 +116,13 @@ def section_a_targets(
     per_target = per_target_curves(methods)
     lines = []
     for t in per_target:
-        figure = docs / "figures" / f"protocol_a_curves_{t:02d}.png"
+        figure = docs / "figures" / f"protocol_{cfg.protocol.lower()}_curves_{t:02d}.png"
         _copy_figure(folder, f"curves_00_{t:02d}.png", figure)
         lines += [f"![protocol A learning curves against {names[t]}](figures/{figure.name})", ""]
     if not all(comparable(c, cfg.baseline) for c in per_target.values()):
         return [*lines, "Transfer metrics need at least 2 seeds.", "",
                 *diagnostics(cfg, results), *kernels_and_gif(cfg, folder, docs)]
-    profiles = docs / "figures" / "protocol_a_profiles.png"
+    profiles = docs / "figures" / f"protocol_{cfg.protocol.lower()}_profiles.png"
     estimates = {t: compare_to_baseline(c, cfg.baseline) for t, c in per_target.items()}
     lines += [structure_targets(len(per_target)), "", "### Verdicts", "",
               *pooled_lines(list(per_target.values()), cfg.baseline, cfg.lifelong.train_episodes,
@@ -202,7 +202,7 @@ def kernels_and_gif(cfg: ExperimentConfig, folder: Path, docs: Path) -> list[str
                 "there is no kernel picture or GIF.", ""]
     lines = ["### The kernels and the agent", ""]
     if learner.kernel_model is not None:
-        kernels = plot_kernels_on_field(learner, docs / "figures" / "protocol_a_kernels.png")
+        kernels = plot_kernels_on_field(learner, docs / "figures" / f"protocol_{cfg.protocol.lower()}_kernels.png")
         bags = ", ".join(f"{len(b)} ({r.name})" for b, r in
                          zip(learner.bags, learner.records, strict=True))
         lines += [f"![kernels](figures/{kernels.name})", "",
@@ -337,7 +337,7 @@ def section_c(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Pa
             *protocol_c_lines(jumpstarts, sizes, f"figures/{figure.name}", featured), ""]
 
 
-PAGE_SECTIONS = {"A": section_a, "B": section_b, "C": section_c}
+PAGE_SECTIONS = {"A": section_a, "B": section_b, "C": section_c, "R": section_a}
 """The section of ``docs/results.md`` per protocol name; others get :func:`report_section`."""
 
 
