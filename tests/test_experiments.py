@@ -148,3 +148,27 @@ def test_compare_pairs_runs_by_seed_and_matches_the_report(tmp_path, capsys):
     for bad in (["--baseline", "nofolder", "x=y:z"], ["--baseline", f"{tmp_path / 'a'}:prq", "x"]):
         with pytest.raises(SystemExit):
             compare_main(bad)
+
+
+def test_the_demo_shows_the_recommended_method_succeeding_and_learning_anew_s_first_episode(
+        tmp_path, capsys):
+    import json
+
+    from ilpss.experiments import demo
+
+    assert demo.main(["--seeds", "2", "--episodes", "6", "--out", str(tmp_path)]) == 0
+    text = (tmp_path / "report.md").read_text()
+    assert "Command: `ilpss-demo --seeds 2 --episodes 6 --out " in text
+    assert "(from Python)" not in text
+    assert (tmp_path / "recommended.gif").stat().st_size > 0
+    assert (tmp_path / "learning_anew_first.gif").stat().st_size > 0
+    (left,) = [line for line in text.splitlines() if line.startswith("- Left:")]
+    assert demo.RECOMMENDED in demo.DEMO_METHODS
+    # An honest choice: the first success among the first GIF_EPISODES seeds, said so.
+    assert ("the first success among environment seeds 0-19" in left and ": success," in left) \
+        or "no episode of environment seeds 0-19 succeeds" in left
+    # The right GIF is learning anew's first learning episode: its curve's first point.
+    result = json.loads((tmp_path / "seed_000" / "stream_00" / "result.json").read_text())
+    first = result["methods"]["scratch"]["curves"]["3"][0]
+    (right,) = [line for line in text.splitlines() if line.startswith("- Right:")]
+    assert f"reward {first:+.2f}" in right

@@ -99,7 +99,8 @@ def greedy_episodes(
     out = []
     for seed in seeds:
         agent = SmdpLearner.from_policy(policy, learner.library,
-                                        replace(learner.config.learner, epsilon=0.0), seed=seed)
+                                        replace(learner.config.learner, epsilon=0.0),
+                                        seed=seed)
         result = agent.run_episode(env, learn=False, seed=seed)
         out.append({"seed": seed, "outcome": result.outcome, "reward": result.total_reward,
                     "options": [run.option_id for run in result.option_runs]})
@@ -124,19 +125,37 @@ def write_agent_gif(
 ) -> dict[str, Any]:
     """Roll out a learnt policy greedily on ``env`` (a drill holder env made with
     ``render_mode="rgb_array_list"``: one frame per cycle) and write a GIF of every
-    cycle captioned with the action and the active option, with the drill's GIF writer
-    (:data:`~ilpss.experiments.drill.GIF_WRITER`)."""
+    cycle captioned with the action and the active option (:func:`write_episode_gif`)."""
+    agent = SmdpLearner.from_policy(learner.policies[policy_index], learner.library,
+                                    replace(learner.config.learner, epsilon=0.0), seed=seed)
+    return write_episode_gif(agent, env, path, seed=seed, fps=fps, learn=False,
+                             task_names=[r.name for r in learner.records])
+
+
+def write_episode_gif(
+    agent: SmdpLearner,
+    env: Any,
+    path: str | os.PathLike[str],
+    *,
+    seed: int,
+    fps: int = 10,
+    learn: bool = False,
+    task_names: list[str] | None = None,
+) -> dict[str, Any]:
+    """One episode of ``agent`` on ``env`` (made with ``render_mode="rgb_array_list"``),
+    greedy or, with ``learn``, a learning episode (as it happens in training: exploring
+    and updating), written as a GIF of every cycle captioned with the action and the
+    option running, if any, with the drill's GIF writer
+    (:data:`~ilpss.experiments.drill.GIF_WRITER`). Returns the outcome, reward, options
+    run and the number of frames."""
     import gymnasium as gym
     from PIL import Image, ImageDraw
 
     if getattr(env, "render_mode", None) != "rgb_array_list":
         raise ValueError(
-            f"write_agent_gif needs an environment made with render_mode='rgb_array_list', "
+            f"write_episode_gif needs an environment made with render_mode='rgb_array_list', "
             f"got {getattr(env, 'render_mode', None)!r}"
         )
-    policy = learner.policies[policy_index]
-    agent = SmdpLearner.from_policy(policy, learner.library,
-                                        replace(learner.config.learner, epsilon=0.0), seed=seed)
     frames: list[np.ndarray] = []
     starts: list[int] = []
     actions: list[int] = []
@@ -154,11 +173,11 @@ def write_agent_gif(
             frames.extend(self.env.render())
             return out
 
-    result = agent.run_episode(_Recorder(env), learn=False, seed=seed)
+    result = agent.run_episode(_Recorder(env), learn=learn, seed=seed)
     starts.append(len(frames))
-    names = [r.name for r in learner.records]
+    names = task_names or []
     labels = [f"{ACTION_NAMES[a]} (primitive)" for a in actions]
-    lib = learner.library
+    lib = agent.library
     for run in result.option_runs:
         kernel_id, policy_id = lib.registry[run.option_id] if lib is not None else (-1, -1)
         origin = names[policy_id] if 0 <= policy_id < len(names) else f"pi{policy_id}"
