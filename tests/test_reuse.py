@@ -1,0 +1,169 @@
+"""Ways of reusing past policies on synthetic SMDPs: fine-tuning starts as the source
+policy, options valued from their own policies, given regions, the choosing episodes
+charged to the budget, and a composition target where fragments of two policies are
+better than either."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from synthetic_smdp import FAST, FATAL, SLOW, ZoneCorridor, zone
+
+from ilpss.kernels import RegionKernels
+from ilpss.lifelong import LifelongConfig, LifelongLearner
+from ilpss.metrics import t_interval
+from ilpss.options import OptionLibrary
+from ilpss.policy import FrozenPolicy
+from ilpss.reuse import REUSES, BestOfPast, GivenRegions, LatestPast, Reuse, learn_with
+from ilpss.smdp import LearnerConfig, SmdpLearner
+from ilpss.tiles import TileCoder
+
+
+class MappedCorridor(ZoneCorridor):
+    """The corridor with another fast action per zone (``fast``: zone -> action); the
+    slow and the fatal actions follow it round the three."""
+
+    def __init__(self, fast: dict[int, int], **kwargs) -> None:
+        super().__init__(**kwargs)
+        self.fast = fast
+
+    def step(self, action: int):
+        z = zone(self.x)
+        kind = (int(action) - self.fast[z]) % 3  # 0 fast, 1 slow, 2 fatal
+        return super().step((FAST, SLOW, FATAL)[kind][z])
+
+
+X = {0: 0, 1: 1, 2: 2}
+"""A source: the corridor as it is."""
+Y = {0: 1, 1: 2, 2: 0}
+"""Another source: every zone's fast action shifted."""
+COMPOSED = {0: 0, 1: 1, 2: 0}
+"""The target: X's zones A and B, Y's zone C (X's action there is fatal, Y's slow in A
+and B)."""
+LC = LearnerConfig(tile_widths=(1.0,), n_tilings=8, gamma=0.95)
+
+
+def _coder() -> TileCoder:
+    return LC.tile_coder(MappedCorridor(X).observation_space)
+
+
+def _zone_policy(fast: dict[int, int]) -> FrozenPolicy:
+    coder = _coder()
+    w = np.zeros((3, coder.n_weights))
+    for x in np.arange(0.05, 9.0, 0.1):
+        w[fast[zone(x)], coder.active(np.array([x]))] = 1.0 / coder.n_active
+    return FrozenPolicy(coder, 3, (), w)
+
+
+def _mean_reward(act, fast, n=200, seed=0) -> np.ndarray:
+    env = MappedCorridor(fast, cost=0.02)
+    out = []
+    for i in range(n):
+        obs, _ = env.reset(seed=seed + i)
+        total, done = 0.0, False
+        while not done:
+            obs, r, term, trunc, _ = env.step(act(obs))
+            total += r
+            done = term or trunc
+        out.append(total)
+    return np.array(out)
+
+
+def test_a_composition_where_the_composed_policy_beats_each_source():
+    composed = _mean_reward(lambda o: COMPOSED[zone(o[0])], COMPOSED)
+    for source in (X, Y):
+        alone = _mean_reward(lambda o, s=source: s[zone(o[0])], COMPOSED)
+        value, low, _ = t_interval(composed - alone)  # paired by episode seed
+        assert low > 0, (source, value)
+
+
+def test_fine_tuning_starts_as_the_source_policy_at_the_first_decision():
+    source = _zone_policy(Y)
+    learner = SmdpLearner(3, _coder(), None, LC, seed=0)
+    LatestPast().start(learner, [_zone_policy(X), source], MappedCorridor(COMPOSED), seed=0)
+    for x in np.arange(0.25, 9.0, 0.5):
+        s = np.array([x])
+        np.testing.assert_array_equal(learner.q.q_values(s), source.q_values(s))
+    first = learner.run_episode(MappedCorridor(COMPOSED), learn=False, seed=3)
+    replay = SmdpLearner.from_policy(source, None, LC, seed=0).run_episode(
+        MappedCorridor(COMPOSED), learn=False, seed=3)
+    assert first.choices == replay.choices
+
+
+def test_start_from_refuses_a_policy_of_another_state_space():
+    learner = SmdpLearner(3, _coder(), None, LC)
+    other = FrozenPolicy(TileCoder([0.0], [1.0], [0.5]), 3)
+    with pytest.raises(ValueError, match="cannot start from a policy"):
+        learner.start_from(other)
+
+
+def test_the_best_past_policy_is_chosen_on_charged_episodes():
+    env = MappedCorridor(Y, cost=0.02)
+    learner = SmdpLearner(3, _coder(), None, LC, seed=0)
+    policies = [_zone_policy(Y), _zone_policy(X)]  # the latest is the worse one here
+    spent = BestOfPast(episodes=5).start(learner, policies, env, seed=11)
+    assert len(spent) == 10  # 5 greedy episodes of each, charged to the budget
+    np.testing.assert_array_equal(learner.q.weights, policies[0].weights)
+    curve = learn_with(BestOfPast(episodes=5), SmdpLearner(3, _coder(), None, LC, seed=0),
+                       policies, env, 30, seed=4, choice_seed=11)
+    assert len(curve) == 30
+    assert [r.total_reward for r in curve[:10]] == [r.total_reward for r in spent]
+    # The learning episodes are those a learner from the same start plays, unmoved by
+    # the choosing episodes before them.
+    again = SmdpLearner(3, _coder(), None, LC, seed=0)
+    again.start_from(policies[0])
+    tail = again.train(env, 20, seed=4)
+    assert [r.total_reward for r in curve[10:]] == [r.total_reward for r in tail]
+
+
+def test_options_valued_from_their_policies_start_above_the_policys_own_value():
+    policies = [_zone_policy(X), _zone_policy(Y)]
+    regions = RegionKernels(1, [0, 0], [6.0, 6.0], [True, False])
+    library = OptionLibrary(regions, policies)
+    learner = SmdpLearner(3, _coder(), library, replace(LC, option_values="policy"), seed=0)
+    for x in np.arange(0.25, 9.0, 0.5):
+        s = np.array([x])
+        q = learner.q.q_values(s)
+        for j, oid in enumerate(learner.option_ids):
+            own = policies[library.policy_of(oid)].q_values(s).max()
+            assert q[3 + j] >= own - 1e-12
+    constant = SmdpLearner(3, _coder(), library, replace(LC, option_initial_value=0.25))
+    assert constant.q.q_values(np.array([1.0]))[3:] == pytest.approx(0.25)
+
+
+def test_given_regions_are_options_inside_them_and_nowhere_else():
+    regions = RegionKernels(1, [0, 0], [6.0, 6.0], [True, False])
+    assert regions.membership(np.array([[5.5], [6.0], [6.5]])).tolist() == [
+        [1.0, 0.0], [1.0, 0.0], [0.0, 1.0]]
+    library = OptionLibrary(regions, [_zone_policy(X)])
+    rng = np.random.default_rng(0)
+    for x, inside in ((2.0, 0), (8.0, 1)):
+        avail = library.available(np.array([x]), rng)
+        kernels = [library.registry[int(o)][0] for o in library.option_ids]
+        assert [bool(a) for a in avail] == [k == inside for k in kernels]
+
+
+def test_given_regions_round_trip_in_a_checkpoint(tmp_path):
+    REUSES.register("test_given", Reuse("test_given", GivenRegions(((0, 6.0, True),
+                                                                   (0, 6.0, False))),
+                                        LatestPast()), overwrite=True)
+    try:
+        cfg = LifelongConfig(n_kernels=2, train_episodes=15, rollout_episodes=3,
+                             options="test_given", learner=replace(LC, option_values="policy"))
+        learner = LifelongLearner(cfg, MappedCorridor(X).observation_space, 3, seed=2)
+        for fast in (X, Y):
+            learner.run_trial(MappedCorridor(fast, cost=0.02), str(fast))
+        learner.save(tmp_path)
+        loaded = LifelongLearner.load(tmp_path, MappedCorridor(X).observation_space)
+        assert isinstance(loaded.kernel_model, RegionKernels)
+        assert loaded.records == learner.records
+        np.testing.assert_array_equal(loaded.kernel_model.thresholds, [6.0, 6.0])
+    finally:
+        REUSES.unregister("test_given")
