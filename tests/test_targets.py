@@ -12,6 +12,7 @@ import pytest
 
 from ilpss.experiments.cli import build_config, parser
 from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.methods import METHODS, LifelongMethod
 from ilpss.experiments.report import write_report
 from ilpss.experiments.results_doc import main as results_main
 from ilpss.experiments.results_doc import parser as results_parser
@@ -76,7 +77,7 @@ def test_several_targets_learn_the_sources_once_and_equal_one_run_per_target(
     cfg = _several()
     trials = _count_trials(monkeypatch)
     several = run_experiment(cfg, tmp_path / "several", progress=False)
-    lifelong = [m for m in cfg.methods if m != "prq"]
+    lifelong = [m for m in cfg.methods if isinstance(METHODS.get(m), LifelongMethod)]
     # Per seed and lifelong method: each source once, each target once.
     for name in (*SOURCES, *TARGETS):
         assert trials.count(name) == cfg.n_seeds * len(lifelong), name

@@ -4,7 +4,8 @@
         "ILPSS=results/protocol_a:ilpss" "K = 1=results/variant_k1:ilpss"
 
 Each run is ``LABEL=FOLDER:METHOD`` (a folder written by ``ilpss-experiment``). Runs are
-compared on the first target task of stream 0 over the seeds that every run and the
+compared on the targets of stream 0 (each seed's curves averaged over them, when the
+stream has several: protocol A with targets, R) over the seeds that every run and the
 baseline finished, with :func:`ilpss.metrics.compare` (Student t intervals over the
 paired seeds, Fieller for the time ratio): jumpstart, total-reward gain, final
 performance gain and time-to-threshold ratio, using the windows and threshold of the
@@ -72,8 +73,8 @@ def split_run(item: str) -> tuple[str, Path, str]:
 
 
 def _stream_of(cfg: ExperimentConfig, seed: int) -> dict[str, Any]:
-    """What must agree between two runs compared seed by seed: the first target of stream
-    0 after the same tasks, the same budget and reward range."""
+    """What must agree between two runs compared seed by seed: the targets of stream 0
+    after the same tasks, the same budget and environment."""
     stream = cfg.streams(seed)[0]
     return {"protocol": cfg.protocol, "env_id": cfg.env_id,
             "tasks": [t.name for t in stream.tasks],
@@ -83,7 +84,8 @@ def _stream_of(cfg: ExperimentConfig, seed: int) -> dict[str, Any]:
 
 
 def target_curves(folder: Path, method: str) -> dict[int, tuple[list[float], dict]]:
-    """``{seed: (curve on the first target of stream 0, that method's result)}``."""
+    """``{seed: (curve on the targets of stream 0, averaged over them, that method's
+    result)}``."""
     return _target_curves(folder, method)[0]
 
 
@@ -103,7 +105,8 @@ def _target_curves(
         if method not in result["methods"]:
             raise ValueError(f"{path}: no method {method!r}; it has {sorted(result['methods'])}")
         data = result["methods"][method]
-        out[int(result["seed"])] = (data["curves"][str(result["first_target"])], data)
+        curve = np.mean([data["curves"][t] for t in sorted(data["curves"], key=int)], axis=0)
+        out[int(result["seed"])] = (curve.tolist(), data)
         streams[int(result["seed"])] = _stream_of(cfg, seed)
     if not out:
         raise ValueError(f"{folder}: no finished seeds (seed_*/stream_00/result.json)")
@@ -143,7 +146,7 @@ def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]]) 
         if c.shape != b.shape:
             raise ValueError(f"{label}: curves of shape {c.shape}, baseline {b.shape}")
         estimates[label] = metrics.compare(c, b, first=first, last=last, threshold=threshold,
-                                           window=window)
+                                           window=window, warmup=True)
         gains[label] = metrics.per_seed_gains(c, b, first=first, last=last)
         used[label] = np.mean([by_seed[s][1].get("options_used", [0])[-1] for s in seeds])
     keys = [(label, e) for label in estimates for e in PRIMARY]

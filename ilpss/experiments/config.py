@@ -76,7 +76,8 @@ class ExperimentConfig:
     first_seed: int = 0
     """Seeds are ``first_seed .. first_seed + n_seeds - 1``."""
     methods: tuple[str, ...] = ("ilpss", "scratch", "whole_policies", "prq", "ilpss_plus",
-                                "whole_policies_plus")
+                                "whole_policies_plus", "finetune", "finetune_best", "ilpss_ft",
+                                "whole_policies_ft")
     """Registered methods to run (:data:`~ilpss.experiments.methods.METHODS`)."""
     env_id: str = drill.ENV_ID
     """Gymnasium id of the environment (see :func:`~ilpss.experiments.registry.check_env_id`)."""

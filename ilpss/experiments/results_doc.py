@@ -1,6 +1,6 @@
 """``ilpss-results``: run (or resume) protocols A, B and C and regenerate ``docs/results.md``.
 
-    ilpss-results                                   # the documented run (A: 30 seeds, B, C: 10)
+    ilpss-results                                   # the documented run (A: 30 seeds, R, B, C: 10)
     ilpss-results --protocols A                     # only A; the other sections are kept
     ilpss-results --runs /tmp/r --docs /tmp/d --seeds-a 2 --seeds-b 2 --seeds-c 2 \\
         --episodes 4 --rollouts 2 --stream-length 3 --teams interceptors_press goal_guards
@@ -30,7 +30,7 @@ from typing import Any
 from ilpss._io import FolderInUseError, atomic_write_bytes
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
-from ilpss.experiments.drill import PAPER_TEAMS
+from ilpss.experiments.drill import PAPER_TEAMS, REGION_SOURCES, REGION_TARGETS
 from ilpss.experiments.executor import stop_on_sigterm
 from ilpss.experiments.folder import RunFolder
 from ilpss.experiments.outputs import check_out_dir
@@ -41,15 +41,17 @@ from ilpss.experiments.sections import page_section
 
 PAGE = {
     "A": {"teams": "teams", "targets": "targets"},
+    "R": {"teams": REGION_SOURCES, "targets": REGION_TARGETS,
+          "methods": (*ExperimentConfig().methods, "ilpss_ft_oracle")},
     "B": {"teams": "teams", "n_shuffles": "shuffles"},
     "C": {"stream_length": "stream_length",
-          "methods": ("ilpss", "scratch", "whole_policies", "prq", "ilpss_plus",
-                      "whole_policies_plus", "ilpss_plus_no_discount")},
+          "methods": (*ExperimentConfig().methods, "ilpss_plus_no_discount")},
 }
 """The protocols of the page, in its order, and the fields of each configuration that the
 page sets: from the named argument, or to the given value. Protocol C also runs ILPSS+
-without option discounting, to measure what discounting costs. Everything else is
-``ExperimentConfig``'s default."""
+without option discounting, to measure what discounting costs; protocol R (a stream where
+regions matter) also the oracle arm whose kernels are the true regions. Everything else
+is ``ExperimentConfig``'s default."""
 PROTOCOLS = tuple(PAGE)
 DEFAULT_RUNS, DEFAULT_DOCS = "results", "docs"
 
@@ -70,6 +72,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds-a", type=int, default=30, help="protocol A seeds (default 30)")
     p.add_argument("--seeds-b", type=int, default=10, help="protocol B seeds (default 10)")
     p.add_argument("--seeds-c", type=int, default=10, help="protocol C seeds (default 10)")
+    p.add_argument("--seeds-r", type=int, default=10, help="protocol R seeds (default 10)")
     p.add_argument("--episodes", type=int, default=300,
                    help="learning episodes per opponent (default 300)")
     p.add_argument("--rollouts", type=int, default=None,
@@ -166,13 +169,14 @@ def command_for(configs: dict[str, ExperimentConfig], runs: str, docs: str) -> s
                                                                str(cfg.n_seeds))]
     episodes = {cfg.lifelong.train_episodes for cfg in configs.values()}
     rollouts = {cfg.lifelong.rollout_episodes for cfg in configs.values()}
-    teams = {cfg.teams for p, cfg in configs.items() if "teams" in PAGE[p]}
+    teams = {cfg.teams for p, cfg in configs.items() if isinstance(PAGE[p].get("teams"), str)}
     if len(episodes) > 1 or len(rollouts) > 1 or len(teams) > 1:
         return None
     argv += ["--episodes", str(episodes.pop()), "--rollouts", str(rollouts.pop())]
     if teams and teams != {PAPER_TEAMS}:
         argv += ["--teams", *next(iter(teams))]
-    targets = [cfg.targets for p, cfg in configs.items() if "targets" in PAGE[p]]
+    targets = [cfg.targets for p, cfg in configs.items()
+               if isinstance(PAGE[p].get("targets"), str)]
     if targets and targets[0]:
         argv += ["--targets", *targets[0]]
     for field, flag in (("n_shuffles", "shuffles"), ("stream_length", "stream_length")):
