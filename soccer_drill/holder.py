@@ -92,7 +92,10 @@ class HolderEnv(gym.Env):
     ``copy.deepcopy``, ``copy.copy`` and ``pickle`` all give an independent environment
     continuing the episode, as those of :class:`soccer_drill.raw_env` do: the same
     actions give bit-identical steps in the copy and the original, and stepping one
-    never moves the other. Windows and renderers are not copied.
+    never moves the other. Windows and renderers are not copied. ``gym.make`` puts the
+    environment inside Gymnasium's wrappers, which ``copy.copy`` copies shallowly: that
+    copy shares the environment with the original. There, use ``copy.deepcopy`` or
+    ``pickle`` (the whole stack), or ``copy.copy(env.unwrapped)`` (this environment alone).
 
     ## Threads
 

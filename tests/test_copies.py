@@ -6,6 +6,7 @@ from __future__ import annotations
 import copy
 import pickle
 
+import gymnasium as gym
 import numpy as np
 import pytest
 
@@ -107,3 +108,16 @@ def test_a_rendering_environment_copies_with_its_frames_but_not_its_renderers(ki
     assert len(duplicate.render()) >= 2  # it draws with a renderer of its own
     duplicate.close()
     original.close()
+
+
+@pytest.mark.parametrize("how", ["deepcopy", "pickle"])
+def test_through_gym_make_only_copy_copy_shares_the_environment_as_the_docstring_says(how):
+    env = gym.make("soccer_drill/Holder-v0")
+    env.reset(seed=5)
+    env.step(0)
+    assert copy.copy(env).unwrapped is env.unwrapped  # Gymnasium's wrappers, copied shallowly
+    assert "copies shallowly" in soccer_drill.HolderEnv.__doc__
+    duplicate = COPIES[how](env)
+    assert duplicate.unwrapped is not env.unwrapped
+    copied = _rest("holder", duplicate.unwrapped, 5)
+    assert _rest("holder", env.unwrapped, 5) == copied and len(copied) > 1

@@ -58,6 +58,14 @@ def test_fps_outside_what_a_gif_plays_is_refused(capsys, no_episode, fps):
     assert "fps must be a number of frames per second in [1, 50]" in _error(capsys)
 
 
+@pytest.mark.parametrize("seed", ["-1", "1.5", "ten", str(2**63)])
+def test_a_seed_outside_what_reset_takes_is_refused(capsys, no_episode, seed):
+    with pytest.raises(SystemExit) as exit_:
+        main(["--seed", seed])
+    assert exit_.value.code == 2
+    assert f"seed must be an integer in [0, 2**63), got {seed!r}" in _error(capsys)
+
+
 def test_the_gif_plays_at_true_speed_by_default(tmp_path, capsys):
     path = tmp_path / "out" / "episode.gif"
     assert main(["-o", str(path), "--seed", "1"]) == 0

@@ -12,7 +12,10 @@ from __future__ import annotations
 
 import contextlib
 import io
+import os
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +39,10 @@ NEEDS_TORCH_OR_MOVIEPY = {
     "sb3_holder", "maskable_ppo_aec", "maskable_ppo_holder", "supersuit_sb3", "torchrl",
     "tianshou", "rllib_holder", "rllib_roles", "video",
 }
+# Recipes whose run follows Python's string hashes (RLlib keeps the agents of a step in a
+# set): the page gives their output under PYTHONHASHSEED=0, so they run in a process of
+# their own with it.
+NEEDS_FIXED_HASH_SEED = {"rllib_roles"}
 
 
 def _lines(text: str) -> list[str]:
@@ -45,7 +52,9 @@ def _lines(text: str) -> list[str]:
 
 def test_every_recipe_has_its_output_and_a_tier():
     assert RECIPES and all(OUTPUTS[name] for name in RECIPES), [n for n in RECIPES if not OUTPUTS[n]]
-    assert NEEDS_TORCH_OR_MOVIEPY <= set(RECIPES)
+    assert NEEDS_TORCH_OR_MOVIEPY | NEEDS_FIXED_HASH_SEED <= set(RECIPES)
+    for name in NEEDS_FIXED_HASH_SEED:  # the page says how its output was made
+        assert f"PYTHONHASHSEED=0 python {name}.py" in TEXT, name
 
 
 def _params():
@@ -59,14 +68,21 @@ def test_recipe_runs_and_prints_what_the_page_says(name, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     teams.team_ids()  # discover first, so that the copy below holds every installed team
     monkeypatch.setattr(teams, "_registry", dict(teams._registry))
-    out = io.StringIO()
-    with contextlib.redirect_stdout(out):
-        exec(compile(RECIPES[name], f"{PAGE.name}:{name}", "exec"), {"__name__": "__recipe__"})
-    printed = out.getvalue()
+    if name in NEEDS_FIXED_HASH_SEED:
+        (tmp_path / f"{name}.py").write_text(RECIPES[name], encoding="utf-8")
+        run = subprocess.run([sys.executable, f"{name}.py"], capture_output=True, text=True,
+                             env={**os.environ, "PYTHONHASHSEED": "0"}, check=False)
+        assert run.returncode == 0, run.stderr[-4000:]
+        printed = run.stdout
+    else:
+        out = io.StringIO()
+        with contextlib.redirect_stdout(out):
+            exec(compile(RECIPES[name], f"{PAGE.name}:{name}", "exec"), {"__name__": "__recipe__"})
+        printed = out.getvalue()
     assert _lines(printed) == _lines(OUTPUTS[name]), printed
     if name == "video":  # each video lasts as long as its episode (one frame per 0.1 s cycle)
         seconds = dict(re.findall(r"^(\w+)-episode-0\.mp4: ([\d.]+) s", printed, re.MULTILINE))
-        cycles = dict(re.findall(r"(\w+) episode: (\d+) cycles", printed))
+        cycles = {which.lower(): n for which, n in re.findall(r"(\w+) episode: (\d+) cycles", printed)}
         for which in ("holder", "aec"):  # moviepy may drop the last frame (see test_video.py)
             assert abs(float(seconds[which]) - (int(cycles[which]) + 1) / 10) <= 0.1 + 1e-6
 
