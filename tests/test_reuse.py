@@ -167,3 +167,53 @@ def test_given_regions_round_trip_in_a_checkpoint(tmp_path):
         np.testing.assert_array_equal(loaded.kernel_model.thresholds, [6.0, 6.0])
     finally:
         REUSES.unregister("test_given")
+
+
+def _valued_policy(fast: dict[int, int], gamma: float = 0.95, cost: float = 0.02):
+    """A policy whose values are what it learnt on its own task: the optimal return on
+    its fast action, -1 (the fatal reward) on the others."""
+    from synthetic_smdp import optimal_value
+
+    coder = _coder()
+    total, count = np.zeros((3, coder.n_weights)), np.zeros((3, coder.n_weights))
+    for x in np.arange(0.05, 9.0, 0.05):
+        active = coder.active(np.array([x]))
+        for a in range(3):
+            value = optimal_value(x, gamma, cost) if a == fast[zone(x)] else -1.0
+            total[a, active] += value / coder.n_active
+            count[a, active] += 1
+    return FrozenPolicy(coder, 3, (), np.where(count > 0, total / np.maximum(count, 1), 0.0))
+
+
+@pytest.mark.slow
+def test_a_fine_tuned_learner_takes_another_policys_option_only_where_it_is_better():
+    """ILPSS-FT's mechanism on the composition: the learner starts from the latest
+    policy (Y), with X and Y as options in the two regions, valued from their policies
+    and handed back by value. Where X is better (zone A) X's option takes over; where X
+    is fatal (beyond 6) its option is never the learner's choice; and the hand-over
+    costs no collapse of the seed-mean curve."""
+    from ilpss.metrics import largest_dip
+
+    policies = [_valued_policy(X), _valued_policy(Y)]
+    library = OptionLibrary(RegionKernels(1, [0, 0], [6.0, 6.0], [True, False]), policies)
+    config = replace(LC, option_values="policy", interruption=True,
+                     intra_option_primitives=True, epsilon=0.05)
+    fatal = next(3 + j for j, o in enumerate(library.option_ids)
+                 if library.registry[int(o)] == (1, 0))  # X's option beyond 6
+    curves, zone_a = [], []
+    for seed in range(12):
+        learner = SmdpLearner(3, _coder(), library, config, seed=seed)
+        learner.start_from(policies[1])
+        results = learner.train(MappedCorridor(COMPOSED, cost=0.02), 150, seed=seed)
+        curves.append([r.total_reward for r in results])
+        choices = {}
+        for x in np.arange(0.25, 9.0, 0.5):
+            s = np.array([x])
+            allowed = np.r_[np.ones(3, bool),
+                            library.memberships(library.membership(s))[learner._lib_pos] > 0]
+            choices[x] = int(np.argmax(np.where(allowed, learner.q.q_values(s), -np.inf)))
+        assert all(c != fatal for x, c in choices.items() if x > 6.0), choices
+        zone_a.append(sum(library.registry[int(learner.option_ids[c - 3])] == (0, 0)
+                          for x, c in choices.items() if x < 3.0 and c >= 3))
+    assert min(zone_a) >= 1, zone_a  # X's option is chosen in zone A on every seed
+    assert float(largest_dip(np.mean(curves, axis=0), 20)) <= 0.2
