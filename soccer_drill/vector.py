@@ -302,14 +302,10 @@ class HolderVectorEnv(VectorEnv):
         core, b = self._core, self._core.batch
         running, in_action, decider = self._running, self._in_action, self._decider
         act = np.flatnonzero(in_action)
-        free = np.flatnonzero(running & ~in_action)
+        free = running & ~in_action  # the ball is loose: both attackers support
         core.skill[act, decider[act]] = _HOLDER_SKILLS[self._action[act]]
         core.speed[act, decider[act]] = 1.0
-        mates = decider[act] ^ 1
-        core.support_commands(
-            np.sort(np.concatenate((act[mates == 0], free))),
-            np.sort(np.concatenate((act[mates == 1], free))),
-        )
+        core.support_commands((in_action & (decider == 1)) | free, (in_action & (decider == 0)) | free)
         core.advance(running)
         ended = b.outcome != 0
         self._left -= in_action

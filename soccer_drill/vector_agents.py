@@ -10,7 +10,7 @@ from gymnasium import spaces
 
 from soccer_drill.batch import OUTCOME_NAMES, RUNNING
 from soccer_drill.batch_core import BatchCore, check_num_envs
-from soccer_drill.batch_features import batch_features, batch_kinematics
+from soccer_drill.batch_features import batch_kinematics, players_features
 from soccer_drill.batch_physics import DRILLS_PER_SPACE
 from soccer_drill.config import DrillConfig
 from soccer_drill.core import IllegalAction, ObsType, make_config
@@ -132,6 +132,7 @@ class ParallelVectorEnv:
         self.possible_agents = [PLAYER_NAMES[i] for i in indices]
         self.agents = list(self.possible_agents)
         self._index = {a: PLAYER_NAMES.index(a) for a in self.possible_agents}
+        self._indices = tuple(self._index.values())
         bounds = feature_bounds(self.config) if obs_type == "features" else kinematic_bounds(self.config)
         self._low, self._high = (x.astype(np.float64) for x in bounds)
         self._obs_box = spaces.Box(*bounds, dtype=np.float32)
@@ -178,12 +179,14 @@ class ParallelVectorEnv:
         b = self._core.batch
         masks = self.action_masks()
         out = {}
+        if self.obs_type == "features":  # every agent's in one pass
+            every = players_features(b.pos, self._indices, self.config, self._low, self._high)
+            for k, agent in enumerate(self._index):
+                out[agent] = {"observation": every[:, k], "action_mask": masks[agent]}
+            return out
         locked = np.where(b.cycle < b.lockout_until, b.passer, -1)
         for agent, i in self._index.items():
-            if self.obs_type == "features":
-                obs = batch_features(b.pos, np.full(self.num_envs, i), self.config, self._low, self._high)
-            else:
-                obs = batch_kinematics(b.pos, b.vel, b.holder, locked, i, self._low, self._high)
+            obs = batch_kinematics(b.pos, b.vel, b.holder, locked, i, self._low, self._high)
             out[agent] = {"observation": obs, "action_mask": masks[agent]}
         return out
 
