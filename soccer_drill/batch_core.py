@@ -93,6 +93,8 @@ class BatchCore:
 
     def reset(self, drills: np.ndarray) -> None:
         """Start a new episode in each of ``drills``."""
+        if not len(drills):
+            return
         gens = [self.generators[i] for i in drills.tolist()]
         self.batch.reset(drills, gens)
         # The seeds of the support player's and the team's generators, as DrillCore draws them.

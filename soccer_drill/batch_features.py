@@ -95,3 +95,23 @@ def batch_kinematics(
     ).astype(np.float64)
     raw = np.concatenate((*parts, flags), axis=1)
     return np.minimum(np.maximum(raw, low), high).astype(np.float32)
+
+
+def batch_global_state(batch: object, cfg: DrillConfig, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """:func:`~soccer_drill.features.global_state` of every drill of ``batch`` (a
+    :class:`~soccer_drill.batch.BatchDrill`): ``(N, 29)`` float32, clipped."""
+    pos, vel = batch.pos, batch.vel  # type: ignore[attr-defined]
+    holder, passer = batch.holder, batch.passer  # type: ignore[attr-defined]
+    cycle, lockout_until = batch.cycle, batch.lockout_until  # type: ignore[attr-defined]
+    n = len(pos)
+    values = np.empty((n, 29))
+    bodies = values[:, :20].reshape(n, 5, 4)
+    bodies[..., :2] = pos
+    bodies[..., 2:] = vel
+    values[:, 20:24] = holder[:, None] == _PLAYERS
+    values[:, 24:28] = (cycle < lockout_until)[:, None] & (passer[:, None] == _PLAYERS)
+    values[:, 28] = cycle / cfg.max_cycles
+    return np.minimum(np.maximum(values.astype(np.float32), low), high)
+
+
+_PLAYERS = np.arange(4)

@@ -248,6 +248,10 @@ class BatchTeamDriver:
             self._bound.call("reset()", "", self.batched.reset, self.view, drills, self.rng)
             return
         self._refresh(drills)
+        self._each_bound.team_timeout = self._scaled(drills)
+        self._each_bound.call("reset()", "", self._each_reset, drills, seeds)
+
+    def _each_reset(self, drills: np.ndarray, seeds: list[int]) -> None:
         for i, s in zip(drills.tolist(), seeds, strict=True):
             self._drivers[i].reset(self._views[i], np.random.default_rng(s))
 
