@@ -566,6 +566,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     command += f" --out {args.out}"
     seconds = time.perf_counter() - start
     timing = f"It took {seconds / 60:.1f} min with {args.workers} worker process(es)."
+    if args.drills > 1:
+        timing += (
+            f" Each team's episodes (every rule's) ran {args.drills} at a time in the batched "
+            "drill (`soccer_drill.vector.play_episodes`), which agrees with `HolderEnv` in "
+            "distribution (`python -m opponents.agreement`)."
+        )
     path = write_markdown(
         cells, args.episodes, out_dir / "opponents.md", gifs, family, command, timing
     )
