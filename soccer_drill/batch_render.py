@@ -30,8 +30,11 @@ class BatchRenderer:
         self.config = config
         self._renderer = None
 
-    def frames(self, batch: object) -> tuple[np.ndarray, ...]:
-        """One ``(H, W, 3)`` uint8 frame per drill, in drill order."""
+    def frames(self, batch: object, has_reset: bool) -> tuple[np.ndarray, ...]:
+        """One ``(H, W, 3)`` uint8 frame per drill, in drill order (``has_reset``: the
+        environment has been reset, else there is nothing to draw yet)."""
+        if not has_reset:
+            raise RuntimeError("render() called before reset(); call reset() first")
         if self._renderer is None:
             from soccer_drill.render import Renderer
 

@@ -336,9 +336,7 @@ class HolderVectorEnv(VectorEnv):
         """One frame per drill with ``render_mode="rgb_array"`` (else ``None``)."""
         if self._renderer is None:
             return None
-        if not self._has_reset:
-            raise RuntimeError("render() called before reset(); call reset() first")
-        return self._renderer.frames(self._core.batch)
+        return self._renderer.frames(self._core.batch, self._has_reset)
 
     def close_extras(self, **kwargs: Any) -> None:
         """Let go of the renderer, if any (no window, no worker)."""
