@@ -1,6 +1,7 @@
 """The batched drill's cost per drill-cycle against one drill's physics floor, in one run.
 
     python benchmarks/bench_vector.py [--sizes 1 16 64 256 1024] [--cycles 6000] [--rounds 3]
+                                      [--against DIR]
 
 The floor is ``bench_env.PhysicsLoop``: one drill's own pymunk space (four players, the
 ball, the walls), one velocity set per body and the sub-steps per cycle. Each loop runs
@@ -15,7 +16,18 @@ loops, with the paper's teams (``interceptors_cover`` here; ``--team`` another):
 * ``holder play``: ``play_episodes`` with a fixed rule (``pass_first``): no drill waits;
 * ``agents``: ``ParallelVectorEnv`` with the attackers as agents (random legal actions)
   and the team's defenders;
-* ``single env()``: the AEC environment's cycle (``bench_env.AecLoop``), for its own aim.
+* ``single env()``: the AEC environment's cycle (``bench_env.AecLoop``), for its own aim;
+* ``single holder step``: ``HolderEnv.step`` (``bench_env.HolderLoop``), what one drill's
+  decision costs without the batch.
+
+For the holder loops the cost per decision (one holder's action, what an agent pays per
+``step`` of one drill) is printed beside the cost per drill-cycle.
+
+``--against DIR`` measures another checkout of the project (e.g. ``git worktree add
+/tmp/before main``) in the same run: each round runs one block of every loop of each
+tree, in subprocesses taking turns (this file's loops, on ``DIR``'s ``soccer_drill``),
+every ratio against the floor measured in its own process in that round; the table has
+both trees' medians over rounds.
 
 Then memory per drill (``tracemalloc``: what building and resetting N drills allocates,
 per drill) and a profile per component at ``--profile-size`` drills.
@@ -25,10 +37,12 @@ from __future__ import annotations
 
 import argparse
 import cProfile
+import json
 import os
 import platform
 import pstats
 import statistics
+import subprocess
 import sys
 import time
 import tracemalloc
@@ -37,7 +51,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_env import AecLoop, PhysicsLoop
+from bench_env import AecLoop, HolderLoop, PhysicsLoop
 
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.vector import HolderVectorEnv, play_episodes
@@ -50,11 +64,14 @@ class HolderStep:
         self.env.reset(seed=0)
         self.rng = np.random.default_rng(0)
 
+        self.decisions = 0
+
     def run(self, cycles: int) -> int:
         done = 0
         while done < cycles:
             *_, info = self.env.step(self.rng.integers(3, size=self.env.num_envs))
             done += int(info["duration"].sum())
+            self.decisions += int((info["duration"] > 0).sum())  # autoresets decide nothing
         return done
 
 
@@ -88,6 +105,18 @@ class Agents:
         return steps * n
 
 
+class SingleHolder:
+    def __init__(self, team: str) -> None:
+        self.loop = HolderLoop(team)
+
+    @property
+    def decisions(self) -> int:
+        return self.loop.decisions
+
+    def run(self, cycles: int) -> int:
+        return self.loop.run(cycles)
+
+
 class Single:
     def __init__(self) -> None:
         self.loop = AecLoop()
@@ -97,9 +126,56 @@ class Single:
 
 
 def cost(loop, cycles: int) -> float:
+    """CPU us per drill-cycle of a block of about ``cycles`` drill-cycles (and, for the
+    holder's loops, ``loop.last_decision_cost``: us per decision)."""
+    decisions = getattr(loop, "decisions", None)
     start = time.thread_time()
     n = loop.run(cycles)
-    return (time.thread_time() - start) / n * 1e6
+    spent = time.thread_time() - start
+    if decisions is not None:
+        loop.last_decision_cost = spent / max(1, loop.decisions - decisions) * 1e6
+    return spent / n * 1e6
+
+
+def measure(sizes: list[int], team: str, cycles: int, rounds: int) -> dict:
+    """Every loop's ratios to the floor (one per round), costs and costs per decision."""
+    floor = PhysicsLoop()
+    loops: dict[str, object] = {"single env()": Single(), "single holder step": SingleHolder(team)}
+    for n in sizes:
+        loops[f"holder step N={n}"] = HolderStep(n, team)
+        loops[f"holder play N={n}"] = HolderPlay(n, team)
+        loops[f"agents N={n}"] = Agents(n, team)
+    out: dict = {"ratios": {k: [] for k in loops}, "costs": {k: [] for k in loops},
+                 "per_decision": {}, "floors": []}
+    for _ in range(rounds):
+        for name, loop in loops.items():
+            f = cost(floor, 2000)
+            c = cost(loop, cycles)
+            out["floors"].append(f)
+            out["costs"][name].append(c)
+            out["ratios"][name].append(c / f)
+            if hasattr(loop, "last_decision_cost"):
+                out["per_decision"].setdefault(name, []).append(loop.last_decision_cost)
+    return out
+
+
+def _worker(tree: str, args: argparse.Namespace) -> dict:
+    """One round of every loop on ``tree``'s code, in a subprocess."""
+    env = {**os.environ, "PYTHONPATH": tree}
+    command = [sys.executable, str(Path(__file__).resolve()), "--json", "--rounds", "1",
+               "--cycles", str(args.cycles), "--team", args.team, "--sizes", *map(str, args.sizes)]
+    done = subprocess.run(command, env=env, cwd="/", capture_output=True, text=True, check=True)
+    return json.loads(done.stdout)
+
+
+def _merge(into: dict | None, part: dict) -> dict:
+    if into is None:
+        return part
+    for key in ("ratios", "costs", "per_decision"):
+        for name, values in part[key].items():
+            into[key].setdefault(name, []).extend(values)
+    into["floors"].extend(part["floors"])
+    return into
 
 
 def memory_per_drill(n: int, team: str) -> float:
@@ -147,29 +223,35 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--team", default="interceptors_cover")
     parser.add_argument("--profile-size", type=int, default=64)
+    parser.add_argument("--against", metavar="DIR", help="another checkout, measured in the same run")
+    parser.add_argument("--json", action="store_true", help=argparse.SUPPRESS)  # a worker's output
     args = parser.parse_args()
-    floor = PhysicsLoop()
-    loops: dict[str, object] = {"single env()": Single()}
-    for n in args.sizes:
-        loops[f"holder step N={n}"] = HolderStep(n, args.team)
-        loops[f"holder play N={n}"] = HolderPlay(n, args.team)
-        loops[f"agents N={n}"] = Agents(n, args.team)
-    ratios: dict[str, list[float]] = {k: [] for k in loops}
-    costs: dict[str, list[float]] = {k: [] for k in loops}
-    floors = []
+    if args.json:
+        print(json.dumps(measure(args.sizes, args.team, args.cycles, args.rounds)))
+        return
+    here = str(Path(__file__).resolve().parents[1])
+    trees = {"this": here} if args.against is None else {"before": args.against, "after": here}
+    runs: dict[str, dict | None] = dict.fromkeys(trees)
     for _ in range(args.rounds):
-        for name, loop in loops.items():
-            f = cost(floor, 2000)
-            c = cost(loop, args.cycles)
-            floors.append(f)
-            costs[name].append(c)
-            ratios[name].append(c / f)
+        for label, tree in trees.items():
+            runs[label] = _merge(runs[label], _worker(tree, args))
+    done = {k: v for k, v in runs.items() if v is not None}
     print(f"python {platform.python_version()}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}; "
-          f"floor {statistics.median(floors):.1f} us/cycle (median of {len(floors)} blocks)")
-    print("| loop | us per drill-cycle (median) | ratio to the floor (median over rounds) |")
-    print("|---|---:|---:|")
-    for name in loops:
-        print(f"| {name} | {statistics.median(costs[name]):.1f} | {statistics.median(ratios[name]):.2f}x |")
+          + "; ".join(f"{k}: floor {statistics.median(v['floors']):.1f} us/cycle (median of "
+                      f"{len(v['floors'])} blocks)" for k, v in done.items()))
+    labels = list(done)
+    print("| loop | " + " | ".join(f"{k}: us per drill-cycle | {k}: ratio to the floor" for k in labels)
+          + " | " + " | ".join(f"{k}: us per decision" for k in labels) + " |")
+    print("|---|" + "---:|---:|" * len(labels) + "---:|" * len(labels))
+    for name in done[labels[0]]["ratios"]:
+        cells = []
+        for k in labels:
+            cells += [f"{statistics.median(done[k]['costs'][name]):.1f}",
+                      f"{statistics.median(done[k]['ratios'][name]):.2f}x"]
+        for k in labels:
+            per = done[k]["per_decision"].get(name)
+            cells.append(f"{statistics.median(per):.0f}" if per else "")
+        print(f"| {name} | " + " | ".join(cells) + " |")
     print("\n| drills | memory per drill (KiB) |\n|---:|---:|")
     for n in args.sizes:
         print(f"| {n} | {memory_per_drill(n, args.team):.1f} |")

@@ -50,7 +50,7 @@ DEFAULT_OUT = "results/calibration"
 
 GIF_FPS = 8
 """GIF frame rate: 0.125 s per 0.1 s cycle, slightly slowed down, and small files."""
-DEFAULT_DRILLS = 64
+DEFAULT_DRILLS = 256
 """Episodes of a cell played at once in the batched drill."""
 _GIF_SEARCH = 40  # seeds tried to find an episode the team's best rule wins
 _OUTCOMES = ("success", "interception", "out", "timeout")
@@ -99,32 +99,56 @@ def evaluate(
 ) -> Cell:
     """Play ``episodes`` seeded episodes of ``rule`` against ``team`` (with ``params``),
     ``drills`` at a time in the batched drill (1: one by one in ``HolderEnv``)."""
-    policy = HOLDER_POLICIES[rule]
-    rewards = np.empty(episodes)
-    outcomes: Counter[str] = Counter()
+    return evaluate_rules(team, [rule], episodes, first_seed, params, label, drills)[0]
+
+
+def evaluate_rules(
+    team: str,
+    rules: Sequence[str],
+    episodes: int,
+    first_seed: int = 0,
+    params: Mapping[str, Any] | None = None,
+    label: str | None = None,
+    drills: int = DEFAULT_DRILLS,
+) -> list[Cell]:
+    """The cells of every rule of ``rules`` against ``team``: seeds ``first_seed`` to
+    ``first_seed + episodes - 1`` for each. With ``drills > 1`` every rule's episodes
+    share one batch of ``drills`` drills (:func:`~soccer_drill.vector.play_episodes`,
+    a rule per episode), so the batch stays full until the last few episodes of all
+    the rules, not of each; with 1, one by one in ``HolderEnv``."""
+    seeds = list(range(first_seed, first_seed + episodes))
     if drills > 1:
-        venv = HolderVectorEnv(num_envs=min(drills, episodes), opponent=team, opponent_params=params)
-        played = play_episodes(venv, policy, range(first_seed, first_seed + episodes))
-        for i, (total, outcome) in enumerate(played):
-            rewards[i] = total
-            outcomes[outcome] += 1
-        return _cell(label or team, rule, rewards, outcomes)
+        venv = HolderVectorEnv(
+            num_envs=min(drills, episodes * len(rules)), opponent=team, opponent_params=params
+        )
+        policies = [HOLDER_POLICIES[r] for r in rules for _ in seeds]
+        played = play_episodes(venv, policies, seeds * len(rules))
+        return [
+            _cell(label or team, rule, played[k * episodes:(k + 1) * episodes])
+            for k, rule in enumerate(rules)
+        ]
     env = HolderEnv(opponent=team, opponent_params=params)
-    rng = np.random.default_rng(first_seed)
-    for i in range(episodes):
-        obs, info = env.reset(seed=first_seed + i)
-        done, total = False, 0.0
-        while not done:
-            obs, reward, term, trunc, info = env.step(policy(obs, rng))
-            total += reward
-            done = term or trunc
-        outcomes[info["outcome"]] += 1
-        rewards[i] = total
+    cells = []
+    for rule in rules:
+        policy = HOLDER_POLICIES[rule]
+        rng = np.random.default_rng(first_seed)
+        played = []
+        for seed in seeds:
+            obs, info = env.reset(seed=seed)
+            done, total = False, 0.0
+            while not done:
+                obs, reward, term, trunc, info = env.step(policy(obs, rng))
+                total += reward
+                done = term or trunc
+            played.append((total, info["outcome"]))
+        cells.append(_cell(label or team, rule, played))
     env.close()
-    return _cell(label or team, rule, rewards, outcomes)
+    return cells
 
 
-def _cell(team: str, rule: str, rewards: np.ndarray, outcomes: Counter[str]) -> Cell:
+def _cell(team: str, rule: str, played: Sequence[tuple[float, str]]) -> Cell:
+    rewards = np.array([total for total, _ in played], dtype=float)
+    outcomes = Counter(outcome for _, outcome in played)
     episodes = len(rewards)
     mean = float(rewards.mean())
     half = (
@@ -137,8 +161,8 @@ def _cell(team: str, rule: str, rewards: np.ndarray, outcomes: Counter[str]) -> 
     )
 
 
-def _evaluate(args: tuple) -> Cell:
-    return evaluate(*args)
+def _evaluate(args: tuple) -> list[Cell]:
+    return evaluate_rules(*args)
 
 
 def calibrate(
@@ -150,7 +174,7 @@ def calibrate(
 ) -> dict[tuple[str, str], Cell]:
     """Every (team, rule) cell, in ``workers`` processes (1: in this process)."""
     rules = list(rules or HOLDER_POLICIES)
-    return _run([(t, r, episodes, 0, None, None, drills) for t in teams for r in rules], workers)
+    return _run([(t, rules, episodes, 0, None, None, drills) for t in teams], workers)
 
 
 def calibrate_family(
@@ -164,20 +188,18 @@ def calibrate_family(
     """Cells for ``n`` members of the parametric family, labelled ``p00``, ``p01``, ..."""
     rules = list(rules or HOLDER_POLICIES)
     members = {f"p{i:02d}": params for i, params in enumerate(sample_opponents(n, seed))}
-    jobs = [
-        ("parametric", r, episodes, 0, params, label, drills)
-        for label, params in members.items() for r in rules
-    ]
+    jobs = [("parametric", rules, episodes, 0, params, label, drills)
+            for label, params in members.items()]
     return _run(jobs, workers), members
 
 
 def _run(jobs: list[tuple], workers: int) -> dict[tuple[str, str], Cell]:
     if workers <= 1:
-        cells = [_evaluate(job) for job in jobs]
+        done = [_evaluate(job) for job in jobs]
     else:
         with ProcessPoolExecutor(workers) as pool:
-            cells = list(pool.map(_evaluate, jobs))
-    return {(c.team, c.rule): c for c in cells}
+            done = list(pool.map(_evaluate, jobs))
+    return {(c.team, c.rule): c for cells in done for c in cells}
 
 
 def _teams_and_rules(cells: Mapping[tuple[str, str], Cell]) -> tuple[list[str], list[str]]:
@@ -544,6 +566,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     command += f" --out {args.out}"
     seconds = time.perf_counter() - start
     timing = f"It took {seconds / 60:.1f} min with {args.workers} worker process(es)."
+    if args.drills > 1:
+        timing += (
+            f" Each team's episodes (every rule's) ran {args.drills} at a time in the batched "
+            "drill (`soccer_drill.vector.play_episodes`), which agrees with `HolderEnv` in "
+            "distribution (`python -m opponents.agreement`)."
+        )
     path = write_markdown(
         cells, args.episodes, out_dir / "opponents.md", gifs, family, command, timing
     )

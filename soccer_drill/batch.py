@@ -19,8 +19,10 @@ from soccer_drill.batch_physics import DRILLS_PER_SPACE, BatchPhysics
 from soccer_drill.batch_skills import (
     CONTROL,
     KICK,
+    NO_BALL,
     holder_motion,
     off_ball_targets,
+    rows,
     toward,
     turn_toward,
 )
@@ -34,7 +36,10 @@ RUNNING = 0
 OUTCOME_NAMES: tuple[str | None, ...] = (None, *OUTCOMES)
 """Outcome names by code: ``OUTCOME_NAMES[BatchDrill.outcome[i]]``."""
 _SUCCESS, _INTERCEPTION, _OUT, _TIMEOUT = 1, 2, 3, 4
-_BALL_SKILL_CODES = np.array(sorted(int(s) for s in BALL_SKILLS))
+_IS_BALL_SKILL = np.zeros(len(Skill), dtype=bool)
+_IS_BALL_SKILL[[int(s) for s in BALL_SKILLS]] = True
+_PLAYERS = np.arange(4)
+_IS_DEFENDER = _PLAYERS >= 2
 
 
 class BatchDrill:
@@ -72,6 +77,7 @@ class BatchDrill:
         self.cycles_run = 0
         """Drill-cycles advanced since construction (for benchmarks)."""
         self._roll = cfg.ball_damping**cfg.cycle_seconds
+        self._sub_dt = cfg.cycle_seconds / cfg.substeps
         self._top = np.array([cfg.attacker_speed] * 2 + [cfg.defender_speed] * 2)
         self._caps = np.array([*self._top, cfg.ball_max_speed])
         self._starts = np.array([*cfg.attacker_starts, *cfg.defender_starts])
@@ -119,134 +125,134 @@ class BatchDrill:
         cfg, dt = self.config, self.config.cycle_seconds
         pos, vel, holder = self.pos, self.vel, self.holder
         n = self.n
-        rows = np.arange(n)
-        if (self.outcome[active] != RUNNING).any():
+        r = rows(n)
+        if self.outcome[active].any():
             ended = np.flatnonzero(active & (self.outcome != RUNNING))
             raise RuntimeError(
                 f"drill {int(ended[0])}: the episode has ended; reset it first"
             )
         # The holder's ball skill (the holder's command must be one; others never are).
         held = (holder >= 0) & active
-        h = np.where(holder >= 0, holder, 0)
-        hskill = np.where(held, skill[rows, h], -1)
-        passing = np.flatnonzero(hskill == int(Skill.PASS))
-        noise = np.zeros((n, 2))
-        for i in passing.tolist():
-            noise[i] = rngs[i].normal(size=2)  # the two draws of pass_velocity, in order
+        hskill = np.where(held, skill[r, holder], -1)  # holder -1: any column, unused
+        passing = hskill == int(Skill.PASS)
+        noise = None
+        if passing.any():
+            noise = np.zeros((n, 2))
+            for i in np.flatnonzero(passing).tolist():
+                noise[i] = rngs[i].normal(size=2)  # the two draws of pass_velocity, in order
         vmax = self._top * speed
-        ball_skill = np.isin(skill, _BALL_SKILL_CODES)
         tgt = off_ball_targets(pos, vel, holder, skill, target, vmax, cfg)
         desired = toward(pos[:, :4], tgt, vmax)
-        mv, ball_action, bvec = holder_motion(pos, vel, h, hskill, speed[rows, h], noise, cfg)
-        desired = np.where(ball_skill[..., None], 0.0, desired)
-        ball_held = held & ball_skill[rows, h]
-        desired[ball_held, h[ball_held]] = mv[ball_held]
+        mv, ball_action, bvec = holder_motion(pos, vel, holder, hskill, speed[r, holder], noise, cfg)
+        # Ball skills move only the holder (with its motion), everyone else stands.
+        desired[_IS_BALL_SKILL[skill]] = 0.0
+        ball_held = held & (ball_action != NO_BALL)
+        if ball_held.any():
+            b = np.flatnonzero(ball_held)
+            desired[b, holder[b]] = mv[b]
         # The acceleration cap.
         accel = cfg.player_acceleration * dt
         old = vel[:, :4]
         d = desired - old
         dv = np.hypot(d[..., 0], d[..., 1])
-        over = dv > accel
-        safe = np.where(over, dv, 1.0)  # dvx * accel / dv, as the single code computes it
-        dx = np.where(over, d[..., 0] * accel / safe, d[..., 0])
-        dy = np.where(over, d[..., 1] * accel / safe, d[..., 1])
-        new_vel = np.stack((old[..., 0] + dx, old[..., 1] + dy), axis=-1)
+        over = (dv > accel)[..., None]
+        # dvx * accel / dv, as the single code computes it
+        d = np.where(over, d * accel / np.where(over, dv[..., None], 1.0), d)
+        new_vel = d
+        new_vel += old
         # The ball: kicked, kept at the control point, or rolling.
         kicked = held & (ball_action == KICK)
         control = held & (ball_action == CONTROL)
         ball_vel = vel[:, 4] * self._roll
         if kicked.any():
-            ball_vel[kicked] = bvec[kicked]
+            np.copyto(ball_vel, bvec, where=kicked[:, None])
         if control.any():
-            c = np.flatnonzero(control)
-            hc = h[c]
-            p = pos[c, hc]
-            b = pos[c, 4]
-            ux, uy = turn_toward(b[:, 0] - p[:, 0], b[:, 1] - p[:, 1], bvec[c, 0], bvec[c, 1])
-            hv = new_vel[c, hc]
-            cx = p[:, 0] + hv[:, 0] * dt + ux * cfg.ball_offset
-            cy = p[:, 1] + hv[:, 1] * dt + uy * cfg.ball_offset
-            ball_vel[c, 0] = (cx - b[:, 0]) / dt
-            ball_vel[c, 1] = (cy - b[:, 1]) / dt
+            p = pos[r, holder]
+            f = pos[:, 4] - p
+            ux, uy = turn_toward(f[:, 0], f[:, 1], bvec[:, 0], bvec[:, 1])
+            hv = new_vel[r, holder]
+            c = hv * dt
+            c += p
+            c[:, 0] += ux * cfg.ball_offset
+            c[:, 1] += uy * cfg.ball_offset
+            c -= pos[:, 4]
+            c /= dt
+            np.copyto(ball_vel, c, where=control[:, None])
         ball_vel = _capped(ball_vel, cfg.ball_max_speed)
         # Inactive drills stand still.
         still = ~active
-        new_vel[still] = 0.0
+        if still.any():
+            new_vel[still] = 0.0
         new_pos, out_vel = self.physics.cycle(pos[:, :4], new_vel)
         ball = pos[:, 4].copy()
-        sub_dt = cfg.cycle_seconds / cfg.substeps
-        step = ball_vel * sub_dt
+        step = ball_vel * self._sub_dt
         for _ in range(cfg.substeps):  # pymunk's own position update, p + v * dt
             ball += step
         # A collision can push a player past its top speed: capped (the ball is already).
         out_vel = _capped(out_vel, self._caps[:4], squared=True)
         ball_vel = _capped(ball_vel, cfg.ball_max_speed, squared=True)
-        a = np.flatnonzero(active)
-        pos[a, :4] = new_pos[a]
-        pos[a, 4] = ball[a]
-        vel[a, :4] = out_vel[a]
-        vel[a, 4] = ball_vel[a]
+        where = active[:, None, None]
+        np.copyto(pos[:, :4], new_pos, where=where)
+        np.copyto(vel[:, :4], out_vel, where=where)
+        np.copyto(pos[:, 4], ball, where=active[:, None])
+        np.copyto(vel[:, 4], ball_vel, where=active[:, None])
         before = np.where(kicked, -1, holder)
-        self.passer[kicked] = h[kicked]
-        self.lockout_until[kicked] = self.cycle[kicked] + 1 + cfg.pass_lockout_cycles
-        self.cycle[a] += 1
-        self.cycles_run += len(a)
-        self._possession(a, before, rngs)
-        self._judge(a)
+        if kicked.any():
+            self.passer[kicked] = holder[kicked]
+            self.lockout_until[kicked] = self.cycle[kicked] + 1 + cfg.pass_lockout_cycles
+        self.cycle += active
+        self.cycles_run += int(np.count_nonzero(active))
+        self._possession(active, before, rngs)
+        self._judge(active)
 
-    def _possession(self, a: np.ndarray, before: np.ndarray, rngs: list) -> None:
-        """``Drill._holder_after`` for the drills ``a`` (``before``: who held it before)."""
+    def _possession(self, active: np.ndarray, before: np.ndarray, rngs: list) -> None:
+        """``Drill._holder_after`` for the ``active`` drills (``before``: who held it before)."""
         cfg = self.config
-        pos, vel = self.pos[a], self.vel[a]
-        ball, bvel = pos[:, 4:5], vel[:, 4:5]
-        dist = np.hypot(pos[:, :4, 0] - ball[..., 0], pos[:, :4, 1] - ball[..., 1])
-        rel = np.hypot(bvel[..., 0] - vel[:, :4, 0], bvel[..., 1] - vel[:, :4, 1])
-        locked_out = np.where(self.cycle[a] < self.lockout_until[a], self.passer[a], -1)
-        ok = (dist <= cfg.control_radius) & (np.arange(4) != locked_out[:, None])
+        pos, vel = self.pos, self.vel
+        d = pos[:, :4] - pos[:, 4:5]
+        dist = np.hypot(d[..., 0], d[..., 1])
+        v = vel[:, 4:5] - vel[:, :4]
+        rel = np.hypot(v[..., 0], v[..., 1])
+        locked_out = np.where(self.cycle < self.lockout_until, self.passer, -1)
+        ok = dist <= cfg.control_radius
+        ok &= _PLAYERS != locked_out[:, None]
         ok &= rel <= cfg.control_speed
-        rows = np.arange(len(a))
-        held = before[a]
-        hh = np.where(held >= 0, held, 0)
-        keeps = (held >= 0) & ok[rows, hh]
-        new = np.where(keeps, held, -1)
+        keeps = (before >= 0) & ok[rows(self.n), before]  # before -1: any column, unused
         # A loose ball goes to the nearest player in control (the lower index if equal).
-        masked = np.where(ok, dist, np.inf)
-        nearest = masked.argmin(axis=1)
-        loose = ~keeps & ok.any(axis=1)
-        new = np.where(loose, nearest, new)
+        nearest = np.where(ok, dist, np.inf).argmin(axis=1)
+        new = np.where(keeps, before, np.where(ok.any(axis=1), nearest, -1))
         # Tackles: each opponent in control, nearest first, takes it with probability p.
-        opponents = ok & ((np.arange(4) >= 2) != (hh >= 2)[:, None]) & keeps[:, None]
-        for r in np.flatnonzero(opponents.any(axis=1)).tolist():
-            rng = rngs[int(a[r])]
-            for i in sorted(np.flatnonzero(opponents[r]).tolist(), key=lambda i: (dist[r, i], i)):
-                if rng.random() < cfg.tackle_probability:
-                    new[r] = i
-                    break
-        self.holder[a] = new
+        opponents = ok & (_IS_DEFENDER != (before >= 2)[:, None]) & (keeps & active)[:, None]
+        if opponents.any():
+            for r in np.flatnonzero(opponents.any(axis=1)).tolist():
+                rng = rngs[r]
+                for i in sorted(np.flatnonzero(opponents[r]).tolist(), key=lambda i: (dist[r, i], i)):
+                    if rng.random() < cfg.tackle_probability:
+                        new[r] = i
+                        break
+        np.copyto(self.holder, new, where=active)
 
-    def _judge(self, a: np.ndarray) -> None:
+    def _judge(self, active: np.ndarray) -> None:
         cfg = self.config
-        bx, by = self.pos[a, 4, 0], self.pos[a, 4, 1]
-        h = self.holder[a]
+        bx, by = self.pos[:, 4, 0], self.pos[:, 4, 1]
+        h = self.holder
         inside_x = (bx >= 0.0) & (bx <= cfg.field_size)
         inside = inside_x & (by >= 0.0) & (by <= cfg.field_size)
-        interception = h >= 2
-        success = ~interception & (h >= 0) & (by <= 0.0) & inside_x
-        out = ~interception & ~success & ~inside
-        timeout = ~interception & ~success & ~out & (self.cycle[a] >= cfg.max_cycles)
-        code = np.select([interception, success, out, timeout], [2, 1, 3, 4], 0).astype(np.int8)
-        half = cfg.field_size / 2
-        off_centre = np.minimum(np.abs(bx - half) / half, 1.0)
-        success_reward = cfg.reward_success_centre + (
-            cfg.reward_success_edge - cfg.reward_success_centre
-        ) * off_centre
-        reward = np.select(
-            [success, interception | out, timeout],
-            [success_reward, cfg.reward_failure, cfg.reward_timeout],
-            0.0,
-        )
-        self.outcome[a] = code
-        self.attacker_reward[a] = reward
+        code = np.where(
+            h >= 2, _INTERCEPTION,
+            np.where((h >= 0) & (by <= 0.0) & inside_x, _SUCCESS,
+                     np.where(inside, np.where(self.cycle >= cfg.max_cycles, _TIMEOUT, RUNNING),
+                              _OUT)))
+        code &= -active.view(np.int8)  # inactive drills: RUNNING here, then not written
+        if not code.any():
+            return
+        for i in np.flatnonzero(code).tolist():  # the drills whose episode ends now
+            c = int(code[i])
+            self.outcome[i] = c
+            self.attacker_reward[i] = (
+                cfg.success_reward(float(bx[i])) if c == _SUCCESS
+                else cfg.reward_timeout if c == _TIMEOUT else cfg.reward_failure
+            )
 
     # ---------------------------------------------------------------- views
     def state_of(self, i: int) -> DrillState:
@@ -270,20 +276,22 @@ class BatchDrill:
 def _capped(v: np.ndarray, cap: np.ndarray | float, squared: bool = False) -> np.ndarray:
     """``drill._capped`` on arrays: a velocity above its cap scaled down to it.
 
-    ``squared``: the drill's test after the physics (``vx * vx + vy * vy > cap * cap``).
+    ``squared``: the drill's test after the physics (``vx * vx + vy * vy > cap * cap``),
+    made first, so that the usual case (no velocity over its cap) costs no ``hypot``.
     """
-    speed = np.hypot(v[..., 0], v[..., 1])
-    cap_b = np.broadcast_to(cap, speed.shape)
+    cap_b = np.broadcast_to(cap, v.shape[:-1])
     if squared:
-        over = v[..., 0] * v[..., 0] + v[..., 1] * v[..., 1] > cap_b * cap_b
+        v2 = v[..., 0] * v[..., 0]
+        v2 += v[..., 1] * v[..., 1]
+        over = v2 > cap_b * cap_b
+        if not over.any():
+            return v
+        speed = np.hypot(v[..., 0], v[..., 1])
         over &= speed > cap_b  # drill._capped keeps a speed at most the cap as it is
     else:
+        speed = np.hypot(v[..., 0], v[..., 1])
         over = speed > cap_b
     if not over.any():
         return v
     safe = np.where(over, speed, 1.0)
-    return np.where(
-        over[..., None],
-        np.stack((v[..., 0] * cap_b / safe, v[..., 1] * cap_b / safe), axis=-1),
-        v,
-    )
+    return np.where(over[..., None], v * cap_b[..., None] / safe[..., None], v)

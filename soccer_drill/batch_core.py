@@ -93,50 +93,48 @@ class BatchCore:
 
     def reset(self, drills: np.ndarray) -> None:
         """Start a new episode in each of ``drills``."""
+        if not len(drills):
+            return
         gens = [self.generators[i] for i in drills.tolist()]
         self.batch.reset(drills, gens)
-        support_gens, team_gens = [], []
-        for g in gens:
-            support_seed, team_seed = g.integers(2**63, size=2)
-            if self.support:
-                support_gens.append(np.random.default_rng(int(support_seed)))
-            team_gens.append(np.random.default_rng(int(team_seed)))
+        # The seeds of the support player's and the team's generators, as DrillCore draws them.
+        support_seeds, team_seeds = zip(*(g.integers(2**63, size=2).tolist() for g in gens), strict=True)
         if self.support:
-            self.support_rng.seed(drills, support_gens)
+            self.support_rng.seed(drills, list(support_seeds))
             self.support_offset[drills] = 0.0
         if self.team is not None:
-            self.team.reset(drills, team_gens)
+            self.team.reset(drills, list(team_seeds))
 
     def support_commands(self, first: np.ndarray, second: np.ndarray) -> None:
-        """The support behaviour's commands: for attacker 0 in the drills ``first`` and
-        attacker 1 in the drills ``second`` (in that order, as the single drill asks)."""
-        if not (len(first) or len(second)):
+        """The support behaviour's commands: for attacker 0 in the drills where ``first``
+        and attacker 1 where ``second`` (``(n,)`` bool; attacker 0 first, as the single
+        drill asks, since both draw from the drill's one support generator)."""
+        if not (first | second).any():
             return
         b, cfg = self.batch, self.config
-        drills = np.concatenate((first, second))
-        player = np.concatenate((np.zeros(len(first), np.int64), np.ones(len(second), np.int64)))
-        offsets = []
-        for part in (first, second):  # attacker 0 draws (and uses its offset), then attacker 1
-            resample = part[b.cycle[part] % _RESAMPLE_CYCLES == 0]
-            if len(resample):
-                dx = self.support_rng.random(resample)
-                dy = self.support_rng.random(resample)
-                self.support_offset[resample, 0] = _OFFSET_STD * dx
-                self.support_offset[resample, 1] = _OFFSET_STD * dy
-            offsets.append(self.support_offset[part])
-        offset = np.concatenate(offsets)
-        pos = b.pos[drills]
-        rows = np.arange(len(drills))
-        mate = player ^ 1
-        d_self = np.hypot(pos[rows, player, 0] - pos[:, 4, 0], pos[rows, player, 1] - pos[:, 4, 1])
-        d_mate = np.hypot(pos[rows, mate, 0] - pos[:, 4, 0], pos[rows, mate, 1] - pos[:, 4, 1])
-        locked = (b.passer[drills] == mate) & (b.cycle[drills] < b.lockout_until[drills])
-        chase = (b.holder[drills] < 0) & (locked | (d_self <= d_mate))
-        spot = support_spots(pos, cfg)[rows, player] + offset
+        spots = support_spots(b.pos, cfg)
+        d = b.pos[:, :2] - b.pos[:, 4:5]
+        dist = np.hypot(d[..., 0], d[..., 1])  # each attacker's distance to the ball
+        loose = b.holder < 0
+        locked_out = np.where(b.cycle < b.lockout_until, b.passer, -1)
+        resample = b.cycle % _RESAMPLE_CYCLES == 0
         lo, hi = 1.0, cfg.field_size - 1.0
-        self.skill[drills, player] = np.where(chase, _GO_TO_BALL, _MOVE_TO)
-        self.target[drills, player] = np.clip(spot, lo, hi)
-        self.speed[drills, player] = 1.0
+        for k, mask in ((0, first), (1, second)):
+            if not mask.any():
+                continue
+            draw = np.flatnonzero(mask & resample)
+            if len(draw):
+                dx = self.support_rng.random(draw)
+                dy = self.support_rng.random(draw)
+                self.support_offset[draw, 0] = _OFFSET_STD * dx
+                self.support_offset[draw, 1] = _OFFSET_STD * dy
+            mate = k ^ 1
+            chase = loose & ((locked_out == mate) | (dist[:, k] <= dist[:, mate]))
+            spot = spots[:, k] + self.support_offset
+            np.minimum(np.maximum(spot, lo, out=spot), hi, out=spot)
+            np.copyto(self.skill[:, k], np.where(chase, _GO_TO_BALL, _MOVE_TO), where=mask)
+            np.copyto(self.target[:, k], spot, where=mask[:, None])
+            np.copyto(self.speed[:, k], 1.0, where=mask)
 
     def advance(self, active: np.ndarray) -> None:
         """One cycle of the drills where ``active``, with the commands set in the arrays

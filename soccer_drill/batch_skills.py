@@ -3,10 +3,16 @@
 Every function here computes, for ``N`` drills at once, what the function of the same
 name in :mod:`soccer_drill.skills` (or :class:`~soccer_drill.support.SupportPlayer`)
 computes for one: the same formulas in the same order of operations, so that from the
-same state they give the same numbers (``tests/test_batch.py`` checks them against
+same state they give the same numbers (``tests/test_vector.py`` checks them against
 the single drill's functions on states of real episodes). Where the single code stops
 a search early (the interception point, the dribbling heading) the batched code scans
 every candidate: the single code's early stop is proven to find the same point.
+
+The cost of a call is mostly NumPy's fixed cost per operation (about 1 us, whatever
+``N``), so the formulas work on ``(..., 2)`` vectors where the single code repeats a
+line for x and y (one operation instead of two, the same floats), compute a skill for
+every player at once rather than gathering the players that use it, and pick results
+with lookup tables rather than ``np.isin`` or ``np.select``.
 
 Arrays: ``pos`` and ``vel`` are ``(N, 5, 2)`` float64 (the four players then the ball,
 as :attr:`DrillState.pos`), ``holder`` is ``(N,)`` int (-1: a loose ball).
@@ -31,18 +37,29 @@ from soccer_drill.skills import (
 
 NO_BALL, CONTROL, KICK = 0, 1, 2
 _OPPONENTS = np.array([[2, 3], [2, 3], [0, 1], [0, 1]])  # per player index
+_FIRST_OPPONENT, _SECOND_OPPONENT = _OPPONENTS[:, 0], _OPPONENTS[:, 1]
+_PLAYERS = np.arange(4)
 _HX = np.array([h[0] for h in _HEADINGS])
 _HY = np.array([h[1] for h in _HEADINGS])
 _HSCORE = np.array([h[2] for h in _HEADINGS])
 _MAX_TURN = math.radians(40.0)
+_DOWN = np.array([0.0, -1.0])  # skills._unit of a tiny vector
+_rows_cache: dict[int, np.ndarray] = {}
 
 
-def _unit(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``skills._unit`` on arrays: ``(x, y) / |(x, y)|``, or ``(0, -1)`` for a tiny vector."""
-    n = np.hypot(x, y)
-    ok = n > 1e-9
-    safe = np.where(ok, n, 1.0)
-    return np.where(ok, x / safe, 0.0), np.where(ok, y / safe, -1.0)
+def rows(n: int) -> np.ndarray:
+    """``np.arange(n)``, made once per ``n`` (read-only)."""
+    r = _rows_cache.get(n)
+    if r is None:
+        r = _rows_cache[n] = np.arange(n)
+        r.flags.writeable = False
+    return r
+
+
+def _units(v: np.ndarray, norm: np.ndarray) -> np.ndarray:
+    """``skills._unit`` of the vectors ``v`` (``(..., 2)``) of length ``norm``."""
+    ok = norm > 1e-9
+    return np.where(ok[..., None], v / np.where(ok, norm, 1.0)[..., None], _DOWN)
 
 
 def interception_points(
@@ -50,67 +67,64 @@ def interception_points(
 ) -> np.ndarray:
     """``ball_interception_point`` of each of the four players: ``(N, 4, 2)``.
 
-    ``vmax`` is ``(N, 4)``: each player's top speed times its command's speed.
+    ``vmax`` is ``(N, 4)``: each player's top speed times its command's speed (> 0, as
+    every speed of the drill is).
     """
-    n = len(pos)
-    ball, bvel = pos[:, 4], vel[:, 4]
-    bx, by = ball[:, 0:1], ball[:, 1:2]
-    bvx, bvy = bvel[:, 0:1], bvel[:, 1:2]
-    px, py = pos[:, :4, 0], pos[:, :4, 1]
-    players = np.arange(4)
-    held = holder >= 0
-    other_holds = held[:, None] & (holder[:, None] != players)
-    hvel = vel[np.arange(n), np.where(held, holder, 0)]
-    safe_vmax = np.where(vmax > 0, vmax, 1.0)
-    lead = np.where(vmax > 0, np.hypot(bx - px, by - py) / safe_vmax, 0.0)
-    lead = np.where(_LEAD_SECONDS < lead, _LEAD_SECONDS, lead)
-    out_x = np.where(other_holds, bx + hvel[:, 0:1] * lead, bx)
-    out_y = np.where(other_holds, by + hvel[:, 1:2] * lead, by)
-    rolling = (~held & (np.hypot(bvx, bvy)[:, 0] >= 1.0))
+    ball = pos[:, 4:5]  # (N, 1, 2)
+    d = ball - pos[:, :4]
+    lead = np.hypot(d[..., 0], d[..., 1])
+    lead /= vmax
+    np.minimum(lead, _LEAD_SECONDS, out=lead)  # min(lead, _LEAD_SECONDS), NaN kept
+    carried = vel[rows(len(pos)), holder][:, None, :] * lead[..., None]  # holder -1: unused
+    carried += ball
+    other_holds = (holder[:, None] >= 0) & (holder[:, None] != _PLAYERS)
+    out = np.where(other_holds[..., None], carried, ball)
+    bvel = vel[:, 4]
+    rolling = (holder < 0) & (np.hypot(bvel[:, 0], bvel[:, 1]) >= 1.0)
     if rolling.any():
-        rows = np.flatnonzero(rolling)
+        r = np.flatnonzero(rolling)
         times, travels, _, _ = _roll_table(cfg.ball_damping, cfg.cycle_seconds)
         times_a, travels_a = np.asarray(times), np.asarray(travels)
-        x = bx[rows] + bvx[rows] * travels_a  # (R, K)
-        y = by[rows] + bvy[rows] * travels_a
-        dx = x[:, None, :] - px[rows][:, :, None]  # (R, 4, K)
-        dy = y[:, None, :] - py[rows][:, :, None]
-        r = vmax[rows][:, :, None] * times_a + cfg.control_radius
-        reach = dx * dx + dy * dy <= r * r
-        reach[:, :, -1] = True  # none within reach: the last point
-        k = reach.argmax(axis=2)  # the first point within reach
-        out_x[rows] = np.take_along_axis(np.broadcast_to(x[:, None, :], reach.shape), k[..., None], 2)[..., 0]
-        out_y[rows] = np.take_along_axis(np.broadcast_to(y[:, None, :], reach.shape), k[..., None], 2)[..., 0]
-    return np.stack((out_x, out_y), axis=2)
+        x = pos[r, 4, 0:1] + vel[r, 4, 0:1] * travels_a  # (R, K)
+        y = pos[r, 4, 1:2] + vel[r, 4, 1:2] * travels_a
+        dx = x[:, None, :] - pos[r, :4, 0][:, :, None]  # (R, 4, K)
+        dy = y[:, None, :] - pos[r, :4, 1][:, :, None]
+        reach = vmax[r][:, :, None] * times_a + cfg.control_radius
+        within = dx * dx + dy * dy <= reach * reach
+        within[:, :, -1] = True  # none within reach: the last point
+        k = within.argmax(axis=2)  # the first point within reach, (R, 4)
+        rr = rows(len(r))[:, None]
+        out[r, :, 0] = x[rr, k]
+        out[r, :, 1] = y[rr, k]
+    return out
 
 
 def support_spots(pos: np.ndarray, cfg: DrillConfig) -> np.ndarray:
     """``support_spot`` of each of the four players: ``(N, 4, 2)``."""
     size = cfg.field_size
-    bx, by = pos[:, 4, 0:1], pos[:, 4, 1:2]
-    px = pos[:, :4, 0]
-    side = np.where(px >= bx, 1.0, -1.0)
-    spot = bx + side * 11.0
+    bx = pos[:, 4, 0:1]
+    side = np.where(pos[:, :4, 0] >= bx, 11.0, -11.0)  # side * 11.0, exactly
+    spot = bx + side
     side = np.where((spot >= 3.0) & (spot <= size - 3.0), side, -side)
-    tx = np.clip(bx + side * 11.0, 2.0, size - 2.0)
-    ty = np.broadcast_to(np.clip(by - 3.0, 2.0, size - 2.0), tx.shape).copy()
-    for k in (0, 1):  # the two opponents in order, as the single code steps away
-        opp = pos[:, _OPPONENTS[:, k]]  # (N, 4, 2)
-        dx, dy = tx - opp[..., 0], ty - opp[..., 1]
-        dist = np.hypot(dx, dy)
-        ux, uy = _unit(dx, dy)
+    t = np.empty((len(pos), 4, 2))
+    tx = np.add(bx, side, out=t[..., 0])
+    np.minimum(np.maximum(tx, 2.0, out=tx), size - 2.0, out=tx)
+    t[..., 1] = pos[:, 4, 1:2] - 3.0
+    np.minimum(np.maximum(t[..., 1], 2.0, out=t[..., 1]), size - 2.0, out=t[..., 1])
+    for opponents in (_FIRST_OPPONENT, _SECOND_OPPONENT):  # in order, as the single code
+        d = t - pos[:, opponents]
+        dist = np.hypot(d[..., 0], d[..., 1])
         near = dist < 5.0
-        tx = np.where(near, tx + ux * (5.0 - dist), tx)
-        ty = np.where(near, ty + uy * (5.0 - dist), ty)
-    return np.stack((np.clip(tx, 1.0, size - 1.0), np.clip(ty, 1.0, size - 1.0)), axis=2)
+        step = _units(d, dist) * (5.0 - dist)[..., None]
+        t = np.where(near[..., None], t + step, t)
+    return np.minimum(np.maximum(t, 1.0, out=t), size - 1.0, out=t)
 
 
 def dribble_headings(pos: np.ndarray, player: np.ndarray, cfg: DrillConfig) -> np.ndarray:
     """``dribble_heading`` of attacker ``player[i]`` in drill ``i``: ``(N, 2)``."""
-    rows = np.arange(len(pos))
-    p = pos[rows, player]
+    p = pos[rows(len(pos)), player]
     px, py = p[:, 0:1], p[:, 1:2]
-    score = np.broadcast_to(_HSCORE, (len(pos), len(_HSCORE)))
+    score = _HSCORE
     for d in (2, 3):
         rx, ry = pos[:, d, 0:1] - px, pos[:, d, 1:2] - py
         ahead = rx * _HX + ry * _HY
@@ -120,29 +134,33 @@ def dribble_headings(pos: np.ndarray, player: np.ndarray, cfg: DrillConfig) -> n
     ex = px + _HX * 4.0
     score = score - np.where((ex >= 1.0) & (ex <= cfg.field_size - 1.0), 0.0, 3.0)
     best = score.argmax(axis=1)  # the first of equal scores in _HEADINGS order
-    return np.stack((_HX[best], _HY[best]), axis=1)
+    return _HEADING_VECTORS[best]
+
+
+_HEADING_VECTORS = np.stack((_HX, _HY), axis=1)
 
 
 def shield_directions(pos: np.ndarray, player: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``shield_direction`` of ``player[i]`` in drill ``i``."""
-    rows = np.arange(len(pos))
-    p = pos[rows, player]
-    o1, o2 = pos[rows, _OPPONENTS[player, 0]], pos[rows, _OPPONENTS[player, 1]]
+    r = rows(len(pos))
+    p = pos[r, player]
+    o1, o2 = pos[r, _FIRST_OPPONENT[player]], pos[r, _SECOND_OPPONENT[player]]
     d1 = np.hypot(o1[:, 0] - p[:, 0], o1[:, 1] - p[:, 1])
     d2 = np.hypot(o2[:, 0] - p[:, 0], o2[:, 1] - p[:, 1])
-    near = np.where((d2 < d1)[:, None], o2, o1)
-    return _unit(p[:, 0] - near[:, 0], p[:, 1] - near[:, 1])
+    away = p - np.where((d2 < d1)[:, None], o2, o1)
+    u = _units(away, np.hypot(away[:, 0], away[:, 1]))
+    return u[:, 0], u[:, 1]
 
 
 def pass_velocities(
     pos: np.ndarray, vel: np.ndarray, player: np.ndarray, noise: np.ndarray, cfg: DrillConfig
 ) -> np.ndarray:
     """``pass_velocity`` of ``player[i]``, with ``noise[i]`` its two standard normals."""
-    rows = np.arange(len(pos))
+    r = rows(len(pos))
     bx, by = pos[:, 4, 0], pos[:, 4, 1]
     mate = player ^ 1
-    mx, my = pos[rows, mate, 0], pos[rows, mate, 1]
-    mvx, mvy = vel[rows, mate, 0], vel[rows, mate, 1]
+    mx, my = pos[r, mate, 0], pos[r, mate, 1]
+    mvx, mvy = vel[r, mate, 0], vel[r, mate, 1]
     k = -math.log(max(cfg.ball_damping, 1e-6))
     dist = np.hypot(mx - bx, my - by)
     lead = dist / np.maximum(cfg.pass_arrival_speed + k * dist, 1e-6)
@@ -159,44 +177,45 @@ def pass_velocities(
 def mark_targets(pos: np.ndarray, holder: np.ndarray, fraction: float = 0.35) -> np.ndarray:
     """Where each of the four players marks (``MARK``): ``fraction`` of the way from its
     free opponent to the ball. ``(N, 4, 2)``."""
-    free = free_opponents(pos, holder)  # (N, 4)
-    rows = np.arange(len(pos))[:, None]
-    f = pos[rows, free]  # (N, 4, 2)
-    ball = pos[:, 4:5]
-    return f + fraction * (ball - f)
+    f = pos[rows(len(pos))[:, None], free_opponents(pos, holder)]  # (N, 4, 2)
+    return f + fraction * (pos[:, 4:5] - f)
 
 
 def free_opponents(pos: np.ndarray, holder: np.ndarray) -> np.ndarray:
     """``DrillState.free_opponent_of`` for each of the four players: ``(N, 4)`` indices."""
-    a, b = _OPPONENTS[:, 0], _OPPONENTS[:, 1]  # (4,)
-    ball = pos[:, 4:5]
-    da = np.hypot(pos[:, a, 0] - ball[..., 0], pos[:, a, 1] - ball[..., 1])
-    db = np.hypot(pos[:, b, 0] - ball[..., 0], pos[:, b, 1] - ball[..., 1])
+    d = pos[:, :4] - pos[:, 4:5]
+    dist = np.hypot(d[..., 0], d[..., 1])  # (N, 4): each player's distance to the ball
+    a, b = _FIRST_OPPONENT, _SECOND_OPPONENT
     h = holder[:, None]
-    return np.where(h == a, b, np.where(h == b, a, np.where(da > db, a, b)))
+    return np.where(h == a, b, np.where(h == b, a, np.where(dist[:, a] > dist[:, b], a, b)))
 
 
 def guard_targets(pos: np.ndarray, cfg: DrillConfig) -> np.ndarray:
     """``GUARD_LINE``'s spot (level with the ball, ``GUARD_DEPTH`` up): ``(N, 2)``."""
-    x = np.minimum(np.maximum(pos[:, 4, 0], 4.0), cfg.field_size - 4.0)
-    return np.stack((x, np.full_like(x, GUARD_DEPTH)), axis=1)
+    out = np.full((len(pos), 2), GUARD_DEPTH)
+    np.minimum(np.maximum(pos[:, 4, 0], 4.0), cfg.field_size - 4.0, out=out[:, 0])
+    return out
 
 
 def toward(pos: np.ndarray, target: np.ndarray, vmax: np.ndarray) -> np.ndarray:
     """The run of ``execute`` toward ``target`` at most ``vmax``, slowing on arrival."""
-    dx, dy = target[..., 0] - pos[..., 0], target[..., 1] - pos[..., 1]
-    dist = np.hypot(dx, dy)
+    d = target - pos
+    dist = np.hypot(d[..., 0], d[..., 1])
     speed = dist / _ARRIVE_SECONDS
     speed = np.where(speed < vmax, speed, vmax)
-    moving = dist >= 1e-6
-    safe = np.where(moving, dist, 1.0)  # dx / dist * speed, as the single code computes it
-    return np.stack(
-        (np.where(moving, dx / safe * speed, 0.0), np.where(moving, dy / safe * speed, 0.0)),
-        axis=-1,
-    )
+    moving = (dist >= 1e-6)[..., None]
+    d /= np.where(moving, dist[..., None], 1.0)  # dx / dist * speed, as the single code
+    d *= speed[..., None]
+    return np.where(moving, d, 0.0)
 
 
-_TO_BALL = (int(Skill.GO_TO_BALL), int(Skill.INTERCEPT))
+_TO_BALL_SKILLS = (int(Skill.GO_TO_BALL), int(Skill.INTERCEPT))
+_SKILL_TARGET = np.zeros(len(Skill), dtype=np.int8)  # which rule gives a skill's target
+_BY_INTERCEPTION, _BY_SUPPORT, _BY_MARK, _BY_GUARD = 1, 2, 3, 4
+_SKILL_TARGET[list(_TO_BALL_SKILLS)] = _BY_INTERCEPTION
+_SKILL_TARGET[int(Skill.GET_OPEN)] = _BY_SUPPORT
+_SKILL_TARGET[int(Skill.MARK)] = _BY_MARK
+_SKILL_TARGET[int(Skill.GUARD_LINE)] = _BY_GUARD
 
 
 def off_ball_targets(
@@ -208,20 +227,22 @@ def off_ball_targets(
     vmax: np.ndarray,
     cfg: DrillConfig,
 ) -> np.ndarray:
-    """The target of each player's off-ball skill (``(N, 4, 2)``; ball skills: any value)."""
-    out = target.copy()
-    to_ball = (skill == _TO_BALL[0]) | (skill == _TO_BALL[1])
-    if to_ball.any():
-        out = np.where(to_ball[..., None], interception_points(pos, vel, holder, vmax, cfg), out)
-    get_open = skill == int(Skill.GET_OPEN)
-    if get_open.any():
-        out = np.where(get_open[..., None], support_spots(pos, cfg), out)
-    mark = skill == int(Skill.MARK)
-    if mark.any():
-        out = np.where(mark[..., None], mark_targets(pos, holder), out)
-    guard = skill == int(Skill.GUARD_LINE)
-    if guard.any():
-        out = np.where(guard[..., None], guard_targets(pos, cfg)[:, None, :], out)
+    """The target of each player's off-ball skill (``(N, 4, 2)``; ball skills: any value).
+
+    ``target`` (the ``MOVE_TO`` targets) is not changed.
+    """
+    rule = _SKILL_TARGET[skill]
+    used = np.bincount(rule.ravel(), minlength=5)  # one call tells which rules are needed
+    out = target
+    if used[_BY_INTERCEPTION]:
+        out = np.where((rule == _BY_INTERCEPTION)[..., None],
+                       interception_points(pos, vel, holder, vmax, cfg), out)
+    if used[_BY_SUPPORT]:
+        out = np.where((rule == _BY_SUPPORT)[..., None], support_spots(pos, cfg), out)
+    if used[_BY_MARK]:
+        out = np.where((rule == _BY_MARK)[..., None], mark_targets(pos, holder), out)
+    if used[_BY_GUARD]:
+        out = np.where((rule == _BY_GUARD)[..., None], guard_targets(pos, cfg)[:, None, :], out)
     return out
 
 
@@ -236,48 +257,49 @@ def holder_motion(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """``execute`` of the ball skills for the holder ``holder[i]`` of each drill given.
 
-    ``skill`` and ``speed`` are the holder's command; ``noise`` the ``(N, 2)`` standard
-    normals of the drills that pass (any values elsewhere). Returns the desired velocity
-    ``(N, 2)``, the ball action ``(N,)`` and the ball vector ``(N, 2)``.
+    ``skill`` and ``speed`` are the holder's command (any other skill: no ball action);
+    ``holder`` must be an attacker's index where ``skill`` is a ball skill (any valid
+    index elsewhere); ``noise`` the ``(N, 2)`` standard normals of the drills that pass
+    (any values elsewhere). Returns the desired velocity ``(N, 2)``, the ball action
+    ``(N,)`` and the ball vector ``(N, 2)``.
     """
     n = len(pos)
-    rows = np.arange(n)
     mv = np.zeros((n, 2))
     bvec = np.zeros((n, 2))
-    action = np.zeros(n, dtype=np.int8)
-    dribble = skill == int(Skill.DRIBBLE)
-    if dribble.any():
-        r = rows[dribble]
-        h = dribble_headings(pos[r], holder[r], cfg)
-        v = cfg.dribble_speed * speed[r]
-        mv[r] = h * v[:, None]
-        bvec[r] = h
-        action[r] = CONTROL
-    hold = skill == int(Skill.HOLD)
-    if hold.any():
-        r = rows[hold]
-        sx, sy = shield_directions(pos[r], holder[r])
-        v = cfg.hold_speed * speed[r]
-        vx, vy = sx * v, sy * v
-        p = pos[r, holder[r]]
-        px, py = p[:, 0], p[:, 1]
-        lo, hi = _HOLD_EDGE, cfg.field_size - _HOLD_EDGE
-        vx = np.where(((px < lo) & (vx < 0)) | ((px > hi) & (vx > 0)), 0.0, vx)
-        vy = np.where(((py < lo) & (vy < 0)) | ((py > hi) & (vy > 0)), 0.0, vy)
-        side = ((px < lo) & (sx < 0)) | ((px > hi) & (sx > 0))
-        sx, sy = np.where(side, 0.0, sx), np.where(side, np.where(sy > 0, 1.0, -1.0), sy)
-        far = (py > hi) & (sy > 0)
-        sx, sy = np.where(far, np.where(sx > 0, 1.0, -1.0), sx), np.where(far, 0.0, sy)
-        mv[r] = np.stack((vx, vy), axis=1)
-        bvec[r] = np.stack((sx, sy), axis=1)
-        action[r] = CONTROL
-    kick = skill == int(Skill.PASS)
-    if kick.any():
-        r = rows[kick]
+    action = _BALL_ACTION[np.where((skill >= 0) & (skill < len(_BALL_ACTION)), skill, 3)]
+    used = np.bincount(action, minlength=3)
+    if used[CONTROL]:
+        dribble = skill == int(Skill.DRIBBLE)
+        hold = skill == int(Skill.HOLD)
+        if dribble.any():
+            h = dribble_headings(pos, holder, cfg)
+            v = cfg.dribble_speed * speed
+            np.copyto(mv, h * v[:, None], where=dribble[:, None])
+            np.copyto(bvec, h, where=dribble[:, None])
+        if hold.any():
+            s = np.stack(shield_directions(pos, holder), axis=1)  # (N, 2)
+            v = s * (cfg.hold_speed * speed)[:, None]
+            p = pos[rows(n), holder]
+            lo, hi = _HOLD_EDGE, cfg.field_size - _HOLD_EDGE
+            below, above = p < lo, p > hi
+            v[(below & (v < 0)) | (above & (v > 0))] = 0.0
+            sx, sy = s[:, 0], s[:, 1]
+            side = (below[:, 0] & (sx < 0)) | (above[:, 0] & (sx > 0))
+            sx, sy = np.where(side, 0.0, sx), np.where(side, np.where(sy > 0, 1.0, -1.0), sy)
+            far = above[:, 1] & (sy > 0)
+            sx, sy = np.where(far, np.where(sx > 0, 1.0, -1.0), sx), np.where(far, 0.0, sy)
+            np.copyto(mv, v, where=hold[:, None])
+            np.copyto(bvec, np.stack((sx, sy), axis=1), where=hold[:, None])
+    if used[KICK]:
+        r = np.flatnonzero(action == KICK)
         assert noise is not None
         bvec[r] = pass_velocities(pos[r], vel[r], holder[r], noise[r], cfg)
-        action[r] = KICK
     return mv, action, bvec
+
+
+_BALL_ACTION = np.zeros(len(Skill), dtype=np.int64)  # a skill's ball action
+_BALL_ACTION[[int(Skill.HOLD), int(Skill.DRIBBLE)]] = CONTROL
+_BALL_ACTION[int(Skill.PASS)] = KICK
 
 
 def turn_toward(

@@ -33,6 +33,8 @@ from soccer_drill.teams import Team, TeamDriver, TeamError, make_team, team_para
 
 _ALLOWED = np.array(sorted(int(s) for s in Skill if s not in BALL_SKILLS))
 _MOVE_TO = int(Skill.MOVE_TO)
+_IS_ALLOWED = np.zeros(len(Skill), dtype=bool)  # by skill value: may a scripted defender use it
+_IS_ALLOWED[_ALLOWED] = True
 
 
 class BatchCommands(NamedTuple):
@@ -121,35 +123,40 @@ class BatchRandom:
 
     ``random(drills)`` gives one uniform per drill of ``drills`` (distinct indices), each
     the next ``Generator.random()`` of that drill's generator: the same numbers, in the
-    same order, as calling each generator one draw at a time.
+    same order, as calling each generator one draw at a time. A drill given a seed
+    rather than a generator gets ``np.random.default_rng(seed)`` at its first draw (most
+    teams never draw, and making a generator costs as much as a dozen array operations).
     """
 
     def __init__(self, n: int, block: int = 64, normal: bool = False) -> None:
-        self._generators: list[np.random.Generator | None] = [None] * n
+        self._generators: list[np.random.Generator | int | None] = [None] * n
         self._block = block
         self._buffer = np.empty((n, block))
         self._next = np.full(n, block)
         self._normal = normal
 
-    def seed(self, drills: np.ndarray, generators: list[np.random.Generator]) -> None:
-        """Draw from now on from ``generators`` for ``drills``."""
+    def seed(self, drills: np.ndarray, generators: list[np.random.Generator | int]) -> None:
+        """Draw from now on from ``generators`` (or generators of these seeds) for ``drills``."""
         for i, g in zip(drills.tolist(), generators, strict=True):
             self._generators[i] = g
         self._next[drills] = self._block
 
     def random(self, drills: np.ndarray) -> np.ndarray:
         """The next draw of each drill in ``drills`` (standard normals if ``normal``)."""
-        empty = drills[self._next[drills] >= self._block]
-        for i in empty.tolist():
-            g = self._generators[i]
-            if g is None:
-                raise RuntimeError(f"drill {i}: no generator; reset the drill first")
-            if self._normal:
-                g.standard_normal(out=self._buffer[i])
-            else:
-                g.random(out=self._buffer[i])
-        self._next[empty] = 0
         k = self._next[drills]
+        empty = k >= self._block
+        if empty.any():
+            for i in drills[empty].tolist():
+                g = self._generators[i]
+                if g is None:
+                    raise RuntimeError(f"drill {i}: no generator; reset the drill first")
+                if not isinstance(g, np.random.Generator):
+                    g = self._generators[i] = np.random.default_rng(g)
+                if self._normal:
+                    g.standard_normal(out=self._buffer[i])
+                else:
+                    g.random(out=self._buffer[i])
+            k[empty] = 0
         self._next[drills] = k + 1
         return self._buffer[drills, k]
 
@@ -233,15 +240,20 @@ class BatchTeamDriver:
         for i in drills.tolist():
             self._slots[i].state = self._batch.state_of(i)
 
-    def reset(self, drills: np.ndarray, generators: list[np.random.Generator]) -> None:
-        """Start an episode in each of ``drills``; ``generators`` are their teams' streams."""
+    def reset(self, drills: np.ndarray, seeds: list[int]) -> None:
+        """Start an episode in each of ``drills``; ``seeds`` seed their teams' streams
+        (``np.random.default_rng(seed)``, made when a batched team first draws)."""
         if self.batched is not None:
-            self.rng.seed(drills, generators)
+            self.rng.seed(drills, seeds)
             self._bound.call("reset()", "", self.batched.reset, self.view, drills, self.rng)
             return
         self._refresh(drills)
-        for i, g in zip(drills.tolist(), generators, strict=True):
-            self._drivers[i].reset(self._views[i], g)
+        self._each_bound.team_timeout = self._scaled(drills)
+        self._each_bound.call("reset()", "", self._each_reset, drills, seeds)
+
+    def _each_reset(self, drills: np.ndarray, seeds: list[int]) -> None:
+        for i, s in zip(drills.tolist(), seeds, strict=True):
+            self._drivers[i].reset(self._views[i], np.random.default_rng(s))
 
     def act(self, drills: np.ndarray, skill: np.ndarray, target: np.ndarray, speed: np.ndarray) -> None:
         """Write the team's commands for ``drills`` into columns 2 and 3 of the arrays."""
@@ -320,17 +332,19 @@ def check_commands(
             f"{int(cycles[drills[r]])}: {what}"
         )
 
-    bad = ~np.isin(skill, _ALLOWED)
-    if bad.any():
-        r, k = map(int, np.argwhere(bad)[0])
+    # One test of everything (the usual case), then, only if it fails, which and where.
+    in_range = (skill >= 0) & (skill < len(_IS_ALLOWED))
+    allowed = _IS_ALLOWED[np.where(in_range, skill, 0)] & in_range
+    good_speed = (speed > 0.0) & (speed <= 1.0)  # NaN fails too
+    finite = (skill != _MOVE_TO) | (np.isfinite(target[..., 0]) & np.isfinite(target[..., 1]))
+    if (allowed & good_speed & finite).all():
+        return BatchCommands(skill, target, speed)
+    if not allowed.all():
+        r, k = map(int, np.argwhere(~allowed)[0])
         raise fail(r, k, f"skill {int(skill[r, k])} is not allowed for a scripted defender; "
                          f"allowed: {[Skill(s).name + '=' + str(int(s)) for s in _ALLOWED]}")
-    bad = ~((speed > 0.0) & (speed <= 1.0))  # NaN fails too
-    if bad.any():
-        r, k = map(int, np.argwhere(bad)[0])
+    if not good_speed.all():
+        r, k = map(int, np.argwhere(~good_speed)[0])
         raise fail(r, k, f"speed must be in (0, 1], got {float(speed[r, k])!r}")
-    bad = (skill == _MOVE_TO) & ~np.isfinite(target).all(axis=2)
-    if bad.any():
-        r, k = map(int, np.argwhere(bad)[0])
-        raise fail(r, k, f"MOVE_TO needs a finite (x, y) target, got {tuple(target[r, k].tolist())}")
-    return BatchCommands(skill, target, speed)
+    r, k = map(int, np.argwhere(~finite)[0])
+    raise fail(r, k, f"MOVE_TO needs a finite (x, y) target, got {tuple(target[r, k].tolist())}")

@@ -10,9 +10,11 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from soccer_drill.batch import OUTCOME_NAMES
 from soccer_drill.batch_core import BatchCore, check_num_envs
 from soccer_drill.batch_features import batch_features
 from soccer_drill.batch_physics import DRILLS_PER_SPACE
+from soccer_drill.batch_render import BatchRenderer, check_render_mode
 from soccer_drill.config import DrillConfig
 from soccer_drill.core import make_config
 from soccer_drill.features import feature_bounds
@@ -108,10 +110,12 @@ class HolderVectorEnv(VectorEnv):
     | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take (a team without a batched ``act``: that times the drills acting) |
     | ``autoreset_mode`` | ``NEXT_STEP`` | see Autoreset |
     | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
-    | ``render_mode`` | ``None`` | only ``None``: render a single ``HolderEnv`` |
+    | ``render_mode`` | ``None`` | ``None`` or ``"rgb_array"``: ``render()`` returns a tuple of ``num_envs`` frames ``(H, W, 3)`` uint8, one per drill, as ``SyncVectorEnv.render`` does (a window or a video of every cycle: a single ``HolderEnv``) |
     """
 
-    metadata: ClassVar[dict] = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+    metadata: ClassVar[dict] = {
+        "render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
 
     def __init__(
         self,
@@ -133,11 +137,7 @@ class HolderVectorEnv(VectorEnv):
             raise ValueError(f"decision_cycles must be an integer in 1..50, got {decision_cycles!r}")
         if opponent is None:
             raise ValueError("HolderVectorEnv needs a scripted opponent team (a team id or Team)")
-        if render_mode is not None:
-            raise ValueError(
-                f"HolderVectorEnv draws nothing (render_mode must be None, got {render_mode!r}); "
-                "render a single HolderEnv"
-            )
+        self.render_mode = check_render_mode(render_mode, type(self).__name__)
         try:
             mode = AutoresetMode(autoreset_mode)
         except ValueError:
@@ -150,7 +150,6 @@ class HolderVectorEnv(VectorEnv):
         self.num_envs = n
         self.autoreset_mode = mode
         self.metadata = {**self.metadata, "autoreset_mode": mode}
-        self.render_mode = None
         self.decision_cycles = decision_cycles
         self.config = make_config(config, max_cycles)
         self._core = BatchCore(
@@ -171,6 +170,7 @@ class HolderVectorEnv(VectorEnv):
         self._decider = np.zeros(n, dtype=np.int64)
         self._action = np.zeros(n, dtype=np.int64)
         self._left = np.zeros(n, dtype=np.int64)
+        self._renderer = BatchRenderer(self.config) if self.render_mode else None
 
     # ------------------------------------------------------------------ reset
     def reset(
@@ -302,14 +302,10 @@ class HolderVectorEnv(VectorEnv):
         core, b = self._core, self._core.batch
         running, in_action, decider = self._running, self._in_action, self._decider
         act = np.flatnonzero(in_action)
-        free = np.flatnonzero(running & ~in_action)
+        free = running & ~in_action  # the ball is loose: both attackers support
         core.skill[act, decider[act]] = _HOLDER_SKILLS[self._action[act]]
         core.speed[act, decider[act]] = 1.0
-        mates = decider[act] ^ 1
-        core.support_commands(
-            np.sort(np.concatenate((act[mates == 0], free))),
-            np.sort(np.concatenate((act[mates == 1], free))),
-        )
+        core.support_commands((in_action & (decider == 1)) | free, (in_action & (decider == 0)) | free)
         core.advance(running)
         ended = b.outcome != 0
         self._left -= in_action
@@ -326,8 +322,6 @@ class HolderVectorEnv(VectorEnv):
 
     def _infos(self, duration: np.ndarray) -> dict[str, Any]:
         b = self._core.batch
-        from soccer_drill.batch import OUTCOME_NAMES
-
         outcome = np.array(OUTCOME_NAMES, dtype=object)[b.outcome]
         holder = np.where(b.outcome == 0, b.holder, -1)
         everyone = np.ones(self.num_envs, dtype=bool)
@@ -338,29 +332,45 @@ class HolderVectorEnv(VectorEnv):
             "holder": _NAMES[holder], "_holder": everyone.copy(),
         }
 
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """One frame per drill with ``render_mode="rgb_array"`` (else ``None``)."""
+        if self._renderer is None:
+            return None
+        return self._renderer.frames(self._core.batch, self._has_reset)
+
     def close_extras(self, **kwargs: Any) -> None:
-        """Nothing to close (no window, no worker)."""
+        """Let go of the renderer, if any (no window, no worker)."""
+        if self._renderer is not None:
+            self._renderer.close()
 
 
 def play_episodes(
     env: HolderVectorEnv,
-    policy: Callable[[np.ndarray, np.random.Generator], int],
+    policy: Callable[[np.ndarray, np.random.Generator], int]
+    | Sequence[Callable[[np.ndarray, np.random.Generator], int]],
     seeds: Sequence[int],
 ) -> list[tuple[float, str]]:
     """Play one episode per seed with a fixed holder ``policy``, no drill ever waiting.
 
     Episode ``k`` is a ``HolderEnv`` episode from ``reset(seed=seeds[k])`` (up to the
     batch's physics, see the class docstring); ``policy(obs, rng)`` (a rule of
-    :mod:`soccer_drill.policies`) decides each time the holder may, with ``rng`` a
-    generator of that episode (``np.random.default_rng(seeds[k])``). As soon as a
-    drill's holder reaches a decision it gets its action and runs on, and a drill whose
-    episode ends starts the next seed, so the batch stays full: what a Gymnasium
-    ``step`` cannot do (each of its drills waits for the others' decisions).
-    Returns ``(total reward, outcome)`` per seed, in the order of ``seeds``. The
-    environment must then be ``reset()`` before it is stepped.
+    :mod:`soccer_drill.policies`), or ``policy[k]`` if a sequence of one rule per seed is
+    given, decides each time the holder may, with ``rng`` a generator of that episode
+    (``np.random.default_rng(seeds[k])``). As soon as a drill's holder reaches a decision
+    it gets its action and runs on, and a drill whose episode ends starts the next seed,
+    so the batch stays full: what a Gymnasium ``step`` cannot do (each of its drills
+    waits for the others' decisions). Several rules in one call keep a batch full for
+    longer than one rule's episodes would (calibration plays every rule against a team
+    at once). Returns ``(total reward, outcome)`` per seed, in the order of ``seeds``.
+    The environment must then be ``reset()`` before it is stepped.
     """
     core, b, n = env._core, env._core.batch, env.num_envs
     seeds = [int(s) for s in seeds]
+    policies = [policy] * len(seeds) if callable(policy) else list(policy)
+    if len(policies) != len(seeds) or not all(callable(p) for p in policies):
+        raise ValueError(
+            f"policy must be a holder rule or a sequence of {len(seeds)} rules (one per seed)"
+        )
     results: list[tuple[float, str] | None] = [None] * len(seeds)
     episode = np.full(n, -1)  # the seed index each drill plays, -1: none left
     rngs: list[np.random.Generator | None] = [None] * n
@@ -377,8 +387,7 @@ def play_episodes(
             episode[i] = following
             following += 1
         episode[drills[len(take):]] = -1
-        if len(take):
-            core.reset(take)
+        core.reset(take)
 
     start(np.arange(n))
     while (episode >= 0).any():
@@ -387,15 +396,13 @@ def play_episodes(
             obs = env._observe()
             actions = np.zeros(n, dtype=np.int64)
             for i in deciding.tolist():
-                actions[i] = policy(obs[i], rngs[i])  # type: ignore[arg-type]
+                actions[i] = policies[episode[i]](obs[i], rngs[i])  # type: ignore[arg-type]
             env._begin(deciding, actions)
         env._cycle()
         ended = np.flatnonzero((episode >= 0) & (b.outcome != 0))
         if len(ended):
-            from soccer_drill.batch import OUTCOME_NAMES
-
             for i in ended.tolist():
-                results[episode[i]] = (float(b.attacker_reward[i]), str(OUTCOME_NAMES[b.outcome[i]]))
+                results[episode[i]] = (float(b.attacker_reward[i]), OUTCOME_NAMES[b.outcome[i]])
             env._running[ended] = False
             start(ended)
     env._has_reset = False

@@ -3,27 +3,31 @@
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
 
 from soccer_drill.batch import OUTCOME_NAMES, RUNNING
 from soccer_drill.batch_core import BatchCore, check_num_envs
-from soccer_drill.batch_features import batch_features, batch_kinematics
+from soccer_drill.batch_features import batch_global_state, batch_kinematics, players_features
 from soccer_drill.batch_physics import DRILLS_PER_SPACE
+from soccer_drill.batch_render import BatchRenderer, check_render_mode
 from soccer_drill.config import DrillConfig
 from soccer_drill.core import IllegalAction, ObsType, make_config
-from soccer_drill.features import feature_bounds, kinematic_bounds
+from soccer_drill.features import feature_bounds, kinematic_bounds, state_bounds
 from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
 
 _HOLDER_MASK = np.array([1, 1, 1, 0, 0], dtype=np.int8)
 _OFF_BALL_MASK = np.array([0, 0, 0, 1, 1], dtype=np.int8)
+_DEFENDER_MASK = np.ones(len(DEFENDER_ACTIONS), dtype=np.int8)
+_SHARED_DEFENDER_MASK = np.array([1, 1, 1, 0, 0], dtype=np.int8)  # Discrete(5), 3 and 4 masked
 _ATTACKER_SKILLS = np.array([int(s) for s in ATTACKER_ACTIONS])
 _DEFENDER_SKILLS = np.array([int(s) for s in DEFENDER_ACTIONS])
 _DEFAULT_ATTACKER = (3, 0)  # off the ball: GET_OPEN; holder: HOLD
+_DEFAULT_DEFENDER = 0  # INTERCEPT
 _OUTCOMES = np.array(OUTCOME_NAMES, dtype=object)
 
 
@@ -43,14 +47,22 @@ class ParallelVectorEnv:
     |---|---|---|---|
     | attacker | ``Discrete(5)`` | 0 HOLD, 1 PASS, 2 DRIBBLE (holder only), 3 GET_OPEN, 4 GO_TO_BALL (off the ball only) | ``Box(9,)`` features, or ``Box(26,)`` with ``obs_type="kinematic"`` |
     | defender | ``Discrete(3)`` | 0 INTERCEPT, 1 MARK, 2 GUARD_LINE (always legal) | the same, from the defender's side |
+    | defender, ``shared_spaces=True`` | ``Discrete(5)`` | 0-2 as above; 3 and 4 always masked | the same |
 
-    ``observation_space(agent)`` and ``action_space(agent)`` are one drill's spaces.
+    ``observation_space(agent)`` and ``action_space(agent)`` are one drill's spaces. With
+    shared spaces (as ``parallel_env``'s, the default with no opponent) every agent has the same spaces, and
+    one more value ends every observation: 1 for an attacker, 0 for a defender.
+    ``state()`` is every drill's :func:`~soccer_drill.features.global_state` (29 values,
+    the layout of ``parallel_env``'s ``state()``): ``(num_envs, 29)`` float32 in
+    ``state_space`` batched (``state_space`` is one drill's ``Box``).
 
     ## Calls
 
     | call | returns |
     |---|---|
     | ``reset(seed=None)`` | ``(observations, infos)`` |
+    | ``state()`` | ``(num_envs, 29)`` float32: every drill's global state |
+    | ``render()`` | with ``render_mode="rgb_array"``: a tuple of ``num_envs`` frames ``(H, W, 3)`` uint8, one per drill (as ``SyncVectorEnv.render``); else ``None`` |
     | ``step(actions)`` | ``(observations, rewards, terminations, truncations, infos)`` |
     | ``action_masks()`` | ``{agent: (num_envs, n) int8}``, 1 = legal now |
 
@@ -77,7 +89,8 @@ class ParallelVectorEnv:
     ## Illegal actions
 
     ``illegal_action="default"`` (default, as ``parallel_env``) replaces a masked action by
-    the role's default (HOLD for the holder, GET_OPEN off the ball) and reports it in
+    the role's default (HOLD for the holder, GET_OPEN off the ball, INTERCEPT for a
+    defender with shared spaces) and reports it in
     ``infos``; ``"raise"`` raises ``ValueError`` naming the drill, the agent, the action
     and the legal ones, before any drill moves. An action out of range always raises,
     naming the drill.
@@ -104,7 +117,11 @@ class ParallelVectorEnv:
     | ``illegal_action`` | ``"default"`` | ``"default"`` or ``"raise"`` |
     | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take |
     | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
+    | ``shared_spaces`` | ``None`` | as ``parallel_env``'s: ``None`` is ``True`` with no opponent (every agent has the same action and observation spaces), ``False`` with one; ``False``: per-role spaces |
+    | ``render_mode`` | ``None`` | ``None`` or ``"rgb_array"`` (see Calls) |
     """
+
+    metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "name": "soccer_drill_vector_v0"}
 
     def __init__(
         self,
@@ -117,8 +134,18 @@ class ParallelVectorEnv:
         illegal_action: IllegalAction = "default",
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
         drills_per_space: int = DRILLS_PER_SPACE,
+        shared_spaces: bool | None = None,
+        render_mode: str | None = None,
     ) -> None:
         n = check_num_envs(num_envs)
+        if shared_spaces is None:  # identical spaces whenever the defenders are agents too
+            shared_spaces = opponent is None
+        elif not isinstance(shared_spaces, bool):
+            raise TypeError(
+                "shared_spaces must be None (identical spaces when there is no opponent), "
+                f"True or False, got {shared_spaces!r}"
+            )
+        self.render_mode = check_render_mode(render_mode, type(self).__name__)
         if obs_type not in ("features", "kinematic"):
             raise ValueError(f"obs_type must be 'features' or 'kinematic', got {obs_type!r}")
         if illegal_action not in ("raise", "default"):
@@ -132,13 +159,24 @@ class ParallelVectorEnv:
         self.possible_agents = [PLAYER_NAMES[i] for i in indices]
         self.agents = list(self.possible_agents)
         self._index = {a: PLAYER_NAMES.index(a) for a in self.possible_agents}
+        self._indices = tuple(self._index.values())
         bounds = feature_bounds(self.config) if obs_type == "features" else kinematic_bounds(self.config)
         self._low, self._high = (x.astype(np.float64) for x in bounds)
+        self.shared_spaces = shared_spaces
+        if shared_spaces:  # a trailing role flag tells one shared policy which side it plays
+            bounds = (np.append(bounds[0], 0.0).astype(np.float32),
+                      np.append(bounds[1], 1.0).astype(np.float32))
+            self._role = np.array([1.0 if i < 2 else 0.0 for i in self._indices], dtype=np.float32)
         self._obs_box = spaces.Box(*bounds, dtype=np.float32)
+        self._defender_mask = _SHARED_DEFENDER_MASK if shared_spaces else _DEFENDER_MASK
         self._spaces = {
-            a: spaces.Discrete(len(ATTACKER_ACTIONS if i < 2 else DEFENDER_ACTIONS))
+            a: spaces.Discrete(len(ATTACKER_ACTIONS if i < 2 or shared_spaces else DEFENDER_ACTIONS))
             for a, i in self._index.items()
         }
+        low, high = state_bounds(self.config)
+        self._state_bounds = (low, high)
+        self.state_space = spaces.Box(low, high, dtype=np.float32)
+        self._renderer = BatchRenderer(self.config) if self.render_mode else None
         self._autoreset = np.zeros(n, dtype=bool)
         self._has_reset = False
 
@@ -169,7 +207,7 @@ class ParallelVectorEnv:
         out = {}
         for agent, i in self._index.items():
             if i >= 2:
-                out[agent] = np.ones((self.num_envs, 3), dtype=np.int8)
+                out[agent] = np.broadcast_to(self._defender_mask, (self.num_envs, len(self._defender_mask))).copy()
             else:
                 out[agent] = np.where((holder == i)[:, None], _HOLDER_MASK, _OFF_BALL_MASK)
         return out
@@ -178,12 +216,19 @@ class ParallelVectorEnv:
         b = self._core.batch
         masks = self.action_masks()
         out = {}
+        if self.obs_type == "features":  # every agent's in one pass
+            every = players_features(b.pos, self._indices, self.config, self._low, self._high)
+            if self.shared_spaces:
+                every = np.concatenate(
+                    (every, np.broadcast_to(self._role[:, None], (*every.shape[:2], 1))), axis=2)
+            for k, agent in enumerate(self._index):
+                out[agent] = {"observation": every[:, k], "action_mask": masks[agent]}
+            return out
         locked = np.where(b.cycle < b.lockout_until, b.passer, -1)
-        for agent, i in self._index.items():
-            if self.obs_type == "features":
-                obs = batch_features(b.pos, np.full(self.num_envs, i), self.config, self._low, self._high)
-            else:
-                obs = batch_kinematics(b.pos, b.vel, b.holder, locked, i, self._low, self._high)
+        for k, (agent, i) in enumerate(self._index.items()):
+            obs = batch_kinematics(b.pos, b.vel, b.holder, locked, i, self._low, self._high)
+            if self.shared_spaces:
+                obs = np.concatenate((obs, np.full((self.num_envs, 1), self._role[k])), axis=1)
             out[agent] = {"observation": obs, "action_mask": masks[agent]}
         return out
 
@@ -216,7 +261,7 @@ class ParallelVectorEnv:
                 d = int(bad[0])
                 raise ValueError(
                     f"drill {d}: action {int(a[d])} for {agent!r} is out of range; allowed: "
-                    f"0..{n_actions - 1} ({_names(i)})"
+                    f"0..{n_actions - 1} ({_names(i, n_actions)})"
                 )
             legal = masks[agent][np.arange(self.num_envs), np.clip(a, 0, n_actions - 1)] == 1
             masked = np.flatnonzero(stepping & ~legal)
@@ -225,16 +270,20 @@ class ParallelVectorEnv:
             if len(masked):
                 if self.illegal_action == "raise":
                     d = int(masked[0])
-                    legal_now = [f"{k}={ATTACKER_ACTIONS[k].name}" for k in np.flatnonzero(masks[agent][d])]
+                    names = _action_names(i, n_actions)
+                    legal_now = [f"{k}={names[k]}" for k in np.flatnonzero(masks[agent][d])]
                     raise ValueError(
-                        f"drill {d}: action {int(a[d])} ({ATTACKER_ACTIONS[int(a[d])].name}) is "
+                        f"drill {d}: action {int(a[d])} ({names[int(a[d])]}) is "
                         f"masked for {agent!r} at cycle {int(b.cycle[d])}; legal actions now: "
                         f"{legal_now}. illegal_action='default' replaces a masked action by the "
                         "role's default action instead (and reports it in infos)"
                     )
                 given[masked] = a[masked]
                 a = a.copy()
-                a[masked] = np.where(b.holder[masked] == i, _DEFAULT_ATTACKER[1], _DEFAULT_ATTACKER[0])
+                a[masked] = (
+                    np.where(b.holder[masked] == i, _DEFAULT_ATTACKER[1], _DEFAULT_ATTACKER[0])
+                    if i < 2 else _DEFAULT_DEFENDER
+                )
                 done[masked] = a[masked]
             checked[agent], illegal[agent], taken[agent] = a, given, done
         for agent, i in self._index.items():
@@ -266,10 +315,29 @@ class ParallelVectorEnv:
             self._infos(illegal, taken),
         )
 
+    def state(self) -> np.ndarray:
+        """Every drill's global state: ``(num_envs, 29)`` float32 (see the class docstring)."""
+        if not self._has_reset:
+            raise RuntimeError("state() called before reset(); call reset() first")
+        return batch_global_state(self._core.batch, self.config, *self._state_bounds)
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """One frame per drill with ``render_mode="rgb_array"`` (else ``None``)."""
+        if self._renderer is None:
+            return None
+        return self._renderer.frames(self._core.batch, self._has_reset)
+
     def close(self) -> None:
-        """Nothing to close."""
+        """Let go of the renderer, if any."""
+        if self._renderer is not None:
+            self._renderer.close()
 
 
-def _names(index: int) -> str:
+def _action_names(index: int, n: int) -> list[str]:
+    """The names of an agent's ``n`` actions (a defender's last two: masked, unused)."""
     actions = ATTACKER_ACTIONS if index < 2 else DEFENDER_ACTIONS
-    return ", ".join(f"{k}={s.name}" for k, s in enumerate(actions))
+    return [s.name for s in actions] + ["(unused)"] * (n - len(actions))
+
+
+def _names(index: int, n: int) -> str:
+    return ", ".join(f"{k}={name}" for k, name in enumerate(_action_names(index, n)))

@@ -276,7 +276,7 @@ def test_play_episodes_plays_each_seed_once_and_is_deterministic():
 
 
 def test_batched_multi_agent_env():
-    venv = ParallelVectorEnv(num_envs=16, opponent=None, illegal_action="raise")
+    venv = ParallelVectorEnv(num_envs=16, opponent=None, illegal_action="raise", shared_spaces=False)
     obs, infos = venv.reset(seed=1)
     assert venv.agents == ["attacker_0", "attacker_1", "defender_0", "defender_1"]
     assert obs["attacker_0"]["observation"].shape == (16, 9)
