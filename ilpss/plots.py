@@ -24,6 +24,10 @@ from ilpss.metrics import mean_curve_band, smooth
 __all__ = ["plot_learning_curves", "plot_score_profiles"]
 
 
+LEGEND_INSIDE_AT_MOST = 5
+"""Curves whose legend fits inside the axes; with more it goes below them."""
+
+
 def _x_for(name: str, n: int, x: Mapping[str, ArrayLike] | ArrayLike | None) -> np.ndarray:
     """x coordinates of method ``name``: 1..n by default, else from ``x``."""
     if x is None:
@@ -100,10 +104,13 @@ def plot_learning_curves(
         raise ValueError("curves is empty: nothing to plot")
     path = Path(path)
 
-    fig = Figure(figsize=(7.0, 4.5), layout="constrained")
+    crowded = len(curves) > LEGEND_INSIDE_AT_MOST
+    fig = Figure(figsize=(7.0, 4.5 + (0.2 * ((len(curves) + 1) // 2) if crowded else 0.0)),
+                 layout="constrained")
     FigureCanvasAgg(fig)  # explicit Agg canvas: no display, no pyplot state
     ax = fig.add_subplot()
     palette = [f"C{i}" for i in range(10)]
+    styles = ("-", "--", ":")
 
     for i, (name, raw) in enumerate(curves.items()):
         arr = np.asarray(raw, dtype=float)
@@ -113,13 +120,15 @@ def plot_learning_curves(
         n_seeds, n_eps = sm.shape
         xs = _x_for(name, n_eps, x)
         colour = palette[i % len(palette)]
+        style = styles[(i // len(palette)) % len(styles)]
         label = f"{name} (n={n_seeds} seed{'s' if n_seeds != 1 else ''})"
         if band and n_seeds >= 2:
             mean, low, high = mean_curve_band(sm, n_boot=n_boot, confidence=confidence, seed=seed)
-            ax.fill_between(xs, low, high, color=colour, alpha=0.2, linewidth=0)
+            ax.fill_between(xs, low, high, color=colour, alpha=0.1 if crowded else 0.2,
+                            linewidth=0)
         else:
             mean = sm.mean(axis=0)
-        ax.plot(xs, mean, color=colour, linewidth=1.5, label=label)
+        ax.plot(xs, mean, color=colour, linestyle=style, linewidth=1.5, label=label)
 
     for label, pos in (markers or {}).items():
         ax.axvline(pos, color="0.4", linestyle="--", linewidth=0.8)
@@ -141,7 +150,11 @@ def plot_learning_curves(
     ax.set_ylabel(ylabel + (f" (trailing mean over {window})" if window > 1 else ""))
     ax.grid(True, alpha=0.3)
     legend_title = f"mean, {confidence * 100:g}% bootstrap band" if band else "mean"
-    ax.legend(title=legend_title, fontsize=8, title_fontsize=8, loc="best")
+    if crowded:
+        fig.legend(title=legend_title, fontsize=8, title_fontsize=8, loc="outside lower center",
+                   ncols=2)
+    else:
+        ax.legend(title=legend_title, fontsize=8, title_fontsize=8, loc="best")
 
     return save_figure(fig, path, format="png", dpi=dpi)
 

@@ -37,7 +37,7 @@ from ilpss.metrics import (
     trend_slopes,
     wilson_interval,
 )
-from ilpss.plots import plot_learning_curves, plot_score_profiles
+from ilpss.plots import LEGEND_INSIDE_AT_MOST, plot_learning_curves, plot_score_profiles
 
 # Tiny hand-checked curves (length 6).
 T = np.array([0.0, 0.5, 0.5, 1.0, 1.0, 1.0])
@@ -615,6 +615,23 @@ def test_plot_learning_curves_writes_png(tmp_path):
         band=False,
     )  # fmt: skip
     assert sorted(p.name for p in out.parent.iterdir()) == ["curves.png"]
+
+
+def test_many_curves_get_their_legend_below_the_axes_where_it_hides_none(tmp_path):
+    from PIL import Image
+
+    rng = np.random.default_rng(0)
+    curves = {f"method {i}": rng.normal(0.0, 0.3, size=(3, 40)) for i in range(11)}
+
+    def height(n: int) -> int:
+        out = plot_learning_curves(dict(list(curves.items())[:n]), tmp_path / f"{n}.png",
+                                   title="t", n_boot=50)
+        with Image.open(out) as image:
+            return image.size[1]
+
+    few = height(LEGEND_INSIDE_AT_MOST)
+    assert height(LEGEND_INSIDE_AT_MOST + 1) > few  # the legend takes rows of its own
+    assert height(11) > height(LEGEND_INSIDE_AT_MOST + 1)
 
 
 def test_plot_learning_curves_validation(tmp_path):
