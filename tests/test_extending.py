@@ -1,8 +1,10 @@
 """Each row of docs/architecture.md's "Where a change belongs", done once.
 
-A new lifelong method, a new method with its own learner, a new protocol and a new team
-are each added from here, touching only what the table says, and run through the
-experiment runner; every setting's constraint is declared once and reaches its user.
+A new lifelong method, a method with its own learner, a protocol, a way of reusing past
+policies, a metric, a report section, a method's series and a team are each added from
+here, touching only what the table says (tests/test_change_table.py checks that), and run
+through the experiment runner; a run that cannot be reported is refused when it is
+configured, and every setting's constraint is declared once and reaches its user.
 """
 
 from __future__ import annotations
