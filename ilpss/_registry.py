@@ -31,11 +31,14 @@ class Registry:
         The entry-point group read once, on first use.
     kind : str
         What an entry is, for error messages (e.g. ``"sampler"``).
+    of : type, optional
+        The class of the objects that :meth:`add` registers under their ``name``.
     """
 
-    def __init__(self, group: str, kind: str) -> None:
+    def __init__(self, group: str, kind: str, of: type | None = None) -> None:
         self.group = group
         self.kind = kind
+        self.of = of
         self._entries: dict[str, Any] = {}  # name -> EntryPoint (not loaded) or object
         self._loaded: dict[str, Any] = {}
         self._discovered = False
@@ -64,6 +67,15 @@ class Registry:
             raise ValueError(f"{self.kind} {name!r} is already registered; pass overwrite=True")
         self._entries[name] = obj
         self._loaded[name] = obj
+
+    def add(self, obj: Any, *, overwrite: bool = False) -> None:
+        """Register ``obj``, an instance of :attr:`of`, under its ``name``."""
+        if self.of is None:
+            raise TypeError(f"a {self.kind} is registered with register(name, obj)")
+        if not isinstance(obj, self.of):
+            raise TypeError(f"a {self.kind} must be a {self.of.__name__}, got "
+                            f"{type(obj).__name__}")
+        self.register(obj.name, obj, overwrite=overwrite)
 
     def unregister(self, name: str) -> None:
         """Forget an in-process registration (entry points stay)."""

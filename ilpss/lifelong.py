@@ -35,7 +35,6 @@ from ilpss._check import (
     ListOf,
     Name,
     NoneOr,
-    OneOf,
     Real,
     Text,
     check_fields,
@@ -58,7 +57,7 @@ from ilpss.episode import EpisodeResult, options_used
 from ilpss.kernels import KERNEL_CONSTRAINTS, SharedKernelModel, UniformKernel
 from ilpss.options import OptionLibrary, OptionSettings
 from ilpss.policy import FrozenPolicy
-from ilpss.reuse import KERNEL_LOADERS, REUSES, Fresh, Reuse, learn_with
+from ilpss.reuse import REUSES, Fresh, Reuse, learn_with
 from ilpss.smdp import LearnerConfig, SmdpLearner
 
 CHECKPOINT_SCHEMA = "ilpss.lifelong/2"
@@ -521,9 +520,9 @@ class LifelongLearner:
                 f"{state['kernel']} kernel model)" if state["kernel"] is not None else
                 f"{ckpt}: holds an option library, but kernel in {where} is null"
             )
-        if state["kernel"] is not None:
-            learner.library = OptionLibrary.load(library,
-                                                 kernel_loader=KERNEL_LOADERS[state["kernel"]])
+        regions = config.reuse.regions
+        if state["kernel"] is not None and regions is not None:  # read_state: its model
+            learner.library = OptionLibrary.load(library, kernel_loader=regions.load)
             learner.kernel_model = learner.library.kernel_model
             _check_library(learner, ckpt)
         elif n and records[-1].library_size:
@@ -547,7 +546,7 @@ _FILE_NAME = re.compile(r"(policy_\d+|bags|library/(kernels|library|policy_\d+))
 STATE_CONSTRAINTS = {
     "seed": Integer(0),
     "n_primitive": Integer(1),
-    "kernel": NoneOr(OneOf(tuple(KERNEL_LOADERS))),
+    "kernel": NoneOr(Name()),  # and the model that the configuration's reuse builds
 }
 """What the scalar fields of ``state.json`` may hold (``config`` is a LifelongConfig,
 ``records`` TrialRecords, ``files`` the digests, ``provenance`` an object or null)."""

@@ -63,6 +63,7 @@ __all__ = [
     "compare",
     "fieller_interval",
     "format_metrics_markdown",
+    "headline_metrics",
     "holm",
     "improvement_test",
     "jumpstart",
@@ -70,6 +71,7 @@ __all__ = [
     "km_median",
     "mean_curve_band",
     "median_interval",
+    "pairwise_metrics",
     "per_seed_gains",
     "percentile_bootstrap_interval",
     "restricted_mean_time",
@@ -1158,8 +1160,13 @@ def largest_dip(curves: ArrayLike, window: int) -> FloatArray:
     return np.max(np.maximum.accumulate(m, axis=-1) - m, axis=-1)
 
 
+BELOW_MARGIN = 0.05
+"""How far below the baseline's trailing mean a trailing mean must lie to count as below
+it (:func:`episodes_below`)."""
+
+
 def episodes_below(curves: ArrayLike, baseline: ArrayLike, window: int,
-                   margin: float = 0.05) -> FloatArray:
+                   margin: float = BELOW_MARGIN) -> FloatArray:
     """Per row, the episodes (from the first full window on) at which the trailing mean
     over ``window`` episodes of ``curves`` lies more than ``margin`` below that of the
     paired ``baseline`` row: how long a method does worse than learning anew."""
@@ -1430,8 +1437,9 @@ METRICS: tuple[Metric, ...] = (
     Metric("episodes_below_baseline", "episodes below the baseline", ".1f", "mean",
            lambda p: episodes_below(p.transfer, p.baseline, p.window),
            lambda p: f"mean over seeds of the episodes (from episode {p.window} on) at which "
-                     f"the {p.window}-episode trailing mean with transfer lies more than 0.05 "
-                     f"below the baseline's, {_PAIRED}", better=-1, headline=True),
+                     f"the {p.window}-episode trailing mean with transfer lies more than "
+                     f"{BELOW_MARGIN:g} below the baseline's, {_PAIRED}", better=-1,
+           headline=True),
     Metric("time_to_threshold_transfer", "time to threshold", ".1f", "mean",
            lambda p: p.times[0][0], lambda p: _RMST + _crit(p) + ", transfer",
            threshold=True, better=-1),
@@ -1468,6 +1476,18 @@ here: reports show the ``headline`` ones in their tables against the baseline an
 compare the ``pairwise`` ones method against method."""
 METRIC = {m.name: m for m in METRICS}
 """The entries of :data:`METRICS` by name."""
+
+
+def headline_metrics() -> tuple[Metric, ...]:
+    """The ``headline`` entries of :data:`METRICS`, in its order: the columns of every
+    table of a method against the baseline (read from the table at each call)."""
+    return tuple(m for m in METRICS if m.headline)
+
+
+def pairwise_metrics() -> tuple[Metric, ...]:
+    """The ``pairwise`` entries of :data:`METRICS`: what reports compare method against
+    method."""
+    return tuple(m for m in METRICS if m.pairwise)
 GAINS = ("jumpstart", "final_gain", "total_reward_gain")
 """The paired per-seed differences that :func:`per_seed_gains` gives."""
 

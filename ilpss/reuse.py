@@ -12,7 +12,8 @@ whether there are options        refitted after every trial on all bags of state
                                  ILPSS, one kernel over everything for whole policies,
                                  ``None``: no options); the option library built from it
                                  and the past policies is what is kept between trials, with
-                                 the policies and the bags
+                                 the policies and the bags (a checkpoint reads the model
+                                 back with :meth:`Regions.load`)
 the values the new learner       :attr:`Reuse.start`, a :class:`StartRule`: nothing (values
 starts from, and any episodes    from the learner's initial value), the latest past policy's
 it spends on the task choosing   values (fine-tuning), or the values of the past policy that
@@ -46,6 +47,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
@@ -61,7 +63,6 @@ if TYPE_CHECKING:
     from ilpss.lifelong import LifelongConfig
 
 __all__ = [
-    "KERNEL_LOADERS",
     "REUSES",
     "BestOfPast",
     "EmKernels",
@@ -90,6 +91,11 @@ class Regions(Protocol):
         options as they are (too few states to fit)."""
         ...
 
+    def load(self, path: Path) -> Any:
+        """The kernel model that a checkpoint saved at ``path`` (one that :meth:`fit`
+        built)."""
+        ...
+
 
 @dataclass(frozen=True)
 class EmKernels:
@@ -107,6 +113,9 @@ class EmKernels:
             max_iter=config.kernel_max_iter, n_init=config.kernel_n_init, random_state=seed,
         ).fit(bags)
 
+    def load(self, path: Path) -> SharedKernelModel:
+        return SharedKernelModel.load(path)
+
 
 @dataclass(frozen=True)
 class Uniform:
@@ -118,6 +127,9 @@ class Uniform:
     def fit(self, bags: Sequence[np.ndarray], n_features: int, config: LifelongConfig,
             seed: int) -> UniformKernel:
         return UniformKernel(n_features)
+
+    def load(self, path: Path) -> UniformKernel:
+        return UniformKernel.load(path)
 
 
 @dataclass(frozen=True)
@@ -134,13 +146,8 @@ class GivenRegions:
         features, thresholds, below = zip(*self.regions, strict=True)
         return RegionKernels(n_features, features, thresholds, below)
 
-
-KERNEL_LOADERS: dict[str, Callable[[Any], Any]] = {
-    "SharedKernelModel": SharedKernelModel.load,
-    "UniformKernel": UniformKernel.load,
-    "RegionKernels": RegionKernels.load,
-}
-"""How a checkpoint's kernel model is read back, by the class name it records."""
+    def load(self, path: Path) -> RegionKernels:
+        return RegionKernels.load(path)
 
 
 # ---------------------------------------------------------------------- starts
@@ -248,15 +255,13 @@ class Reuse:
         return None if self.regions is None else self.regions.model_name
 
 
-REUSES = Registry("ilpss.reuses", "reuse")
+REUSES = Registry("ilpss.reuses", "reuse", Reuse)
 """Every way of reusing past policies, by name (``LifelongConfig.options``)."""
 
 
 def register_reuse(reuse: Reuse, *, overwrite: bool = False) -> None:
     """Register ``reuse`` under its ``name`` for this process."""
-    if not isinstance(reuse, Reuse):
-        raise TypeError(f"a reuse must be a Reuse, got {type(reuse).__name__}")
-    REUSES.register(reuse.name, reuse, overwrite=overwrite)
+    REUSES.add(reuse, overwrite=overwrite)
 
 
 for _reuse in (

@@ -112,6 +112,22 @@ def test_cli_set_overrides_lifelong_and_learner_fields() -> None:
     assert cfg.lifelong.learner.tile_widths == ExperimentConfig().lifelong.learner.tile_widths
 
 
+def test_cli_refuses_a_run_it_could_not_report_before_it_starts(tmp_path, capsys) -> None:
+    from ilpss.experiments.cli import main
+
+    out = tmp_path / "run"
+    for argv in (["--methods", "ilpss", "--baseline", "none"],
+                 ["--protocol", "C", "--methods", "ilpss"]):
+        with pytest.raises(SystemExit) as exc:
+            main([*argv, "--seeds", "1", "--episodes", "1", "--out", str(out)])
+        assert exc.value.code == 2 and not out.exists()
+    err = capsys.readouterr().err
+    assert "a run without a baseline (--baseline none) cannot be reported: add --no-report" \
+        in err
+    assert "ExperimentConfig.baseline: method 'scratch' is not among the methods ['ilpss']" \
+        in err
+
+
 def test_cli_bad_set_is_a_usage_error(capsys) -> None:
     from ilpss.experiments.cli import main
 
@@ -126,7 +142,7 @@ def test_cli_bad_set_is_a_usage_error(capsys) -> None:
 def test_compare_pairs_runs_by_seed_and_matches_the_report(tmp_path, capsys):
     from ilpss import metrics
     from ilpss.experiments.compare import main as compare_main
-    from ilpss.experiments.report import collect, threshold_for
+    from ilpss.experiments.report import collect, interval_text, threshold_for
 
     cfg = _tiny(methods=("ilpss", "scratch"))
     results = run_experiment(cfg, tmp_path / "a", progress=False)
@@ -143,7 +159,12 @@ def test_compare_pairs_runs_by_seed_and_matches_the_report(tmp_path, capsys):
     a, b = curves["ilpss"][3], curves["scratch"][3]
     est = metrics.compare(a, b, first=6, last=6, threshold=threshold_for(b), window=6)
     js = est["jumpstart"]
-    assert f"| ILPSS (K = 2) | {js.value:+.3g} [{js.low:+.3g}, {js.high:+.3g}]" in out
+    assert f"| ILPSS (K = 2) | {interval_text(js, metrics.METRIC['jumpstart'].fmt)} |" in out
+    # Its columns are the reports' headline metrics, from the table.
+    assert "| run | " + " | ".join(
+        c for m in metrics.headline_metrics()
+        for c in (m.label, *(["p (Holm)"] if m.name in ("jumpstart", "total_reward_gain")
+                             else []))) + " |" in out
     for bad in (["--baseline", "nofolder", "x=y:z"], ["--baseline", f"{tmp_path / 'a'}:prq", "x"]):
         with pytest.raises(SystemExit):
             compare_main(bad)

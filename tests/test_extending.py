@@ -1,15 +1,17 @@
 """Each row of docs/architecture.md's "Where a change belongs", done once.
 
-A new lifelong method, a new method with its own learner, a new protocol and a new team
-are each added from here, touching only what the table says, and run through the
-experiment runner; every setting's constraint is declared once and reaches its user.
+A new lifelong method, a method with its own learner, a protocol, a way of reusing past
+policies, a metric, a report section, a method's series and a team are each added from
+here, touching only what the table says (tests/test_change_table.py checks that), and run
+through the experiment runner; a run that cannot be reported is refused when it is
+configured, and every setting's constraint is declared once and reaches its user.
 """
 
 from __future__ import annotations
 
 import dataclasses
 from collections.abc import Iterator
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from types import MappingProxyType
 
 import numpy as np
@@ -17,11 +19,21 @@ import pytest
 from synthetic_smdp import ZoneCorridor
 
 from ilpss._check import Real
+from ilpss.experiments import drill
 from ilpss.experiments.config import EXPERIMENT_CONSTRAINTS, ExperimentConfig
+from ilpss.experiments.folder import RunFolder
 from ilpss.experiments.methods import METHODS, Job, LifelongMethod, Method, register_method
-from ilpss.experiments.protocols import PROTOCOLS, Protocol, Stream, register_protocol, team_task
+from ilpss.experiments.protocols import (
+    PROTOCOLS,
+    Protocol,
+    Stream,
+    make_env,
+    register_protocol,
+    team_task,
+)
 from ilpss.experiments.report import write_report
-from ilpss.experiments.run import run_experiment
+from ilpss.experiments.run import JobError, run_experiment
+from ilpss.kernels import RegionKernels
 
 pytestmark = pytest.mark.slow  # runs experiments end to end
 
@@ -141,29 +153,52 @@ def test_a_new_protocol_needs_no_change_elsewhere(tmp_path, registered, capsys) 
 
 
 # ------------------------------------------------------------------------- a reuse
-def test_a_new_reuse_is_one_registration(tmp_path, registered) -> None:
-    """Options on one region that covers everything, started from the latest past
-    policy: a Reuse made of the parts there are, registered and named by a method."""
-    from ilpss.reuse import REUSES, LatestPast, Reuse, Uniform, register_reuse
+class _Halves(RegionKernels):
+    """A kernel model of its own: the two halves of the field, either side of the middle."""
 
-    register_reuse(Reuse("whole_policies_from_latest", Uniform(), LatestPast()))
-    registered.append((REUSES, "whole_policies_from_latest"))
-    register_method(LifelongMethod("whole_from_latest", "whole policies on a fine-tuned start",
-                                   lambda base: {"options": "whole_policies_from_latest"}))
-    registered.append((METHODS, "whole_from_latest"))
-    cfg = _tiny(methods=("whole_from_latest", "scratch"))
+
+@dataclass(frozen=True)
+class _HalvesOfTheField:
+    """Regions that are the field's two halves after every trial, read back as such."""
+
+    model_name: str = "_Halves"
+
+    def fit(self, bags, n_features, config, seed):
+        return _Halves(n_features, (drill.LATERAL,) * 2, (0.0, 0.0), (True, False))
+
+    def load(self, path):
+        return _Halves.load(path)
+
+
+def test_a_new_reuse_is_one_registration(tmp_path, registered) -> None:
+    """Options on regions of a new kind (their own kernel model), the learner started
+    from the latest past policy: one Reuse registered, and a method that names it."""
+    from ilpss.lifelong import LifelongLearner
+    from ilpss.reuse import REUSES, LatestPast, Reuse, register_reuse
+
+    register_reuse(Reuse("halves_from_latest", _HalvesOfTheField(), LatestPast()))
+    registered.append((REUSES, "halves_from_latest"))
+    register_method(LifelongMethod("halves", "the field's halves on a fine-tuned start",
+                                   lambda base: {"options": "halves_from_latest"}))
+    registered.append((METHODS, "halves"))
+    cfg = _tiny(methods=("halves", "scratch"))
     results = run_experiment(cfg, tmp_path, progress=False)
-    assert all(r["methods"]["whole_from_latest"]["options_offered"][-1] == 3 for r in results)
+    # Two regions x the three past policies, offered on the held-out team.
+    assert all(r["methods"]["halves"]["options_offered"][-1] == 6 for r in results)
     assert run_experiment(cfg, tmp_path, progress=False) == results  # resumed, checked
-    assert "### whole policies on a fine-tuned start vs the baseline" in \
+    space = make_env(cfg.env_id, cfg.streams(0)[0].tasks[0]).observation_space
+    learner = LifelongLearner.load(RunFolder(tmp_path).checkpoints(0, 0, "halves"), space)
+    assert type(learner.kernel_model) is _Halves and learner.n_trials == 4
+    assert "### the field's halves on a fine-tuned start vs the baseline" in \
         write_report(cfg, results, tmp_path).read_text()
 
 
 # ------------------------------------------------------------------------ a metric
 def test_a_new_metric_is_one_entry(tmp_path, monkeypatch) -> None:
-    """A headline metric added to the table reaches compare and every report's table."""
+    """A headline metric added to the table, and nowhere else, reaches compare, every
+    report's tables and ilpss-compare's."""
     from ilpss import metrics
-    from ilpss.experiments import report
+    from ilpss.experiments.compare import compare_runs
 
     share = metrics.Metric(
         "wins_gain", "share of wins gain", "+.2f", "mean",
@@ -171,8 +206,6 @@ def test_a_new_metric_is_one_entry(tmp_path, monkeypatch) -> None:
         lambda p: "mean over seeds of (share of episodes won with transfer) - (the same "
                   "for the baseline)", test=True, headline=True, pairwise=True)
     monkeypatch.setattr(metrics, "METRICS", (*metrics.METRICS, share))
-    monkeypatch.setattr(report, "HEADLINE", (*report.HEADLINE, share))
-    monkeypatch.setattr(report, "PAIRWISE", (*report.PAIRWISE, share))
     rng = np.random.default_rng(0)
     est = metrics.compare(rng.uniform(-1, 1, (3, 8)), rng.uniform(-1, 1, (3, 8)), first=2,
                           last=2, threshold=None, window=2)
@@ -182,6 +215,10 @@ def test_a_new_metric_is_one_entry(tmp_path, monkeypatch) -> None:
     text = write_report(cfg, results, tmp_path).read_text()
     assert "share of wins gain [95% CI]" in text  # in the table against the baseline
     assert text.count("share of wins gain [95% CI]") >= 2  # and method against method
+    assert "| wins_gain |" in text  # and every metric's table
+    (head,) = [line for line in compare_runs((tmp_path, "scratch"), {"x": (tmp_path, "ilpss")})
+               if line.startswith("| run |")]
+    assert "| share of wins gain |" in head
 
 
 # ---------------------------------------------------------------- a report section
@@ -224,6 +261,27 @@ def test_a_method_with_an_extra_series_resumes(tmp_path, registered) -> None:
     results = run_experiment(cfg, tmp_path, progress=False)
     assert results[0]["methods"]["smdp_with_series"]["reuse_share"] == [0.5] * 4
     assert run_experiment(cfg, tmp_path, progress=False) == results  # read back, checked
+
+
+class _UndeclaredSeries(_LearnAnewPerTarget):
+    """A learner method that records a series it does not declare."""
+
+    name = "smdp_undeclared"
+    label = "SMDP learning with an undeclared series"
+
+    def run(self, job: Job) -> dict:
+        return {**super().run(job), "reuse_share": [0.5] * len(job.stream.tasks)}
+
+
+def test_a_series_its_method_does_not_declare_fails_the_job_not_the_resume(
+        tmp_path, registered) -> None:
+    register_method(_UndeclaredSeries())
+    registered.append((METHODS, "smdp_undeclared"))
+    cfg = _tiny(methods=("scratch", "smdp_undeclared"))
+    with pytest.raises(JobError, match=r"seed 0, stream 0: ValueError: methods\."
+                                       r"smdp_undeclared: unknown field\(s\) \['reuse_share'\]"):
+        run_experiment(cfg, tmp_path, progress=False)
+    assert not list(tmp_path.glob("seed_*/stream_*/result.json"))  # nothing to resume from
 
 
 def test_a_protocol_run_that_cannot_be_reported_is_refused_up_front() -> None:

@@ -106,6 +106,23 @@ def test_a_registered_sampler_makes_the_protocol_c_stream():
     assert len(ExperimentConfig(protocol="C", stream_length=4).streams(0)[0].tasks) == 4
 
 
+def test_protocols_methods_and_reuses_register_only_their_own_kind():
+    from ilpss._registry import Registry
+    from ilpss.experiments.methods import register_method
+    from ilpss.experiments.protocols import register_protocol
+    from ilpss.reuse import Reuse, register_reuse
+
+    for register, kind, cls in ((register_reuse, "reuse", "Reuse"),
+                                (register_method, "method", "Method"),
+                                (register_protocol, "protocol", "Protocol")):
+        with pytest.raises(TypeError, match=f"a {kind} must be a {cls}, got str"):
+            register("kernels")
+    with pytest.raises(ValueError, match="reuse 'kernels' is already registered"):
+        register_reuse(Reuse("kernels", None))
+    with pytest.raises(TypeError, match=r"a sampler is registered with register\(name, obj\)"):
+        Registry("ilpss.samplers", "sampler").add(Reuse("x", None))
+
+
 # ------------------------------------------------------------ runs that mix configurations
 ROOT = Path(__file__).resolve().parent.parent
 ENV = {"PYTHONPATH": str(ROOT)}

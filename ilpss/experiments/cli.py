@@ -136,6 +136,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error(str(exc))
     if args.ray_address is not None and cfg.executor != "ray":
         p.error("--ray-address needs --executor ray")
+    if cfg.baseline is None and not args.no_report:  # its report would fail after the run
+        p.error("a run without a baseline (--baseline none) cannot be reported: add "
+                "--no-report, and compare it with another run's baseline by ilpss-compare")
     stop_on_sigterm()
     try:
         results = run_experiment(cfg, args.out, progress=not args.quiet,

@@ -7,8 +7,8 @@ Each run is ``LABEL=FOLDER:METHOD`` (a folder written by ``ilpss-experiment``). 
 compared on the targets of stream 0 (each seed's curves averaged over them, when the
 stream has several: protocol A with targets, R) over the seeds that every run and the
 baseline finished, with :func:`ilpss.metrics.compare` (Student t intervals over the
-paired seeds, Fieller for the time ratio): jumpstart, total-reward gain, final
-performance gain and time-to-threshold ratio, using the windows and threshold of the
+paired seeds, Fieller for the time ratio) on the headline metrics of every report
+(:func:`ilpss.metrics.headline_metrics`), using the windows and threshold of the
 experiment reports (:mod:`ilpss.experiments.report`). The jumpstart and total-reward
 gain of all runs form one family: their p-values are Holm-adjusted across the runs. The
 run with the largest value of each is named with a simultaneous interval (Bonferroni
@@ -153,6 +153,8 @@ def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]]) 
     adjusted = dict(zip(keys, metrics.holm([estimates[k][e].p_value for k, e in keys]),
                         strict=True))
     k = len(estimates)
+    columns = metrics.headline_metrics()
+    head = [c for m in columns for c in (m.label, *(["p (Holm)"] if m.name in PRIMARY else []))]
     lines = [
         f"Baseline `{baseline[0]}:{baseline[1]}`; {len(seeds)} paired seeds; jumpstart over the "
         f"first {first} episodes, final performance within the budget over the last {last}; "
@@ -161,19 +163,17 @@ def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]]) 
         f"Holm-adjusted across the {k} runs x {len(PRIMARY)} endpoints (jumpstart, total-reward "
         "gain).",
         "",
-        "| run | jumpstart | p (Holm) | total-reward gain | p (Holm) | final performance gain "
-        "| time to threshold (ratio) | seeds reaching the threshold | options used by the "
-        "greedy policy at the target |",
-        "|---|---|---:|---|---:|---|---|---:|---:|",
+        "| run | " + " | ".join(head) + " | seeds reaching the threshold | options used by "
+        "the greedy policy at the target |",
+        "|---|" + "".join("---:|" if c == "p (Holm)" else "---|" for c in head) + "---:|---:|",
     ]
     for label, est in estimates.items():
         n = est["jumpstart"].n
         reached = round(est["threshold_reached_transfer"].value * n)
-        cells = [interval_text(est["jumpstart"], "+.3g"), f"{adjusted[label, 'jumpstart']:.2g}",
-                 interval_text(est["total_reward_gain"], "+.3g"),
-                 f"{adjusted[label, 'total_reward_gain']:.2g}",
-                 interval_text(est["final_gain"], "+.3g"),
-                 interval_text(est["time_to_threshold_ratio"], ".2f"), f"{reached}/{n}"]
+        cells = [c for m in columns for c in (
+            interval_text(est[m.name], m.fmt),
+            *([f"{adjusted[label, m.name]:.2g}"] if m.name in PRIMARY else []))]
+        cells.append(f"{reached}/{n}")
         lines.append(f"| {label} | " + " | ".join(cells) + f" | {used[label]:.1f} |")
     lines.append("")
     confidence = 1.0 - 0.05 / k

@@ -12,10 +12,11 @@ from ilpss._check import Integer, ListOf, Name, NoneOr, Text, check_fields, from
 from ilpss.baselines import PrqConfig
 from ilpss.experiments import drill
 from ilpss.experiments.executor import EXECUTOR
-from ilpss.experiments.methods import METHODS
+from ilpss.experiments.methods import METHODS, LifelongMethod
 from ilpss.experiments.protocols import PROTOCOLS, Stream, Task
 from ilpss.experiments.registry import SAMPLERS, check_env_id
 from ilpss.lifelong import LearnerConfig, LifelongConfig
+from ilpss.reuse import EmKernels
 
 __all__ = [
     "EPISODE_REWARDS",
@@ -178,9 +179,9 @@ class ExperimentConfig:
         if self.featured is not None:
             return self.featured
         for name in self.methods:
-            config = getattr(METHODS.get(name), "config", None)
-            if config is not None and config(self.lifelong).reuse.model_name == \
-                    "SharedKernelModel":
+            method = METHODS.get(name)
+            if isinstance(method, LifelongMethod) and \
+                    isinstance(method.config(self.lifelong).reuse.regions, EmKernels):
                 return name
         return None
 

@@ -95,12 +95,14 @@ def agent_lines(cfg: ExperimentConfig, folder: RunFolder) -> list[str]:
 
     lines = ["## The agents against the held-out team", ""]
     space = env().observation_space
-    ilpss = LifelongLearner.load(folder.checkpoints(seed, 0, "ilpss"), space)
-    if ilpss.kernel_model is not None:
-        plot_kernels_on_field(ilpss, folder.figure("kernels.png"))
+    featured = cfg.featured_method
+    assert featured is not None  # the demo's configuration features ILPSS
+    kernels = LifelongLearner.load(folder.checkpoints(seed, 0, featured), space)
+    if kernels.kernel_model is not None:
+        plot_kernels_on_field(kernels, folder.figure("kernels.png"))
         lines += ["![kernels](kernels.png)", "",
-                  f"The kernels of seed {seed}'s ILPSS learner after its {ilpss.n_trials} "
-                  "trials, projected on the holder's position.", ""]
+                  f"The kernels of seed {seed}'s {label(featured)} learner after its "
+                  f"{kernels.n_trials} trials, projected on the holder's position.", ""]
     recommended = LifelongLearner.load(folder.checkpoints(seed, 0, RECOMMENDED), space)
     episodes = greedy_episodes(recommended, env(), range(GIF_EPISODES))
     wins = [e for e in episodes if e["outcome"] == "success"]
@@ -112,7 +114,8 @@ def agent_lines(cfg: ExperimentConfig, folder: RunFolder) -> list[str]:
              f"no episode of environment seeds 0-{GIF_EPISODES - 1} succeeds: seed 0")
     options = ", ".join(str(o) for o in gif["options"]) or "none"
     # Learning anew's first learning episode on the target, exactly as it was played.
-    scratch = METHODS.get("scratch").config(cfg.lifelong)
+    assert cfg.baseline is not None  # the demo's configuration has learning anew
+    scratch = METHODS.get(cfg.baseline).config(cfg.lifelong)
     learner_seed, env_seed, _, _ = trial_seeds(seed, target)
     first = env(render=True)
     anew = SmdpLearner(int(first.action_space.n), scratch.learner.tile_coder(space), None,

@@ -344,15 +344,13 @@ register_reuse(Reuse("oracle_regions_finetune", GivenRegions(tuple(
     (feature, threshold, below) for feature, threshold in drill.REGION_SPLITS
     for below in (True, False))), LatestPast()))
 
-METHODS = Registry("ilpss.methods", "method")
+METHODS = Registry("ilpss.methods", "method", Method)
 """Every method, by name."""
 
 
 def register_method(method: Method, *, overwrite: bool = False) -> None:
     """Register ``method`` under its ``name`` for this process."""
-    if not isinstance(method, Method):
-        raise TypeError(f"a method must be a Method, got {type(method).__name__}")
-    METHODS.register(method.name, method, overwrite=overwrite)
+    METHODS.add(method, overwrite=overwrite)
 
 
 for _method in (

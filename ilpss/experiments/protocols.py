@@ -3,7 +3,7 @@
 A :class:`Protocol` gives the streams of a configuration for one seed
 (:meth:`~Protocol.streams`), refuses a configuration it cannot run
 (:meth:`~Protocol.check`) and says what its streams are (:meth:`~Protocol.describe`).
-Protocols are registered by name in :data:`PROTOCOLS` (``A``, ``B``, ``C`` here; more
+Protocols are registered by name in :data:`PROTOCOLS` (``A``, ``B``, ``C``, ``R`` here; more
 with :func:`register_protocol` or the entry-point group ``ilpss.protocols``), and the
 configuration and the runner only dispatch to them: a new protocol needs no change
 anywhere else. How a protocol's results are presented is the reports' business
@@ -120,14 +120,7 @@ def _check_teams(cfg: ExperimentConfig, distinct: bool) -> None:
         )
 
 
-class _HeldOutTeams(Protocol):
-    """Streams whose last task, the held-out team, is their one target."""
-
-    pooled = False
-    """Whether the verdicts are on the curves pooled over the streams (else per stream)."""
-
-
-class HeldOutTeam(_HeldOutTeams):
+class HeldOutTeam(Protocol):
     """A: teams 1-3 in order, then the held-out team 4 (the paper's Figure 3).
 
     With ``ExperimentConfig.targets``, every team of ``teams`` is a source and each
@@ -207,13 +200,12 @@ class RegionStream(HeldOutTeam):
                 "sources.")
 
 
-class EveryTeamHeldOut(_HeldOutTeams):
+class EveryTeamHeldOut(Protocol):
     """B: every team held out in turn, after the others in the given order and in
     ``n_shuffles`` shuffled orders drawn per seed."""
 
     name = "B"
     title = "every team held out in turn"
-    pooled = True
 
     def check(self, cfg: ExperimentConfig) -> None:
         _check_teams(cfg, distinct=True)
@@ -259,15 +251,13 @@ class ParametricStream(Protocol):
                 "from the second on is a target.")
 
 
-PROTOCOLS = Registry("ilpss.protocols", "protocol")
+PROTOCOLS = Registry("ilpss.protocols", "protocol", Protocol)
 """Every protocol, by name."""
 
 
 def register_protocol(protocol: Protocol, *, overwrite: bool = False) -> None:
     """Register ``protocol`` under its ``name`` for this process."""
-    if not isinstance(protocol, Protocol):
-        raise TypeError(f"a protocol must be a Protocol, got {type(protocol).__name__}")
-    PROTOCOLS.register(protocol.name, protocol, overwrite=overwrite)
+    PROTOCOLS.add(protocol, overwrite=overwrite)
 
 
 for _protocol in (HeldOutTeam(), EveryTeamHeldOut(), ParametricStream(), RegionStream()):

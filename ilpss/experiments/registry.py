@@ -29,9 +29,12 @@ such a registration is seen by local worker processes (they are forked) but not 
 workers. Listing the names of a group imports nothing; an entry point is imported when it
 is first used.
 
-Other names in the files need no registry: methods, protocols, executors, the learner's
-``method`` and the kernel model named in a checkpoint are checked against fixed lists, and
-team ids are looked up by the drill in its own registry of teams.
+Methods, protocols and ways of reusing past policies are registries of their own
+(:data:`~ilpss.experiments.methods.METHODS`, :data:`~ilpss.experiments.protocols.PROTOCOLS`,
+:data:`~ilpss.reuse.REUSES`, on the same :class:`Registry`). Other names in the files need
+none: executors and the learner's ``method`` are checked against fixed lists, the kernel
+model named in a checkpoint against the one its configuration's reuse builds, and team ids
+are looked up by the drill in its own registry of teams.
 """
 
 from __future__ import annotations

@@ -47,13 +47,6 @@ the protocol's comparisons); their p-values are Holm-adjusted across methods and
 Everything else (final performance, time to threshold, the dips, per-stream and
 per-opponent rows) is descriptive, and the method-against-method comparisons are their
 own family, Holm-adjusted within it."""
-HEADLINE = tuple(m for m in metrics.METRICS if m.headline)
-"""The metrics of every table of a method against the baseline (:data:`ilpss.metrics.METRICS`'s
-headline entries)."""
-PAIRWISE = tuple(m for m in metrics.METRICS if m.pairwise)
-"""The metrics compared method against method."""
-DIP_MARGIN = 0.05
-"""A trailing mean more than this below the baseline's counts as worse (the dips' table)."""
 ALPHA = 0.05
 """Family-wise error rate of the primary endpoints."""
 
@@ -690,26 +683,28 @@ def structure_targets(n: int) -> str:
 
 
 def comparison_row(name: str, est: dict[str, metrics.MetricEstimate]) -> str:
-    """One row of a table against the baseline: every :data:`HEADLINE` metric with its
-    interval, and the seeds that reach the threshold."""
+    """One row of a table against the baseline: every headline metric
+    (:func:`ilpss.metrics.headline_metrics`) with its interval, and the seeds that reach
+    the threshold."""
     n = est["jumpstart"].n
     reached = (f"{round(est['threshold_reached_transfer'].value * n)}/{n}, "
                f"{round(est['threshold_reached_baseline'].value * n)}/{n}")
-    cells = [interval_text(est[m.name], m.fmt) for m in HEADLINE if m.name in est]
+    cells = [interval_text(est[m.name], m.fmt) for m in metrics.headline_metrics()
+             if m.name in est]
     return f"| {name} | " + " | ".join(cells) + f" | {reached} |"
 
 
 def comparison_head(what: str) -> list[str]:
     """The head of a table of :func:`comparison_row` rows."""
-    cells = [f"{m.label} [95% CI]" for m in HEADLINE]
+    cells = [f"{m.label} [95% CI]" for m in metrics.headline_metrics()]
     return [f"| {what} | " + " | ".join(cells) + " | seeds reaching the threshold "
             "(method, baseline) |", "|---|" + "---:|" * (len(cells) + 1)]
 
 
 def headline_table(estimates: dict[str, dict[str, metrics.MetricEstimate]],
                    scope: str) -> list[str]:
-    """Every method against the baseline on the :data:`HEADLINE` metrics, one row each
-    (unadjusted 95% intervals; ``scope`` says over what)."""
+    """Every method against the baseline on the headline metrics, one row each (unadjusted
+    95% intervals; ``scope`` says over what)."""
     return [f"Against the baseline ({scope}; unadjusted 95% intervals over seeds; the dip "
             "and the episodes below the baseline are described under the next heading):", "",
             *comparison_head("method"),
@@ -722,17 +717,24 @@ def _trailing(curves: np.ndarray) -> np.ndarray:
     return metrics.smooth(curves.mean(axis=0), window, edges="valid")
 
 
+def _dip_and_below(mine: np.ndarray, base: np.ndarray) -> tuple[float, int]:
+    """The largest dip of the trailing mean ``mine`` and the episodes at which it lies
+    more than :data:`~ilpss.metrics.BELOW_MARGIN` below the baseline's ``base``."""
+    return (float(metrics.largest_dip(mine, 1)),
+            int(np.sum(mine < base - metrics.BELOW_MARGIN)))
+
+
 def dip_lines(curves: dict[str, np.ndarray], baseline: str) -> list[str]:
     """The handover, per method: how far the seed-mean curve's trailing mean falls below
-    its earlier maximum, how many episodes it lies more than :data:`DIP_MARGIN` below the
-    baseline's, and the same per seed with an interval."""
+    its earlier maximum, how many episodes it lies more than
+    :data:`~ilpss.metrics.BELOW_MARGIN` below the baseline's, and the same per seed with an
+    interval."""
     window = windows(curves[baseline].shape[1])[2]
     base = _trailing(curves[baseline])
     rows = []
     for method, c in curves.items():
         mine = _trailing(c)
-        dip = float(metrics.largest_dip(mine, 1))
-        below = int(np.sum(mine < base - DIP_MARGIN))
+        dip, below = _dip_and_below(mine, base)
         per_seed = metrics.largest_dip(c, window)
         value, low, high = (metrics.t_interval(per_seed) if len(per_seed) >= 2
                             else (float(per_seed.mean()), math.nan, math.nan))
@@ -741,8 +743,8 @@ def dip_lines(curves: dict[str, np.ndarray], baseline: str) -> list[str]:
     return [f"The handover (descriptive): the largest fall of the {window}-episode trailing "
             "mean below its earlier maximum (from the first full window on), on the seed-mean "
             "curve the figures show and per seed (mean, 95% t interval), and the episodes at "
-            f"which the seed-mean trailing mean lies more than {DIP_MARGIN:g} below the "
-            "baseline's.", "",
+            f"which the seed-mean trailing mean lies more than {metrics.BELOW_MARGIN:g} below "
+            "the baseline's.", "",
             "| method | largest dip, seed-mean curve | episodes below the baseline | largest "
             "dip per seed [95% CI] |", "|---|---:|---:|---:|", *rows, ""]
 
@@ -757,22 +759,22 @@ def per_target_dips(per_target: dict[int, dict[str, np.ndarray]], names: Sequenc
     for method in methods:
         cells = []
         for curves in per_target.values():
-            mine, base = _trailing(curves[method]), _trailing(curves[baseline])
-            cells.append(f"{float(metrics.largest_dip(mine, 1)):.2f}, "
-                         f"{int(np.sum(mine < base - DIP_MARGIN))}")
+            dip, below = _dip_and_below(_trailing(curves[method]), _trailing(curves[baseline]))
+            cells.append(f"{dip:.2f}, {below}")
         rows.append(f"| {label(method)} | " + " | ".join(cells) + " |")
     return ["### The handover on each target (descriptive)", "",
             "Seed-mean curves: the largest fall of the trailing mean below its earlier "
-            f"maximum, and the episodes more than {DIP_MARGIN:g} below the baseline's.", "",
+            f"maximum, and the episodes more than {metrics.BELOW_MARGIN:g} below the "
+            "baseline's.", "",
             head, "|---|" + "---:|" * len(per_target), *rows, ""]
 
 
 def pairwise_estimates(
     curves: dict[str, np.ndarray], baseline: str
 ) -> dict[tuple[str, str], dict[str, tuple[float, float, float, float]]]:
-    """Every transfer method against every other, paired by seed, on the
-    :data:`PAIRWISE` metrics: ``{(a, b): {metric: (value, low, high, Holm p)}}``, the
-    p-values Holm-adjusted within this family (all pairs and metrics)."""
+    """Every transfer method against every other, paired by seed, on the pairwise metrics
+    (:func:`ilpss.metrics.pairwise_metrics`): ``{(a, b): {metric: (value, low, high, Holm
+    p)}}``, the p-values Holm-adjusted within this family (all pairs and metrics)."""
     methods = [m for m in curves if m != baseline]
     n_eps = curves[baseline].shape[1]
     first, last, window = windows(n_eps)
@@ -781,7 +783,7 @@ def pairwise_estimates(
     for a, b in pairs:
         paired = metrics.Paired(curves[a], curves[b], first=first, last=last, window=window)
         raw[a, b] = {}
-        for m in PAIRWISE:
+        for m in metrics.pairwise_metrics():
             diff = m.values(paired)
             value, low, high = metrics.t_interval(diff)
             raw[a, b][m.name] = (value, low, high, float(metrics.t_test_pvalue(diff)))
@@ -799,14 +801,15 @@ def pairwise_lines(curves: dict[str, np.ndarray], baseline: str) -> list[str]:
     if len(curves[baseline]) < 2 or len(curves) < 3:
         return []
     pairs = pairwise_estimates(curves, baseline)
+    compared = metrics.pairwise_metrics()
     rows = []
     for (a, b), est in pairs.items():
         cells = [f"{interval_text(_Estimate(*est[m.name][:3]), m.fmt)} "
-                 f"(p = {est[m.name][3]:.2g})" for m in PAIRWISE]
+                 f"(p = {est[m.name][3]:.2g})" for m in compared]
         rows.append(f"| {label(a)} - {label(b)} | " + " | ".join(cells) + " |")
     best = []
     methods = [m for m in curves if m != baseline]
-    for m in PAIRWISE:
+    for m in compared:
         for a in methods:
             wins = [_beats(pairs, a, b, m) for b in methods if b != a]
             if wins and all(wins):
@@ -817,9 +820,9 @@ def pairwise_lines(curves: dict[str, np.ndarray], baseline: str) -> list[str]:
                     "Holm-adjusted test: no method is shown to be the best."]
     return ["Method against method (descriptive family of its own): the paired difference "
             "over seeds (the first named minus the second), 95% t interval, and the p-value "
-            f"Holm-adjusted across the {len(pairs)} pairs x {len(PAIRWISE)} metrics.", "",
-            "| methods | " + " | ".join(f"{m.label} [95% CI]" for m in PAIRWISE) + " |",
-            "|---|" + "---:|" * len(PAIRWISE), *rows, "", *[f"- {t}" for t in said], ""]
+            f"Holm-adjusted across the {len(pairs)} pairs x {len(compared)} metrics.", "",
+            "| methods | " + " | ".join(f"{m.label} [95% CI]" for m in compared) + " |",
+            "|---|" + "---:|" * len(compared), *rows, "", *[f"- {t}" for t in said], ""]
 
 
 @dataclass(frozen=True)

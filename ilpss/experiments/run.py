@@ -52,6 +52,7 @@ __all__ = [
     "JobDone",
     "JobError",
     "JobSpec",
+    "check_entry",
     "load_result",
     "read_config",
     "run_experiment",
@@ -98,6 +99,10 @@ def run_stream(spec: JobSpec) -> JobDone:
         methods = {name: METHODS.get(name).run(context) for name in order}
     finally:
         store.close()
+    # Checked as a resume will read it: an entry its method does not declare fails this
+    # job now, not the run's resume later.
+    for name, values in methods.items():
+        check_entry(name, values, cfg, stream, f"methods.{name}")
     result = {
         "schema": RESULT_SCHEMA,
         "config": cfg.results_record(),
@@ -151,9 +156,6 @@ def load_result(
         raise ValueError(
             f"{path}: methods {shown} are not the configuration's {sorted(cfg.methods)}; {hint}"
         )
-    low, high = cfg.reward_range
-    curve = ListOf(Real(low, high), cfg.lifelong.train_episodes, cfg.lifelong.train_episodes)
-    targets = [str(t) for t in range(stream.first_target, len(tasks))]
     with contextlib.ExitStack() as stack:
         if store is None:
             store = checkpoint_store(cfg, path.parents[2])
@@ -161,24 +163,34 @@ def load_result(
         try:
             for method, values in methods.items():
                 field = f"{path}: methods.{method}"
-                if not isinstance(values, dict):
-                    raise ValueError(f"{field} must be an object")
-                declared = METHODS.get(method).series
-                series = {name: ListOf(c, len(tasks), len(tasks))
-                          for name, c in declared.items()}
-                check_keys(field, values, ("curves", *series))
-                if not isinstance(values["curves"], dict) or \
-                        sorted(values["curves"]) != sorted(targets):
-                    raise ValueError(f"{field}.curves must have the targets {targets} as keys")
-                check_fields(f"{field}.curves", values["curves"],
-                             dict.fromkeys(targets, curve), dict.get)
-                check_fields(field, values, series, dict.get)
+                check_entry(method, values, cfg, stream, field)
                 if isinstance(METHODS.get(method), LifelongMethod):
                     _check_against_checkpoint(store, seed, stream_index, method, values,
                                               stream, field)
         except ValueError as exc:
             raise ValueError(f"{exc}; {hint}") from exc
     return result
+
+
+def check_entry(method: str, values: Any, cfg: ExperimentConfig, stream: Stream,
+                field: str) -> None:
+    """A method's entry of a job's result, as the method declares it (``Method.series``):
+    a learning curve per target of the stream, the budget's length, within the
+    environment's reward range, and each declared series, one value per task. A job's
+    result is checked so when the job returns it and when a resume reads it back."""
+    if not isinstance(values, dict):
+        raise ValueError(f"{field} must be an object")
+    low, high = cfg.reward_range
+    episodes = cfg.lifelong.train_episodes
+    n = len(stream.tasks)
+    targets = [str(t) for t in range(stream.first_target, n)]
+    series = {name: ListOf(c, n, n) for name, c in METHODS.get(method).series.items()}
+    check_keys(field, values, ("curves", *series))
+    if not isinstance(values["curves"], dict) or sorted(values["curves"]) != sorted(targets):
+        raise ValueError(f"{field}.curves must have the targets {targets} as keys")
+    check_fields(f"{field}.curves", values["curves"],
+                 dict.fromkeys(targets, ListOf(Real(low, high), episodes, episodes)), dict.get)
+    check_fields(field, values, series, dict.get)
 
 
 def _check_against_checkpoint(
