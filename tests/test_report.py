@@ -9,12 +9,14 @@ from ilpss import metrics
 from ilpss.experiments.report import (
     compare_to_baseline,
     holm_primary,
+    per_target_dips,
     stream_trend,
     structure_b,
     success_lines,
     success_rates,
     verdict,
     verdict_lines,
+    worst_target_dips,
 )
 
 EPISODES = 60
@@ -131,3 +133,29 @@ def test_success_rates_count_successes_early_and_late_per_target():
     # Opponents drawn per seed: the row names the task index, not one seed's team.
     results[1]["tasks"] = ["a", "other"]
     assert "opponent 1 (drawn per seed)" in "\n".join(success_lines(results))
+
+
+def test_the_handover_is_reported_on_the_worst_of_many_targets_and_where_it_is():
+    rng = np.random.default_rng(5)
+    per_target = {}
+    for t in range(1, 6):
+        anew = _curves(rng)
+        steady = np.clip(anew + 0.3, -1, 1)
+        per_target[t] = {"scratch": anew, "ilpss": steady}
+    # one target where the method starts high, then falls below learning anew for a while
+    collapse = np.full((10, EPISODES), 0.8)
+    collapse[:, 25:45] = -1.0
+    per_target[4]["ilpss"] = collapse
+    names = {t: f"opponent {t + 1}" for t in per_target}
+    lines = worst_target_dips(per_target, names, "scratch")
+    (row,) = [line for line in lines if line.startswith("| ILPSS")]
+    dip, below = row.split(" | ")[1:3]
+    assert dip.startswith("1.") and "`opponent 5`" in dip  # 20 episodes at -1 after 0.8
+    assert "`opponent 5`" in below and int(below.split()[0]) > 0
+    (anew_row,) = [line for line in lines if line.startswith("| learning anew")]
+    assert anew_row.split(" | ")[2].startswith("0 ")  # never below itself
+    # each target on its own: the same dip in that target's column, none elsewhere
+    table = per_target_dips(per_target, names, "scratch")
+    (row,) = [line for line in table if line.startswith("| ILPSS")]
+    cells = row.strip("| ").split(" | ")[1:]
+    assert cells[3].startswith("1.") and all(not c.startswith("1.") for c in cells[:3])

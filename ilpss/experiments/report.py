@@ -769,6 +769,29 @@ def per_target_dips(per_target: dict[int, dict[str, np.ndarray]], names: Sequenc
             head, "|---|" + "---:|" * len(per_target), *rows, ""]
 
 
+def worst_target_dips(per_target: dict[int, dict[str, np.ndarray]], names: Sequence[str],
+                      baseline: str) -> list[str]:
+    """Many targets: each method's largest seed-mean dip and most episodes below the
+    baseline over all of them, with the target where each occurs (a method that never
+    collapses does not on any; a table per target would be too wide to read)."""
+    methods = list(next(iter(per_target.values())))
+    rows = []
+    for method in methods:
+        found = {t: _dip_and_below(_trailing(curves[method]), _trailing(curves[baseline]))
+                 for t, curves in per_target.items()}
+        deepest = max(found, key=lambda t: found[t][0])
+        longest = max(found, key=lambda t: found[t][1])
+        rows.append(f"| {label(method)} | {found[deepest][0]:.2f} (`{names[deepest]}`) | "
+                    f"{found[longest][1]} (`{names[longest]}`) |")
+    return ["### The handover on the worst target (descriptive)", "",
+            f"Seed-mean curves on each of the {len(per_target)} targets: the largest fall of "
+            "the trailing mean below its earlier maximum, and the most episodes more than "
+            f"{metrics.BELOW_MARGIN:g} below the baseline's, over all targets, with the "
+            "target where each occurs.", "",
+            "| method | largest dip on any target | most episodes below the baseline on any "
+            "target |", "|---|---:|---:|", *rows, ""]
+
+
 def pairwise_estimates(
     curves: dict[str, np.ndarray], baseline: str
 ) -> dict[tuple[str, str], dict[str, tuple[float, float, float, float]]]:

@@ -51,6 +51,7 @@ from ilpss.experiments.report import (
     trend_line,
     verdict_lines,
     windows,
+    worst_target_dips,
 )
 from ilpss.metrics import format_metrics_markdown
 
@@ -270,7 +271,8 @@ def section_b(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Pa
         lines.append("")
     lines.append(f"Unadjusted 95% intervals over the {cfg.n_seeds} seeds of each of the {n} "
                  "streams; the pooled rows are the verdicts above.")
-    return [*lines, ""]
+    per_stream_curves = {i: target_curves(methods) for i, methods in enumerate(table.values())}
+    return [*lines, "", *per_target_dips(per_stream_curves, list(table), cfg.baseline)]
 
 
 def ablation_lines(cfg: ExperimentConfig, methods: dict[str, dict[int, np.ndarray]],
@@ -331,7 +333,9 @@ def section_c(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Pa
                                 f"figures/{profiles.name}"),
                   *[trend_line(stream_trend(methods, m, baseline), label(m))
                     for m in methods if m != baseline],
-                  *ablation_lines(cfg, methods, targets, sizes), ""]
+                  *ablation_lines(cfg, methods, targets, sizes), "",
+                  *worst_target_dips({t: {m: methods[m][t] for m in methods} for t in targets},
+                                     {t: f"opponent {t + 1}" for t in targets}, baseline)]
     jumpstarts = stream_jumpstarts(methods, featured, baseline) if featured else []
     return [*lines, "### Library size and jumpstart on each new opponent", "",
             *protocol_c_lines(jumpstarts, sizes, f"figures/{figure.name}", featured), ""]
