@@ -123,6 +123,7 @@ SMDP_CONSTRAINTS = {
     "initial_value": Real(-1e6, 1e6),
     "option_initial_value": NoneOr(Real(-1e6, 1e6)),
     "option_values": OneOf(("constant", "policy")),
+    "step_targets": OneOf(("every_choice", "available_choices")),
     "trace_decay": Real(0.0, 1.0),
     "max_decisions": Integer(1),
 }
@@ -184,6 +185,16 @@ class LearnerConfig:
     policy, tile by tile the largest of its choices' weights, so that an option starts
     at (a little above) what its policy expected to earn from each state, and the learner
     takes it where that beats the primitives and learns its value on the task."""
+    step_targets: str = "every_choice"
+    """What the one-step targets of the steps inside an option (``intra_option`` and
+    ``intra_option_primitives``) bootstrap from at the next state: ``"every_choice"`` (as
+    before: the largest value of any of the learner's choices) or ``"available_choices"``
+    (the primitives and the options that the library makes available there, sampled as
+    at a choice point, which is what the choice point's own target reads). With regions,
+    an option's values outside its region are never corrected, because it is never taken
+    there; bootstrapping from them carries whatever they started at into the primitives,
+    and along a stream of fine-tuned starts (each task starting from the last one's
+    values) that excess grows with every task."""
     trace_decay: float = 0.9
     """``lambda`` of the replacing eligibility traces (0: one-step updates)."""
     bootstrap_on_truncation: bool = False
@@ -456,21 +467,27 @@ class SmdpLearner(EpisodicLearner):
         lib = self.library
         q_next = None
         cont = None
+        allowed = None  # the choices a target bootstraps from (None: every one)
+        best_next = 0.0
         if next_state is not None:
             q_next = self.q.q_values(next_state)
             if self.option_ids:
                 assert lib is not None
-                cont = lib.continuation_probabilities(lib.membership(next_state))[self._lib_pos]
+                m_next = lib.membership(next_state)
+                cont = lib.continuation_probabilities(m_next)[self._lib_pos]
+                if self.config.step_targets == "available_choices":
+                    allowed, _ = self._choice_mask(next_state, m_next)
+            best_next = float(q_next.max() if allowed is None else q_next[allowed].max())
         disc = self.config.gamma**duration
         targets: dict[int, float] = {}
         if action != running:
             if q_next is None:
                 targets[action] = reward
             elif self._bonus:
-                every = np.ones(q_next.shape[0], dtype=bool)
+                every = np.ones(q_next.shape[0], dtype=bool) if allowed is None else allowed
                 targets[action] = reward + disc * self._bootstrap(q_next, every, action)
             else:
-                targets[action] = reward + disc * float(q_next.max())
+                targets[action] = reward + disc * best_next
         if self.config.intra_option and self.option_ids and m is not None:
             assert lib is not None
             tiles = {self.tile_coder: s_active}
@@ -489,7 +506,7 @@ class SmdpLearner(EpisodicLearner):
                     targets[c] = reward
                 else:
                     assert cont is not None
-                    u = cont[j] * q_next[c] + (1.0 - cont[j]) * q_next.max()
+                    u = cont[j] * q_next[c] + (1.0 - cont[j]) * best_next
                     targets[c] = reward + disc * float(u)
         if targets:
             q_now = self.q.q_from_tiles(s_active)

@@ -217,3 +217,33 @@ def test_a_fine_tuned_learner_takes_another_policys_option_only_where_it_is_bett
                           for x, c in choices.items() if x < 3.0 and c >= 3))
     assert min(zone_a) >= 1, zone_a  # X's option is chosen in zone A on every seed
     assert float(largest_dip(np.mean(curves, axis=0), 20)) <= 0.2
+
+
+def test_steps_inside_an_option_bootstrap_only_from_choices_available_there():
+    """An option's values outside its region are never corrected (it is never taken
+    there). Bootstrapping the steps inside an option from every choice carries them into
+    the primitives, above any return the corridor pays (at most 1); bootstrapping from
+    the choices available at the next state, as a choice point does, does not."""
+    coder = _coder()
+    inside, outside = set(), set()
+    for x in np.arange(0.0, 6.0, 0.01):
+        inside.update(coder.active(np.array([x])).tolist())
+    for x in np.arange(6.0, 9.0, 0.01):
+        outside.update(coder.active(np.array([x])).tolist())
+    far = np.array(sorted(outside - inside))  # tiles no state of the option's region uses
+    assert len(far) > 0
+    highest = {}
+    for targets in ("every_choice", "available_choices"):
+        library = OptionLibrary(RegionKernels(1, [0], [6.0], [True]), [_zone_policy(X)])
+        config = replace(LC, intra_option_primitives=True, interruption=True,
+                         step_targets=targets)
+        highest[targets] = []
+        for seed in range(5):
+            learner = SmdpLearner(3, coder, library, config, seed=seed)
+            learner.q.weights[3, sorted(inside)] = 1.5 / coder.n_active  # taken, corrected
+            learner.q.weights[3, far] = 5.0 / coder.n_active  # never taken: never corrected
+            learner.train(MappedCorridor(X, cost=0.02), 60, seed=seed)
+            highest[targets].append(max(learner.q.q_values(np.array([x]))[:3].max()
+                                        for x in np.arange(0.05, 9.0, 0.1)))
+    assert min(highest["every_choice"]) > 1.15, highest
+    assert max(highest["available_choices"]) < 1.1, highest

@@ -7,6 +7,7 @@ import json
 import re
 import shlex
 import shutil
+from dataclasses import replace
 
 import pytest
 
@@ -187,3 +188,15 @@ def test_a_finished_job_with_targets_past_index_nine_is_read_back(tmp_path):
     assert sorted(first[0]["methods"]["scratch"]["curves"], key=int) == [
         str(t) for t in range(1, 11)]
     assert run_experiment(cfg, tmp_path, progress=False) == first  # read back, checked
+
+
+def test_a_learner_setting_added_later_is_recorded_only_when_set():
+    # Runs made before `step_targets` existed computed what its default computes: their
+    # records stay the records of the same configuration, so they resume and report.
+    base = ExperimentConfig()
+    assert "step_targets" not in base.results_record()["lifelong"]["learner"]
+    learner = replace(base.lifelong.learner, step_targets="available_choices")
+    changed = replace(base, lifelong=replace(base.lifelong, learner=learner))
+    assert changed.results_record()["lifelong"]["learner"]["step_targets"] == \
+        "available_choices"
+    assert base.to_dict()["lifelong"]["learner"]["step_targets"] == "every_choice"

@@ -34,10 +34,12 @@ finite number); results are checked against it."""
 RUN_ONLY_FIELDS = ("executor", "workers", "storage")
 """Fields of :class:`ExperimentConfig` that say where jobs run and keep their checkpoints,
 not what they compute."""
-RECORDED_IF_SET = {"targets": [], "baseline": "scratch", "featured": None}
-"""Fields that results and checkpoints record only when they differ from their default
-(as JSON), so that the records of runs made before the field existed stay the records
-of the same configuration."""
+RECORDED_IF_SET = {"targets": [], "baseline": "scratch", "featured": None,
+                   "lifelong.learner.step_targets": "every_choice"}
+"""Fields (dotted paths into nested configurations) that results and checkpoints record
+only when they differ from their default (as JSON), so that the records of runs made
+before the field existed stay the records of the same configuration: a field is added
+with the default that computes what was computed before."""
 
 EXPERIMENT_CONSTRAINTS = {
     # Upper bounds far above any useful value: each seed, stream, opponent and worker
@@ -206,9 +208,13 @@ class ExperimentConfig:
         values = json.loads(json.dumps(self.to_dict()))
         for name in RUN_ONLY_FIELDS:
             del values[name]
-        for name, default in RECORDED_IF_SET.items():
-            if values[name] == default:
-                del values[name]
+        for path, default in RECORDED_IF_SET.items():
+            *parents, name = path.split(".")
+            holder = values
+            for parent in parents:
+                holder = holder[parent]
+            if holder[name] == default:
+                del holder[name]
         return values
 
     def to_json(self) -> str:

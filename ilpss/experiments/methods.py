@@ -328,15 +328,17 @@ def _plus(base: LifelongConfig) -> dict[str, Any]:
             "library": plus.library}
 
 
-def _fine_tuned(base: LifelongConfig, options: str) -> dict[str, Any]:
+def _fine_tuned(base: LifelongConfig, options: str,
+                step_targets: str = "every_choice") -> dict[str, Any]:
     """ILPSS-FT's fields: ILPSS+'s regions and library, a start from the latest past
     policy's values (``options``: its reuse), options valued from their own policies,
-    handed back by value (interruption) rather than by a fading bonus."""
+    handed back by value (interruption) rather than by a fading bonus; ``step_targets``:
+    what the steps inside an option bootstrap from."""
     plus = handing_back(base)
     return {"options": options, "kernel_reg_covar": plus.kernel_reg_covar,
             "library": plus.library,
             "learner": replace(base.learner, option_values="policy", interruption=True,
-                               intra_option_primitives=True)}
+                               intra_option_primitives=True, step_targets=step_targets)}
 
 
 # The oracle's regions: both sides of each split of protocol R's targets.
@@ -376,6 +378,9 @@ for _method in (
                    lambda base: _fine_tuned(base, "kernels_finetune")),
     LifelongMethod("whole_policies_ft", "whole past policies, ILPSS-FT's settings",
                    lambda base: _fine_tuned(base, "whole_policies_finetune")),
+    LifelongMethod("ilpss_ft_available",
+                   "ILPSS-FT, steps inside options bootstrapped from the available choices",
+                   lambda base: _fine_tuned(base, "kernels_finetune", "available_choices")),
     LifelongMethod("ilpss_ft_oracle", "ILPSS-FT with the true regions as kernels (oracle)",
                    lambda base: _fine_tuned(base, "oracle_regions_finetune")),
 ):
