@@ -122,7 +122,7 @@ SMDP_CONSTRAINTS = {
     # Far beyond any return; 1e308 would overflow the first update.
     "initial_value": Real(-1e6, 1e6),
     "option_initial_value": NoneOr(Real(-1e6, 1e6)),
-    "option_values": OneOf(("constant", "policy")),
+    "option_values": OneOf(("constant", "policy", "policy_primitives")),
     "step_targets": OneOf(("every_choice", "available_choices")),
     "trace_decay": Real(0.0, 1.0),
     "max_decisions": Integer(1),
@@ -184,7 +184,10 @@ class LearnerConfig:
     ``option_initial_value``) or ``"policy"``: from the values of the option's own past
     policy, tile by tile the largest of its choices' weights, so that an option starts
     at (a little above) what its policy expected to earn from each state, and the learner
-    takes it where that beats the primitives and learns its value on the task."""
+    takes it where that beats the primitives and learns its value on the task.
+    ``"policy_primitives"``: the same over the policy's primitive actions only. A past
+    policy that chose options holds their values too, and a tile-wise maximum over those
+    inherits every earlier start's excess over the greedy value, task after task."""
     step_targets: str = "every_choice"
     """What the one-step targets of the steps inside an option (``intra_option`` and
     ``intra_option_primitives``) bootstrap from at the next state: ``"every_choice"`` (as
@@ -299,11 +302,13 @@ class SmdpLearner(EpisodicLearner):
                               initial_value=config.initial_value)
         if config.option_initial_value is not None:
             self.q.weights[n_primitive:] = config.option_initial_value / tile_coder.n_active
-        if config.option_values == "policy" and library is not None:
+        if config.option_values != "constant" and library is not None:
+            primitives_only = config.option_values == "policy_primitives"
             for j, oid in enumerate(option_ids):
                 # A sum of tile-wise maxima: at every state at least the policy's own
                 # greedy value (a linear start, so frozen policies keep it).
-                own = library.policies[library.policy_of(oid)].weights
+                policy = library.policies[library.policy_of(oid)]
+                own = policy.weights[: policy.n_primitive] if primitives_only else policy.weights
                 self.q.weights[n_primitive + j] = own.max(axis=0)
         self.config = config
         self.tile_coder = tile_coder

@@ -247,3 +247,24 @@ def test_steps_inside_an_option_bootstrap_only_from_choices_available_there():
                                         for x in np.arange(0.05, 9.0, 0.1)))
     assert min(highest["every_choice"]) > 1.15, highest
     assert max(highest["available_choices"]) < 1.1, highest
+
+
+def test_options_valued_from_their_policies_primitives_do_not_inherit_its_options_values():
+    """A past policy that chose options holds their values too: a tile-wise maximum over
+    all its values starts its option at least at the largest of them, so each start's
+    excess passes to the next; over its primitive actions only, it does not."""
+    coder = _coder()
+    sources = [_zone_policy(X)]
+    first = OptionLibrary(RegionKernels(1, [0], [6.0], [True]), sources)
+    learner = SmdpLearner(3, coder, first, replace(LC, option_values="policy"), seed=0)
+    learner.q.weights[3:] = 5.0 / coder.n_active  # an option it valued far above any return
+    chained = learner.freeze()
+    library = OptionLibrary(RegionKernels(1, [0], [6.0], [True]), [*sources, chained])
+    option = next(3 + j for j, o in enumerate(library.option_ids)
+                  if library.policy_of(o) == 1)
+    s = np.array([2.0])
+    inherited = SmdpLearner(3, coder, library, replace(LC, option_values="policy"))
+    assert inherited.q.q_values(s)[option] == pytest.approx(5.0)
+    fresh = SmdpLearner(3, coder, library, replace(LC, option_values="policy_primitives"))
+    assert fresh.q.q_values(s)[option] == pytest.approx(chained.q_values(s)[:3].max(), abs=0.2)
+    assert fresh.q.q_values(s)[option] < 1.5

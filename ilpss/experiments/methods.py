@@ -328,16 +328,17 @@ def _plus(base: LifelongConfig) -> dict[str, Any]:
             "library": plus.library}
 
 
-def _fine_tuned(base: LifelongConfig, options: str,
-                step_targets: str = "every_choice") -> dict[str, Any]:
+def _fine_tuned(base: LifelongConfig, options: str, step_targets: str = "every_choice",
+                option_values: str = "policy") -> dict[str, Any]:
     """ILPSS-FT's fields: ILPSS+'s regions and library, a start from the latest past
     policy's values (``options``: its reuse), options valued from their own policies,
     handed back by value (interruption) rather than by a fading bonus; ``step_targets``:
-    what the steps inside an option bootstrap from."""
+    what the steps inside an option bootstrap from; ``option_values``: from which of a
+    policy's values its option's start."""
     plus = handing_back(base)
     return {"options": options, "kernel_reg_covar": plus.kernel_reg_covar,
             "library": plus.library,
-            "learner": replace(base.learner, option_values="policy", interruption=True,
+            "learner": replace(base.learner, option_values=option_values, interruption=True,
                                intra_option_primitives=True, step_targets=step_targets)}
 
 
@@ -381,6 +382,11 @@ for _method in (
     LifelongMethod("ilpss_ft_available",
                    "ILPSS-FT, steps inside options bootstrapped from the available choices",
                    lambda base: _fine_tuned(base, "kernels_finetune", "available_choices")),
+    LifelongMethod("ilpss_ft_available_primitives",
+                   "ILPSS-FT, steps bootstrapped from the available choices, options valued "
+                   "from their policies' primitives",
+                   lambda base: _fine_tuned(base, "kernels_finetune", "available_choices",
+                                            "policy_primitives")),
     LifelongMethod("ilpss_ft_oracle", "ILPSS-FT with the true regions as kernels (oracle)",
                    lambda base: _fine_tuned(base, "oracle_regions_finetune")),
 ):
