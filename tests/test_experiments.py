@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import shutil
 
+import numpy as np
 import pytest
 
 from ilpss.experiments.cli import main as cli_main
@@ -168,6 +169,27 @@ def test_compare_pairs_runs_by_seed_and_matches_the_report(tmp_path, capsys):
     for bad in (["--baseline", "nofolder", "x=y:z"], ["--baseline", f"{tmp_path / 'a'}:prq", "x"]):
         with pytest.raises(SystemExit):
             compare_main(bad)
+
+
+def test_compare_pools_every_stream_as_the_reports_do(tmp_path, capsys):
+    from ilpss import metrics
+    from ilpss.experiments.compare import main as compare_main
+    from ilpss.experiments.report import collect, interval_text, target_curves
+
+    cfg = _tiny(protocol="B", methods=("finetune", "scratch"), n_shuffles=0,
+                teams=("interceptors_press", "chasers", "goal_guards"))
+    results = run_experiment(cfg, tmp_path, progress=False)
+    assert compare_main(["--baseline", f"{tmp_path}:scratch", f"ft={tmp_path}:finetune"]) == 0
+    out = capsys.readouterr().out
+    # Every held-out team's curves averaged per seed, as the report's pooled verdicts.
+    table = collect(results)
+    assert len(table) == 3
+    pooled = {m: np.mean([target_curves(streams)[m] for streams in table.values()], axis=0)
+              for m in ("finetune", "scratch")}
+    est = metrics.compare(pooled["finetune"], pooled["scratch"], first=6, last=6,
+                          threshold=None, window=6)
+    assert f"| ft | {interval_text(est['jumpstart'], metrics.METRIC['jumpstart'].fmt)} |" in out
+    assert "Largest" not in out  # one run: nothing picked as the largest
 
 
 def test_the_demo_shows_the_recommended_method_succeeding_and_learning_anew_s_first_episode(

@@ -4,9 +4,10 @@
         "ILPSS=results/protocol_a:ilpss" "K = 1=results/variant_k1:ilpss"
 
 Each run is ``LABEL=FOLDER:METHOD`` (a folder written by ``ilpss-experiment``). Runs are
-compared on the targets of stream 0 (each seed's curves averaged over them, when the
-stream has several: protocol A with targets, R) over the seeds that every run and the
-baseline finished, with :func:`ilpss.metrics.compare` (Student t intervals over the
+compared on the targets of every stream (each seed's curves averaged over them, when
+there are several: protocol A with targets, R, and B's held-out teams, pooled as the
+reports pool them) over the seeds whose every stream every run and the baseline
+finished, with :func:`ilpss.metrics.compare` (Student t intervals over the
 paired seeds, Fieller for the time ratio) on the headline metrics of every report
 (:func:`ilpss.metrics.headline_metrics`), using the windows and threshold of the
 experiment reports (:mod:`ilpss.experiments.report`). The jumpstart and total-reward
@@ -15,8 +16,8 @@ run with the largest value of each is named with a simultaneous interval (Bonfer
 over the runs), which stays valid after picking the largest; the plain intervals do not.
 Runs with the same seeds meet the same opponents with the same environment and learner
 seeds, so an ablation run with one method can be compared with the baseline of another
-run. The runs must agree with the baseline on the stream (tasks, target, environment and
-budget) on every seed they share, else the comparison is refused; the table is printed
+run. The runs must agree with the baseline on the streams (tasks, targets, environment
+and budget) on every seed they share, else the comparison is refused; the table is printed
 as markdown. Labels and folders may hold ``=``: an item is split where a run folder
 follows, and refused if that is ambiguous.
 """
@@ -72,27 +73,28 @@ def split_run(item: str) -> tuple[str, Path, str]:
                      "rename a folder or the label")
 
 
-def _stream_of(cfg: ExperimentConfig, seed: int) -> dict[str, Any]:
-    """What must agree between two runs compared seed by seed: the targets of stream 0
+def _streams_of(cfg: ExperimentConfig, seed: int) -> dict[str, Any]:
+    """What must agree between two runs compared seed by seed: every stream's targets
     after the same tasks, the same budget and environment."""
-    stream = cfg.streams(seed)[0]
     return {"protocol": cfg.protocol, "env_id": cfg.env_id,
-            "tasks": [t.name for t in stream.tasks],
-            "task_settings": [t.env_kwargs for t in stream.tasks],
-            "first_target": stream.first_target, "shared_start": stream.shared_start,
-            "train_episodes": cfg.lifelong.train_episodes}
+            "train_episodes": cfg.lifelong.train_episodes,
+            "streams": [{"tasks": [t.name for t in stream.tasks],
+                         "task_settings": [t.env_kwargs for t in stream.tasks],
+                         "first_target": stream.first_target,
+                         "shared_start": stream.shared_start}
+                        for stream in cfg.streams(seed)]}
 
 
-def target_curves(folder: Path, method: str) -> dict[int, tuple[list[float], dict]]:
-    """``{seed: (curve on the targets of stream 0, averaged over them, that method's
-    result)}``."""
+def target_curves(folder: Path, method: str) -> dict[int, tuple[list[float], list[dict]]]:
+    """``{seed: (curve on the targets of every stream, averaged over them, that method's
+    result on each stream)}``, for the seeds whose every stream is finished."""
     return _target_curves(folder, method)[0]
 
 
 def _target_curves(
     folder: Path, method: str
-) -> tuple[dict[int, tuple[list[float], dict]], dict[int, dict[str, Any]]]:
-    """:func:`target_curves` and, per seed, what it was compared on (:func:`_stream_of`)."""
+) -> tuple[dict[int, tuple[list[float], list[dict]]], dict[int, dict[str, Any]]]:
+    """:func:`target_curves` and, per seed, what it was compared on (:func:`_streams_of`)."""
     run = RunFolder(folder)
     config = run.config
     if not config.is_file():
@@ -100,16 +102,24 @@ def _target_curves(
     cfg = read_config(config)
     out, streams = {}, {}
     for seed in run.finished_seeds(stream_index=0):
-        path = run.result(seed, 0)
-        result = load_result(path, cfg, seed, 0, cfg.streams(seed)[0])  # checked, clear errors
-        if method not in result["methods"]:
-            raise ValueError(f"{path}: no method {method!r}; it has {sorted(result['methods'])}")
-        data = result["methods"][method]
-        curve = np.mean([data["curves"][t] for t in sorted(data["curves"], key=int)], axis=0)
-        out[int(result["seed"])] = (curve.tolist(), data)
-        streams[int(result["seed"])] = _stream_of(cfg, seed)
+        seed_streams = cfg.streams(seed)
+        paths = [run.result(seed, i) for i in range(len(seed_streams))]
+        if not all(path.is_file() for path in paths):
+            continue  # a seed is compared once every one of its streams is finished
+        curves, data = [], []
+        for i, (path, stream) in enumerate(zip(paths, seed_streams, strict=True)):
+            result = load_result(path, cfg, seed, i, stream)  # checked, clear errors
+            if method not in result["methods"]:
+                raise ValueError(
+                    f"{path}: no method {method!r}; it has {sorted(result['methods'])}")
+            entry = result["methods"][method]
+            curves += [entry["curves"][t] for t in sorted(entry["curves"], key=int)]
+            data.append(entry)
+        out[seed] = (np.mean(curves, axis=0).tolist(), data)
+        streams[seed] = _streams_of(cfg, seed)
     if not out:
-        raise ValueError(f"{folder}: no finished seeds (seed_*/stream_00/result.json)")
+        raise ValueError(f"{folder}: no seed with every stream finished "
+                         "(seed_*/stream_*/result.json)")
     return out, streams
 
 
@@ -148,7 +158,8 @@ def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]]) 
         estimates[label] = metrics.compare(c, b, first=first, last=last, threshold=threshold,
                                            window=window, warmup=True)
         gains[label] = metrics.per_seed_gains(c, b, first=first, last=last)
-        used[label] = np.mean([by_seed[s][1].get("options_used", [0])[-1] for s in seeds])
+        used[label] = np.mean([np.mean([entry.get("options_used", [0])[-1]
+                                        for entry in by_seed[s][1]]) for s in seeds])
     keys = [(label, e) for label in estimates for e in PRIMARY]
     adjusted = dict(zip(keys, metrics.holm([estimates[k][e].p_value for k, e in keys]),
                         strict=True))
@@ -177,7 +188,7 @@ def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]]) 
         lines.append(f"| {label} | " + " | ".join(cells) + f" | {used[label]:.1f} |")
     lines.append("")
     confidence = 1.0 - 0.05 / k
-    for e in PRIMARY:
+    for e in PRIMARY if k > 1 else ():  # with one run there is nothing to pick
         best = max(estimates, key=lambda label: estimates[label][e].value)
         value, low, high = metrics.t_interval(gains[best][e], confidence)
         lines.append(
