@@ -78,11 +78,12 @@ def _streams_of(cfg: ExperimentConfig, seed: int) -> dict[str, Any]:
     after the same tasks, the same budget and environment."""
     return {"protocol": cfg.protocol, "env_id": cfg.env_id,
             "train_episodes": cfg.lifelong.train_episodes,
-            "streams": [{"tasks": [t.name for t in stream.tasks],
-                         "task_settings": [t.env_kwargs for t in stream.tasks],
-                         "first_target": stream.first_target,
-                         "shared_start": stream.shared_start}
-                        for stream in cfg.streams(seed)]}
+            "streams": {f"stream_{i:02d}": {"tasks": [t.name for t in stream.tasks],
+                                             "task_settings": [t.env_kwargs
+                                                               for t in stream.tasks],
+                                             "first_target": stream.first_target,
+                                             "shared_start": stream.shared_start}
+                        for i, stream in enumerate(cfg.streams(seed))}}
 
 
 def target_curves(folder: Path, method: str) -> dict[int, tuple[list[float], list[dict]]]:
