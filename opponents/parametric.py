@@ -411,7 +411,7 @@ class ParametricBatch:
             on_line = left == 0
             gx, gy = pos[:, 2 + k, 0], pos[:, 2 + k, 1]
             start = on_line & (t.guard_reach > 0) & (np.hypot(bx - gx, by - gy) <= t.guard_reach)
-            if t.press_probability > 0 and on_line.any():
+            if t.press_probability > 0 and np.count_nonzero(on_line):
                 draws = np.zeros(m, dtype=bool)
                 draws[on_line] = self._rng.random(drills[on_line]) < t.press_probability
                 start |= draws & on_line

@@ -109,7 +109,7 @@ class BatchCore:
         """The support behaviour's commands: for attacker 0 in the drills where ``first``
         and attacker 1 where ``second`` (``(n,)`` bool; attacker 0 first, as the single
         drill asks, since both draw from the drill's one support generator)."""
-        if not (first | second).any():
+        if not np.count_nonzero(first | second):
             return
         b, cfg = self.batch, self.config
         spots = support_spots(b.pos, cfg)
@@ -120,9 +120,9 @@ class BatchCore:
         resample = b.cycle % _RESAMPLE_CYCLES == 0
         lo, hi = 1.0, cfg.field_size - 1.0
         for k, mask in ((0, first), (1, second)):
-            if not mask.any():
+            if not np.count_nonzero(mask):
                 continue
-            draw = np.flatnonzero(mask & resample)
+            draw = np.nonzero(mask & resample)[0]
             if len(draw):
                 dx = self.support_rng.random(draw)
                 dy = self.support_rng.random(draw)
@@ -139,7 +139,7 @@ class BatchCore:
     def advance(self, active: np.ndarray) -> None:
         """One cycle of the drills where ``active``, with the commands set in the arrays
         (the team's written here)."""
-        drills = np.flatnonzero(active)
+        drills = np.nonzero(active)[0]
         if self.team is not None:
             self.team.act(drills, self.skill, self.target, self.speed)
         self.batch.step(active, self.skill, self.target, self.speed, self.generators)

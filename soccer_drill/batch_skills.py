@@ -81,10 +81,9 @@ def interception_points(
     out = np.where(other_holds[..., None], carried, ball)
     bvel = vel[:, 4]
     rolling = (holder < 0) & (np.hypot(bvel[:, 0], bvel[:, 1]) >= 1.0)
-    if rolling.any():
-        r = np.flatnonzero(rolling)
-        times, travels, _, _ = _roll_table(cfg.ball_damping, cfg.cycle_seconds)
-        times_a, travels_a = np.asarray(times), np.asarray(travels)
+    if np.count_nonzero(rolling):
+        r = np.nonzero(rolling)[0]
+        times_a, travels_a = _roll_arrays(cfg.ball_damping, cfg.cycle_seconds)
         x = pos[r, 4, 0:1] + vel[r, 4, 0:1] * travels_a  # (R, K)
         y = pos[r, 4, 1:2] + vel[r, 4, 1:2] * travels_a
         dx = x[:, None, :] - pos[r, :4, 0][:, :, None]  # (R, 4, K)
@@ -97,6 +96,21 @@ def interception_points(
         out[r, :, 0] = x[rr, k]
         out[r, :, 1] = y[rr, k]
     return out
+
+
+_roll_cache: dict[tuple[float, float], tuple[np.ndarray, np.ndarray]] = {}
+
+
+def _roll_arrays(damping: float, cycle: float) -> tuple[np.ndarray, np.ndarray]:
+    """``_roll_table``'s times and travels as arrays, made once per ``(damping, cycle)``."""
+    key = (damping, cycle)
+    arrays = _roll_cache.get(key)
+    if arrays is None:
+        times, travels, _, _ = _roll_table(damping, cycle)
+        arrays = _roll_cache[key] = (np.array(times), np.array(travels))
+        for a in arrays:
+            a.flags.writeable = False
+    return arrays
 
 
 def support_spots(pos: np.ndarray, cfg: DrillConfig) -> np.ndarray:
@@ -271,12 +285,12 @@ def holder_motion(
     if used[CONTROL]:
         dribble = skill == int(Skill.DRIBBLE)
         hold = skill == int(Skill.HOLD)
-        if dribble.any():
+        if np.count_nonzero(dribble):
             h = dribble_headings(pos, holder, cfg)
             v = cfg.dribble_speed * speed
             np.copyto(mv, h * v[:, None], where=dribble[:, None])
             np.copyto(bvec, h, where=dribble[:, None])
-        if hold.any():
+        if np.count_nonzero(hold):
             s = np.stack(shield_directions(pos, holder), axis=1)  # (N, 2)
             v = s * (cfg.hold_speed * speed)[:, None]
             p = pos[rows(n), holder]
@@ -291,7 +305,7 @@ def holder_motion(
             np.copyto(mv, v, where=hold[:, None])
             np.copyto(bvec, np.stack((sx, sy), axis=1), where=hold[:, None])
     if used[KICK]:
-        r = np.flatnonzero(action == KICK)
+        r = np.nonzero(action == KICK)[0]
         assert noise is not None
         bvec[r] = pass_velocities(pos[r], vel[r], holder[r], noise[r], cfg)
     return mv, action, bvec

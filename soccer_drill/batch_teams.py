@@ -145,7 +145,7 @@ class BatchRandom:
         """The next draw of each drill in ``drills`` (standard normals if ``normal``)."""
         k = self._next[drills]
         empty = k >= self._block
-        if empty.any():
+        if np.count_nonzero(empty):
             for i in drills[empty].tolist():
                 g = self._generators[i]
                 if g is None:

@@ -251,7 +251,7 @@ class HolderVectorEnv(VectorEnv):
         stepping = ~self._autoreset
         start = b.cycle.copy()
         self._begin(np.flatnonzero(stepping), a)
-        while self._running.any():
+        while np.count_nonzero(self._running):
             self._cycle()
         decider = self._decider
         obs = self._observe(decider)
@@ -301,7 +301,7 @@ class HolderVectorEnv(VectorEnv):
         """
         core, b = self._core, self._core.batch
         running, in_action, decider = self._running, self._in_action, self._decider
-        act = np.flatnonzero(in_action)
+        act = np.nonzero(in_action)[0]
         free = running & ~in_action  # the ball is loose: both attackers support
         core.skill[act, decider[act]] = _HOLDER_SKILLS[self._action[act]]
         core.speed[act, decider[act]] = 1.0
@@ -390,8 +390,8 @@ def play_episodes(
         core.reset(take)
 
     start(np.arange(n))
-    while (episode >= 0).any():
-        deciding = np.flatnonzero((episode >= 0) & ~env._running)
+    while np.count_nonzero(episode >= 0):
+        deciding = np.nonzero((episode >= 0) & ~env._running)[0]
         if len(deciding):
             obs = env._observe()
             actions = np.zeros(n, dtype=np.int64)
@@ -399,7 +399,7 @@ def play_episodes(
                 actions[i] = policies[episode[i]](obs[i], rngs[i])  # type: ignore[arg-type]
             env._begin(deciding, actions)
         env._cycle()
-        ended = np.flatnonzero((episode >= 0) & (b.outcome != 0))
+        ended = np.nonzero((episode >= 0) & (b.outcome != 0))[0]
         if len(ended):
             for i in ended.tolist():
                 results[episode[i]] = (float(b.attacker_reward[i]), OUTCOME_NAMES[b.outcome[i]])

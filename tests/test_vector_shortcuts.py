@@ -1,0 +1,57 @@
+"""The batched drill's shortcuts against the plain computations they skip or replace."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import soccer_drill
+from soccer_drill.batch import RUNNING, BatchDrill
+from soccer_drill.batch_physics import BatchPhysics
+
+
+def test_the_direct_chipmunk_step_moves_the_players_as_space_step_does():
+    cfg = soccer_drill.DrillConfig()
+    direct, plain = BatchPhysics(40, cfg, 16), BatchPhysics(40, cfg, 16)
+    assert all(step is not space.step for step, space in zip(direct._steps, direct.spaces, strict=True))
+    plain._steps = [space.step for space in plain.spaces]
+    rng = np.random.default_rng(0)
+    pos = rng.uniform(2.0, cfg.field_size - 2.0, size=(40, 4, 2))
+    pos[:, 1] = pos[:, 0] + 0.3  # players pressed together: contacts to solve
+    for _ in range(30):
+        vel = rng.normal(0.0, 5.0, size=(40, 4, 2))
+        a_pos, a_vel = (x.copy() for x in direct.cycle(pos, vel))
+        b_pos, b_vel = plain.cycle(pos, vel)
+        np.testing.assert_array_equal(a_pos, b_pos)
+        np.testing.assert_array_equal(a_vel, b_vel)
+        pos = np.clip(a_pos, 0.5, cfg.field_size - 0.5)
+
+
+def _random_states(batch: BatchDrill, rng: np.random.Generator) -> None:
+    size, n = batch.config.field_size, batch.n
+    edges = np.array([-0.1, 0.0, 1e-12, 5.0, size - 1e-12, size, size + 0.1, np.nan])
+    batch.pos[:, 4] = rng.choice(edges, size=(n, 2)) if rng.random() < 0.5 else rng.uniform(
+        0.5, size - 0.5, size=(n, 2))
+    quiet = rng.random(n) < (1.0 if rng.random() < 0.3 else 0.8)
+    batch.pos[quiet, 4] = rng.uniform(0.5, size - 0.5, size=(int(quiet.sum()), 2))
+    rare = 0.05 if rng.random() < 0.7 else 0.0  # else no drill near an end but by its ball
+    batch.holder[:] = rng.choice([-1, 0, 1, 2, 3], size=n, p=[0.3, 0.35 - rare, 0.35 - rare, rare, rare])
+    batch.cycle[:] = rng.choice([0, 5, batch.config.max_cycles - 1, batch.config.max_cycles], size=n,
+                                p=[0.3, 0.7 - 2 * rare, rare, rare])
+
+
+@pytest.mark.parametrize("n", [1, 3, 64])
+def test_the_quick_no_end_test_only_skips_states_that_end_no_episode(n):
+    batch, rng = BatchDrill(n), np.random.default_rng(n)
+    everyone = np.ones(n, dtype=bool)
+    skipped = 0
+    for _ in range(3000):
+        _random_states(batch, rng)
+        if batch.none_can_end():
+            skipped += 1
+            assert not np.count_nonzero(batch.end_codes(everyone))
+        active = rng.random(n) < 0.7
+        batch.outcome[:] = RUNNING
+        batch._judge(active)
+        np.testing.assert_array_equal(batch.outcome, batch.end_codes(active))
+    assert 0 < skipped < 3000  # both ways were taken
