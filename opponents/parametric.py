@@ -380,7 +380,12 @@ class ParametricBatch:
 
     def _seen(self, view: Any, drills: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The states ``reaction_delay`` cycles old (or the oldest since reset)."""
-        pos, vel, holder = view.pos[drills], view.vel[drills], view.holder[drills]
+        from soccer_drill.batch_teams import every_drill
+
+        if every_drill(drills, view.n):  # the arrays themselves (read-only views), no copies
+            pos, vel, holder = view.pos, view.vel, view.holder
+        else:
+            pos, vel, holder = view.pos[drills], view.vel[drills], view.holder[drills]
         depth = self.team.reaction_delay + 1
         if depth == 1:
             return pos, vel, holder

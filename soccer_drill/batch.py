@@ -25,6 +25,8 @@ from soccer_drill.batch_skills import (
     rows,
     toward,
     turn_toward,
+    xy,
+    z,
 )
 from soccer_drill.config import DrillConfig
 from soccer_drill.drill import OUTCOMES
@@ -152,33 +154,35 @@ class BatchDrill:
             desired[b, holder[b]] = mv[b]
         # The acceleration cap.
         accel = cfg.player_acceleration * dt
-        old = vel[:, :4]
-        d = desired - old
+        old = z(vel)[:, :4]
+        dz = z(desired) - old
+        d = xy(dz)
         dv = np.hypot(d[..., 0], d[..., 1])
-        over = (dv > accel)[..., None]
-        # dvx * accel / dv, as the single code computes it
-        d = np.where(over, d * accel / np.where(over, dv[..., None], 1.0), d)
-        new_vel = d
-        new_vel += old
+        over = dv > accel
+        if np.count_nonzero(over):  # dvx * accel / dv, as the single code computes it
+            dz = np.where(over, z(d * accel / np.where(over, dv, 1.0)[..., None]), dz)
+        dz += old
+        new_vel = xy(dz)
         # The ball: kicked, kept at the control point, or rolling.
         kicked = held & (ball_action == KICK)
         control = held & (ball_action == CONTROL)
         ball_vel = vel[:, 4] * self._roll
         any_kicked = np.count_nonzero(kicked)
         if any_kicked:
-            np.copyto(ball_vel, bvec, where=kicked[:, None])
+            np.copyto(z(ball_vel), z(bvec), where=kicked)
         if np.count_nonzero(control):
-            p = pos[r, holder]
-            f = pos[:, 4] - p
+            pz = z(pos)
+            p = pz[r, holder]
+            f = xy(pz[:, 4] - p)
             ux, uy = turn_toward(f[:, 0], f[:, 1], bvec[:, 0], bvec[:, 1])
-            hv = new_vel[r, holder]
-            c = hv * dt
-            c += p
+            c = new_vel[r, holder] * dt
+            cz = z(c)
+            cz += p
             c[:, 0] += ux * cfg.ball_offset
             c[:, 1] += uy * cfg.ball_offset
-            c -= pos[:, 4]
+            cz -= pz[:, 4]
             c /= dt
-            np.copyto(ball_vel, c, where=control[:, None])
+            np.copyto(z(ball_vel), cz, where=control)
         ball_vel = _capped(ball_vel, cfg.ball_max_speed)
         # Inactive drills stand still.
         n_active = np.count_nonzero(active)
@@ -216,9 +220,9 @@ class BatchDrill:
         """``Drill._holder_after`` for the ``active`` drills (``before``: who held it before)."""
         cfg = self.config
         pos, vel = self.pos, self.vel
-        d = pos[:, :4] - pos[:, 4:5]
+        d = xy(z(pos)[:, :4] - z(pos)[:, 4:5])
         dist = np.hypot(d[..., 0], d[..., 1])
-        v = vel[:, 4:5] - vel[:, :4]
+        v = xy(z(vel)[:, 4:5] - z(vel)[:, :4])
         rel = np.hypot(v[..., 0], v[..., 1])
         locked_out = np.where(self.cycle < self.lockout_until, self.passer, -1)
         ok = dist <= cfg.control_radius
@@ -322,4 +326,4 @@ def _capped(v: np.ndarray, cap: np.ndarray | float, squared: bool = False) -> np
     if not np.count_nonzero(over):
         return v
     safe = np.where(over, speed, 1.0)
-    return np.where(over[..., None], v * cap_b[..., None] / safe[..., None], v)
+    return xy(np.where(over, z(v * cap_b[..., None] / safe[..., None]), z(v)))

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from soccer_drill.batch import RUNNING, BatchDrill
-from soccer_drill.batch_skills import support_spots
+from soccer_drill.batch_skills import _ATTACKERS, support_spots, xy, z
 from soccer_drill.batch_teams import BatchRandom, BatchTeamDriver
 from soccer_drill.config import DrillConfig
 from soccer_drill.skills import Skill
@@ -112,8 +112,8 @@ class BatchCore:
         if not np.count_nonzero(first | second):
             return
         b, cfg = self.batch, self.config
-        spots = support_spots(b.pos, cfg)
-        d = b.pos[:, :2] - b.pos[:, 4:5]
+        spots = support_spots(b.pos, cfg, _ATTACKERS)
+        d = xy(z(b.pos)[:, :2] - z(b.pos)[:, 4:5])
         dist = np.hypot(d[..., 0], d[..., 1])  # each attacker's distance to the ball
         loose = b.holder < 0
         locked_out = np.where(b.cycle < b.lockout_until, b.passer, -1)
@@ -133,7 +133,7 @@ class BatchCore:
             spot = spots[:, k] + self.support_offset
             np.minimum(np.maximum(spot, lo, out=spot), hi, out=spot)
             np.copyto(self.skill[:, k], np.where(chase, _GO_TO_BALL, _MOVE_TO), where=mask)
-            np.copyto(self.target[:, k], spot, where=mask[:, None])
+            np.copyto(z(self.target)[:, k], z(spot), where=mask)
             np.copyto(self.speed[:, k], 1.0, where=mask)
 
     def advance(self, active: np.ndarray) -> None:

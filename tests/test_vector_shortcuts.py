@@ -55,3 +55,21 @@ def test_the_quick_no_end_test_only_skips_states_that_end_no_episode(n):
         batch._judge(active)
         np.testing.assert_array_equal(batch.outcome, batch.end_codes(active))
     assert 0 < skipped < 3000  # both ways were taken
+
+
+@pytest.mark.parametrize("shared", [False, True])
+def test_the_legality_test_says_what_the_action_masks_say(shared):
+    from soccer_drill.vector_agents import ParallelVectorEnv, is_legal
+
+    venv = ParallelVectorEnv(num_envs=32, opponent=None, shared_spaces=shared)
+    obs, _ = venv.reset(seed=0)
+    rng = np.random.default_rng(0)
+    for _ in range(40):
+        masks = venv.action_masks()
+        for agent, i in venv._index.items():
+            n_actions = venv.action_space(agent).n
+            for a in range(n_actions):
+                actions = np.full(32, a)
+                np.testing.assert_array_equal(
+                    is_legal(actions, venv._core.batch.holder, i), masks[agent][:, a] == 1)
+        obs, *_ = venv.step({a: (rng.random(m.shape) * m).argmax(1) for a, m in masks.items()})
