@@ -392,11 +392,11 @@ def play_episodes(
     start(np.arange(n))
     while np.count_nonzero(episode >= 0):
         deciding = np.nonzero((episode >= 0) & ~env._running)[0]
-        if len(deciding):
-            obs = env._observe()
+        if len(deciding):  # the features of the deciding holders only
+            obs = batch_features(b.pos[deciding], b.holder[deciding], env.config, env._low, env._high)
             actions = np.zeros(n, dtype=np.int64)
-            for i in deciding.tolist():
-                actions[i] = policies[episode[i]](obs[i], rngs[i])  # type: ignore[arg-type]
+            for k, (i, e) in enumerate(zip(deciding.tolist(), episode[deciding].tolist(), strict=True)):
+                actions[i] = policies[e](obs[k], rngs[i])  # type: ignore[arg-type]
             env._begin(deciding, actions)
         env._cycle()
         ended = np.nonzero((episode >= 0) & (b.outcome != 0))[0]

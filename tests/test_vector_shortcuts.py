@@ -73,3 +73,44 @@ def test_the_legality_test_says_what_the_action_masks_say(shared):
                 np.testing.assert_array_equal(
                     is_legal(actions, venv._core.batch.holder, i), masks[agent][:, a] == 1)
         obs, *_ = venv.step({a: (rng.random(m.shape) * m).argmax(1) for a, m in masks.items()})
+
+
+def test_a_frames_pixels_are_the_surfaces_as_surfarray_reads_them():
+    import pygame
+
+    from soccer_drill.holder import HolderEnv
+    from soccer_drill.render import surface_pixels
+
+    env = HolderEnv(opponent="interceptors_cover", render_mode="rgb_array")
+    env.reset(seed=3)
+    env.step(2)
+    frame = env.render()
+    surface = pygame.surfarray.make_surface(np.transpose(frame, (1, 0, 2)))
+    plain = np.ascontiguousarray(np.transpose(pygame.surfarray.array3d(surface), (1, 0, 2)))
+    np.testing.assert_array_equal(surface_pixels(surface), plain)
+    np.testing.assert_array_equal(frame, plain)
+    assert frame.flags.writeable and frame.dtype == np.uint8
+    env.close()
+
+
+def test_a_gif_of_few_colours_is_written_with_its_exact_colours(tmp_path):
+    from PIL import Image
+
+    from soccer_drill.gif import palette_images, save_gif
+
+    rng = np.random.default_rng(0)
+    colours = rng.integers(0, 256, size=(200, 3), dtype=np.uint8)
+    frames = [colours[rng.integers(0, 200, size=(30, 40))] for _ in range(5)]
+    save_gif(frames, tmp_path / "a.gif", fps=8)
+    image = Image.open(tmp_path / "a.gif")
+    back = []
+    for i in range(image.n_frames):
+        image.seek(i)
+        back.append(np.asarray(image.convert("RGB")))
+    assert len(back) == len(frames)
+    for a, b in zip(frames, back, strict=True):
+        np.testing.assert_array_equal(a, b)
+    many = [rng.integers(0, 256, size=(30, 40, 3), dtype=np.uint8)]  # > 256 colours
+    assert palette_images(many) is None
+    save_gif(many, tmp_path / "b.gif", fps=8)  # quantized by Pillow instead
+    assert Image.open(tmp_path / "b.gif").size == (40, 30)
