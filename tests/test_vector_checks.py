@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import gymnasium as gym
 import numpy as np
+import pytest
 from gymnasium.utils.env_checker import check_space_limit
 from gymnasium.utils.passive_env_checker import check_obs
 from gymnasium.vector import AutoresetMode, VectorEnv
@@ -87,3 +88,40 @@ def test_gymnasiums_vector_wrappers_run_on_the_batched_holder():
         episodes += sum("episode" in info for info in infos)
     assert episodes > 0  # episodes ended and were autoreset
     env.close()
+
+
+def test_a_bad_agent_action_in_drill_17_names_it_and_changes_no_drill():
+    from soccer_drill.vector_agents import ParallelVectorEnv
+
+    def fresh():
+        venv = ParallelVectorEnv(num_envs=32, opponent="interceptors_cover", illegal_action="raise")
+        obs, _ = venv.reset(seed=5)
+        return venv, obs
+
+    def legal(obs):
+        return {a: obs[a]["action_mask"].argmax(axis=1) for a in obs}
+
+    venv, obs = fresh()
+    b = venv._core.batch
+    before = [x.copy() for x in (b.pos, b.vel, b.holder, b.cycle, b.outcome)]
+    good = legal(obs)
+    out_of_range = {a: v.copy() for a, v in good.items()}
+    out_of_range["attacker_1"][17] = 7
+    masked = {a: v.copy() for a, v in good.items()}
+    holds = int(b.holder[17]) in (0, 1)
+    agent = "attacker_0" if not holds else f"attacker_{int(b.holder[17])}"
+    masked[agent][17] = 3 if holds else 0  # GET_OPEN for the holder, HOLD off the ball
+    for actions, message in ((out_of_range, r"drill 17: action 7 for 'attacker_1' is out of range"),
+                             (masked, rf"drill 17: action {masked[agent][17]} \(\w+\) is masked "
+                                      rf"for '{agent}'")):
+        with pytest.raises(ValueError, match=message):
+            venv.step(actions)
+        for x, y in zip(before, (b.pos, b.vel, b.holder, b.cycle, b.outcome), strict=True):
+            np.testing.assert_array_equal(x, y)
+    after_errors = venv.step(good)
+    reference, _ = fresh()
+    expected = reference.step(good)
+    for agent_name in good:
+        np.testing.assert_array_equal(after_errors[0][agent_name]["observation"],
+                                      expected[0][agent_name]["observation"])
+        np.testing.assert_array_equal(after_errors[1][agent_name], expected[1][agent_name])
