@@ -2,7 +2,7 @@
 
     soccer-drill-calibrate [--teams ID ...] [--episodes 500] [--out results/calibration]
                            [--no-gifs] [--sampled 20] [--sampled-episodes 100] [--workers 2]
-                           [--drills 64]
+                           [--drills 256]
 
 For each team (by default the paper's four and ``chasers``; ``--teams`` names any
 installed ones, e.g. a plugin's beside ours): success rate (95% Wilson interval),
@@ -13,7 +13,9 @@ family drawn by :func:`opponents.sample_opponents`; and a small GIF of each team
 Episode ``i`` of every cell uses seed ``i``, so cells are paired and the run is
 reproducible. The episodes of a cell run ``--drills`` at a time in the batched drill
 (:func:`soccer_drill.vector.play_episodes`; ``--drills 1`` plays them one by one in
-``HolderEnv``, the reference the batched drill agrees with in distribution).
+``HolderEnv``, the reference the batched drill agrees with in distribution). Every
+team's cells, every family member's and each team's GIF (made as soon as that team's
+cells are in) are jobs of one pool of ``--workers`` processes.
 
 The page is written to ``<out>/opponents.md`` and the GIFs to ``<out>/gifs/``; the
 default folder is ``results/calibration``, never ``docs/``. This project's
@@ -27,7 +29,7 @@ import os
 import time
 from collections import Counter
 from collections.abc import Mapping, Sequence
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -191,6 +193,68 @@ def calibrate_family(
     jobs = [("parametric", rules, episodes, 0, params, label, drills)
             for label, params in members.items()]
     return _run(jobs, workers), members
+
+
+def calibrate_all(
+    episodes: int,
+    teams: Sequence[str] = TEAMS,
+    sampled: int = 0,
+    sampled_episodes: int = 100,
+    workers: int = 2,
+    drills: int = DEFAULT_DRILLS,
+    gif_dir: str | os.PathLike[str] | None = None,
+) -> tuple[
+    dict[tuple[str, str], Cell],
+    tuple[dict[tuple[str, str], Cell], dict[str, dict[str, Any]]] | None,
+    dict[str, tuple[str, int, str]],
+]:
+    """What ``soccer-drill-calibrate`` computes, in one pool of ``workers`` processes.
+
+    The cells of every rule against each of ``teams`` (as :func:`calibrate`), of
+    ``sampled`` members of the parametric family (as :func:`calibrate_family`, seed 0;
+    none if 0) and, with ``gif_dir``, each team's GIF (:func:`write_team_gif` of its
+    best rule, ``gif_dir/<team>.gif``), started as soon as that team's cells are in. The
+    jobs share the pool, so no worker idles while another finishes its share of one
+    part (the teams' cells, the family's, the GIFs). Returns the teams' cells, the
+    family's ``(cells, members)`` (or ``None``) and per team ``(best rule, seed,
+    outcome)`` of its GIF.
+    """
+    rules = list(HOLDER_POLICIES)
+    members = {f"p{i:02d}": params for i, params in enumerate(sample_opponents(sampled, 0))}
+    team_jobs = [(t, rules, episodes, 0, None, None, drills) for t in teams]
+    family_jobs = [("parametric", rules, sampled_episodes, 0, params, label, drills)
+                   for label, params in members.items()]
+    gifs: dict[str, tuple[str, int, str]] = {}
+
+    def best_of(cells: list[Cell]) -> str:
+        return best_rules({(c.team, c.rule): c for c in cells})[cells[0].team]
+
+    if workers <= 1:
+        team_done = [_evaluate(job) for job in team_jobs]
+        family_done = [_evaluate(job) for job in family_jobs]
+        if gif_dir is not None:
+            for team, cells in zip(teams, team_done, strict=True):
+                rule = best_of(cells)
+                gifs[team] = (rule, *write_team_gif(team, rule, Path(gif_dir) / f"{team}.gif"))
+    else:
+        with ProcessPoolExecutor(workers) as pool:
+            team_futures = {pool.submit(_evaluate, job): job[0] for job in team_jobs}
+            family_futures = [pool.submit(_evaluate, job) for job in family_jobs]
+            gif_futures = {}
+            for future in as_completed(team_futures):
+                team = team_futures[future]
+                if gif_dir is not None:
+                    rule = best_of(future.result())
+                    gif_futures[team] = (rule, pool.submit(
+                        write_team_gif, team, rule, Path(gif_dir) / f"{team}.gif"))
+            team_done = [f.result() for f in team_futures]
+            family_done = [f.result() for f in family_futures]
+            gifs = {t: (rule, *future.result()) for t, (rule, future) in gif_futures.items()}
+    cells = {(c.team, c.rule): c for done in team_done for c in done}
+    family = (
+        ({(c.team, c.rule): c for done in family_done for c in done}, members) if sampled else None
+    )
+    return cells, family, gifs
 
 
 def _run(jobs: list[tuple], workers: int) -> dict[tuple[str, str], Cell]:
@@ -542,17 +606,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not args.out or out_dir.is_file():
         parser.error(f"--out must name a folder (opponents.md and gifs/ go in it), got {args.out!r}")
     start = time.perf_counter()
-    cells = calibrate(args.episodes, teams=teams, workers=args.workers, drills=args.drills)
-    family = (
-        calibrate_family(args.sampled, 0, args.sampled_episodes, args.workers, drills=args.drills)
-        if args.sampled else None
+    cells, family, made = calibrate_all(
+        args.episodes, teams, args.sampled, args.sampled_episodes, args.workers, args.drills,
+        None if args.no_gifs else out_dir / "gifs",
     )
-    gifs: dict[str, tuple[str, str, int, str]] = {}
-    if not args.no_gifs:
-        best = best_rules(cells)
-        for team in teams:
-            seed, outcome = write_team_gif(team, best[team], out_dir / "gifs" / f"{team}.gif")
-            gifs[team] = (f"gifs/{team}.gif", best[team], seed, outcome)
+    gifs = {team: (f"gifs/{team}.gif", rule, seed, outcome)
+            for team, (rule, seed, outcome) in made.items()}
     command = "soccer-drill-calibrate"
     if teams != list(TEAMS):
         command += " --teams " + " ".join(teams)

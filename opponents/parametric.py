@@ -380,7 +380,12 @@ class ParametricBatch:
 
     def _seen(self, view: Any, drills: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The states ``reaction_delay`` cycles old (or the oldest since reset)."""
-        pos, vel, holder = view.pos[drills], view.vel[drills], view.holder[drills]
+        from soccer_drill.batch_teams import every_drill
+
+        if every_drill(drills, view.n):  # the arrays themselves (read-only views), no copies
+            pos, vel, holder = view.pos, view.vel, view.holder
+        else:
+            pos, vel, holder = view.pos[drills], view.vel[drills], view.holder[drills]
         depth = self.team.reaction_delay + 1
         if depth == 1:
             return pos, vel, holder
@@ -411,7 +416,7 @@ class ParametricBatch:
             on_line = left == 0
             gx, gy = pos[:, 2 + k, 0], pos[:, 2 + k, 1]
             start = on_line & (t.guard_reach > 0) & (np.hypot(bx - gx, by - gy) <= t.guard_reach)
-            if t.press_probability > 0 and on_line.any():
+            if t.press_probability > 0 and np.count_nonzero(on_line):
                 draws = np.zeros(m, dtype=bool)
                 draws[on_line] = self._rng.random(drills[on_line]) < t.press_probability
                 start |= draws & on_line

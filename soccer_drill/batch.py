@@ -25,6 +25,8 @@ from soccer_drill.batch_skills import (
     rows,
     toward,
     turn_toward,
+    xy,
+    z,
 )
 from soccer_drill.config import DrillConfig
 from soccer_drill.drill import OUTCOMES
@@ -126,8 +128,8 @@ class BatchDrill:
         pos, vel, holder = self.pos, self.vel, self.holder
         n = self.n
         r = rows(n)
-        if self.outcome[active].any():
-            ended = np.flatnonzero(active & (self.outcome != RUNNING))
+        if np.count_nonzero(self.outcome[active]):
+            ended = np.nonzero(active & (self.outcome != RUNNING))[0]
             raise RuntimeError(
                 f"drill {int(ended[0])}: the episode has ended; reset it first"
             )
@@ -136,9 +138,9 @@ class BatchDrill:
         hskill = np.where(held, skill[r, holder], -1)  # holder -1: any column, unused
         passing = hskill == int(Skill.PASS)
         noise = None
-        if passing.any():
+        if np.count_nonzero(passing):
             noise = np.zeros((n, 2))
-            for i in np.flatnonzero(passing).tolist():
+            for i in np.nonzero(passing)[0].tolist():
                 noise[i] = rngs[i].normal(size=2)  # the two draws of pass_velocity, in order
         vmax = self._top * speed
         tgt = off_ball_targets(pos, vel, holder, skill, target, vmax, cfg)
@@ -147,42 +149,45 @@ class BatchDrill:
         # Ball skills move only the holder (with its motion), everyone else stands.
         desired[_IS_BALL_SKILL[skill]] = 0.0
         ball_held = held & (ball_action != NO_BALL)
-        if ball_held.any():
-            b = np.flatnonzero(ball_held)
+        if np.count_nonzero(ball_held):
+            b = np.nonzero(ball_held)[0]
             desired[b, holder[b]] = mv[b]
         # The acceleration cap.
         accel = cfg.player_acceleration * dt
-        old = vel[:, :4]
-        d = desired - old
+        old = z(vel)[:, :4]
+        dz = z(desired) - old
+        d = xy(dz)
         dv = np.hypot(d[..., 0], d[..., 1])
-        over = (dv > accel)[..., None]
-        # dvx * accel / dv, as the single code computes it
-        d = np.where(over, d * accel / np.where(over, dv[..., None], 1.0), d)
-        new_vel = d
-        new_vel += old
+        over = dv > accel
+        if np.count_nonzero(over):  # dvx * accel / dv, as the single code computes it
+            dz = np.where(over, z(d * accel / np.where(over, dv, 1.0)[..., None]), dz)
+        dz += old
+        new_vel = xy(dz)
         # The ball: kicked, kept at the control point, or rolling.
         kicked = held & (ball_action == KICK)
         control = held & (ball_action == CONTROL)
         ball_vel = vel[:, 4] * self._roll
-        if kicked.any():
-            np.copyto(ball_vel, bvec, where=kicked[:, None])
-        if control.any():
-            p = pos[r, holder]
-            f = pos[:, 4] - p
+        any_kicked = np.count_nonzero(kicked)
+        if any_kicked:
+            np.copyto(z(ball_vel), z(bvec), where=kicked)
+        if np.count_nonzero(control):
+            pz = z(pos)
+            p = pz[r, holder]
+            f = xy(pz[:, 4] - p)
             ux, uy = turn_toward(f[:, 0], f[:, 1], bvec[:, 0], bvec[:, 1])
-            hv = new_vel[r, holder]
-            c = hv * dt
-            c += p
+            c = new_vel[r, holder] * dt
+            cz = z(c)
+            cz += p
             c[:, 0] += ux * cfg.ball_offset
             c[:, 1] += uy * cfg.ball_offset
-            c -= pos[:, 4]
+            cz -= pz[:, 4]
             c /= dt
-            np.copyto(ball_vel, c, where=control[:, None])
+            np.copyto(z(ball_vel), cz, where=control)
         ball_vel = _capped(ball_vel, cfg.ball_max_speed)
         # Inactive drills stand still.
-        still = ~active
-        if still.any():
-            new_vel[still] = 0.0
+        n_active = np.count_nonzero(active)
+        if n_active < n:
+            new_vel[~active] = 0.0
         new_pos, out_vel = self.physics.cycle(pos[:, :4], new_vel)
         ball = pos[:, 4].copy()
         step = ball_vel * self._sub_dt
@@ -191,17 +196,23 @@ class BatchDrill:
         # A collision can push a player past its top speed: capped (the ball is already).
         out_vel = _capped(out_vel, self._caps[:4], squared=True)
         ball_vel = _capped(ball_vel, cfg.ball_max_speed, squared=True)
-        where = active[:, None, None]
-        np.copyto(pos[:, :4], new_pos, where=where)
-        np.copyto(vel[:, :4], out_vel, where=where)
-        np.copyto(pos[:, 4], ball, where=active[:, None])
-        np.copyto(vel[:, 4], ball_vel, where=active[:, None])
-        before = np.where(kicked, -1, holder)
-        if kicked.any():
+        if n_active == n:  # the usual case: every drill moved
+            pos[:, :4] = new_pos
+            vel[:, :4] = out_vel
+            pos[:, 4] = ball
+            vel[:, 4] = ball_vel
+        else:
+            where = active[:, None, None]
+            np.copyto(pos[:, :4], new_pos, where=where)
+            np.copyto(vel[:, :4], out_vel, where=where)
+            np.copyto(pos[:, 4], ball, where=active[:, None])
+            np.copyto(vel[:, 4], ball_vel, where=active[:, None])
+        before = np.where(kicked, -1, holder) if any_kicked else holder
+        if any_kicked:
             self.passer[kicked] = holder[kicked]
             self.lockout_until[kicked] = self.cycle[kicked] + 1 + cfg.pass_lockout_cycles
         self.cycle += active
-        self.cycles_run += int(np.count_nonzero(active))
+        self.cycles_run += n_active
         self._possession(active, before, rngs)
         self._judge(active)
 
@@ -209,9 +220,9 @@ class BatchDrill:
         """``Drill._holder_after`` for the ``active`` drills (``before``: who held it before)."""
         cfg = self.config
         pos, vel = self.pos, self.vel
-        d = pos[:, :4] - pos[:, 4:5]
+        d = xy(z(pos)[:, :4] - z(pos)[:, 4:5])
         dist = np.hypot(d[..., 0], d[..., 1])
-        v = vel[:, 4:5] - vel[:, :4]
+        v = xy(z(vel)[:, 4:5] - z(vel)[:, :4])
         rel = np.hypot(v[..., 0], v[..., 1])
         locked_out = np.where(self.cycle < self.lockout_until, self.passer, -1)
         ok = dist <= cfg.control_radius
@@ -223,16 +234,29 @@ class BatchDrill:
         new = np.where(keeps, before, np.where(ok.any(axis=1), nearest, -1))
         # Tackles: each opponent in control, nearest first, takes it with probability p.
         opponents = ok & (_IS_DEFENDER != (before >= 2)[:, None]) & (keeps & active)[:, None]
-        if opponents.any():
-            for r in np.flatnonzero(opponents.any(axis=1)).tolist():
+        if np.count_nonzero(opponents):
+            for r in np.nonzero(opponents.any(axis=1))[0].tolist():
                 rng = rngs[r]
-                for i in sorted(np.flatnonzero(opponents[r]).tolist(), key=lambda i: (dist[r, i], i)):
+                for i in sorted(np.nonzero(opponents[r])[0].tolist(), key=lambda i: (dist[r, i], i)):
                     if rng.random() < cfg.tackle_probability:
                         new[r] = i
                         break
         np.copyto(self.holder, new, where=active)
 
-    def _judge(self, active: np.ndarray) -> None:
+    def none_can_end(self) -> bool:
+        """Whether no drill's episode can end now: every ball strictly inside the field, no
+        defender holding it, no drill at its last cycle (one test, before any detail: most
+        cycles end no episode)."""
+        cfg, ball = self.config, self.pos[:, 4]
+        return (
+            np.count_nonzero((ball > 0.0) & (ball <= cfg.field_size)) == 2 * self.n
+            and not np.count_nonzero(self.holder >= 2)
+            and not np.count_nonzero(self.cycle >= cfg.max_cycles)
+        )
+
+    def end_codes(self, active: np.ndarray) -> np.ndarray:
+        """``(n,)`` ints: the outcome code each of the ``active`` drills' state gives now
+        (``Drill._outcome``), :data:`RUNNING` where none or where not active."""
         cfg = self.config
         bx, by = self.pos[:, 4, 0], self.pos[:, 4, 1]
         h = self.holder
@@ -243,10 +267,18 @@ class BatchDrill:
             np.where((h >= 0) & (by <= 0.0) & inside_x, _SUCCESS,
                      np.where(inside, np.where(self.cycle >= cfg.max_cycles, _TIMEOUT, RUNNING),
                               _OUT)))
-        code &= -active.view(np.int8)  # inactive drills: RUNNING here, then not written
-        if not code.any():
+        code &= -active.view(np.int8)  # inactive drills: RUNNING
+        return code
+
+    def _judge(self, active: np.ndarray) -> None:
+        if self.none_can_end():
             return
-        for i in np.flatnonzero(code).tolist():  # the drills whose episode ends now
+        cfg = self.config
+        code = self.end_codes(active)
+        if not np.count_nonzero(code):
+            return
+        bx = self.pos[:, 4, 0]
+        for i in np.nonzero(code)[0].tolist():  # the drills whose episode ends now
             c = int(code[i])
             self.outcome[i] = c
             self.attacker_reward[i] = (
@@ -284,14 +316,14 @@ def _capped(v: np.ndarray, cap: np.ndarray | float, squared: bool = False) -> np
         v2 = v[..., 0] * v[..., 0]
         v2 += v[..., 1] * v[..., 1]
         over = v2 > cap_b * cap_b
-        if not over.any():
+        if not np.count_nonzero(over):
             return v
         speed = np.hypot(v[..., 0], v[..., 1])
         over &= speed > cap_b  # drill._capped keeps a speed at most the cap as it is
     else:
         speed = np.hypot(v[..., 0], v[..., 1])
         over = speed > cap_b
-    if not over.any():
+    if not np.count_nonzero(over):
         return v
     safe = np.where(over, speed, 1.0)
-    return np.where(over[..., None], v * cap_b[..., None] / safe[..., None], v)
+    return xy(np.where(over, z(v * cap_b[..., None] / safe[..., None]), z(v)))

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 
 from soccer_drill.batch import RUNNING, BatchDrill
-from soccer_drill.batch_skills import support_spots
+from soccer_drill.batch_skills import _ATTACKERS, support_spots, xy, z
 from soccer_drill.batch_teams import BatchRandom, BatchTeamDriver
 from soccer_drill.config import DrillConfig
 from soccer_drill.skills import Skill
@@ -16,6 +16,7 @@ from soccer_drill.support import _OFFSET_STD, _RESAMPLE_CYCLES
 from soccer_drill.teams import Team, check_team_timeout
 
 _GO_TO_BALL, _MOVE_TO = int(Skill.GO_TO_BALL), int(Skill.MOVE_TO)
+_MATES = np.array([1, 0])  # each attacker's mate
 
 
 def check_num_envs(num_envs: object) -> int:
@@ -109,37 +110,40 @@ class BatchCore:
         """The support behaviour's commands: for attacker 0 in the drills where ``first``
         and attacker 1 where ``second`` (``(n,)`` bool; attacker 0 first, as the single
         drill asks, since both draw from the drill's one support generator)."""
-        if not (first | second).any():
+        if not np.count_nonzero(first | second):
             return
         b, cfg = self.batch, self.config
-        spots = support_spots(b.pos, cfg)
-        d = b.pos[:, :2] - b.pos[:, 4:5]
+        spots = support_spots(b.pos, cfg, _ATTACKERS)  # (n, 2, 2)
+        d = xy(z(b.pos)[:, :2] - z(b.pos)[:, 4:5])
         dist = np.hypot(d[..., 0], d[..., 1])  # each attacker's distance to the ball
-        loose = b.holder < 0
         locked_out = np.where(b.cycle < b.lockout_until, b.passer, -1)
         resample = b.cycle % _RESAMPLE_CYCLES == 0
-        lo, hi = 1.0, cfg.field_size - 1.0
+        # The offsets each attacker's spot uses: attacker 0's after its draws, attacker
+        # 1's after its own (drawn after attacker 0's, from the same generator).
+        offsets = np.empty((self.n, 2, 2))
         for k, mask in ((0, first), (1, second)):
-            if not mask.any():
-                continue
-            draw = np.flatnonzero(mask & resample)
+            draw = np.nonzero(mask & resample)[0]
             if len(draw):
                 dx = self.support_rng.random(draw)
                 dy = self.support_rng.random(draw)
                 self.support_offset[draw, 0] = _OFFSET_STD * dx
                 self.support_offset[draw, 1] = _OFFSET_STD * dy
-            mate = k ^ 1
-            chase = loose & ((locked_out == mate) | (dist[:, k] <= dist[:, mate]))
-            spot = spots[:, k] + self.support_offset
-            np.minimum(np.maximum(spot, lo, out=spot), hi, out=spot)
-            np.copyto(self.skill[:, k], np.where(chase, _GO_TO_BALL, _MOVE_TO), where=mask)
-            np.copyto(self.target[:, k], spot, where=mask[:, None])
-            np.copyto(self.speed[:, k], 1.0, where=mask)
+            offsets[:, k] = self.support_offset
+        both = np.stack((first, second), axis=1)  # (n, 2): which attackers support
+        # Chase a loose ball if the mate is locked out or no nearer to it.
+        chase = (b.holder < 0)[:, None] & (
+            (locked_out[:, None] == _MATES) | (dist <= dist[:, ::-1]))
+        spot = spots
+        spot += offsets
+        np.minimum(np.maximum(spot, 1.0, out=spot), cfg.field_size - 1.0, out=spot)
+        np.copyto(self.skill[:, :2], np.where(chase, _GO_TO_BALL, _MOVE_TO), where=both)
+        np.copyto(z(self.target)[:, :2], z(spot), where=both)
+        np.copyto(self.speed[:, :2], 1.0, where=both)
 
     def advance(self, active: np.ndarray) -> None:
         """One cycle of the drills where ``active``, with the commands set in the arrays
         (the team's written here)."""
-        drills = np.flatnonzero(active)
+        drills = np.nonzero(active)[0]
         if self.team is not None:
             self.team.act(drills, self.skill, self.target, self.speed)
         self.batch.step(active, self.skill, self.target, self.speed, self.generators)

@@ -26,6 +26,7 @@ from typing import Any, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
+from soccer_drill.batch_skills import rows
 from soccer_drill.config import DrillConfig
 from soccer_drill.skills import BALL_SKILLS, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView
@@ -145,7 +146,7 @@ class BatchRandom:
         """The next draw of each drill in ``drills`` (standard normals if ``normal``)."""
         k = self._next[drills]
         empty = k >= self._block
-        if empty.any():
+        if np.count_nonzero(empty):
             for i in drills[empty].tolist():
                 g = self._generators[i]
                 if g is None:
@@ -159,6 +160,12 @@ class BatchRandom:
             k[empty] = 0
         self._next[drills] = k + 1
         return self._buffer[drills, k]
+
+
+def every_drill(drills: np.ndarray, n: int) -> bool:
+    """Whether ``drills`` is ``0, 1, ..., n - 1`` in order (then a team may read the
+    batch's arrays as they are rather than gather its rows)."""
+    return len(drills) == n and not np.count_nonzero(drills - rows(n))
 
 
 @runtime_checkable
@@ -270,9 +277,10 @@ class BatchTeamDriver:
             self._each_bound.team_timeout = self._scaled(drills)
             commands = self._each_bound.call("act()", "", self._each_act, drills)
         sk, tg, sp = commands
-        skill[drills, 2:] = sk
-        target[drills, 2:] = tg
-        speed[drills, 2:] = sp
+        rows = slice(None) if len(drills) == len(skill) else drills  # all drills: no gather
+        skill[rows, 2:] = sk
+        target[rows, 2:] = tg
+        speed[rows, 2:] = sp
 
     def _scaled(self, drills: np.ndarray) -> float | None:
         return None if self._timeout is None else self._timeout * len(drills)

@@ -90,7 +90,7 @@ class Renderer:
             pygame.display.flip()
             self._clock.tick(self.fps)
             return None
-        return np.ascontiguousarray(np.transpose(pygame.surfarray.array3d(s), (1, 0, 2)))
+        return surface_pixels(s)
 
     def close(self) -> None:
         """Close the window (if one was opened)."""
@@ -98,3 +98,10 @@ class Renderer:
             pygame.display.quit()
             self._window = None
 
+
+def surface_pixels(surface: object) -> np.ndarray:
+    """A pygame surface's pixels as an ``(H, W, 3)`` uint8 array (a copy, writable): the
+    bytes pygame exports row by row, which is ``surfarray.array3d`` transposed, in about a
+    third of its time."""
+    w, h = surface.get_size()  # type: ignore[attr-defined]
+    return np.frombuffer(pygame.image.tobytes(surface, "RGB"), dtype=np.uint8).reshape(h, w, 3).copy()

@@ -251,7 +251,7 @@ class HolderVectorEnv(VectorEnv):
         stepping = ~self._autoreset
         start = b.cycle.copy()
         self._begin(np.flatnonzero(stepping), a)
-        while self._running.any():
+        while np.count_nonzero(self._running):
             self._cycle()
         decider = self._decider
         obs = self._observe(decider)
@@ -301,7 +301,7 @@ class HolderVectorEnv(VectorEnv):
         """
         core, b = self._core, self._core.batch
         running, in_action, decider = self._running, self._in_action, self._decider
-        act = np.flatnonzero(in_action)
+        act = np.nonzero(in_action)[0]
         free = running & ~in_action  # the ball is loose: both attackers support
         core.skill[act, decider[act]] = _HOLDER_SKILLS[self._action[act]]
         core.speed[act, decider[act]] = 1.0
@@ -390,16 +390,16 @@ def play_episodes(
         core.reset(take)
 
     start(np.arange(n))
-    while (episode >= 0).any():
-        deciding = np.flatnonzero((episode >= 0) & ~env._running)
-        if len(deciding):
-            obs = env._observe()
+    while np.count_nonzero(episode >= 0):
+        deciding = np.nonzero((episode >= 0) & ~env._running)[0]
+        if len(deciding):  # the features of the deciding holders only
+            obs = batch_features(b.pos[deciding], b.holder[deciding], env.config, env._low, env._high)
             actions = np.zeros(n, dtype=np.int64)
-            for i in deciding.tolist():
-                actions[i] = policies[episode[i]](obs[i], rngs[i])  # type: ignore[arg-type]
+            for k, (i, e) in enumerate(zip(deciding.tolist(), episode[deciding].tolist(), strict=True)):
+                actions[i] = policies[e](obs[k], rngs[i])  # type: ignore[arg-type]
             env._begin(deciding, actions)
         env._cycle()
-        ended = np.flatnonzero((episode >= 0) & (b.outcome != 0))
+        ended = np.nonzero((episode >= 0) & (b.outcome != 0))[0]
         if len(ended):
             for i in ended.tolist():
                 results[episode[i]] = (float(b.attacker_reward[i]), OUTCOME_NAMES[b.outcome[i]])

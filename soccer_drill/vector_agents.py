@@ -246,7 +246,6 @@ class ParallelVectorEnv:
             raise ValueError(f"actions must be a mapping of every agent {self.agents} to "
                              f"({self.num_envs},) integers, got {got}")
         b, core = self._core.batch, self._core
-        masks = self.action_masks()
         checked, illegal, taken = {}, {}, {}
         for agent, i in self._index.items():
             a = np.asarray(actions[agent])
@@ -256,22 +255,23 @@ class ParallelVectorEnv:
                     f"actions[{agent!r}] must be an integer array of shape ({self.num_envs},), "
                     f"got {a.dtype} of shape {a.shape}"
                 )
-            bad = np.flatnonzero(stepping & ((a < 0) | (a >= n_actions)))
-            if len(bad):
-                d = int(bad[0])
+            # One test of the range (a negative action is a large unsigned one).
+            if np.count_nonzero(stepping & (a.astype(np.uint64, copy=False) >= n_actions)):
+                d = int(np.nonzero(stepping & ((a < 0) | (a >= n_actions)))[0][0])
                 raise ValueError(
                     f"drill {d}: action {int(a[d])} for {agent!r} is out of range; allowed: "
                     f"0..{n_actions - 1} ({_names(i, n_actions)})"
                 )
-            legal = masks[agent][np.arange(self.num_envs), np.clip(a, 0, n_actions - 1)] == 1
-            masked = np.flatnonzero(stepping & ~legal)
+            legal = is_legal(a, b.holder, i)
+            masked = np.nonzero(stepping & ~legal)[0]
             given = np.full(self.num_envs, -1)
             done = np.full(self.num_envs, -1)
             if len(masked):
+                masks = self.action_masks()
                 if self.illegal_action == "raise":
                     d = int(masked[0])
                     names = _action_names(i, n_actions)
-                    legal_now = [f"{k}={names[k]}" for k in np.flatnonzero(masks[agent][d])]
+                    legal_now = [f"{k}={names[k]}" for k in np.nonzero(masks[agent][d])[0]]
                     raise ValueError(
                         f"drill {d}: action {int(a[d])} ({names[int(a[d])]}) is "
                         f"masked for {agent!r} at cycle {int(b.cycle[d])}; legal actions now: "
@@ -299,7 +299,7 @@ class ParallelVectorEnv:
         core, b = self._core, self._core.batch
         stepping = ~self._autoreset
         illegal, taken = self._commands(actions, stepping)
-        resetting = np.flatnonzero(self._autoreset)
+        resetting = np.nonzero(self._autoreset)[0]
         if len(resetting):
             core.reset(resetting)
         core.advance(stepping)
@@ -331,6 +331,13 @@ class ParallelVectorEnv:
         """Let go of the renderer, if any."""
         if self._renderer is not None:
             self._renderer.close()
+
+
+def is_legal(actions: np.ndarray, holder: np.ndarray, index: int) -> np.ndarray:
+    """Whether each drill's action (in range) is legal for player ``index``, as the
+    action masks say, without making the masks: an attacker may take a ball action
+    (0-2) exactly when it holds the ball, a defender any of its three actions."""
+    return (actions < 3) == (holder == index) if index < 2 else actions < 3
 
 
 def _action_names(index: int, n: int) -> list[str]:
