@@ -416,6 +416,37 @@ def test_sys_exit_in_a_job_is_a_failure_of_that_job_not_a_clean_exit(tmp_path, m
         capsys.readouterr().err
 
 
+def test_a_full_disk_at_a_result_is_a_clear_error_and_keeps_the_results_written(
+        tmp_path, monkeypatch, capsys):
+    import errno
+
+    from ilpss.experiments import cli
+    from ilpss.experiments import run as run_module
+
+    real = run_module.atomic_write_bytes
+
+    def full_at_seed_1(path, data):
+        if path.name == "result.json" and path.parent.parent.name == "seed_001":
+            raise OSError(errno.ENOSPC, f"cannot write {path}: No space left on device",
+                          str(path))
+        real(path, data)
+
+    monkeypatch.setattr(run_module, "atomic_write_bytes", full_at_seed_1)
+    argv = ["--protocol", "A", "--seeds", "2", "--methods", "scratch", "--episodes", "3",
+            "--rollouts", "1", "--workers", "1", "--quiet", "--no-report", "--out",
+            str(tmp_path)]
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(argv)
+    assert exit_info.value.code == 1  # not a traceback
+    assert (f"ilpss-experiment: error: [Errno 28] cannot write "
+            f"{tmp_path / 'seed_001' / 'stream_00' / 'result.json'}: No space left on device"
+            ) in capsys.readouterr().err
+    assert (tmp_path / "seed_000" / "stream_00" / "result.json").is_file()
+    monkeypatch.undo()
+    assert cli.main(argv) == 0  # the resume finishes seed 1 only
+    assert (tmp_path / "seed_001" / "stream_00" / "result.json").is_file()
+
+
 # ------------------------------------------------------------ comparisons and settings
 @pytest.mark.parametrize("other_cfg, differs", [
     # Held out against goal guards (the baseline) and against chasers.

@@ -113,7 +113,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             cfg = chosen[protocol]
             try:
                 results = run_timed(cfg, folder, progress=not args.quiet)
-            except (FolderInUseError, StorageError, JobError, ValueError) as exc:
+            except (FolderInUseError, StorageError, JobError, ValueError, OSError) as exc:
                 p.exit(1, f"{p.prog}: error: protocol {protocol}: {exc}\n")
         else:  # keep the section of an earlier, finished run
             if not folder.config.exists():
