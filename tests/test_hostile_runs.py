@@ -281,7 +281,7 @@ def _started_run(tmp_path: Path, workers: int = 2) -> tuple[subprocess.Popen, Pa
          "--methods", "scratch", "--episodes", "100000", "--workers", str(workers),
          "--quiet", "--no-report", "--out", str(run)],
         env={**os.environ, "PYTHONPATH": str(ROOT)}, stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, start_new_session=True)
+        stderr=subprocess.PIPE, start_new_session=True, preexec_fn=_ctrl_c_as_in_a_terminal)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and len(_workers_of(proc.pid)) < workers:
         time.sleep(0.2)
@@ -290,6 +290,13 @@ def _started_run(tmp_path: Path, workers: int = 2) -> tuple[subprocess.Popen, Pa
         pytest.fail("the workers did not start")
     time.sleep(1.0)  # inside their jobs
     return proc, run
+
+
+def _ctrl_c_as_in_a_terminal() -> None:
+    """SIGINT's default in the driver: a test run started in the background by a shell
+    without job control ignores SIGINT, and a child would inherit that (Python then
+    installs no KeyboardInterrupt handler), unlike a command started in a terminal."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def _kill_all(proc: subprocess.Popen, workers: list[int]) -> None:
