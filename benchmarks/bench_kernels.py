@@ -41,6 +41,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from ilpss import _gmm_numerics as num
+from ilpss._io import atomic_write_bytes
+from ilpss.experiments.outputs import check_out_file
 from ilpss.kernels import SharedKernelModel
 
 N_STATES, N_FEATURES, K, N_INSTANCES = 50_000, 9, 5, 4
@@ -123,6 +125,11 @@ def main(argv: list[str] | None = None) -> int:
         help="BLAS/OpenMP thread limits to run under, e.g. 'all 1' (threadpoolctl)",
     )
     args = parser.parse_args(argv)
+    if args.output is not None:
+        try:  # before the fits, not after them
+            check_out_file(args.output, "--output")
+        except ValueError as exc:
+            parser.error(str(exc))
     from threadpoolctl import threadpool_limits
 
     arguments = sys.argv[1:] if argv is None else argv
@@ -183,7 +190,7 @@ def main(argv: list[str] | None = None) -> int:
     report = "\n".join(lines)
     print(report)
     if args.output is not None:
-        args.output.write_text(report)
+        atomic_write_bytes(args.output, report.encode())
     return 0
 
 

@@ -158,6 +158,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--boot", type=int, default=2000, help="bootstrap replicates (default 2000)")
     p.add_argument("--output", default=None, help="markdown file to write")
     args = p.parse_args(argv)
+    if args.output:
+        from ilpss.experiments.outputs import check_out_file
+
+        try:  # before the simulations, not after them
+            check_out_file(args.output, "--output")
+        except ValueError as exc:
+            p.error(str(exc))
     start = time.perf_counter()
     lines = [
         "# Simulated coverage of the 95% intervals",

@@ -66,6 +66,7 @@ try:
 except ImportError:  # Windows
     resource = None  # type: ignore[assignment]
 from soccer_drill.config import DrillConfig
+from soccer_drill.gif import check_output_file
 from soccer_drill.teams import team_ids
 
 OUTCOMES = ("success", "interception", "out", "timeout")
@@ -494,7 +495,7 @@ def grown_sites(before: tracemalloc.Snapshot, after: tracemalloc.Snapshot, top: 
     return rows
 
 
-def report(args: argparse.Namespace, soak: Soak, timing: dict[str, float],
+def report(args: argparse.Namespace, soak: Soak, timing: dict[str, Any],
            memory: dict[str, Any]) -> str:
     """The markdown section."""
     t = soak.tally
@@ -510,7 +511,7 @@ def report(args: argparse.Namespace, soak: Soak, timing: dict[str, float],
         f"({', '.join(f'{k} {t.episodes[k]:,}' for k in KINDS)}) on {t.environments:,} "
         f"environments, {t.steps:,} agent steps, {t.cycles:,} drill cycles; "
         f"{t.resets_mid_episode:,} resets mid-episode; {t.hostile_refused:,} hostile actions "
-        "refused.",
+        f"refused.{_load_text(timing)}",
         "",
         "| measure | value |",
         "|---|---|",
@@ -553,8 +554,18 @@ def report(args: argparse.Namespace, soak: Soak, timing: dict[str, float],
     return "\n".join(lines) + "\n"
 
 
+def _load_text(timing: dict[str, Any]) -> str:
+    """The machine's load while the soak ran: its rates depend on it."""
+    if timing.get("load") is None:
+        return ""
+    start, end = timing["load"]
+    return (f" Load average (1 min) {start:.1f} at the start, {end:.1f} at the end, on "
+            f"{os.cpu_count()} cores.")
+
+
 def write_section(path: Path, section: str) -> None:
-    """Put ``section`` between the soak markers of ``path`` (appended if it has none)."""
+    """Put ``section`` between the soak markers of ``path`` (appended if it has none),
+    atomically: a failed write leaves the page as it was."""
     text = path.read_text() if path.exists() else "# Reliability\n\n"
     if MARK_START in text and MARK_END in text:
         head, rest = text.split(MARK_START, 1)
@@ -563,7 +574,12 @@ def write_section(path: Path, section: str) -> None:
     else:
         text = text.rstrip("\n") + "\n\n" + section
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(text)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 def parse(argv: Sequence[str] | None) -> argparse.Namespace:
@@ -585,6 +601,11 @@ def parse(argv: Sequence[str] | None) -> argparse.Namespace:
         args.warmup = min(1000, args.episodes // 10)
     if not 0 <= args.warmup < args.episodes:
         p.error("--warmup must lie in [0, --episodes)")
+    if args.out is not None:
+        try:  # before the episodes, not after them
+            check_output_file(args.out)
+        except ValueError as exc:
+            p.error(f"--out: {exc}")
     return args
 
 
@@ -594,6 +615,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     shown = [] if argv is None else list(argv)
     command = " ".join(["python benchmarks/soak.py", *(sys.argv[1:] if argv is None else shown)])
     soak = Soak(args.seed, args.block)
+    load_start = os.getloadavg()[0] if hasattr(os, "getloadavg") else None
     start = time.perf_counter()
     soak.run(args.warmup)
     warm = time.perf_counter()
@@ -621,6 +643,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "warmup_rate": args.warmup / (warm - start) if args.warmup else math.nan,
         "measured_rate": (args.episodes - args.warmup) / (end - warm),
         "total": end - start,
+        "load": None if load_start is None else (load_start, os.getloadavg()[0]),
     }
     memory = {
         "command": command,

@@ -563,6 +563,8 @@ def load_npz(
         with archive:
             try:
                 headers = _member_headers(archive, where)
+            except _Refused:
+                raise
             except _READ_ERRORS as exc:
                 raise _unreadable(where, exc) from exc
             if META_KEY not in headers:
@@ -636,15 +638,15 @@ def _member_headers(
     for info in archive.infolist():
         member = info.filename
         if not member.endswith(".npy") or "/" in member or info.is_dir():
-            raise ValueError(
+            raise _Refused(
                 f"{where}: member {member!r} is not an .npy array; ilpss archives hold "
                 "only .npy arrays"
             )
         name = member[: -len(".npy")]
         if name in out:
-            raise ValueError(f"{where}: member {member!r} appears twice")
+            raise _Refused(f"{where}: member {member!r} appears twice")
         if info.compress_type != zipfile.ZIP_STORED:
-            raise ValueError(
+            raise _Refused(
                 f"{where}: member {member!r} is compressed; ilpss archives store their "
                 "arrays uncompressed (np.savez), so that nothing expands beyond the file"
             )
@@ -656,18 +658,18 @@ def _member_headers(
                 shape, _, dtype = np.lib.format.read_array_header_2_0(fp, _MAX_HEADER)
             header = fp.tell()
         if dtype.hasobject:
-            raise ValueError(
-                f"not a readable .npz archive: member {member!r} holds pickled Python "
+            raise _Refused(
+                f"{where}: not a readable .npz archive: member {member!r} holds pickled Python "
                 "objects (dtype object), which are never loaded"
             )
         if any(n > MAX_ARCHIVE_BYTES for n in shape):  # (0, 10**30) holds 0 bytes, but
-            raise ValueError(                        # no array can have that shape
+            raise _Refused(                          # no array can have that shape
                 f"{where}: member {member!r} declares shape {shape}, an axis longer than "
                 "any ilpss array has"
             )
         size = int(np.prod(shape, dtype=object)) * dtype.itemsize
         if header + size != info.file_size:
-            raise ValueError(
+            raise _Refused(
                 f"{where}: member {member!r} declares shape {shape} of {dtype} "
                 f"({size:,} bytes) but holds {info.file_size - header:,} bytes of data"
             )
@@ -675,9 +677,12 @@ def _member_headers(
     return out
 
 
+class _Refused(ValueError):
+    """What :func:`_member_headers` refuses, already naming the file and the member: passed
+    on as it is, not as an archive that failed to read."""
+
+
 def _unreadable(where: str, exc: BaseException) -> ValueError:
-    if str(exc).startswith("not a readable .npz archive"):
-        return ValueError(f"{where}: {exc}")
     return ValueError(
         f"{where}: not a readable .npz archive (truncated, corrupt, or containing pickled "
         f"objects): {type(exc).__name__}: {exc}"

@@ -39,7 +39,7 @@ from scipy import stats
 
 from opponents import PAPER_TEAMS
 from opponents.parametric import sample_opponents, spec_label
-from soccer_drill.gif import record_episode, save_gif
+from soccer_drill.gif import check_output_file, record_episode, save_gif
 from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.teams import describe, team_ids
@@ -605,6 +605,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     out_dir = Path(args.out)
     if not args.out or out_dir.is_file():
         parser.error(f"--out must name a folder (opponents.md and gifs/ go in it), got {args.out!r}")
+    try:  # every file it will write, before the episodes rather than after them
+        for path in [out_dir / "opponents.md"] + (
+                [] if args.no_gifs else [out_dir / "gifs" / f"{t}.gif" for t in teams]):
+            check_output_file(path)
+    except ValueError as exc:
+        parser.error(f"--out {args.out}: {exc}")
     start = time.perf_counter()
     cells, family, made = calibrate_all(
         args.episodes, teams, args.sampled, args.sampled_episodes, args.workers, args.drills,

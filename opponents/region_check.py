@@ -39,6 +39,7 @@ from scipy import stats
 from opponents.calibrate import wilson_interval
 from opponents.region_stream import LEFT, NEAR, SOURCES
 from opponents.regions import Region, RegionRule, RegionTeam
+from soccer_drill.gif import check_output_file
 from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES, HolderPolicy
 from soccer_drill.teams import make_team
@@ -602,6 +603,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("--episodes must be at least 2")
     if args.workers < 1:
         parser.error("--workers must be at least 1")
+    try:  # before the episodes rather than after them
+        check_output_file(args.out)
+    except ValueError as exc:
+        parser.error(f"--out: {exc}")
     start = time.perf_counter()
     sources, judged = judge(args.episodes, args.workers)
     seconds = time.perf_counter() - start

@@ -78,6 +78,26 @@ def test_out_folder_and_errors(statues, tmp_path, capsys):
     assert "--out must name a folder" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("out, said", [
+    ("a_file/calibration", "'{tmp}/a_file' is a file, not a folder"),
+    ("taken", "the output must name a file, got the folder '{tmp}/taken/opponents.md'"),
+    ("gifs_a_file", "'{tmp}/gifs_a_file/gifs' is a file, not a folder"),
+])
+def test_outputs_are_checked_before_any_episode(statues, tmp_path, capsys, monkeypatch, out,
+                                                 said):
+    from opponents import calibrate
+
+    monkeypatch.setattr(calibrate, "calibrate", lambda *a, **k: pytest.fail("it calibrated"))
+    (tmp_path / "a_file").write_text("")
+    (tmp_path / "taken" / "opponents.md").mkdir(parents=True)  # a folder where the page goes
+    (tmp_path / "gifs_a_file").mkdir()
+    (tmp_path / "gifs_a_file" / "gifs").write_text("")
+    with pytest.raises(SystemExit) as exit_:
+        main(["--teams", statues, "--episodes", "2", "--out", str(tmp_path / out)])
+    assert exit_.value.code == 2
+    assert said.format(tmp=tmp_path) in capsys.readouterr().err
+
+
 def _cell(team, rule, successes, reward, n=100):
     return Cell(team, rule, successes, n, reward, reward - 0.1, reward + 0.1)
 

@@ -111,17 +111,34 @@ def test_a_checkpoint_whose_file_links_outside_is_refused(tmp_path):
 
 
 # ------------------------------------------------------------ files that never end
-@pytest.mark.parametrize("name", ["config.json", "LATEST"])
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="needs /dev/zero")
+@pytest.mark.parametrize("name", ["config.json", "result.json", "LATEST"])
 def test_a_device_in_place_of_a_small_file_is_refused_without_reading_it(tmp_path, name):
+    from ilpss.experiments.run import RESULT_SCHEMA
     from ilpss.lifelong import latest_checkpoint
 
-    (tmp_path / name).symlink_to("/dev/zero")
+    (tmp_path / name).symlink_to("/dev/zero")  # stat() says 0 bytes; reading never ends
+    read = {"config.json": lambda: read_config(tmp_path / name),
+            "result.json": lambda: _io.load_json_record(tmp_path / name, RESULT_SCHEMA),
+            "LATEST": lambda: latest_checkpoint(tmp_path)}[name]
     with pytest.raises(ValueError, match=rf"{name}: a character device, where .* \(a regular "
                                          r"file\) was expected"):
-        if name == "config.json":
-            read_config(tmp_path / name)
-        else:
-            latest_checkpoint(tmp_path)
+        read()
+
+
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="needs /dev/zero")
+def test_a_device_as_the_owner_record_of_a_uri_storage_is_refused_without_reading_it(tmp_path):
+    pytest.importorskip("pyarrow.fs", reason="a storage URI needs pyarrow")
+    from ilpss.experiments.checkpoints import UriStore
+
+    (tmp_path / "owner.json").symlink_to("/dev/zero")
+    store = UriStore(tmp_path.as_uri())
+    try:
+        with pytest.raises(ValueError, match=r"owner.json: a symbolic link inside the "
+                                             r"checkpoint storage"):
+            store.check("token")
+    finally:
+        store.close()
 
 
 def test_a_fifo_in_place_of_result_json_is_refused_at_once(tmp_path):
@@ -194,17 +211,23 @@ def test_a_uniform_kernel_naming_a_billion_features_is_refused(tmp_path):
 
 
 def test_an_npz_header_with_an_absurd_axis_is_refused_by_name(tmp_path):
+    path = tmp_path / "bomb.npz"
+    _io.save_npz_atomic(path, {"weights": np.zeros((0, 3))}, {"schema": "x/1"})
+    with zipfile.ZipFile(path) as archive:
+        record = archive.read(_io.META_KEY + ".npy")  # a valid record: only the axis is wrong
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w") as archive:
         member = io.BytesIO()
         np.lib.format.write_array_header_1_0(
             member, {"descr": "<f8", "fortran_order": False, "shape": (0, 10**30)})
-        archive.writestr("weights.npy", member.getvalue())
-    path = tmp_path / "bomb.npz"
+        archive.writestr("weights.npy", member.getvalue())  # 0 bytes of data, as declared
+        archive.writestr(_io.META_KEY + ".npy", record)
     path.write_bytes(buffer.getvalue())
-    with pytest.raises(ValueError, match=r"bomb.npz: member 'weights.npy' declares shape .*an "
-                                         r"axis longer than any ilpss array has"):
+    with pytest.raises(ValueError) as err:  # was an OverflowError from reading the array
         _io.load_npz(path, "x/1", {"weights": ((None, None), "f")})
+    assert str(err.value) == (
+        f"{path}: member 'weights.npy' declares shape (0, {10**30}), an axis longer than any "
+        "ilpss array has")
 
 
 def test_json_numbers_beyond_float_are_refused_naming_the_file(tmp_path):
@@ -258,13 +281,30 @@ def _started_run(tmp_path: Path, workers: int = 2) -> tuple[subprocess.Popen, Pa
          "--methods", "scratch", "--episodes", "100000", "--workers", str(workers),
          "--quiet", "--no-report", "--out", str(run)],
         env={**os.environ, "PYTHONPATH": str(ROOT)}, stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, start_new_session=True)
+        stderr=subprocess.PIPE, start_new_session=True, preexec_fn=_ctrl_c_as_in_a_terminal)
     deadline = time.monotonic() + 60
     while time.monotonic() < deadline and len(_workers_of(proc.pid)) < workers:
         time.sleep(0.2)
-    assert len(_workers_of(proc.pid)) == workers, "the workers did not start"
+    if len(_workers_of(proc.pid)) != workers:
+        _kill_all(proc, _workers_of(proc.pid))
+        pytest.fail("the workers did not start")
     time.sleep(1.0)  # inside their jobs
     return proc, run
+
+
+def _ctrl_c_as_in_a_terminal() -> None:
+    """SIGINT's default in the driver: a test run started in the background by a shell
+    without job control ignores SIGINT, and a child would inherit that (Python then
+    installs no KeyboardInterrupt handler), unlike a command started in a terminal."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def _kill_all(proc: subprocess.Popen, workers: list[int]) -> None:
+    """Leave nothing running (jobs of 100,000 episodes), whatever the test found."""
+    for pid in [proc.pid, *workers]:
+        if _alive([pid]):
+            os.kill(pid, signal.SIGKILL)
+    proc.wait()
 
 
 def _workers_of(pid: int) -> list[int]:
@@ -302,17 +342,16 @@ def test_a_signal_to_the_driver_stops_its_workers_and_frees_the_run_folder(tmp_p
     proc, run = _started_run(tmp_path)
     workers = _workers_of(proc.pid)
     start = time.monotonic()
-    os.kill(proc.pid, sig)
-    proc.wait(timeout=30)
-    left = _wait_gone(workers, 10)
     try:
+        os.kill(proc.pid, sig)
+        proc.wait(timeout=30)
+        left = _wait_gone(workers, 10)
         assert left == [], f"workers {left} outlived the driver"
         assert time.monotonic() - start < 10, "the driver waited for the running jobs"
         with locked_folder(run, "run folder"):  # nobody holds it any more
             pass
     finally:
-        for pid in _alive(workers):
-            os.kill(pid, signal.SIGKILL)
+        _kill_all(proc, workers)
     if sig != signal.SIGKILL:
         assert proc.returncode != 0
 
@@ -384,17 +423,52 @@ def test_sys_exit_in_a_job_is_a_failure_of_that_job_not_a_clean_exit(tmp_path, m
         capsys.readouterr().err
 
 
+def test_a_full_disk_at_a_result_is_a_clear_error_and_keeps_the_results_written(
+        tmp_path, monkeypatch, capsys):
+    import errno
+
+    from ilpss.experiments import cli
+    from ilpss.experiments import run as run_module
+
+    real = run_module.atomic_write_bytes
+
+    def full_at_seed_1(path, data):
+        if path.name == "result.json" and path.parent.parent.name == "seed_001":
+            raise OSError(errno.ENOSPC, f"cannot write {path}: No space left on device",
+                          str(path))
+        real(path, data)
+
+    monkeypatch.setattr(run_module, "atomic_write_bytes", full_at_seed_1)
+    argv = ["--protocol", "A", "--seeds", "2", "--methods", "scratch", "--episodes", "3",
+            "--rollouts", "1", "--workers", "1", "--quiet", "--no-report", "--out",
+            str(tmp_path)]
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(argv)
+    assert exit_info.value.code == 1  # not a traceback
+    assert (f"ilpss-experiment: error: [Errno 28] cannot write "
+            f"{tmp_path / 'seed_001' / 'stream_00' / 'result.json'}: No space left on device"
+            ) in capsys.readouterr().err
+    assert (tmp_path / "seed_000" / "stream_00" / "result.json").is_file()
+    monkeypatch.undo()
+    assert cli.main(argv) == 0  # the resume finishes seed 1 only
+    assert (tmp_path / "seed_001" / "stream_00" / "result.json").is_file()
+
+
 # ------------------------------------------------------------ comparisons and settings
-def test_compare_refuses_runs_of_another_stream(tmp_path):
+@pytest.mark.parametrize("other_cfg, differs", [
+    # Held out against goal guards (the baseline) and against chasers.
+    ({"teams": ("interceptors_press", "interceptors_cover", "interceptor_guard"),
+      "targets": ("chasers",)}, r"tasks: .*goal_guards.* saved, .*chasers.* here"),
+    ({"protocol": "C", "stream_length": 2}, r"protocol: 'A' saved, 'C' here"),
+])
+def test_compare_refuses_runs_of_another_stream(tmp_path, other_cfg, differs):
     from ilpss.experiments.compare import compare_runs
 
     base, other = tmp_path / "base", tmp_path / "other"
     run_experiment(_tiny(n_seeds=2), base, progress=False)
-    run_experiment(_tiny(n_seeds=2, teams=("interceptors_press", "interceptors_cover",
-                                           "interceptor_guard"),
-                         targets=("chasers",)), other, progress=False)
+    run_experiment(_tiny(n_seeds=2, **other_cfg), other, progress=False)
     with pytest.raises(ValueError, match=r"does not learn what the baseline .* learns on seed "
-                                         r"0: .*tasks: .*goal_guards.* saved, .*chasers.* here"):
+                                         rf"0: .*{differs}"):
         compare_runs((base, "scratch"), {"other": (other, "scratch")})
 
 
@@ -478,6 +552,22 @@ def test_holder_learning_checks_its_output_before_learning(tmp_path, monkeypatch
                                   "--out", str(out)])
         assert exit_info.value.code == 2
         assert said in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("argv, said", [
+    (["--teams", "chasers", "nope"], "unknown opponent team 'nope'; known teams: ["),
+    (["--rules", "soccer_drill.policies:NOTHING"], "--rules soccer_drill.policies:NOTHING: "),
+])
+def test_holder_learning_checks_its_teams_and_rules_before_learning(tmp_path, monkeypatch,
+                                                                    capsys, argv, said):
+    from ilpss.experiments import holder_learning
+    from ilpss.experiments.executor import LocalExecutor
+
+    monkeypatch.setattr(LocalExecutor, "map", lambda *a, **k: pytest.fail("it learnt"))
+    with pytest.raises(SystemExit) as exit_info:
+        holder_learning.main([*argv, "--out", str(tmp_path / "learning.md")])
+    assert exit_info.value.code == 2
+    assert said in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("argv, said", [

@@ -277,6 +277,20 @@ def test_the_pre_check_page_names_its_command_and_judges_each_candidate(tmp_path
         region_check.main(["--episodes", "1"])
 
 
+@pytest.mark.parametrize("out, said", [
+    ("file/regions.md", "'{tmp}/file' is a file, not a folder"),
+    ("folder/", "the output must name a file, got the folder '{tmp}/folder/'"),
+])
+def test_the_pre_check_checks_its_output_before_any_episode(tmp_path, monkeypatch, capsys, out,
+                                                            said):
+    monkeypatch.setattr(region_check, "judge", lambda *a, **k: pytest.fail("it played"))
+    (tmp_path / "file").write_text("")
+    with pytest.raises(SystemExit) as exit_:
+        region_check.main(["--out", f"{tmp_path}/{out}"])
+    assert exit_.value.code == 2
+    assert said.format(tmp=tmp_path) in capsys.readouterr().err
+
+
 def test_the_plugin_pages_region_example_runs():
     page = (Path(__file__).resolve().parents[1] / "docs" / "plugins.md").read_text()
     (block,) = [b for b in re.findall(r"```python\n(.*?)```", page, flags=re.S)

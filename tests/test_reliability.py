@@ -61,6 +61,17 @@ def test_short_soak_has_no_violations_and_writes_its_section(tmp_path):
     # Only the section between the markers is replaced.
     assert text.startswith("# Reliability\n\nintro\n\n") and text.endswith("\n\ntrailer\n")
     assert "\nold\n" not in text and text.count(soak.MARK_START) == 1
+    assert "Load average (1 min)" in text  # the rates depend on it
+    assert [p.name for p in tmp_path.iterdir()] == ["reliability.md"]  # no temporary left
+
+
+def test_the_soak_checks_its_output_before_any_episode(tmp_path, monkeypatch, capsys):
+    monkeypatch.setattr(soak.Soak, "run", lambda *a: pytest.fail("it played"))
+    (tmp_path / "file").write_text("")
+    with pytest.raises(SystemExit) as exit_:
+        soak.main(["--episodes", "20", "--out", str(tmp_path / "file" / "reliability.md")])
+    assert exit_.value.code == 2
+    assert f"'{tmp_path / 'file'}' is a file, not a folder" in capsys.readouterr().err
 
 
 @pytest.mark.slow

@@ -144,8 +144,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         results = run_experiment(cfg, args.out, progress=not args.quiet,
                                  ray_address=args.ray_address,
                                  on_done=None if args.quiet else _say_resumed)
-    except (FolderInUseError, StorageError, JobError, ValueError) as exc:
-        p.exit(1, f"{p.prog}: error: {exc}\n")  # another run's folder, a bad file, a job
+    except (FolderInUseError, StorageError, JobError, ValueError, OSError) as exc:
+        # another run's folder, a bad file, a failed job, a full disk (naming the file)
+        p.exit(1, f"{p.prog}: error: {exc}\n")
     if not args.no_report:
         from ilpss.experiments.report import write_report
 

@@ -71,7 +71,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     start = time.perf_counter()
     try:
         results = run_experiment(cfg, args.out)
-    except (FolderInUseError, StorageError, JobError, ValueError) as exc:
+    except (FolderInUseError, StorageError, JobError, ValueError, OSError) as exc:
         parser.exit(1, f"{parser.prog}: error: {exc}\n")
     out = Path(args.out)
     report = write_report(cfg, results, out, command=command)

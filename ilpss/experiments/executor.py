@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import functools
 import multiprocessing
 import os
 import signal
@@ -57,6 +58,19 @@ def _failure(exc: BaseException) -> BaseException:
     if isinstance(exc, SystemExit):
         return RuntimeError(f"the job's code called sys.exit({exc.code!r})")
     return exc
+
+
+def _exit_as_failure(fn: Callable[[Any], Any]) -> Callable[[Any], Any]:
+    """``fn`` for a Ray task: a ``SystemExit`` from the item's code is raised as the
+    item's failure, inside the task (Ray takes a ``SystemExit`` that leaves a task for
+    its worker's own exit, and reports the worker as crashed)."""
+    @functools.wraps(fn)
+    def run(item: Any) -> Any:
+        try:
+            return fn(item)
+        except SystemExit as exc:
+            raise _failure(exc) from None
+    return run
 
 
 class _RecordingContext:
@@ -217,7 +231,7 @@ class RayExecutor:
             done: Done | None = None) -> list[Any]:
         """``[fn(item) for item in items]``, computed in parallel, in item order."""
         ray = self._ray
-        remote = ray.remote(num_cpus=1, max_retries=self.max_retries)(fn)
+        remote = ray.remote(num_cpus=1, max_retries=self.max_retries)(_exit_as_failure(fn))
         results: list[Any] = [None] * len(items)
         failures: dict[int, BaseException] = {}
         waiting = list(enumerate(items))[::-1]
@@ -237,6 +251,9 @@ class RayExecutor:
                         cause = getattr(exc, "cause", None)
                         failures[i] = _failure(cause if isinstance(cause, BaseException)
                                                else exc)
+                        continue
+                    except ray.exceptions.RayError as exc:  # its worker or node died, on
+                        failures[i] = exc                     # every attempt Ray made
                         continue
                     if done is not None:
                         done(i, results[i])

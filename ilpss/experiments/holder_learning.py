@@ -140,15 +140,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         lc = LearnerConfig(alpha=args.alpha, method=args.method,
                            initial_value=args.initial_value, trace_decay=args.trace_decay,
                            tile_widths=TILE_WIDTHS)
+        for team in args.teams:  # an unknown team: the drill's error, naming the known ones
+            gym.make(ENV_ID, opponent=team, disable_env_checker=True).close()
+        names = sorted(_rules(args.rules))
     except ValueError as exc:
         p.error(str(exc))
+    except (ImportError, AttributeError) as exc:
+        p.error(f"--rules {args.rules}: {exc}")
     start = time.perf_counter()
     pool = LocalExecutor(args.workers)
     learnt = pool.map(learn_and_evaluate,
                       [(t, s, args.episodes, args.eval, lc) for t in args.teams
                        for s in range(args.seeds)],
                       desc="learning")
-    names = sorted(_rules(args.rules))
     fixed = pool.map(rule_rewards, [(t, args.rules, n, args.eval) for t in args.teams for n in names],
                      desc="fixed rules")
     minutes = (time.perf_counter() - start) / 60

@@ -27,7 +27,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from ilpss._io import FolderInUseError, atomic_write_bytes
+from ilpss._io import MAX_JSON_BYTES, FolderInUseError, atomic_write_bytes, read_regular
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.drill import PAPER_TEAMS, REGION_SOURCES, REGION_TARGETS
@@ -113,7 +113,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             cfg = chosen[protocol]
             try:
                 results = run_timed(cfg, folder, progress=not args.quiet)
-            except (FolderInUseError, StorageError, JobError, ValueError) as exc:
+            except (FolderInUseError, StorageError, JobError, ValueError, OSError) as exc:
                 p.exit(1, f"{p.prog}: error: protocol {protocol}: {exc}\n")
         else:  # keep the section of an earlier, finished run
             if not folder.config.exists():
@@ -127,7 +127,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         command = command_for({protocol: cfg}, args.runs, args.docs)
         write_report(cfg, results, folder.root, command=command or "(see config.json)")
         config_copy = docs / "results" / f"protocol_{protocol.lower()}_config.json"
-        atomic_write_bytes(config_copy, folder.config.read_bytes())
+        atomic_write_bytes(config_copy, read_regular(folder.config, MAX_JSON_BYTES))
         sections += [*header(cfg, folder, command, config_copy.name),
                      *page_section(cfg, results, folder.root, docs)]
     text = [*intro(configs, args.runs, args.docs), *sections]
