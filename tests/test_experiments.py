@@ -205,7 +205,11 @@ def test_the_demo_shows_the_recommended_method_succeeding_and_learning_anew_s_fi
     assert (tmp_path / "recommended.gif").stat().st_size > 0
     assert (tmp_path / "learning_anew_first.gif").stat().st_size > 0
     (left,) = [line for line in text.splitlines() if line.startswith("- Left:")]
-    assert demo.RECOMMENDED in demo.DEMO_METHODS
+    assert json.loads((tmp_path / "config.json").read_text())["methods"] == list(
+        demo.demo_methods())
+    # What it writes beside the run's folders is what the README's paragraph names.
+    written = {p.name for p in tmp_path.iterdir() if p.suffix in {".md", ".png", ".gif"}}
+    assert written - {"curves_00.png"} == set(demo.OUTPUTS)
     # An honest choice: the first success among the first GIF_EPISODES seeds, said so.
     assert ("the first success among environment seeds 0-19" in left and ": success," in left) \
         or "no episode of environment seeds 0-19 succeeds" in left

@@ -139,3 +139,16 @@ def test_shell_command_exists(argv, monkeypatch):
             f"(exit status {exc.code}; its message is in the captured stderr)"
         )
     pytest.fail(f"{command} returned without parsing its arguments")
+
+
+def test_the_demo_paragraph_names_the_method_the_demo_shows_and_its_files():
+    """The paragraph on ``make demo`` names the recommended method as the demo declares it
+    (``ilpss.experiments.demo.RECOMMENDED``) and the files the demo writes."""
+    from ilpss.experiments import demo
+
+    text = README.read_text(encoding="utf-8")
+    start = text.index("`make demo` runs")
+    paragraph = text[start:text.index("\n\n", start)]
+    assert f"`--methods {demo.RECOMMENDED}`" in paragraph
+    assert "`RECOMMENDED` in `ilpss/experiments/demo.py`" in paragraph
+    assert set(re.findall(r"results/demo/([\w.]+)", paragraph)) == set(demo.OUTPUTS)

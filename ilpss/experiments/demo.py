@@ -4,7 +4,7 @@
 
 Runs the paper's teams 1-3, then the held-out team 4, with the method the README
 recommends (:data:`RECOMMENDED`), ILPSS as in the paper, fine-tuning and learning anew
-(:data:`DEMO_METHODS`), on a budget that takes a few minutes on two cores; writes
+(:func:`demo_methods`), on a budget that takes a few minutes on two cores; writes
 ``report.md`` (curves, metrics, verdicts, the command that made it), a picture of the
 kernels on the field, and two GIFs against team 4: the recommended method's agent on the
 first successful episode among the first :data:`GIF_EPISODES` environment seeds (how many
@@ -14,10 +14,12 @@ succeed is in the caption), and learning anew's first learning episode beside it
 from __future__ import annotations
 
 import argparse
+import json
 import shlex
 import sys
 import time
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import gymnasium as gym
@@ -27,28 +29,41 @@ from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.executor import stop_on_sigterm
 from ilpss.experiments.figures import (
-    greedy_episodes,
+    greedy_agent,
+    greedy_runs,
     plot_kernels_on_field,
-    write_agent_gif,
     write_episode_gif,
 )
 from ilpss.experiments.folder import RunFolder
-from ilpss.experiments.methods import METHODS
+from ilpss.experiments.methods import METHODS, FineTuneMethod, LifelongMethod
 from ilpss.experiments.outputs import check_out_dir
+from ilpss.experiments.protocols import make_env
 from ilpss.experiments.report import label, write_report
 from ilpss.experiments.run import JobError, run_experiment
 from ilpss.lifelong import LifelongLearner, trial_seeds
-from ilpss.smdp import SmdpLearner
+from ilpss.options import OptionLibrary
+from ilpss.policy import FrozenPolicy
+from ilpss.smdp import LearnerConfig, SmdpLearner
 
-RECOMMENDED = "ilpss_ft"
+RECOMMENDED = "finetune"
 """The method the README recommends (``docs/results.md`` and ``docs/discussion.md`` say
-on what evidence)."""
-DEMO_METHODS = ("scratch", "ilpss", "finetune", RECOMMENDED)
-"""The demo's methods: learning anew, the paper's ILPSS, fine-tuning and the recommended
-method."""
+on what evidence): the one place the demo takes it from, a lifelong or a fine-tuning
+method (:func:`check_showable`). The README's paragraph on ``make demo`` names it too
+(``tests/test_readme.py`` checks that it does)."""
+SHOWN_METHODS = ("scratch", "ilpss", "finetune")
+"""The methods the demo runs beside the recommended one: learning anew (the baseline and
+the right GIF), the paper's ILPSS (its kernels are drawn) and fine-tuning."""
+OUTPUTS = ("report.md", "kernels.png", "recommended.gif", "learning_anew_first.gif")
+"""What the demo writes beside its run's folders: the report, the kernels picture and the
+two GIFs (:func:`agent_lines`)."""
 GIF_EPISODES = 20
 """The environment seeds ``0 .. GIF_EPISODES - 1`` among which the shown episode is the
 first success."""
+
+
+def demo_methods() -> tuple[str, ...]:
+    """:data:`SHOWN_METHODS` and :data:`RECOMMENDED`, each once, in that order."""
+    return tuple(dict.fromkeys((*SHOWN_METHODS, RECOMMENDED)))
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -60,11 +75,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--out", default="results/demo")
     args = parser.parse_args(argv)
     command = "ilpss-demo " + shlex.join(sys.argv[1:] if argv is None else list(argv))
-    try:  # the output folder and the configuration, before any work
+    try:  # the output folder, the configuration and the method shown, before any work
         check_out_dir(args.out)
         cfg = ExperimentConfig(protocol="A", n_seeds=args.seeds, workers=args.workers,
-                               methods=DEMO_METHODS, featured="ilpss").with_overrides(
+                               methods=demo_methods(), featured="ilpss").with_overrides(
             lifelong={"train_episodes": args.episodes, "rollout_episodes": 30})
+        check_showable(RECOMMENDED)
     except ValueError as exc:
         parser.error(str(exc))
     stop_on_sigterm()
@@ -81,6 +97,56 @@ def main(argv: Sequence[str] | None = None) -> int:
     print("\n".join(line for line in lines if line.startswith("- ")))
     print(f"done in {time.perf_counter() - start:.0f} s")
     return 0
+
+
+@dataclass(frozen=True)
+class TargetAgent:
+    """What a method learnt against the held-out team, played greedily: call it with a
+    seed for an agent (seeded as the environment's episode, as the GIF's is)."""
+
+    policy: FrozenPolicy
+    library: OptionLibrary | None
+    config: LearnerConfig
+    task_names: tuple[str, ...]
+    """The tasks of the policies its options come from, in order."""
+
+    def __call__(self, seed: int) -> SmdpLearner:
+        return greedy_agent(self.policy, self.library, self.config, seed)
+
+
+def check_showable(method: str) -> None:
+    """Refuse (``ValueError``), before any work, a method whose agent the demo cannot
+    show: it shows a lifelong method's (from its checkpoint) or fine-tuning's (learnt
+    again from learning anew's checkpoint)."""
+    if not isinstance(METHODS.get(method), LifelongMethod | FineTuneMethod):
+        raise ValueError(
+            f"the demo shows the recommended method's agent, and {method!r} is neither a "
+            "lifelong nor a fine-tuning method: it leaves no policy to show"
+        )
+
+
+def target_agent(cfg: ExperimentConfig, folder: RunFolder, method: str,
+                 seed: int) -> TargetAgent:
+    """The agent ``method`` learnt against the held-out team in seed ``seed``'s job: a
+    lifelong method's from its checkpoint; fine-tuning's learnt again from learning
+    anew's checkpoint, as in the run (the episodes must be the run's curve, else
+    ``ValueError``)."""
+    check_showable(method)
+    stream = cfg.streams(seed)[0]
+    target = stream.first_target  # the held-out team, right after the sources
+    env = make_env(cfg.env_id, stream.tasks[target])
+    kind = METHODS.get(method)
+    if isinstance(kind, LifelongMethod):
+        learner = LifelongLearner.load(folder.checkpoints(seed, 0, method), env.observation_space)
+        return TargetAgent(learner.policies[-1], learner.library, learner.config.learner,
+                           tuple(r.name for r in learner.records))
+    scratch = LifelongLearner.load(folder.checkpoints(seed, 0, "scratch"), env.observation_space)
+    learner, episodes = kind.learn_target(cfg, seed, scratch, target, env)
+    run = json.loads(folder.result(seed, 0).read_text(encoding="utf-8"))
+    if [float(e.total_reward) for e in episodes] != run["methods"][method]["curves"][str(target)]:
+        raise ValueError(f"{method} learnt again on seed {seed} does not play the run's "
+                         f"episodes ({folder.result(seed, 0)}): not the run's agent")
+    return TargetAgent(learner.freeze(), None, cfg.lifelong.learner, ())
 
 
 def agent_lines(cfg: ExperimentConfig, folder: RunFolder) -> list[str]:
@@ -103,12 +169,13 @@ def agent_lines(cfg: ExperimentConfig, folder: RunFolder) -> list[str]:
         lines += ["![kernels](kernels.png)", "",
                   f"The kernels of seed {seed}'s {label(featured)} learner after its "
                   f"{kernels.n_trials} trials, projected on the holder's position.", ""]
-    recommended = LifelongLearner.load(folder.checkpoints(seed, 0, RECOMMENDED), space)
-    episodes = greedy_episodes(recommended, env(), range(GIF_EPISODES))
+    recommended = target_agent(cfg, folder, RECOMMENDED, seed)
+    episodes = greedy_runs(recommended, env(), range(GIF_EPISODES))
     wins = [e for e in episodes if e["outcome"] == "success"]
     shown = (wins or episodes)[0]
-    gif = write_agent_gif(recommended, env(render=True), folder.figure("recommended.gif"),
-                          seed=shown["seed"])
+    gif = write_episode_gif(recommended(shown["seed"]), env(render=True),
+                            folder.figure("recommended.gif"), seed=shown["seed"],
+                            task_names=list(recommended.task_names))
     which = (f"the first success among environment seeds 0-{GIF_EPISODES - 1} (seed "
              f"{shown['seed']}; {len(wins)} of {GIF_EPISODES} succeed)" if wins else
              f"no episode of environment seeds 0-{GIF_EPISODES - 1} succeeds: seed 0")
@@ -123,11 +190,13 @@ def agent_lines(cfg: ExperimentConfig, folder: RunFolder) -> list[str]:
     fresh = write_episode_gif(anew, first, folder.figure("learning_anew_first.gif"),
                               seed=env_seed, learn=True)
     name = label(RECOMMENDED)
+    learnt = ("policy it learnt" if recommended.library is None else
+              "policy and options it learnt")
     return [*lines,
             f"![{name} against {held_out}](recommended.gif) "
             f"![learning anew's first episode](learning_anew_first.gif)", "",
             f"- Left: seed {seed}'s {name} agent against `{held_out}`, greedy with the "
-            f"policy and options it learnt, on {which}: {gif['outcome']}, reward "
+            f"{learnt}, on {which}: {gif['outcome']}, reward "
             f"{gif['reward']:+.2f}, options run: {options}.",
             f"- Right: learning anew's first learning episode against `{held_out}` (seed "
             f"{seed}, the first point of its curve): {fresh['outcome']}, reward "

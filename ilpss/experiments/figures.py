@@ -9,6 +9,7 @@ kernel, projected on those two features, is an ellipse on the field.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -26,7 +27,8 @@ from ilpss.experiments.drill import (
 )
 from ilpss.lifelong import LifelongLearner
 from ilpss.options import OptionLibrary
-from ilpss.smdp import SmdpLearner
+from ilpss.policy import FrozenPolicy
+from ilpss.smdp import LearnerConfig, SmdpLearner
 
 GIF_SEEDS = range(1, 51)
 """Environment seeds of the greedy episodes scanned for the GIF of the results page."""
@@ -90,21 +92,35 @@ def plot_kernels_on_field(
     return save_figure(fig, path, dpi=110, bbox_inches="tight")
 
 
+def greedy_agent(
+    policy: FrozenPolicy, library: OptionLibrary | None, config: LearnerConfig, seed: int
+) -> SmdpLearner:
+    """A learner that plays ``policy`` (and its options, from ``library``) greedily."""
+    return SmdpLearner.from_policy(policy, library, replace(config, epsilon=0.0), seed=seed)
+
+
+def greedy_runs(
+    agent: Callable[[int], SmdpLearner], env: Any, seeds: range | list[int]
+) -> list[dict[str, Any]]:
+    """One episode per seed of the agent ``agent(seed)`` (seeded as its environment):
+    ``[{"seed", "outcome", "reward", "options"}]`` (option ids run)."""
+    out = []
+    for seed in seeds:
+        result = agent(seed).run_episode(env, learn=False, seed=seed)
+        out.append({"seed": seed, "outcome": result.outcome, "reward": result.total_reward,
+                    "options": [run.option_id for run in result.option_runs]})
+    return out
+
+
 def greedy_episodes(
     learner: LifelongLearner, env: Any, seeds: range | list[int], policy_index: int = -1
 ) -> list[dict[str, Any]]:
     """Play a learnt policy greedily, as :func:`write_agent_gif` does but without frames,
     once per seed: ``[{"seed", "outcome", "reward", "options"}]`` (option ids run)."""
     policy = learner.policies[policy_index]
-    out = []
-    for seed in seeds:
-        agent = SmdpLearner.from_policy(policy, learner.library,
-                                        replace(learner.config.learner, epsilon=0.0),
-                                        seed=seed)
-        result = agent.run_episode(env, learn=False, seed=seed)
-        out.append({"seed": seed, "outcome": result.outcome, "reward": result.total_reward,
-                    "options": [run.option_id for run in result.option_runs]})
-    return out
+    return greedy_runs(
+        lambda seed: greedy_agent(policy, learner.library, learner.config.learner, seed),
+        env, seeds)
 
 
 def gif_episode(episodes: list[dict[str, Any]]) -> dict[str, Any]:
@@ -126,8 +142,8 @@ def write_agent_gif(
     """Roll out a learnt policy greedily on ``env`` (a drill holder env made with
     ``render_mode="rgb_array_list"``: one frame per cycle) and write a GIF of every
     cycle captioned with the action and the active option (:func:`write_episode_gif`)."""
-    agent = SmdpLearner.from_policy(learner.policies[policy_index], learner.library,
-                                    replace(learner.config.learner, epsilon=0.0), seed=seed)
+    agent = greedy_agent(learner.policies[policy_index], learner.library,
+                         learner.config.learner, seed)
     return write_episode_gif(agent, env, path, seed=seed, fps=fps, learn=False,
                              task_names=[r.name for r in learner.records])
 

@@ -48,13 +48,14 @@ from ilpss.reuse import (
     learn_with,
     register_reuse,
 )
-from ilpss.smdp import SmdpLearner
+from ilpss.smdp import EpisodeResult, SmdpLearner
 
 if TYPE_CHECKING:
     from ilpss.experiments.config import ExperimentConfig
 
 __all__ = [
     "METHODS",
+    "FineTuneMethod",
     "Job",
     "LifelongMethod",
     "Method",
@@ -306,19 +307,27 @@ class FineTuneMethod(Method):
 
     def run(self, job: Job) -> dict[str, Any]:
         scratch = job.learners["scratch"]
-        cfg = job.cfg
         curves = {}
         for t in job.targets:
-            before = job.tasks_before(t)
-            learner_seed, env_seed, _, _ = trial_seeds(job.seed, before)
-            learner = SmdpLearner(scratch.n_primitive, scratch.tile_coder, None,
-                                  cfg.lifelong.learner, seed=learner_seed)
-            results = learn_with(self.start, learner, scratch.policies[:before],
-                                 make_env(cfg.env_id, job.stream.tasks[t]),
-                                 cfg.lifelong.train_episodes, seed=env_seed,
-                                 choice_seed=choice_seed(job.seed, before))
+            _, results = self.learn_target(job.cfg, job.seed, scratch, job.tasks_before(t),
+                                           make_env(job.cfg.env_id, job.stream.tasks[t]))
             curves[str(t)] = [float(r.total_reward) for r in results]
         return {"curves": curves}
+
+    def learn_target(
+        self, cfg: ExperimentConfig, seed: int, scratch: LifelongLearner, before: int,
+        env: Any,
+    ) -> tuple[SmdpLearner, list[EpisodeResult]]:
+        """Fine-tune on one target, the job's seed ``seed`` and ``before`` tasks before it,
+        from the policies of learning anew's learner ``scratch``: the learner it leaves and
+        its episodes (a function of these arguments alone, so it can be played again)."""
+        learner_seed, env_seed, _, _ = trial_seeds(seed, before)
+        learner = SmdpLearner(scratch.n_primitive, scratch.tile_coder, None,
+                              cfg.lifelong.learner, seed=learner_seed)
+        results = learn_with(self.start, learner, scratch.policies[:before], env,
+                             cfg.lifelong.train_episodes, seed=env_seed,
+                             choice_seed=choice_seed(seed, before))
+        return learner, results
 
 
 def _plus(base: LifelongConfig) -> dict[str, Any]:
