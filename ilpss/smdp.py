@@ -124,6 +124,7 @@ SMDP_CONSTRAINTS = {
     "option_initial_value": NoneOr(Real(-1e6, 1e6)),
     "option_values": OneOf(("constant", "policy", "policy_primitives")),
     "step_targets": OneOf(("every_choice", "available_choices")),
+    "value_bounds": NoneOr(ListOf(Real(-1e6, 1e6), min_len=2, max_len=2)),
     "trace_decay": Real(0.0, 1.0),
     "max_decisions": Integer(1),
 }
@@ -198,6 +199,16 @@ class LearnerConfig:
     there; bootstrapping from them carries whatever they started at into the primitives,
     and along a stream of fine-tuned starts (each task starting from the last one's
     values) that excess grows with every task."""
+    value_bounds: tuple[float, float] | None = None
+    """``(low, high)``: every target the learner updates towards (a choice point's and
+    the steps' inside an option) is clipped into this range, the range of the returns
+    its environment can pay, and an option valued from its policy (``option_values``)
+    starts with each tile's weight clipped into its share of the range (``low`` and
+    ``high`` over the active tiles), so that its start lies within it too; ``None`` (the
+    paper): targets and starts as they come. An option that starts above what its policy
+    earns (a tile-wise maximum of its values) passes the excess to the choices that
+    bootstrap from it, and along a stream of fine-tuned starts each task inherits the
+    last one's excess."""
     trace_decay: float = 0.9
     """``lambda`` of the replacing eligibility traces (0: one-step updates)."""
     bootstrap_on_truncation: bool = False
@@ -216,6 +227,12 @@ class LearnerConfig:
         check_fields("LearnerConfig", self, LEARNER_CONSTRAINTS)
         if self.tile_widths is not None:  # JSON gives lists, and ints for whole numbers
             object.__setattr__(self, "tile_widths", tuple(float(w) for w in self.tile_widths))
+        if self.value_bounds is not None:
+            low, high = (float(v) for v in self.value_bounds)
+            if not low < high:
+                raise ValueError(f"LearnerConfig.value_bounds must be (low, high) with low < "
+                                 f"high, got {list(self.value_bounds)}")
+            object.__setattr__(self, "value_bounds", (low, high))
 
     @classmethod
     def from_dict(cls, values: Mapping[str, Any]) -> LearnerConfig:
@@ -309,7 +326,11 @@ class SmdpLearner(EpisodicLearner):
                 # greedy value (a linear start, so frozen policies keep it).
                 policy = library.policies[library.policy_of(oid)]
                 own = policy.weights[: policy.n_primitive] if primitives_only else policy.weights
-                self.q.weights[n_primitive + j] = own.max(axis=0)
+                start = own.max(axis=0)
+                if config.value_bounds is not None:  # every tile's share of the range
+                    low, high = config.value_bounds
+                    start = np.clip(start, low / tile_coder.n_active, high / tile_coder.n_active)
+                self.q.weights[n_primitive + j] = start
         self.config = config
         self.tile_coder = tile_coder
         self.library = library
@@ -456,6 +477,11 @@ class SmdpLearner(EpisodicLearner):
         biased = np.where(mask, self._behaviour_values(q), -np.inf)
         return float(np.max(np.where(biased == biased.max(), q, -np.inf)))
 
+    def _bounded(self, target: float) -> float:
+        """``target`` clipped into :attr:`LearnerConfig.value_bounds`, if set."""
+        bounds = self.config.value_bounds
+        return target if bounds is None else min(max(target, bounds[0]), bounds[1])
+
     # ------------------------------------------------------------ intra-option
     def _intra_option_update(
         self,
@@ -516,7 +542,7 @@ class SmdpLearner(EpisodicLearner):
         if targets:
             q_now = self.q.q_from_tiles(s_active)
             for c, target in targets.items():
-                self.q.update(s_active, c, self._step * (target - q_now[c]))
+                self.q.update(s_active, c, self._step * (self._bounded(target) - q_now[c]))
 
     # --------------------------------------------------------------- episodes
     def run_episode(
@@ -564,13 +590,13 @@ class SmdpLearner(EpisodicLearner):
             end = self._run_choice(env, log, choice, explored, s, active, m, learn)
             if end.state is None:  # the episode is over: the target is the return alone
                 if learn:
-                    self._td_update(traces, active, choice, end.ret, 0.0, True)
+                    self._td_update(traces, active, choice, self._bounded(end.ret), 0.0, True)
                 break
             mask, m = self._choice_mask(end.state, end.membership)
             q = self._choice_values(end.active, mask)
             next_choice, explored = self._choose(q, mask, epsilon)
             if learn:
-                target = end.ret + end.disc * self._bootstrap(q, mask, next_choice)
+                target = self._bounded(end.ret + end.disc * self._bootstrap(q, mask, next_choice))
                 # Watkins's Q(lambda): an exploratory choice cuts the traces.
                 cut = self.config.method == "q" and explored
                 self._td_update(traces, active, choice, target, end.disc * self.config.trace_decay, cut)

@@ -268,3 +268,53 @@ def test_options_valued_from_their_policies_primitives_do_not_inherit_its_option
     fresh = SmdpLearner(3, coder, library, replace(LC, option_values="policy_primitives"))
     assert fresh.q.q_values(s)[option] == pytest.approx(chained.q_values(s)[:3].max(), abs=0.2)
     assert fresh.q.q_values(s)[option] < 1.5
+
+
+def test_targets_clipped_to_the_returns_keep_never_corrected_option_values_out():
+    """The same never-corrected option values as above, bootstrapped from every choice:
+    with the targets clipped to the range of the corridor's returns (at most 1), the
+    primitives stay within it, where without the clip they rise above it."""
+    coder = _coder()
+    inside, outside = set(), set()
+    for x in np.arange(0.0, 6.0, 0.01):
+        inside.update(coder.active(np.array([x])).tolist())
+    for x in np.arange(6.0, 9.0, 0.01):
+        outside.update(coder.active(np.array([x])).tolist())
+    far = np.array(sorted(outside - inside))
+    highest = {}
+    for bounds in (None, (-1.0, 1.0)):
+        library = OptionLibrary(RegionKernels(1, [0], [6.0], [True]), [_zone_policy(X)])
+        config = replace(LC, intra_option_primitives=True, interruption=True,
+                         value_bounds=bounds)
+        highest[bounds] = []
+        for seed in range(5):
+            learner = SmdpLearner(3, coder, library, config, seed=seed)
+            learner.q.weights[3, sorted(inside)] = 1.5 / coder.n_active
+            learner.q.weights[3, far] = 5.0 / coder.n_active
+            learner.train(MappedCorridor(X, cost=0.02), 60, seed=seed)
+            highest[bounds].append(max(learner.q.q_values(np.array([x]))[:3].max()
+                                       for x in np.arange(0.05, 9.0, 0.1)))
+    assert min(highest[None]) > 1.15, highest
+    assert max(highest[(-1.0, 1.0)]) < 1.1, highest
+
+
+def test_value_bounds_are_a_range_low_below_high():
+    assert LearnerConfig(value_bounds=[-1, 1]).value_bounds == (-1.0, 1.0)
+    for bad in ((1.0, -1.0), (0.0, 0.0), (0.0,), "ab"):
+        with pytest.raises(ValueError, match="value_bounds"):
+            LearnerConfig(value_bounds=bad)
+
+
+def test_options_valued_from_their_policies_start_within_the_value_bounds():
+    """A past policy valued far above any return (5 where the corridor pays at most 1)
+    starts its option at 5 without bounds, and within them with bounds, where it can
+    send no excess back along the traces."""
+    coder = _coder()
+    valued = FrozenPolicy(coder, 3, (), np.full((3, coder.n_weights), 5.0 / coder.n_active))
+    library = OptionLibrary(RegionKernels(1, [0], [6.0], [True]), [valued])
+    s = np.array([2.0])
+    free = SmdpLearner(3, coder, library, replace(LC, option_values="policy"))
+    assert free.q.q_values(s)[3] == pytest.approx(5.0)
+    bounded = SmdpLearner(3, coder, library, replace(LC, option_values="policy",
+                                                     value_bounds=(-1.0, 1.0)))
+    assert bounded.q.q_values(s)[3] == pytest.approx(1.0)

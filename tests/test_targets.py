@@ -190,13 +190,17 @@ def test_a_finished_job_with_targets_past_index_nine_is_read_back(tmp_path):
     assert run_experiment(cfg, tmp_path, progress=False) == first  # read back, checked
 
 
-def test_a_learner_setting_added_later_is_recorded_only_when_set():
-    # Runs made before `step_targets` existed computed what its default computes: their
+@pytest.mark.parametrize(("name", "default", "value"), [
+    ("step_targets", "every_choice", "available_choices"),
+    ("value_bounds", None, (-1.0, 1.0)),
+])
+def test_a_learner_setting_added_later_is_recorded_only_when_set(name, default, value):
+    # Runs made before the setting existed computed what its default computes: their
     # records stay the records of the same configuration, so they resume and report.
     base = ExperimentConfig()
-    assert "step_targets" not in base.results_record()["lifelong"]["learner"]
-    learner = replace(base.lifelong.learner, step_targets="available_choices")
+    assert name not in base.results_record()["lifelong"]["learner"]
+    learner = replace(base.lifelong.learner, **{name: value})
     changed = replace(base, lifelong=replace(base.lifelong, learner=learner))
-    assert changed.results_record()["lifelong"]["learner"]["step_targets"] == \
-        "available_choices"
-    assert base.to_dict()["lifelong"]["learner"]["step_targets"] == "every_choice"
+    recorded = changed.results_record()["lifelong"]["learner"][name]
+    assert recorded == (list(value) if isinstance(value, tuple) else value)
+    assert base.to_dict()["lifelong"]["learner"][name] == default

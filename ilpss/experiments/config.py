@@ -35,7 +35,8 @@ RUN_ONLY_FIELDS = ("executor", "workers", "storage")
 """Fields of :class:`ExperimentConfig` that say where jobs run and keep their checkpoints,
 not what they compute."""
 RECORDED_IF_SET = {"targets": [], "baseline": "scratch", "featured": None,
-                   "lifelong.learner.step_targets": "every_choice"}
+                   "lifelong.learner.step_targets": "every_choice",
+                   "lifelong.learner.value_bounds": None}
 """Fields (dotted paths into nested configurations) that results and checkpoints record
 only when they differ from their default (as JSON), so that the records of runs made
 before the field existed stay the records of the same configuration: a field is added
