@@ -219,34 +219,40 @@ def test_a_fine_tuned_learner_takes_another_policys_option_only_where_it_is_bett
     assert float(largest_dip(np.mean(curves, axis=0), 20)) <= 0.2
 
 
-def test_steps_inside_an_option_bootstrap_only_from_choices_available_there():
-    """An option's values outside its region are never corrected (it is never taken
-    there). Bootstrapping the steps inside an option from every choice carries them into
-    the primitives, above any return the corridor pays (at most 1); bootstrapping from
-    the choices available at the next state, as a choice point does, does not."""
+def _highest_primitive_values(**settings) -> list[float]:
+    """Per seed, the largest primitive value over the corridor after 60 learning episodes
+    with X's option in [0, 6), valued 1.5 where it is taken (and corrected) and 5 on the
+    tiles no state of its region uses (never taken there: never corrected)."""
     coder = _coder()
     inside, outside = set(), set()
     for x in np.arange(0.0, 6.0, 0.01):
         inside.update(coder.active(np.array([x])).tolist())
     for x in np.arange(6.0, 9.0, 0.01):
         outside.update(coder.active(np.array([x])).tolist())
-    far = np.array(sorted(outside - inside))  # tiles no state of the option's region uses
+    far = np.array(sorted(outside - inside))
     assert len(far) > 0
-    highest = {}
-    for targets in ("every_choice", "available_choices"):
-        library = OptionLibrary(RegionKernels(1, [0], [6.0], [True]), [_zone_policy(X)])
-        config = replace(LC, intra_option_primitives=True, interruption=True,
-                         step_targets=targets)
-        highest[targets] = []
-        for seed in range(5):
-            learner = SmdpLearner(3, coder, library, config, seed=seed)
-            learner.q.weights[3, sorted(inside)] = 1.5 / coder.n_active  # taken, corrected
-            learner.q.weights[3, far] = 5.0 / coder.n_active  # never taken: never corrected
-            learner.train(MappedCorridor(X, cost=0.02), 60, seed=seed)
-            highest[targets].append(max(learner.q.q_values(np.array([x]))[:3].max()
-                                        for x in np.arange(0.05, 9.0, 0.1)))
-    assert min(highest["every_choice"]) > 1.15, highest
-    assert max(highest["available_choices"]) < 1.1, highest
+    library = OptionLibrary(RegionKernels(1, [0], [6.0], [True]), [_zone_policy(X)])
+    config = replace(LC, intra_option_primitives=True, interruption=True, **settings)
+    highest = []
+    for seed in range(5):
+        learner = SmdpLearner(3, coder, library, config, seed=seed)
+        learner.q.weights[3, sorted(inside)] = 1.5 / coder.n_active
+        learner.q.weights[3, far] = 5.0 / coder.n_active
+        learner.train(MappedCorridor(X, cost=0.02), 60, seed=seed)
+        highest.append(max(learner.q.q_values(np.array([x]))[:3].max()
+                           for x in np.arange(0.05, 9.0, 0.1)))
+    return highest
+
+
+def test_steps_inside_an_option_bootstrap_only_from_choices_available_there():
+    """An option's values outside its region are never corrected (it is never taken
+    there). Bootstrapping the steps inside an option from every choice carries them into
+    the primitives, above any return the corridor pays (at most 1); bootstrapping from
+    the choices available at the next state, as a choice point does, does not."""
+    every = _highest_primitive_values(step_targets="every_choice")
+    available = _highest_primitive_values(step_targets="available_choices")
+    assert min(every) > 1.15, every
+    assert max(available) < 1.1, available
 
 
 def test_options_valued_from_their_policies_primitives_do_not_inherit_its_options_values():
@@ -271,31 +277,13 @@ def test_options_valued_from_their_policies_primitives_do_not_inherit_its_option
 
 
 def test_targets_clipped_to_the_returns_keep_never_corrected_option_values_out():
-    """The same never-corrected option values as above, bootstrapped from every choice:
-    with the targets clipped to the range of the corridor's returns (at most 1), the
-    primitives stay within it, where without the clip they rise above it."""
-    coder = _coder()
-    inside, outside = set(), set()
-    for x in np.arange(0.0, 6.0, 0.01):
-        inside.update(coder.active(np.array([x])).tolist())
-    for x in np.arange(6.0, 9.0, 0.01):
-        outside.update(coder.active(np.array([x])).tolist())
-    far = np.array(sorted(outside - inside))
-    highest = {}
-    for bounds in (None, (-1.0, 1.0)):
-        library = OptionLibrary(RegionKernels(1, [0], [6.0], [True]), [_zone_policy(X)])
-        config = replace(LC, intra_option_primitives=True, interruption=True,
-                         value_bounds=bounds)
-        highest[bounds] = []
-        for seed in range(5):
-            learner = SmdpLearner(3, coder, library, config, seed=seed)
-            learner.q.weights[3, sorted(inside)] = 1.5 / coder.n_active
-            learner.q.weights[3, far] = 5.0 / coder.n_active
-            learner.train(MappedCorridor(X, cost=0.02), 60, seed=seed)
-            highest[bounds].append(max(learner.q.q_values(np.array([x]))[:3].max()
-                                       for x in np.arange(0.05, 9.0, 0.1)))
-    assert min(highest[None]) > 1.15, highest
-    assert max(highest[(-1.0, 1.0)]) < 1.1, highest
+    """The same never-corrected option values, bootstrapped from every choice: with the
+    targets clipped to the range of the corridor's returns (at most 1), the primitives
+    stay within it, where without the clip they rise above it."""
+    free = _highest_primitive_values(step_targets="every_choice")
+    bounded = _highest_primitive_values(step_targets="every_choice", value_bounds=(-1.0, 1.0))
+    assert min(free) > 1.15, free
+    assert max(bounded) < 1.1, bounded
 
 
 def test_value_bounds_are_a_range_low_below_high():
