@@ -125,6 +125,7 @@ SMDP_CONSTRAINTS = {
     "option_values": OneOf(("constant", "policy", "policy_primitives")),
     "step_targets": OneOf(("every_choice", "available_choices")),
     "value_bounds": NoneOr(ListOf(Real(-1e6, 1e6), min_len=2, max_len=2)),
+    "option_traces": OneOf(("kept", "cut")),
     "trace_decay": Real(0.0, 1.0),
     "max_decisions": Integer(1),
 }
@@ -209,6 +210,12 @@ class LearnerConfig:
     earns (a tile-wise maximum of its values) passes the excess to the choices that
     bootstrap from it, and along a stream of fine-tuned starts each task inherits the
     last one's excess."""
+    option_traces: str = "kept"
+    """``"kept"`` (the paper): an option's choice is traced like any other, so its TD
+    error also updates the choices made before it; ``"cut"``: the traces are cleared
+    before an option is chosen, so its TD error updates its own value only. An option
+    valued from its policy starts where that policy's values say, and the large errors
+    of correcting that start then reach the primitives chosen before it."""
     trace_decay: float = 0.9
     """``lambda`` of the replacing eligibility traces (0: one-step updates)."""
     bootstrap_on_truncation: bool = False
@@ -598,7 +605,8 @@ class SmdpLearner(EpisodicLearner):
             if learn:
                 target = self._bounded(end.ret + end.disc * self._bootstrap(q, mask, next_choice))
                 # Watkins's Q(lambda): an exploratory choice cuts the traces.
-                cut = self.config.method == "q" and explored
+                cut = (self.config.method == "q" and explored) or (
+                    self.config.option_traces == "cut" and next_choice >= self.n_primitive)
                 self._td_update(traces, active, choice, target, end.disc * self.config.trace_decay, cut)
             if end.ended:  # a truncation bootstrapped from its last state
                 break

@@ -306,3 +306,30 @@ def test_options_valued_from_their_policies_start_within_the_value_bounds():
     bounded = SmdpLearner(3, coder, library, replace(LC, option_values="policy",
                                                      value_bounds=(-1.0, 1.0)))
     assert bounded.q.q_values(s)[3] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("option_traces", ["kept", "cut"])
+def test_an_options_error_reaches_the_choices_before_it_only_with_kept_traces(option_traces):
+    """X's option, offered from x = 3 on and valued 5 where the corridor pays at most 1,
+    is chosen after the primitives of zone A. The large errors of correcting its value
+    reach those primitives along the traces when they are kept, and never when they are
+    cut before an option is chosen."""
+    coder = _coder()
+    library = OptionLibrary(RegionKernels(1, [0], [3.0], [False]), [_zone_policy(X)])
+    config = replace(LC, option_traces=option_traces, epsilon=0.0)
+    reached = 0
+    for seed in range(5):
+        learner = SmdpLearner(3, coder, library, config, seed=seed)
+        learner.q.weights[3:] = 5.0 / coder.n_active
+        update = learner._td_update
+
+        def traced(traces, active, choice, *args, learner=learner, update=update):
+            nonlocal reached
+            before = learner.q.weights[:3].copy()
+            update(traces, active, choice, *args)
+            if choice >= 3:  # the option's own update: did it move a primitive?
+                reached += not np.array_equal(before, learner.q.weights[:3])
+
+        learner._td_update = traced
+        learner.train(MappedCorridor(X, cost=0.02, start_high=0.5), 5, seed=seed)
+    assert (reached > 0) == (option_traces == "kept"), reached

@@ -193,6 +193,7 @@ def test_a_finished_job_with_targets_past_index_nine_is_read_back(tmp_path):
 @pytest.mark.parametrize(("name", "default", "value"), [
     ("step_targets", "every_choice", "available_choices"),
     ("value_bounds", None, (-1.0, 1.0)),
+    ("option_traces", "kept", "cut"),
 ])
 def test_a_learner_setting_added_later_is_recorded_only_when_set(name, default, value):
     # Runs made before the setting existed computed what its default computes: their

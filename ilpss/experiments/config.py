@@ -36,7 +36,8 @@ RUN_ONLY_FIELDS = ("executor", "workers", "storage")
 not what they compute."""
 RECORDED_IF_SET = {"targets": [], "baseline": "scratch", "featured": None,
                    "lifelong.learner.step_targets": "every_choice",
-                   "lifelong.learner.value_bounds": None}
+                   "lifelong.learner.value_bounds": None,
+                   "lifelong.learner.option_traces": "kept"}
 """Fields (dotted paths into nested configurations) that results and checkpoints record
 only when they differ from their default (as JSON), so that the records of runs made
 before the field existed stay the records of the same configuration: a field is added

@@ -339,20 +339,23 @@ def _plus(base: LifelongConfig) -> dict[str, Any]:
 
 def _fine_tuned(base: LifelongConfig, options: str, step_targets: str = "every_choice",
                 option_values: str = "policy",
-                value_bounds: tuple[float, float] | None = None) -> dict[str, Any]:
+                value_bounds: tuple[float, float] | None = None,
+                option_traces: str | None = None) -> dict[str, Any]:
     """ILPSS-FT's fields: ILPSS+'s regions and library, a start from the latest past
     policy's values (``options``: its reuse), options valued from their own policies,
     handed back by value (interruption) rather than by a fading bonus; ``step_targets``:
     what the steps inside an option bootstrap from; ``option_values``: from which of a
     policy's values its option's start; ``value_bounds``: the range its targets are
-    clipped into (``None``: the base configuration's)."""
+    clipped into; ``option_traces``: whether an option's choice keeps the traces
+    (``None``, for both: the base configuration's)."""
     plus = handing_back(base)
     bounds = base.learner.value_bounds if value_bounds is None else value_bounds
+    traces = base.learner.option_traces if option_traces is None else option_traces
     return {"options": options, "kernel_reg_covar": plus.kernel_reg_covar,
             "library": plus.library,
             "learner": replace(base.learner, option_values=option_values, interruption=True,
                                intra_option_primitives=True, step_targets=step_targets,
-                               value_bounds=bounds)}
+                               value_bounds=bounds, option_traces=traces)}
 
 
 # The oracle's regions: both sides of each split of protocol R's targets.
@@ -409,6 +412,17 @@ for _method in (
                    "drill's returns",
                    lambda base: _fine_tuned(base, "whole_policies_finetune",
                                             value_bounds=drill.EPISODE_REWARD)),
+    LifelongMethod("ilpss_ft_bounded_cut",
+                   "ILPSS-FT, values bounded, traces cut before an option",
+                   lambda base: _fine_tuned(base, "kernels_finetune",
+                                            value_bounds=drill.EPISODE_REWARD,
+                                            option_traces="cut")),
+    LifelongMethod("whole_policies_ft_bounded_cut",
+                   "whole past policies, ILPSS-FT's settings, values bounded, traces cut "
+                   "before an option",
+                   lambda base: _fine_tuned(base, "whole_policies_finetune",
+                                            value_bounds=drill.EPISODE_REWARD,
+                                            option_traces="cut")),
     LifelongMethod("ilpss_ft_oracle", "ILPSS-FT with the true regions as kernels (oracle)",
                    lambda base: _fine_tuned(base, "oracle_regions_finetune")),
 ):
