@@ -66,7 +66,7 @@ try:
 except ImportError:  # Windows
     resource = None  # type: ignore[assignment]
 from soccer_drill.config import DrillConfig
-from soccer_drill.gif import check_output_file
+from soccer_drill.files import atomic_write_text, check_output_file
 from soccer_drill.teams import team_ids
 
 OUTCOMES = ("success", "interception", "out", "timeout")
@@ -573,13 +573,7 @@ def write_section(path: Path, section: str) -> None:
         text = head + section.rstrip("\n") + tail
     else:
         text = text.rstrip("\n") + "\n\n" + section
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_text(text)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
+    atomic_write_text(path, text)
 
 
 def parse(argv: Sequence[str] | None) -> argparse.Namespace:

@@ -43,8 +43,6 @@ import io
 import json
 import math
 import os
-import re
-import secrets
 import stat
 import zipfile
 from collections.abc import Iterator, Mapping
@@ -52,6 +50,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from soccer_drill.files import TEMPORARY, atomic_write_bytes
 
 __all__ = [
     "FolderInUseError",
@@ -84,61 +84,6 @@ MAX_ARCHIVE_BYTES = 2**34
 ShapeTemplate = tuple[int | str | None, ...]
 
 
-def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically.
-
-    The bytes go to a new temporary file in the same directory (same file system, so the
-    final rename is atomic), are flushed and ``fsync`` ed, and the file is renamed over
-    ``path`` with :func:`os.replace`. The directory is then ``fsync`` ed where the
-    platform allows it, so the rename itself survives a crash. On any error the
-    temporary file is removed and ``path`` is left untouched.
-
-    Parameters
-    ----------
-    path : str or os.PathLike
-        Destination; its directory must exist.
-    data : bytes
-        The complete new contents.
-    """
-    path = Path(path)
-    directory = path.parent if str(path.parent) else Path(".")
-    tmp = directory / f".{path.name}.{os.getpid()}.{secrets.token_hex(6)}.tmp"
-    try:
-        # O_EXCL: never clobber another writer's temporary; mode 0o666 lets the umask
-        # decide the permissions, as for any ordinary new file.
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0),
-                     0o666)
-    except OSError as exc:
-        raise _naming(exc, path) from exc
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException as exc:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        if isinstance(exc, OSError):
-            raise _naming(exc, path) from exc
-        raise
-    _fsync_directory(directory)
-
-
-def _naming(exc: OSError, path: Path) -> OSError:
-    """``exc`` as the same kind of error, saying which file could not be written (a full
-    disk's ``OSError`` otherwise names only the temporary, or nothing)."""
-    if exc.filename == os.fspath(path):
-        return exc
-    return type(exc)(exc.errno, f"cannot write {os.fspath(path)}: "
-                     f"{exc.strerror or exc}", os.fspath(path))
-
-
-_TEMPORARY = re.compile(r"\..+\.\d+\.[0-9a-f]{12}\.tmp")
-
-
 def remove_stale_temporaries(directory: str | os.PathLike[str]) -> list[str]:
     """Remove the temporaries that :func:`atomic_write_bytes` left in ``directory`` when
     its process died before the rename (``SIGKILL``, power loss); return their names.
@@ -148,7 +93,7 @@ def remove_stale_temporaries(directory: str | os.PathLike[str]) -> list[str]:
     """
     removed = []
     for path in Path(directory).iterdir():
-        if _TEMPORARY.fullmatch(path.name) and path.is_file():
+        if TEMPORARY.fullmatch(path.name) and path.is_file():
             try:
                 path.unlink()
             except FileNotFoundError:
@@ -168,20 +113,6 @@ def save_figure(fig: Any, path: str | os.PathLike[str], **savefig: Any) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_bytes(path, buffer.getvalue())
     return path
-
-
-def _fsync_directory(directory: Path) -> None:
-    """Persist a rename in ``directory``; a no-op where directories cannot be opened."""
-    try:
-        dir_fd = os.open(directory, os.O_RDONLY)
-    except OSError:  # e.g. Windows
-        return
-    try:
-        os.fsync(dir_fd)
-    except OSError:
-        pass
-    finally:
-        os.close(dir_fd)
 
 
 class FolderInUseError(RuntimeError):

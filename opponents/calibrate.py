@@ -39,7 +39,8 @@ from scipy import stats
 
 from opponents import PAPER_TEAMS
 from opponents.parametric import sample_opponents, spec_label
-from soccer_drill.gif import check_output_file, record_episode, save_gif
+from soccer_drill.files import atomic_write_text, check_output_file
+from soccer_drill.gif import record_episode, save_gif
 from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.teams import describe, team_ids
@@ -529,12 +530,7 @@ def write_markdown(
                     f"![{t}]({rel})",
                     "",
                 ]
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.tmp")
-    tmp.write_text("\n".join(lines).rstrip() + "\n")
-    os.replace(tmp, out)
-    return out
+    return atomic_write_text(path, "\n".join(lines).rstrip() + "\n")
 
 
 def write_team_gif(team: str, rule: str, path: str | os.PathLike[str]) -> tuple[int, str]:

@@ -39,7 +39,7 @@ from scipy import stats
 from opponents.calibrate import wilson_interval
 from opponents.region_stream import LEFT, NEAR, SOURCES
 from opponents.regions import Region, RegionRule, RegionTeam
-from soccer_drill.gif import check_output_file
+from soccer_drill.files import atomic_write_text, check_output_file
 from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES, HolderPolicy
 from soccer_drill.teams import make_team
@@ -582,12 +582,7 @@ def write_page(
     for j in judged:
         lines += _candidate_section(j)
     lines += _using(judged) + _history(judged)
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.tmp")
-    tmp.write_text("\n".join(lines).rstrip() + "\n")
-    os.replace(tmp, out)
-    return out
+    return atomic_write_text(path, "\n".join(lines).rstrip() + "\n")
 
 
 def main(argv: Sequence[str] | None = None) -> int:

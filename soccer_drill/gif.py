@@ -12,7 +12,7 @@ before the episode is played.
 from __future__ import annotations
 
 import argparse
-import errno
+import io
 import numbers
 import os
 import sys
@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from soccer_drill.files import atomic_write_bytes, check_output_file
 from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES, HolderPolicy, get_policy
 from soccer_drill.teams import team_ids
@@ -40,27 +41,6 @@ def check_fps(fps: object) -> float:
             f"100 ms), got {fps!r}"
         )
     return float(fps)
-
-
-def check_output_file(path: str | os.PathLike) -> Path:
-    """``path`` if a file can be written there, else ``ValueError`` naming the problem:
-    an empty path, a folder (an existing one, or a path ending in a separator), a path
-    under a file, or a folder that cannot be written."""
-    raw = os.fspath(path)
-    if not raw:
-        raise ValueError("the output must be a file path, got ''")
-    out = Path(raw)
-    if raw.endswith(("/", os.sep)) or out.is_dir():
-        raise ValueError(f"the output must name a file, got the folder {raw!r}; e.g. "
-                         f"{os.path.join(raw, 'episode.gif')!r}")
-    ancestor = out.parent
-    while not ancestor.exists():
-        ancestor = ancestor.parent
-    if not ancestor.is_dir():
-        raise ValueError(f"cannot write {raw!r}: {str(ancestor)!r} is a file, not a folder")
-    if not os.access(ancestor, os.W_OK | os.X_OK):
-        raise ValueError(f"cannot write {raw!r}: the folder {str(ancestor)!r} is not writable")
-    return out
 
 
 def palette_images(frames: Sequence[np.ndarray]) -> list | None:
@@ -102,8 +82,9 @@ def save_gif(frames: Sequence[np.ndarray], path: str | os.PathLike, fps: float =
     """Save ``(H, W, 3)`` uint8 frames as an animated GIF, atomically.
 
     ``fps`` is checked by :func:`check_fps` and ``path`` by :func:`check_output_file`;
-    a failing write (a full disk) raises ``OSError`` naming ``path`` and leaves no
-    temporary file behind.
+    the GIF is encoded in memory (a drill's GIF is well under 1 MB) and written by
+    :func:`~soccer_drill.files.atomic_write_bytes`: a failing write (a full disk) raises
+    ``OSError`` naming ``path`` and leaves no temporary file behind.
     """
     from PIL import Image
 
@@ -111,19 +92,13 @@ def save_gif(frames: Sequence[np.ndarray], path: str | os.PathLike, fps: float =
         raise ValueError("no frames to save")
     fps = check_fps(fps)
     path = check_output_file(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        images = palette_images(frames) or [Image.fromarray(f) for f in frames]
-        images[0].save(
-            tmp, format="GIF", save_all=True, append_images=images[1:],
-            duration=round(1000 / fps), loop=0,
-        )
-        os.replace(tmp, path)
-    except OSError as exc:
-        tmp.unlink(missing_ok=True)
-        raise OSError(exc.errno or errno.EIO, f"cannot write the GIF: {exc.strerror or exc}",
-                      str(path)) from exc
+    images = palette_images(frames) or [Image.fromarray(f) for f in frames]
+    encoded = io.BytesIO()
+    images[0].save(encoded, format="GIF", save_all=True, append_images=images[1:],
+                   duration=round(1000 / fps), loop=0)
+    data = encoded.getvalue()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_bytes(path, data)
     return path
 
 

@@ -4,6 +4,7 @@ was wrong and what is allowed, and writes frames at true speed."""
 from __future__ import annotations
 
 import errno
+import os
 
 import numpy as np
 import pytest
@@ -76,12 +77,10 @@ def test_the_gif_plays_at_true_speed_by_default(tmp_path, capsys):
 
 
 def test_a_full_disk_names_the_file_and_leaves_nothing(tmp_path, capsys, monkeypatch):
-    def full(self, fp, *args, **kwargs):
-        with open(fp, "wb") as f:
-            f.write(b"GIF8")
+    def full(fd):  # the file system reports the full disk when the bytes are flushed
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(Image.Image, "save", full)
+    monkeypatch.setattr(os, "fsync", full)
     path = tmp_path / "episode.gif"
     assert main(["-o", str(path), "--seed", "1"]) == 1
     err = _error(capsys)

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from full_disk import full_disk
 
 from ilpss import _io
 from ilpss._io import locked_folder
@@ -423,22 +424,53 @@ def test_sys_exit_in_a_job_is_a_failure_of_that_job_not_a_clean_exit(tmp_path, m
         capsys.readouterr().err
 
 
+# Each command that writes a page about finished runs: the module whose writer fails, the
+# arguments (given the folder), the folder of the runs and the page, below that folder.
+_TINY = ["--episodes", "3", "--rollouts", "1", "--workers", "1", "--quiet"]
+REPORTING_COMMANDS = {
+    "ilpss-experiment": ("cli", "report", lambda out: [
+        "--protocol", "A", "--seeds", "1", "--methods", "scratch", "ilpss", *_TINY,
+        "--out", str(out)], ".", "report.md"),
+    "ilpss-results": ("results_doc", "results_doc", lambda out: [
+        "--runs", str(out / "runs"), "--docs", str(out / "docs"), "--protocols", "A",
+        "--seeds-a", "1", *_TINY], "runs", "docs/results.md"),
+    "ilpss-demo": ("demo", "demo", lambda out: [
+        "--out", str(out), "--seeds", "1", "--episodes", "3", "--workers", "1"], ".",
+        "report.md"),
+}
+
+
+@pytest.mark.parametrize("command", REPORTING_COMMANDS)
+def test_a_full_disk_at_the_report_is_a_clear_error_and_keeps_the_results(
+        tmp_path, monkeypatch, capsys, command):
+    import importlib
+
+    main_module, writing_module, arguments, runs, page = REPORTING_COMMANDS[command]
+    main = importlib.import_module(f"ilpss.experiments.{main_module}").main
+    writing = importlib.import_module(f"ilpss.experiments.{writing_module}")
+    page = tmp_path / page
+    monkeypatch.setattr(writing, "atomic_write_bytes", full_disk(
+        writing.atomic_write_bytes, at=lambda path: path == page))
+    with pytest.raises(SystemExit) as exit_info:
+        main(arguments(tmp_path))
+    assert exit_info.value.code == 1  # not a traceback
+    err = capsys.readouterr().err
+    assert f"the runs finished and their results are kept in {(tmp_path / runs)}" in err
+    assert f"cannot write {page}: No space left on device" in err
+    assert list(tmp_path.glob("**/seed_000/stream_00/result.json"))
+    monkeypatch.undo()
+    assert main(arguments(tmp_path)) == 0  # the same command writes the page
+    assert page.is_file()
+
+
 def test_a_full_disk_at_a_result_is_a_clear_error_and_keeps_the_results_written(
         tmp_path, monkeypatch, capsys):
-    import errno
-
     from ilpss.experiments import cli
     from ilpss.experiments import run as run_module
 
-    real = run_module.atomic_write_bytes
-
-    def full_at_seed_1(path, data):
-        if path.name == "result.json" and path.parent.parent.name == "seed_001":
-            raise OSError(errno.ENOSPC, f"cannot write {path}: No space left on device",
-                          str(path))
-        real(path, data)
-
-    monkeypatch.setattr(run_module, "atomic_write_bytes", full_at_seed_1)
+    monkeypatch.setattr(run_module, "atomic_write_bytes", full_disk(
+        run_module.atomic_write_bytes,
+        at=lambda path: path.name == "result.json" and path.parent.parent.name == "seed_001"))
     argv = ["--protocol", "A", "--seeds", "2", "--methods", "scratch", "--episodes", "3",
             "--rollouts", "1", "--workers", "1", "--quiet", "--no-report", "--out",
             str(tmp_path)]

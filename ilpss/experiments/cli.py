@@ -25,6 +25,7 @@ from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.executor import stop_on_sigterm
 from ilpss.experiments.methods import METHODS
+from ilpss.experiments.outputs import unwritten_report
 from ilpss.experiments.protocols import PROTOCOLS
 from ilpss.experiments.run import JobError, read_config, run_experiment
 
@@ -150,7 +151,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not args.no_report:
         from ilpss.experiments.report import write_report
 
-        path = write_report(cfg, results, args.out)
+        try:
+            path = write_report(cfg, results, args.out)
+        except OSError as exc:  # a full disk: the results stay, a rerun writes the report
+            p.exit(1, f"{p.prog}: error: {unwritten_report(args.out, exc)}\n")
         print(f"report: {path}")
     return 0
 

@@ -36,7 +36,7 @@ from ilpss.experiments.figures import (
 )
 from ilpss.experiments.folder import RunFolder
 from ilpss.experiments.methods import METHODS, FineTuneMethod, LifelongMethod
-from ilpss.experiments.outputs import check_out_dir
+from ilpss.experiments.outputs import check_out_dir, unwritten_report
 from ilpss.experiments.protocols import make_env
 from ilpss.experiments.report import label, write_report
 from ilpss.experiments.run import JobError, run_experiment
@@ -90,9 +90,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (FolderInUseError, StorageError, JobError, ValueError, OSError) as exc:
         parser.exit(1, f"{parser.prog}: error: {exc}\n")
     out = Path(args.out)
-    report = write_report(cfg, results, out, command=command)
-    lines = agent_lines(cfg, RunFolder(out))
-    atomic_write_bytes(report, report.read_bytes() + "\n".join(["", *lines, ""]).encode())
+    try:
+        report = write_report(cfg, results, out, command=command)
+        lines = agent_lines(cfg, RunFolder(out))
+        atomic_write_bytes(report, report.read_bytes() + "\n".join(["", *lines, ""]).encode())
+    except OSError as exc:  # a full disk: the results stay, a rerun writes the report
+        parser.exit(1, f"{parser.prog}: error: {unwritten_report(out, exc)}\n")
     print(f"report:  {report}")
     print("\n".join(line for line in lines if line.startswith("- ")))
     print(f"done in {time.perf_counter() - start:.0f} s")

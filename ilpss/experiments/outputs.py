@@ -11,7 +11,7 @@ import os
 import re
 from pathlib import Path
 
-__all__ = ["check_out_dir", "check_out_file"]
+__all__ = ["check_out_dir", "check_out_file", "unwritten_report"]
 
 _JOB_FOLDER = re.compile(r"seed_\d{3,}")
 
@@ -87,3 +87,11 @@ def check_out_file(path: str | os.PathLike[str], flag: str = "--out") -> Path:
     if not os.access(parent, os.W_OK | os.X_OK) or (out.exists() and not os.access(out, os.W_OK)):
         raise ValueError(f"{flag} {text}: not writable")
     return out
+
+
+def unwritten_report(results: str | os.PathLike[str], exc: OSError) -> str:
+    """What a command says when its runs finished but a page about them could not be
+    written (a full disk): nothing finished is lost, and the same command writes it."""
+    return (f"the runs finished and their results are kept in {os.fspath(results)}, but "
+            f"their report could not be written: {exc}; run the same command again to "
+            "write it (the finished jobs are not rerun)")

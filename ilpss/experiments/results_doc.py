@@ -33,7 +33,7 @@ from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.drill import PAPER_TEAMS, REGION_SOURCES, REGION_TARGETS
 from ilpss.experiments.executor import stop_on_sigterm
 from ilpss.experiments.folder import RunFolder
-from ilpss.experiments.outputs import check_out_dir
+from ilpss.experiments.outputs import check_out_dir, unwritten_report
 from ilpss.experiments.protocols import PROTOCOLS as PROTOCOLS_REGISTRY
 from ilpss.experiments.report import label, metrics_note, write_report
 from ilpss.experiments.run import JobError, load_result, read_config, run_experiment
@@ -125,14 +125,21 @@ def main(argv: Sequence[str] | None = None) -> int:
                 continue
         configs[protocol] = cfg
         command = command_for({protocol: cfg}, args.runs, args.docs)
-        write_report(cfg, results, folder.root, command=command or "(see config.json)")
         config_copy = docs / "results" / f"protocol_{protocol.lower()}_config.json"
-        atomic_write_bytes(config_copy, read_regular(folder.config, MAX_JSON_BYTES))
-        sections += [*header(cfg, folder, command, config_copy.name),
-                     *page_section(cfg, results, folder.root, docs)]
+        try:
+            write_report(cfg, results, folder.root, command=command or "(see config.json)")
+            atomic_write_bytes(config_copy, read_regular(folder.config, MAX_JSON_BYTES))
+            sections += [*header(cfg, folder, command, config_copy.name),
+                         *page_section(cfg, results, folder.root, docs)]
+        except OSError as exc:  # a full disk: the results stay, a rerun writes the pages
+            p.exit(1, f"{p.prog}: error: protocol {protocol}: "
+                      f"{unwritten_report(folder.root, exc)}\n")
     text = [*intro(configs, args.runs, args.docs), *sections]
     path = docs / "results.md"
-    atomic_write_bytes(path, ("\n".join(text).rstrip() + "\n").encode())
+    try:
+        atomic_write_bytes(path, ("\n".join(text).rstrip() + "\n").encode())
+    except OSError as exc:
+        p.exit(1, f"{p.prog}: error: {unwritten_report(runs, exc)}\n")
     print(f"results: {path}")
     return 0
 
