@@ -86,12 +86,11 @@ def atomic_write_bytes(path: str | os.PathLike[str], data: bytes) -> None:
     _fsync_directory(directory)
 
 
-def atomic_write_text(path: str | os.PathLike[str], text: str, *, parents: bool = True) -> Path:
+def atomic_write_text(path: str | os.PathLike[str], text: str) -> Path:
     """Write ``text`` (UTF-8) to ``path`` with :func:`atomic_write_bytes`, creating missing
-    parent folders unless ``parents`` is false; return ``path``."""
+    parent folders; return ``path``."""
     path = Path(path)
-    if parents:
-        path.parent.mkdir(parents=True, exist_ok=True)
+    path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_bytes(path, text.encode("utf-8"))
     return path
 

@@ -96,9 +96,8 @@ def save_gif(frames: Sequence[np.ndarray], path: str | os.PathLike, fps: float =
     encoded = io.BytesIO()
     images[0].save(encoded, format="GIF", save_all=True, append_images=images[1:],
                    duration=round(1000 / fps), loop=0)
-    data = encoded.getvalue()
     path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_bytes(path, data)
+    atomic_write_bytes(path, encoded.getvalue())
     return path
 
 

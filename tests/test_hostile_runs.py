@@ -4,6 +4,7 @@ mismatched comparisons, settings that diverge, outputs that cannot be written.""
 
 from __future__ import annotations
 
+import importlib
 import io
 import json
 import os
@@ -443,8 +444,6 @@ REPORTING_COMMANDS = {
 @pytest.mark.parametrize("command", REPORTING_COMMANDS)
 def test_a_full_disk_at_the_report_is_a_clear_error_and_keeps_the_results(
         tmp_path, monkeypatch, capsys, command):
-    import importlib
-
     main_module, writing_module, arguments, runs, page = REPORTING_COMMANDS[command]
     main = importlib.import_module(f"ilpss.experiments.{main_module}").main
     writing = importlib.import_module(f"ilpss.experiments.{writing_module}")

@@ -3,13 +3,12 @@ planted at a predictable temporary name never leads the write outside the folder
 
 from __future__ import annotations
 
-import importlib.util
 import os
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from benchmark_scripts import load_benchmark
 
 from opponents import PAPER_TEAMS
 from opponents.calibrate import Cell, write_markdown
@@ -17,16 +16,6 @@ from opponents.region_check import write_page
 from soccer_drill.files import TEMPORARY, atomic_write_text
 from soccer_drill.gif import save_gif
 from soccer_drill.policies import HOLDER_POLICIES
-
-BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
-
-
-def _soak():
-    spec = importlib.util.spec_from_file_location("_bench_soak", BENCHMARKS / "soak.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
 
 
 def _calibration_page(path: Path) -> None:
@@ -44,7 +33,7 @@ WRITERS = {
     "pre-check page": ("regions.md", ".regions.md.tmp",
                        lambda path: write_page({}, [], 4, path, "cmd")),
     "soak section": ("reliability.md", f".reliability.md.{os.getpid()}.tmp",
-                     lambda path: _soak().write_section(path, "soak\n")),
+                     lambda path: load_benchmark("soak").write_section(path, "soak\n")),
 }
 
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import gc
-import importlib.util
 import json
 import math
 import os
@@ -18,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from benchmark_scripts import load_benchmark
 
 import soccer_drill
 import soccer_drill.core
@@ -34,15 +34,7 @@ ROOT = Path(__file__).resolve().parent.parent
 UNIX_TIMER = hasattr(signal, "setitimer") and hasattr(signal, "SIGPROF")
 
 
-def _load_soak():
-    spec = importlib.util.spec_from_file_location("soak", ROOT / "benchmarks" / "soak.py")
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["soak"] = module  # dataclasses look their module up by name
-    spec.loader.exec_module(module)
-    return module
-
-
-soak = _load_soak()
+soak = load_benchmark("soak")
 
 
 # ------------------------------------------------------------------------- soak
