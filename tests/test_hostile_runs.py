@@ -646,6 +646,18 @@ def test_an_output_folder_that_is_not_a_run_folder_is_refused(tmp_path, capsys, 
     assert sorted(p.name for p in home.iterdir()) == ["notes.txt"]
 
 
+def test_a_folder_holding_only_the_temporary_of_config_json_is_a_run_folder(tmp_path):
+    """What a run killed while writing config.json leaves, and what a second run started
+    on the same folder sees while the first writes it: a run folder, not other files."""
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / ".config.json.4242.0123456789ab.tmp").write_text('{"half": ')
+    run_experiment(_tiny(), out)
+    assert not list(out.glob(".config.json.*.tmp"))
+    assert json.loads((out / "config.json").read_text())["n_seeds"] == 1
+    assert (out / "seed_000" / "stream_00" / "result.json").is_file()
+
+
 def test_a_ray_address_where_nothing_listens_fails_at_once_before_config_json(tmp_path):
     from ilpss.experiments.executor import check_ray_address
 

@@ -11,9 +11,18 @@ import os
 import re
 from pathlib import Path
 
+from soccer_drill.files import TEMPORARY
+
 __all__ = ["check_out_dir", "check_out_file", "unwritten_report"]
 
 _JOB_FOLDER = re.compile(r"seed_\d{3,}")
+
+
+def _is_run_file(name: str) -> bool:
+    """Whether a run wrote ``name``: its configuration, a job's folder, or the temporary
+    of an atomic write (what a run killed while writing ``config.json`` leaves, and what
+    a second run started on the same folder sees while the first one writes it)."""
+    return name == "config.json" or bool(_JOB_FOLDER.fullmatch(name) or TEMPORARY.fullmatch(name))
 
 
 def _refuse_file_system_root(path: Path, flag: str) -> None:
@@ -28,8 +37,9 @@ def check_out_dir(out_dir: str | os.PathLike[str], flag: str = "--out",
     """The output folder, created if needed; a clear error if it cannot be one.
 
     With ``run_folder``, the folder must be new, empty, or a run folder already (it holds
-    a ``config.json`` or ``seed_*`` folders): a run writes ``seed_*`` folders and ``config.json`` into it, which
-    would litter a folder of other files (``--out ~``).
+    a ``config.json``, ``seed_*`` folders or the temporary of an atomic write): a run
+    writes ``seed_*`` folders and ``config.json`` into it, which would litter a folder of
+    other files (``--out ~``).
 
     Raises
     ------
@@ -50,8 +60,7 @@ def check_out_dir(out_dir: str | os.PathLike[str], flag: str = "--out",
         raise ValueError(f"{flag} {out}: cannot create the output folder ({exc.strerror})") from exc
     if not os.access(out, os.W_OK | os.X_OK):
         raise ValueError(f"{flag} {out}: the output folder is not writable")
-    if run_folder and any(out.iterdir()) and not any(
-            p.name == "config.json" or _JOB_FOLDER.fullmatch(p.name) for p in out.iterdir()):
+    if run_folder and any(out.iterdir()) and not any(_is_run_file(p.name) for p in out.iterdir()):
         raise ValueError(
             f"{flag} {out}: holds other files and no config.json, so it is not a run folder; "
             "give a new or empty folder (a run writes config.json and seed_* folders into it)"
