@@ -13,6 +13,9 @@ loops, with the paper's teams (``interceptors_cover`` here; ``--team`` another):
 * ``holder step``: ``HolderVectorEnv.step`` (random actions): every drill waits for the
   slowest drill's decision, so its drill-cycles are the cycles the drills ran, not the
   cycles the batch ran;
+* ``holder async``: ``send``/``recv`` with ``batch_size = N / 4`` (random actions): a
+  batch comes back as soon as a quarter of the drills are done, so a drill waits for
+  the first quarter to finish, not for the slowest;
 * ``holder play``: ``play_episodes`` with a fixed rule (``pass_first``): no drill waits;
 * ``agents``: ``ParallelVectorEnv`` with the attackers as agents (random legal actions)
   and the team's defenders;
@@ -72,6 +75,27 @@ class HolderStep:
             *_, info = self.env.step(self.rng.integers(3, size=self.env.num_envs))
             done += int(info["duration"].sum())
             self.decisions += int((info["duration"] > 0).sum())  # autoresets decide nothing
+        return done
+
+
+class HolderAsync:
+    """``send``/``recv`` with ``batch_size = N / 4`` (random actions): a drill gets its next
+    action once a quarter of the drills are done, not when the slowest is."""
+
+    def __init__(self, n: int, team: str) -> None:
+        self.env = HolderVectorEnv(num_envs=n, opponent=team, batch_size=max(1, n // 4))
+        self.env.async_reset(seed=0)
+        self.rng = np.random.default_rng(0)
+        self.decisions = 0
+
+    def run(self, cycles: int) -> int:
+        done = 0
+        while done < cycles:
+            *_, info = self.env.recv()
+            ids = info["env_id"]
+            self.env.send(self.rng.integers(3, size=len(ids)), ids)
+            done += int(info["duration"].sum())
+            self.decisions += int((info["duration"] > 0).sum())
         return done
 
 
@@ -143,6 +167,10 @@ def measure(sizes: list[int], team: str, cycles: int, rounds: int) -> dict:
     loops: dict[str, object] = {"single env()": Single(), "single holder step": SingleHolder(team)}
     for n in sizes:
         loops[f"holder step N={n}"] = HolderStep(n, team)
+        try:
+            loops[f"holder async N={n}"] = HolderAsync(n, team)
+        except TypeError:  # a checkout (--against) from before send/recv
+            pass
         loops[f"holder play N={n}"] = HolderPlay(n, team)
         loops[f"agents N={n}"] = Agents(n, team)
     out: dict = {"ratios": {k: [] for k in loops}, "costs": {k: [] for k in loops},
@@ -243,11 +271,13 @@ def main() -> None:
     print("| loop | " + " | ".join(f"{k}: us per drill-cycle | {k}: ratio to the floor" for k in labels)
           + " | " + " | ".join(f"{k}: us per decision" for k in labels) + " |")
     print("|---|" + "---:|---:|" * len(labels) + "---:|" * len(labels))
-    for name in done[labels[0]]["ratios"]:
+    names = list(dict.fromkeys(name for k in reversed(labels) for name in done[k]["ratios"]))
+    for name in names:  # a loop the other tree has not got: an empty cell
         cells = []
         for k in labels:
-            cells += [f"{statistics.median(done[k]['costs'][name]):.1f}",
-                      f"{statistics.median(done[k]['ratios'][name]):.2f}x"]
+            costs, ratios = done[k]["costs"].get(name), done[k]["ratios"].get(name)
+            cells += ([f"{statistics.median(costs):.1f}", f"{statistics.median(ratios):.2f}x"]
+                      if ratios else ["", ""])
         for k in labels:
             per = done[k]["per_decision"].get(name)
             cells.append(f"{statistics.median(per):.0f}" if per else "")

@@ -85,17 +85,15 @@ class BatchDrill:
         self._starts = np.array([*cfg.attacker_starts, *cfg.defender_starts])
 
     # ------------------------------------------------------------------ reset
-    def rebuild(self) -> None:
-        """New physics spaces and bodies, as if the batch were new (see ``reset(seed=...)``)."""
-        self.physics.build()
-
     def reset(self, drills: np.ndarray, rngs: list[np.random.Generator]) -> None:
         """Start a new episode in each of ``drills``, drawing from its generator in ``rngs``.
 
         The draws are those of :meth:`Drill.reset`: the start jitter, then the attacker
-        given the ball.
+        given the ball. The physics of the spaces holding only drills of ``drills`` is
+        built anew, as :meth:`Drill.reset` builds its own (``BatchPhysics.renew``).
         """
         cfg = self.config
+        self.physics.renew(drills)
         for i, rng in zip(drills.tolist(), rngs, strict=True):
             jitter = rng.uniform(-cfg.start_jitter, cfg.start_jitter, size=(4, 2))
             self.pos[i, :4] = self._starts + jitter
@@ -188,7 +186,7 @@ class BatchDrill:
         n_active = np.count_nonzero(active)
         if n_active < n:
             new_vel[~active] = 0.0
-        new_pos, out_vel = self.physics.cycle(pos[:, :4], new_vel)
+        new_pos, out_vel = self.physics.cycle(pos[:, :4], new_vel, active if n_active < n else None)
         ball = pos[:, 4].copy()
         step = ball_vel * self._sub_dt
         for _ in range(cfg.substeps):  # pymunk's own position update, p + v * dt

@@ -90,7 +90,8 @@ class BatchCore:
         for i, s in enumerate(seeds):
             if s is not None:
                 self.generators[i] = np.random.default_rng(s)
-        self.batch.rebuild()  # fresh physics: the run depends on the seeds alone
+        # The physics is fresh after the reset of every drill that follows (each space
+        # built anew, BatchDrill.reset): the run then depends on the seeds alone.
 
     def reset(self, drills: np.ndarray) -> None:
         """Start a new episode in each of ``drills``."""

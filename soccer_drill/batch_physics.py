@@ -11,7 +11,10 @@ One cycle is one batched write of every player's position and velocity per space
 (``pymunk.batch.set_space_bodies``), ``substeps`` calls of ``Space.step`` per space, and
 one batched read back. Writing the positions too lets a drill stand still (a drill
 waiting for its holder's decision, or one just reset): it is written where it stood
-with no velocity before every cycle, and after it.
+with no velocity before every cycle, and after it. A space none of whose drills moves
+is not stepped at all, and a space all of whose drills start a new episode is built
+anew (:meth:`BatchPhysics.renew`), so that with one drill per space a drill's physics
+is the single drill's, waits and resets included (see ``HolderVectorEnv``).
 
 The sub-steps call chipmunk's ``cpSpaceStep`` directly when this pymunk has it
 (``Space.step`` is that call plus bookkeeping for callbacks, and for bodies added or
@@ -65,53 +68,69 @@ class BatchPhysics:
 
     def build(self) -> None:
         """New spaces and bodies (every contact cache and bias velocity forgotten)."""
-        cfg, g = self.config, self.drills_per_space
-        cols = max(1, math.ceil(math.sqrt(g)))
-        self.spaces: list[pymunk.Space] = []
-        self._slices: list[slice] = []
-        self._arrays: list[np.ndarray] = []
-        self._set_buffers: list[pmb.Buffer] = []
-        self._bodies: list[np.ndarray] = []  # (count, 4, 4) views of the arrays' players
+        g = self.drills_per_space
+        self._slices = [slice(first, min(first + g, self.n)) for first in range(0, self.n, g)]
+        k = len(self._slices)
+        self.spaces: list[pymunk.Space] = [None] * k  # type: ignore[list-item]
+        self._arrays: list[np.ndarray] = [None] * k  # type: ignore[list-item]
+        self._set_buffers: list[pmb.Buffer] = [None] * k  # type: ignore[list-item]
+        self._bodies: list[np.ndarray] = [None] * k  # type: ignore[list-item]  # (count, 4, 4) views
+        self._steps: list = [None] * k
+        self._fresh = np.ones(k, dtype=bool)  # built and not stepped since: nothing to forget
         self._get_buffer = pmb.Buffer()
-        offsets = np.zeros((self.n, 2))
-        for first in range(0, self.n, g):
-            count = min(g, self.n - first)
-            space = pymunk.Space()
-            objects: list = []
-            for j in range(count):
-                ox, oy = (j % cols) * self.spacing, (j // cols) * self.spacing
-                offsets[first + j] = (ox, oy)
-                for _ in range(4):
-                    body = pymunk.Body(_PLAYER_MASS, math.inf)
-                    body.position = (ox, oy)
-                    objects += [body, pymunk.Circle(body, cfg.player_radius)]
-                lo, hi = -cfg.wall_margin, cfg.field_size + cfg.wall_margin
-                corners = [(ox + a, oy + b) for a, b in ((lo, lo), (hi, lo), (hi, hi), (lo, hi))]
-                for a, b in zip(corners, corners[1:] + corners[:1], strict=True):
-                    objects.append(pymunk.Segment(space.static_body, a, b, 0.1))
-            space.add(*objects)
-            space.step(0.0)  # Space.step's checks of the new bodies, once; nothing moves
-            self._check_order(space, count)
-            array = np.zeros((4 * count + 1, 4))  # x, y, vx, vy per body, then the static body
-            self._get_buffer.clear()
-            pmb.get_space_bodies(space, _FIELDS, self._get_buffer)
-            array[:] = np.frombuffer(self._get_buffer.float_buf(), dtype=np.float64).reshape(-1, 4)
-            buffer = pmb.Buffer()
-            buffer.set_float_buf(array)  # shares the array's memory: written in place
-            self.spaces.append(space)
-            self._slices.append(slice(first, first + count))
-            self._arrays.append(array)
-            self._set_buffers.append(buffer)
-            self._bodies.append(array[:-1].reshape(count, 4, 4))
-        self.offsets = offsets  # (n, 2): where each drill's region starts in its space
-        self._offsets = offsets[:, None, :]
-        direct = _SPACE_STEP is not None and all(hasattr(s, "_space") for s in self.spaces)
-        self._steps = [
-            functools.partial(_SPACE_STEP, space._space) if direct else space.step
-            for space in self.spaces
-        ]
+        self.offsets = np.zeros((self.n, 2))  # (n, 2): where each drill's region starts in its space
+        self._offsets = self.offsets[:, None, :]
+        for space in range(k):
+            self._build_space(space)
         self._out_pos = np.empty((self.n, 4, 2))
         self._out_vel = np.empty((self.n, 4, 2))
+
+    def renew(self, drills: np.ndarray) -> None:
+        """New spaces and bodies for the spaces all of whose drills are in ``drills``
+        (drills starting a new episode): their contact caches and bias velocities are
+        forgotten, as the single drill's ``reset`` forgets its own. A space shared with a
+        drill that goes on is kept, and so is one not stepped since it was built (it has
+        nothing to forget)."""
+        resetting = np.zeros(self.n, dtype=bool)
+        resetting[drills] = True
+        for k, sl in enumerate(self._slices):
+            if not self._fresh[k] and resetting[sl].all():
+                self._build_space(k)
+
+    def _build_space(self, k: int) -> None:
+        """Space ``k``: its drills' players and walls, each drill in its own region."""
+        cfg, sl = self.config, self._slices[k]
+        count = sl.stop - sl.start
+        cols = max(1, math.ceil(math.sqrt(self.drills_per_space)))
+        space = pymunk.Space()
+        objects: list = []
+        for j in range(count):
+            ox, oy = (j % cols) * self.spacing, (j // cols) * self.spacing
+            self.offsets[sl.start + j] = (ox, oy)
+            for _ in range(4):
+                body = pymunk.Body(_PLAYER_MASS, math.inf)
+                body.position = (ox, oy)
+                objects += [body, pymunk.Circle(body, cfg.player_radius)]
+            lo, hi = -cfg.wall_margin, cfg.field_size + cfg.wall_margin
+            corners = [(ox + a, oy + b) for a, b in ((lo, lo), (hi, lo), (hi, hi), (lo, hi))]
+            for a, b in zip(corners, corners[1:] + corners[:1], strict=True):
+                objects.append(pymunk.Segment(space.static_body, a, b, 0.1))
+        space.add(*objects)
+        space.step(0.0)  # Space.step's checks of the new bodies, once; nothing moves
+        self._check_order(space, count)
+        array = np.zeros((4 * count + 1, 4))  # x, y, vx, vy per body, then the static body
+        self._get_buffer.clear()
+        pmb.get_space_bodies(space, _FIELDS, self._get_buffer)
+        array[:] = np.frombuffer(self._get_buffer.float_buf(), dtype=np.float64).reshape(-1, 4)
+        buffer = pmb.Buffer()
+        buffer.set_float_buf(array)  # shares the array's memory: written in place
+        self.spaces[k] = space
+        self._arrays[k] = array
+        self._set_buffers[k] = buffer
+        self._bodies[k] = array[:-1].reshape(count, 4, 4)
+        direct = _SPACE_STEP is not None and hasattr(space, "_space")
+        self._steps[k] = functools.partial(_SPACE_STEP, space._space) if direct else space.step
+        self._fresh[k] = True
 
     def _check_order(self, space: pymunk.Space, count: int) -> None:
         """The batched reads list the players first, in the order added (as the drill checks)."""
@@ -125,26 +144,39 @@ class BatchPhysics:
                 "unexpected order; this pymunk version is not supported by soccer_drill"
             )
 
-    def cycle(self, pos: np.ndarray, vel: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def cycle(self, pos: np.ndarray, vel: np.ndarray,
+              active: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """One cycle of the players from ``pos``/``vel`` (``(n, 4, 2)``, field coordinates).
 
+        ``active`` (``(n,)`` bool, ``None``: every drill) names the drills that move; a
+        space none of whose drills moves is not stepped, so its contacts are kept as they
+        were rather than solved again for players standing still (with one drill per
+        space, a drill that waits then moves on exactly as if it had not waited).
+
         Returns the players' positions and velocities after the ``substeps`` steps (arrays
-        of this object, overwritten by the next cycle).
+        of this object, overwritten by the next cycle; a space not stepped gives back
+        ``pos`` and ``vel``).
         """
         offsets = self._offsets
         sub_dt, substeps = self._sub_dt, self.config.substeps
-        for sl, bodies, buffer, space in zip(
-            self._slices, self._bodies, self._set_buffers, self.spaces, strict=True
-        ):
+        out_pos, out_vel = self._out_pos, self._out_vel
+        stepped = []
+        for k, (sl, bodies, buffer, space, step) in enumerate(zip(
+            self._slices, self._bodies, self._set_buffers, self.spaces, self._steps, strict=True
+        )):
+            if active is not None and not active[sl].any():
+                out_pos[sl], out_vel[sl] = pos[sl], vel[sl]
+                continue
+            self._fresh[k] = False
             np.add(pos[sl], offsets[sl], out=bodies[..., 0:2])
             bodies[..., 2:4] = vel[sl]
             pmb.set_space_bodies(space, _FIELDS, buffer)
-        for step in self._steps:
+            stepped.append((sl, space, step))
+        for _, _, step in stepped:
             for _ in range(substeps):
                 step(sub_dt)
-        out_pos, out_vel = self._out_pos, self._out_vel
         get, buffer = pmb.get_space_bodies, self._get_buffer
-        for sl, space in zip(self._slices, self.spaces, strict=True):
+        for sl, space, _ in stepped:
             buffer.clear()
             get(space, _FIELDS, buffer)
             rows = np.frombuffer(buffer.float_buf(), dtype=np.float64)[:-4].reshape(-1, 4, 4)

@@ -38,7 +38,8 @@ class HolderVectorEnv(VectorEnv):
     ``HolderEnv.step`` does, from its holder's decision to the next one or to the end;
     the drills whose step is over stand still until every drill's step is, then all
     return together (so a step costs the cycles of its longest drill, and the cost per
-    drill-cycle falls as ``N`` grows: ``docs/benchmarks.md``).
+    drill-cycle falls as ``N`` grows: ``docs/benchmarks.md``), or, with ``batch_size``,
+    ``batch_size`` at a time as they finish (Asynchronous use).
 
     ## Spaces
 
@@ -63,6 +64,35 @@ class HolderVectorEnv(VectorEnv):
     | ``NEXT_STEP`` (default, as ``SyncVectorEnv``) | returns its final observation at ``t``; at ``t + 1`` it is reset (its action ignored) and returns the first observation, reward 0, ``terminated = truncated = False`` and the reset's info |
     | ``SAME_STEP`` | is reset within step ``t``: the observation is the new episode's first, ``infos["final_obs"]`` (an object array, ``infos["_final_obs"]`` its mask) holds the final one and ``infos["final_info"]`` the final step's info |
 
+    ## Asynchronous use
+
+    With ``batch_size`` below ``num_envs`` the drills need not wait for one another, as
+    in EnvPool's asynchronous mode: ``recv()`` runs the drills until ``batch_size`` of
+    them are done and returns theirs (the same five values as ``step``, with
+    ``batch_size`` rows and ``infos["env_id"]``, the drills' indices, ascending), and
+    ``send(actions, env_id)`` gives those drills their next actions while the others
+    run on::
+
+        env = gym.make_vec("soccer_drill/Holder-v0", num_envs=64, batch_size=16,
+                           vectorization_mode="vector_entry_point", opponent="interceptors_cover")
+        env.async_reset(seed=0)
+        while learning:
+            obs, rewards, terminated, truncated, infos = env.recv()
+            env.send(policy(obs), infos["env_id"])
+
+    | call | what it does |
+    |---|---|
+    | ``async_reset(seed=..., options=...)`` | resets as ``reset`` does; the first observations come from the next ``recv()`` calls, lowest ``env_id`` first, with reward 0 and ``duration`` 0 |
+    | ``recv()`` | the ``batch_size`` drills that have waited longest (in one cycle, the lowest ``env_id`` first); an error if fewer can ever be done (nothing sent) |
+    | ``send(actions, env_id)`` | one action per drill of ``env_id`` (``None``: every drill), each waiting for it; an ended drill is reset instead (``NEXT_STEP``), or was reset in ``recv`` (``SAME_STEP``) |
+    | ``step(actions)`` | ``send`` to every drill then ``recv``; only with ``batch_size == num_envs`` |
+
+    With ``step`` a batch costs the cycles of its longest step, so at ``N = 64`` about a
+    third of the drills are at work in a cycle; with ``batch_size = N / 4`` about nine
+    in ten (``batch_cycles`` counts the batch's cycles; ``docs/benchmarks.md``). Which
+    drills come back together depends only on the seeds and the actions, so a run is
+    as reproducible as with ``step``.
+
     ## Info
 
     The ``HolderEnv`` keys, batched as Gymnasium's vector envs batch infos: per key an
@@ -83,13 +113,19 @@ class HolderVectorEnv(VectorEnv):
     infos, whatever ran before. Drill ``i`` starts exactly where ``HolderEnv`` started
     with ``reset(seed=s + i)`` does, and its rules (skills, support player, team,
     possession, outcome) are the single drill's formulas in the same order, with its
-    random draws in the same order from the same streams; its episode is not
-    bit-identical to the single environment's, because the drills share pymunk spaces,
-    where contacts are solved in an order that depends on the other drills, and the
-    drills' positions are shifted into their own regions of the space (rounding). The
-    single environment is the reference: ``tests/test_vector.py`` checks the rules
-    against it step by step, and ``python -m opponents.agreement`` (a ``slow`` test runs a
-    small version) that success rates agree within 95% intervals.
+    random draws in the same order from the same streams. With ``drills_per_space=1``
+    its episodes are the single environment's bit for bit, the later episodes of its
+    stream included, however the drills are batched: a space none of whose drills moves
+    is not stepped, and a drill's reset builds its space anew as ``HolderEnv.reset``
+    does (``tests/test_vector_async.py``). With shared spaces (the default, which costs
+    less) its episodes are not bit-identical to the single environment's: contacts are
+    solved in an order that depends on the other drills, drills standing still while
+    others move are still stepped (their contact caches change), a reset keeps the
+    space while other drills in it go on, and the drills' positions are shifted into
+    their own regions of the space (rounding). The single environment is the reference:
+    ``tests/test_vector.py`` checks the rules against it step by step, and
+    ``python -m opponents.agreement`` (a ``slow`` test runs a small version) that success
+    rates agree within 95% intervals.
 
     ## Errors
 
@@ -110,6 +146,7 @@ class HolderVectorEnv(VectorEnv):
     | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take (a team without a batched ``act``: that times the drills acting) |
     | ``autoreset_mode`` | ``NEXT_STEP`` | see Autoreset |
     | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
+    | ``batch_size`` | ``None`` | drills per ``recv()`` (see Asynchronous use); ``None``: ``num_envs`` |
     | ``render_mode`` | ``None`` | ``None`` or ``"rgb_array"``: ``render()`` returns a tuple of ``num_envs`` frames ``(H, W, 3)`` uint8, one per drill, as ``SyncVectorEnv.render`` does (a window or a video of every cycle: a single ``HolderEnv``) |
     """
 
@@ -129,8 +166,16 @@ class HolderVectorEnv(VectorEnv):
         autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
         drills_per_space: int = DRILLS_PER_SPACE,
         render_mode: str | None = None,
+        batch_size: int | None = None,
     ) -> None:
         n = check_num_envs(num_envs)
+        if batch_size is None:
+            batch_size = n
+        if not isinstance(batch_size, int) or isinstance(batch_size, bool) or not 1 <= batch_size <= n:
+            raise ValueError(
+                f"batch_size must be an integer in 1..num_envs ({n}) or None (num_envs), "
+                f"got {batch_size!r}"
+            )
         if not isinstance(decision_cycles, int) or isinstance(decision_cycles, bool) or not (
             1 <= decision_cycles <= 50
         ):
@@ -148,6 +193,7 @@ class HolderVectorEnv(VectorEnv):
         if mode == AutoresetMode.DISABLED:
             raise ValueError("autoreset_mode DISABLED is not supported: use NEXT_STEP or SAME_STEP")
         self.num_envs = n
+        self.batch_size = batch_size
         self.autoreset_mode = mode
         self.metadata = {**self.metadata, "autoreset_mode": mode}
         self.decision_cycles = decision_cycles
@@ -170,6 +216,10 @@ class HolderVectorEnv(VectorEnv):
         self._decider = np.zeros(n, dtype=np.int64)
         self._action = np.zeros(n, dtype=np.int64)
         self._left = np.zeros(n, dtype=np.int64)
+        self._start = np.zeros(n, dtype=np.int64)  # the cycle at which a drill's step began
+        self._ready = np.zeros(n, dtype=bool)  # its step is over, its result not yet received
+        self._ready_at = np.zeros(n, dtype=np.int64)  # since when (recv's cycles)
+        self._recv_cycles = 0
         self._renderer = BatchRenderer(self.config) if self.render_mode else None
 
     # ------------------------------------------------------------------ reset
@@ -180,6 +230,15 @@ class HolderVectorEnv(VectorEnv):
         options: dict[str, Any] | None = None,
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Reset every drill (or those of ``options["reset_mask"]``); see Seeding."""
+        drills = self._reset(seed, options)
+        self._ready[drills] = False
+        rows = self._all
+        return self._observe(rows), self._infos(rows, np.zeros(self.num_envs, dtype=np.int64))
+
+    def _reset(self, seed: int | Sequence[int | None] | None,
+               options: dict[str, Any] | None) -> np.ndarray:
+        """Reset the drills ``reset`` names (see Seeding) and return them; they then wait
+        for an action."""
         core = self._core
         mask = None if options is None else options.get("reset_mask")
         if mask is not None:
@@ -202,17 +261,21 @@ class HolderVectorEnv(VectorEnv):
             drills = self._all
         core.reset(drills)
         self._autoreset[drills] = False
+        self._running[drills] = False
+        self._in_action[drills] = False
+        self._start[drills] = core.batch.cycle[drills]
         self._has_reset = True
-        obs = self._observe()
-        return obs, self._infos(np.zeros(self.num_envs, dtype=np.int64))
+        return drills
 
     # ------------------------------------------------------------------- step
-    def _check_actions(self, actions: object) -> np.ndarray:
+    def _check_actions(self, actions: object, drills: np.ndarray) -> np.ndarray:
+        """``actions`` as int64, one per drill of ``drills``; errors name the drill."""
         a = np.asarray(actions)
-        n = self.num_envs
-        if a.shape != (n,):
+        k = len(drills)
+        if a.shape != (k,):
             raise ValueError(
-                f"actions must be an array of shape ({n},): one action per drill, got shape {a.shape}"
+                f"actions must be an array of shape ({k},): one action per drill"
+                f"{'' if k == self.num_envs else ' of env_id'}, got shape {a.shape}"
             )
         if a.dtype.kind not in "iu":
             bad = next(
@@ -223,16 +286,17 @@ class HolderVectorEnv(VectorEnv):
                 a = a.astype(np.int64)
             else:
                 raise ValueError(
-                    f"drill {bad}: action must be an integer in 0..2 (0=HOLD, 1=PASS, 2=DRIBBLE), "
-                    f"got {a[bad]!r} (actions of dtype {a.dtype})"
+                    f"drill {int(drills[bad])}: action must be an integer in 0..2 (0=HOLD, 1=PASS, "
+                    f"2=DRIBBLE), got {a[bad]!r} (actions of dtype {a.dtype})"
                 )
         bad_rows = np.flatnonzero((a < 0) | (a >= len(HOLDER_ACTIONS)))
-        bad_rows = bad_rows[~self._autoreset[bad_rows]]  # ignored for drills being reset
+        bad_rows = bad_rows[~self._autoreset[drills[bad_rows]]]  # ignored for drills being reset
         if len(bad_rows):
             i = int(bad_rows[0])
             raise ValueError(
-                f"drill {i}: action must be an integer in 0..2 (0=HOLD, 1=PASS, 2=DRIBBLE), "
-                f"got {a[i]!r}" + (f" ({len(bad_rows)} drills had bad actions)" if len(bad_rows) > 1 else "")
+                f"drill {int(drills[i])}: action must be an integer in 0..2 (0=HOLD, 1=PASS, "
+                f"2=DRIBBLE), got {a[i]!r}"
+                + (f" ({len(bad_rows)} drills had bad actions)" if len(bad_rows) > 1 else "")
             )
         return a.astype(np.int64)
 
@@ -240,47 +304,159 @@ class HolderVectorEnv(VectorEnv):
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Each drill's holder acts and its drill runs to the next decision or the end."""
+        if self.batch_size != self.num_envs:
+            raise RuntimeError(
+                f"step() needs every drill's result, but batch_size is {self.batch_size} of "
+                f"{self.num_envs} drills: use send(actions, env_id) and recv() (see Asynchronous use)"
+            )
         if not self._has_reset:
             raise RuntimeError("step() called before reset(); call reset() first")
-        a = self._check_actions(actions)
-        core, b, n = self._core, self._core.batch, self.num_envs
-        self._running[:] = False
-        resetting = np.flatnonzero(self._autoreset)
+        a = self._check_actions(actions, self._all)
+        self._send(a, self._all)
+        obs, rewards, terminated, truncated, infos = self._recv()
+        del infos["_rows"]  # every drill, in order
+        return obs, rewards, terminated, truncated, infos
+
+    # ---------------------------------------------------------- asynchronous
+    def async_reset(
+        self,
+        *,
+        seed: int | Sequence[int | None] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> None:
+        """Reset as ``reset`` does, without returning: the reset drills' first
+        observations are what the next ``recv()`` calls return (``batch_size`` at a time,
+        the lowest ``env_id`` first), with reward 0 and ``duration`` 0."""
+        drills = self._reset(seed, options)
+        self._make_ready(drills)
+
+    def send(self, actions: Any, env_id: Any = None) -> None:
+        """The holders of drills ``env_id`` (all drills if ``None``) take ``actions`` (one
+        per drill of ``env_id``, in its order); their drills run when ``recv()`` is called.
+
+        Each drill of ``env_id`` must be waiting for an action: its last result was
+        returned by ``recv()`` (or ``reset()``) and not yet answered. A drill whose episode
+        ended is reset instead (its action ignored, as in ``step``'s ``NEXT_STEP`` mode).
+        Nothing is sent if any of it is wrong: the error names the first bad drill.
+        """
+        if not self._has_reset:
+            raise RuntimeError("send() called before reset() or async_reset(); call one first")
+        drills = self._check_env_id(env_id)
+        a = self._check_actions(actions, drills)
+        self._send(a[np.argsort(drills, kind="stable")], np.sort(drills))
+
+    def recv(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """The results of the first ``batch_size`` drills whose step is over.
+
+        Runs the drills that were sent actions until ``batch_size`` results are waiting,
+        then returns those that waited longest (among drills done in the same cycle, the
+        lowest ``env_id`` first), in the order of ``infos["env_id"]`` (ascending): what
+        ``step`` returns, for those drills only (``batch_size`` rows).
+        """
+        if not self._has_reset:
+            raise RuntimeError("recv() called before reset() or async_reset(); call one first")
+        obs, rewards, terminated, truncated, infos = self._recv()
+        rows = infos.pop("_rows")
+        infos["env_id"], infos["_env_id"] = rows, np.ones(len(rows), dtype=bool)
+        return obs, rewards, terminated, truncated, infos
+
+    @property
+    def batch_cycles(self) -> int:
+        """The cycles the batch has run for ``step`` and ``recv`` (each moves every drill
+        that is running): the drill-cycles played over it is how many drills were at work
+        on average."""
+        return self._recv_cycles
+
+    def _check_env_id(self, env_id: Any) -> np.ndarray:
+        n = self.num_envs
+        drills = self._all if env_id is None else np.asarray(env_id)
+        if drills.ndim != 1 or drills.dtype.kind not in "iu" or len(drills) == 0:
+            raise ValueError(
+                f"env_id must be a non-empty 1-D array of drill indices in 0..{n - 1} (as "
+                f"recv() returns in infos['env_id']), got {env_id!r}"
+            )
+        out_of_range = drills[(drills < 0) | (drills >= n)]
+        if len(out_of_range):
+            raise ValueError(f"env_id: drill {int(out_of_range[0])} is not in 0..{n - 1}")
+        unique, counts = np.unique(drills, return_counts=True)
+        if np.any(counts > 1):
+            raise ValueError(f"env_id: drill {int(unique[counts > 1][0])} is given twice")
+        busy = drills[self._running[drills] | self._ready[drills]]
+        if len(busy):
+            i = int(busy[0])
+            state = "running its step" if self._running[i] else "done, its result not yet received by recv()"
+            raise ValueError(f"env_id: drill {i} is not waiting for an action ({state})")
+        return drills.astype(np.int64)
+
+    def _send(self, actions: np.ndarray, drills: np.ndarray) -> None:
+        """``actions[k]`` for drill ``drills[k]`` (ascending): reset the ended drills,
+        start the others' steps."""
+        resetting = drills[self._autoreset[drills]]
         if len(resetting):
-            core.reset(resetting)
-        stepping = ~self._autoreset
-        start = b.cycle.copy()
-        self._begin(np.flatnonzero(stepping), a)
-        while np.count_nonzero(self._running):
+            self._core.reset(resetting)
+            self._autoreset[resetting] = False
+            self._start[resetting] = self._core.batch.cycle[resetting]
+            self._make_ready(resetting)
+        stepping = ~np.isin(drills, resetting) if len(resetting) else slice(None)
+        begin = drills[stepping]
+        self._start[begin] = self._core.batch.cycle[begin]
+        chosen = np.zeros(self.num_envs, dtype=np.int64)
+        chosen[begin] = actions[stepping]
+        self._begin(begin, chosen)
+
+    def _make_ready(self, drills: np.ndarray) -> None:
+        self._ready[drills] = True
+        self._ready_at[drills] = self._recv_cycles
+
+    def _recv(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Cycle until ``batch_size`` drills are done; their results (rows ascending,
+        ``infos["_rows"]``), after the autoreset mode's handling of ended episodes."""
+        core, b, want = self._core, self._core.batch, self.batch_size
+        running, ready = self._running, self._ready
+        while np.count_nonzero(ready) < want:
+            if not np.count_nonzero(running):
+                raise RuntimeError(
+                    f"recv(): {np.count_nonzero(ready)} drills have results and none is running, "
+                    f"so {want} (batch_size) never will: send() actions to the drills of the "
+                    "last recv() first"
+                )
+            was_running = running.copy()
             self._cycle()
-        decider = self._decider
-        obs = self._observe(decider)
-        ended = stepping & (b.outcome != 0)
-        rewards = np.where(ended, b.attacker_reward, 0.0)
-        truncated = ended & (b.outcome == _TIMEOUT)
+            self._recv_cycles += 1
+            self._make_ready(np.flatnonzero(was_running & ~running))
+        waiting = np.flatnonzero(ready)
+        if len(waiting) > want:  # those that waited longest, then the lowest index
+            waiting = np.sort(waiting[np.argsort(self._ready_at[waiting], kind="stable")[:want]])
+        rows = waiting
+        ready[rows] = False
+        obs = self._observe(rows, self._decider[rows])
+        ended = b.outcome[rows] != 0
+        rewards = np.where(ended, b.attacker_reward[rows], 0.0)
+        truncated = ended & (b.outcome[rows] == _TIMEOUT)
         terminated = ended & ~truncated
-        duration = np.where(stepping, b.cycle - start, 0)
-        infos = self._infos(duration)
-        self.ended_last = ended
+        infos = self._infos(rows, b.cycle[rows] - self._start[rows])
         if self.autoreset_mode == AutoresetMode.SAME_STEP and ended.any():
             done = np.flatnonzero(ended)
-            final_obs = np.full(n, None, dtype=object)
-            for i in done.tolist():
-                final_obs[i] = obs[i].copy()
+            final_obs = np.full(len(rows), None, dtype=object)
+            for k in done.tolist():
+                final_obs[k] = obs[k].copy()
             final_info = {k: v.copy() for k, v in infos.items()}
             for k in [k for k in final_info if k.startswith("_")]:
                 final_info[k] = ended.copy()
-            core.reset(done)
-            obs = self._observe()
-            reset_infos = self._infos(np.zeros(n, dtype=np.int64))
+            core.reset(rows[done])
+            self._start[rows[done]] = b.cycle[rows[done]]
+            obs[done] = self._observe(rows[done])
+            reset_infos = self._infos(rows[done], np.zeros(len(done), dtype=np.int64))
             for k, v in reset_infos.items():
                 if not k.startswith("_"):
-                    infos[k][done] = v[done]
+                    infos[k][done] = v
             infos["final_obs"], infos["_final_obs"] = final_obs, ended.copy()
             infos["final_info"], infos["_final_info"] = final_info, ended.copy()
-            self._autoreset[:] = False
         else:
-            self._autoreset = ended
+            self._autoreset[rows] = ended
+        self.ended_last = np.zeros(self.num_envs, dtype=bool)
+        self.ended_last[rows] = ended
+        infos["_rows"] = rows
         return obs, rewards, terminated, truncated, infos
 
     def _begin(self, drills: np.ndarray, actions: np.ndarray) -> None:
@@ -313,22 +489,23 @@ class HolderVectorEnv(VectorEnv):
         running &= ~ended & (in_action | ((b.holder != 0) & (b.holder != 1)))
 
     # ------------------------------------------------------------- results
-    def _observe(self, decider: np.ndarray | None = None) -> np.ndarray:
-        """The 9 features of each drill's holder (at an end, of the last attacker holding it)."""
+    def _observe(self, rows: np.ndarray, decider: np.ndarray | None = None) -> np.ndarray:
+        """The 9 features of the holders of drills ``rows`` (at an end, of the last
+        attacker holding it, ``decider``)."""
         b = self._core.batch
-        holder = b.holder
+        holder = b.holder[rows]
         who = holder if decider is None else np.where((holder == 0) | (holder == 1), holder, decider)
-        return batch_features(b.pos, who, self.config, self._low, self._high)
+        return batch_features(b.pos[rows], who, self.config, self._low, self._high)
 
-    def _infos(self, duration: np.ndarray) -> dict[str, Any]:
+    def _infos(self, rows: np.ndarray, duration: np.ndarray) -> dict[str, Any]:
         b = self._core.batch
-        outcome = np.array(OUTCOME_NAMES, dtype=object)[b.outcome]
-        holder = np.where(b.outcome == 0, b.holder, -1)
-        everyone = np.ones(self.num_envs, dtype=bool)
+        outcome = b.outcome[rows]
+        holder = np.where(outcome == 0, b.holder[rows], -1)
+        everyone = np.ones(len(rows), dtype=bool)
         return {
             "duration": duration.astype(np.int64), "_duration": everyone,
-            "cycles": b.cycle.copy(), "_cycles": everyone.copy(),
-            "outcome": outcome, "_outcome": everyone.copy(),
+            "cycles": b.cycle[rows], "_cycles": everyone.copy(),
+            "outcome": np.array(OUTCOME_NAMES, dtype=object)[outcome], "_outcome": everyone.copy(),
             "holder": _NAMES[holder], "_holder": everyone.copy(),
         }
 
