@@ -56,6 +56,7 @@ from soccer_drill.files import TEMPORARY, atomic_write_bytes
 __all__ = [
     "FolderInUseError",
     "atomic_write_bytes",
+    "canonical_json",
     "check_inside",
     "json_differences",
     "json_record_bytes",
@@ -196,7 +197,8 @@ def json_differences(saved: Any, current: Any, prefix: str = "") -> list[str]:
     return [f"{prefix or 'value'}: {saved!r} saved, {current!r} here"]
 
 
-def _canonical_json(meta: Mapping[str, Any]) -> str:
+def canonical_json(meta: Any) -> str:
+    """``meta`` as strict JSON with sorted keys and no spaces: what digests are taken of."""
     return json.dumps(meta, allow_nan=False, sort_keys=True, separators=(",", ":"))
 
 
@@ -346,7 +348,7 @@ def json_record_bytes(record: Mapping[str, Any]) -> bytes:
     if "sha256" in record:
         raise ValueError("a record must not contain 'sha256': it is added here")
     try:
-        digest = hashlib.sha256(_canonical_json(record).encode()).hexdigest()
+        digest = hashlib.sha256(canonical_json(record).encode()).hexdigest()
     except (TypeError, ValueError) as exc:
         raise ValueError(f"the record is not serialisable as strict JSON: {exc}") from exc
     return json.dumps({**record, "sha256": digest}, indent=1, allow_nan=False).encode()
@@ -371,7 +373,7 @@ def load_json_record(path: str | os.PathLike[str], schema: str) -> dict[str, Any
     if record.get("schema") != schema:
         raise ValueError(f"{where}: schema {record.get('schema')!r} is not {schema!r}")
     digest = record.pop("sha256", None)
-    if digest != hashlib.sha256(_canonical_json(record).encode()).hexdigest():
+    if digest != hashlib.sha256(canonical_json(record).encode()).hexdigest():
         raise ValueError(
             f"{where}: content checksum mismatch (sha256); the record was modified after saving"
         )
@@ -381,7 +383,7 @@ def load_json_record(path: str | os.PathLike[str], schema: str) -> dict[str, Any
 def _digest(arrays: Mapping[str, np.ndarray], meta: Mapping[str, Any]) -> str:
     """SHA-256 over the canonical JSON of ``meta`` and the names, dtypes, shapes and bytes
     of ``arrays`` in name order (JSON floats round-trip exactly, so this is reproducible)."""
-    h = hashlib.sha256(_canonical_json(meta).encode())
+    h = hashlib.sha256(canonical_json(meta).encode())
     for name in sorted(arrays):
         a = np.ascontiguousarray(arrays[name])
         h.update(json.dumps([name, a.dtype.str, list(a.shape)]).encode())

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from ilpss.experiments.holder_learning import compare_to_rule
+from ilpss.experiments.holder_learning import compare_to_rule, learn_and_evaluate
 
 
 def test_episodes_are_not_replicates_of_the_learnt_policy():
@@ -39,3 +39,96 @@ def test_pairing_by_episode_seed_removes_the_episodes_difficulty():
         compare_to_rule(learnt[:1], rule)
     with pytest.raises(ValueError, match="n_episodes"):
         compare_to_rule(learnt, rule[:-1])
+
+
+# ------------------------------------------------------------ finished jobs are kept
+def _run(tmp_path, keep, *extra):
+    from ilpss.experiments import holder_learning
+
+    out = tmp_path / "learning.md"
+    code = holder_learning.main(["--teams", "chasers", "--seeds", "3", "--episodes", "2",
+                                 "--eval", "3", "--workers", "1", "--out", str(out),
+                                 "--keep", str(keep), *extra])
+    return code, out
+
+
+def _counting_learner(monkeypatch, fail_seed=None):
+    from ilpss.experiments import holder_learning
+
+    calls = []
+
+    def learn(job):
+        calls.append(job[1])
+        if job[1] == fail_seed:
+            raise ZeroDivisionError("planted")
+        return learn_and_evaluate(job)
+
+    monkeypatch.setattr(holder_learning, "learn_and_evaluate", learn)
+    return calls
+
+
+def _table(page) -> list[str]:
+    return [line for line in page.read_text().splitlines() if line.startswith("|")]
+
+
+def test_a_failing_job_keeps_the_others_and_the_same_command_computes_only_what_is_left(
+    tmp_path, monkeypatch, capsys
+):
+    keep = tmp_path / "keep"
+    calls = _counting_learner(monkeypatch, fail_seed=1)
+    code, out = _run(tmp_path, keep)
+    err = capsys.readouterr().err
+    assert code == 1 and not out.exists()
+    assert "1 of 3 learning job(s) failed (team=chasers, seed=1, episodes=2, eval=3" in err
+    assert "ZeroDivisionError: planted" in err and f"the 2 others are kept in {keep}" in err
+    assert len(list(keep.glob("learning-*.json"))) == 2 and sorted(calls) == [0, 1, 2]
+
+    calls = _counting_learner(monkeypatch)
+    code, out = _run(tmp_path, keep)
+    assert code == 0 and calls == [1]  # only the failed job is learnt again
+    assert "2 of its learning jobs kept from an earlier run" in out.read_text()
+
+    calls = _counting_learner(monkeypatch)
+    fresh = tmp_path / "fresh"
+    fresh.mkdir()
+    code, page = _run(fresh, tmp_path / "keep_fresh")
+    assert code == 0 and sorted(calls) == [0, 1, 2]
+    assert _table(page) == _table(out)  # loaded results make the same page
+
+    calls = _counting_learner(monkeypatch)
+    assert _run(tmp_path, keep, "--alpha", "0.25")[0] == 0
+    assert sorted(calls) == [0, 1, 2]  # other settings: nothing of the other run is taken
+
+
+def test_a_kept_job_changed_after_it_was_written_is_refused_naming_it(tmp_path, capsys):
+    keep = tmp_path / "keep"
+    assert _run(tmp_path, keep)[0] == 0
+    kept = sorted(keep.glob("learning-*.json"))[0]
+    kept.write_text(kept.read_text().replace('"eval": 3', '"eval": 4', 1))
+    capsys.readouterr()
+    assert _run(tmp_path, keep)[0] == 1
+    err = capsys.readouterr().err
+    assert f"{kept}: content checksum mismatch" in err and "delete it to compute that job again" in err
+
+
+def test_a_keep_folder_that_cannot_be_one_is_refused_before_learning(tmp_path, monkeypatch, capsys):
+    from ilpss.experiments.executor import LocalExecutor
+
+    monkeypatch.setattr(LocalExecutor, "map", lambda *a, **k: pytest.fail("it learnt"))
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(SystemExit) as exit_info:
+        _run(tmp_path, tmp_path / "file")
+    assert exit_info.value.code == 2
+    assert f"--keep {tmp_path / 'file'}: exists and is not a folder" in capsys.readouterr().err
+
+
+def test_a_kept_job_that_is_a_link_is_refused_not_followed(tmp_path, capsys):
+    keep = tmp_path / "keep"
+    assert _run(tmp_path, keep)[0] == 0
+    kept = sorted(keep.glob("learning-*.json"))[0]
+    elsewhere = tmp_path / "elsewhere.json"
+    kept.rename(elsewhere)
+    kept.symlink_to(elsewhere)
+    capsys.readouterr()
+    assert _run(tmp_path, keep)[0] == 1
+    assert f"{kept}: a symbolic link inside the job folder" in capsys.readouterr().err

@@ -20,22 +20,36 @@ the evaluation episodes, which are the same for every seed and rule. The best ru
 picked on those same episodes, which can only favour the rule. The fixed rules are
 looked up by name (``--rules module:attribute``, by default the drill's, see
 :data:`ilpss.experiments.drill.HOLDER_RULES`), so this module imports no drill code.
+
+Each learning job (a team and a seed) and each rule's evaluation is kept in ``--keep``
+(default ``results/holder_learning``) as soon as it ends
+(:mod:`ilpss.experiments.kept_jobs`): if a job fails, or the command is stopped, the
+same command loads the finished ones and computes only what is left; other settings
+never take them.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from collections.abc import Sequence
+from dataclasses import asdict
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from ilpss._io import atomic_write_bytes
+from ilpss._io import (
+    FolderInUseError,
+    atomic_write_bytes,
+    locked_folder,
+    remove_stale_temporaries,
+)
 from ilpss.experiments.drill import ENV_ID, HOLDER_RULES, PAPER_TEAMS, TILE_WIDTHS, drill_object
 from ilpss.experiments.executor import LocalExecutor
-from ilpss.experiments.outputs import check_out_file
+from ilpss.experiments.kept_jobs import KeptJobs, KeptJobsFailed, run_kept
+from ilpss.experiments.outputs import check_out_dir, check_out_file
 from ilpss.lifelong import LearnerConfig
 from ilpss.metrics import holm, improvement_test, t_interval, t_test_pvalue, wilson_interval
 from ilpss.smdp import SmdpLearner
@@ -72,6 +86,19 @@ def learn_and_evaluate(job: tuple[str, int, int, int, LearnerConfig]) -> dict[st
     rng = np.random.default_rng(seed)
     rewards = evaluation_rewards(env, lambda obs: learner.q.greedy(np.asarray(obs, float), rng), n_eval)
     return {"team": team, "seed": seed, "curve": curve, "eval": rewards.tolist()}
+
+
+def learning_key(job: tuple[str, int, int, int, LearnerConfig]) -> dict[str, Any]:
+    """What a learning job's result depends on (its kept file's key)."""
+    team, seed, episodes, n_eval, lc = job
+    return {"team": team, "seed": seed, "episodes": episodes, "eval": n_eval,
+            "eval_seed": EVAL_SEED, "learner": asdict(lc)}
+
+
+def rule_key(job: tuple[str, str, str, int]) -> dict[str, Any]:
+    """What a fixed rule's evaluation depends on (its kept file's key)."""
+    team, spec, name, n_eval = job
+    return {"team": team, "rules": spec, "rule": name, "eval": n_eval, "eval_seed": EVAL_SEED}
 
 
 def rule_rewards(job: tuple[str, str, str, int]) -> dict[str, Any]:
@@ -129,6 +156,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--initial-value", type=float, default=defaults.initial_value)
     p.add_argument("--alpha", type=float, default=defaults.alpha)
     p.add_argument("--out", default="docs/learning.md")
+    p.add_argument("--keep", default="results/holder_learning", metavar="DIR",
+                   help="folder where each finished job is kept as it ends; the same command "
+                        "loads them and computes only what is left (default: %(default)s)")
     args = p.parse_args(argv)
     if args.seeds < 2:
         p.error(f"--seeds must be >= 2 (the interval is over learning seeds), got {args.seeds}")
@@ -143,19 +173,32 @@ def main(argv: Sequence[str] | None = None) -> int:
         for team in args.teams:  # an unknown team: the drill's error, naming the known ones
             gym.make(ENV_ID, opponent=team, disable_env_checker=True).close()
         names = sorted(_rules(args.rules))
+        keep = check_out_dir(args.keep, "--keep", run_folder=False)
     except ValueError as exc:
         p.error(str(exc))
     except (ImportError, AttributeError) as exc:
         p.error(f"--rules {args.rules}: {exc}")
     start = time.perf_counter()
     pool = LocalExecutor(args.workers)
-    learnt = pool.map(learn_and_evaluate,
-                      [(t, s, args.episodes, args.eval, lc) for t in args.teams
-                       for s in range(args.seeds)],
-                      desc="learning")
-    fixed = pool.map(rule_rewards, [(t, args.rules, n, args.eval) for t in args.teams for n in names],
-                     desc="fixed rules")
-    minutes = (time.perf_counter() - start) / 60
+    kept = KeptJobs(keep)
+    try:
+        with locked_folder(keep, "job folder"):
+            remove_stale_temporaries(keep)
+            learnt, loaded = run_kept(
+                pool, learn_and_evaluate,
+                [(t, s, args.episodes, args.eval, lc) for t in args.teams for s in range(args.seeds)],
+                "learning", learning_key, kept, desc="learning")
+            fixed, loaded_rules = run_kept(
+                pool, rule_rewards,
+                [(t, args.rules, n, args.eval) for t in args.teams for n in names],
+                "rule", rule_key, kept, desc="fixed rules")
+    except (KeptJobsFailed, FolderInUseError, ValueError) as exc:
+        print(f"ilpss-holder-learning: error: {exc}", file=sys.stderr)
+        return 1
+    took = f"{(time.perf_counter() - start) / 60:.1f} min with {args.workers} worker(s)"
+    if loaded:
+        took += f", {loaded} of its learning jobs kept from an earlier run"
+        print(f"{loaded} learning job(s) and {loaded_rules} rule evaluation(s) loaded from {keep}")
     results = {}
     for team in args.teams:
         mine = np.array([r["eval"] for r in learnt if r["team"] == team])
@@ -169,7 +212,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"Command: `ilpss-holder-learning --episodes {args.episodes} --eval {args.eval} "
         f"--seeds {args.seeds} --method {lc.method} --trace-decay {lc.trace_decay:g} "
         f"--initial-value {lc.initial_value:g} --alpha {lc.alpha:g}` "
-        f"({minutes:.1f} min with {args.workers} worker(s)). Learning: SMDP "
+        f"({took}). Learning: SMDP "
         f"{'Q' if lc.method == 'q' else 'Sarsa'}({lc.trace_decay:g}) with replacing traces, "
         f"keepaway's tile coding, step size {lc.alpha:g}, epsilon {lc.epsilon:g}, initial "
         f"values {lc.initial_value:g}, no options, {args.episodes} episodes per seed, "

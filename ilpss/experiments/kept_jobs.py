@@ -1,0 +1,127 @@
+"""Finished jobs of a command kept as files, so that a rerun does only what is left.
+
+A job is described by a JSON-ready ``key`` (everything its result depends on: the team,
+the seed, the sizes, the learner's settings). Its result is written, as soon as it
+arrives, to ``<folder>/<kind>-<digest of the key>.json``: a JSON record (schema and
+SHA-256, :func:`ilpss._io.json_record_bytes`) holding the key and the result, written
+atomically. A later run with the same key loads it instead of computing it again; a
+run with other settings has other keys, so it never takes another run's results. The
+file names come from the digest alone, and a kept file that is a symbolic link is
+refused: nothing leads a read or a write outside the folder.
+
+:func:`run_kept` is the loop a command uses: it loads what is kept, runs the rest on an
+executor and keeps each result as it arrives, so that a job that fails, or a stop,
+loses only the jobs still running.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from ilpss._io import (
+    atomic_write_bytes,
+    canonical_json,
+    check_inside,
+    json_record_bytes,
+    load_json_record,
+)
+from ilpss.experiments.executor import JobsFailed
+
+__all__ = ["JOB_SCHEMA", "KeptJobs", "KeptJobsFailed", "run_kept"]
+
+JOB_SCHEMA = "ilpss.kept_job/1"
+
+
+class KeptJobsFailed(RuntimeError):
+    """Some jobs failed; every other one finished and is kept in the folder."""
+
+
+class KeptJobs:
+    """The kept results of one folder.
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+        An existing folder (the caller checks and locks it).
+    """
+
+    def __init__(self, folder: str | os.PathLike[str]) -> None:
+        self.folder = Path(folder)
+
+    def path(self, kind: str, key: Mapping[str, Any]) -> Path:
+        """Where the result of the job ``key`` of ``kind`` is kept."""
+        digest = hashlib.sha256(canonical_json(key).encode()).hexdigest()[:20]
+        return self.folder / f"{kind}-{digest}.json"
+
+    def load(self, kind: str, key: Mapping[str, Any]) -> Any | None:
+        """The kept result of the job ``key`` (``None`` if it is not kept).
+
+        Raises
+        ------
+        ValueError
+            Naming the file: damaged, modified, or holding another job (delete the file
+            to compute that job again).
+        """
+        path = self.path(kind, key)
+        if not path.exists() and not path.is_symlink():
+            return None
+        try:
+            check_inside(self.folder, path, "job folder")  # a link is refused, not followed
+            record = load_json_record(path, JOB_SCHEMA)
+            if record.get("kind") != kind or canonical_json(record.get("key")) != canonical_json(key):
+                raise ValueError(f"{path}: holds the result of another job")
+        except ValueError as exc:
+            raise ValueError(f"{exc}; delete it to compute that job again") from None
+        return record["result"]
+
+    def save(self, kind: str, key: Mapping[str, Any], result: Any) -> None:
+        """Keep ``result`` (JSON-ready) of the job ``key``, atomically."""
+        record = {"schema": JOB_SCHEMA, "kind": kind, "key": dict(key), "result": result}
+        atomic_write_bytes(self.path(kind, key), json_record_bytes(record))
+
+
+def run_kept(
+    executor: Any,
+    fn: Callable[[Any], Any],
+    jobs: Sequence[Any],
+    kind: str,
+    key: Callable[[Any], Mapping[str, Any]],
+    kept: KeptJobs,
+    desc: str = "",
+) -> tuple[list[Any], int]:
+    """``[fn(job) for job in jobs]``: the kept results loaded, the others computed on
+    ``executor`` (``map(fn, items, desc, done)``) and kept as each arrives. Returns the
+    results, in job order, and how many were loaded.
+
+    Raises
+    ------
+    KeptJobsFailed
+        After every other job finished and was kept, naming the failed jobs' keys.
+    """
+    results = [kept.load(kind, key(job)) for job in jobs]
+    todo = [i for i, r in enumerate(results) if r is None]
+
+    def done(k: int, result: Any) -> None:
+        kept.save(kind, key(jobs[todo[k]]), result)
+        results[todo[k]] = result
+
+    try:
+        executor.map(fn, [jobs[i] for i in todo], desc=desc, done=done)
+    except JobsFailed as exc:
+        failed = "; ".join(f"{_named(key(jobs[todo[k]]))}: {type(e).__name__}: {e}"
+                           for k, e in exc.failures.items())
+        raise KeptJobsFailed(
+            f"{len(exc.failures)} of {len(jobs)} {kind} job(s) failed ({failed}); the "
+            f"{len(jobs) - len(exc.failures)} others are kept in {kept.folder}, and the same "
+            "command computes only what is left"
+        ) from exc
+    return results, len(jobs) - len(todo)
+
+
+def _named(key: Mapping[str, Any]) -> str:
+    """A job by the plain values of its key (``team=chasers, seed=1, ...``)."""
+    return ", ".join(f"{k}={v}" for k, v in key.items() if not isinstance(v, dict | list))
