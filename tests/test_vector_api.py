@@ -245,3 +245,41 @@ def test_calibration_plays_every_rule_of_a_team_in_one_batch():
     for b, s in zip(batched, single, strict=True):
         assert b.episodes == s.episodes == 30
         assert abs(b.success_rate - s.success_rate) <= 0.3  # the same drill, in distribution
+
+
+def test_with_a_space_per_drill_every_drill_is_the_single_parallel_env_across_autoresets():
+    """Each drill of ``drills_per_space=1`` plays ``parallel_env``'s episodes from seed
+    ``s + i``, the episodes after an autoreset included (a reset builds the drill's space
+    anew, as the single drill's reset does): equal bit for bit until the first time a
+    length differs in its last bit (the single drill measures lengths with
+    ``math.hypot``, the batch with NumPy's ``hypot``), which here comes only after
+    several episodes, and then only in the last bits."""
+    n = 3
+    venv = ParallelVectorEnv(num_envs=n, opponent="interceptors_cover", drills_per_space=1)
+    singles = [soccer_drill.parallel_env(opponent="interceptors_cover") for _ in range(n)]
+    obs, _ = venv.reset(seed=4)
+    single_obs = [env.reset(seed=4 + i)[0] for i, env in enumerate(singles)]
+    rng = np.random.default_rng(1)
+    ended = np.zeros(n, dtype=bool)
+    episodes = np.zeros(n, dtype=int)  # ended so far, while the drill still equals its env
+    same = np.ones(n, dtype=bool)
+    for _ in range(300):
+        for i, env in enumerate(singles):
+            for agent in env.agents if same[i] else ():
+                diff = np.abs(obs[agent]["observation"][i] - single_obs[i][agent]["observation"])
+                if diff.max() > 0:
+                    assert diff.max() < 1e-5, (i, agent, diff.max())
+                    same[i] = False
+        actions = _random_legal({a: o["action_mask"] for a, o in obs.items()}, rng)
+        obs, rewards, term, trunc, _ = venv.step(actions)
+        for i, env in enumerate(singles):
+            if ended[i]:  # the autoreset: the next episode of the drill's stream
+                single_obs[i], _ = env.reset()
+                ended[i] = False
+                continue
+            single_obs[i], r, te, tr, _ = env.step({a: int(v[i]) for a, v in actions.items()})
+            if same[i]:
+                assert {a: float(v[i]) for a, v in rewards.items()} == r
+            ended[i] = any(te.values()) or any(tr.values())
+            episodes[i] += ended[i] and same[i]
+    assert (episodes >= 3).all(), episodes
