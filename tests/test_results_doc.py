@@ -96,3 +96,46 @@ def test_one_seed_gives_curves_and_a_subset_keeps_the_other_sections(tmp_path):
     assert main([*common, "--protocols", "C", "--seeds-c", "1", "--stream-length", "2",
                  "--seeds-a", "5", "--teams", "interceptors_cover", "goal_guards"]) == 0
     assert (docs / "results.md").read_text() == text
+
+
+# ------------------------------------------------------------ the wall-time record
+def test_the_wall_time_record_has_a_schema_and_digest_and_reads_the_old_form(tmp_path):
+    from ilpss.experiments.folder import WALL_TIME_SCHEMA, RunFolder
+
+    folder = RunFolder(tmp_path)
+    assert folder.wall_time() is None
+    (tmp_path / "wall_time.json").write_text('{"seconds": 60.5, "workers": 2, "executor": "local"}')
+    assert folder.wall_time() == {"seconds": 60.5, "workers": 2, "executor": "local"}
+    folder.add_wall_time(9.5, 2, "local")
+    saved = json.loads((tmp_path / "wall_time.json").read_text())
+    assert saved["schema"] == WALL_TIME_SCHEMA and len(saved["sha256"]) == 64
+    assert folder.wall_time() == {"seconds": 70.0, "workers": 2, "executor": "local"}
+
+
+@pytest.mark.parametrize("text, said", [
+    ('{"seconds": "an hour", "workers": 2, "executor": "local"}', "seconds must be a finite number"),
+    ('{"seconds": -5, "workers": 2, "executor": "local"}', "seconds must be a finite number"),
+    ('{"seconds": 5, "workers": 0, "executor": "local"}', "workers an integer >= 1"),
+    ('{"seconds": 5, "workers": 2, "executor": "os:system"}', "executor a name"),
+    ('[1, 2, 3]', "not a wall-time record"),
+    ('{"seconds": 5}', "not a wall-time record"),
+])
+def test_a_wall_time_record_that_is_not_one_is_refused_naming_it(tmp_path, text, said):
+    from ilpss.experiments.folder import RunFolder
+
+    (tmp_path / "wall_time.json").write_text(text)
+    with pytest.raises(ValueError, match=said) as err:
+        RunFolder(tmp_path).add_wall_time(1.0, 2, "local")
+    assert str(tmp_path / "wall_time.json") in str(err.value)
+    assert "delete it" in str(err.value)
+
+
+def test_a_wall_time_record_changed_after_saving_is_refused(tmp_path):
+    from ilpss.experiments.folder import RunFolder
+
+    folder = RunFolder(tmp_path)
+    folder.add_wall_time(30.0, 2, "local")
+    path = tmp_path / "wall_time.json"
+    path.write_text(path.read_text().replace('"seconds": 30.0', '"seconds": 3.0'))
+    with pytest.raises(ValueError, match="content checksum mismatch"):
+        folder.wall_time()

@@ -13,16 +13,25 @@
 
 from __future__ import annotations
 
-import json
+import math
 import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ilpss._io import atomic_write_bytes, check_inside, read_json
+from ilpss._io import (
+    atomic_write_bytes,
+    check_inside,
+    json_record_bytes,
+    load_json_record,
+    read_json,
+)
 
-__all__ = ["RunFolder", "checkpoint_key"]
+__all__ = ["WALL_TIME_SCHEMA", "RunFolder", "checkpoint_key"]
+
+WALL_TIME_SCHEMA = "ilpss.wall_time/1"
+_WALL_TIME_FIELDS = {"seconds", "workers", "executor"}
 
 _SEED = re.compile(r"seed_(\d{3,})")
 
@@ -85,15 +94,43 @@ class RunFolder:
         return self._inside(self.root / checkpoint_key(seed, stream_index, method, target))
 
     def wall_time(self) -> dict[str, Any] | None:
-        """The timing record (``seconds``, ``workers``, ``executor``), if there is one."""
-        return read_json(self.timing) if self.timing.exists() else None
+        """The timing record (``seconds``, ``workers``, ``executor``), if there is one.
+
+        Raises
+        ------
+        ValueError
+            Naming the file: damaged, modified after saving, or with values that are
+            not a time, a number of workers and an executor's name.
+        """
+        path = self.timing
+        if not path.exists() and not path.is_symlink():
+            return None
+        record = read_json(path)
+        if isinstance(record, dict) and "schema" in record:
+            record = load_json_record(path, WALL_TIME_SCHEMA)
+        elif not (isinstance(record, dict) and record.keys() == _WALL_TIME_FIELDS):
+            # Before the schema, the record was the three fields alone: still read.
+            raise ValueError(f"{path}: not a wall-time record ({WALL_TIME_SCHEMA}); delete it, "
+                             "and the next run of ilpss-results starts a new one")
+        seconds, workers, executor = (record.get(k) for k in ("seconds", "workers", "executor"))
+        if not (isinstance(seconds, int | float) and not isinstance(seconds, bool)
+                and math.isfinite(seconds) and seconds >= 0.0
+                and isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1
+                and isinstance(executor, str) and executor.isidentifier()):
+            raise ValueError(
+                f"{path}: seconds must be a finite number >= 0, workers an integer >= 1 and "
+                f"executor a name, got {seconds!r}, {workers!r}, {executor!r}; delete it, and "
+                "the next run of ilpss-results starts a new one"
+            )
+        return {"seconds": float(seconds), "workers": workers, "executor": executor}
 
     def add_wall_time(self, seconds: float, workers: int, executor: str) -> None:
         """Add ``seconds`` of a run that finished jobs to the timing record."""
         record = self.wall_time()
         total = (record["seconds"] if record else 0.0) + seconds
-        atomic_write_bytes(self.timing, json.dumps(
-            {"seconds": total, "workers": workers, "executor": executor}).encode())
+        atomic_write_bytes(self.timing, json_record_bytes(
+            {"schema": WALL_TIME_SCHEMA, "seconds": total, "workers": workers,
+             "executor": executor}))
 
     def finished_seeds(self, stream_index: int = 0) -> list[int]:
         """Seeds whose job on stream ``stream_index`` has a ``result.json``, in order."""
