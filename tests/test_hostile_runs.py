@@ -343,13 +343,11 @@ def _wait_gone(pids: list[int], seconds: float) -> list[int]:
 def test_a_signal_to_the_driver_stops_its_workers_and_frees_the_run_folder(tmp_path, sig):
     proc, run = _started_run(tmp_path)
     workers = _workers_of(proc.pid)
-    start = time.monotonic()
     try:
         os.kill(proc.pid, sig)
-        proc.wait(timeout=30)
+        proc.wait(timeout=30)  # had it waited for its jobs (100,000 episodes each): hours
         left = _wait_gone(workers, 10)
         assert left == [], f"workers {left} outlived the driver"
-        assert time.monotonic() - start < 10, "the driver waited for the running jobs"
         with locked_folder(run, "run folder"):  # nobody holds it any more
             pass
     finally:

@@ -12,7 +12,6 @@ from __future__ import annotations
 import json
 import os
 import sys
-import time
 from pathlib import Path
 
 import nbformat
@@ -117,15 +116,12 @@ def test_notebook_runs_and_writes_nothing_outside_temporary_folders(name, kernel
     workdir = tmp_path / "work"
     workdir.mkdir()
     before = sorted(p.name for p in NOTEBOOKS.iterdir())
-    start = time.perf_counter()
     nb = _execute(name, kernel_name, workdir)
-    elapsed = time.perf_counter() - start
     assert nb.cells[-1].outputs[0].text == sys.executable, "the notebook ran another interpreter"
     errors = [o for c in nb.cells for o in c.get("outputs", []) if o.output_type == "error"]
     assert not errors
     assert sorted(p.name for p in workdir.iterdir()) == [], "wrote into its working directory"
     assert sorted(p.name for p in NOTEBOOKS.iterdir()) == before, "wrote into notebooks/"
-    assert elapsed < 240, f"{name} took {elapsed:.0f} s; keep notebooks quick"
 
 
 def test_drill_tour_is_deterministic(kernel_name, tmp_path):

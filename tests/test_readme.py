@@ -15,7 +15,6 @@ import importlib
 import inspect
 import re
 import shlex
-import time
 import tomllib
 from importlib.metadata import entry_points
 from pathlib import Path
@@ -28,7 +27,6 @@ ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
 FENCE = re.compile(r"^```([\w-]*)[^\n]*\n(.*?)^```[ \t]*$", re.MULTILINE | re.DOTALL)
 SHELL = {"bash", "sh", "shell", "console"}
-BLOCK_SECONDS = 60  # a README example a newcomer copies should finish in well under this
 
 
 def _blocks(languages: set[str]) -> list[tuple[int, str]]:
@@ -90,10 +88,7 @@ def test_python_block_runs(code, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     teams.team_ids()  # discover the installed teams, then isolate the registry
     monkeypatch.setattr(teams, "_registry", dict(teams._registry))
-    start = time.perf_counter()
     exec(compile(code, str(README), "exec"), {"__name__": "__readme__"})
-    elapsed = time.perf_counter() - start
-    assert elapsed < BLOCK_SECONDS, f"README block took {elapsed:.0f} s: use a smaller budget"
 
 
 class _Parsed(Exception):
