@@ -315,6 +315,7 @@ class HolderVectorEnv(VectorEnv):
             )
         if not self._has_reset:
             raise RuntimeError("step() called before reset(); call reset() first")
+        self._check_waiting(self._all, "step()")  # not after a send() without its recv()
         a = self._check_actions(actions, self._all)
         self._send(a, self._all)
         obs, rewards, terminated, truncated, infos = self._recv()
@@ -385,12 +386,16 @@ class HolderVectorEnv(VectorEnv):
         unique, counts = np.unique(drills, return_counts=True)
         if np.any(counts > 1):
             raise ValueError(f"env_id: drill {int(unique[counts > 1][0])} is given twice")
+        self._check_waiting(drills, "env_id")
+        return drills.astype(np.int64)
+
+    def _check_waiting(self, drills: np.ndarray, what: str) -> None:
+        """Every drill of ``drills`` waits for an action; else ``ValueError`` naming one."""
         busy = drills[self._running[drills] | self._ready[drills]]
         if len(busy):
             i = int(busy[0])
             state = "running its step" if self._running[i] else "done, its result not yet received by recv()"
-            raise ValueError(f"env_id: drill {i} is not waiting for an action ({state})")
-        return drills.astype(np.int64)
+            raise ValueError(f"{what}: drill {i} is not waiting for an action ({state})")
 
     def _send(self, actions: np.ndarray, drills: np.ndarray) -> None:
         """``actions[k]`` for drill ``drills[k]`` (ascending): reset the ended drills,

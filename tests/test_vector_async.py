@@ -193,3 +193,14 @@ def test_recv_without_anything_sent_is_refused_rather_than_waiting_for_ever():
 def test_a_batch_size_outside_one_to_num_envs_is_refused(bad):
     with pytest.raises(ValueError, match=r"batch_size must be an integer in 1\.\.num_envs \(6\)"):
         HolderVectorEnv(num_envs=6, batch_size=bad)
+
+
+def test_step_after_a_send_without_its_recv_is_refused():
+    venv = HolderVectorEnv(num_envs=3, opponent="chasers")
+    venv.reset(seed=0)
+    venv.send(np.zeros(3, dtype=int))
+    with pytest.raises(ValueError, match=r"step\(\): drill 0 is not waiting for an action \(running its step\)"):
+        venv.step(np.zeros(3, dtype=int))
+    obs, *_ = venv.recv()  # the send's results are still there
+    assert obs.shape == (3, 9)
+    venv.step(np.zeros(3, dtype=int))
