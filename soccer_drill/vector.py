@@ -104,9 +104,10 @@ class HolderVectorEnv(VectorEnv):
 
     | call | drill ``i`` |
     |---|---|
-    | ``reset(seed=s)`` (an int) | its episode starts from the generator of a single ``HolderEnv``'s ``reset(seed=s + i)`` (as ``SyncVectorEnv`` seeds its ``i``-th env), and the physics is rebuilt |
+    | ``reset(seed=s)`` (an int) | its episode starts from the generator of a single ``HolderEnv``'s ``reset(seed=s + i)`` (as ``SyncVectorEnv`` seeds its ``i``-th env) |
     | ``reset(seed=[s_0, ..., s_N-1])`` | seed ``s_i`` (``None``: keep its stream) |
     | ``reset()`` | every stream goes on (fresh entropy the first time) |
+    | any reset of every drill of a space (a full ``reset``, or drills that all end together) | that space is built anew: no contact of an earlier episode is carried over, as in ``HolderEnv.reset`` |
     | an autoreset | its own stream goes on |
 
     So ``reset(seed=s)`` with the same actions gives the same observations, rewards and
