@@ -164,7 +164,7 @@ class BatchPhysics:
         for k, (sl, bodies, buffer, space, step) in enumerate(zip(
             self._slices, self._bodies, self._set_buffers, self.spaces, self._steps, strict=True
         )):
-            if active is not None and not active[sl].any():
+            if active is not None and not np.count_nonzero(active[sl]):
                 out_pos[sl], out_vel[sl] = pos[sl], vel[sl]
                 continue
             self._fresh[k] = False

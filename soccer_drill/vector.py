@@ -25,6 +25,7 @@ from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
 _HOLDER_SKILLS = np.array([int(s) for s in HOLDER_ACTIONS])
 _PASS = 1
 _NAMES = np.array([*PLAYER_NAMES, None], dtype=object)  # index -1: None
+_OUTCOMES = np.array(OUTCOME_NAMES, dtype=object)
 _TIMEOUT = 4  # the outcome code of a timeout (truncation)
 
 
@@ -88,8 +89,8 @@ class HolderVectorEnv(VectorEnv):
     | ``step(actions)`` | ``send`` to every drill then ``recv``; only with ``batch_size == num_envs`` |
 
     With ``step`` a batch costs the cycles of its longest step, so at ``N = 64`` about a
-    third of the drills are at work in a cycle; with ``batch_size = N / 4`` about nine
-    in ten (``batch_cycles`` counts the batch's cycles; ``docs/benchmarks.md``). Which
+    third of the drills are at work in a cycle; with ``batch_size = N / 4`` about
+    86% (``batch_cycles`` counts the batch's cycles; ``docs/benchmarks.md``). Which
     drills come back together depends only on the seeds and the actions, so a run is
     as reproducible as with ``step``.
 
@@ -215,7 +216,6 @@ class HolderVectorEnv(VectorEnv):
         self._all = np.arange(n)
         self._has_reset = False
         self._autoreset = np.zeros(n, dtype=bool)
-        self.ended_last = np.zeros(n, dtype=bool)
         self._running = np.zeros(n, dtype=bool)
         self._in_action = np.zeros(n, dtype=bool)
         self._decider = np.zeros(n, dtype=np.int64)
@@ -264,13 +264,17 @@ class HolderVectorEnv(VectorEnv):
         else:
             core.seed(seed)
             drills = self._all
-        core.reset(drills)
-        self._autoreset[drills] = False
+        self._restart(drills)
         self._running[drills] = False
         self._in_action[drills] = False
-        self._start[drills] = core.batch.cycle[drills]
         self._has_reset = True
         return drills
+
+    def _restart(self, drills: np.ndarray) -> None:
+        """A new episode in each of ``drills``, its step counted from there."""
+        self._core.reset(drills)
+        self._autoreset[drills] = False
+        self._start[drills] = self._core.batch.cycle[drills]
 
     # ------------------------------------------------------------------- step
     def _check_actions(self, actions: object, drills: np.ndarray) -> np.ndarray:
@@ -403,9 +407,7 @@ class HolderVectorEnv(VectorEnv):
         start the others' steps."""
         resetting = drills[self._autoreset[drills]]
         if len(resetting):
-            self._core.reset(resetting)
-            self._autoreset[resetting] = False
-            self._start[resetting] = self._core.batch.cycle[resetting]
+            self._restart(resetting)
             self._make_ready(resetting)
         stepping = ~np.isin(drills, resetting) if len(resetting) else slice(None)
         begin = drills[stepping]
@@ -421,7 +423,7 @@ class HolderVectorEnv(VectorEnv):
     def _recv(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Cycle until ``batch_size`` drills are done; their results (rows ascending,
         ``infos["_rows"]``), after the autoreset mode's handling of ended episodes."""
-        core, b, want = self._core, self._core.batch, self.batch_size
+        b, want = self._core.batch, self.batch_size
         running, ready = self._running, self._ready
         while np.count_nonzero(ready) < want:
             if not np.count_nonzero(running):
@@ -453,8 +455,7 @@ class HolderVectorEnv(VectorEnv):
             final_info = {k: v.copy() for k, v in infos.items()}
             for k in [k for k in final_info if k.startswith("_")]:
                 final_info[k] = ended.copy()
-            core.reset(rows[done])
-            self._start[rows[done]] = b.cycle[rows[done]]
+            self._restart(rows[done])
             obs[done] = self._observe(rows[done])
             reset_infos = self._infos(rows[done], np.zeros(len(done), dtype=np.int64))
             for k, v in reset_infos.items():
@@ -464,8 +465,6 @@ class HolderVectorEnv(VectorEnv):
             infos["final_info"], infos["_final_info"] = final_info, ended.copy()
         else:
             self._autoreset[rows] = ended
-        self.ended_last = np.zeros(self.num_envs, dtype=bool)
-        self.ended_last[rows] = ended
         infos["_rows"] = rows
         return obs, rewards, terminated, truncated, infos
 
@@ -515,7 +514,7 @@ class HolderVectorEnv(VectorEnv):
         return {
             "duration": duration.astype(np.int64), "_duration": everyone,
             "cycles": b.cycle[rows], "_cycles": everyone.copy(),
-            "outcome": np.array(OUTCOME_NAMES, dtype=object)[outcome], "_outcome": everyone.copy(),
+            "outcome": _OUTCOMES[outcome], "_outcome": everyone.copy(),
             "holder": _NAMES[holder], "_holder": everyone.copy(),
         }
 

@@ -115,8 +115,8 @@ def test_the_wall_time_record_has_a_schema_and_digest_and_reads_the_old_form(tmp
 @pytest.mark.parametrize("text, said", [
     ('{"seconds": "an hour", "workers": 2, "executor": "local"}', "seconds must be a finite number"),
     ('{"seconds": -5, "workers": 2, "executor": "local"}', "seconds must be a finite number"),
-    ('{"seconds": 5, "workers": 0, "executor": "local"}', "workers an integer >= 1"),
-    ('{"seconds": 5, "workers": 2, "executor": "os:system"}', "executor a name"),
+    ('{"seconds": 5, "workers": 0, "executor": "local"}', "workers must be an integer >= 1, got 0"),
+    ('{"seconds": 5, "workers": 2, "executor": "os:system"}', "executor must be 'local' or 'ray'"),
     ('[1, 2, 3]', "not a wall-time record"),
     ('{"seconds": 5}', "not a wall-time record"),
 ])

@@ -13,13 +13,13 @@
 
 from __future__ import annotations
 
-import math
 import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ilpss._check import Integer, Real, check_fields
 from ilpss._io import (
     atomic_write_bytes,
     check_inside,
@@ -27,11 +27,13 @@ from ilpss._io import (
     load_json_record,
     read_json,
 )
+from ilpss.experiments.executor import EXECUTOR
 
-__all__ = ["WALL_TIME_SCHEMA", "RunFolder", "checkpoint_key"]
+__all__ = ["WALL_TIME_FIELDS", "WALL_TIME_SCHEMA", "RunFolder", "checkpoint_key"]
 
 WALL_TIME_SCHEMA = "ilpss.wall_time/1"
-_WALL_TIME_FIELDS = {"seconds", "workers", "executor"}
+WALL_TIME_FIELDS = {"seconds": Real(0.0), "workers": Integer(1), "executor": EXECUTOR}
+"""The fields of ``wall_time.json`` and what each allows."""
 
 _SEED = re.compile(r"seed_(\d{3,})")
 
@@ -99,8 +101,8 @@ class RunFolder:
         Raises
         ------
         ValueError
-            Naming the file: damaged, modified after saving, or with values that are
-            not a time, a number of workers and an executor's name.
+            Naming the file: damaged, modified after saving, or with a value that
+            :data:`WALL_TIME_FIELDS` does not allow.
         """
         path = self.timing
         if not path.exists() and not path.is_symlink():
@@ -108,21 +110,17 @@ class RunFolder:
         record = read_json(path)
         if isinstance(record, dict) and "schema" in record:
             record = load_json_record(path, WALL_TIME_SCHEMA)
-        elif not (isinstance(record, dict) and record.keys() == _WALL_TIME_FIELDS):
-            # Before the schema, the record was the three fields alone: still read.
+            del record["schema"]
+        # Before the schema, the record was the three fields alone: still read.
+        if not (isinstance(record, dict) and record.keys() == WALL_TIME_FIELDS.keys()):
             raise ValueError(f"{path}: not a wall-time record ({WALL_TIME_SCHEMA}); delete it, "
                              "and the next run of ilpss-results starts a new one")
-        seconds, workers, executor = (record.get(k) for k in ("seconds", "workers", "executor"))
-        if not (isinstance(seconds, int | float) and not isinstance(seconds, bool)
-                and math.isfinite(seconds) and seconds >= 0.0
-                and isinstance(workers, int) and not isinstance(workers, bool) and workers >= 1
-                and isinstance(executor, str) and executor.isidentifier()):
-            raise ValueError(
-                f"{path}: seconds must be a finite number >= 0, workers an integer >= 1 and "
-                f"executor a name, got {seconds!r}, {workers!r}, {executor!r}; delete it, and "
-                "the next run of ilpss-results starts a new one"
-            )
-        return {"seconds": float(seconds), "workers": workers, "executor": executor}
+        try:
+            check_fields("wall_time", record, WALL_TIME_FIELDS, get=dict.get)
+        except ValueError as exc:
+            raise ValueError(f"{path}: {exc}; delete it, and the next run of ilpss-results "
+                             "starts a new one") from None
+        return {**record, "seconds": float(record["seconds"])}
 
     def add_wall_time(self, seconds: float, workers: int, executor: str) -> None:
         """Add ``seconds`` of a run that finished jobs to the timing record."""
