@@ -43,6 +43,16 @@ _EDGE = 2.0  # guards stay this far inside the touchlines
 _MARK_FRACTION = 0.35  # soccer_drill's MARK skill stands this far from the attacker toward the ball
 
 
+def _is_number(value: object) -> bool:
+    """A Python or NumPy real number, not a bool (``True`` is an ``int`` to Python)."""
+    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool)
+
+
+def _is_integer(value: object) -> bool:
+    """A Python or NumPy integer, not a bool."""
+    return isinstance(value, int | np.integer) and not isinstance(value, bool)
+
+
 class ParametricTeam:
     """Parametric defending team: interceptors and goal-line guards with tunable habits.
 
@@ -100,14 +110,18 @@ class ParametricTeam:
             raise ValueError(f"roles must be two of {ROLES}, got {roles!r}")
         if coordination not in COORDINATIONS:
             raise ValueError(f"coordination must be one of {COORDINATIONS}, got {coordination!r}")
-        speeds = (speed, speed) if isinstance(speed, int | float) else tuple(speed)
-        if len(speeds) != 2 or not all(
-            isinstance(s, int | float) and 0.0 < s <= 1.0 for s in speeds
-        ):
+        if isinstance(speed, int | float | np.number | np.bool_):  # a bool too: refused below
+            speeds = (speed, speed)
+        else:
+            try:
+                speeds = tuple(speed)
+            except TypeError:  # not a number nor a sequence: the message below says what is
+                speeds = (speed,)
+        if len(speeds) != 2 or not all(_is_number(s) and 0.0 < s <= 1.0 for s in speeds):
             raise ValueError(f"speed must be in (0, 1], one or two values, got {speed!r}")
-        if not isinstance(reaction_delay, int | np.integer) or reaction_delay < 0:
+        if not _is_integer(reaction_delay) or reaction_delay < 0:
             raise ValueError(f"reaction_delay must be an integer >= 0, got {reaction_delay!r}")
-        if not isinstance(sortie_cycles, int | np.integer) or sortie_cycles < 1:
+        if not _is_integer(sortie_cycles) or sortie_cycles < 1:
             raise ValueError(f"sortie_cycles must be an integer >= 1, got {sortie_cycles!r}")
         for name, value, lo, hi in (
             ("mark_fraction", mark_fraction, 0.0, 1.0),
@@ -118,7 +132,7 @@ class ParametricTeam:
             ("guard_reach", guard_reach, 0.0, 50.0),
             ("guard_depth", guard_depth, 1e-3, 30.0),
         ):
-            if not (isinstance(value, int | float) and math.isfinite(value) and lo <= value <= hi):
+            if not (_is_number(value) and math.isfinite(value) and lo <= value <= hi):
                 raise ValueError(f"{name} must lie in [{lo}, {hi}], got {value!r}")
         self.roles: tuple[str, str] = roles  # type: ignore[assignment]
         self.coordination = coordination
@@ -297,7 +311,7 @@ def sample_opponents(n: int, seed: int) -> list[dict[str, Any]]:
     them, random play in about 1 %) while the best rule changes from team to team.
     The same ``(n, seed)`` always gives the same list; no two entries are equal.
     """
-    if not isinstance(n, int | np.integer) or n < 0:
+    if not _is_integer(n) or n < 0:
         raise ValueError(f"n must be an integer >= 0, got {n!r}")
     rng = np.random.default_rng(seed)
     out: list[dict[str, Any]] = []
@@ -353,14 +367,18 @@ class ParametricBatch:
     reaction delay, every target), computed for all drills acting in a cycle on arrays
     (:mod:`soccer_drill.batch_teams`); each drill's sortie draws come from its own
     generator in the order the single team makes them.
+
+    The delay's buffer holds at most ``max_cycles + 1`` states per drill: an episode
+    acts at most ``max_cycles`` times, so a longer delay sees the episode's first state
+    throughout, as the single team does, and would only cost memory.
     """
 
     def __init__(self, team: ParametricTeam, n: int) -> None:
         self.team, self.n = team, n
-        depth = team.reaction_delay + 1
-        self._pos = np.zeros((n, depth, 5, 2))
-        self._vel = np.zeros((n, depth, 5, 2))
-        self._holder = np.zeros((n, depth), dtype=np.int64)
+        self._depth = 0  # the buffer's, set at the first reset (which knows max_cycles)
+        self._pos = np.zeros((n, 0, 5, 2))
+        self._vel = np.zeros((n, 0, 5, 2))
+        self._holder = np.zeros((n, 0), dtype=np.int64)
         self._count = np.zeros(n, dtype=np.int64)
         self._sortie_left = np.zeros((n, 2), dtype=np.int64)
         self._presser = np.full(n, -1, dtype=np.int64)
@@ -372,6 +390,12 @@ class ParametricBatch:
         """Start an episode in ``drills``; ``rng`` (a ``BatchRandom``) feeds the sorties."""
         if len(view.players) != 2:
             raise ValueError(f"this team drives two defenders, got players {view.players!r}")
+        depth = min(self.team.reaction_delay, view.config.max_cycles) + 1
+        if depth != self._depth:
+            self._depth = depth
+            self._pos = np.zeros((self.n, depth, 5, 2))
+            self._vel = np.zeros((self.n, depth, 5, 2))
+            self._holder = np.zeros((self.n, depth), dtype=np.int64)
         self._rng = rng
         self._count[drills] = 0
         self._sortie_left[drills] = 0
@@ -386,7 +410,7 @@ class ParametricBatch:
             pos, vel, holder = view.pos, view.vel, view.holder
         else:
             pos, vel, holder = view.pos[drills], view.vel[drills], view.holder[drills]
-        depth = self.team.reaction_delay + 1
+        depth = self._depth
         if depth == 1:
             return pos, vel, holder
         count = self._count[drills] + 1

@@ -141,6 +141,12 @@ class BatchCore:
         np.copyto(z(self.target)[:, :2], z(spot), where=both)
         np.copyto(self.speed[:, :2], 1.0, where=both)
 
+    def check_team(self) -> None:
+        """:class:`~soccer_drill.teams.TeamError` if the team failed and the drills were
+        not all reset since (see :class:`~soccer_drill.batch_teams.BatchTeamDriver`)."""
+        if self.team is not None:
+            self.team.check_usable()
+
     def advance(self, active: np.ndarray) -> None:
         """One cycle of the drills where ``active``, with the commands set in the arrays
         (the team's written here)."""

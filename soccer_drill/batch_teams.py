@@ -15,13 +15,17 @@ without ``batch`` runs as one copy per drill, each behind its own
 
 :class:`BatchTeamDriver` runs either kind: one CPU-time bound per cycle of the batch
 (``team_timeout`` for a batched team; ``team_timeout`` times the drills acting, for the
-copies), and the commands checked, a bad one named by drill, player and cycle.
+copies), and the commands checked, a bad one named by drill, player and cycle. An error
+of a copy names its drill; one of a batched call names the drills it was called for (it
+cannot tell which of them failed). After a team's error the drills that acted are
+part-way through a cycle: the driver refuses to act again until every drill is reset.
 """
 
 from __future__ import annotations
 
+import contextlib
 import copy
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from typing import Any, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
@@ -30,7 +34,7 @@ from soccer_drill.batch_skills import rows
 from soccer_drill.config import DrillConfig
 from soccer_drill.skills import BALL_SKILLS, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView
-from soccer_drill.teams import Team, TeamDriver, TeamError, make_team, team_parameters
+from soccer_drill.teams import Team, TeamDriver, TeamError, make_team, resolve_team
 
 _ALLOWED = np.array(sorted(int(s) for s in Skill if s not in BALL_SKILLS))
 _MOVE_TO = int(Skill.MOVE_TO)
@@ -187,6 +191,48 @@ class _Slot:
         self.state: DrillState
 
 
+class _Calling:
+    """The drills of one call of a team, described only if an error names them: its
+    ``when`` in a :class:`~soccer_drill.teams.TeamDriver` message (``act()`` + this).
+
+    Args:
+        drills: the drills the call is for.
+        cycles: the batch's cycle counters (``None``: a reset, before any cycle).
+        each: the CPU-time bound of each drill's copy, when the call runs copies one
+            after another under one bound of ``each`` times their number (then
+            :attr:`running` is the copy that was running when it ended).
+    """
+
+    def __init__(self, drills: np.ndarray, cycles: np.ndarray | None, each: float | None = None) -> None:
+        self.drills, self.cycles, self.each = drills, cycles, each
+        self.running: int | None = None
+
+    def __format__(self, spec: str) -> str:
+        drills = [int(d) for d in self.drills[:6]]
+        if len(self.drills) == 1:
+            text = f" of drill {drills[0]}"
+        else:
+            listed = ", ".join(map(str, drills[:5])) + (", ..." if len(self.drills) > 5 else "")
+            text = f" of drills {listed} ({len(self.drills)} in one call)"
+        if self.cycles is not None:
+            cycles = self.cycles[self.drills]
+            low, high = int(cycles.min()), int(cycles.max())
+            text = f" at cycle {low}" + (f"-{high}" if high > low else "") + text
+        if self.each is not None:
+            text += f", each drill's copy bounded by {self.each:g} s"
+            if self.running is not None:
+                text += f", stopped in drill {self.running}"
+        return text
+
+
+# Each array of BatchCommands: its name, shape for m drills, dtype kinds and their words.
+_COMMAND_ARRAYS = (
+    ("skill", lambda m: (m, 2), "iu", "integers (Skill values)"),
+    ("target", lambda m: (m, 2, 2), "iuf", "numbers"),
+    ("speed", lambda m: (m, 2), "iuf", "numbers"),
+)
+
+
 class BatchTeamDriver:
     """The scripted team of ``n`` drills: batched if the team offers it, else one per drill.
 
@@ -207,15 +253,7 @@ class BatchTeamDriver:
         team_timeout: float | None,
     ) -> None:
         players = PLAYER_NAMES[2:]
-        if isinstance(opponent, str):
-            params = team_parameters(opponent_params)
-            team, self.name = make_team(opponent, **params), opponent
-        elif isinstance(opponent, Team):
-            if opponent_params:
-                raise ValueError("opponent_params given with a Team instance")
-            team, self.name, params = opponent, type(opponent).__name__, {}
-        else:
-            raise TypeError(f"opponent must be a team id or a Team instance, got {opponent!r}")
+        team, self.name, params = resolve_team(opponent, opponent_params)
         n = batch.n
         self._batch = batch
         self.view = BatchView(batch, players)
@@ -232,16 +270,29 @@ class BatchTeamDriver:
             self.rng = BatchRandom(n)
             self._drivers: list[TeamDriver] = []
         else:
-            copies = [team] + [
-                make_team(opponent, **params) if isinstance(opponent, str) else copy.deepcopy(team)
-                for _ in range(n - 1)
-            ]
+            copies = [team] + [self._copy(opponent, team, params) for _ in range(n - 1)]
             self._drivers = [TeamDriver(t, self.name, players, None) for t in copies]
             # One bound around the calls of all drills acting in a cycle (their own: none).
             self._each_bound = TeamDriver(team, self.name, players, team_timeout)
             self._slots = [_Slot(batch.config) for _ in range(n)]
             self._views = [DrillView(slot, players) for slot in self._slots]
         self._timeout = team_timeout
+        self.failure: str | None = None
+        """The error of the team's last failed call, until every drill is reset."""
+
+    def _copy(self, opponent: str | Team, team: Team, params: dict[str, Any]) -> Team:
+        """One more copy of the team, for a drill of its own."""
+        if isinstance(opponent, str):
+            return make_team(opponent, **params)
+        try:
+            return copy.deepcopy(team)
+        except Exception as exc:
+            raise TypeError(
+                f"team {self.name!r}: the batched drill runs a team without batch(n) as one "
+                f"copy per drill, made by copy.deepcopy, and copying it failed "
+                f"({type(exc).__name__}: {exc}); make it copyable, give it a batch(n) "
+                "method, or register its factory and pass its id"
+            ) from exc
 
     def _refresh(self, drills: np.ndarray) -> None:
         for i in drills.tolist():
@@ -250,32 +301,39 @@ class BatchTeamDriver:
     def reset(self, drills: np.ndarray, seeds: list[int]) -> None:
         """Start an episode in each of ``drills``; ``seeds`` seed their teams' streams
         (``np.random.default_rng(seed)``, made when a batched team first draws)."""
-        if self.batched is not None:
-            self.rng.seed(drills, seeds)
-            self._bound.call("reset()", "", self.batched.reset, self.view, drills, self.rng)
-            return
-        self._refresh(drills)
-        self._each_bound.team_timeout = self._scaled(drills)
-        self._each_bound.call("reset()", "", self._each_reset, drills, seeds)
+        with self._failing():
+            if self.batched is not None:
+                self.rng.seed(drills, seeds)
+                self._bound.call("reset()", _Calling(drills, None), self.batched.reset, self.view,
+                                 drills, self.rng)
+            else:
+                self._refresh(drills)
+                self._each_bound.team_timeout = self._scaled(drills)
+                calling = _Calling(drills, None, self._timeout)
+                self._each_bound.call("reset()", calling, self._each_reset, drills, seeds, calling)
+        if len(drills) == len(self._batch.cycle):
+            self.failure = None
 
-    def _each_reset(self, drills: np.ndarray, seeds: list[int]) -> None:
+    def _each_reset(self, drills: np.ndarray, seeds: list[int], calling: _Calling) -> None:
         for i, s in zip(drills.tolist(), seeds, strict=True):
-            self._drivers[i].reset(self._views[i], np.random.default_rng(s))
+            calling.running = i
+            with self._naming_drill(i):
+                self._drivers[i].reset(self._views[i], np.random.default_rng(s))
 
     def act(self, drills: np.ndarray, skill: np.ndarray, target: np.ndarray, speed: np.ndarray) -> None:
         """Write the team's commands for ``drills`` into columns 2 and 3 of the arrays."""
+        self.check_usable()
         if not len(drills):
             return
-        cycles = self._batch.cycle
-        if self.batched is not None:
-            when = f" at cycle {int(cycles[drills[0]])} of drill {int(drills[0])}"
-            commands = self._bound.call(
-                "act()", when, self._checked_act, drills
-            )
-        else:
-            self._refresh(drills)
-            self._each_bound.team_timeout = self._scaled(drills)
-            commands = self._each_bound.call("act()", "", self._each_act, drills)
+        with self._failing():
+            if self.batched is not None:
+                calling = _Calling(drills, self._batch.cycle)
+                commands = self._bound.call("act()", calling, self._checked_act, drills)
+            else:
+                self._refresh(drills)
+                self._each_bound.team_timeout = self._scaled(drills)
+                calling = _Calling(drills, self._batch.cycle, self._timeout)
+                commands = self._each_bound.call("act()", calling, self._each_act, drills, calling)
         sk, tg, sp = commands
         rows = slice(None) if len(drills) == len(skill) else drills  # all drills: no gather
         skill[rows, 2:] = sk
@@ -285,13 +343,48 @@ class BatchTeamDriver:
     def _scaled(self, drills: np.ndarray) -> float | None:
         return None if self._timeout is None else self._timeout * len(drills)
 
-    def _each_act(self, drills: np.ndarray) -> BatchCommands:
+    def check_usable(self) -> None:
+        """:class:`TeamError` if the team failed and not every drill was reset since."""
+        if self.failure is not None:
+            raise TeamError(
+                f"the team failed earlier ({self.failure}), leaving the drills that acted "
+                "part-way through that cycle; call reset() before stepping again"
+            )
+
+    @contextlib.contextmanager
+    def _failing(self) -> Iterator[None]:
+        """Keeps the error of a failing call (see :attr:`failure`)."""
+        try:
+            yield
+        except TeamError as exc:
+            self.failure = str(exc)
+            raise
+
+    @contextlib.contextmanager
+    def _naming_drill(self, drill: int) -> Iterator[None]:
+        """A copy's error, with the drill it runs in named after the team (every error of a
+        :class:`~soccer_drill.teams.TeamDriver` starts with ``team '<name>'``)."""
+        try:
+            yield
+        except TeamError as exc:
+            named = f"team {self.name!r}"
+            text = str(exc)
+            if text.startswith(named + ", "):  # "team 'x', player 'p', cycle c: ..."
+                text = f"{named}, drill {drill}{text[len(named):]}"
+            elif text.startswith(named):  # "team 'x' raised in act() ..."
+                text = f"{named} (drill {drill}){text[len(named):]}"
+            raise TeamError(text) from exc
+
+    def _each_act(self, drills: np.ndarray, calling: _Calling) -> BatchCommands:
         m = len(drills)
         skill = np.empty((m, 2), dtype=np.int64)
         target = np.zeros((m, 2, 2))
         speed = np.empty((m, 2))
         for r, i in enumerate(drills.tolist()):
-            for index, command in self._drivers[i].act(self._views[i]):
+            calling.running = i
+            with self._naming_drill(i):
+                acted = self._drivers[i].act(self._views[i])
+            for index, command in acted:
                 k = index - 2
                 skill[r, k] = int(command.skill)
                 speed[r, k] = command.speed
@@ -320,19 +413,27 @@ def check_commands(
             f"got {type(commands).__name__}"
         )
     try:
-        skill = np.array(commands.skill, dtype=np.int64, copy=True)
-        target = np.array(commands.target, dtype=np.float64, copy=True)
-        speed = np.array(commands.speed, dtype=np.float64, copy=True)
+        given = [np.asarray(commands.skill), np.asarray(commands.target), np.asarray(commands.speed)]
     except (TypeError, ValueError, OverflowError) as exc:
         raise TeamError(f"team {team!r}: batched commands are not numeric arrays: {exc}") from exc
-    for name, array, shape in (
-        ("skill", skill, (m, 2)), ("target", target, (m, 2, 2)), ("speed", speed, (m, 2)),
-    ):
+    for (name, shape, kinds, what), array in zip(_COMMAND_ARRAYS, given, strict=True):
+        if array.dtype.kind not in kinds:  # no strings, bools or objects, as a Command refuses
+            raise TeamError(
+                f"team {team!r}: batched commands' {name} must be an array of {what}, got "
+                f"dtype {array.dtype}"
+            )
+        shape = shape(m)
         if array.shape != shape:
             raise TeamError(
                 f"team {team!r}: batched commands' {name} must have shape {shape} (one row per "
                 f"drill acting, one column per player), got {array.shape}"
             )
+    raw_skill = given[0]
+    # Range first, on the values given: a cast of a huge value to int64 would wrap.
+    in_range = (raw_skill >= 0) & (raw_skill < len(_IS_ALLOWED))
+    skill = np.array(np.where(in_range, raw_skill, 0), dtype=np.int64)
+    target = np.array(given[1], dtype=np.float64)
+    speed = np.array(given[2], dtype=np.float64)
 
     def fail(r: int, k: int, what: str) -> TeamError:
         return TeamError(
@@ -341,15 +442,14 @@ def check_commands(
         )
 
     # One test of everything (the usual case), then, only if it fails, which and where.
-    in_range = (skill >= 0) & (skill < len(_IS_ALLOWED))
-    allowed = _IS_ALLOWED[np.where(in_range, skill, 0)] & in_range
+    allowed = _IS_ALLOWED[skill] & in_range
     good_speed = (speed > 0.0) & (speed <= 1.0)  # NaN fails too
     finite = (skill != _MOVE_TO) | (np.isfinite(target[..., 0]) & np.isfinite(target[..., 1]))
     if (allowed & good_speed & finite).all():
         return BatchCommands(skill, target, speed)
     if not allowed.all():
         r, k = map(int, np.argwhere(~allowed)[0])
-        raise fail(r, k, f"skill {int(skill[r, k])} is not allowed for a scripted defender; "
+        raise fail(r, k, f"skill {raw_skill[r, k].item()!r} is not allowed for a scripted defender; "
                          f"allowed: {[Skill(s).name + '=' + str(int(s)) for s in _ALLOWED]}")
     if not good_speed.all():
         r, k = map(int, np.argwhere(~good_speed)[0])

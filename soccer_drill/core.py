@@ -23,8 +23,7 @@ from soccer_drill.teams import (
     Team,
     TeamDriver,
     check_team_timeout,
-    make_team,
-    team_parameters,
+    resolve_team,
 )
 
 ObsType = Literal["features", "kinematic"]
@@ -118,15 +117,8 @@ class DrillCore:
             if opponent_params:
                 raise ValueError("opponent_params given but opponent is None")
             self.team, self.team_name = None, None
-        elif isinstance(opponent, str):
-            params = team_parameters(opponent_params)
-            self.team, self.team_name = make_team(opponent, **params), opponent
-        elif isinstance(opponent, Team):
-            self.team, self.team_name = opponent, type(opponent).__name__
         else:
-            raise TypeError(
-                f"opponent must be a team id, a Team instance or None, got {opponent!r}"
-            )
+            self.team, self.team_name, _ = resolve_team(opponent, opponent_params)
         scripted = set(scripted_attackers) | ({2, 3} if self.team is not None else set())
         self.agent_indices = tuple(i for i in range(4) if i not in scripted)
         self.scripted_attackers = tuple(sorted(scripted_attackers))

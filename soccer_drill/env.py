@@ -344,7 +344,7 @@ class raw_env(_DrillEnvBase, AECEnv):
     | argument | default | meaning |
     |----------|---------|---------|
     | ``opponent`` | ``None`` | team id (see ``soccer-drill-teams``), a ``Team`` instance, or ``None`` (defenders are agents) |
-    | ``opponent_params`` | ``None`` | keyword parameters of the team factory |
+    | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
     | ``obs_type`` | ``"features"`` | ``"features"`` or ``"kinematic"`` |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |

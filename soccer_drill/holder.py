@@ -108,7 +108,7 @@ class HolderEnv(gym.Env):
     | argument | default | meaning |
     |----------|---------|---------|
     | ``opponent`` | ``"chasers"`` | team id or a ``Team`` instance |
-    | ``opponent_params`` | ``None`` | keyword parameters of the team factory |
+    | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``render_mode`` | ``None`` | ``"human"``, ``"rgb_array"`` or ``"rgb_array_list"`` (see Rendering) |

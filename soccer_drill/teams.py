@@ -294,12 +294,42 @@ def make_team(team_id: str, **params: Any) -> Team:
             f"team {team_id!r} failed while being built with parameters "
             f"{short_repr(params)}: {_what_happened(exc)}"
         ) from exc
-    if not isinstance(team, Team):
+    if isinstance(team, type) or not isinstance(team, Team):
+        what = f"the class {team.__name__}" if isinstance(team, type) else type(team).__name__
         raise TeamError(
-            f"team {team_id!r}: factory returned {type(team).__name__}, which lacks "
+            f"team {team_id!r}: factory returned {what}, not a team instance with "
             "reset(view, rng) and act(view)"
         )
     return team
+
+
+def resolve_team(opponent: object, opponent_params: object) -> tuple[Team, str, dict[str, Any]]:
+    """The team an environment's ``opponent`` and ``opponent_params`` name, its name in
+    errors, and the parameters it was built with.
+
+    ``opponent`` is a registered team id (built by :func:`make_team` with
+    ``opponent_params``) or a :class:`Team` instance (then ``opponent_params`` must be
+    empty: the instance is already built). A class is refused: its methods would be
+    called without an instance.
+    """
+    if isinstance(opponent, str):
+        params = team_parameters(opponent_params)
+        return make_team(opponent, **params), opponent, params
+    if isinstance(opponent, type):
+        raise TypeError(
+            f"opponent must be a team id or a Team instance, got the class {opponent.__name__}: "
+            f"pass an instance ({opponent.__name__}(...)), or register it "
+            "(soccer_drill.teams.register) and pass its id"
+        )
+    if isinstance(opponent, Team):
+        if opponent_params:
+            raise ValueError(
+                f"opponent_params given with a Team instance ({type(opponent).__name__}): an "
+                "instance is already built, so give its parameters to its constructor, or pass "
+                "a registered team id with opponent_params"
+            )
+        return opponent, type(opponent).__name__, {}
+    raise TypeError(f"opponent must be a team id or a Team instance, got {short_repr(opponent)}")
 
 
 def _binding_problem(factory: Callable[..., Any], params: dict[str, Any]) -> str | None:
@@ -514,7 +544,7 @@ class TeamDriver:
         try:
             self._call(self._bounded_reset, view, rng)
         except Overrun as exc:
-            raise self._overrun("reset()", "", exc, start) from None
+            raise self._past_bound("reset()", "", exc, start) from None
         except TeamError:
             raise
         except Exception as exc:  # the bound itself failed (arming its timer)
@@ -526,7 +556,7 @@ class TeamDriver:
         try:
             return self._call(self._bounded_act, view)
         except Overrun as exc:
-            raise self._overrun("act()", f" at cycle {view.cycle}", exc, start) from None
+            raise self._past_bound("act()", f" at cycle {view.cycle}", exc, start) from None
         except TeamError:
             raise
         except Exception as exc:  # the bound itself failed (arming its timer)
@@ -553,7 +583,7 @@ class TeamDriver:
             raise self._raised("act()", f" at cycle {view.cycle}", exc) from exc
         return check_commands(commands, self.players, self.name, view.cycle)
 
-    def call(self, call: str, when: str, method: Callable[..., Any], *args: Any) -> Any:
+    def call(self, call: str, when: object, method: Callable[..., Any], *args: Any) -> Any:
         """``method(*args)`` within this driver's time bound; any failure a :class:`TeamError`.
 
         For drivers that run a team another way than :meth:`act` (the batched drill's
@@ -576,7 +606,7 @@ class TeamDriver:
         try:
             return self._call(bounded, *args)
         except Overrun as exc:
-            raise self._overrun(call, when, exc, start) from None
+            raise self._past_bound(call, when, exc, start) from None
         except TeamError:
             raise
         except Exception as exc:  # the bound itself failed (arming its timer)
@@ -589,16 +619,21 @@ class TeamDriver:
             return method(*args)
         return call_within(timeout, method, *args)
 
-    def _raised(self, call: str, when: str, exc: BaseException) -> TeamError:
+    def _raised(self, call: str, when: object, exc: BaseException) -> TeamError:
         return TeamError(f"team {self.name!r} raised in {call}{when}: {_what_happened(exc)}")
 
-    def _unbounded(self, call: str, when: str, exc: Exception) -> TeamError:
+    def _unbounded(self, call: str, when: object, exc: Exception) -> TeamError:
         return TeamError(
             f"team {self.name!r}: its time bound could not be set for {call}{when}: "
             f"{short_repr(exc)}"
         )
 
-    def _overrun(self, call: str, when: str, exc: Overrun, start: float) -> TeamError:
+    def _past_bound(self, call: str, when: object, exc: Overrun, start: float) -> BaseException:
+        """The error of a call stopped by a time bound: this driver's, or, if it has none,
+        ``exc`` unchanged, for the outer bound that stopped it (the batched drill runs
+        one copy of a team per drill under one bound for all of them)."""
+        if self.team_timeout is None:
+            return exc
         return TeamError(
             f"team {self.name!r} exceeded its time bound of {self.team_timeout:g} s of "
             f"CPU time in {call}{when} (stopped after {exc.cpu:.2f} s of CPU time, "

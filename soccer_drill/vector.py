@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypeGuard
 
 import numpy as np
 from gymnasium import spaces
@@ -27,6 +27,56 @@ _PASS = 1
 _NAMES = np.array([*PLAYER_NAMES, None], dtype=object)  # index -1: None
 _OUTCOMES = np.array(OUTCOME_NAMES, dtype=object)
 _TIMEOUT = 4  # the outcome code of a timeout (truncation)
+
+
+def is_integer(value: object) -> TypeGuard[int | np.integer]:
+    """A Python or NumPy integer, not a bool (an ``int`` to Python, but a slip as a count
+    or a seed)."""
+    return isinstance(value, int | np.integer) and not isinstance(value, bool)
+
+
+def check_drills_per_space(drills_per_space: object) -> int:
+    """``drills_per_space`` as an int, or ``ValueError`` saying what is allowed."""
+    if not is_integer(drills_per_space) or drills_per_space < 1:
+        raise ValueError(f"drills_per_space must be an integer >= 1, got {drills_per_space!r}")
+    return int(drills_per_space)
+
+
+def check_seed(seed: object, n: int) -> list[int | None] | None:
+    """A batched ``reset``'s ``seed`` as one seed (``None``: keep the stream) per drill.
+
+    ``None`` stays ``None``; an integer ``s`` gives drill ``i`` the seed ``s + i``; a
+    sequence must hold exactly ``n`` entries, each ``None`` or an integer. Integers are
+    Python or NumPy ones (not bools), ``>= 0``. Anything else: ``ValueError`` saying what
+    was given and what is allowed, before any drill is touched.
+    """
+    if seed is None:
+        return None
+    allowed = (
+        f"seed must be None, an integer >= 0 (drill i gets seed + i) or a sequence of {n} "
+        "seeds, one per drill, each None or an integer >= 0"
+    )
+    if is_integer(seed):
+        if seed < 0:
+            raise ValueError(f"{allowed}; got {seed!r}")
+        return [int(seed) + i for i in range(n)]
+    if isinstance(seed, np.ndarray) and seed.ndim != 1:
+        raise ValueError(f"{allowed}; got an array of shape {seed.shape}")
+    if isinstance(seed, str | bytes) or not isinstance(seed, Sequence | np.ndarray):
+        raise ValueError(f"{allowed}; got {seed!r} of type {type(seed).__name__}")
+    seeds = list(seed)
+    if len(seeds) != n:
+        raise ValueError(f"{allowed}; got a sequence of {len(seeds)}")
+    for i, s in enumerate(seeds):
+        if s is not None and not (is_integer(s) and s >= 0):
+            raise ValueError(f"{allowed}; got seed[{i}] = {s!r} of type {type(s).__name__}")
+    return [None if s is None else int(s) for s in seeds]
+
+
+def first_non_integer(actions: np.ndarray) -> int:
+    """The index of the first entry of ``actions`` that is not an integer (0 if every entry
+    is one: then the dtype itself is wrong, e.g. an object array of ints)."""
+    return next((i for i, x in enumerate(actions.tolist()) if not is_integer(x)), 0)
 
 
 class HolderVectorEnv(VectorEnv):
@@ -108,8 +158,13 @@ class HolderVectorEnv(VectorEnv):
     | ``reset(seed=s)`` (an int) | its episode starts from the generator of a single ``HolderEnv``'s ``reset(seed=s + i)`` (as ``SyncVectorEnv`` seeds its ``i``-th env) |
     | ``reset(seed=[s_0, ..., s_N-1])`` | seed ``s_i`` (``None``: keep its stream) |
     | ``reset()`` | every stream goes on (fresh entropy the first time) |
+    | ``reset(seed=..., options={"reset_mask": m})`` | only the drills where ``m`` (``(N,)`` bool) is true are reset, each seeded as a full reset would seed it: ``s + i`` for an int ``s``; a list still has ``N`` entries, one per drill, those of the drills not reset ignored; the other drills go on untouched |
     | any reset of every drill of a space (a full ``reset``, or drills that all end together) | that space is built anew: no contact of an earlier episode is carried over, as in ``HolderEnv.reset`` |
     | an autoreset | its own stream goes on |
+
+    A seed is ``None``, or a Python or NumPy integer ``>= 0`` (not a bool); a list (or
+    tuple, or 1-D array) has exactly ``N`` of them. Anything else raises ``ValueError``
+    before any drill is reset, in ``reset`` and ``async_reset`` alike.
 
     So ``reset(seed=s)`` with the same actions gives the same observations, rewards and
     infos, whatever ran before. Drill ``i`` starts exactly where ``HolderEnv`` started
@@ -135,17 +190,19 @@ class HolderVectorEnv(VectorEnv):
 
     ## Errors
 
-    An action out of range raises ``ValueError`` naming the drill (``drill 17: action
-    must be an integer in 0..2 ...``) before any drill moves, so the others are not
-    changed. A team's failure raises ``TeamError`` naming the team; then call ``reset()``.
+    An action out of range, or actions not of an integer dtype (floats, bools,
+    objects: as ``HolderEnv.step`` and ``MultiDiscrete`` take integers only), raise
+    ``ValueError`` naming the drill (``drill 17: action must be an integer in 0..2
+    ...``) before any drill moves, so the others are not changed. A team's failure
+    raises ``TeamError`` naming the team; then call ``reset()``.
 
     ## Arguments
 
     | argument | default | meaning |
     |---|---|---|
-    | ``num_envs`` | ``1`` | number of drills |
+    | ``num_envs`` | ``1`` | number of drills (a Python or NumPy integer, as are ``drills_per_space`` and ``batch_size``) |
     | ``opponent`` | ``"chasers"`` | team id or a ``Team`` instance (copied per drill if it has no batched ``act``) |
-    | ``opponent_params`` | ``None`` | keyword parameters of the team factory |
+    | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``decision_cycles`` | ``4`` | cycles a HOLD or DRIBBLE lasts |
@@ -177,11 +234,12 @@ class HolderVectorEnv(VectorEnv):
         n = check_num_envs(num_envs)
         if batch_size is None:
             batch_size = n
-        if not isinstance(batch_size, int) or isinstance(batch_size, bool) or not 1 <= batch_size <= n:
+        if not is_integer(batch_size) or not 1 <= batch_size <= n:
             raise ValueError(
                 f"batch_size must be an integer in 1..num_envs ({n}) or None (num_envs), "
                 f"got {batch_size!r}"
             )
+        drills_per_space = check_drills_per_space(drills_per_space)
         if not isinstance(decision_cycles, int) or isinstance(decision_cycles, bool) or not (
             1 <= decision_cycles <= 50
         ):
@@ -199,7 +257,7 @@ class HolderVectorEnv(VectorEnv):
         if mode == AutoresetMode.DISABLED:
             raise ValueError("autoreset_mode DISABLED is not supported: use NEXT_STEP or SAME_STEP")
         self.num_envs = n
-        self.batch_size = batch_size
+        self.batch_size = int(batch_size)
         self.autoreset_mode = mode
         self.metadata = {**self.metadata, "autoreset_mode": mode}
         self.decision_cycles = decision_cycles
@@ -245,6 +303,7 @@ class HolderVectorEnv(VectorEnv):
         """Reset the drills ``reset`` names (see Seeding) and return them; they then wait
         for an action."""
         core = self._core
+        seeds = check_seed(seed, self.num_envs)
         mask = None if options is None else options.get("reset_mask")
         if mask is not None:
             mask = np.asarray(mask)
@@ -256,13 +315,12 @@ class HolderVectorEnv(VectorEnv):
             if not self._has_reset:
                 raise RuntimeError("reset() with a reset_mask before the first full reset()")
             drills = np.flatnonzero(mask)
-            if seed is not None:
-                seeds = [seed + i for i in range(self.num_envs)] if isinstance(seed, int) else list(seed)
+            if seeds is not None:  # one entry per drill: those of drills not reset are ignored
                 for i in drills.tolist():
                     if seeds[i] is not None:
                         core.generators[i] = np.random.default_rng(seeds[i])
         else:
-            core.seed(seed)
+            core.seed(seeds)
             drills = self._all
         self._restart(drills)
         self._running[drills] = False
@@ -286,18 +344,12 @@ class HolderVectorEnv(VectorEnv):
                 f"actions must be an array of shape ({k},): one action per drill"
                 f"{'' if k == self.num_envs else ' of env_id'}, got shape {a.shape}"
             )
-        if a.dtype.kind not in "iu":
-            bad = next(
-                (i for i, x in enumerate(a.tolist()) if not (isinstance(x, int) and not isinstance(x, bool))),
-                0,
-            ) if a.dtype.kind != "b" else 0
-            if a.dtype.kind == "f" and np.all(np.isfinite(a)) and np.all(a == np.round(a)):
-                a = a.astype(np.int64)
-            else:
-                raise ValueError(
-                    f"drill {int(drills[bad])}: action must be an integer in 0..2 (0=HOLD, 1=PASS, "
-                    f"2=DRIBBLE), got {a[bad]!r} (actions of dtype {a.dtype})"
-                )
+        if a.dtype.kind not in "iu":  # as HolderEnv.step, which refuses 2.0 and True
+            bad = first_non_integer(a)
+            raise ValueError(
+                f"drill {int(drills[bad])}: action must be an integer in 0..2 (0=HOLD, 1=PASS, "
+                f"2=DRIBBLE), got {a[bad]!r} (actions of dtype {a.dtype}; an integer dtype is needed)"
+            )
         bad_rows = np.flatnonzero((a < 0) | (a >= len(HOLDER_ACTIONS)))
         bad_rows = bad_rows[~self._autoreset[drills[bad_rows]]]  # ignored for drills being reset
         if len(bad_rows):
@@ -320,6 +372,7 @@ class HolderVectorEnv(VectorEnv):
             )
         if not self._has_reset:
             raise RuntimeError("step() called before reset(); call reset() first")
+        self._core.check_team()
         self._check_waiting(self._all, "step()")  # not after a send() without its recv()
         a = self._check_actions(actions, self._all)
         self._send(a, self._all)
@@ -351,6 +404,7 @@ class HolderVectorEnv(VectorEnv):
         """
         if not self._has_reset:
             raise RuntimeError("send() called before reset() or async_reset(); call one first")
+        self._core.check_team()
         drills = self._check_env_id(env_id)
         a = self._check_actions(actions, drills)
         self._send(a[np.argsort(drills, kind="stable")], np.sort(drills))
@@ -365,6 +419,7 @@ class HolderVectorEnv(VectorEnv):
         """
         if not self._has_reset:
             raise RuntimeError("recv() called before reset() or async_reset(); call one first")
+        self._core.check_team()
         obs, rewards, terminated, truncated, infos = self._recv()
         rows = infos.pop("_rows")
         infos["env_id"], infos["_env_id"] = rows, np.ones(len(rows), dtype=bool)

@@ -19,6 +19,7 @@ from soccer_drill.features import feature_bounds, kinematic_bounds, state_bounds
 from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
+from soccer_drill.vector import check_drills_per_space, check_seed, first_non_integer
 
 _HOLDER_MASK = np.array([1, 1, 1, 0, 0], dtype=np.int8)
 _OFF_BALL_MASK = np.array([0, 0, 0, 1, 1], dtype=np.int8)
@@ -92,17 +93,21 @@ class ParallelVectorEnv:
     the role's default (HOLD for the holder, GET_OPEN off the ball, INTERCEPT for a
     defender with shared spaces) and reports it in
     ``infos``; ``"raise"`` raises ``ValueError`` naming the drill, the agent, the action
-    and the legal ones, before any drill moves. An action out of range always raises,
-    naming the drill.
+    and the legal ones, before any drill moves. An action out of range always raises
+    ``ValueError``, and actions not of an integer dtype (floats, bools) ``TypeError``, as
+    ``parallel_env``'s ``step`` does, naming the drill.
 
     ## Seeding
 
     As :class:`~soccer_drill.vector.HolderVectorEnv`: ``reset(seed=s)`` starts drill
     ``i`` from the generator of a single environment's ``reset(seed=s + i)`` and
     rebuilds the physics, so the batch's episodes are a function of ``s`` and the
-    actions; a list gives one seed per drill; ``reset()`` and autoresets continue each
-    drill's stream. Episodes agree with the single environment's in distribution, not
-    bit for bit (shared physics spaces; see ``HolderVectorEnv``).
+    actions; a list gives one seed per drill (exactly ``num_envs``, each ``None``: keep
+    its stream, or an integer); ``reset()`` and autoresets continue each drill's stream.
+    A seed is a Python or NumPy integer ``>= 0``, not a bool; anything else raises
+    ``ValueError`` before any drill is reset. Episodes agree with the single
+    environment's in distribution, not bit for bit (shared physics spaces; see
+    ``HolderVectorEnv``).
 
     ## Arguments
 
@@ -110,7 +115,7 @@ class ParallelVectorEnv:
     |---|---|---|
     | ``num_envs`` | ``1`` | number of drills |
     | ``opponent`` | ``None`` | team id, ``Team`` instance, or ``None`` (the defenders are agents) |
-    | ``opponent_params`` | ``None`` | keyword parameters of the team factory |
+    | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
     | ``obs_type`` | ``"features"`` | ``"features"`` or ``"kinematic"`` |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
@@ -138,6 +143,7 @@ class ParallelVectorEnv:
         render_mode: str | None = None,
     ) -> None:
         n = check_num_envs(num_envs)
+        drills_per_space = check_drills_per_space(drills_per_space)
         if shared_spaces is None:  # identical spaces whenever the defenders are agents too
             shared_spaces = opponent is None
         elif not isinstance(shared_spaces, bool):
@@ -194,7 +200,7 @@ class ParallelVectorEnv:
     ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Start an episode in every drill (see Seeding)."""
         core = self._core
-        core.seed(seed)
+        core.seed(check_seed(seed, self.num_envs))
         core.reset(np.arange(self.num_envs))
         self._autoreset[:] = False
         self._has_reset = True
@@ -250,10 +256,17 @@ class ParallelVectorEnv:
         for agent, i in self._index.items():
             a = np.asarray(actions[agent])
             n_actions = self._spaces[agent].n
-            if a.shape != (self.num_envs,) or a.dtype.kind not in "iu":
+            if a.shape != (self.num_envs,):
                 raise ValueError(
                     f"actions[{agent!r}] must be an integer array of shape ({self.num_envs},), "
                     f"got {a.dtype} of shape {a.shape}"
+                )
+            if a.dtype.kind not in "iu":  # TypeError, as parallel_env's step for 2.0 or True
+                d = first_non_integer(a)
+                raise TypeError(
+                    f"drill {d}: action for {agent!r} must be an integer in [0, {n_actions - 1}] "
+                    f"({_names(i, n_actions)}), got {a[d]!r} (actions of dtype {a.dtype}; an "
+                    "integer dtype is needed)"
                 )
             # One test of the range (a negative action is a large unsigned one).
             if np.count_nonzero(stepping & (a.astype(np.uint64, copy=False) >= n_actions)):

@@ -140,7 +140,10 @@ class _Team:
 def test_whatever_a_team_raises_in_the_batch_is_a_team_error_naming_it(batched, error, message):
     venv = HolderVectorEnv(num_envs=3, opponent=_Team(error, batched))
     venv.reset(seed=0)
-    with pytest.raises(TeamError, match="team '_Team' " + message):
+    # A copy per drill names the drill that failed; a batched call the drills it was for.
+    where = r" at cycle 0 of drills 0, 1, 2 \(3 in one call\)" if batched else " at cycle 0"
+    named = "team '_Team' " if batched else r"team '_Team' \(drill 0\) "
+    with pytest.raises(TeamError, match=named + message.replace(r"act\(\)", r"act\(\)" + where)):
         venv.step(np.zeros(3, dtype=int))
 
 

@@ -1,0 +1,212 @@
+"""Teams that misbehave in the batched drill: the errors name the team, the drill and what
+is allowed, the same team is refused the same way by every environment, and a batch
+whose team failed asks for a reset."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+from soccer_drill import Command, HolderEnv, Skill
+from soccer_drill.batch_teams import BatchCommands
+from soccer_drill.teams import TeamError, register
+from soccer_drill.vector import HolderVectorEnv
+from soccer_drill.vector_agents import ParallelVectorEnv
+
+
+class Plain:
+    """A plugin's team: a per-drill ``act`` only."""
+
+    def reset(self, view, rng):
+        self.players = view.players
+
+    def act(self, view):
+        return {p: Command(Skill.INTERCEPT) for p in self.players}
+
+
+class SlowAt(Plain):
+    """Computes for 0.5 s of CPU time from cycle 2 on (far past its bound, and finite
+    where the bound can only be checked after the call)."""
+
+    def act(self, view):
+        start = time.thread_time()
+        while view.cycle >= 2 and time.thread_time() - start < 0.5:
+            pass
+        return super().act(view)
+
+
+class BadInThirdCopy(Plain):
+    """The copy reset third (drill 2) gives a NaN target."""
+
+    resets = 0
+
+    def reset(self, view, rng):
+        super().reset(view, rng)
+        type(self).resets += 1
+        self.bad = type(self).resets == 3
+
+    def act(self, view):
+        if self.bad:
+            return {p: Command(Skill.MOVE_TO, (float("nan"), 1.0)) for p in self.players}
+        return super().act(view)
+
+
+def _make(kind, opponent, **kwargs):
+    if kind == "single":
+        return HolderEnv(opponent=opponent, **kwargs)
+    if kind == "holder":
+        return HolderVectorEnv(num_envs=3, opponent=opponent, **kwargs)
+    return ParallelVectorEnv(num_envs=3, opponent=opponent, **kwargs)
+
+
+def _step(env):
+    if isinstance(env, HolderEnv):
+        return env.step(0)
+    if isinstance(env, HolderVectorEnv):
+        return env.step(np.zeros(3, dtype=np.int64))
+    return env.step({a: np.zeros(3, dtype=np.int64) for a in env.agents})
+
+
+@pytest.mark.parametrize("kind", ["holder", "agents"])
+def test_a_copy_past_its_time_bound_is_reported_as_past_it_naming_the_drill(kind):
+    env = _make(kind, SlowAt(), team_timeout=0.01)
+    env.reset(seed=0)
+    with pytest.raises(TeamError) as raised:
+        for _ in range(4):
+            _step(env)
+    text = str(raised.value)
+    assert text.startswith("team 'SlowAt' exceeded its time bound of 0.03 s of CPU time in act()")
+    assert "each drill's copy bounded by 0.01 s, stopped in drill 0" in text
+
+
+def test_a_bad_command_of_a_copy_names_its_drill():
+    BadInThirdCopy.resets = 0
+    env = HolderVectorEnv(num_envs=3, opponent=BadInThirdCopy())
+    env.reset(seed=0)
+    with pytest.raises(TeamError, match=r"^team 'BadInThirdCopy', drill 2, player 'defender_0', "
+                                        r"cycle 0: MOVE_TO needs a finite"):
+        env.step(np.zeros(3, dtype=np.int64))
+
+
+@pytest.mark.parametrize("kind", ["single", "holder", "agents"])
+def test_a_team_class_rather_than_an_instance_is_refused_by_every_environment(kind):
+    with pytest.raises(TypeError, match=r"got the class Plain: pass an instance \(Plain\(\.\.\.\)\)"):
+        _make(kind, Plain)
+
+
+def test_a_factory_that_returns_a_class_is_refused():
+    register("returns_a_class", lambda: Plain, overwrite=True)
+    with pytest.raises(TeamError, match="factory returned the class Plain, not a team instance"):
+        HolderEnv(opponent="returns_a_class")
+
+
+@pytest.mark.parametrize("kind", ["single", "holder", "agents"])
+def test_parameters_with_a_team_instance_are_refused_by_every_environment(kind):
+    with pytest.raises(ValueError, match=r"opponent_params given with a Team instance \(Plain\)"):
+        _make(kind, Plain(), opponent_params={"speed": 0.5})
+
+
+class Locked(Plain):
+    def __init__(self):
+        self.lock = threading.Lock()
+
+
+@pytest.mark.parametrize("kind", ["holder", "agents"])
+def test_a_team_that_cannot_be_copied_per_drill_is_named_with_what_to_do(kind):
+    with pytest.raises(TypeError, match=r"team 'Locked': the batched drill runs a team without "
+                                        r"batch\(n\) as one copy per drill, made by copy.deepcopy, "
+                                        r"and copying it failed \(TypeError: cannot pickle"):
+        _make(kind, Locked())
+
+
+class Raising(Plain):
+    def __init__(self):
+        self.fail = True
+
+    def act(self, view):
+        if self.fail:
+            raise RuntimeError("boom")
+        return super().act(view)
+
+
+@pytest.mark.parametrize("kind", ["holder", "agents"])
+def test_after_a_team_error_the_batch_asks_for_a_reset_and_then_plays_on(kind):
+    team = Raising()
+    env = _make(kind, team)
+    env.reset(seed=0)
+    with pytest.raises(TeamError, match=r"team 'Raising' \(drill 0\) raised in act\(\) at cycle 0"):
+        _step(env)
+    with pytest.raises(TeamError, match=r"the team failed earlier \(team 'Raising' \(drill 0\) "
+                                        r"raised .*; call reset\(\) before stepping again"):
+        _step(env)
+    env.reset(seed=0)  # the copies are the same objects: make them behave
+    for driver in env._core.team._drivers:
+        driver.team.fail = False
+    _step(env)
+
+
+def test_a_partial_reset_does_not_clear_a_team_failure():
+    env = HolderVectorEnv(num_envs=3, opponent=Raising())
+    env.reset(seed=0)
+    with pytest.raises(TeamError):
+        env.step(np.zeros(3, dtype=np.int64))
+    env._core.team.reset(np.array([1]), [5])
+    assert env._core.team.failure is not None
+
+
+class BatchedCommands:
+    """A batched team whose act returns ``skill`` for every drill."""
+
+    def __init__(self, skill):
+        self.skill = skill
+
+    def reset(self, view, drills, rng):
+        pass
+
+    def act(self, view, drills):
+        m = len(drills)
+        return BatchCommands(np.full((m, 2), self.skill), np.ones((m, 2, 2)), np.ones((m, 2)))
+
+
+class WithBatch(Plain):
+    def __init__(self, skill):
+        self.skill = skill
+
+    def batch(self, n):
+        return BatchedCommands(self.skill)
+
+
+@pytest.mark.parametrize(("skill", "message"), [
+    ("5", r"skill must be an array of integers \(Skill values\), got dtype <U1"),
+    (0.5, r"skill must be an array of integers \(Skill values\), got dtype float64"),
+    (True, r"skill must be an array of integers \(Skill values\), got dtype bool"),
+    (np.uint64(2**63 + 5), r"drill 0, player 'defender_0', cycle 0: skill 9223372036854775813 is "
+                           r"not allowed for a scripted defender"),
+])
+def test_batched_skills_are_refused_unless_integers_of_an_allowed_skill(skill, message):
+    env = HolderVectorEnv(num_envs=2, opponent=WithBatch(skill))
+    env.reset(seed=0)
+    with pytest.raises(TeamError, match=message):
+        env.step(np.zeros(2, dtype=np.int64))
+
+
+def test_batched_skills_of_an_integer_dtype_are_taken():
+    env = HolderVectorEnv(num_envs=2, opponent=WithBatch(np.int32(Skill.INTERCEPT)))
+    env.reset(seed=0)
+    env.step(np.zeros(2, dtype=np.int64))
+
+
+def test_after_a_team_error_send_and_recv_ask_for_a_reset_too():
+    env = HolderVectorEnv(num_envs=4, opponent=Raising(), batch_size=2)
+    env.async_reset(seed=0)
+    for _ in range(2):
+        _, *_, info = env.recv()
+        env.send(np.zeros(2, dtype=np.int64), info["env_id"])
+    with pytest.raises(TeamError, match=r"raised in act\(\)"):
+        env.recv()
+    for again in (env.recv, lambda: env.send(np.zeros(1, dtype=np.int64), np.array([0]))):
+        with pytest.raises(TeamError, match=r"call reset\(\) before stepping again"):
+            again()
