@@ -32,8 +32,10 @@ tree, in subprocesses taking turns (this file's loops, on ``DIR``'s ``soccer_dri
 every ratio against the floor measured in its own process in that round; the table has
 both trees' medians over rounds.
 
-Then memory per drill (``tracemalloc``: what building and resetting N drills allocates,
-per drill) and a profile per component at ``--profile-size`` drills.
+Then each batched loop's cost per cycle split into a fixed part and a part per drill (a
+line through its costs at the sizes from 2 to ``--fit-max``), and the size from which it
+is at most the floor; memory per drill (``tracemalloc``: what building and resetting N
+drills allocates, per drill); and a profile per component at ``--profile-size`` drills.
 """
 
 from __future__ import annotations
@@ -187,6 +189,19 @@ def measure(sizes: list[int], team: str, cycles: int, rounds: int) -> dict:
     return out
 
 
+def fixed_and_marginal(sizes: list[int], costs: list[float]) -> tuple[float, float]:
+    """The least-squares line ``a + b * N`` through a loop's CPU us per batch cycle
+    (``N`` times its us per drill-cycle) at batch sizes ``sizes``: ``a`` is what a cycle
+    costs whatever its size (Python and the count of NumPy calls), ``b`` what each
+    drill adds (the arrays' length, the physics). Sizes below 2 are left out (one drill
+    takes another path)."""
+    points = [(n, n * c) for n, c in zip(sizes, costs, strict=True) if n >= 2]
+    if len(points) < 2:
+        raise ValueError(f"need costs at two batch sizes >= 2, got sizes {sizes}")
+    b, a = np.polyfit([n for n, _ in points], [c for _, c in points], 1)
+    return float(a), float(b)
+
+
 def _worker(tree: str, args: argparse.Namespace) -> dict:
     """One round of every loop on ``tree``'s code, in a subprocess."""
     env = {**os.environ, "PYTHONPATH": tree}
@@ -244,6 +259,32 @@ def profile(n: int, team: str, cycles: int) -> list[tuple[str, float]]:
     return out
 
 
+def _print_fits(done: dict, sizes: list[int]) -> None:
+    """Each batched loop's cost per cycle as a fixed part and a part per drill, and the
+    size from which its cost per drill-cycle is at most the floor (where ``a + b N <=
+    N * floor``; none if each drill alone costs more than the floor)."""
+    if len([n for n in sizes if n >= 2]) < 2:
+        return
+    labels = list(done)
+    print("\n| loop | " + " | ".join(
+        f"{k}: us per cycle, fixed | {k}: us per drill | {k}: per drill / floor | "
+        f"{k}: at the floor from N =" for k in labels) + " |")
+    print("|---|" + "---:|---:|---:|---:|" * len(labels))
+    for kind in ("holder step", "holder async", "holder play", "agents"):
+        cells = []
+        for k in labels:
+            costs = done[k]["costs"]
+            have = [n for n in sizes if f"{kind} N={n}" in costs]
+            if len([n for n in have if n >= 2]) < 2:
+                cells += ["", "", "", ""]
+                continue
+            floor = statistics.median(done[k]["floors"])
+            a, b = fixed_and_marginal(have, [statistics.median(costs[f"{kind} N={n}"]) for n in have])
+            cells += [f"{a:.0f}", f"{b:.1f}", f"{b / floor:.2f}x",
+                      f"{a / (floor - b):.0f}" if b < floor else "none"]
+        print(f"| {kind} | " + " | ".join(cells) + " |")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1, 16, 64, 256, 1024])
@@ -251,6 +292,9 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--team", default="interceptors_cover")
     parser.add_argument("--profile-size", type=int, default=64)
+    parser.add_argument("--fit-max", type=int, default=256,
+                        help="largest batch size in the fixed + per drill fit (beyond it the "
+                             "spaces' size adds to each drill's cost)")
     parser.add_argument("--against", metavar="DIR", help="another checkout, measured in the same run")
     parser.add_argument("--json", action="store_true", help=argparse.SUPPRESS)  # a worker's output
     args = parser.parse_args()
@@ -282,6 +326,7 @@ def main() -> None:
             per = done[k]["per_decision"].get(name)
             cells.append(f"{statistics.median(per):.0f}" if per else "")
         print(f"| {name} | " + " | ".join(cells) + " |")
+    _print_fits(done, [n for n in args.sizes if n <= args.fit_max])
     print("\n| drills | memory per drill (KiB) |\n|---:|---:|")
     for n in args.sizes:
         print(f"| {n} | {memory_per_drill(n, args.team):.1f} |")
