@@ -64,14 +64,21 @@ def palette_images(frames: Sequence[np.ndarray]) -> list | None:
         k <<= 8
         k |= f[..., 2]
         keys.append(k)
-    colours = np.unique(np.concatenate([np.unique(k) for k in keys]))
+    # A table over all 2**24 colours: marking and looking up are one pass over the pixels
+    # each, where sorting them (np.unique, np.searchsorted) is several.
+    seen = np.zeros(1 << 24, dtype=bool)
+    for k in keys:
+        seen[k] = True
+    colours = np.flatnonzero(seen)  # ascending, as np.unique gives them
     if len(colours) > 256:
         return None
     palette = np.stack((colours >> 16, (colours >> 8) & 255, colours & 255), axis=1)
     palette = palette.astype(np.uint8).ravel().tolist()
+    lookup = np.zeros(1 << 24, dtype=np.uint8)
+    lookup[colours] = np.arange(len(colours))
     images = []
     for k in keys:
-        index = np.searchsorted(colours, k).astype(np.uint8)
+        index = lookup[k]
         image = Image.frombytes("P", (index.shape[1], index.shape[0]), index.tobytes())
         image.putpalette(palette)
         images.append(image)

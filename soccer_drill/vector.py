@@ -573,6 +573,11 @@ class HolderVectorEnv(VectorEnv):
             "holder": _NAMES[holder], "_holder": everyone.copy(),
         }
 
+    def action_masks(self) -> np.ndarray:
+        """Which actions are legal in each drill now: all three, always (``(num_envs, 3)``
+        bool; ``HolderEnv.action_masks`` per drill, for masking learners)."""
+        return np.ones((self.num_envs, len(HOLDER_ACTIONS)), dtype=bool)
+
     def render(self) -> tuple[np.ndarray, ...] | None:
         """One frame per drill with ``render_mode="rgb_array"`` (else ``None``)."""
         if self._renderer is None:

@@ -36,7 +36,7 @@ RATE = re.compile(r"[\d.]+(?= (?:turns per second|cycles per second|decisions/s)
 # TorchRL's logger writes to the stdout it found when first imported: not the recipe's.
 LOG = re.compile(r"\[torchrl\]\[INFO\]")
 NEEDS_TORCH_OR_MOVIEPY = {
-    "sb3_holder", "maskable_ppo_aec", "maskable_ppo_holder", "supersuit_sb3", "torchrl",
+    "sb3_holder", "sb3_batched", "maskable_ppo_aec", "maskable_ppo_holder", "supersuit_sb3", "torchrl",
     "tianshou", "rllib_holder", "rllib_roles", "video",
 }
 # Recipes whose run follows Python's string hashes (RLlib keeps the agents of a step in a

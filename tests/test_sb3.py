@@ -1,0 +1,100 @@
+"""``soccer_drill.sb3.HolderSB3VecEnv`` against SB3's own ``DummyVecEnv`` of ``HolderEnv``:
+the same observations, rewards, dones and infos, step for step, across autoresets.
+
+SB3 needs torch, so these run with ``pytest -m integrations`` (``pip install -e
+".[integrations]"``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.integrations
+pytest.importorskip("stable_baselines3")
+
+from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor  # noqa: E402
+
+from soccer_drill import HolderEnv  # noqa: E402
+from soccer_drill.sb3 import HolderSB3VecEnv  # noqa: E402
+
+N = 6
+TEAM = "interceptors_cover"
+# The batch computes a length with NumPy's hypot where HolderEnv uses math.hypot: the two
+# may differ in the last bit (HolderVectorEnv's docstring), so floats agree to float32's
+# precision rather than bit for bit.
+CLOSE = dict(rtol=1e-5, atol=1e-5)
+
+
+def _pair(seed):
+    batched = HolderSB3VecEnv(N, opponent=TEAM, drills_per_space=1)
+    single = DummyVecEnv([lambda: HolderEnv(opponent=TEAM) for _ in range(N)])
+    for env in (batched, single):
+        env.seed(seed)
+    return batched, single
+
+
+def test_it_steps_as_dummy_vec_env_of_holder_env_across_autoresets():
+    batched, single = _pair(3)
+    np.testing.assert_allclose(batched.reset(), single.reset(), **CLOSE)
+    assert batched.reset_infos == single.reset_infos
+    rng = np.random.default_rng(0)
+    ends = 0
+    for _ in range(150):
+        actions = rng.integers(3, size=N)
+        obs, rewards, dones, infos = batched.step(actions)
+        obs1, rewards1, dones1, infos1 = single.step(actions)
+        np.testing.assert_allclose(obs, obs1, **CLOSE)
+        assert obs.dtype == obs1.dtype and rewards.dtype == rewards1.dtype
+        np.testing.assert_array_equal(rewards, rewards1)
+        np.testing.assert_array_equal(dones, dones1)
+        for info, info1 in zip(infos, infos1, strict=True):
+            final, final1 = info.pop("terminal_observation", None), info1.pop("terminal_observation", None)
+            assert info == info1
+            assert (final is None) == (final1 is None)
+            if final is not None:
+                ends += 1
+                np.testing.assert_allclose(final, final1, **CLOSE)
+        assert batched.reset_infos == single.reset_infos
+    assert ends > 20  # the autoresets were exercised, timeouts among them or not
+
+
+def test_a_seed_applies_at_the_next_reset_only_and_repeats_the_episodes():
+    env = HolderSB3VecEnv(N, opponent=TEAM)
+    env.seed(7)
+    first = env.reset()
+    again = env.reset()  # no seed now: each drill's stream goes on
+    env.seed(7)
+    np.testing.assert_array_equal(env.reset(), first)
+    assert not np.array_equal(again, first)
+
+
+def test_the_attributes_methods_and_masks_sb3_asks_for():
+    env = HolderSB3VecEnv(4, opponent=TEAM)
+    assert env.get_attr("num_envs", [1, 2]) == [4, 4]
+    assert env.env_is_wrapped(VecMonitor) == [False] * 4
+    masks = env.env_method("action_masks", indices=[0, 3])
+    assert len(masks) == 2 and all(m.shape == (3,) and m.all() for m in masks)
+    assert env.has_attr("action_masks")
+    env.set_attr("decision_cycles", 4)
+    with pytest.raises(ValueError, match="set for every drill"):
+        env.set_attr("decision_cycles", 4, indices=[0])
+
+
+@pytest.mark.parametrize("given", ["autoreset_mode", "batch_size"])
+def test_what_sb3_fixes_cannot_be_given(given):
+    with pytest.raises(ValueError, match=f"HolderSB3VecEnv sets {given} itself"):
+        HolderSB3VecEnv(4, **{given: None})
+
+
+def test_different_options_per_drill_are_refused_at_the_reset():
+    env = HolderSB3VecEnv(2, opponent=TEAM)
+    env.set_options([{"a": 1}, {"a": 2}])
+    with pytest.raises(ValueError, match="take one options dict"):
+        env.reset()
+
+
+def test_step_wait_without_step_async_is_refused():
+    env = HolderSB3VecEnv(2, opponent=TEAM)
+    env.reset()
+    with pytest.raises(RuntimeError, match="without step_async"):
+        env.step_wait()
