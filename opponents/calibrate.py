@@ -25,10 +25,12 @@ default folder is ``results/calibration``, never ``docs/``. This project's
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
+import sys
 import time
 from collections import Counter
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,7 +45,7 @@ from soccer_drill.files import atomic_write_text, check_output_file
 from soccer_drill.gif import record_episode, save_gif
 from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
-from soccer_drill.teams import describe, team_ids
+from soccer_drill.teams import TeamError, describe, team_ids
 from soccer_drill.vector import HolderVectorEnv, play_episodes
 
 TEAMS = (*PAPER_TEAMS, "chasers")
@@ -238,7 +240,7 @@ def calibrate_all(
                 rule = best_of(cells)
                 gifs[team] = (rule, *write_team_gif(team, rule, Path(gif_dir) / f"{team}.gif"))
     else:
-        with ProcessPoolExecutor(workers) as pool:
+        with ProcessPoolExecutor(workers) as pool, _cancelled_on_error(pool):
             team_futures = {pool.submit(_evaluate, job): job[0] for job in team_jobs}
             family_futures = [pool.submit(_evaluate, job) for job in family_jobs]
             gif_futures = {}
@@ -256,6 +258,16 @@ def calibrate_all(
         ({(c.team, c.rule): c for done in family_done for c in done}, members) if sampled else None
     )
     return cells, family, gifs
+
+
+@contextlib.contextmanager
+def _cancelled_on_error(pool: ProcessPoolExecutor) -> Iterator[None]:
+    """On an error, the jobs not started yet are dropped rather than run to no purpose."""
+    try:
+        yield
+    except BaseException:
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
 
 
 def _run(jobs: list[tuple], workers: int) -> dict[tuple[str, str], Cell]:
@@ -593,6 +605,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.error("--sampled must be >= 0")
     if args.drills < 1:
         parser.error("--drills must be >= 1")
+    if args.workers < 1:
+        parser.error(f"--workers must be >= 1 (1: in this process), got {args.workers}")
     known = team_ids()
     unknown = [t for t in args.teams if t not in known]
     if unknown:
@@ -608,10 +622,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as exc:
         parser.error(f"--out {args.out}: {exc}")
     start = time.perf_counter()
-    cells, family, made = calibrate_all(
-        args.episodes, teams, args.sampled, args.sampled_episodes, args.workers, args.drills,
-        None if args.no_gifs else out_dir / "gifs",
-    )
+    try:
+        cells, family, made = calibrate_all(
+            args.episodes, teams, args.sampled, args.sampled_episodes, args.workers, args.drills,
+            None if args.no_gifs else out_dir / "gifs",
+        )
+    except TeamError as exc:  # a team that fails: its error in one line, not a traceback
+        print(f"soccer-drill-calibrate: error: {exc}", file=sys.stderr)
+        return 1
     gifs = {team: (f"gifs/{team}.gif", rule, seed, outcome)
             for team, (rule, seed, outcome) in made.items()}
     command = "soccer-drill-calibrate"

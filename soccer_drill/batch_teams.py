@@ -15,7 +15,8 @@ without ``batch`` runs as one copy per drill, each behind its own
 
 :class:`BatchTeamDriver` runs either kind: one CPU-time bound per cycle of the batch
 (``team_timeout`` for a batched team; ``team_timeout`` times the drills acting, for the
-copies), and the commands checked, a bad one named by drill, player and cycle. An error
+copies, each copy's call also held to ``team_timeout`` when it returns), and the
+commands checked, a bad one named by drill, player and cycle. An error
 of a copy names its drill; one of a batched call names the drills it was called for (it
 cannot tell which of them failed). After a team's error the drills that acted are
 part-way through a cycle: the driver refuses to act again until every drill is reset.
@@ -35,6 +36,7 @@ from soccer_drill.config import DrillConfig
 from soccer_drill.skills import BALL_SKILLS, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView
 from soccer_drill.teams import Team, TeamDriver, TeamError, make_team, resolve_team
+from soccer_drill.time_bound import counted_cpu
 
 _ALLOWED = np.array(sorted(int(s) for s in Skill if s not in BALL_SKILLS))
 _MOVE_TO = int(Skill.MOVE_TO)
@@ -317,8 +319,10 @@ class BatchTeamDriver:
     def _each_reset(self, drills: np.ndarray, seeds: list[int], calling: _Calling) -> None:
         for i, s in zip(drills.tolist(), seeds, strict=True):
             calling.running = i
+            start = counted_cpu()
             with self._naming_drill(i):
                 self._drivers[i].reset(self._views[i], np.random.default_rng(s))
+            self._check_copy_time(i, "reset()", "", start)
 
     def act(self, drills: np.ndarray, skill: np.ndarray, target: np.ndarray, speed: np.ndarray) -> None:
         """Write the team's commands for ``drills`` into columns 2 and 3 of the arrays."""
@@ -382,8 +386,10 @@ class BatchTeamDriver:
         speed = np.empty((m, 2))
         for r, i in enumerate(drills.tolist()):
             calling.running = i
+            start = counted_cpu()
             with self._naming_drill(i):
                 acted = self._drivers[i].act(self._views[i])
+            self._check_copy_time(i, "act()", f" at cycle {int(self._batch.cycle[i])}", start)
             for index, command in acted:
                 k = index - 2
                 skill[r, k] = int(command.skill)
@@ -391,6 +397,18 @@ class BatchTeamDriver:
                 if command.target is not None:
                     target[r, k] = command.target
         return BatchCommands(skill, target, speed)
+
+    def _check_copy_time(self, drill: int, call: str, when: str, start: float) -> None:
+        """A copy whose call took more than ``team_timeout`` of CPU time is an overrun,
+        as in the single drill, even when the copies together stayed within their bound
+        (which only stops a copy that never returns)."""
+        spent = counted_cpu() - start
+        if self._timeout is not None and spent > self._timeout:
+            raise TeamError(
+                f"team {self.name!r} (drill {drill}) exceeded its time bound of "
+                f"{self._timeout:g} s of CPU time in {call}{when} (took {spent:.2f} s of CPU "
+                "time); fix the team or pass a larger team_timeout"
+            )
 
     def _checked_act(self, drills: np.ndarray) -> BatchCommands:
         assert self.batched is not None

@@ -120,7 +120,9 @@ class DrillConfig:
     pass_lockout_cycles: int = field(default=4, metadata=_whole(0, 1_000_000))
     """Cycles after a pass during which the passer cannot regain the ball."""
     start_jitter: float = field(default=1.5, metadata=_within(0.0, 100.0))
-    """Half-width of the uniform jitter added to each starting coordinate."""
+    """Half-width of the uniform jitter added to each starting coordinate; every jittered
+    start must lie inside the walls, and the ball (``ball_offset`` below an attacker) in
+    the field, above the goal line."""
     attacker_starts: tuple[Point, Point] = ((4.0, 31.0), (31.0, 31.0))
     """Nominal starting points of the two attackers (top corners)."""
     defender_starts: tuple[Point, Point] = ((13.0, 9.0), (22.0, 9.0))
@@ -154,6 +156,34 @@ class DrillConfig:
                     f"[0, {self.field_size:g}]^2, got {getattr(self, name)!r}"
                 )
             object.__setattr__(self, name, points)
+        self._check_start_area()
+
+    def _check_start_area(self) -> None:
+        """Every jittered start inside the walls, and the ball given to an attacker
+        (``ball_offset`` below it) inside the field, above the goal line: an episode
+        starts in play."""
+        j, size = self.start_jitter, self.field_size
+        reach = self.wall_margin - self.player_radius  # a player's centre, past the field
+        for name in ("attacker_starts", "defender_starts"):
+            for x, y in getattr(self, name):
+                if not all(-reach <= c - j and c + j <= size + reach for c in (x, y)):
+                    raise ValueError(
+                        f"DrillConfig: start_jitter {j:g} can put the player starting at "
+                        f"({x:g}, {y:g}) ({name}) outside the walls: each coordinate must stay "
+                        f"within [{-reach:g}, {size + reach:g}] (wall_margin - player_radius "
+                        "past the field); make start_jitter smaller or move the start"
+                    )
+                ball_y = y - self.ball_offset
+                if name == "attacker_starts" and not (
+                    0.0 <= x - j and x + j <= size and 0.0 < ball_y - j and ball_y + j <= size
+                ):
+                    raise ValueError(
+                        f"DrillConfig: start_jitter {j:g} can put the ball of the attacker "
+                        f"starting at ({x:g}, {y:g}) (ball_offset {self.ball_offset:g} below it) "
+                        f"outside the field or on the goal line: x must stay within "
+                        f"[0, {size:g}] and the ball's y within (0, {size:g}]; make "
+                        "start_jitter smaller or move the start"
+                    )
 
     @classmethod
     def from_dict(cls, values: dict[str, Any]) -> DrillConfig:

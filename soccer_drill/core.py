@@ -99,6 +99,8 @@ class DrillCore:
             raise ValueError(
                 f"illegal_action must be 'raise' or 'default', got {illegal_action!r}"
             )
+        if isinstance(shared_spaces, np.bool_):
+            shared_spaces = bool(shared_spaces)
         if not isinstance(shared_spaces, bool):
             raise TypeError(f"shared_spaces must be True or False, got {shared_spaces!r}")
         team_timeout = check_team_timeout(team_timeout)  # checked even without a team

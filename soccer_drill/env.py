@@ -61,6 +61,8 @@ class _DrillEnvBase:
             raise ValueError(f"obs_format must be 'dict' or 'flat', got {obs_format!r}")
         if shared_spaces is None:  # identical spaces whenever the defenders are agents too
             shared_spaces = opponent is None
+        elif isinstance(shared_spaces, np.bool_):  # NumPy's bools are bools too
+            shared_spaces = bool(shared_spaces)
         elif not isinstance(shared_spaces, bool):
             raise TypeError(
                 "shared_spaces must be None (identical spaces when there is no opponent), "
@@ -190,6 +192,13 @@ class _DrillEnvBase:
     def outcome(self) -> str | None:
         """``None`` while the episode runs, then its outcome."""
         return self._core.drill.outcome
+
+    @property
+    def np_random(self) -> np.random.Generator:
+        """The drill's generator (seeded by ``reset(seed=...)``), as PettingZoo's own
+        environments expose theirs: wrappers that draw from it (SuperSuit's
+        ``frame_skip_v0``) then follow the environment's seed."""
+        return self._core.np_random
 
 
 class raw_env(_DrillEnvBase, AECEnv):
@@ -409,6 +418,9 @@ class raw_env(_DrillEnvBase, AECEnv):
         """``(observation, reward, termination, truncation, info)`` of the selected agent."""
         if not self._has_reset:
             raise not_reset("last")
+        if not self.agents:  # every agent has been stepped out: nothing is selected
+            raise RuntimeError("last() called after the episode ended (every agent is done); "
+                               "call reset() to start the next one")
         agent = self.agent_selection
         return (
             self._observation(agent) if observe else None,  # observe() without its check

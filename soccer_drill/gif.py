@@ -24,7 +24,7 @@ import numpy as np
 from soccer_drill.files import atomic_write_bytes, check_output_file
 from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES, HolderPolicy, get_policy
-from soccer_drill.teams import team_ids
+from soccer_drill.teams import TeamError, team_ids
 
 FPS_RANGE = (1, 50)
 """Frames per second a GIF can play: its frame delay is counted in hundredths of a second,
@@ -178,7 +178,7 @@ def _seed(text: str) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point ``soccer-drill-gif``."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="soccer-drill-gif", description=__doc__.splitlines()[0])
     parser.add_argument("--team", default="chasers", choices=team_ids(), metavar="TEAM",
                         help="opponent team id (soccer-drill-teams lists them)")
     parser.add_argument("--seed", type=_seed, default=0)
@@ -192,9 +192,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         check_output_file(args.output)
     except ValueError as exc:
         parser.error(str(exc))
+    if Path(args.output).suffix.lower() != ".gif":  # the bytes written are a GIF's
+        parser.error(f"-o/--output must name a .gif file, got {args.output!r}")
     try:
         info = write_episode_gif(args.output, args.team, args.seed, args.policy, args.fps)
-    except OSError as exc:
+    except (OSError, TeamError) as exc:  # a full disk, a failing team: said in one line
         print(f"{parser.prog}: error: {exc}", file=sys.stderr)
         return 1
     print(f"wrote {args.output}: {info['outcome']} after {info['cycles']} cycles")

@@ -20,6 +20,21 @@ from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
 _HOLDER_COMMANDS = tuple(Command(skill) for skill in HOLDER_ACTIONS)
 
 
+DECISION_CYCLES_RANGE = (1, 50)
+"""The cycles a HOLD or DRIBBLE may last (``decision_cycles``)."""
+
+
+def check_decision_cycles(decision_cycles: object) -> int:
+    """``decision_cycles`` as an int (a Python or NumPy integer, not a bool) in
+    :data:`DECISION_CYCLES_RANGE`, else ``ValueError`` saying what is allowed."""
+    low, high = DECISION_CYCLES_RANGE
+    if isinstance(decision_cycles, bool) or not isinstance(decision_cycles, int | np.integer) or not (
+        low <= decision_cycles <= high
+    ):
+        raise ValueError(f"decision_cycles must be an integer in {low}..{high}, got {decision_cycles!r}")
+    return int(decision_cycles)
+
+
 class HolderEnv(gym.Env):
     """The drill as seen by whichever attacker holds the ball: keepaway's SMDP.
 
@@ -112,7 +127,7 @@ class HolderEnv(gym.Env):
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``render_mode`` | ``None`` | ``"human"``, ``"rgb_array"`` or ``"rgb_array_list"`` (see Rendering) |
-    | ``decision_cycles`` | ``4`` | cycles a ``HOLD`` or ``DRIBBLE`` lasts (fewer if possession changes); ``PASS`` lasts until an attacker controls the ball |
+    | ``decision_cycles`` | ``4`` | cycles a ``HOLD`` or ``DRIBBLE`` lasts (an integer in 1..50; fewer if possession changes); ``PASS`` lasts until an attacker controls the ball |
     | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound (see ``soccer_drill.teams.TeamDriver``) |
     """
 
@@ -128,11 +143,7 @@ class HolderEnv(gym.Env):
         decision_cycles: int = 4,
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
     ) -> None:
-        if not isinstance(decision_cycles, int) or isinstance(decision_cycles, bool) or not (
-            1 <= decision_cycles <= 50
-        ):
-            raise ValueError(f"decision_cycles must be an integer in 1..50, got {decision_cycles!r}")
-        self.decision_cycles = decision_cycles
+        self.decision_cycles = check_decision_cycles(decision_cycles)
         if opponent is None:
             raise ValueError("HolderEnv needs a scripted opponent team (a team id or Team)")
         self.config = make_config(config, max_cycles)

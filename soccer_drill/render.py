@@ -17,15 +17,17 @@ import pygame
 from soccer_drill.config import DrillConfig
 from soccer_drill.state import BALL, DrillState
 
-SCALE = 12  # pixels per metre
-MARGIN = 2.0  # metres drawn around the region
+SCALE = 12  # pixels per metre, on fields that fit MAX_SIDE at it
+MARGIN = 2.0  # metres drawn around the region, at least (more when the walls are further)
+MAX_SIDE = 1024  # pixels: a larger field is drawn at a smaller scale (a frame stays ~3 MB)
 _GRASS, _LINE, _BALL = (46, 120, 60), (235, 235, 235), (250, 250, 250)
 _ATTACKER, _DEFENDER, _HOLDER = (40, 90, 220), (215, 50, 50), (255, 215, 0)
 _GOAL_CENTRE, _GOAL_EDGE = (255, 255, 255), (150, 150, 150)
 
 
 class Renderer:
-    """Draws :class:`DrillState` snapshots.
+    """Draws :class:`DrillState` snapshots: the field and what lies within the walls, at
+    :data:`SCALE` pixels a metre, or less on a field too large for :data:`MAX_SIDE`.
 
     Args:
         config: the drill's configuration (field size, radii).
@@ -35,7 +37,11 @@ class Renderer:
 
     def __init__(self, config: DrillConfig, mode: str, fps: int = 10) -> None:
         self.config, self.mode, self.fps = config, mode, fps
-        side = round((config.field_size + 2 * MARGIN) * SCALE)
+        # Everything a player can reach is drawn: the walls stand wall_margin outside.
+        self.margin = max(MARGIN, config.wall_margin + config.player_radius)
+        drawn = config.field_size + 2 * self.margin
+        self.scale = min(SCALE, MAX_SIDE / drawn)
+        side = round(drawn * self.scale)
         self.size = (side, side + 24)  # a strip for the caption
         pygame.font.init()
         self._font = pygame.font.Font(None, 20)
@@ -45,8 +51,8 @@ class Renderer:
 
     def _px(self, x: float, y: float) -> tuple[int, int]:
         """Field metres to pixels (y up on the field, down on screen)."""
-        top = self.config.field_size + MARGIN
-        return round((x + MARGIN) * SCALE), round((top - y) * SCALE) + 24
+        top = self.config.field_size + self.margin
+        return round((x + self.margin) * self.scale), round((top - y) * self.scale) + 24
 
     def draw(
         self, state: DrillState, outcome: str | None = None, caption: str | None = None
@@ -66,7 +72,7 @@ class Renderer:
             w = 1.0 - abs((a + b) / 2 - size / 2) / (size / 2)
             colour = tuple(int(e + (c - e) * w) for c, e in zip(_GOAL_CENTRE, _GOAL_EDGE, strict=True))
             pygame.draw.line(s, colour, self._px(a, 0), self._px(b, 0), 4)
-        r = max(2, round(cfg.player_radius * SCALE))
+        r = max(2, round(cfg.player_radius * self.scale))
         for i in range(4):
             centre = self._px(*state.pos[i])
             pygame.draw.circle(s, _ATTACKER if i < 2 else _DEFENDER, centre, r)

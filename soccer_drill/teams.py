@@ -27,15 +27,18 @@ never fails an honest team.
 
 from __future__ import annotations
 
+import hashlib
 import inspect
 import itertools
 import math
 import numbers
+import sys
 import time
 import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from importlib.metadata import entry_points
+from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -156,6 +159,16 @@ def _origin(ep: Any) -> str:
     return f"distribution {name!r} ({ep.value})" if name else f"an entry point ({ep.value})"
 
 
+BUILT_IN_DISTRIBUTION = "soccer-drill-ilpss"
+"""The distribution of this project's own teams (``opponents``): they win an id that a
+plugin declares too."""
+
+
+def _is_built_in(ep: Any) -> bool:
+    name = getattr(getattr(ep, "dist", None), "name", None) or ""
+    return name.lower().replace("_", "-").replace(".", "-") == BUILT_IN_DISTRIBUTION
+
+
 def _discover() -> None:
     global _discovered
     if _discovered:
@@ -170,15 +183,19 @@ def _discover() -> None:
         )
         return
     first: dict[str, Any] = {}
+    # This project's own teams first: a plugin declaring one of their ids cannot replace
+    # it (results labelled "chasers" are always this project's chasers).
+    found.sort(key=lambda ep: not _is_built_in(ep))
     for ep in found:
         problem = _id_problem(ep.name)
         if problem is not None:
             _refused[ep.name] = f"team {ep.name!r} of {_origin(ep)} is refused: {problem}"
             warnings.warn(_refused[ep.name], PluginWarning, stacklevel=3)
         elif ep.name in first:
+            kept = "this project's own team" if _is_built_in(first[ep.name]) else "the first"
             warnings.warn(
                 f"team id {ep.name!r} is declared twice, by {_origin(first[ep.name])} and "
-                f"by {_origin(ep)}; using the first",
+                f"by {_origin(ep)}; using {kept} (give the other team an id of its own)",
                 PluginWarning, stacklevel=3,
             )
         else:
@@ -265,6 +282,43 @@ def _lookup(team_id: str) -> Callable[..., Team]:
             raise TeamError(_refused[team_id])
         raise ValueError(f"unknown opponent team {team_id!r}; known teams: {team_ids()}")
     return entry.load(team_id)
+
+
+def team_code(team_id: str) -> dict[str, str]:
+    """What identifies the code of team ``team_id``, so that a result kept between runs
+    is not taken for the team's after its code changed.
+
+    ``factory``: the factory's module and name; ``distribution``: the name and version of
+    the distribution that declares it (an entry point's); ``source_sha256``: the SHA-256
+    of the source of the package the factory is in (every ``.py`` file under its
+    top-level package, by relative path; the file alone for a single-module plugin).
+    A key is left out when it cannot be known (a factory made at run time).
+    """
+    factory = _lookup(team_id)
+    out = {"factory": f"{getattr(factory, '__module__', '?')}:{getattr(factory, '__qualname__', '?')}"}
+    entry_point = _registry[team_id].entry_point
+    dist = getattr(entry_point, "dist", None)
+    if dist is not None:
+        out["distribution"] = f"{dist.name} {dist.version}"
+    digest = _package_digest(getattr(factory, "__module__", None))
+    if digest is not None:
+        out["source_sha256"] = digest
+    return out
+
+
+def _package_digest(module_name: str | None) -> str | None:
+    """SHA-256 of the ``.py`` files of ``module_name``'s top-level package (or module)."""
+    top = sys.modules.get((module_name or "").partition(".")[0])
+    origin = getattr(top, "__file__", None)
+    if origin is None:
+        return None
+    path = Path(origin)
+    files = sorted(path.parent.rglob("*.py")) if path.name == "__init__.py" else [path]
+    digest = hashlib.sha256()
+    for file in files:
+        digest.update(str(file.relative_to(path.parent)).encode())
+        digest.update(b"\0" + file.read_bytes() + b"\0")
+    return digest.hexdigest()
 
 
 def make_team(team_id: str, **params: Any) -> Team:

@@ -102,6 +102,13 @@ class _Call:
 _active: _Call | None = None  # the main thread's interruptible call, read by the handler
 
 
+def counted_cpu() -> float:
+    """This thread's CPU seconds as a bound counts them: less the garbage collections
+    seen inside bounded calls. The difference of two readings within one bounded call is
+    what a part of that call cost (a batch of drills times each drill's team apart)."""
+    return _thread_time() - _gc_time.total
+
+
 def call_within(timeout: float, method: Callable[..., Any], *args: Any) -> Any:
     """``method(*args)``, raising :class:`Overrun` if it takes more than ``timeout``
     seconds of CPU time (see the module docstring for how, and what is not counted)."""

@@ -18,6 +18,7 @@ from soccer_drill.batch_render import BatchRenderer, check_render_mode
 from soccer_drill.config import DrillConfig
 from soccer_drill.core import make_config
 from soccer_drill.features import feature_bounds
+from soccer_drill.holder import check_decision_cycles
 from soccer_drill.skills import HOLDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
@@ -205,7 +206,7 @@ class HolderVectorEnv(VectorEnv):
     | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
-    | ``decision_cycles`` | ``4`` | cycles a HOLD or DRIBBLE lasts |
+    | ``decision_cycles`` | ``4`` | cycles a HOLD or DRIBBLE lasts (an integer in 1..50) |
     | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take (a team without a batched ``act``: that times the drills acting) |
     | ``autoreset_mode`` | ``NEXT_STEP`` | see Autoreset |
     | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
@@ -240,10 +241,7 @@ class HolderVectorEnv(VectorEnv):
                 f"got {batch_size!r}"
             )
         drills_per_space = check_drills_per_space(drills_per_space)
-        if not isinstance(decision_cycles, int) or isinstance(decision_cycles, bool) or not (
-            1 <= decision_cycles <= 50
-        ):
-            raise ValueError(f"decision_cycles must be an integer in 1..50, got {decision_cycles!r}")
+        decision_cycles = check_decision_cycles(decision_cycles)
         if opponent is None:
             raise ValueError("HolderVectorEnv needs a scripted opponent team (a team id or Team)")
         self.render_mode = check_render_mode(render_mode, type(self).__name__)

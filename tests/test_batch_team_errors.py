@@ -210,3 +210,29 @@ def test_after_a_team_error_send_and_recv_ask_for_a_reset_too():
     for again in (env.recv, lambda: env.send(np.zeros(1, dtype=np.int64), np.array([0]))):
         with pytest.raises(TeamError, match=r"call reset\(\) before stepping again"):
             again()
+
+
+class SlowInThirdCopy(Plain):
+    """The copy reset third (drill 2) computes for 0.1 s of CPU time in each act."""
+
+    resets = 0
+
+    def reset(self, view, rng):
+        super().reset(view, rng)
+        type(self).resets += 1
+        self.slow = type(self).resets == 3
+
+    def act(self, view):
+        start = time.thread_time()
+        while self.slow and time.thread_time() - start < 0.1:
+            pass
+        return super().act(view)
+
+
+def test_each_copy_is_held_to_the_bound_though_the_copies_together_stay_within_theirs():
+    SlowInThirdCopy.resets = 0
+    env = HolderVectorEnv(num_envs=8, opponent=SlowInThirdCopy(), team_timeout=0.03)
+    env.reset(seed=0)  # 8 copies: 0.24 s in all, which one slow copy does not reach
+    with pytest.raises(TeamError, match=r"^team 'SlowInThirdCopy' \(drill 2\) exceeded its time "
+                                        r"bound of 0.03 s of CPU time in act\(\) at cycle 0"):
+        env.step(np.zeros(8, dtype=np.int64))

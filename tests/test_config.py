@@ -93,3 +93,21 @@ def test_start_points_must_be_two_finite_points_inside_the_field(starts):
     with pytest.raises(ValueError, match=r"attacker_starts must be two \(x, y\) points inside "
                                          r"\[0, 35\]\^2"):
         DrillConfig(attacker_starts=starts)
+
+
+@pytest.mark.parametrize(("values", "message"), [
+    ({"start_jitter": 10.0}, r"start_jitter 10 can put the player starting at \(4, 31\) "
+                             r"\(attacker_starts\) outside the walls"),
+    ({"start_jitter": 0.0, "attacker_starts": ((17.5, 0.5), (17.0, 20.0))},  # ball at y < 0
+     r"can put the ball of the attacker starting at \(17.5, 0.5\).*on the goal line"),
+    ({"start_jitter": 0.3, "attacker_starts": ((34.9, 17.0), (30.0, 20.0))},
+     r"can put the ball of the attacker starting at \(34.9, 17\).*outside the field"),
+])
+def test_a_start_that_is_out_of_play_before_the_first_cycle_is_refused(values, message):
+    with pytest.raises(ValueError, match=message):
+        DrillConfig(**values)
+
+
+def test_a_start_near_the_field_s_edge_within_the_walls_is_taken():
+    config = DrillConfig(defender_starts=((1.0, 2.0), (34.0, 2.0)))  # jitter 1.5: x >= -0.5
+    assert config.defender_starts == ((1.0, 2.0), (34.0, 2.0))

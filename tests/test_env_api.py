@@ -7,6 +7,7 @@ import warnings
 from functools import partial
 
 import gymnasium as gym
+import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 from pettingzoo.test import (
@@ -147,3 +148,31 @@ def test_holder_decision_cycles():
     for bad in (0, 51, 2.5, True):
         with pytest.raises(ValueError, match=r"decision_cycles must be an integer in 1\.\.50"):
             soccer_drill.HolderEnv(opponent="chasers", decision_cycles=bad)
+
+
+def test_supersuit_frame_skip_draws_from_the_environment_s_seeded_generator():
+    ss = pytest.importorskip("supersuit")
+
+    def play(seed):
+        env = ss.frame_skip_v0(soccer_drill.parallel_env(opponent="chasers"), (1, 3))
+        obs, _ = env.reset(seed=seed)
+        cycles = []
+        while env.agents:
+            acts = {a: int(np.flatnonzero(obs[a]["action_mask"])[0]) for a in env.agents}
+            obs, _, _, _, infos = env.step(acts)
+            cycles.append(env.unwrapped.drill_state.cycle)
+        return cycles
+
+    assert play(0) == play(0)
+    assert soccer_drill.env().np_random is not None
+
+
+def test_last_after_the_episode_ended_says_so():
+    env = soccer_drill.env(opponent="chasers", max_cycles=3)
+    env.reset(seed=0)
+    for _ in env.agent_iter():
+        obs, _, terminated, truncated, _ = env.last()
+        action = None if terminated or truncated else int(np.flatnonzero(obs["action_mask"])[0])
+        env.step(action)
+    with pytest.raises(RuntimeError, match=r"last\(\) called after the episode ended"):
+        env.last()

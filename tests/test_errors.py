@@ -11,6 +11,7 @@ import soccer_drill
 from soccer_drill.config import DrillConfig
 from soccer_drill.skills import Command, Skill
 from soccer_drill.teams import TeamError
+from soccer_drill.vector import HolderVectorEnv
 
 
 def _first_turn(opponent="chasers", illegal_action="raise"):
@@ -220,3 +221,20 @@ def test_misbehaving_team_is_named(act, message):
         a, b = env.step(0), fresh.step(0)
         np.testing.assert_array_equal(a[0], b[0])
         assert a[1:4] == b[1:4]
+
+
+@pytest.mark.parametrize("make", [
+    lambda **kw: soccer_drill.HolderEnv(**kw),
+    lambda **kw: HolderVectorEnv(num_envs=2, **kw),
+])
+def test_decision_cycles_may_be_a_numpy_integer_but_not_a_bool(make):
+    assert make(decision_cycles=np.int64(3)).decision_cycles == 3
+    with pytest.raises(ValueError, match=r"decision_cycles must be an integer in 1\.\.50, got True"):
+        make(decision_cycles=True)
+
+
+@pytest.mark.parametrize("make", [soccer_drill.env, soccer_drill.parallel_env])
+def test_shared_spaces_may_be_a_numpy_bool(make):
+    env = make(shared_spaces=np.True_)
+    env.reset(seed=0)
+    assert env.observation_space("attacker_0") == env.observation_space("defender_0")

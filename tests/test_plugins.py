@@ -159,11 +159,11 @@ def install(tmp_path, monkeypatch):
     """``install(dist, {module: source}, entry_points_lines)``: a fake installed distribution.
 
     Each distribution gets its own folder on ``sys.path``, in installation order (the
-    first installed is found first). Everything is undone after the test.
+    first installed is found first; ``first=True``: before every other distribution). Everything is undone after the test.
     """
     count = 0
 
-    def _install(dist: str, modules: dict[str, str], lines: str) -> None:
+    def _install(dist: str, modules: dict[str, str], lines: str, first: bool = False) -> None:
         nonlocal count
         count += 1
         root = tmp_path / f"site{count}"
@@ -174,7 +174,8 @@ def install(tmp_path, monkeypatch):
         info.mkdir()
         (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {dist}\nVersion: 0.1\n")
         (info / "entry_points.txt").write_text(f"[soccer_drill.opponents]\n{lines}\n")
-        monkeypatch.setattr(sys, "path", [*sys.path, str(root)])
+        path = [str(root), *sys.path] if first else [*sys.path, str(root)]
+        monkeypatch.setattr(sys, "path", path)
         importlib.invalidate_caches()
         teams.refresh()
 
@@ -222,9 +223,20 @@ def test_a_team_id_declared_by_two_distributions_warns_naming_both(install):
     with pytest.warns(UserWarning, match=(
             r"team id 'wall' is declared twice, by distribution 'first-teams' "
             r"\(plugin_first:Wall\) and by distribution 'second-teams' \(plugin_second:Wall\); "
-            r"using the first")):
+            r"using the first \(give the other team an id of its own\)")):
         install("second-teams", {"plugin_second": _GOOD_TEAM}, "wall = plugin_second:Wall")
     assert teams.make_team("wall").__module__ == "plugin_first"
+
+
+def test_a_plugin_cannot_replace_one_of_the_project_s_own_teams(install):
+    # Found before the project's own distribution on the path, and still not used.
+    with pytest.warns(UserWarning, match=(
+            r"team id 'chasers' is declared twice, by distribution 'soccer-drill-ilpss' "
+            r"\(opponents.chasers:Chasers\) and by distribution 'shadow-teams' "
+            r"\(plugin_shadow:Wall\); using this project's own team")):
+        install("shadow-teams", {"plugin_shadow": _GOOD_TEAM}, "chasers = plugin_shadow:Wall",
+                first=True)
+    assert teams.make_team("chasers").__module__ == "opponents.chasers"
 
 
 def test_a_declared_id_that_is_not_valid_is_refused(install, capsys):
@@ -257,3 +269,14 @@ def test_the_installed_teams_list_without_warnings(capsys):
         assert teams.broken_teams() == {}
     assert opponents_cli.main([]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_a_team_s_code_is_identified_by_its_package_s_source(install, tmp_path):
+    install("code-teams", {"plugin_code": _GOOD_TEAM}, "walled = plugin_code:Wall")
+    before = teams.team_code("walled")
+    assert before["factory"] == "plugin_code:Wall"
+    assert before["distribution"] == "code-teams 0.1"
+    source = next(tmp_path.rglob("plugin_code.py"))
+    source.write_text(source.read_text() + "\n# changed\n")
+    assert teams.team_code("walled")["source_sha256"] != before["source_sha256"]
+    assert teams.team_code("chasers")["factory"] == "opponents.chasers:Chasers"
