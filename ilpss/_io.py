@@ -213,11 +213,24 @@ def _finite_float(text: str) -> float:
     return value
 
 
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    # json.loads keeps the last of repeated keys: a hand-edited file would then run
+    # another setting than the one its reader sees first.
+    record: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in record:
+            raise ValueError(f"the key {key!r} appears more than once in one object; each "
+                             "key must appear once")
+        record[key] = value
+    return record
+
+
 def _parse_json(text: str | bytes, where: str) -> Any:
-    """Strict JSON (no NaN or Infinity, no number beyond float's range); errors name
-    ``where``."""
+    """Strict JSON (no NaN or Infinity, no number beyond float's range, no repeated key
+    in an object); errors name ``where``."""
     try:
-        return json.loads(text, parse_constant=_refuse_constant, parse_float=_finite_float)
+        return json.loads(text, parse_constant=_refuse_constant, parse_float=_finite_float,
+                          object_pairs_hook=_unique_keys)
     except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError, NaN
         raise ValueError(f"{where}: not valid JSON ({exc})") from exc
     except RecursionError:
@@ -233,7 +246,7 @@ def read_json(path: str | os.PathLike[str]) -> Any:
         If ``path`` does not exist.
     ValueError
         Naming the file: it is a folder, larger than :data:`MAX_JSON_BYTES`, not UTF-8
-        JSON, or nested too deeply to parse.
+        JSON, repeats a key within an object, or is nested too deeply to parse.
     """
     return _parse_json(read_regular(path, MAX_JSON_BYTES, "a JSON record"), os.fspath(path))
 

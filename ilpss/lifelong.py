@@ -37,6 +37,7 @@ from ilpss._check import (
     NoneOr,
     Real,
     Text,
+    check,
     check_fields,
     check_keys,
     from_json,
@@ -59,6 +60,7 @@ from ilpss.options import OptionLibrary, OptionSettings
 from ilpss.policy import FrozenPolicy
 from ilpss.reuse import REUSES, Fresh, Reuse, learn_with
 from ilpss.smdp import LearnerConfig, SmdpLearner
+from ilpss.tiles import box_bounds
 
 CHECKPOINT_SCHEMA = "ilpss.lifelong/2"
 
@@ -277,6 +279,8 @@ class LifelongLearner:
         provenance: dict[str, Any] | None = None,
     ) -> None:
         self.config = config
+        check("LifelongLearner n_primitive (the number of primitive actions)", n_primitive,
+              STATE_CONSTRAINTS["n_primitive"])
         self.n_primitive = int(n_primitive)
         self.seed = int(seed)
         if provenance is not None and not isinstance(provenance, dict):
@@ -478,6 +482,15 @@ class LifelongLearner:
         state, config, records = read_state(ckpt)
         where = ckpt / "state.json"
         n = len(records)
+        low, _ = box_bounds(observation_space)
+        widths = config.learner.tile_widths
+        if widths is not None and len(widths) != len(low):  # not a fault of the settings
+            raise ValueError(
+                f"{where}: the checkpoint was saved for a {len(widths)}-feature observation "
+                f"space (its LearnerConfig.tile_widths has {len(widths)} entries), but the "
+                f"observation space given is {observation_space!r}, with {len(low)}: load it "
+                "with the space it was learnt on"
+            )
         learner = cls(config, observation_space, state["n_primitive"], state["seed"],
                       provenance=state["provenance"])
         learner.records = records

@@ -92,7 +92,7 @@ from ilpss.episode import (
 )
 from ilpss.options import OptionLibrary
 from ilpss.policy import EPSILON, FrozenPolicy, LinearPolicy, epsilon_greedy_choice
-from ilpss.tiles import KEEPAWAY_ALPHA, TILE_CONSTRAINTS, TileCoder
+from ilpss.tiles import KEEPAWAY_ALPHA, TILE_CONSTRAINTS, TileCoder, box_bounds
 from ilpss.traces import DivergedError, ReplacingTraces, td_update
 
 __all__ = [
@@ -252,9 +252,17 @@ class LearnerConfig:
         Raises
         ------
         ValueError
-            The widths do not fit the space (one per feature, at most
-            :data:`~ilpss.tiles.MAX_WEIGHTS` tiles in all); the message names the field.
+            The space is not such a box (the message names it), or the widths do not fit
+            it (one per feature, at most :data:`~ilpss.tiles.MAX_WEIGHTS` tiles in all;
+            the message names the field).
         """
+        low, _ = box_bounds(observation_space)  # the space's fault, not these settings'
+        if self.tile_widths is not None and len(self.tile_widths) != len(low):
+            raise ValueError(
+                f"LearnerConfig.tile_widths / n_tilings: widths must have {len(low)} entries, "
+                f"one per feature of the observation space {observation_space!r}, got "
+                f"{len(self.tile_widths)}"
+            )
         widths = None if self.tile_widths is None else np.asarray(self.tile_widths, dtype=float)
         try:
             return TileCoder.from_space(observation_space, widths, self.n_tilings)

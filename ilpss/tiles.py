@@ -26,7 +26,8 @@ import numpy as np
 
 from ilpss._check import Integer, Real, check
 
-__all__ = ["KEEPAWAY_ALPHA", "KEEPAWAY_N_TILINGS", "MAX_WEIGHTS", "TILE_CONSTRAINTS", "TileCoder"]
+__all__ = ["KEEPAWAY_ALPHA", "KEEPAWAY_N_TILINGS", "MAX_WEIGHTS", "TILE_CONSTRAINTS", "TileCoder",
+           "box_bounds"]
 
 #: Keepaway's number of one-dimensional tilings per state variable.
 KEEPAWAY_N_TILINGS = 32
@@ -51,6 +52,29 @@ def _as_1d_float(name: str, value: object, n: int | None = None) -> np.ndarray:
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} must be finite, got {arr}")
     return arr
+
+
+def box_bounds(space: object) -> tuple[np.ndarray, np.ndarray]:
+    """The ``low`` and ``high`` of a 1-D Gymnasium ``Box`` with finite bounds.
+
+    Raises
+    ------
+    ValueError
+        Naming ``space``: it is not such a box (a ``Dict``, a ``Discrete``, an unbounded
+        or a 2-D ``Box``); a tile coder needs one bounded range per feature.
+    """
+    try:
+        low = np.asarray(getattr(space, "low", None), dtype=np.float64)
+        high = np.asarray(getattr(space, "high", None), dtype=np.float64)
+    except (TypeError, ValueError):
+        low = high = np.empty((0, 0))  # bounds that are not numbers: refused below
+    if low.ndim != 1 or high.shape != low.shape or not (
+            np.isfinite(low).all() and np.isfinite(high).all()):
+        raise ValueError(
+            f"the observation space is {space!r}; tile coding needs a 1-D Box with finite "
+            "low and high (one bounded range per feature), e.g. Box(low, high, (n,))"
+        )
+    return low, high
 
 
 class TileCoder:
@@ -153,10 +177,7 @@ class TileCoder:
             generic choice; for the drill pass keepaway's (3 m, 10 degrees).
         n_tilings : int, default 32
         """
-        low = np.asarray(getattr(space, "low", None), dtype=np.float64)
-        high = np.asarray(getattr(space, "high", None), dtype=np.float64)
-        if low.ndim != 1 or not (np.isfinite(low).all() and np.isfinite(high).all()):
-            raise ValueError("space must be a 1-D Box with finite low and high")
+        low, high = box_bounds(space)
         if widths is None:
             widths = (high - low) / 10.0
         return cls(low, high, widths, n_tilings)

@@ -95,7 +95,8 @@ def test_a_run_survives_a_lost_node_and_equals_the_local_run(tmp_path, monkeypat
     assert any(d.resumed.get("ilpss", 0) >= 1 for _, d in done), [d.resumed for _, d in done]
     # The driver wrote every result; the checkpoints are in the storage only.
     assert sorted(p.relative_to(out).as_posix() for p in out.rglob("*") if p.is_file()) == [
-        "config.json", "seed_000/stream_00/result.json", "seed_001/stream_00/result.json"]
+        "config.json", "seed_000/stream_00/result.json", "seed_001/stream_00/result.json",
+        "team_code.json"]
     for seed in (0, 1):
         assert (out / f"seed_{seed:03d}/stream_00/result.json").read_bytes() == (
             tmp_path / "local" / f"seed_{seed:03d}/stream_00/result.json").read_bytes()

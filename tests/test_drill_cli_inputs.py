@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import pytest
 
+import soccer_drill.teams as teams
 from opponents import calibrate
 from soccer_drill import Command, Skill, gif
-from soccer_drill.teams import register
 
 
 class Flaky:
@@ -23,8 +23,10 @@ class Flaky:
 
 
 @pytest.fixture
-def flaky():
-    register("flaky_cli", Flaky, overwrite=True)
+def flaky(monkeypatch):
+    teams.team_ids()  # discover first: the copy below holds every installed team
+    monkeypatch.setattr(teams, "_registry", dict(teams._registry))  # undone after the test
+    teams.register("flaky_cli", Flaky)
     return "flaky_cli"
 
 

@@ -42,7 +42,7 @@ def test_a_uri_storage_holds_the_checkpoints_and_the_results_are_the_same(tmp_pa
     out = tmp_path / "run"
     assert run_experiment(cfg, out, progress=False) == expected
     # The driver wrote the results; no job wrote into the run folder.
-    assert _files(out) == ["config.json", "seed_000/stream_00/result.json"]
+    assert _files(out) == ["config.json", "seed_000/stream_00/result.json", "team_code.json"]
     assert (out / "seed_000/stream_00/result.json").read_bytes() == (
         folder / "seed_000/stream_00/result.json").read_bytes()
     # The storage holds what the run folder would have held, file for file.

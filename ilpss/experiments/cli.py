@@ -23,6 +23,7 @@ from pathlib import Path
 from ilpss._io import FolderInUseError
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.drill import TEAM_ERROR, drill_exception
 from ilpss.experiments.executor import stop_on_sigterm
 from ilpss.experiments.methods import METHODS
 from ilpss.experiments.outputs import unwritten_report
@@ -101,8 +102,8 @@ def parser() -> argparse.ArgumentParser:
                    help="the method whose kernels and GIF the report shows (default: the "
                    "first with ILPSS's kernels)")
     p.add_argument("--teams", nargs="+", metavar="TEAM",
-                   help="protocols A and B: the teams (A: the last one is held out, unless "
-                   "--targets are given; then all of them are sources)")
+                   help="protocols A and B (and R with --targets): the teams (A: the last one "
+                   "is held out, unless --targets are given; then all of them are sources)")
     p.add_argument("--targets", nargs="+", metavar="TEAM",
                    help="protocol A: held-out teams, each learnt from the state after the "
                    "sources (learnt once per seed); results per target and pooled")
@@ -145,8 +146,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         results = run_experiment(cfg, args.out, progress=not args.quiet,
                                  ray_address=args.ray_address,
                                  on_done=None if args.quiet else _say_resumed)
-    except (FolderInUseError, StorageError, JobError, ValueError, OSError) as exc:
-        # another run's folder, a bad file, a failed job, a full disk (naming the file)
+    except (FolderInUseError, StorageError, JobError, ValueError, OSError,
+            drill_exception(TEAM_ERROR)) as exc:
+        # another run's folder, a bad file, a failed job, a full disk (naming the file), a
+        # team that fails to load
         p.exit(1, f"{p.prog}: error: {exc}\n")
     if not args.no_report:
         from ilpss.experiments.report import write_report
@@ -155,6 +158,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             path = write_report(cfg, results, args.out)
         except OSError as exc:  # a full disk: the results stay, a rerun writes the report
             p.exit(1, f"{p.prog}: error: {unwritten_report(args.out, exc)}\n")
+        except drill_exception(TEAM_ERROR) as exc:  # playing the report's GIF; results stay
+            p.exit(1, f"{p.prog}: error: {exc}\n")
         print(f"report: {path}")
     return 0
 

@@ -8,14 +8,14 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Literal
 
-from ilpss._check import Integer, ListOf, Name, NoneOr, Text, check_fields, from_json
+from ilpss._check import Integer, ListOf, Name, NoneOr, Text, check, check_fields, from_json
 from ilpss.baselines import PrqConfig
 from ilpss.experiments import drill
 from ilpss.experiments.executor import EXECUTOR
 from ilpss.experiments.methods import METHODS, LifelongMethod
 from ilpss.experiments.protocols import PROTOCOLS, Stream, Task
 from ilpss.experiments.registry import SAMPLERS, check_env_id
-from ilpss.lifelong import LearnerConfig, LifelongConfig
+from ilpss.lifelong import LIFELONG_CONSTRAINTS, LearnerConfig, LifelongConfig
 from ilpss.reuse import EmKernels
 
 __all__ = [
@@ -75,7 +75,8 @@ class ExperimentConfig:
     """A registered protocol (:data:`~ilpss.experiments.protocols.PROTOCOLS`). A: teams
     1-3 then the held-out team 4. B: every team held out in turn, in the given order and
     in ``n_shuffles`` shuffled orders. C: a long stream of teams from the parametric
-    family."""
+    family. A field of :data:`~ilpss.experiments.protocols.PROTOCOL_FIELDS` that the
+    protocol does not read must keep its default."""
     n_seeds: int = 30
     """Independent repetitions (paired across methods)."""
     first_seed: int = 0
@@ -154,6 +155,10 @@ class ExperimentConfig:
                     f"ExperimentConfig.{name} must be a {kind.__name__} (from_dict takes a "
                     f"dict), got {type(getattr(self, name)).__name__}"
                 )
+        # LifelongConfig allows 0 (trials without learning), but an experiment reports
+        # learning curves: without an episode it would run every job, then fail.
+        check("ExperimentConfig.lifelong.train_episodes", self.lifelong.train_episodes,
+              Integer(1, LIFELONG_CONSTRAINTS["train_episodes"].high))
         for role in ("baseline", "featured"):
             name = getattr(self, role)
             if name is not None and name not in self.methods:

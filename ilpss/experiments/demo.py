@@ -27,6 +27,7 @@ import gymnasium as gym
 from ilpss._io import FolderInUseError, atomic_write_bytes
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.drill import TEAM_ERROR, drill_exception
 from ilpss.experiments.executor import stop_on_sigterm
 from ilpss.experiments.figures import (
     greedy_agent,
@@ -87,7 +88,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     start = time.perf_counter()
     try:
         results = run_experiment(cfg, args.out)
-    except (FolderInUseError, StorageError, JobError, ValueError, OSError) as exc:
+    except (FolderInUseError, StorageError, JobError, ValueError, OSError,
+            drill_exception(TEAM_ERROR)) as exc:  # TeamError: a team fails to load
         parser.exit(1, f"{parser.prog}: error: {exc}\n")
     out = Path(args.out)
     try:

@@ -25,15 +25,22 @@ fact                        used by
 :data:`REGION_SPLITS`
 :data:`HOLDER_RULES`        ``ilpss-holder-learning``'s fixed rules to beat
 :data:`GIF_WRITER`          the GIF of the agent (one GIF writer for the project)
+:data:`TEAM_ERROR`          the commands' one-line error for a team that fails
+:data:`TEAM_CODE`           what identifies a team's code: the key of
+                            ``ilpss-holder-learning``'s kept jobs, a run folder's
+                            ``team_code.json``
 ==========================  =========================================================
 
-The last two are drill code that ``ilpss`` uses by name (:func:`drill_object`), imported
-only when used, so that ``ilpss`` itself never depends on the drill's modules.
+:data:`HOLDER_RULES`, :data:`GIF_WRITER` and :data:`TEAM_CODE` are drill code that
+``ilpss`` uses by name (:func:`drill_object`), imported only when used, and
+:data:`TEAM_ERROR` is caught by name
+(:func:`drill_exception`), so that ``ilpss`` itself never depends on the drill's modules.
 """
 
 from __future__ import annotations
 
 import importlib
+import sys
 from typing import Any
 
 ENV_PACKAGE = "soccer_drill"
@@ -73,6 +80,30 @@ HOLDER_RULES = "soccer_drill.policies:HOLDER_POLICIES"
 """Where the drill's fixed holder rules are: a mapping of name to ``rule(obs, rng)``."""
 GIF_WRITER = "soccer_drill.gif:save_gif"
 """The drill's GIF writer: ``save_gif(frames, path, fps)``, atomic."""
+
+
+TEAM_CODE = "soccer_drill.teams:team_code"
+"""The drill's record of a team's code, ``team_code(team_id) -> dict`` (its factory, the
+distribution that declares it, the digest of its package's source): results kept between
+runs are tied to it, so that a team whose code changed is not taken for the old one."""
+
+
+TEAM_ERROR = "soccer_drill.teams:TeamError"
+"""The drill's error for a team that fails to load, or whose commands break the rules (a
+``RuntimeError``)."""
+
+
+class _NeverRaised(Exception):
+    """Stands for a drill exception while the drill is not imported."""
+
+
+def drill_exception(spec: str) -> type[BaseException]:
+    """The exception class named ``spec`` (``"module:attribute"``, e.g. :data:`TEAM_ERROR`)
+    if its module is imported, else a class nothing raises; for an ``except`` clause, which
+    looks it up only once an exception reaches it. The drill is never imported here: until
+    it is, none of its exceptions can have been raised."""
+    module, _, attribute = spec.partition(":")
+    return getattr(sys.modules.get(module), attribute, _NeverRaised)
 
 
 def drill_object(spec: str) -> Any:

@@ -67,6 +67,11 @@ class RunFolder:
         return self._inside(self.root / "config.json")
 
     @property
+    def team_code(self) -> Path:
+        """``team_code.json``: the code of the teams the run plays, checked on resume."""
+        return self._inside(self.root / "team_code.json")
+
+    @property
     def report(self) -> Path:
         """``report.md``."""
         return self._inside(self.root / "report.md")

@@ -21,8 +21,9 @@ picked on those same episodes, which can only favour the rule. The fixed rules a
 looked up by name (``--rules module:attribute``, by default the drill's, see
 :data:`ilpss.experiments.drill.HOLDER_RULES`), so this module imports no drill code.
 
-Each learning job (a team and a seed) and each rule's evaluation is kept in ``--keep``
-(default ``results/holder_learning``) as soon as it ends
+The page goes to ``--out`` (default ``results/holder_learning.md``; the documented run
+above writes ``docs/learning.md``). Each learning job (a team and a seed) and each rule's
+evaluation is kept in ``--keep`` (default ``results/holder_learning``) as soon as it ends
 (:mod:`ilpss.experiments.kept_jobs`): if a job fails, or the command is stopped, the
 same command loads the finished ones and computes only what is left; other settings
 never take them.
@@ -31,6 +32,8 @@ never take them.
 from __future__ import annotations
 
 import argparse
+import functools
+import shlex
 import sys
 import time
 from collections.abc import Sequence
@@ -40,21 +43,47 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from ilpss._check import Integer, ListOf, Text, check_fields
 from ilpss._io import (
     FolderInUseError,
     atomic_write_bytes,
     locked_folder,
     remove_stale_temporaries,
 )
-from ilpss.experiments.drill import ENV_ID, HOLDER_RULES, PAPER_TEAMS, TILE_WIDTHS, drill_object
+from ilpss.experiments.config import EXPERIMENT_CONSTRAINTS
+from ilpss.experiments.drill import (
+    ENV_ID,
+    HOLDER_RULES,
+    PAPER_TEAMS,
+    TEAM_CODE,
+    TEAM_ERROR,
+    TILE_WIDTHS,
+    drill_exception,
+    drill_object,
+)
 from ilpss.experiments.executor import LocalExecutor
 from ilpss.experiments.kept_jobs import KeptJobs, KeptJobsFailed, run_kept
 from ilpss.experiments.outputs import check_out_dir, check_out_file
-from ilpss.lifelong import LearnerConfig
+from ilpss.lifelong import LIFELONG_CONSTRAINTS, LearnerConfig
 from ilpss.metrics import holm, improvement_test, t_interval, t_test_pvalue, wilson_interval
 from ilpss.smdp import SmdpLearner
 
 EVAL_SEED = 10_000  # evaluation episodes use seeds EVAL_SEED + i, never seen in learning
+
+FLAG_CONSTRAINTS = {
+    # A repeated team would count each of its seeds twice (intervals too narrow).
+    "teams": ListOf(Text(), min_len=1, unique=True),
+    # The bounds of the fields these flags play the part of: learning episodes per task,
+    # greedy evaluation episodes, seeds (at least 2: the interval is over them), workers.
+    "episodes": Integer(1, LIFELONG_CONSTRAINTS["train_episodes"].high),
+    "eval": Integer(1, LIFELONG_CONSTRAINTS["rollout_episodes"].high),
+    "seeds": Integer(2, EXPERIMENT_CONSTRAINTS["n_seeds"].high),
+    "workers": EXPERIMENT_CONSTRAINTS["workers"],
+}
+"""What the flags of ``ilpss-holder-learning`` allow, by flag name."""
+LEARNING_FLAGS = ("episodes", "eval", "seeds", "method", "trace_decay", "initial_value", "alpha")
+"""The flags the page's command always shows (they define what is learnt and evaluated);
+every other flag is shown when it differs from its default."""
 
 
 def _rules(spec: str) -> dict[str, Any]:
@@ -88,17 +117,26 @@ def learn_and_evaluate(job: tuple[str, int, int, int, LearnerConfig]) -> dict[st
     return {"team": team, "seed": seed, "curve": curve, "eval": rewards.tolist()}
 
 
+@functools.cache
+def _team_code(team: str) -> tuple[tuple[str, str], ...]:
+    """The team's code (:data:`~ilpss.experiments.drill.TEAM_CODE`), once per process."""
+    return tuple(sorted(drill_object(TEAM_CODE)(team).items()))
+
+
 def learning_key(job: tuple[str, int, int, int, LearnerConfig]) -> dict[str, Any]:
-    """What a learning job's result depends on (its kept file's key)."""
+    """What a learning job's result depends on (its kept file's key): the team's code
+    too, so that a team changed since is played again."""
     team, seed, episodes, n_eval, lc = job
-    return {"team": team, "seed": seed, "episodes": episodes, "eval": n_eval,
-            "eval_seed": EVAL_SEED, "learner": asdict(lc)}
+    return {"team": team, "team_code": dict(_team_code(team)), "seed": seed,
+            "episodes": episodes, "eval": n_eval, "eval_seed": EVAL_SEED, "learner": asdict(lc)}
 
 
 def rule_key(job: tuple[str, str, str, int]) -> dict[str, Any]:
-    """What a fixed rule's evaluation depends on (its kept file's key)."""
+    """What a fixed rule's evaluation depends on (its kept file's key), the team's code
+    included."""
     team, spec, name, n_eval = job
-    return {"team": team, "rules": spec, "rule": name, "eval": n_eval, "eval_seed": EVAL_SEED}
+    return {"team": team, "team_code": dict(_team_code(team)), "rules": spec, "rule": name,
+            "eval": n_eval, "eval_seed": EVAL_SEED}
 
 
 def rule_rewards(job: tuple[str, str, str, int]) -> dict[str, Any]:
@@ -141,10 +179,31 @@ def compare_to_rule(learnt: np.ndarray, rule: np.ndarray) -> dict[str, Any]:
     }
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the comparison and write its markdown page."""
+def command(p: argparse.ArgumentParser, args: argparse.Namespace) -> str:
+    """The command line that reruns ``args``: :data:`LEARNING_FLAGS` always, every other
+    flag that differs from its default."""
+    argv = [p.prog]
+    for dest, value in vars(args).items():  # in the parser's order of flags
+        if dest not in LEARNING_FLAGS and value == p.get_default(dest):
+            continue
+        values = value if isinstance(value, list) else [value]
+        argv += [f"--{dest.replace('_', '-')}", *(_shown(v) for v in values)]
+    return shlex.join(argv)
+
+
+def _shown(value: object) -> str:
+    """A flag's value as typed: floats short (``0.125``, ``1``) unless that loses digits."""
+    if isinstance(value, float):
+        short = f"{value:g}"
+        return short if float(short) == value else repr(value)
+    return str(value)
+
+
+def parser() -> argparse.ArgumentParser:
+    """The command-line parser of ``ilpss-holder-learning``."""
     p = argparse.ArgumentParser(prog="ilpss-holder-learning", description=__doc__.splitlines()[0])
-    p.add_argument("--teams", nargs="+", default=list(PAPER_TEAMS))
+    p.add_argument("--teams", nargs="+", default=list(PAPER_TEAMS),
+                   help="distinct opponent teams (default: the paper's four)")
     p.add_argument("--episodes", type=int, default=1000)
     p.add_argument("--eval", type=int, default=500)
     p.add_argument("--seeds", type=int, default=10, help="learning seeds per team (>= 2)")
@@ -155,17 +214,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("--trace-decay", type=float, default=defaults.trace_decay, help="lambda")
     p.add_argument("--initial-value", type=float, default=defaults.initial_value)
     p.add_argument("--alpha", type=float, default=defaults.alpha)
-    p.add_argument("--out", default="docs/learning.md")
+    p.add_argument("--out", default="results/holder_learning.md",
+                   help="the markdown page to write (default: %(default)s)")
     p.add_argument("--keep", default="results/holder_learning", metavar="DIR",
                    help="folder where each finished job is kept as it ends; the same command "
                         "loads them and computes only what is left (default: %(default)s)")
+    return p
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the comparison and write its markdown page."""
+    p = parser()
     args = p.parse_args(argv)
-    if args.seeds < 2:
-        p.error(f"--seeds must be >= 2 (the interval is over learning seeds), got {args.seeds}")
-    for flag in ("episodes", "eval", "workers"):
-        if getattr(args, flag) < 1:
-            p.error(f"--{flag} must be at least 1, got {getattr(args, flag)}")
     try:  # before hours of learning, not after
+        check_fields("", args, {f"--{name}": c for name, c in FLAG_CONSTRAINTS.items()},
+                     get=lambda a, flag: getattr(a, flag[2:]))
         out = check_out_file(args.out)
         lc = LearnerConfig(alpha=args.alpha, method=args.method,
                            initial_value=args.initial_value, trace_decay=args.trace_decay,
@@ -174,7 +237,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             gym.make(ENV_ID, opponent=team, disable_env_checker=True).close()
         names = sorted(_rules(args.rules))
         keep = check_out_dir(args.keep, "--keep", run_folder=False)
-    except ValueError as exc:
+    except (ValueError, drill_exception(TEAM_ERROR)) as exc:  # TeamError: a broken plugin
         p.error(str(exc))
     except (ImportError, AttributeError) as exc:
         p.error(f"--rules {args.rules}: {exc}")
@@ -209,10 +272,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     lines = [
         "# SMDP learning against the best fixed holder rule",
         "",
-        f"Command: `ilpss-holder-learning --episodes {args.episodes} --eval {args.eval} "
-        f"--seeds {args.seeds} --method {lc.method} --trace-decay {lc.trace_decay:g} "
-        f"--initial-value {lc.initial_value:g} --alpha {lc.alpha:g}` "
-        f"({took}). Learning: SMDP "
+        f"Command: `{command(p, args)}` ({took}). Learning: SMDP "
         f"{'Q' if lc.method == 'q' else 'Sarsa'}({lc.trace_decay:g}) with replacing traces, "
         f"keepaway's tile coding, step size {lc.alpha:g}, epsilon {lc.epsilon:g}, initial "
         f"values {lc.initial_value:g}, no options, {args.episodes} episodes per seed, "

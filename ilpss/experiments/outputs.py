@@ -18,11 +18,14 @@ __all__ = ["check_out_dir", "check_out_file", "unwritten_report"]
 _JOB_FOLDER = re.compile(r"seed_\d{3,}")
 
 
+_RUN_FILES = frozenset({"config.json", "team_code.json"})
+
+
 def _is_run_file(name: str) -> bool:
     """Whether a run wrote ``name``: its configuration, a job's folder, or the temporary
     of an atomic write (what a run killed while writing ``config.json`` leaves, and what
     a second run started on the same folder sees while the first one writes it)."""
-    return name == "config.json" or bool(_JOB_FOLDER.fullmatch(name) or TEMPORARY.fullmatch(name))
+    return name in _RUN_FILES or bool(_JOB_FOLDER.fullmatch(name) or TEMPORARY.fullmatch(name))
 
 
 def _refuse_file_system_root(path: Path, flag: str) -> None:

@@ -13,6 +13,8 @@ protocol's name), not the protocol's.
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -27,10 +29,12 @@ if TYPE_CHECKING:
 
 __all__ = [
     "PROTOCOLS",
+    "PROTOCOL_FIELDS",
     "Protocol",
     "Stream",
     "Task",
     "make_env",
+    "refuse_unused",
     "register_protocol",
     "team_task",
 ]
@@ -71,6 +75,26 @@ def team_task(team: str) -> Task:
 def make_env(env_id: str, task: Task) -> gym.Env:
     """The task's environment (Gymnasium's env checker off: it only slows learning)."""
     return gym.make(env_id, disable_env_checker=True, **task.env_kwargs)
+
+
+PROTOCOL_FIELDS = ("teams", "targets", "n_shuffles", "stream_length", "sampler", "sampler_team")
+"""The fields of ``ExperimentConfig`` that say what a protocol's streams are. Each built-in
+protocol reads some of them and refuses a value other than the default in the others:
+such a value would be recorded in ``config.json`` and in the report's command, yet
+change nothing."""
+
+
+def refuse_unused(cfg: ExperimentConfig, reads: Iterable[str], why: str) -> None:
+    """Refuse a field of :data:`PROTOCOL_FIELDS` outside ``reads`` that differs from its
+    default (``ValueError`` naming it, ``why`` it is unused and its default)."""
+    defaults = {f.name: f.default for f in dataclasses.fields(cfg)}
+    for name in PROTOCOL_FIELDS:
+        value = getattr(cfg, name)
+        if name not in reads and value != defaults[name]:
+            raise ValueError(
+                f"ExperimentConfig.{name}: protocol {cfg.protocol} does not use it ({why}), "
+                f"got {value!r}; leave it at its default {defaults[name]!r}"
+            )
 
 
 class Protocol:
@@ -133,6 +157,7 @@ class HeldOutTeam(Protocol):
     takes_targets = True
 
     def check(self, cfg: ExperimentConfig) -> None:
+        refuse_unused(cfg, ("teams", "targets"), "it reads teams and targets")
         if not cfg.targets:
             _check_teams(cfg, distinct=False)
             return
@@ -185,6 +210,9 @@ class RegionStream(HeldOutTeam):
     def check(self, cfg: ExperimentConfig) -> None:
         if cfg.targets:
             super().check(cfg)
+        else:  # its own sources and targets, unless targets replace both
+            refuse_unused(cfg, (), "without targets it plays its own sources and targets; "
+                          "teams are read only with targets")
 
     def sources_and_targets(self, cfg: ExperimentConfig) -> tuple[tuple[str, ...],
                                                                   tuple[str, ...]]:
@@ -208,6 +236,7 @@ class EveryTeamHeldOut(Protocol):
     title = "every team held out in turn"
 
     def check(self, cfg: ExperimentConfig) -> None:
+        refuse_unused(cfg, ("teams", "n_shuffles"), "it reads teams and n_shuffles")
         _check_teams(cfg, distinct=True)
 
     def streams(self, cfg: ExperimentConfig, seed: int) -> list[Stream]:
@@ -235,6 +264,9 @@ class ParametricStream(Protocol):
     title = "a long stream of parametric opponents"
 
     def check(self, cfg: ExperimentConfig) -> None:
+        refuse_unused(cfg, ("stream_length", "sampler", "sampler_team"),
+                      "its opponents are drawn by the sampler; it reads stream_length, "
+                      "sampler and sampler_team")
         SAMPLERS.check("ExperimentConfig.sampler", cfg.sampler)
 
     def streams(self, cfg: ExperimentConfig, seed: int) -> list[Stream]:

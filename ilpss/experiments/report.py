@@ -246,9 +246,21 @@ def verdict_lines(estimates: dict[str, dict[str, metrics.MetricEstimate]],
     return lines
 
 
-def metrics_note(n_episodes: int | None = None) -> str:
+def doc_reference(name: str, folder: str | os.PathLike[str] | None = None) -> str:
+    """A reference to the repository's page ``docs/<name>`` from a file written into
+    ``folder``: a link if the page is there beside it (the repository's ``docs/``), else
+    the page's place in the repository as plain text, which a run folder copied anywhere
+    keeps right."""
+    if folder is not None and (Path(folder) / name).is_file():
+        return f"[`{name}`]({name})"
+    return f"`docs/{name}` in the repository"
+
+
+def metrics_note(n_episodes: int | None = None,
+                 folder: str | os.PathLike[str] | None = None) -> str:
     """The paragraph defining the metrics and intervals of every report; with
-    ``n_episodes`` (the curves' length), its windows as :func:`windows` shortens them."""
+    ``n_episodes`` (the curves' length), its windows as :func:`windows` shortens them;
+    ``folder`` is where the paragraph is written (see :func:`doc_reference`)."""
     first, last, smoothing = (windows(n_episodes) if n_episodes is not None else
                               (JUMPSTART_EPISODES, FINAL_EPISODES, SMOOTHING))
     return (
@@ -264,7 +276,7 @@ def metrics_note(n_episodes: int | None = None) -> str:
         "the share of seeds that reach it. Intervals: 95%, over seeds (the seed is the unit; "
         "differences are paired by seed): Student t for means and differences, Fieller for "
         "ratios of means, Wilson for shares, order statistics for medians; why these "
-        "intervals, and their simulated coverage, is in [`statistics.md`](statistics.md)."
+        f"intervals, and their simulated coverage, is in {doc_reference('statistics.md', folder)}."
     )
 
 
@@ -506,7 +518,7 @@ def write_report(
         "",
         f"Command: `{command}`; configuration: [`config.json`](config.json).",
         "",
-        metrics_note(cfg.lifelong.train_episodes),
+        metrics_note(cfg.lifelong.train_episodes, out),
         "",
     ]
     if cfg.baseline is None:

@@ -22,6 +22,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
+
 from ilpss._check import ListOf, Real, check_fields, check_keys
 from ilpss._io import (
     atomic_write_bytes,
@@ -41,6 +43,7 @@ from ilpss.experiments.checkpoints import (
     stream_records,
 )
 from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.drill import ENV_ID, TEAM_CODE, drill_object
 from ilpss.experiments.executor import JobsFailed, check_ray_address, make_executor
 from ilpss.experiments.folder import RunFolder, checkpoint_key
 from ilpss.experiments.methods import METHODS, Job, LifelongMethod, lifelong_entry
@@ -53,6 +56,7 @@ __all__ = [
     "JobError",
     "JobSpec",
     "check_entry",
+    "check_tasks",
     "load_result",
     "read_config",
     "run_experiment",
@@ -239,13 +243,7 @@ def run_experiment(
     out = check_out_dir(out_dir)
     if cfg.executor == "ray":  # a wrong address fails now, not after config.json
         check_ray_address(ray_address)
-    # Build every distinct task's environment once, so that a mistyped team fails now
-    # rather than after hours of earlier trials.
-    tasks = {repr(t): t for seed in cfg.seeds for s in cfg.streams(seed) for t in s.tasks}
-    for task in tasks.values():
-        env = make_env(cfg.env_id, task)
-        cfg.lifelong.learner.tile_coder(env.observation_space)  # widths that fit, at most
-        env.close()  # MAX_WEIGHTS tiles: refused before config.json is written
+    check_tasks(cfg)
     folder = RunFolder(out)
     jobs = [(seed, index, stream) for seed in cfg.seeds
             for index, stream in enumerate(cfg.streams(seed))]
@@ -254,6 +252,7 @@ def run_experiment(
     with locked_folder(out, "run folder"), _storage(cfg, out) as (store, location):
         remove_stale_temporaries(out)
         _write_or_check_config(cfg, folder)
+        _write_or_check_team_code(team_codes(cfg), folder)
         results: dict[int, dict[str, Any]] = {}
         for i, (seed, index, stream) in enumerate(jobs):
             if folder.job(seed, index).is_dir():  # stale: this run holds the lock
@@ -284,6 +283,31 @@ def run_experiment(
                 raise JobError(exc, [specs[k] for k in exc.failures], len(jobs),
                                len(results)) from exc
     return [results[i] for i in range(len(jobs))]
+
+
+def check_tasks(cfg: ExperimentConfig) -> None:
+    """Make every distinct task's environment of ``cfg`` once, so that a mistyped team or
+    an environment that does not fit fails now rather than after hours of earlier trials
+    (``ValueError`` naming the environment, the task and what failed)."""
+    tasks = {repr(t): t for seed in cfg.seeds for s in cfg.streams(seed) for t in s.tasks}
+    for task in tasks.values():
+        made = f"ExperimentConfig.env_id {cfg.env_id!r}: the environment of task {task.name!r}"
+        try:
+            env = make_env(cfg.env_id, task)
+        except (TypeError, gym.error.Error) as exc:  # e.g. it takes no ``opponent``
+            raise ValueError(
+                f"{made} cannot be made with the protocol's arguments {task.env_kwargs} "
+                f"({type(exc).__name__}: {exc}); the experiments need an environment that "
+                "takes them, as the drill's does"
+            ) from exc
+        try:
+            if not isinstance(env.action_space, gym.spaces.Discrete):
+                raise ValueError(f"{made} has the action space {env.action_space!r}; the "
+                                 "learners need a Discrete one")
+            # Widths that fit, at most MAX_WEIGHTS tiles: refused before config.json.
+            cfg.lifelong.learner.tile_coder(env.observation_space)
+        finally:
+            env.close()
 
 
 class JobError(RuntimeError):
@@ -335,6 +359,41 @@ def read_config(path: Path) -> ExperimentConfig:
         return ExperimentConfig.from_dict(values)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from exc
+
+
+TEAM_CODE_SCHEMA = "ilpss.team_code/1"
+
+
+def team_codes(cfg: ExperimentConfig) -> dict[str, dict[str, str]]:
+    """The code of every drill team ``cfg``'s tasks play
+    (:data:`~ilpss.experiments.drill.TEAM_CODE`), by team id; none for another environment."""
+    if cfg.env_id.rpartition(":")[2] != ENV_ID.rpartition(":")[2]:  # with or without its package
+        return {}
+    code_of = drill_object(TEAM_CODE)
+    teams = {t.env_kwargs.get("opponent") for seed in cfg.seeds for s in cfg.streams(seed)
+             for t in s.tasks}
+    return {team: code_of(team) for team in sorted(t for t in teams if isinstance(t, str))}
+
+
+def _write_or_check_team_code(codes: dict[str, dict[str, str]], folder: RunFolder) -> None:
+    """Record the teams' code (``team_code.json``), or refuse to go on with a team whose
+    code changed since the run started: its finished jobs played the old code. A folder
+    of a run started before this record gets it now."""
+    path = folder.team_code
+    if not path.exists():
+        atomic_write_bytes(path, json_record_bytes({"schema": TEAM_CODE_SCHEMA, "teams": codes}))
+        return
+    saved = load_json_record(path, TEAM_CODE_SCHEMA).get("teams")
+    if not isinstance(saved, dict):
+        raise ValueError(f"{path}: 'teams' must be an object of team id to its code")
+    changed = [f"{team} ({'; '.join(json_differences(saved[team], code))})"
+               for team, code in codes.items() if team in saved and saved[team] != code]
+    if changed:
+        raise ValueError(
+            f"{folder.root}: the code of {', '.join(changed)} changed since this run started; "
+            "its finished jobs played the old code, so the run cannot go on with the new one: "
+            "choose another output folder, or put the old code back"
+        )
 
 
 def _write_or_check_config(cfg: ExperimentConfig, folder: RunFolder) -> None:
