@@ -39,18 +39,22 @@ class SlowAt(Plain):
         return super().act(view)
 
 
-class BadInThirdCopy(Plain):
-    """The copy reset third (drill 2) gives a NaN target."""
+class ThirdCopy(Plain):
+    """``third`` is true in the copy reset third (drill 2): a subclass misbehaves there."""
 
     resets = 0
 
     def reset(self, view, rng):
         super().reset(view, rng)
         type(self).resets += 1
-        self.bad = type(self).resets == 3
+        self.third = type(self).resets == 3
+
+
+class BadInThirdCopy(ThirdCopy):
+    """The copy of drill 2 gives a NaN target."""
 
     def act(self, view):
-        if self.bad:
+        if self.third:
             return {p: Command(Skill.MOVE_TO, (float("nan"), 1.0)) for p in self.players}
         return super().act(view)
 
@@ -215,19 +219,12 @@ def test_after_a_team_error_send_and_recv_ask_for_a_reset_too():
             again()
 
 
-class SlowInThirdCopy(Plain):
-    """The copy reset third (drill 2) computes for 0.1 s of CPU time in each act."""
-
-    resets = 0
-
-    def reset(self, view, rng):
-        super().reset(view, rng)
-        type(self).resets += 1
-        self.slow = type(self).resets == 3
+class SlowInThirdCopy(ThirdCopy):
+    """The copy of drill 2 computes for 0.1 s of CPU time in each act."""
 
     def act(self, view):
         start = time.thread_time()
-        while self.slow and time.thread_time() - start < 0.1:
+        while self.third and time.thread_time() - start < 0.1:
             pass
         return super().act(view)
 
