@@ -43,6 +43,20 @@ _DEFAULT_ATTACKER_ACTION = {True: 0, False: 3}  # holder: HOLD; off the ball: GE
 _DEFAULT_DEFENDER_ACTION = 0  # INTERCEPT
 
 
+def resolve_shared_spaces(shared_spaces: object, opponent: object) -> bool:
+    """The ``shared_spaces`` argument of the multi-agent environments: ``None`` is ``True``
+    with no opponent (identical spaces whenever the defenders are agents too), else a
+    bool (NumPy's too); anything else ``TypeError``."""
+    if shared_spaces is None:
+        return opponent is None
+    if isinstance(shared_spaces, bool | np.bool_):
+        return bool(shared_spaces)
+    raise TypeError(
+        "shared_spaces must be None (identical spaces when there is no opponent), "
+        f"True or False, got {shared_spaces!r}"
+    )
+
+
 def make_config(config: DrillConfig | Mapping[str, Any] | None, max_cycles: int | None) -> DrillConfig:
     """Resolve the ``config`` and ``max_cycles`` arguments into one :class:`DrillConfig`."""
     if config is None:

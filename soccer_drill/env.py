@@ -18,6 +18,7 @@ from soccer_drill.core import (
     concurrent_use,
     make_config,
     not_reset,
+    resolve_shared_spaces,
 )
 from soccer_drill.features import global_state, state_bounds
 from soccer_drill.screen import RENDER_MODES, Screen, frames_per_second
@@ -59,15 +60,7 @@ class _DrillEnvBase:
         self._screen = Screen(cfg, render_mode, self.metadata["render_fps"])
         if obs_format not in ("dict", "flat"):
             raise ValueError(f"obs_format must be 'dict' or 'flat', got {obs_format!r}")
-        if shared_spaces is None:  # identical spaces whenever the defenders are agents too
-            shared_spaces = opponent is None
-        elif isinstance(shared_spaces, np.bool_):  # NumPy's bools are bools too
-            shared_spaces = bool(shared_spaces)
-        elif not isinstance(shared_spaces, bool):
-            raise TypeError(
-                "shared_spaces must be None (identical spaces when there is no opponent), "
-                f"True or False, got {shared_spaces!r}"
-            )
+        shared_spaces = resolve_shared_spaces(shared_spaces, opponent)
         core = self._core = DrillCore(
             opponent, opponent_params, cfg, obs_type, illegal_action, team_timeout=team_timeout,
             shared_spaces=shared_spaces,

@@ -14,7 +14,7 @@ from soccer_drill.batch_features import batch_global_state, batch_kinematics, pl
 from soccer_drill.batch_physics import DRILLS_PER_SPACE
 from soccer_drill.batch_render import BatchRenderer, check_render_mode
 from soccer_drill.config import DrillConfig
-from soccer_drill.core import IllegalAction, ObsType, make_config
+from soccer_drill.core import IllegalAction, ObsType, make_config, resolve_shared_spaces
 from soccer_drill.features import feature_bounds, kinematic_bounds, state_bounds
 from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
@@ -144,13 +144,7 @@ class ParallelVectorEnv:
     ) -> None:
         n = check_num_envs(num_envs)
         drills_per_space = check_drills_per_space(drills_per_space)
-        if shared_spaces is None:  # identical spaces whenever the defenders are agents too
-            shared_spaces = opponent is None
-        elif not isinstance(shared_spaces, bool):
-            raise TypeError(
-                "shared_spaces must be None (identical spaces when there is no opponent), "
-                f"True or False, got {shared_spaces!r}"
-            )
+        shared_spaces = resolve_shared_spaces(shared_spaces, opponent)
         self.render_mode = check_render_mode(render_mode, type(self).__name__)
         if obs_type not in ("features", "kinematic"):
             raise ValueError(f"obs_type must be 'features' or 'kinematic', got {obs_type!r}")
@@ -188,24 +182,35 @@ class ParallelVectorEnv:
 
     def observation_space(self, agent: str) -> spaces.Box:
         """One drill's observation ``Box`` of ``agent``."""
+        self._check_agent(agent)
         return self._obs_box
 
     def action_space(self, agent: str) -> spaces.Discrete:
         """One drill's action space of ``agent``."""
+        self._check_agent(agent)
         return self._spaces[agent]
+
+    def _check_agent(self, agent: str) -> None:
+        if agent not in self._spaces:  # KeyError, as parallel_env's spaces
+            raise KeyError(f"unknown agent {agent!r}; the agents are {self.possible_agents}")
 
     # -------------------------------------------------------------- episodes
     def reset(
         self, seed: int | Sequence[int | None] | None = None, options: dict | None = None
     ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Start an episode in every drill (see Seeding)."""
+        if options:  # a reset of every drill: no option changes it (HolderVectorEnv has reset_mask)
+            raise ValueError(f"ParallelVectorEnv.reset takes no options, got {options!r}")
         core = self._core
         core.seed(check_seed(seed, self.num_envs))
         core.reset(np.arange(self.num_envs))
         self._autoreset[:] = False
         self._has_reset = True
-        none = np.full(self.num_envs, -1)
-        return self._observations(), self._infos({a: none for a in self.agents}, {a: none for a in self.agents})
+        def none() -> np.ndarray:  # an array of each agent's own
+            return np.full(self.num_envs, -1)
+
+        return self._observations(), self._infos({a: none() for a in self.agents},
+                                                 {a: none() for a in self.agents})
 
     def action_masks(self) -> dict[str, np.ndarray]:
         """``{agent: (num_envs, n) int8}``: the legal actions of each drill now."""
@@ -298,6 +303,8 @@ class ParallelVectorEnv:
                     if i < 2 else _DEFAULT_DEFENDER
                 )
                 done[masked] = a[masked]
+            if not stepping.all():  # a drill being reset ignores its action, whatever it is
+                a = np.where(stepping, a, 0)
             checked[agent], illegal[agent], taken[agent] = a, given, done
         for agent, i in self._index.items():
             table = _ATTACKER_SKILLS if i < 2 else _DEFENDER_SKILLS
@@ -321,7 +328,7 @@ class ParallelVectorEnv:
         truncated = ended & (b.outcome == 4)
         terminated = ended & ~truncated
         self._autoreset = ended
-        rewards = {a: (reward if i < 2 else -reward) for a, i in self._index.items()}
+        rewards = {a: (reward.copy() if i < 2 else -reward) for a, i in self._index.items()}
         return (
             self._observations(), rewards,
             {a: terminated.copy() for a in self.agents}, {a: truncated.copy() for a in self.agents},

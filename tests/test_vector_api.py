@@ -286,3 +286,27 @@ def test_with_a_space_per_drill_every_drill_is_the_single_parallel_env_across_au
             ended[i] = any(te.values()) or any(tr.values())
             episodes[i] += ended[i] and same[i]
     assert (episodes >= 3).all(), episodes
+
+
+def test_agents_that_ignore_the_masks_play_on_through_autoresets():
+    env = ParallelVectorEnv(num_envs=8)  # no opponent: shared spaces, Discrete(5) for everyone
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    resets = 0
+    for _ in range(200):  # random actions, masked ones included, also while drills reset
+        _, rewards, terms, truncs, _ = env.step({a: rng.integers(5, size=8) for a in env.agents})
+        resets += int(np.count_nonzero(terms["attacker_0"] | truncs["attacker_0"]))
+    assert resets > 0
+    assert rewards["attacker_0"] is not rewards["attacker_1"]  # each agent's own array
+
+
+def test_the_batched_agents_spaces_options_and_flags_as_parallel_env():
+    with pytest.raises(KeyError, match="unknown agent 'bogus'"):
+        ParallelVectorEnv(num_envs=2).observation_space("bogus")
+    with pytest.raises(ValueError, match=r"ParallelVectorEnv\.reset takes no options"):
+        ParallelVectorEnv(num_envs=2).reset(options={"reset_mask": np.ones(2, dtype=bool)})
+    env = ParallelVectorEnv(num_envs=2, shared_spaces=np.True_)
+    assert env.action_space("defender_0") == env.action_space("attacker_0")
+    _, infos = env.reset(seed=0)
+    illegal = infos["illegal_action"]
+    assert illegal["attacker_0"] is not illegal["attacker_1"]
