@@ -181,7 +181,13 @@ class PrqLearner(EpisodicLearner):
 
     Examples
     --------
-    >>> learner = PrqLearner(3, coder, [old_policy], gamma=0.9, seed=0)  # doctest: +SKIP
+    The settings go through the configurations (``env`` a Gymnasium environment with
+    ``Discrete`` actions, ``old_policy`` a past policy over the same tile coder):
+
+    >>> config = LearnerConfig(gamma=0.9)  # doctest: +SKIP
+    >>> coder = config.tile_coder(env.observation_space)  # doctest: +SKIP
+    >>> learner = PrqLearner(env.action_space.n, coder, [old_policy], config,
+    ...                      PrqConfig(upsilon=0.9), seed=0)  # doctest: +SKIP
     >>> curve = learner.train(env, 500, seed=1)  # doctest: +SKIP
     >>> learner.selection_probabilities()  # doctest: +SKIP
     """

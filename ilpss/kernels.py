@@ -243,8 +243,13 @@ class SharedKernelModel:
         Mean log-likelihood per state of the training bags under the fitted model, in
         original units (equals ``score(bags)``).
     log_likelihood_trace_ : list of float
-        Mean log-likelihood after 0, 1, ..., ``n_iter_`` M-steps (original units); EM
-        never decreases it. ``log_likelihood_trace_[-1] == lower_bound_``.
+        Mean log-likelihood after 0, 1, ..., ``n_iter_`` M-steps (original units).
+        ``log_likelihood_trace_[-1] == lower_bound_``. With ``reg_covar=0`` EM never
+        decreases it (up to rounding); with ``reg_covar > 0`` the M-step does not
+        maximise the likelihood (the regularised covariances are not its maximisers),
+        so it may decrease: slightly for a small ``reg_covar`` (steps down of about
+        1e-8 at the default), visibly for a large one (0.1, 1), as scikit-learn's
+        ``GaussianMixture``'s does.
     n_features_in_, n_instances_ : int
     n_states_per_instance_ : ndarray (n_instances,) of int
         Number of training states of each instance.
@@ -606,6 +611,12 @@ class SharedKernelModel:
     def responsibilities(self, X: ArrayLike, instance: int | None = None) -> Array:
         """Posterior probability of each kernel for states (rows sum to 1).
 
+        A state so far from every kernel that its squared Mahalanobis distances overflow
+        float64 (every density is 0) gets the posterior's limit as the state moves away
+        along its direction: all on the kernel whose Mahalanobis distance grows the
+        slowest that way (shared equally by exact ties), among the kernels of positive
+        weight.
+
         Parameters
         ----------
         X : array_like (n, d) or (d,)
@@ -621,9 +632,34 @@ class SharedKernelModel:
         log_prob = num.estimate_log_gaussian_prob(
             Z, self.std_means_, self.std_precisions_cholesky_, self._stacked
         )
-        log_prob += self._log_weights(instance)
+        log_weights = self._log_weights(instance)
+        log_prob += log_weights
+        lost = ~(log_prob > -np.inf).any(axis=1)
         num.logsumexp_rows(log_prob)  # log_prob now holds the posteriors
+        if lost.any():
+            states, _ = _as_states(X, self.n_features_in_)
+            log_prob[lost] = self._far_posteriors(states[lost], log_weights)
         return log_prob[0] if single else log_prob
+
+    def _far_posteriors(self, states: Array, log_weights: Array) -> Array:
+        """Posteriors of states whose densities all underflow (see :meth:`responsibilities`).
+
+        As a state ``t u`` moves away, ``log p_k ~ -t^2 D_k(u)^2 / 2``: the kernel of the
+        smallest Mahalanobis distance of the direction wins. Distances are taken of the
+        states scaled by their largest magnitude, which keeps them finite.
+        """
+        size = np.maximum(np.abs(states).max(axis=1), np.abs(self.feature_mean_).max())
+        size = np.where(size > 0, size, 1.0)[:, None]
+        with np.errstate(over="ignore", invalid="ignore"):
+            Z = (states / size - self.feature_mean_ / size) / self.feature_scale_
+            d2 = np.vstack([
+                num.sq_mahalanobis(Z[i:i + 1], self.std_means_ / size[i],
+                                   self.std_precisions_cholesky_)
+                for i in range(Z.shape[0])
+            ])
+        d2 = np.where(log_weights > -np.inf, d2, np.nan)  # a kernel of weight 0 never wins
+        nearest = d2 == np.nanmin(d2, axis=1, keepdims=True)
+        return nearest / nearest.sum(axis=1, keepdims=True)
 
     def score_samples(self, X: ArrayLike, instance: int | None = None) -> Array | float:
         """Log density of states under the mixture, in original feature units.
@@ -887,7 +923,9 @@ def select_n_components(
     bags : list of array_like
         Bags of states, as for :meth:`SharedKernelModel.fit`.
     candidates : iterable of int, default 1..8
-        Numbers of components to try.
+        Numbers of components to try. Those above the number of states cannot be fitted
+        and are skipped (so a small bag is fitted with the counts it allows); at least
+        one must remain.
     **kwargs
         Other arguments of :class:`SharedKernelModel` (``random_state``, ``n_init``, ...).
 
@@ -896,16 +934,33 @@ def select_n_components(
     best_k : int
         The candidate with the lowest BIC (the smallest such on ties).
     bics : dict of int to float
-        BIC of each candidate.
+        BIC of each candidate fitted.
+
+    Raises
+    ------
+    ValueError
+        A candidate that is not a valid ``n_components``, no candidates, or none that
+        the states allow.
     """
     if "n_components" in kwargs:
         raise ValueError("give the numbers of components as candidates, not n_components")
-    arrays = validate_bags(bags)
-    bics: dict[int, float] = {}
-    for k in sorted(set(candidates)):
-        bics[k] = SharedKernelModel(n_components=k, **kwargs).fit(arrays).bic(arrays)
-    if not bics:
+    candidates = list(candidates)
+    for k in candidates:
+        check("select_n_components candidate", k, KERNEL_CONSTRAINTS["n_components"])
+    if not candidates:
         raise ValueError("candidates is empty")
+    arrays = validate_bags(bags)
+    n_states = sum(a.shape[0] for a in arrays)
+    possible = sorted({int(k) for k in candidates if k <= n_states})
+    if not possible:
+        raise ValueError(
+            f"no candidate can be fitted to {n_states} states: the numbers of components "
+            f"must be at most the number of states (1 to {n_states}), got "
+            f"{sorted(set(candidates))}"
+        )
+    bics: dict[int, float] = {}
+    for k in possible:
+        bics[k] = SharedKernelModel(n_components=k, **kwargs).fit(arrays).bic(arrays)
     best_k = min(bics, key=lambda k: (bics[k], k))
     return best_k, bics
 

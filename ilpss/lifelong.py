@@ -282,6 +282,8 @@ class LifelongLearner:
         check("LifelongLearner n_primitive (the number of primitive actions)", n_primitive,
               STATE_CONSTRAINTS["n_primitive"])
         self.n_primitive = int(n_primitive)
+        # Checked here, not by NumPy in the first trial: a float would be truncated.
+        check("LifelongLearner seed", seed, STATE_CONSTRAINTS["seed"])
         self.seed = int(seed)
         if provenance is not None and not isinstance(provenance, dict):
             raise ValueError(f"provenance must be a dict or None, got {provenance!r}")
@@ -314,7 +316,8 @@ class LifelongLearner:
         with_options: bool = True,
         callback: Callable[[int, EpisodeResult], None] | None = None,
     ) -> tuple[SmdpLearner, list[EpisodeResult]]:
-        """Learn on ``env`` for ``train_episodes``, without changing the lifelong state.
+        """Learn on ``env`` for ``train_episodes``, without changing the lifelong state (its
+        episodes do add to the option library's usage counts, as every use of an option does).
 
         ``trial`` (default: the next trial index) chooses the seeds, so learning with
         and without options on the same trial sees the same environment seeds. The
@@ -338,14 +341,44 @@ class LifelongLearner:
         name: str,
         callback: Callable[[int, EpisodeResult], None] | None = None,
     ) -> TrialRecord:
-        """One full trial: learn, roll out, extract (Algorithm 1, one iteration)."""
-        learner, results = self.learn(env, callback=callback)
-        return self.extract(env, name, learner, results)
+        """One full trial: learn, roll out, extract (Algorithm 1, one iteration).
+
+        ``name`` must be a non-empty string (what a checkpoint's record holds); it is
+        checked before any episode.
+        """
+        _check_name(name)
+        # Learning counts option starts in the library: a failed trial undoes them too,
+        # so that a retry runs as the first try did.
+        undo = self._undo_point()
+        try:
+            learner, results = self.learn(env, callback=callback)
+            return self.extract(env, name, learner, results)
+        except BaseException:
+            undo()
+            raise
 
     def extract(
         self, env: Any, name: str, learner: SmdpLearner, results: list[EpisodeResult]
     ) -> TrialRecord:
-        """Close a trial: traces, discounting, the new policy, the refit."""
+        """Close a trial: traces, discounting, the new policy, the refit.
+
+        All or nothing: if any step fails (e.g. the kernel fit on degenerate states),
+        the lifelong state is put back as it was before, so that a save afterwards
+        writes the last complete trial and a retry runs as the first try did.
+        """
+        _check_name(name)
+        # The rollouts count option starts in the library: undone with the rest.
+        undo = self._undo_point()
+        try:
+            return self._close(env, name, learner, results)
+        except BaseException:
+            undo()
+            raise
+
+    def _close(
+        self, env: Any, name: str, learner: SmdpLearner, results: list[EpisodeResult]
+    ) -> TrialRecord:
+        """:meth:`extract`'s steps, which change the lifelong state as they go."""
         cfg = self.config
         _, _, rollout_seed, kernel_seed = trial_seeds(self.seed, self.n_trials)
         rollouts = learner.evaluate(env, cfg.rollout_episodes, seed=rollout_seed)
@@ -380,6 +413,23 @@ class LifelongLearner:
         )
         self.records.append(record)
         return record
+
+    def _undo_point(self) -> Callable[[], None]:
+        """A function that puts the lifelong state back as it is now (the lists in place,
+        the library's discounting and pruning undone)."""
+        policies, bags, records = list(self.policies), list(self.bags), list(self.records)
+        library, model = self.library, self.kernel_model
+        undo_library = None if library is None else library.undo_point()
+
+        def undo() -> None:
+            self.policies[:] = policies
+            self.bags[:] = bags
+            self.records[:] = records
+            self.library, self.kernel_model = library, model
+            if undo_library is not None:
+                undo_library()
+
+        return undo
 
     def _refit(self, kernel_seed: int) -> None:
         """Refit the kernels on all bags and rebuild the library (identities kept)."""
@@ -550,6 +600,11 @@ class LifelongLearner:
             if not path.is_file() or sha256_file(path) != digest:
                 raise ValueError(f"{path}: missing, modified, or from another checkpoint")
         return learner
+
+
+def _check_name(name: object) -> None:
+    """The rule a saved record's name must meet, applied before a trial is run."""
+    check("the trial name", name, RECORD_CONSTRAINTS["name"])
 
 
 _CHECKPOINT_NAME = re.compile(r"trial_\d{4,}")

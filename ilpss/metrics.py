@@ -214,12 +214,22 @@ def smooth(
     window = _check_count(window, "window", n)
     if edges not in ("expanding", "valid"):
         raise ValueError(f"edges must be 'expanding' or 'valid', got {edges!r}")
+    if window == 1:
+        return arr.copy()
     zeros = np.zeros((*arr.shape[:-1], 1))
     csum = np.concatenate([zeros, np.cumsum(arr, axis=-1)], axis=-1)
     full = (csum[..., window:] - csum[..., :-window]) / window
+    head = csum[..., 1:window] / np.arange(1, window)  # expanding means of the first points
+    # A window of equal values averages to that value exactly (differences of running
+    # sums are off by rounding): a constant stretch must not show a spurious dip.
+    changes = np.concatenate(
+        [np.zeros((*arr.shape[:-1], 1), dtype=np.int64),
+         np.cumsum(arr[..., 1:] != arr[..., :-1], axis=-1)], axis=-1)
+    constant = changes[..., window - 1:] == changes[..., :n - window + 1]
+    full = np.where(constant, arr[..., window - 1:], full)
     if edges == "valid":
         return full
-    head = csum[..., 1:window] / np.arange(1, window)  # expanding means of the first points
+    head = np.where(changes[..., :window - 1] == 0, arr[..., :window - 1], head)
     return np.concatenate([head, full], axis=-1)
 
 
@@ -841,8 +851,12 @@ def t_interval(
     x = _as_samples(values, "values")
     confidence = _check_confidence(confidence)
     n = x.shape[-1]
-    mean = x.mean(axis=-1)
-    half = _t_quantile(confidence, n - 1) * x.std(axis=-1, ddof=1) / math.sqrt(n)
+    # Equal values are recognised as such: their computed mean and spread may be off by
+    # rounding (the mean of three 0.1 is not 0.1).
+    equal = np.all(x == x[..., :1], axis=-1)
+    mean = np.where(equal, x[..., 0], x.mean(axis=-1))
+    half = np.where(equal, 0.0,
+                    _t_quantile(confidence, n - 1) * x.std(axis=-1, ddof=1) / math.sqrt(n))
     return _scalar_or_array(mean), _scalar_or_array(mean - half), _scalar_or_array(mean + half)
 
 
@@ -872,6 +886,10 @@ def t_test_pvalue(values: ArrayLike, null: float = 0.0) -> float | FloatArray:
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.abs(diff) / se
     p = np.where(se > 0, 2.0 * stats.t.sf(t, n - 1), np.where(diff == 0, 1.0, 0.0))
+    # Zero spread is read from the values themselves: equal values can have a computed
+    # spread of ~1e-17 and a mean off null by as much.
+    equal = np.all(x == x[..., :1], axis=-1)
+    p = np.where(equal, np.where(x[..., 0] == null, 1.0, 0.0), p)
     return _scalar_or_array(p)
 
 

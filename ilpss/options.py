@@ -33,9 +33,9 @@ After each trial, :meth:`OptionLibrary.end_trial` is told which options the *lea
 policy used (normally: the options chosen while rolling out the final greedy policy,
 see :func:`ilpss.smdp.options_used`). Every option that was offered in the trial and not
 used has its scale multiplied by ``discount`` (< 1); an option whose scale falls below
-``prune_threshold`` is pruned: it leaves the active set for good, and its
-(kernel id, policy id) pair is remembered so that a refit never recreates it. Options
-reached only through pointers of a used option do not count as used.
+``prune_threshold`` (or to 0, by underflow) is pruned: it leaves the active set for
+good, and its (kernel id, policy id) pair is remembered so that a refit never recreates
+it. Options reached only through pointers of a used option do not count as used.
 
 Identity across refits
 ----------------------
@@ -261,7 +261,8 @@ class OptionSettings:
     """Factor in (0, 1] applied to the scale of every offered, unused option per trial
     (1: no discounting, so nothing is ever pruned)."""
     prune_threshold: float = 0.1
-    """Options whose scale falls below this are pruned."""
+    """Options whose scale falls below this are pruned (0: only a scale discounted to
+    exactly 0, by underflow, is pruned)."""
     max_depth: int = 4
     """Policies consulted at most when following option pointers."""
     max_match_distance: float | None = 3.0
@@ -735,7 +736,9 @@ class OptionLibrary:
             if oid in offered_set and oid not in used_set:
                 self.scales[j] *= self.settings.discount
                 discounted.append(oid)
-                if self.scales[j] < self.settings.prune_threshold:
+                # A scale that underflowed to 0 never lets the option start again, and
+                # a library holds scales in (0, 1]: pruned whatever the threshold.
+                if self.scales[j] < self.settings.prune_threshold or self.scales[j] == 0.0:
                     keep[j] = False
         pruned_ids = tuple(int(o) for o in self.option_ids[~keep])
         self.pruned = self.pruned | {self.registry[o] for o in pruned_ids}
@@ -747,6 +750,28 @@ class OptionLibrary:
         return TrialReport(
             used=tuple(sorted(used_set)), discounted=tuple(discounted), pruned=pruned_ids
         )
+
+    def undo_point(self) -> Callable[[], None]:
+        """A function that puts the options back as they are now: active set, scales,
+        usage counts and pruned pairs (what :meth:`end_trial` and :meth:`record_use`
+        change), for a caller whose later step fails. Caches keyed on :attr:`version`
+        are invalidated, not reused."""
+        saved = dict(vars(self))
+        arrays = {k: v.copy() for k, v in saved.items() if isinstance(v, np.ndarray)}
+
+        def undo() -> None:
+            version = self.version
+            for k, values in arrays.items():
+                if saved[k].flags.writeable:  # in place: end_trial scales its array so
+                    saved[k][...] = values
+                else:
+                    saved[k] = values
+            vars(self).clear()
+            vars(self).update(saved)
+            self.version = version
+            self._reindex()
+
+        return undo
 
     def _known(self, option_id: object) -> int:
         if not isinstance(option_id, int | np.integer) or int(option_id) not in self.registry:

@@ -18,8 +18,8 @@ the values the new learner       :attr:`Reuse.start`, a :class:`StartRule`: noth
 starts from, and any episodes    from the learner's initial value), the latest past policy's
 it spends on the task choosing   values (fine-tuning), or the values of the past policy that
                                  does best in a few greedy episodes on the task; the episodes
-                                 spent choosing are charged to the task's budget and are the
-                                 first points of its learning curve
+                                 spent choosing are charged to the task's budget (never more
+                                 than it) and are the first points of its learning curve
 ===============================  ============================================================
 
 The registrations (:data:`REUSES`; more with :func:`register_reuse` or the entry-point
@@ -33,7 +33,8 @@ name                  regions                               start
 ``none``              no options (learning anew)            fresh
 ``finetune_latest``   no options                            the latest past policy
 ``finetune_best``     no options                            the best past policy on the task,
-                                                            10 greedy episodes each (charged)
+                                                            10 greedy episodes each (charged;
+                                                            the latest that fit the budget)
 ``kernels_finetune``  shared-kernel EM                      the latest past policy
 ``whole_policies_     one region everywhere                 the latest past policy
 finetune``
@@ -45,6 +46,7 @@ A start rule also serves methods outside the lifelong loop (the fine-tuning base
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -155,10 +157,10 @@ class StartRule(Protocol):
     """The values a new learner starts from, chosen among the past policies."""
 
     def start(self, learner: SmdpLearner, policies: Sequence[FrozenPolicy], env: Any,
-              seed: int) -> list[EpisodeResult]:
+              seed: int, *, budget: int | None = None) -> list[EpisodeResult]:
         """Set ``learner``'s initial values from ``policies``; return the episodes spent
         on ``env`` to choose (charged to the task's budget: the first points of its
-        curve), seeded from ``seed``."""
+        curve), seeded from ``seed``: at most ``budget`` of them (``None``: no bound)."""
         ...
 
 
@@ -167,7 +169,7 @@ class Fresh:
     """Start from the learner's own initial values (the paper, learning anew)."""
 
     def start(self, learner: SmdpLearner, policies: Sequence[FrozenPolicy], env: Any,
-              seed: int) -> list[EpisodeResult]:
+              seed: int, *, budget: int | None = None) -> list[EpisodeResult]:
         return []
 
 
@@ -177,7 +179,7 @@ class LatestPast:
     yet: fresh), spending no episode."""
 
     def start(self, learner: SmdpLearner, policies: Sequence[FrozenPolicy], env: Any,
-              seed: int) -> list[EpisodeResult]:
+              seed: int, *, budget: int | None = None) -> list[EpisodeResult]:
         if policies:
             learner.start_from(policies[-1])
         return []
@@ -188,7 +190,13 @@ class BestOfPast:
     """Fine-tuning from the past policy that does best on the task: each past policy is
     run greedily for ``episodes`` episodes on the same episode seeds, and the learner
     starts from the one with the highest mean reward (ties: the latest). Those
-    ``episodes x len(policies)`` episodes are charged to the task's budget."""
+    ``episodes x len(policies)`` episodes are charged to the task's budget.
+
+    The choice never spends more than the budget: when it holds fewer than
+    ``episodes x len(policies)`` episodes, only the latest ``budget // episodes`` past
+    policies are tried, and the best of those is chosen (each tried policy's episodes
+    are the same as when all are tried); when not even one can be tried, the learner
+    starts from the latest past policy, spending nothing (as :class:`LatestPast`)."""
 
     episodes: int = 10
 
@@ -196,18 +204,27 @@ class BestOfPast:
         check("BestOfPast.episodes", self.episodes, Integer(1, 10_000))
 
     def start(self, learner: SmdpLearner, policies: Sequence[FrozenPolicy], env: Any,
-              seed: int) -> list[EpisodeResult]:
+              seed: int, *, budget: int | None = None) -> list[EpisodeResult]:
         if not policies:
+            return []
+        n = len(policies)
+        if budget is not None:
+            check("BestOfPast budget", budget, Integer(0))
+            n = min(n, budget // self.episodes)
+        if n == 0:
+            learner.start_from(policies[-1])
             return []
         greedy = replace(learner.config, epsilon=0.0)
         spent: list[EpisodeResult] = []
-        means = []
-        for k, policy in enumerate(policies):
-            runner = SmdpLearner.from_policy(policy, None, greedy, seed=[seed, k])
+        means = {}
+        # Policy k's runner and episodes depend on k alone, so a shorter list of tries
+        # plays exactly what the full list would for the same policies.
+        for k in range(len(policies) - n, len(policies)):
+            runner = SmdpLearner.from_policy(policies[k], None, greedy, seed=[seed, k])
             episodes = runner.evaluate(env, self.episodes, seed=seed)
             spent += episodes
-            means.append(np.mean([e.total_reward for e in episodes]))
-        best = max(range(len(policies)), key=lambda k: (means[k], k))
+            means[k] = np.mean([e.total_reward for e in episodes])
+        best = max(means, key=lambda k: (means[k], k))
         learner.start_from(policies[best])
         return spent
 
@@ -218,11 +235,36 @@ def learn_with(
     callback: Callable[[int, EpisodeResult], None] | None = None,
 ) -> list[EpisodeResult]:
     """``episodes`` episodes on ``env``: first those ``start`` spends choosing the
-    learner's initial values among ``policies`` (greedy, seeded by ``choice_seed``), then
-    learning for the rest of the budget (the first reset seeded by ``seed``, so the
-    learning episodes are the same ones with or without a choice before them)."""
-    spent = start.start(learner, policies, env, choice_seed)[:episodes]
+    learner's initial values among ``policies`` (greedy, seeded by ``choice_seed``, at
+    most ``episodes``: the rule is given the budget), then learning for the rest of the
+    budget (the first reset seeded by ``seed``, so the learning episodes are the same
+    ones with or without a choice before them).
+
+    Raises
+    ------
+    ValueError
+        If ``start`` played more episodes than the budget (they would be played on the
+        task without being charged).
+    """
+    check("learn_with episodes (the budget)", episodes, Integer(0))
+    if _takes_budget(start):
+        spent = start.start(learner, policies, env, choice_seed, budget=episodes)
+    else:  # a rule written before start rules were given their budget
+        spent = start.start(learner, policies, env, choice_seed)
+    if len(spent) > episodes:
+        raise ValueError(
+            f"the start rule {start!r} played {len(spent)} episodes choosing, more than the "
+            f"budget of {episodes}; a start rule must stop at its budget"
+        )
     return spent + learner.train(env, episodes - len(spent), seed=seed, callback=callback)
+
+
+def _takes_budget(start: StartRule) -> bool:
+    try:
+        parameters = inspect.signature(start.start).parameters.values()
+    except (TypeError, ValueError):  # no signature to read: the protocol's is assumed
+        return True
+    return any(p.name == "budget" or p.kind is p.VAR_KEYWORD for p in parameters)
 
 
 # ---------------------------------------------------------------------- reuse
