@@ -19,11 +19,12 @@ The loop talks to environments only through the Gymnasium API.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import re
 import shutil
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -349,13 +350,9 @@ class LifelongLearner:
         _check_name(name)
         # Learning counts option starts in the library: a failed trial undoes them too,
         # so that a retry runs as the first try did.
-        undo = self._undo_point()
-        try:
+        with self._all_or_nothing():
             learner, results = self.learn(env, callback=callback)
             return self.extract(env, name, learner, results)
-        except BaseException:
-            undo()
-            raise
 
     def extract(
         self, env: Any, name: str, learner: SmdpLearner, results: list[EpisodeResult]
@@ -368,9 +365,16 @@ class LifelongLearner:
         """
         _check_name(name)
         # The rollouts count option starts in the library: undone with the rest.
+        with self._all_or_nothing():
+            return self._close(env, name, learner, results)
+
+    @contextlib.contextmanager
+    def _all_or_nothing(self) -> Iterator[None]:
+        """The lifelong state put back as it was if the block fails (any exception,
+        Ctrl-C included)."""
         undo = self._undo_point()
         try:
-            return self._close(env, name, learner, results)
+            yield
         except BaseException:
             undo()
             raise
