@@ -38,6 +38,7 @@ import pymunk
 
 import soccer_drill
 from soccer_drill.drill import Drill
+from soccer_drill.teams import check_commands
 
 
 class RandomLegal:
@@ -232,7 +233,8 @@ def team_check_costs(number: int = 20_000, repeat: int = 30) -> dict[str, float]
     unbounded = _fastest_us(lambda: driver.act(view), number, repeat)
     driver.team_timeout = timeout
     returned = driver.team.act(view)
-    commands = _fastest_us(lambda: driver._commands(returned, 0), number, repeat)
+    commands = _fastest_us(lambda: check_commands(returned, driver.players, driver.name, 0),
+                           number, repeat)
     action = _fastest_us(lambda: core.command_for("attacker_0", 0, 3), number, repeat)
     return {"bound": bounded - unbounded, "commands": commands, "action": action}
 

@@ -59,15 +59,18 @@ class BatchCommands(NamedTuple):
 
 
 def _read_only(array: np.ndarray) -> np.ndarray:
-    view = array.view()
-    view.flags.writeable = False
-    return view
+    """A read-only copy: a view could be made writeable again (its ``flags``, or its
+    ``base``) and write into the batch's state."""
+    out = array.copy()
+    out.flags.writeable = False
+    return out
 
 
 class BatchView:
     """A read-only window on every drill of a batch, handed to batched teams.
 
-    The arrays are read-only views of the batch's own state (current at every call).
+    Each array is a read-only copy of the batch's state, taken when it is read (a team
+    that writes to it, even after setting it writeable, changes only its copy).
     """
 
     __slots__ = ("_batch", "_players")
@@ -149,7 +152,21 @@ class BatchRandom:
         self._next[drills] = self._block
 
     def random(self, drills: np.ndarray) -> np.ndarray:
-        """The next draw of each drill in ``drills`` (standard normals if ``normal``)."""
+        """The next draw of each drill in ``drills`` (standard normals if ``normal``):
+        a 1-D array of distinct drill indices, anything else ``ValueError``."""
+        drills = np.asarray(drills)
+        n = len(self._generators)
+        if drills.ndim != 1 or drills.dtype.kind not in "iu":
+            raise ValueError(
+                "BatchRandom.random takes a 1-D integer array of distinct drill indices (one "
+                f"draw each), got {drills.dtype} of shape {drills.shape}"
+            )
+        if len(drills) and (drills.min() < 0 or drills.max() >= n):
+            raise ValueError(f"BatchRandom.random: drill indices must lie in 0..{n - 1}, "
+                             f"got {drills.min()}..{drills.max()}")
+        if len(np.unique(drills)) != len(drills):  # one draw per drill and call
+            raise ValueError("BatchRandom.random: the drill indices must be distinct (one "
+                             "draw per drill per call; call again for a second draw)")
         k = self._next[drills]
         empty = k >= self._block
         if np.count_nonzero(empty):
@@ -264,7 +281,9 @@ class BatchTeamDriver:
         make_batch = getattr(team, "batch", None)
         if callable(make_batch):
             self.batched = self._bound.call("batch()", "", make_batch, n)
-            if not isinstance(self.batched, BatchTeam):
+            if not isinstance(self.batched, BatchTeam) or not (
+                callable(self.batched.reset) and callable(self.batched.act)
+            ):
                 raise TeamError(
                     f"team {self.name!r}: batch({n}) returned {type(self.batched).__name__}, "
                     "which lacks reset(view, drills, rng) and act(view, drills)"
@@ -307,7 +326,7 @@ class BatchTeamDriver:
             if self.batched is not None:
                 self.rng.seed(drills, seeds)
                 self._bound.call("reset()", _Calling(drills, None), self.batched.reset, self.view,
-                                 drills, self.rng)
+                                 _read_only(drills), self.rng)
             else:
                 self._refresh(drills)
                 self._each_bound.team_timeout = self._scaled(drills)
@@ -412,7 +431,7 @@ class BatchTeamDriver:
 
     def _checked_act(self, drills: np.ndarray) -> BatchCommands:
         assert self.batched is not None
-        out = self.batched.act(self.view, drills)
+        out = self.batched.act(self.view, _read_only(drills))  # its own: ours index the commands
         return check_commands(out, drills, self._batch.cycle, self.name, self.view.players)
 
 
@@ -445,6 +464,7 @@ def check_commands(
             raise TeamError(
                 f"team {team!r}: batched commands' {name} must have shape {shape} (one row per "
                 f"drill acting, one column per player), got {array.shape}"
+                f"{_Calling(drills, cycles):}"
             )
     raw_skill = given[0]
     # Range first, on the values given: a cast of a huge value to int64 would wrap.

@@ -175,11 +175,17 @@ class HolderVectorEnv(VectorEnv):
     its episodes follow the single environment's decision by decision, the later
     episodes of its stream included, however the drills are batched (a space none of
     whose drills moves is not stepped, and a drill's reset builds its space anew as
-    ``HolderEnv.reset`` does): equal bit for bit until a length the batch computes with
-    NumPy's ``hypot`` differs in its last bit from the single drill's ``math.hypot``
-    (about one call in 170 on random vectors; over 300 decisions of each of 6 drills
-    against ``chasers``, one drill first differed at its 159th decision, by 2e-7 in a
-    feature, ``tests/test_vector_async.py``). With shared spaces (the default, which
+    ``HolderEnv.reset`` does): equal bit for bit until the first of three last-bit
+    differences, a length from NumPy's ``hypot`` against the single drill's
+    ``math.hypot`` (about one call in 170 on random vectors), a pass direction from
+    NumPy's ``arctan2`` against ``math.atan2`` (about one call in 12), or pymunk's
+    solution of a contact between players (the batch writes each body's position and
+    velocity every cycle, the single drill its velocity only). How soon depends on the
+    play: over 300 decisions of each of 6 drills with random actions, one run against
+    ``chasers`` saw one drill differ first at its 159th decision and the others not at
+    all, another run (other actions) all six from decisions 41 to 146, and against
+    ``interceptors_cover`` 3 of 6 (``tests/test_vector_async.py`` checks the first
+    decisions). With shared spaces (the default, which
     costs less) its episodes part sooner from the single environment's: contacts are
     solved in an order that depends on the other drills, drills standing still while
     others move are still stepped (their contact caches change), a reset keeps the

@@ -236,3 +236,74 @@ def test_each_copy_is_held_to_the_bound_though_the_copies_together_stay_within_t
     with pytest.raises(TeamError, match=r"^team 'SlowInThirdCopy' \(drill 2\) exceeded its time "
                                         r"bound of 0.03 s of CPU time in act\(\) at cycle 0"):
         env.step(np.zeros(8, dtype=np.int64))
+
+
+class Vandal:
+    """A batched team that writes where it should not: the view's arrays (made writeable
+    again) and the drills it is given."""
+
+    def reset(self, view, drills, rng):
+        drills.flags.writeable = True  # possible on a copy of its own, or on the env's array
+        drills[...] = 0
+
+    def act(self, view, drills):
+        pos = view.pos
+        pos.flags.writeable = True
+        pos[:, 4] = (1.0, 1.0)  # the ball of every drill, in the team's copy only
+        m = len(drills)
+        return BatchCommands(np.full((m, 2), int(Skill.INTERCEPT)), np.zeros((m, 2, 2)),
+                             np.ones((m, 2)))
+
+
+def test_a_batched_team_cannot_write_into_the_drills_it_is_shown():
+    team = WithBatch(0)
+    team.batch = lambda n: Vandal()
+    env = HolderVectorEnv(num_envs=3, opponent=team, drills_per_space=1)
+    env.reset(seed=0)
+    before = env._core.batch.pos[:, 4].copy()
+    env.step(np.zeros(3, dtype=np.int64))
+    ball = env._core.batch.pos[:, 4]
+    assert not np.any(np.all(ball == (1.0, 1.0), axis=1))  # the drills kept their own balls
+    assert np.abs(ball - before).max() < 5.0  # and moved them as the drill does
+    env.step(np.zeros(3, dtype=np.int64))  # the drills' own indices were not changed
+
+
+def test_batch_random_refuses_indices_that_are_not_distinct_drills():
+    from soccer_drill.batch_teams import BatchRandom
+
+    rng = BatchRandom(3)
+    rng.seed(np.arange(3), [0, 1, 2])
+    for bad, message in ((np.array([True, False, True]), "1-D integer array"),
+                         (np.array([0, 0]), "must be distinct"),
+                         (np.array([-1]), r"must lie in 0\.\.2"),
+                         (np.array([[0, 1]]), "1-D integer array")):
+        with pytest.raises(ValueError, match=message):
+            rng.random(bad)
+    assert rng.random(np.array([2, 0])).shape == (2,)
+
+
+class WrongRows(BatchedCommands):
+    def act(self, view, drills):
+        out = super().act(view, drills)
+        return BatchCommands(out.skill[:1], out.target[:1], out.speed[:1])
+
+
+def test_commands_of_the_wrong_shape_are_said_with_the_cycle_and_drills():
+    team = WithBatch(int(Skill.INTERCEPT))
+    team.batch = lambda n: WrongRows(int(Skill.INTERCEPT))
+    env = HolderVectorEnv(num_envs=3, opponent=team)
+    env.reset(seed=0)
+    with pytest.raises(TeamError, match=r"skill must have shape \(3, 2\).*got \(1, 2\) at cycle 0 "
+                                        r"of drills 0, 1, 2"):
+        env.step(np.zeros(3, dtype=np.int64))
+
+
+def test_a_batch_whose_methods_are_not_callable_is_refused_when_made():
+    class NotCallable:
+        reset = 5
+        act = 6
+
+    team = WithBatch(0)
+    team.batch = lambda n: NotCallable()
+    with pytest.raises(TeamError, match="lacks reset"):
+        HolderVectorEnv(num_envs=2, opponent=team)

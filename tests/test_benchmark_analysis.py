@@ -43,3 +43,9 @@ def test_the_rollouts_timer_counts_only_the_time_spent_in_step():
     assert env.seconds == 0.0
     env.step(0)
     assert env.seconds > 0.0
+
+
+def test_the_safety_checks_of_bench_env_are_measured():
+    costs = load_benchmark("bench_env").team_check_costs(number=20, repeat=2)
+    assert set(costs) == {"bound", "commands", "action"}
+    assert costs["commands"] > 0.0 and costs["action"] > 0.0

@@ -253,10 +253,10 @@ def test_calibration_plays_every_rule_of_a_team_in_one_batch():
 def test_with_a_space_per_drill_every_drill_is_the_single_parallel_env_across_autoresets():
     """Each drill of ``drills_per_space=1`` plays ``parallel_env``'s episodes from seed
     ``s + i``, the episodes after an autoreset included (a reset builds the drill's space
-    anew, as the single drill's reset does): equal bit for bit until the first time a
-    length differs in its last bit (the single drill measures lengths with
-    ``math.hypot``, the batch with NumPy's ``hypot``), which here comes only after
-    several episodes, and then only in the last bits."""
+    anew, as the single drill's reset does): equal bit for bit until the first last-bit
+    difference (NumPy's ``hypot`` or ``arctan2`` against ``math``'s, or pymunk's contact
+    solving; see ``HolderVectorEnv``), which here comes only after several episodes, and
+    then only in the last bits."""
     n = 3
     venv = ParallelVectorEnv(num_envs=n, opponent="interceptors_cover", drills_per_space=1)
     singles = [soccer_drill.parallel_env(opponent="interceptors_cover") for _ in range(n)]

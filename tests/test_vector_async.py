@@ -36,8 +36,8 @@ def test_each_drill_plays_the_same_episodes_whatever_the_batch():
     in the order they finish; and, since a reset builds the drill's space anew as
     ``HolderEnv.reset`` does, they are ``HolderEnv``'s results from its seed, bit for bit,
     the next episodes from the same stream included (over these 30 decisions a drill:
-    later, a length the batch computes with NumPy's ``hypot`` may differ in its last bit
-    from the single drill's ``math.hypot``, see ``HolderVectorEnv``)."""
+    later, a last-bit difference may part them: NumPy's ``hypot`` or ``arctan2`` against
+    ``math``'s, or pymunk's contact solving, see ``HolderVectorEnv``)."""
     n, steps, team = 6, 30, "interceptors_cover"
     together = _results(HolderVectorEnv(num_envs=n, opponent=team, drills_per_space=1), 5, steps)
     venv = HolderVectorEnv(num_envs=n, batch_size=2, opponent=team, drills_per_space=1)

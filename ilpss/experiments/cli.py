@@ -1,4 +1,4 @@
-"""Command line: ``ilpss-experiment`` runs protocol A, B or C and writes its report.
+"""Command line: ``ilpss-experiment`` runs protocol A, B, C or R and writes its report.
 
 Examples::
 

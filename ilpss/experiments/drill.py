@@ -1,8 +1,9 @@
 """Everything :mod:`ilpss` knows about the soccer drill, in one place.
 
-``ilpss`` never imports the drill: it makes the holder environment through Gymnasium
-(``gymnasium.make(ENV_ID, opponent=..., ...)``) and learns on its 9 features as it
-would on any ``Box``. The experiments need a few facts about it, all here:
+``ilpss`` never imports the drill's rules or environments: it makes the holder
+environment through Gymnasium (``gymnasium.make(ENV_ID, opponent=..., ...)``) and learns
+on its 9 features as it would on any ``Box``. (It shares one module of the drill's
+package, ``soccer_drill.files``: the project's atomic writes and output checks.) The experiments need a few facts about it, all here:
 
 ==========================  =========================================================
 fact                        used by
@@ -34,7 +35,7 @@ fact                        used by
 :data:`HOLDER_RULES`, :data:`GIF_WRITER` and :data:`TEAM_CODE` are drill code that
 ``ilpss`` uses by name (:func:`drill_object`), imported only when used, and
 :data:`TEAM_ERROR` is caught by name
-(:func:`drill_exception`), so that ``ilpss`` itself never depends on the drill's modules.
+(:func:`drill_exception`), so that ``ilpss`` itself never depends on the drill's rules.
 """
 
 from __future__ import annotations
@@ -46,7 +47,8 @@ from typing import Any
 ENV_PACKAGE = "soccer_drill"
 """The package that registers the holder environment with Gymnasium."""
 ENV_ID = f"{ENV_PACKAGE}:soccer_drill/Holder-v0"
-"""The holder environment, imported by ``gymnasium.make`` (``ilpss`` never imports it)."""
+"""The holder environment, made by ``gymnasium.make`` (``ilpss`` names it, never imports
+its module)."""
 PAPER_TEAMS = ("interceptors_press", "interceptors_cover", "interceptor_guard", "goal_guards")
 """The paper's four opponent teams, in its order (ids of the ``opponents`` package)."""
 TILE_WIDTHS = (3.0, 3.0, 3.0, 3.0, 10.0, 3.0, 3.0, 3.0, 10.0)

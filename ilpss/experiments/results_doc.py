@@ -1,6 +1,6 @@
-"""``ilpss-results``: run (or resume) protocols A, B and C and regenerate ``docs/results.md``.
+"""``ilpss-results``: run (or resume) protocols A, R, B and C and regenerate ``docs/results.md``.
 
-    ilpss-results                                   # the documented run (A: 30 seeds, R, B, C: 10)
+    ilpss-results --shuffles 0                      # the documented run (A: 30 seeds, R, B, C: 10)
     ilpss-results --protocols A                     # only A; the other sections are kept
     ilpss-results --runs /tmp/r --docs /tmp/d --seeds-a 2 --seeds-b 2 --seeds-c 2 \\
         --episodes 4 --rollouts 2 --stream-length 3 --teams interceptors_press goal_guards
@@ -73,7 +73,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--docs", default=DEFAULT_DOCS,
                    help="where results.md, figures/ and results/ go (default: docs)")
     p.add_argument("--protocols", nargs="+", choices=PROTOCOLS, default=list(PROTOCOLS),
-                   help="protocols to run or resume (default: A B C); the sections of the "
+                   help=f"protocols to run or resume (default: {' '.join(PROTOCOLS)}); the sections of the "
                         "others are kept if their runs are finished")
     p.add_argument("--seeds-a", type=int, default=30, help="protocol A seeds (default 30)")
     p.add_argument("--seeds-b", type=int, default=10, help="protocol B seeds (default 10)")
