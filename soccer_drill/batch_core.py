@@ -10,7 +10,7 @@ import numpy as np
 from soccer_drill.batch import RUNNING, BatchDrill
 from soccer_drill.batch_skills import _ATTACKERS, support_spots, xy, z
 from soccer_drill.batch_teams import BatchRandom, BatchTeamDriver
-from soccer_drill.config import DrillConfig
+from soccer_drill.config import DrillConfig, is_integer
 from soccer_drill.skills import Skill
 from soccer_drill.support import _OFFSET_STD, _RESAMPLE_CYCLES
 from soccer_drill.teams import Team, check_team_timeout
@@ -21,11 +21,40 @@ _MATES = np.array([1, 0])  # each attacker's mate
 
 def check_num_envs(num_envs: object) -> int:
     """``num_envs`` as an int, or ``ValueError`` saying what is allowed."""
-    if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or not (
-        1 <= num_envs <= 1_000_000
-    ):
+    if not is_integer(num_envs) or not 1 <= num_envs <= 1_000_000:  # type: ignore[operator]
         raise ValueError(f"num_envs must be an integer in 1..1000000, got {num_envs!r}")
     return int(num_envs)
+
+
+def check_seed(seed: object, n: int) -> list[int | None] | None:
+    """A batched ``reset``'s ``seed`` as one seed (``None``: keep the stream) per drill.
+
+    ``None`` stays ``None``; an integer ``s`` gives drill ``i`` the seed ``s + i``; a
+    sequence must hold exactly ``n`` entries, each ``None`` or an integer. Integers are
+    Python or NumPy ones (not bools), ``>= 0``. Anything else: ``ValueError`` saying what
+    was given and what is allowed, before any drill is touched.
+    """
+    if seed is None:
+        return None
+    allowed = (
+        f"seed must be None, an integer >= 0 (drill i gets seed + i) or a sequence of {n} "
+        "seeds, one per drill, each None or an integer >= 0"
+    )
+    if is_integer(seed):
+        if seed < 0:
+            raise ValueError(f"{allowed}; got {seed!r}")
+        return [int(seed) + i for i in range(n)]
+    if isinstance(seed, np.ndarray) and seed.ndim != 1:
+        raise ValueError(f"{allowed}; got an array of shape {seed.shape}")
+    if isinstance(seed, str | bytes) or not isinstance(seed, Sequence | np.ndarray):
+        raise ValueError(f"{allowed}; got {seed!r} of type {type(seed).__name__}")
+    seeds = list(seed)
+    if len(seeds) != n:
+        raise ValueError(f"{allowed}; got a sequence of {len(seeds)}")
+    for i, s in enumerate(seeds):
+        if s is not None and not (is_integer(s) and s >= 0):
+            raise ValueError(f"{allowed}; got seed[{i}] = {s!r} of type {type(s).__name__}")
+    return [None if s is None else int(s) for s in seeds]
 
 
 class BatchCore:
@@ -73,20 +102,11 @@ class BatchCore:
         self.target = np.zeros((n, 4, 2))
         self.speed = np.ones((n, 4))
 
-    def seed(self, seed: int | Sequence[int | None] | None) -> None:
-        """Reseed every drill: an int ``s`` gives drill ``i`` the seed ``s + i``, a list one
-        seed (or ``None``: keep) per drill, ``None`` keeps every stream."""
-        if seed is None:
+    def seed(self, seeds: list[int | None] | None) -> None:
+        """Reseed the drills: ``seeds`` is :func:`check_seed`'s, one seed (or ``None``:
+        keep) per drill; ``None`` keeps every stream."""
+        if seeds is None:
             return
-        if isinstance(seed, int | np.integer) and not isinstance(seed, bool):
-            seeds: list = [int(seed) + i for i in range(self.n)]
-        else:
-            seeds = list(seed)  # type: ignore[arg-type]
-            if len(seeds) != self.n:
-                raise ValueError(
-                    f"seed must be None, an int or a list of {self.n} seeds (one per drill), "
-                    f"got a list of {len(seeds)}"
-                )
         for i, s in enumerate(seeds):
             if s is not None:
                 self.generators[i] = np.random.default_rng(s)

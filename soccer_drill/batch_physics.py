@@ -31,7 +31,7 @@ import numpy as np
 import pymunk
 import pymunk.batch as pmb
 
-from soccer_drill.config import DrillConfig
+from soccer_drill.config import DrillConfig, is_integer
 from soccer_drill.drill import _PLAYER_MASS
 
 _FIELDS = pmb.BodyFields.POSITION | pmb.BodyFields.VELOCITY
@@ -45,6 +45,13 @@ DRILLS_PER_SPACE = 64
 """The default number of drills sharing one pymunk space."""
 
 
+def check_drills_per_space(drills_per_space: object) -> int:
+    """``drills_per_space`` as an int, or ``ValueError`` saying what is allowed."""
+    if not is_integer(drills_per_space) or drills_per_space < 1:  # type: ignore[operator]
+        raise ValueError(f"drills_per_space must be an integer >= 1, got {drills_per_space!r}")
+    return int(drills_per_space)  # type: ignore[call-overload]
+
+
 class BatchPhysics:
     """The pymunk side of ``n`` drills: players and walls, stepped one cycle at a time.
 
@@ -55,12 +62,8 @@ class BatchPhysics:
     """
 
     def __init__(self, n: int, config: DrillConfig, drills_per_space: int = DRILLS_PER_SPACE) -> None:
-        if not isinstance(drills_per_space, int) or isinstance(drills_per_space, bool) or (
-            drills_per_space < 1
-        ):
-            raise ValueError(f"drills_per_space must be an integer >= 1, got {drills_per_space!r}")
         self.n, self.config = n, config
-        self.drills_per_space = drills_per_space
+        self.drills_per_space = check_drills_per_space(drills_per_space)
         self._sub_dt = config.cycle_seconds / config.substeps
         span = config.field_size + 2 * config.wall_margin
         self.spacing = span + 4 * config.field_size  # far beyond any reach of a player

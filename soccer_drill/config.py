@@ -43,6 +43,12 @@ class Limits:
         return above and number <= self.high
 
 
+def is_integer(value: object) -> bool:
+    """A Python or NumPy integer, not a bool (an ``int`` to Python, but a slip as a count,
+    a seed or an action)."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+
+
 def _plain(x: float) -> str:
     return str(int(x)) if float(x).is_integer() else str(x)
 

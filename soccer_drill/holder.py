@@ -10,7 +10,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from soccer_drill.config import DrillConfig
+from soccer_drill.config import DrillConfig, is_integer
 from soccer_drill.core import DrillCore, concurrent_use, make_config, not_reset
 from soccer_drill.screen import RENDER_MODES, Screen, frames_per_second
 from soccer_drill.skills import HOLDER_ACTIONS, Command
@@ -28,9 +28,7 @@ def check_decision_cycles(decision_cycles: object) -> int:
     """``decision_cycles`` as an int (a Python or NumPy integer, not a bool) in
     :data:`DECISION_CYCLES_RANGE`, else ``ValueError`` saying what is allowed."""
     low, high = DECISION_CYCLES_RANGE
-    if isinstance(decision_cycles, bool) or not isinstance(decision_cycles, int | np.integer) or not (
-        low <= decision_cycles <= high
-    ):
+    if not is_integer(decision_cycles) or not low <= decision_cycles <= high:  # type: ignore[operator]
         raise ValueError(f"decision_cycles must be an integer in {low}..{high}, got {decision_cycles!r}")
     return int(decision_cycles)
 

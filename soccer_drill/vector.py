@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, ClassVar, TypeGuard
+from typing import Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
@@ -11,11 +11,11 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from soccer_drill.batch import OUTCOME_NAMES
-from soccer_drill.batch_core import BatchCore, check_num_envs
+from soccer_drill.batch_core import BatchCore, check_num_envs, check_seed
 from soccer_drill.batch_features import batch_features
-from soccer_drill.batch_physics import DRILLS_PER_SPACE
+from soccer_drill.batch_physics import DRILLS_PER_SPACE, check_drills_per_space
 from soccer_drill.batch_render import BatchRenderer, check_render_mode
-from soccer_drill.config import DrillConfig
+from soccer_drill.config import DrillConfig, is_integer
 from soccer_drill.core import make_config
 from soccer_drill.features import feature_bounds
 from soccer_drill.holder import check_decision_cycles
@@ -28,50 +28,6 @@ _PASS = 1
 _NAMES = np.array([*PLAYER_NAMES, None], dtype=object)  # index -1: None
 _OUTCOMES = np.array(OUTCOME_NAMES, dtype=object)
 _TIMEOUT = 4  # the outcome code of a timeout (truncation)
-
-
-def is_integer(value: object) -> TypeGuard[int | np.integer]:
-    """A Python or NumPy integer, not a bool (an ``int`` to Python, but a slip as a count
-    or a seed)."""
-    return isinstance(value, int | np.integer) and not isinstance(value, bool)
-
-
-def check_drills_per_space(drills_per_space: object) -> int:
-    """``drills_per_space`` as an int, or ``ValueError`` saying what is allowed."""
-    if not is_integer(drills_per_space) or drills_per_space < 1:
-        raise ValueError(f"drills_per_space must be an integer >= 1, got {drills_per_space!r}")
-    return int(drills_per_space)
-
-
-def check_seed(seed: object, n: int) -> list[int | None] | None:
-    """A batched ``reset``'s ``seed`` as one seed (``None``: keep the stream) per drill.
-
-    ``None`` stays ``None``; an integer ``s`` gives drill ``i`` the seed ``s + i``; a
-    sequence must hold exactly ``n`` entries, each ``None`` or an integer. Integers are
-    Python or NumPy ones (not bools), ``>= 0``. Anything else: ``ValueError`` saying what
-    was given and what is allowed, before any drill is touched.
-    """
-    if seed is None:
-        return None
-    allowed = (
-        f"seed must be None, an integer >= 0 (drill i gets seed + i) or a sequence of {n} "
-        "seeds, one per drill, each None or an integer >= 0"
-    )
-    if is_integer(seed):
-        if seed < 0:
-            raise ValueError(f"{allowed}; got {seed!r}")
-        return [int(seed) + i for i in range(n)]
-    if isinstance(seed, np.ndarray) and seed.ndim != 1:
-        raise ValueError(f"{allowed}; got an array of shape {seed.shape}")
-    if isinstance(seed, str | bytes) or not isinstance(seed, Sequence | np.ndarray):
-        raise ValueError(f"{allowed}; got {seed!r} of type {type(seed).__name__}")
-    seeds = list(seed)
-    if len(seeds) != n:
-        raise ValueError(f"{allowed}; got a sequence of {len(seeds)}")
-    for i, s in enumerate(seeds):
-        if s is not None and not (is_integer(s) and s >= 0):
-            raise ValueError(f"{allowed}; got seed[{i}] = {s!r} of type {type(s).__name__}")
-    return [None if s is None else int(s) for s in seeds]
 
 
 def first_non_integer(actions: np.ndarray) -> int:

@@ -9,9 +9,9 @@ import numpy as np
 from gymnasium import spaces
 
 from soccer_drill.batch import OUTCOME_NAMES, RUNNING
-from soccer_drill.batch_core import BatchCore, check_num_envs
+from soccer_drill.batch_core import BatchCore, check_num_envs, check_seed
 from soccer_drill.batch_features import batch_global_state, batch_kinematics, players_features
-from soccer_drill.batch_physics import DRILLS_PER_SPACE
+from soccer_drill.batch_physics import DRILLS_PER_SPACE, check_drills_per_space
 from soccer_drill.batch_render import BatchRenderer, check_render_mode
 from soccer_drill.config import DrillConfig
 from soccer_drill.core import IllegalAction, ObsType, make_config, resolve_shared_spaces
@@ -19,7 +19,7 @@ from soccer_drill.features import feature_bounds, kinematic_bounds, state_bounds
 from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
-from soccer_drill.vector import check_drills_per_space, check_seed, first_non_integer
+from soccer_drill.vector import first_non_integer
 
 _HOLDER_MASK = np.array([1, 1, 1, 0, 0], dtype=np.int8)
 _OFF_BALL_MASK = np.array([0, 0, 0, 1, 1], dtype=np.int8)
