@@ -292,7 +292,8 @@ class BatchTeamDriver:
             self._drivers: list[TeamDriver] = []
         else:
             copies = [team] + [self._copy(opponent, team, params) for _ in range(n - 1)]
-            self._drivers = [TeamDriver(t, self.name, players, None) for t in copies]
+            self._drivers = [TeamDriver(t, self.name, players, None, drill=i)
+                             for i, t in enumerate(copies)]
             # One bound around the calls of all drills acting in a cycle (their own: none).
             self._each_bound = TeamDriver(team, self.name, players, team_timeout)
             self._slots = [_Slot(batch.config) for _ in range(n)]
@@ -339,8 +340,7 @@ class BatchTeamDriver:
         for i, s in zip(drills.tolist(), seeds, strict=True):
             calling.running = i
             start = counted_cpu()
-            with self._naming_drill(i):
-                self._drivers[i].reset(self._views[i], np.random.default_rng(s))
+            self._drivers[i].reset(self._views[i], np.random.default_rng(s))
             self._check_copy_time(i, "reset()", "", start)
 
     def act(self, drills: np.ndarray, skill: np.ndarray, target: np.ndarray, speed: np.ndarray) -> None:
@@ -383,21 +383,6 @@ class BatchTeamDriver:
             self.failure = str(exc)
             raise
 
-    @contextlib.contextmanager
-    def _naming_drill(self, drill: int) -> Iterator[None]:
-        """A copy's error, with the drill it runs in named after the team (every error of a
-        :class:`~soccer_drill.teams.TeamDriver` starts with ``team '<name>'``)."""
-        try:
-            yield
-        except TeamError as exc:
-            named = f"team {self.name!r}"
-            text = str(exc)
-            if text.startswith(named + ", "):  # "team 'x', player 'p', cycle c: ..."
-                text = f"{named}, drill {drill}{text[len(named):]}"
-            elif text.startswith(named):  # "team 'x' raised in act() ..."
-                text = f"{named} (drill {drill}){text[len(named):]}"
-            raise TeamError(text) from exc
-
     def _each_act(self, drills: np.ndarray, calling: _Calling) -> BatchCommands:
         m = len(drills)
         skill = np.empty((m, 2), dtype=np.int64)
@@ -406,8 +391,7 @@ class BatchTeamDriver:
         for r, i in enumerate(drills.tolist()):
             calling.running = i
             start = counted_cpu()
-            with self._naming_drill(i):
-                acted = self._drivers[i].act(self._views[i])
+            acted = self._drivers[i].act(self._views[i])
             self._check_copy_time(i, "act()", f" at cycle {int(self._batch.cycle[i])}", start)
             for index, command in acted:
                 k = index - 2

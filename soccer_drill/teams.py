@@ -428,13 +428,14 @@ _player_sets: dict[tuple[str, ...], _PlayerSet] = {}
 
 
 def check_commands(
-    commands: object, players: tuple[str, ...], team: str, cycle: int
+    commands: object, players: tuple[str, ...], team: str, cycle: int, drill: int | None = None
 ) -> list[tuple[int, Command]]:
     """What a team's ``act()`` returned, checked: ``(player index, Command)`` pairs of
     plain values (a ``Command`` of a ``Skill``, a ``float`` speed in (0, 1], a tuple of
     two finite floats as a ``MOVE_TO`` target), one per player in ``players``.
 
-    Anything else raises :class:`TeamError` naming ``team``, the player and ``cycle``:
+    Anything else raises :class:`TeamError` naming ``team``, the player and ``cycle`` (and
+    ``drill``, for a copy of the team in one drill of a batch):
     not a mapping with exactly those players (its size is read before its keys, so a
     huge mapping is refused at once), not a ``Command``, a ball skill, a speed outside
     (0, 1], a target that is not a finite ``(x, y)`` pair, or a mapping or value that
@@ -450,19 +451,25 @@ def check_commands(
     if known is None:
         known = _player_sets[players] = _PlayerSet(tuple(players))
     try:
-        return _checked(commands, known, team, cycle)
+        return _checked(commands, known, team, cycle, drill)
     except (TeamError, Overrun):
         raise
     except BaseException as exc:  # the team's own Mapping or Command type misbehaved
         if delivered_by_signal(exc):
             raise
         raise TeamError(
-            f"team {team!r} returned commands that could not be checked at cycle "
+            f"{_named(team, drill)} returned commands that could not be checked at cycle "
             f"{cycle}: {_what_happened(exc)}"
         ) from exc
 
 
-def _checked(commands: object, known: _PlayerSet, team: str, cycle: int) -> list:
+def _named(team: str, drill: int | None) -> str:
+    """How the errors of the command checks name the team (and the drill of a copy)."""
+    return f"team {team!r}" if drill is None else f"team {team!r}, drill {drill}"
+
+
+def _checked(commands: object, known: _PlayerSet, team: str, cycle: int,
+             drill: int | None) -> list:
     # The common case first (a dict; its keys compared as a set, without copying; a set
     # comparison looks at the sizes first).
     if not (
@@ -482,7 +489,7 @@ def _checked(commands: object, known: _PlayerSet, team: str, cycle: int) -> list
         else:
             got = type(commands).__name__
         raise TeamError(
-            f"team {team!r} must return a mapping with exactly the players it drives "
+            f"{_named(team, drill)} must return a mapping with exactly the players it drives "
             f"{sorted(known.names)}, got {got} at cycle {cycle}"
         )
     out = []
@@ -490,12 +497,12 @@ def _checked(commands: object, known: _PlayerSet, team: str, cycle: int) -> list
     for player, index in zip(known.names, known.indices, strict=True):
         command = commands[player]
         if command is not given:  # one object for several players is checked once
-            given, checked = command, _check(team, player, command, cycle)
+            given, checked = command, _check(team, player, command, cycle, drill)
         out.append((index, checked))
     return out
 
 
-def _check(team: str, player: str, command: object, cycle: int) -> Command:
+def _check(team: str, player: str, command: object, cycle: int, drill: int | None) -> Command:
     """``command`` if it is valid and plain, else a plain copy of it.
 
     Each field is read once and the copy holds what was checked: a ``MOVE_TO``
@@ -504,18 +511,19 @@ def _check(team: str, player: str, command: object, cycle: int) -> Command:
     cannot slip a NaN past the check.
     """
     if not isinstance(command, Command):
-        raise _invalid(team, player, cycle, f"expected a Command, got {short_repr(command)}")
+        raise _invalid(team, drill, player, cycle, f"expected a Command, got {short_repr(command)}")
     skill, target, speed = command.skill, command.target, command.speed
     if not isinstance(skill, Skill) or skill in BALL_SKILLS:
         raise _invalid(
-            team, player, cycle, f"skill {short_repr(skill)} is not allowed for a scripted "
+            team, drill, player, cycle, f"skill {short_repr(skill)} is not allowed for a scripted "
             f"defender; allowed: {[s.name for s in Skill if s not in BALL_SKILLS]}"
         )
     plain = type(command) is Command and (type(speed) is float or type(speed) is int)
     if not (plain and 0.0 < speed <= 1.0):  # else the general check, and a copy
         checked = float(speed) if not plain and _is_real(speed) else speed  # type: ignore[arg-type]
         if not (_is_real(checked) and 0.0 < checked <= 1.0):  # type: ignore[operator]
-            raise _invalid(team, player, cycle, f"speed must be in (0, 1], got {short_repr(speed)}")
+            raise _invalid(team, drill, player, cycle,
+                           f"speed must be in (0, 1], got {short_repr(speed)}")
         speed = checked
     if skill is not _MOVE_TO:
         return command if plain else Command(skill, None, speed)  # type: ignore[arg-type]
@@ -529,15 +537,14 @@ def _check(team: str, player: str, command: object, cycle: int) -> Command:
     ):
         point = _point(target)
         if point is None:
-            raise _invalid(
-                team, player, cycle, f"MOVE_TO needs a finite (x, y) target, got {short_repr(target)}"
-            )
+            raise _invalid(team, drill, player, cycle,
+                           f"MOVE_TO needs a finite (x, y) target, got {short_repr(target)}")
         target, plain = point, False
     return command if plain else Command(skill, target, speed)  # type: ignore[arg-type]
 
 
-def _invalid(team: str, player: str, cycle: int, what: str) -> TeamError:
-    return TeamError(f"team {team!r}, player {player!r}, cycle {cycle}: {what}")
+def _invalid(team: str, drill: int | None, player: str, cycle: int, what: str) -> TeamError:
+    return TeamError(f"{_named(team, drill)}, player {player!r}, cycle {cycle}: {what}")
 
 
 class TeamDriver:
@@ -550,6 +557,8 @@ class TeamDriver:
         team_timeout: seconds of CPU time each ``reset`` or ``act`` call may take, in
             :data:`TEAM_TIMEOUT_RANGE` (1 ms to one day), or ``None`` for no bound. A
             call that exceeds it raises :class:`TeamError`.
+        drill: the drill of a batch this copy of the team plays in (named in its errors),
+            or ``None``.
 
     What the bound counts is the CPU time of the thread running the team during the call
     (``time.thread_time``), less garbage collections (see
@@ -588,9 +597,13 @@ class TeamDriver:
         name: str,
         players: tuple[str, ...],
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
+        drill: int | None = None,
     ) -> None:
         self.team, self.name, self.players = team, name, tuple(players)
         self.team_timeout = check_team_timeout(team_timeout)
+        self.drill = drill
+        # How its errors name the team: with the drill of a batch it plays in, if any.
+        self._who = f"team {name!r}" if drill is None else f"team {name!r} (drill {drill})"
 
     def reset(self, view: DrillView, rng: np.random.Generator) -> None:
         """Reset the team, naming it in any error it raises."""
@@ -635,7 +648,7 @@ class TeamDriver:
             if delivered_by_signal(exc):
                 raise
             raise self._raised("act()", f" at cycle {view.cycle}", exc) from exc
-        return check_commands(commands, self.players, self.name, view.cycle)
+        return check_commands(commands, self.players, self.name, view.cycle, self.drill)
 
     def call(self, call: str, when: object, method: Callable[..., Any], *args: Any) -> Any:
         """``method(*args)`` within this driver's time bound; any failure a :class:`TeamError`.
@@ -674,11 +687,11 @@ class TeamDriver:
         return call_within(timeout, method, *args)
 
     def _raised(self, call: str, when: object, exc: BaseException) -> TeamError:
-        return TeamError(f"team {self.name!r} raised in {call}{when}: {_what_happened(exc)}")
+        return TeamError(f"{self._who} raised in {call}{when}: {_what_happened(exc)}")
 
     def _unbounded(self, call: str, when: object, exc: Exception) -> TeamError:
         return TeamError(
-            f"team {self.name!r}: its time bound could not be set for {call}{when}: "
+            f"{self._who}: its time bound could not be set for {call}{when}: "
             f"{short_repr(exc)}"
         )
 
@@ -689,7 +702,7 @@ class TeamDriver:
         if self.team_timeout is None:
             return exc
         return TeamError(
-            f"team {self.name!r} exceeded its time bound of {self.team_timeout:g} s of "
+            f"{self._who} exceeded its time bound of {self.team_timeout:g} s of "
             f"CPU time in {call}{when} (stopped after {exc.cpu:.2f} s of CPU time, "
             f"{time.perf_counter() - start:.2f} s in all); fix the team or pass a larger "
             "team_timeout"
