@@ -22,3 +22,18 @@ os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 pin_recorded_kernels()
+
+
+import pytest  # noqa: E402  (after the environment above is set)
+
+
+@pytest.fixture
+def team_registry(monkeypatch):
+    """The team registry, isolated for one test: the installed teams are discovered first
+    (so the copy holds them all, and the registry put back afterwards too), then teams the
+    test registers are gone after it."""
+    import soccer_drill.teams as teams
+
+    teams.team_ids()
+    monkeypatch.setattr(teams, "_registry", dict(teams._registry))
+    return teams

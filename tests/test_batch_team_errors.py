@@ -10,7 +10,6 @@ import time
 import numpy as np
 import pytest
 
-import soccer_drill.teams as teams
 from soccer_drill import Command, HolderEnv, Skill
 from soccer_drill.batch_teams import BatchCommands
 from soccer_drill.teams import TeamError
@@ -102,10 +101,8 @@ def test_a_team_class_rather_than_an_instance_is_refused_by_every_environment(ki
         _make(kind, Plain)
 
 
-def test_a_factory_that_returns_a_class_is_refused(monkeypatch):
-    teams.team_ids()  # discover first: the copy below holds every installed team
-    monkeypatch.setattr(teams, "_registry", dict(teams._registry))  # undone after the test
-    teams.register("returns_a_class", lambda: Plain)
+def test_a_factory_that_returns_a_class_is_refused(team_registry):
+    team_registry.register("returns_a_class", lambda: Plain)
     with pytest.raises(TeamError, match="factory returned the class Plain, not a team instance"):
         HolderEnv(opponent="returns_a_class")
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import pytest
 
-import soccer_drill.teams as teams
 from opponents import calibrate
 from soccer_drill import Command, Skill, gif
 
@@ -23,10 +22,8 @@ class Flaky:
 
 
 @pytest.fixture
-def flaky(monkeypatch):
-    teams.team_ids()  # discover first: the copy below holds every installed team
-    monkeypatch.setattr(teams, "_registry", dict(teams._registry))  # undone after the test
-    teams.register("flaky_cli", Flaky)
+def flaky(team_registry):
+    team_registry.register("flaky_cli", Flaky)
     return "flaky_cli"
 
 

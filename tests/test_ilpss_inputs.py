@@ -162,15 +162,11 @@ def test_holder_learning_writes_its_page_under_results_by_default():
 
 # ------------------------------------------------------------ a team that fails
 @pytest.fixture
-def broken_team(monkeypatch):
-    from soccer_drill import teams
-
+def broken_team(team_registry):
     def factory(**params):
         raise RuntimeError("planted failure")
 
-    teams.team_ids()  # discovered first: the copy, and the registry restored, hold every team
-    monkeypatch.setattr(teams, "_registry", dict(teams._registry))
-    teams.register("broken_for_ilpss", factory)
+    team_registry.register("broken_for_ilpss", factory)
     return "broken_for_ilpss"
 
 

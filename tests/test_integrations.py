@@ -22,7 +22,6 @@ import numpy as np
 import pytest
 
 import soccer_drill
-import soccer_drill.teams as teams
 
 PAGE = Path(__file__).resolve().parent.parent / "docs" / "integrations.md"
 TEXT = PAGE.read_text(encoding="utf-8")
@@ -64,10 +63,8 @@ def _params():
 
 
 @pytest.mark.parametrize("name", list(_params()))
-def test_recipe_runs_and_prints_what_the_page_says(name, tmp_path, monkeypatch):
+def test_recipe_runs_and_prints_what_the_page_says(name, tmp_path, monkeypatch, team_registry):
     monkeypatch.chdir(tmp_path)
-    teams.team_ids()  # discover first, so that the copy below holds every installed team
-    monkeypatch.setattr(teams, "_registry", dict(teams._registry))
     if name in NEEDS_FIXED_HASH_SEED:
         (tmp_path / f"{name}.py").write_text(RECIPES[name], encoding="utf-8")
         run = subprocess.run([sys.executable, f"{name}.py"], capture_output=True, text=True,

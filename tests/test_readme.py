@@ -21,8 +21,6 @@ from pathlib import Path
 
 import pytest
 
-import soccer_drill.teams as teams
-
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
 FENCE = re.compile(r"^```([\w-]*)[^\n]*\n(.*?)^```[ \t]*$", re.MULTILINE | re.DOTALL)
@@ -84,10 +82,8 @@ def test_readme_has_code_to_check():
 
 @pytest.mark.parametrize("code", [c for _, c in PYTHON_BLOCKS],
                          ids=[f"line{n}" for n, _ in PYTHON_BLOCKS])
-def test_python_block_runs(code, tmp_path, monkeypatch):
+def test_python_block_runs(code, tmp_path, monkeypatch, team_registry):
     monkeypatch.chdir(tmp_path)
-    teams.team_ids()  # discover the installed teams, then isolate the registry
-    monkeypatch.setattr(teams, "_registry", dict(teams._registry))
     exec(compile(code, str(README), "exec"), {"__name__": "__readme__"})
 
 

@@ -31,16 +31,14 @@ class Wall:
 
 
 @pytest.fixture
-def wall(tmp_path, monkeypatch):
+def wall(tmp_path, monkeypatch, team_registry):
     """A team ``tc_wall`` from a module of its own, and a way to change its source."""
     source = tmp_path / "plugin_tc_wall.py"
     source.write_text(textwrap.dedent(_WALL))
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.delitem(sys.modules, "plugin_tc_wall", raising=False)  # this test's file
     module = importlib.import_module("plugin_tc_wall")
-    teams.team_ids()  # discover first: the copy below holds every installed team
-    monkeypatch.setattr(teams, "_registry", dict(teams._registry))
-    teams.register("tc_wall", module.Wall)
+    team_registry.register("tc_wall", module.Wall)
     holder_learning._team_code.cache_clear()
     yield lambda: source.write_text(source.read_text() + "\n# a change\n")
     holder_learning._team_code.cache_clear()

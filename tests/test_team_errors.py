@@ -181,8 +181,8 @@ class _ExitsWhenBuilt:
      r"bad parameters \{'colour': 'red'\} for team 'factory': got an unexpected keyword "
      r"argument 'colour'; it takes \(speed: .*= 1\.0\)"),
 ])
-def test_a_failing_factory_is_named_with_what_happened(monkeypatch, factory, params, error, message):
-    monkeypatch.setattr(teams, "_registry", dict(teams._registry))
+def test_a_failing_factory_is_named_with_what_happened(team_registry, factory, params, error,
+                                                       message):
     teams.register("factory", factory)
     with pytest.raises(error, match=message) as err:
         soccer_drill.HolderEnv(opponent="factory", opponent_params=params)
