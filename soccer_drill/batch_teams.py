@@ -453,7 +453,7 @@ def check_commands(
     raw_skill = given[0]
     # Range first, on the values given: a cast of a huge value to int64 would wrap.
     in_range = (raw_skill >= 0) & (raw_skill < len(_IS_ALLOWED))
-    skill = np.array(np.where(in_range, raw_skill, 0), dtype=np.int64)
+    skill = np.where(in_range, raw_skill, 0).astype(np.int64, copy=False)
     target = np.array(given[1], dtype=np.float64)
     speed = np.array(given[2], dtype=np.float64)
 
