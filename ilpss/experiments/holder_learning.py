@@ -118,9 +118,10 @@ def learn_and_evaluate(job: tuple[str, int, int, int, LearnerConfig]) -> dict[st
 
 
 @functools.cache
-def _team_code(team: str) -> tuple[tuple[str, str], ...]:
-    """The team's code (:data:`~ilpss.experiments.drill.TEAM_CODE`), once per process."""
-    return tuple(sorted(drill_object(TEAM_CODE)(team).items()))
+def _team_code(team: str) -> dict[str, str]:
+    """The team's code (:data:`~ilpss.experiments.drill.TEAM_CODE`), once per process
+    (each key takes a copy)."""
+    return drill_object(TEAM_CODE)(team)
 
 
 def learning_key(job: tuple[str, int, int, int, LearnerConfig]) -> dict[str, Any]:
