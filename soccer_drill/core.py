@@ -145,15 +145,15 @@ class DrillCore:
             else None
         )
         self.view = DrillView(self.drill, PLAYER_NAMES[2:])
-        # The bounds as Python floats: the observation functions compare them fastest so.
+        # The bounds as float64 arrays, as the compiled observation rules read them.
         if obs_type == "features":
             low, high = feature_bounds(config)
             self._observe = features
-            self._obs_args: tuple = (config, low.tolist(), high.tolist())
+            self._obs_args: tuple = (config, low.astype(np.float64), high.astype(np.float64))
         else:
             low, high = kinematic_bounds(config)
             self._observe = kinematics
-            self._obs_args = (low.tolist(), high.tolist())
+            self._obs_args = (low.astype(np.float64), high.astype(np.float64))
         self.obs_box = spaces.Box(low, high, dtype=np.float32)
         self.np_random, _ = seeding.np_random()
 

@@ -97,7 +97,7 @@ class _DrillEnvBase:
         self._features = self._with_role if shared_spaces else core.observe
         self._observation = self._flat_observation if self._flat else self._dict_observation
         low, high = state_bounds(cfg)
-        self._state_bounds = (low, high)
+        self._state_bounds = (low.astype(np.float64), high.astype(np.float64))
         self.state_space = spaces.Box(low, high, dtype=np.float32)
 
     def __copy__(self):

@@ -27,6 +27,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from soccer_drill.compiled import compiled, hypot
 from soccer_drill.config import DrillConfig
 from soccer_drill.state import BALL, DrillState
 
@@ -58,8 +59,14 @@ def feature_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
 
 
 _DEGREES = 180.0 / math.pi
-_hypot, _acos = math.hypot, math.acos
-_FLOAT32 = np.float32  # passed by position: np.array's keyword costs ~0.2 us a call
+_FLOAT32 = np.float32
+
+
+def _as_bounds(bounds: Bounds) -> np.ndarray:
+    """Bounds as the float64 array the compiled rules read (the same values)."""
+    if type(bounds) is np.ndarray and bounds.dtype == np.float64:
+        return bounds
+    return np.asarray(bounds, dtype=np.float64)
 
 
 def features(
@@ -67,79 +74,100 @@ def features(
 ) -> np.ndarray:
     """The 9 features of ``player`` (see the module table), clipped to the bounds.
 
-    ``low`` and ``high`` are :func:`feature_bounds` (arrays, or their ``tolist()``: faster).
+    ``low`` and ``high`` are :func:`feature_bounds` (float64 arrays of them: fastest).
     """
     pos = state.pos
-    sx, sy = pos[player]
-    mx, my = pos[player ^ 1]
+    (sx, sy), (mx, my) = pos[player], pos[player ^ 1]
     (o1x, o1y), (o2x, o2y) = (pos[2], pos[3]) if player < 2 else (pos[0], pos[1])
+    out = np.empty(9, _FLOAT32)
+    _features_into(out, sx, sy, mx, my, o1x, o1y, o2x, o2y, cfg.field_size / 2,
+                   _as_bounds(low), _as_bounds(high))
+    return out
+
+
+def batch_features(
+    pos: np.ndarray, player: np.ndarray, cfg: DrillConfig, low: Bounds, high: Bounds
+) -> np.ndarray:
+    """The 9 features of ``player[i]`` in drill ``i`` of ``pos`` (``(N, 5, 2)``):
+    ``(N, 9)`` float32, :func:`features` of each drill."""
+    out = np.empty((len(pos), 9), _FLOAT32)
+    _features_of_drills(out, np.ascontiguousarray(pos, dtype=np.float64),
+                        np.ascontiguousarray(player, dtype=np.int64), cfg.field_size / 2,
+                        _as_bounds(low), _as_bounds(high))
+    return out
+
+
+def players_features(
+    pos: np.ndarray, players: tuple[int, ...], cfg: DrillConfig, low: Bounds, high: Bounds
+) -> np.ndarray:
+    """The 9 features of each of ``players`` in every drill: ``(N, len(players), 9)``."""
+    n, k = len(pos), len(players)
+    each = np.broadcast_to(np.asarray(players, dtype=np.int64), (n, k)).reshape(-1)
+    drills = np.repeat(np.ascontiguousarray(pos, dtype=np.float64), k, axis=0)
+    return batch_features(drills, each, cfg, low, high).reshape(n, k, 9)
+
+
+@compiled
+def _features_of_drills(out, pos, players, half_size, low, high):
+    for i in range(pos.shape[0]):
+        p = players[i]
+        m = p ^ 1
+        o = 2 if p < 2 else 0
+        _features_into(out[i], pos[i, p, 0], pos[i, p, 1], pos[i, m, 0], pos[i, m, 1],
+                       pos[i, o, 0], pos[i, o, 1], pos[i, o + 1, 0], pos[i, o + 1, 1],
+                       half_size, low, high)
+
+
+@compiled
+def _features_into(out, sx, sy, mx, my, o1x, o1y, o2x, o2y, half_size, low, high):
+    """The 9 features of a player at ``(sx, sy)``, with its mate at ``(mx, my)`` and its
+    opponents at ``(o1x, o1y)`` and ``(o2x, o2y)``, clipped into ``out`` (float32)."""
     ax, ay = o1x - sx, o1y - sy  # opponents relative to self
     bx, by = o2x - sx, o2y - sy
     ux, uy = mx - sx, my - sy  # mate relative to self
-    da, db, dm = _hypot(ax, ay), _hypot(bx, by), _hypot(ux, uy)
+    da, db, dm = hypot(ax, ay), hypot(bx, by), hypot(ux, uy)
     near, far = (da, db) if da <= db else (db, da)
-    ma, mb = _hypot(ax - ux, ay - uy), _hypot(bx - ux, by - uy)
+    ma, mb = hypot(ax - ux, ay - uy), hypot(bx - ux, by - uy)
     mate_opp = mb if mb < ma else ma  # min(ma, mb)
     # Angles at self between the mate, or the goal direction (0, -1), and each opponent:
     # acos of the normalised dot product (clamped to [-1, 1]), 180 for a zero-length side.
     # With the goal direction that product is -y / d (exactly, but for the sign of a zero,
     # which acos ignores).
-    if da < 1e-9:
-        pa = ga = 180.0
-    else:
-        if dm < 1e-9:
-            pa = 180.0
-        else:
-            c = (ux * ax + uy * ay) / (dm * da)
-            pa = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
-        c = -ay / da
-        ga = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
-    if db < 1e-9:
-        pb = gb = 180.0
-    else:
-        if dm < 1e-9:
-            pb = 180.0
-        else:
-            c = (ux * bx + uy * by) / (dm * db)
-            pb = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
-        c = -by / db
-        gb = _DEGREES * _acos(-1.0 if c < -1.0 else 1.0 if c > 1.0 else c)
-    raw = (dm, near, far, mate_opp, pb if pb < pa else pa, sy, sx - cfg.field_size / 2, my,
-           gb if gb < ga else ga)
-    if _inside(raw, low, high):  # the usual case: nothing to clip
-        return np.array(raw, _FLOAT32)
-    return _clipped(raw, low, high)
+    pa = pb = ga = gb = 180.0
+    if da >= 1e-9:
+        if dm >= 1e-9:
+            pa = _angle((ux * ax + uy * ay) / (dm * da))
+        ga = _angle(-ay / da)
+    if db >= 1e-9:
+        if dm >= 1e-9:
+            pb = _angle((ux * bx + uy * by) / (dm * db))
+        gb = _angle(-by / db)
+    _clip_into(out, 0, dm, low, high)
+    _clip_into(out, 1, near, low, high)
+    _clip_into(out, 2, far, low, high)
+    _clip_into(out, 3, mate_opp, low, high)
+    _clip_into(out, 4, pb if pb < pa else pa, low, high)
+    _clip_into(out, 5, sy, low, high)
+    _clip_into(out, 6, sx - half_size, low, high)
+    _clip_into(out, 7, my, low, high)
+    _clip_into(out, 8, gb if gb < ga else ga, low, high)
 
 
-def _inside(values: Sequence[float], low: Bounds, high: Bounds) -> bool:
-    """Whether each of the nine values lies strictly inside its bounds, where the clip
-    keeps it as it is (the usual case: then no clip is needed).
-
-    Written out, a third of the cost of ``all(map(operator.lt, ...))`` over the nine.
-    """
-    v0, v1, v2, v3, v4, v5, v6, v7, v8 = values
-    l0, l1, l2, l3, l4, l5, l6, l7, l8 = low
-    h0, h1, h2, h3, h4, h5, h6, h7, h8 = high
-    return (l0 < v0 < h0 and l1 < v1 < h1 and l2 < v2 < h2 and l3 < v3 < h3 and l4 < v4 < h4
-            and l5 < v5 < h5 and l6 < v6 < h6 and l7 < v7 < h7 and l8 < v8 < h8)
+@compiled
+def _angle(cosine):
+    """The angle of ``cosine`` (clamped to [-1, 1]) in degrees."""
+    return _DEGREES * math.acos(-1.0 if cosine < -1.0 else 1.0 if cosine > 1.0 else cosine)
 
 
-def _clipped(values: Sequence[float], low: Bounds, high: Bounds) -> np.ndarray:
-    """``np.clip(np.array(values, float32), low, high)``, bit for bit, but faster.
-
-    Clipping the float64 values before rounding them to float32 gives the same floats
-    (``low`` and ``high`` are float32 and rounding is monotonic); each comparison is
-    NumPy's own (``max(v, lo)`` is ``v if v > lo or v is NaN else lo``), so even the
-    sign of a clipped zero is NumPy's. Bounds given as lists of floats (``low.tolist()``)
-    are compared fastest. :func:`features` calls it only when :func:`_inside` is false.
-    """
-    return np.array(
-        [  # m = max(v, lo), then min(m, hi), each as NumPy compares
-            m if ((m := v if v > lo or v != v else lo) < hi or m != m) else hi
-            for v, lo, hi in zip(values, low, high, strict=True)
-        ],
-        _FLOAT32,
-    )
+@compiled
+def _clip_into(out, k, value, low, high):
+    """``out[k]`` = ``value`` clipped into ``[low[k], high[k]]``, as ``np.clip`` of the
+    float32 value: bounds are float32 values and rounding is monotonic, so clipping
+    first gives the same float; each comparison is NumPy's (``max(v, lo)`` is
+    ``v if v > lo or v is NaN else lo``), so even the sign of a clipped zero is NumPy's."""
+    lo, hi = low[k], high[k]
+    m = value if value > lo or value != value else lo
+    out[k] = m if m < hi or m != m else hi
 
 
 KINEMATIC_SIZE = 26
@@ -168,23 +196,57 @@ def kinematics(state: DrillState, player: int, low: Bounds, high: Bounds) -> np.
     self holds, mate holds, an opponent holds, ball loose, self is an attacker,
     the passer lock-out applies to self.
     """
-    pos, vel = state.pos, state.vel
-    sx, sy = pos[player]
-    svx, svy = vel[player]
-    values = [sx, sy, svx, svy]
-    others = (player ^ 1, *((2, 3) if player < 2 else (0, 1)), BALL)
-    for j in others:
-        values += [pos[j][0] - sx, pos[j][1] - sy, vel[j][0] - svx, vel[j][1] - svy]
-    h = state.holder
-    values += [
-        float(h == player),
-        float(h == player ^ 1),
-        float(h >= 0 and (h >= 2) != (player >= 2)),
-        float(h < 0),
-        float(player < 2),
-        float(state.passer == player and state.cycle < state.lockout_until),
-    ]
-    return _clipped(values, low, high)
+    out = np.empty(KINEMATIC_SIZE, _FLOAT32)
+    _kinematics_into(out, np.array(state.pos), np.array(state.vel), state.holder,
+                     state.passer if state.cycle < state.lockout_until else -1, player,
+                     _as_bounds(low), _as_bounds(high))
+    return out
+
+
+def batch_kinematics(
+    pos: np.ndarray, vel: np.ndarray, holder: np.ndarray, passer_locked: np.ndarray,
+    player: int, low: Bounds, high: Bounds,
+) -> np.ndarray:
+    """:func:`kinematics` of ``player`` in every drill (``passer_locked``: the passer
+    who cannot regain the ball yet, -1 for none): ``(N, 26)`` float32."""
+    out = np.empty((len(pos), KINEMATIC_SIZE), _FLOAT32)
+    _kinematics_of_drills(out, np.ascontiguousarray(pos, dtype=np.float64),
+                          np.ascontiguousarray(vel, dtype=np.float64),
+                          np.ascontiguousarray(holder, dtype=np.int64),
+                          np.ascontiguousarray(passer_locked, dtype=np.int64), player,
+                          _as_bounds(low), _as_bounds(high))
+    return out
+
+
+@compiled
+def _kinematics_of_drills(out, pos, vel, holder, passer_locked, player, low, high):
+    for i in range(pos.shape[0]):
+        _kinematics_into(out[i], pos[i], vel[i], holder[i], passer_locked[i], player, low, high)
+
+
+@compiled
+def _kinematics_into(out, pos, vel, holder, passer_locked, player, low, high):
+    """:func:`kinematics` of one drill (``pos``, ``vel``: ``(5, 2)``) into ``out``."""
+    sx, sy = pos[player, 0], pos[player, 1]
+    svx, svy = vel[player, 0], vel[player, 1]
+    _clip_into(out, 0, sx, low, high)
+    _clip_into(out, 1, sy, low, high)
+    _clip_into(out, 2, svx, low, high)
+    _clip_into(out, 3, svy, low, high)
+    o = 2 if player < 2 else 0
+    k = 4
+    for j in (player ^ 1, o, o + 1, 4):  # mate, opponents, ball
+        _clip_into(out, k, pos[j, 0] - sx, low, high)
+        _clip_into(out, k + 1, pos[j, 1] - sy, low, high)
+        _clip_into(out, k + 2, vel[j, 0] - svx, low, high)
+        _clip_into(out, k + 3, vel[j, 1] - svy, low, high)
+        k += 4
+    opponent_holds = holder >= 0 and (holder >= 2) != (player >= 2)
+    flags = (holder == player, holder == player ^ 1, opponent_holds, holder < 0, player < 2,
+             passer_locked == player)
+    for flag in flags:
+        _clip_into(out, k, 1.0 if flag else 0.0, low, high)
+        k += 1
 
 
 STATE_SIZE = 29
@@ -213,9 +275,7 @@ def state_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
     return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
 
 
-def global_state(
-    state: DrillState, cfg: DrillConfig, low: np.ndarray, high: np.ndarray
-) -> np.ndarray:
+def global_state(state: DrillState, cfg: DrillConfig, low: Bounds, high: Bounds) -> np.ndarray:
     """The whole drill in a fixed layout (29 float32 values), for centralised critics.
 
     | index | value |
@@ -231,12 +291,42 @@ def global_state(
 
     Values are clipped into :func:`state_bounds`.
     """
-    values: list[float] = []
-    for (x, y), (vx, vy) in zip(state.pos, state.vel, strict=True):
-        values += [x, y, vx, vy]
-    holder, passer = state.holder, state.passer
-    locked = state.cycle < state.lockout_until
-    values += [float(holder == i) for i in range(4)]
-    values += [float(locked and passer == i) for i in range(4)]
-    values.append(state.cycle / cfg.max_cycles)
-    return np.clip(np.array(values, _FLOAT32), low, high)
+    out = np.empty(STATE_SIZE, _FLOAT32)
+    _state_into(out, np.array(state.pos), np.array(state.vel), state.holder,
+                state.passer if state.cycle < state.lockout_until else -1,
+                state.cycle / cfg.max_cycles, _as_bounds(low), _as_bounds(high))
+    return out
+
+
+def batch_global_state(
+    pos: np.ndarray, vel: np.ndarray, holder: np.ndarray, passer_locked: np.ndarray,
+    cycle: np.ndarray, cfg: DrillConfig, low: Bounds, high: Bounds,
+) -> np.ndarray:
+    """:func:`global_state` of every drill: ``(N, 29)`` float32."""
+    out = np.empty((len(pos), STATE_SIZE), _FLOAT32)
+    _states_of_drills(out, np.ascontiguousarray(pos, dtype=np.float64),
+                      np.ascontiguousarray(vel, dtype=np.float64),
+                      np.ascontiguousarray(holder, dtype=np.int64),
+                      np.ascontiguousarray(passer_locked, dtype=np.int64),
+                      cycle / cfg.max_cycles, _as_bounds(low), _as_bounds(high))
+    return out
+
+
+@compiled
+def _states_of_drills(out, pos, vel, holder, passer_locked, progress, low, high):
+    for i in range(pos.shape[0]):
+        _state_into(out[i], pos[i], vel[i], holder[i], passer_locked[i], progress[i], low, high)
+
+
+@compiled
+def _state_into(out, pos, vel, holder, passer_locked, progress, low, high):
+    """:func:`global_state` of one drill into ``out``."""
+    for body in range(5):
+        _clip_into(out, 4 * body, pos[body, 0], low, high)
+        _clip_into(out, 4 * body + 1, pos[body, 1], low, high)
+        _clip_into(out, 4 * body + 2, vel[body, 0], low, high)
+        _clip_into(out, 4 * body + 3, vel[body, 1], low, high)
+    for i in range(4):
+        _clip_into(out, 20 + i, 1.0 if holder == i else 0.0, low, high)
+        _clip_into(out, 24 + i, 1.0 if passer_locked == i else 0.0, low, high)
+    _clip_into(out, 28, progress, low, high)

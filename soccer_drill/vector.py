@@ -12,12 +12,11 @@ from gymnasium.vector.utils import batch_space
 
 from soccer_drill.batch import OUTCOME_NAMES
 from soccer_drill.batch_core import BatchCore, check_num_envs, check_seed
-from soccer_drill.batch_features import batch_features
 from soccer_drill.batch_physics import DRILLS_PER_SPACE, check_drills_per_space
 from soccer_drill.batch_render import BatchRenderer, check_render_mode
 from soccer_drill.config import DrillConfig, is_integer
 from soccer_drill.core import make_config
-from soccer_drill.features import feature_bounds
+from soccer_drill.features import batch_features, feature_bounds
 from soccer_drill.holder import check_decision_cycles
 from soccer_drill.skills import HOLDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES

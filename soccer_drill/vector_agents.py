@@ -10,12 +10,18 @@ from gymnasium import spaces
 
 from soccer_drill.batch import OUTCOME_NAMES, RUNNING
 from soccer_drill.batch_core import BatchCore, check_num_envs, check_seed
-from soccer_drill.batch_features import batch_global_state, batch_kinematics, players_features
 from soccer_drill.batch_physics import DRILLS_PER_SPACE, check_drills_per_space
 from soccer_drill.batch_render import BatchRenderer, check_render_mode
 from soccer_drill.config import DrillConfig
 from soccer_drill.core import IllegalAction, ObsType, make_config, resolve_shared_spaces
-from soccer_drill.features import feature_bounds, kinematic_bounds, state_bounds
+from soccer_drill.features import (
+    batch_global_state,
+    batch_kinematics,
+    feature_bounds,
+    kinematic_bounds,
+    players_features,
+    state_bounds,
+)
 from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
@@ -174,7 +180,7 @@ class ParallelVectorEnv:
             for a, i in self._index.items()
         }
         low, high = state_bounds(self.config)
-        self._state_bounds = (low, high)
+        self._state_bounds = (low.astype(np.float64), high.astype(np.float64))
         self.state_space = spaces.Box(low, high, dtype=np.float32)
         self._renderer = BatchRenderer(self.config) if self.render_mode else None
         self._autoreset = np.zeros(n, dtype=bool)
@@ -339,7 +345,10 @@ class ParallelVectorEnv:
         """Every drill's global state: ``(num_envs, 29)`` float32 (see the class docstring)."""
         if not self._has_reset:
             raise RuntimeError("state() called before reset(); call reset() first")
-        return batch_global_state(self._core.batch, self.config, *self._state_bounds)
+        b = self._core.batch
+        locked = np.where(b.cycle < b.lockout_until, b.passer, -1)
+        return batch_global_state(b.pos, b.vel, b.holder, locked, b.cycle, self.config,
+                                  *self._state_bounds)
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """One frame per drill with ``render_mode="rgb_array"`` (else ``None``)."""

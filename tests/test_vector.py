@@ -10,7 +10,6 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 import soccer_drill
 from opponents.agreement import agreement
 from opponents.parametric import ParametricTeam, sample_opponents
-from soccer_drill.batch_features import batch_features
 from soccer_drill.batch_skills import (
     dribble_headings,
     interception_points,
@@ -18,7 +17,7 @@ from soccer_drill.batch_skills import (
     support_spots,
 )
 from soccer_drill.batch_teams import BatchCommands
-from soccer_drill.features import feature_bounds, features
+from soccer_drill.features import batch_features, feature_bounds, features
 from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.skills import (

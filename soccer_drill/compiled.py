@@ -1,0 +1,110 @@
+"""The drill's rules compiled per drill with numba, or run as plain Python: the same floats.
+
+A rule of the drill is written once, as a Python function over floats and NumPy arrays
+(one drill's), and decorated with :func:`compiled`. With numba installed it is compiled
+to machine code at first use (``cache=True``: the code is kept in ``__pycache__`` and
+reused by later processes; ``benchmarks/bench_compile.py`` measures the first use); the
+batched environments run it in a compiled loop over their drills, and the single ones
+call it for their one drill. Without numba, or with ``NUMBA_DISABLE_JIT=1``, the same
+functions run as plain Python, slower, with the same results:
+
+* every arithmetic operation is IEEE double precision in both, in the order written
+  (numba neither reorders nor fuses floating-point operations unless asked to);
+* ``math.atan2``, ``acos``, ``cos``, ``sin``, ``exp`` and ``log`` call the C library's
+  functions in both;
+* a length is :data:`hypot`: CPython's ``math.hypot`` in plain Python, and in compiled
+  code :func:`python_hypot`, CPython's algorithm for two coordinates written out (the C
+  library's ``hypot``, which numba would call, rounds differently about once in 170
+  calls). ``tests/test_compiled.py`` checks both equalities, and that whole episodes are
+  the same bit for bit with and without compilation.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+try:
+    import numba
+except ImportError:  # pragma: no cover - numba is a dependency; tested with it disabled
+    numba = None
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+COMPILED = numba is not None and not numba.config.DISABLE_JIT
+"""Whether the rules run compiled (numba importable, ``NUMBA_DISABLE_JIT`` not set)."""
+
+
+def compiled(function: F) -> F:
+    """``function`` compiled by numba (``nopython``, cached on disk), or itself when the
+    rules run as plain Python (:data:`COMPILED` false)."""
+    if not COMPILED:
+        return function
+    return numba.njit(cache=True)(function)  # type: ignore[union-attr, return-value]
+
+
+_SPLIT = 134217729.0  # 2**27 + 1: Dekker's split of a double into two halves
+_SMALLEST_NORMAL = 2.2250738585072014e-308  # DBL_MIN
+
+
+def python_hypot(x: float, y: float) -> float:
+    """``math.hypot(x, y)`` as CPython computes it, in operations numba compiles.
+
+    CPython scales the coordinates by a power of two, sums their squares in double-length
+    arithmetic (exact products by Dekker's split, exact sums), takes the square root and
+    corrects it once. The same operations in the same order give the same float.
+    """
+    x, y = abs(x), abs(y)
+    if x == math.inf or y == math.inf:
+        return math.inf
+    if x != x or y != y:
+        return math.nan
+    largest = x if x > y else y
+    if largest == 0.0:
+        return 0.0
+    factor = 1.0
+    exponent = math.frexp(largest)[1]
+    if exponent < -1023:  # 2**-exponent would overflow: scaled up first, as CPython does
+        x, y, factor = x / _SMALLEST_NORMAL, y / _SMALLEST_NORMAL, _SMALLEST_NORMAL
+        exponent = math.frexp(largest / _SMALLEST_NORMAL)[1]
+    scale = math.ldexp(1.0, -exponent)
+    total, low1, low2 = 1.0, 0.0, 0.0
+    for v in (x * scale, y * scale):
+        square, square_low = _exact_product(v, v)
+        added = total + square
+        low2 += square - (added - total)
+        total = added
+        low1 += square_low
+    h = math.sqrt(total - 1.0 + (low1 + low2))
+    square, square_low = _exact_product(-h, h)
+    added = total + square
+    low2 += square - (added - total)
+    total = added
+    low1 += square_low
+    h += (total - 1.0 + (low1 + low2)) / (2.0 * h)
+    return factor * (h / scale)
+
+
+def _exact_product(a: float, b: float) -> tuple[float, float]:
+    """``a * b`` as a rounded product and its exact remainder (Dekker's method)."""
+    t = a * _SPLIT
+    a_high = t - (t - a)
+    a_low = a - a_high
+    t = b * _SPLIT
+    b_high = t - (t - b)
+    b_low = b - b_high
+    p = a_high * b_high
+    q = a_high * b_low + a_low * b_high
+    product = p + q
+    return product, p - product + q + a_low * b_low
+
+
+if COMPILED:
+    _exact_product = compiled(_exact_product)
+    python_hypot = compiled(python_hypot)
+    hypot = python_hypot
+else:
+    hypot = math.hypot
+"""The length of ``(x, y)``, the same float compiled or not (see the module docstring)."""
+

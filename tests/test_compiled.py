@@ -1,0 +1,100 @@
+"""The drill's rules give the same floats compiled (numba) and as plain Python.
+
+The rules are written once (:mod:`soccer_drill.compiled`); these tests check the two
+promises that make the plain-Python fallback a fallback rather than another drill: the
+length function compiled code uses is CPython's ``math.hypot`` float for float, and
+whole episodes, single and batched, are the same bit for bit with ``NUMBA_DISABLE_JIT=1``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from episode_digests import _feed, digest
+
+import soccer_drill
+from soccer_drill.compiled import COMPILED, python_hypot
+from soccer_drill.vector import HolderVectorEnv
+from soccer_drill.vector_agents import ParallelVectorEnv
+
+_SINGLE = (
+    ("aec", "chasers", {"obs_type": "kinematic", "obs_format": "flat", "shared_spaces": False}),
+    ("parallel", None, {"obs_type": "features", "obs_format": "dict", "shared_spaces": True}),
+    ("holder", "interceptors_cover", {}),
+)
+
+
+def _vector_digest(opponent: str) -> str:
+    env = HolderVectorEnv(num_envs=6, opponent=opponent)
+    rng = np.random.default_rng(5)
+    h = hashlib.sha256()
+    obs, infos = env.reset(seed=11)
+    _feed(h, (obs, infos["cycles"]))
+    for _ in range(40):
+        obs, rewards, terminated, truncated, infos = env.step(rng.integers(3, size=6))
+        _feed(h, (obs, rewards, terminated, truncated, infos["cycles"],
+                  [str(o) for o in infos["outcome"]]))
+    return h.hexdigest()
+
+
+def _parallel_vector_digest() -> str:
+    env = ParallelVectorEnv(num_envs=4, opponent="goal_guards", obs_type="kinematic")
+    rng = np.random.default_rng(6)
+    h = hashlib.sha256()
+    obs, _ = env.reset(seed=3)
+    for _ in range(60):
+        actions = {a: np.where(o["action_mask"][:, 0] == 1, rng.integers(3, size=4),
+                               3 + rng.integers(2, size=4)) for a, o in obs.items()}
+        obs, rewards, terminations, truncations, _ = env.step(actions)
+        _feed(h, ({a: o["observation"] for a, o in obs.items()}, rewards, terminations,
+                  truncations, env.state()))
+    return h.hexdigest()
+
+
+def digests() -> dict[str, str]:
+    """Digests of a few single and batched configurations, in this process's mode."""
+    out = {f"{api}/{opponent}": digest(api, opponent, kwargs) for api, opponent, kwargs in _SINGLE}
+    out["vector/parametric"] = _vector_digest("parametric")
+    out["vector/chasers"] = _vector_digest("chasers")
+    out["parallel_vector/goal_guards"] = _parallel_vector_digest()
+    return out
+
+
+@pytest.mark.skipif(not COMPILED, reason="the rules are not compiled in this process")
+def test_compiled_lengths_are_cpythons_math_hypot_float_for_float():
+    rng = np.random.default_rng(0)
+    for scale in (1e-200, 1e-6, 1.0, 35.0, 1e6, 1e200):
+        xs, ys = rng.normal(0.0, scale, 20_000), rng.normal(0.0, scale, 20_000)
+        xs[:50], ys[50:100] = 0.0, -0.0
+        for x, y in zip(xs.tolist(), ys.tolist(), strict=True):
+            assert python_hypot(x, y) == math.hypot(x, y), (x, y)
+    for x, y in ((math.inf, math.nan), (math.nan, 1.0), (-math.inf, 2.0), (0.0, 0.0)):
+        same = python_hypot(x, y) == math.hypot(x, y) or (
+            math.isnan(python_hypot(x, y)) and math.isnan(math.hypot(x, y)))
+        assert same, (x, y)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not COMPILED, reason="the rules are not compiled in this process")
+def test_episodes_are_the_same_compiled_and_as_plain_python():
+    here = Path(__file__).resolve().parent
+    script = (f"import sys, json; sys.path.insert(0, {str(here)!r}); import test_compiled; "
+              "print(json.dumps(test_compiled.digests()))")
+    plain = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=600,
+        env={**os.environ, "NUMBA_DISABLE_JIT": "1"}, cwd=here.parent, check=True,
+    )
+    assert json.loads(plain.stdout) == digests()
+
+
+def test_the_package_says_whether_its_rules_are_compiled():
+    assert soccer_drill.compiled.COMPILED == (
+        os.environ.get("NUMBA_DISABLE_JIT", "0") in ("", "0"))
