@@ -244,8 +244,7 @@ def profile(n: int, team: str, cycles: int) -> list[tuple[str, float]]:
     groups = {
         "physics (pymunk spaces, batched reads/writes)": ("batch_physics.py", "cycle"),
         "team (batched act and its checks)": ("batch_teams.py", "act"),
-        "off-ball skills (targets, interception, support spots)": ("batch_skills.py", "off_ball_targets"),
-        "holder's ball skills": ("batch_skills.py", "holder_motion"),
+        "the drill's cycle (BatchDrill.step: skills, ball, physics, possession)": ("batch.py", "step"),
         "possession and tackles": ("batch.py", "_possession"),
         "outcome": ("batch.py", "_judge"),
         "observations and masks": ("vector_agents.py", "_observations"),

@@ -26,12 +26,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import soccer_drill.batch as batch_module
 import soccer_drill.batch_core as core_module
 import soccer_drill.batch_physics as physics_module
-import soccer_drill.batch_skills as skills_module
 import soccer_drill.batch_teams as teams_module
+import soccer_drill.motion as motion_module
 import soccer_drill.vector as vector_module
 import soccer_drill.vector_agents as agents_module
 
-_MODULES = (batch_module, core_module, physics_module, skills_module, teams_module,
+_MODULES = (batch_module, core_module, physics_module, motion_module, teams_module,
             vector_module, agents_module)
 _SPENT: collections.Counter = collections.Counter()
 
@@ -41,11 +41,7 @@ COMPONENTS = (
     ("whole cycle of the holder (_cycle)", vector_module.HolderVectorEnv, "_cycle"),
     ("  physics (pymunk spaces, batched reads/writes)", physics_module.BatchPhysics, "cycle"),
     ("  the drill's rules (BatchDrill.step less the physics)", batch_module.BatchDrill, "step"),
-    ("    off-ball skills (targets)", skills_module, "off_ball_targets"),
-    ("      interception points", skills_module, "interception_points"),
-    ("      support spots", skills_module, "support_spots"),
-    ("    holder's ball skills", skills_module, "holder_motion"),
-    ("    runs toward the targets", skills_module, "toward"),
+    ("    skills (every player's motion, compiled)", motion_module, "motions_of_drills"),
     ("    possession and tackles", batch_module.BatchDrill, "_possession"),
     ("    outcome", batch_module.BatchDrill, "_judge"),
     ("  team (batched act, its bound and checks)", teams_module.BatchTeamDriver, "act"),

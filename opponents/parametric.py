@@ -424,8 +424,8 @@ class ParametricBatch:
 
     def act(self, view: Any, drills: np.ndarray) -> Any:
         """The two defenders' commands in each of ``drills``."""
-        from soccer_drill.batch_skills import interception_points, mark_targets
         from soccer_drill.batch_teams import BatchCommands
+        from soccer_drill.motion import interception_points, mark_targets
 
         t, cfg = self.team, view.config
         size = cfg.field_size

@@ -1,11 +1,11 @@
 """Many drills stepped together: the rules of :class:`~soccer_drill.drill.Drill` on arrays.
 
 :class:`BatchDrill` holds ``N`` drills' states as arrays and advances any subset of
-them by one cycle: the players' commands become velocities (the batched skills of
-:mod:`soccer_drill.batch_skills`), the holder keeps or kicks the ball, the physics runs
-(:class:`~soccer_drill.batch_physics.BatchPhysics`), then possession, tackles and the
-outcome are decided, all with the formulas of :class:`~soccer_drill.drill.Drill` in
-the same order. The random draws of drill ``i`` come from its own generator, in the
+them by one cycle: the players' commands become velocities (the skills' rules of
+:mod:`soccer_drill.motion`, the single drill's, run drill by drill), the holder keeps
+or kicks the ball, the physics runs (:class:`~soccer_drill.batch_physics.BatchPhysics`),
+then possession, tackles and the outcome are decided, with the formulas of
+:class:`~soccer_drill.drill.Drill` in the same order. The random draws of drill ``i`` come from its own generator, in the
 order the single drill makes them (the start, then per cycle the pass's two normals and
 the tackles' uniforms), so drill ``i`` reset with the generator of ``reset(seed=s)``
 starts exactly where a single drill does.
@@ -13,24 +13,22 @@ starts exactly where a single drill does.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from soccer_drill.batch_physics import DRILLS_PER_SPACE, BatchPhysics
-from soccer_drill.batch_skills import (
+from soccer_drill.config import DrillConfig
+from soccer_drill.drill import OUTCOMES
+from soccer_drill.motion import (
     CONTROL,
     KICK,
     NO_BALL,
-    holder_motion,
-    off_ball_targets,
-    rows,
-    toward,
-    turn_toward,
-    xy,
-    z,
+    PASS,
+    motions_of_drills,
+    roll_table,
+    rule_parameters,
 )
-from soccer_drill.config import DrillConfig
-from soccer_drill.drill import OUTCOMES
-from soccer_drill.skills import BALL_SKILLS, Skill
 from soccer_drill.state import DrillState
 
 RUNNING = 0
@@ -38,8 +36,6 @@ RUNNING = 0
 OUTCOME_NAMES: tuple[str | None, ...] = (None, *OUTCOMES)
 """Outcome names by code: ``OUTCOME_NAMES[BatchDrill.outcome[i]]``."""
 _SUCCESS, _INTERCEPTION, _OUT, _TIMEOUT = 1, 2, 3, 4
-_IS_BALL_SKILL = np.zeros(len(Skill), dtype=bool)
-_IS_BALL_SKILL[[int(s) for s in BALL_SKILLS]] = True
 _PLAYERS = np.arange(4)
 _IS_DEFENDER = _PLAYERS >= 2
 
@@ -83,6 +79,9 @@ class BatchDrill:
         self._top = np.array([cfg.attacker_speed] * 2 + [cfg.defender_speed] * 2)
         self._caps = np.array([*self._top, cfg.ball_max_speed])
         self._starts = np.array([*cfg.attacker_starts, *cfg.defender_starts])
+        self._params, self._table = rule_parameters(cfg), roll_table(cfg)
+        self._noise = np.zeros((n, 2))  # the two normals of each drill's pass
+        self._motions = np.zeros((n, 4, 5))  # each player's motion (skills' rules)
 
     # ------------------------------------------------------------------ reset
     def reset(self, drills: np.ndarray, rngs: list[np.random.Generator]) -> None:
@@ -131,25 +130,20 @@ class BatchDrill:
             raise RuntimeError(
                 f"drill {int(ended[0])}: the episode has ended; reset it first"
             )
-        # The holder's ball skill (the holder's command must be one; others never are).
+        # Each player's motion, by the skills' rules; the holder's pass draws two normals.
         held = (holder >= 0) & active
         hskill = np.where(held, skill[r, holder], -1)  # holder -1: any column, unused
-        passing = hskill == int(Skill.PASS)
-        noise = None
+        passing = hskill == PASS
+        noise = self._noise
         if np.count_nonzero(passing):
-            noise = np.zeros((n, 2))
             for i in np.nonzero(passing)[0].tolist():
                 noise[i] = rngs[i].normal(size=2)  # the two draws of pass_velocity, in order
-        vmax = self._top * speed
-        tgt = off_ball_targets(pos, vel, holder, skill, target, vmax, cfg)
-        desired = toward(pos[:, :4], tgt, vmax)
-        mv, ball_action, bvec = holder_motion(pos, vel, holder, hskill, speed[r, holder], noise, cfg)
-        # Ball skills move only the holder (with its motion), everyone else stands.
-        desired[_IS_BALL_SKILL[skill]] = 0.0
-        ball_held = held & (ball_action != NO_BALL)
-        if np.count_nonzero(ball_held):
-            b = np.nonzero(ball_held)[0]
-            desired[b, holder[b]] = mv[b]
+        motions = self._motions
+        motions_of_drills(motions, active, pos, vel, holder, skill, target, speed, noise,
+                          self._params, self._table)
+        desired = motions[..., 0:2].copy()
+        ball_action = np.where(held, motions[r, holder, 2], NO_BALL)
+        bvec = motions[r, holder, 3:5]
         # The acceleration cap.
         accel = cfg.player_acceleration * dt
         old = z(vel)[:, :4]
@@ -301,6 +295,43 @@ class BatchDrill:
         self.holder[i], self.cycle[i] = state.holder, state.cycle
         self.passer[i], self.lockout_until[i] = state.passer, state.lockout_until
         self.outcome[i] = RUNNING
+
+
+_rows_cache: dict[int, np.ndarray] = {}
+_MAX_TURN = math.radians(40.0)
+
+
+def z(a: np.ndarray) -> np.ndarray:
+    """The ``(..., 2)`` float64 vectors ``a`` as one complex128 each, a view (its last axis
+    must be contiguous): selections (``np.where``, ``np.copyto``), additions and
+    subtractions of whole vectors in one pass over the vectors rather than over pairs of
+    floats, with the same floats (a complex sum is the sums of the two parts)."""
+    return a.view(np.complex128)[..., 0]
+
+
+def xy(a: np.ndarray) -> np.ndarray:
+    """The complex128 array ``a`` as ``(..., 2)`` float64 vectors, a view (:func:`z`'s inverse)."""
+    return a[..., None].view(np.float64)
+
+
+def rows(n: int) -> np.ndarray:
+    """``np.arange(n)``, made once per ``n`` (read-only)."""
+    r = _rows_cache.get(n)
+    if r is None:
+        r = _rows_cache[n] = np.arange(n)
+        r.flags.writeable = False
+    return r
+
+
+def turn_toward(
+    fx: np.ndarray, fy: np.ndarray, tx: np.ndarray, ty: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``drill._turn_toward`` on arrays: from direction f toward t by at most 40 degrees."""
+    b = np.arctan2(ty, tx)
+    a = np.where((fx != 0) | (fy != 0), np.arctan2(fy, fx), b)
+    delta = np.remainder(b - a + math.pi, 2 * math.pi) - math.pi
+    a = a + np.maximum(-_MAX_TURN, np.minimum(_MAX_TURN, delta))
+    return np.cos(a), np.sin(a)
 
 
 def _capped(v: np.ndarray, cap: np.ndarray | float, squared: bool = False) -> np.ndarray:

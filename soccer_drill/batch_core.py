@@ -8,15 +8,10 @@ from typing import Any
 import numpy as np
 
 from soccer_drill.batch import RUNNING, BatchDrill
-from soccer_drill.batch_skills import _ATTACKERS, support_spots, xy, z
 from soccer_drill.batch_teams import BatchRandom, BatchTeamDriver
 from soccer_drill.config import DrillConfig, is_integer
-from soccer_drill.skills import Skill
-from soccer_drill.support import _OFFSET_STD, _RESAMPLE_CYCLES
+from soccer_drill.support import OFFSET_STD, RESAMPLE_CYCLES, support_commands_of_drills
 from soccer_drill.teams import Team, check_team_timeout
-
-_GO_TO_BALL, _MOVE_TO = int(Skill.GO_TO_BALL), int(Skill.MOVE_TO)
-_MATES = np.array([1, 0])  # each attacker's mate
 
 
 def check_num_envs(num_envs: object) -> int:
@@ -133,12 +128,8 @@ class BatchCore:
         drill asks, since both draw from the drill's one support generator)."""
         if not np.count_nonzero(first | second):
             return
-        b, cfg = self.batch, self.config
-        spots = support_spots(b.pos, cfg, _ATTACKERS)  # (n, 2, 2)
-        d = xy(z(b.pos)[:, :2] - z(b.pos)[:, 4:5])
-        dist = np.hypot(d[..., 0], d[..., 1])  # each attacker's distance to the ball
-        locked_out = np.where(b.cycle < b.lockout_until, b.passer, -1)
-        resample = b.cycle % _RESAMPLE_CYCLES == 0
+        b = self.batch
+        resample = b.cycle % RESAMPLE_CYCLES == 0
         # The offsets each attacker's spot uses: attacker 0's after its draws, attacker
         # 1's after its own (drawn after attacker 0's, from the same generator).
         offsets = np.empty((self.n, 2, 2))
@@ -147,19 +138,12 @@ class BatchCore:
             if len(draw):
                 dx = self.support_rng.random(draw)
                 dy = self.support_rng.random(draw)
-                self.support_offset[draw, 0] = _OFFSET_STD * dx
-                self.support_offset[draw, 1] = _OFFSET_STD * dy
+                self.support_offset[draw, 0] = OFFSET_STD * dx
+                self.support_offset[draw, 1] = OFFSET_STD * dy
             offsets[:, k] = self.support_offset
-        both = np.stack((first, second), axis=1)  # (n, 2): which attackers support
-        # Chase a loose ball if the mate is locked out or no nearer to it.
-        chase = (b.holder < 0)[:, None] & (
-            (locked_out[:, None] == _MATES) | (dist <= dist[:, ::-1]))
-        spot = spots
-        spot += offsets
-        np.minimum(np.maximum(spot, 1.0, out=spot), cfg.field_size - 1.0, out=spot)
-        np.copyto(self.skill[:, :2], np.where(chase, _GO_TO_BALL, _MOVE_TO), where=both)
-        np.copyto(z(self.target)[:, :2], z(spot), where=both)
-        np.copyto(self.speed[:, :2], 1.0, where=both)
+        support_commands_of_drills(self.skill, self.target, self.speed,
+                                   np.stack((first, second), axis=1), b.pos, b.holder, b.cycle,
+                                   b.passer, b.lockout_until, offsets, self.config.field_size)
 
     def check_team(self) -> None:
         """:class:`~soccer_drill.teams.TeamError` if the team failed and the drills were

@@ -31,7 +31,7 @@ from typing import Any, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
-from soccer_drill.batch_skills import rows
+from soccer_drill.batch import rows
 from soccer_drill.config import DrillConfig
 from soccer_drill.skills import BALL_SKILLS, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView

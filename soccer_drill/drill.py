@@ -21,7 +21,8 @@ import pymunk.batch
 from pymunk.batch import get_space_bodies
 
 from soccer_drill.config import DrillConfig
-from soccer_drill.skills import CONTROL, KICK, NO_BALL, Command, execute
+from soccer_drill.motion import CONTROL, KICK, NO_BALL, motions_into, roll_table, rule_parameters
+from soccer_drill.skills import Command, Skill
 from soccer_drill.state import BALL, DrillState
 
 Outcome = Literal["success", "interception", "out", "timeout"]
@@ -38,6 +39,9 @@ _set_position = pymunk.Body.position.fset
 _set_filter = pymunk.Shape.filter.fset
 _POSITION_VELOCITY = pymunk.batch.BodyFields.POSITION | pymunk.batch.BodyFields.VELOCITY
 _new_state = tuple.__new__  # DrillState's fields in order, without its __new__'s defaults
+_PASS = Skill.PASS
+_NO_NOISE = np.zeros(2)
+_NO_NOISE.flags.writeable = False
 
 
 class Drill:
@@ -63,6 +67,12 @@ class Drill:
         self._caps = (*self._top_speed, cfg.ball_max_speed)
         self._caps2 = tuple(cap * cap for cap in self._caps)
         self._buffer = pymunk.batch.Buffer()  # reused: one batched read per cycle
+        self._params, self._table = rule_parameters(cfg), roll_table(cfg)
+        # The players' commands as the compiled rules read them, and their motions.
+        self._skill = np.zeros(4, dtype=np.int64)
+        self._target = np.zeros((4, 2))
+        self._speed = np.ones(4)
+        self._motions = np.zeros((4, 5))
         self._build_space()
         _check_batch_order(self._space, self._bodies, self._buffer)  # every space alike
         self.state: DrillState
@@ -142,9 +152,23 @@ class Drill:
         holder, passer, lockout_until = state.holder, state.passer, state.lockout_until
         ball_velocity: tuple[float, float] | None = None
         accel = cfg.player_acceleration * dt
+        if len(commands) != 4:
+            raise ValueError(f"Drill.step needs one command per player (4), got {len(commands)}")
+        skill, target, speed = self._skill, self._target, self._speed
+        for i, command in enumerate(commands):
+            skill[i] = command.skill
+            speed[i] = command.speed
+            if command.target is not None:  # MOVE_TO's: the others' targets are not read
+                target[i] = command.target
+        noise = _NO_NOISE
+        if holder >= 0 and commands[holder].skill is _PASS:  # the kick's two normals
+            noise = rng.normal(size=2)
+        motions_into(self._motions, np.array(state.pos), np.array(state.vel), holder, skill,
+                     target, speed, noise, self._params, self._table)
         set_velocity, hypot, old_vel = _set_velocity, math.hypot, state.vel
-        for i, (body, command) in enumerate(zip(self._players, commands, strict=True)):
-            mvx, mvy, ball_action, mbx, mby = execute(state, i, command, cfg, rng)
+        for i, (body, (mvx, mvy, ball_action, mbx, mby)) in enumerate(
+            zip(self._players, self._motions.tolist(), strict=True)
+        ):
             vx0, vy0 = old_vel[i]
             dvx, dvy = mvx - vx0, mvy - vy0
             dv = hypot(dvx, dvy)

@@ -10,22 +10,18 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 import soccer_drill
 from opponents.agreement import agreement
 from opponents.parametric import ParametricTeam, sample_opponents
-from soccer_drill.batch_skills import (
-    dribble_headings,
-    interception_points,
-    shield_directions,
-    support_spots,
-)
 from soccer_drill.batch_teams import BatchCommands
 from soccer_drill.features import batch_features, feature_bounds, features
 from soccer_drill.holder import HolderEnv
-from soccer_drill.policies import HOLDER_POLICIES
-from soccer_drill.skills import (
-    ball_interception_point,
-    dribble_heading,
-    shield_direction,
-    support_spot,
+from soccer_drill.motion import (
+    interception_points,
+    mark_targets,
+    motions_of_drills,
+    roll_table,
+    rule_parameters,
 )
+from soccer_drill.policies import HOLDER_POLICIES
+from soccer_drill.skills import Command, Skill, ball_interception_point, execute
 from soccer_drill.teams import TeamError
 from soccer_drill.vector import HolderVectorEnv, play_episodes
 from soccer_drill.vector_agents import ParallelVectorEnv
@@ -52,26 +48,39 @@ def _arrays(states: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
             np.array([s.holder for s in states]))
 
 
-def test_batched_skills_and_features_equal_the_single_functions_on_real_states():
+def test_the_batched_loops_give_each_drill_what_the_rules_give_it_alone():
+    """The batched forms run the one drill's rules drill by drill: each row is that
+    drill's, whatever the other rows hold (real states, with passes, tackles, loose balls)."""
     states = _holder_states("interceptors_cover", range(4))
     cfg = soccer_drill.DrillConfig()
     pos, vel, holder = _arrays(states)
-    vmax = np.tile([6.0, 6.0, 4.6, 4.1], (len(states), 1))
+    n = len(states)
+    rng = np.random.default_rng(3)
+    vmax = np.tile([6.0, 6.0, 4.6, 4.1], (n, 1))
     points = interception_points(pos, vel, holder, vmax, cfg)
-    spots = support_spots(pos, cfg)
+    marks = mark_targets(pos, holder, 0.4)
     attacker = np.where(holder >= 0, holder % 2, 0)
-    headings = dribble_headings(pos, attacker, cfg)
-    sx, sy = shield_directions(pos, attacker)
     low, high = feature_bounds(cfg)
-    feats = batch_features(pos, attacker, cfg, low.astype(float), high.astype(float))
+    feats = batch_features(pos, attacker, cfg, low, high)
+    off_ball = [int(s) for s in Skill if s not in (Skill.HOLD, Skill.PASS, Skill.DRIBBLE)]
+    skill = rng.choice(off_ball, size=(n, 4))
+    has_ball = holder >= 0
+    skill[has_ball, holder[has_ball]] = rng.choice([int(Skill.HOLD), int(Skill.DRIBBLE)],
+                                                   size=np.count_nonzero(has_ball))
+    target = rng.uniform(0.0, cfg.field_size, size=(n, 4, 2))
+    speed = rng.uniform(0.5, 1.0, size=(n, 4))
+    motions = np.zeros((n, 4, 5))
+    motions_of_drills(motions, np.ones(n, dtype=bool), pos, vel, holder, skill, target, speed,
+                      np.zeros((n, 2)), rule_parameters(cfg), roll_table(cfg))
     for k, s in enumerate(states):
         for p in range(4):
             assert tuple(points[k, p]) == ball_interception_point(s, p, vmax[k, p], cfg)
-            assert tuple(spots[k, p]) == support_spot(s, p, cfg)
-        a = int(attacker[k])
-        assert tuple(headings[k]) == dribble_heading(s, a, cfg)
-        assert (sx[k], sy[k]) == shield_direction(s, a)
-        np.testing.assert_array_equal(feats[k], features(s, a, cfg, low, high))
+            bx, by = s.pos[4]
+            fx, fy = s.pos[s.free_opponent_of(p)]
+            assert tuple(marks[k, p]) == (fx + 0.4 * (bx - fx), fy + 0.4 * (by - fy))
+            command = Command(Skill(int(skill[k, p])), tuple(target[k, p]), float(speed[k, p]))
+            assert tuple(motions[k, p]) == tuple(execute(s, p, command, cfg, None))
+        np.testing.assert_array_equal(feats[k], features(s, int(attacker[k]), cfg, low, high))
 
 
 @pytest.mark.parametrize("team", TEAMS)

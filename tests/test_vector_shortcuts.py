@@ -114,35 +114,3 @@ def test_a_gif_of_few_colours_is_written_with_its_exact_colours(tmp_path):
     assert palette_images(many) is None
     save_gif(many, tmp_path / "b.gif", fps=8)  # quantized by Pillow instead
     assert Image.open(tmp_path / "b.gif").size == (40, 30)
-
-
-def test_skills_computed_for_some_players_equal_those_players_of_the_full_computation():
-    from soccer_drill.batch_skills import mark_targets, off_ball_targets, support_spots
-    from soccer_drill.skills import Skill
-
-    cfg = soccer_drill.DrillConfig()
-    rng = np.random.default_rng(1)
-    pos = rng.uniform(0.0, cfg.field_size, size=(50, 5, 2))
-    pos[:5, 4] = pos[:5, 0]  # spots and marks next to players
-    holder = rng.integers(-1, 4, size=50)
-    for players in (slice(0, 2), slice(2, 4), slice(0, 4)):
-        np.testing.assert_array_equal(support_spots(pos, cfg, players), support_spots(pos, cfg)[:, players])
-        np.testing.assert_array_equal(mark_targets(pos, holder, 0.4, players),
-                                      mark_targets(pos, holder, 0.4)[:, players])
-    # off_ball_targets: each player's target is its own rule's, whoever else uses which rule
-    vel = rng.normal(0.0, 3.0, size=(50, 5, 2))
-    vmax = np.tile([6.0, 6.0, 4.6, 4.1], (50, 1))
-    target = rng.uniform(0.0, cfg.field_size, size=(50, 4, 2))
-    off_ball = [int(s) for s in (Skill.GET_OPEN, Skill.MARK, Skill.INTERCEPT, Skill.GO_TO_BALL,
-                                 Skill.GUARD_LINE, Skill.MOVE_TO)]
-    full = {int(Skill.GET_OPEN): support_spots(pos, cfg), int(Skill.MARK): mark_targets(pos, holder),
-            int(Skill.MOVE_TO): target}
-    for _ in range(20):
-        skill = rng.choice(off_ball, size=(50, 4))
-        if rng.random() < 0.5:  # the usual case: GET_OPEN for attackers only, MARK for defenders only
-            skill[:, :2] = np.where(skill[:, :2] == int(Skill.MARK), int(Skill.GET_OPEN), skill[:, :2])
-            skill[:, 2:] = np.where(skill[:, 2:] == int(Skill.GET_OPEN), int(Skill.MARK), skill[:, 2:])
-        out = off_ball_targets(pos, vel, holder, skill, target, vmax, cfg)
-        for s, expected in full.items():
-            where = skill == s
-            np.testing.assert_array_equal(out[where], expected[where])

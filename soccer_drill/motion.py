@@ -1,0 +1,396 @@
+"""The skills' rules, written once for one drill: a command becomes a desired velocity and,
+for the ball holder, a ball action.
+
+Every function here reads one drill's arrays, ``pos`` and ``vel`` (``(5, 2)`` float64:
+the four players then the ball, as :attr:`~soccer_drill.state.DrillState.pos`), and is
+compiled per drill (:mod:`soccer_drill.compiled`). The single drill calls them for its
+one drill; the batched drill and the batched teams through the loops at the end of the
+module, over many drills; :mod:`soccer_drill.skills` offers them on a
+:class:`~soccer_drill.state.DrillState`. The parameters they need of a
+:class:`~soccer_drill.config.DrillConfig` are one float64 array (:func:`rule_parameters`)
+and the rolling ball's table (:func:`roll_table`).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+
+from soccer_drill.compiled import compiled, hypot
+from soccer_drill.config import DrillConfig
+
+NO_BALL, CONTROL, KICK = 0, 1, 2
+"""Ball actions: none, keep the ball at the control point, kick it."""
+# Skill values (soccer_drill.skills.Skill), as plain ints for compiled code.
+HOLD, PASS, DRIBBLE, GET_OPEN, GO_TO_BALL, INTERCEPT, MARK, GUARD_LINE, MOVE_TO = range(9)
+GUARD_DEPTH = 2.5
+"""Distance from the goal line at which ``GUARD_LINE`` stands, in metres."""
+MARK_FRACTION = 0.35
+"""``MARK`` stands this fraction of the way from the free opponent to the ball."""
+_ARRIVE_SECONDS = 0.3  # slow down this long before a target, so players do not orbit it
+_HOLD_EDGE = 3.0  # a shielding holder stops backing away this close to a touchline
+_LEAD_SECONDS = 1.5  # how far ahead a defender aims at a dribbling holder
+
+# Indices of rule_parameters' array.
+SIZE, ATTACKER_SPEED, DEFENDER_SPEED, DRIBBLE_SPEED, HOLD_SPEED, CONTROL_RADIUS = range(6)
+DAMPING_RATE, ARRIVAL_SPEED, BALL_MAX_SPEED, ANGLE_NOISE, SPEED_NOISE, SPACING = range(6, 12)
+
+
+@functools.lru_cache(maxsize=64)
+def rule_parameters(cfg: DrillConfig) -> np.ndarray:
+    """The numbers of ``cfg`` the rules read, as one read-only float64 array."""
+    _, _, _, spacing = _roll_tuples(cfg.ball_damping, cfg.cycle_seconds)
+    values = np.array([
+        cfg.field_size, cfg.attacker_speed, cfg.defender_speed, cfg.dribble_speed,
+        cfg.hold_speed, cfg.control_radius, -math.log(max(cfg.ball_damping, 1e-6)),
+        cfg.pass_arrival_speed, cfg.ball_max_speed, math.radians(cfg.kick_angle_noise),
+        cfg.kick_speed_noise, spacing,
+    ])
+    values.flags.writeable = False
+    return values
+
+
+@functools.lru_cache(maxsize=64)
+def roll_table(cfg: DrillConfig) -> np.ndarray:
+    """The rolling ball every 2 cycles for 3 s (``(3, K)`` float64, read-only): the
+    times; per unit of initial speed, the distance travelled by then; and the speed
+    there times the time to the next point."""
+    times, travels, slowing, _ = _roll_tuples(cfg.ball_damping, cfg.cycle_seconds)
+    table = np.array([times, travels, slowing])
+    table.flags.writeable = False
+    return table
+
+
+def _roll_tuples(
+    damping: float, cycle: float
+) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], float]:
+    k = -math.log(max(damping, 1e-6))
+    times = tuple(step * cycle for step in range(1, round(3.0 / cycle) + 1, 2))
+    travels = tuple((1.0 - math.exp(-k * t)) / k if k > 0 else t for t in times)
+    spacing = 2 * cycle
+    slowing = tuple(math.exp(-k * t) * spacing for t in times)
+    return times, travels, slowing, spacing
+
+
+def _heading(deg: int) -> tuple[float, float, float]:
+    """Unit heading ``deg`` degrees off straight down the field, and its initial score."""
+    a = math.radians(deg)
+    return math.sin(a), -math.cos(a), math.cos(a)
+
+
+HEADINGS = tuple(_heading(deg) for deg in range(-70, 71, 10))
+"""The dribbling headings tried, in order: ``(hx, hy, initial score)``."""
+# (position in HEADINGS, hx, hy, initial score), highest initial score first.
+_HEADINGS_BY_SCORE = np.array(sorted(
+    ((order, *heading) for order, heading in enumerate(HEADINGS)),
+    key=lambda item: (-item[3], item[0]),
+))
+_HEADINGS_BY_SCORE.flags.writeable = False
+
+
+@compiled
+def unit(x, y):
+    """``(x, y)`` made a unit vector (straight down the field if it is tiny)."""
+    n = hypot(x, y)
+    if n > 1e-9:
+        return x / n, y / n
+    return 0.0, -1.0
+
+
+@compiled
+def interception_point(pos, vel, holder, player, vmax, reach, table, spacing):
+    """Earliest point of the rolling ball's path that ``player`` can reach in time (a
+    carried ball: where it will be when ``player`` gets there)."""
+    bx, by = pos[4, 0], pos[4, 1]
+    bvx, bvy = vel[4, 0], vel[4, 1]
+    px, py = pos[player, 0], pos[player, 1]
+    if holder >= 0 and holder != player:
+        # Aim where a carried ball will be when we get there, so chasers do not trail.
+        lead = hypot(bx - px, by - py) / vmax if vmax > 0 else 0.0
+        if _LEAD_SECONDS < lead:  # min(lead, _LEAD_SECONDS), as min() compares
+            lead = _LEAD_SECONDS
+        return bx + vel[holder, 0] * lead, by + vel[holder, 1] * lead
+    ball_speed = hypot(bvx, bvy)
+    if ball_speed < 1.0 or holder >= 0:
+        return bx, by
+    last = table.shape[1] - 1
+    # The first point of the table within reach, as a scan of every point finds it, but
+    # skipping points that cannot be: after a point the gap (the distance to the ball's
+    # point less the reach) shrinks per second by at most vmax plus the ball's speed
+    # there (it only slows down), and by vmax alone once the ball rolls away from the
+    # player. The bound is widened far beyond rounding errors.
+    vmax_step = vmax * spacing * (1.0 + 1e-9)
+    speed_bound = ball_speed * (1.0 + 1e-9)
+    k = 0
+    while True:
+        travelled = table[1, k]
+        x, y = bx + bvx * travelled, by + bvy * travelled
+        dx, dy = x - px, y - py
+        r = vmax * table[0, k] + reach
+        d2 = dx * dx + dy * dy
+        if d2 <= r * r or k == last:
+            return x, y
+        gap = math.sqrt(d2) - r - 1e-9 * (r + 1.0)
+        if dx * bvx + dy * bvy >= 0.0:  # rolling away: no nearer from here on
+            closing = vmax_step
+        else:
+            closing = speed_bound * table[2, k] + vmax_step
+        if gap <= closing:
+            k += 1
+        elif gap >= closing * (last - k):  # none left can be reached: the last point
+            k = last
+        else:
+            k += math.ceil(gap / closing)
+
+
+@compiled
+def support_spot(pos, player, size):
+    """Where an off-ball attacker gets open: wide of the ball and a little ahead of it."""
+    bx, by = pos[4, 0], pos[4, 1]
+    side = 1.0 if pos[player, 0] >= bx else -1.0
+    if not 3.0 <= bx + side * 11.0 <= size - 3.0:
+        side = -side
+    lo, hi = 2.0, size - 2.0  # each clamp min(max(v, lo), hi), as the builtins compare
+    tx, ty = bx + side * 11.0, by - 3.0
+    tx = lo if tx < lo else hi if tx > hi else tx
+    ty = lo if ty < lo else hi if ty > hi else ty
+    # Step away from an opponent standing on the spot.
+    first = 2 if player < 2 else 0
+    for d in (first, first + 1):
+        dx, dy = tx - pos[d, 0], ty - pos[d, 1]
+        dist = hypot(dx, dy)
+        if dist < 5.0:
+            ux, uy = unit(dx, dy)
+            tx += ux * (5.0 - dist)
+            ty += uy * (5.0 - dist)
+    lo, hi = 1.0, size - 1.0
+    return (lo if tx < lo else hi if tx > hi else tx), (lo if ty < lo else hi if ty > hi else ty)
+
+
+@compiled
+def dribble_heading(pos, player, size):
+    """Unit heading toward the goal line that keeps clear of opponents and touchlines.
+
+    The candidate with the highest score wins, the first in :data:`HEADINGS`' order among
+    equals. A candidate's score is its initial score less penalties, so candidates are
+    tried from the highest initial score down, and the search stops once no candidate
+    left could reach the best score found.
+    """
+    px, py = pos[player, 0], pos[player, 1]
+    best_x, best_y, best_score, best_order = 0.0, -1.0, -math.inf, len(HEADINGS)
+    first = 2 if player < 2 else 0
+    r1x, r1y = pos[first, 0] - px, pos[first, 1] - py
+    r2x, r2y = pos[first + 1, 0] - px, pos[first + 1, 1] - py
+    headings = _HEADINGS_BY_SCORE
+    for h in range(headings.shape[0]):
+        order, hx, hy, score = headings[h, 0], headings[h, 1], headings[h, 2], headings[h, 3]
+        if score < best_score:
+            break
+        # Each opponent ahead within 12 m costs more the closer it is to the heading line.
+        ahead = r1x * hx + r1y * hy
+        if 0.0 < ahead < 12.0:
+            free = 1.0 - abs(r1x * hy - r1y * hx) / 4.0
+            score -= 2.0 * (free if free > 0.0 else 0.0) * (1.0 - ahead / 12.0)
+        ahead = r2x * hx + r2y * hy
+        if 0.0 < ahead < 12.0:
+            free = 1.0 - abs(r2x * hy - r2y * hx) / 4.0
+            score -= 2.0 * (free if free > 0.0 else 0.0) * (1.0 - ahead / 12.0)
+        ex = px + hx * 4.0
+        if not 1.0 <= ex <= size - 1.0:
+            score -= 3.0
+        if score > best_score or (score == best_score and order < best_order):
+            best_x, best_y, best_score, best_order = hx, hy, score, order
+    return best_x, best_y
+
+
+@compiled
+def shield_direction(pos, player):
+    """Unit direction away from the nearest opponent: where a shielded ball is kept."""
+    px, py = pos[player, 0], pos[player, 1]
+    first = 2 if player < 2 else 0
+    x1, y1 = pos[first, 0], pos[first, 1]
+    x2, y2 = pos[first + 1, 0], pos[first + 1, 1]
+    if hypot(x2 - px, y2 - py) < hypot(x1 - px, y1 - py):  # the first if equal
+        x1, y1 = x2, y2
+    return unit(px - x1, py - y1)
+
+
+@compiled
+def pass_velocity(pos, vel, player, angle_normal, speed_normal, params):
+    """Kick velocity that brings the ball to the teammate at about arrival speed, with
+    ``angle_normal`` and ``speed_normal`` (standard normals) as its noise."""
+    bx, by = pos[4, 0], pos[4, 1]
+    mate = player ^ 1
+    mx, my = pos[mate, 0], pos[mate, 1]
+    k, arrival, top = params[DAMPING_RATE], params[ARRIVAL_SPEED], params[BALL_MAX_SPEED]
+    dist = hypot(mx - bx, my - by)
+    rate = arrival + k * dist
+    lead = dist / (rate if rate > 1e-6 else 1e-6)  # rough travel time
+    tx, ty = mx + vel[mate, 0] * lead, my + vel[mate, 1] * lead
+    dist = hypot(tx - bx, ty - by)
+    speed = arrival + k * dist
+    speed = top if top < speed else speed
+    angle = math.atan2(ty - by, tx - bx) + params[ANGLE_NOISE] * angle_normal
+    speed = speed * (1.0 + params[SPEED_NOISE] * speed_normal)
+    speed = speed if speed > 0.0 else 0.0
+    speed = top if top < speed else speed
+    return speed * math.cos(angle), speed * math.sin(angle)
+
+
+@compiled
+def free_opponent(pos, holder, player):
+    """The opponent of ``player`` without the ball (for a loose ball, the one farther
+    from it)."""
+    a = 2 if player < 2 else 0
+    b = a + 1
+    if holder == a:
+        return b
+    if holder == b:
+        return a
+    bx, by = pos[4, 0], pos[4, 1]
+    da = hypot(pos[a, 0] - bx, pos[a, 1] - by)
+    db = hypot(pos[b, 0] - bx, pos[b, 1] - by)
+    return a if da > db else b
+
+
+@compiled
+def mark_target(pos, holder, player, fraction):
+    """``fraction`` of the way from ``player``'s free opponent to the ball."""
+    free = free_opponent(pos, holder, player)
+    fx, fy = pos[free, 0], pos[free, 1]
+    return fx + fraction * (pos[4, 0] - fx), fy + fraction * (pos[4, 1] - fy)
+
+
+@compiled
+def motion(pos, vel, holder, player, skill, tx, ty, speed, angle_normal, speed_normal,
+           params, table):
+    """One player's command as ``(vx, vy, ball action, bx, by)``: the desired velocity,
+    and for the holder's ball skill the ball action with its vector (the kick's
+    velocity, or the direction the ball is kept in). A ball skill of a player not
+    holding the ball stands still."""
+    is_attacker = player < 2
+    top = params[ATTACKER_SPEED] if is_attacker else params[DEFENDER_SPEED]
+    vmax = top * speed
+    px, py = pos[player, 0], pos[player, 1]
+    size = params[SIZE]
+    if skill <= DRIBBLE:  # a ball skill
+        if player != holder:
+            return 0.0, 0.0, NO_BALL, 0.0, 0.0
+        if skill == DRIBBLE:
+            hx, hy = dribble_heading(pos, player, size)
+            v = params[DRIBBLE_SPEED] * speed
+            return hx * v, hy * v, CONTROL, hx, hy
+        if skill == PASS:
+            kx, ky = pass_velocity(pos, vel, player, angle_normal, speed_normal, params)
+            return 0.0, 0.0, KICK, kx, ky
+        sx, sy = shield_direction(pos, player)  # HOLD
+        v = params[HOLD_SPEED] * speed
+        vx, vy = sx * v, sy * v
+        # Shielding backs away from pressure, but never over a touchline.
+        lo, hi = _HOLD_EDGE, size - _HOLD_EDGE
+        if (px < lo and vx < 0) or (px > hi and vx > 0):
+            vx = 0.0
+        if (py < lo and vy < 0) or (py > hi and vy > 0):
+            vy = 0.0
+        # Nor is the ball kept over a touchline or the far end: near one, it is kept along
+        # the line instead (else a pressing defender simply pushes it out of the region).
+        if (px < lo and sx < 0) or (px > hi and sx > 0):
+            sx, sy = 0.0, (1.0 if sy > 0 else -1.0)
+        if py > hi and sy > 0:
+            sx, sy = (1.0 if sx > 0 else -1.0), 0.0
+        return vx, vy, CONTROL, sx, sy
+    if skill == GET_OPEN:
+        tx, ty = support_spot(pos, player, size)
+    elif skill == GO_TO_BALL or skill == INTERCEPT:
+        tx, ty = interception_point(pos, vel, holder, player, vmax, params[CONTROL_RADIUS],
+                                    table, params[SPACING])
+    elif skill == MARK:
+        tx, ty = mark_target(pos, holder, player, MARK_FRACTION)
+    elif skill == GUARD_LINE:
+        x = pos[4, 0]
+        x = 4.0 if x < 4.0 else x  # min(max(x, 4.0), size - 4.0), as the builtins compare
+        tx, ty = (size - 4.0 if size - 4.0 < x else x), GUARD_DEPTH
+    # Toward the target at most vmax, slowing on arrival.
+    dx, dy = tx - px, ty - py
+    dist = hypot(dx, dy)
+    if dist < 1e-6:
+        return 0.0, 0.0, NO_BALL, 0.0, 0.0
+    run = dist / _ARRIVE_SECONDS
+    if not run < vmax:  # min(vmax, run), as min() compares
+        run = vmax
+    return dx / dist * run, dy / dist * run, NO_BALL, 0.0, 0.0
+
+
+@compiled
+def motions_into(out, pos, vel, holder, skill, target, speed, noise, params, table):
+    """:func:`motion` of the four players of one drill into ``out`` (``(4, 5)``);
+    ``skill``, ``target``, ``speed`` are their commands, ``noise`` the two standard
+    normals of a pass."""
+    for p in range(4):
+        vx, vy, ball, bx, by = motion(pos, vel, holder, p, skill[p], target[p, 0],
+                                      target[p, 1], speed[p], noise[0], noise[1], params,
+                                      table)
+        out[p, 0] = vx
+        out[p, 1] = vy
+        out[p, 2] = ball
+        out[p, 3] = bx
+        out[p, 4] = by
+
+
+# ------------------------------------------------------------------ many drills
+@compiled
+def motions_of_drills(out, active, pos, vel, holder, skill, target, speed, noise, params,
+                      table):
+    """:func:`motions_into` of each drill ``i`` where ``active[i]`` (``out``: ``(n, 4, 5)``)."""
+    for i in range(pos.shape[0]):
+        if active[i]:
+            motions_into(out[i], pos[i], vel[i], holder[i], skill[i], target[i], speed[i],
+                         noise[i], params, table)
+
+
+@compiled
+def _interception_points(out, pos, vel, holder, vmax, reach, table, spacing):
+    for i in range(pos.shape[0]):
+        for p in range(4):
+            x, y = interception_point(pos[i], vel[i], holder[i], p, vmax[i, p], reach, table,
+                                      spacing)
+            out[i, p, 0] = x
+            out[i, p, 1] = y
+
+
+def interception_points(
+    pos: np.ndarray, vel: np.ndarray, holder: np.ndarray, vmax: np.ndarray, cfg: DrillConfig
+) -> np.ndarray:
+    """:func:`interception_point` of each of the four players of each drill (``pos``,
+    ``vel``: ``(n, 5, 2)``; ``vmax``: ``(n, 4)``): ``(n, 4, 2)``."""
+    out = np.empty((len(pos), 4, 2))
+    params = rule_parameters(cfg)
+    _interception_points(out, _floats(pos), _floats(vel), _ints(holder), _floats(vmax),
+                         params[CONTROL_RADIUS], roll_table(cfg), params[SPACING])
+    return out
+
+
+@compiled
+def _mark_targets(out, pos, holder, fraction):
+    for i in range(pos.shape[0]):
+        for p in range(4):
+            x, y = mark_target(pos[i], holder[i], p, fraction)
+            out[i, p, 0] = x
+            out[i, p, 1] = y
+
+
+def mark_targets(pos: np.ndarray, holder: np.ndarray, fraction: float = MARK_FRACTION) -> np.ndarray:
+    """:func:`mark_target` of each of the four players of each drill: ``(n, 4, 2)``."""
+    out = np.empty((len(pos), 4, 2))
+    _mark_targets(out, _floats(pos), _ints(holder), float(fraction))
+    return out
+
+
+def _floats(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def _ints(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.int64)
