@@ -21,9 +21,10 @@ import pymunk.batch
 from pymunk.batch import get_space_bodies
 
 from soccer_drill.config import DrillConfig
-from soccer_drill.motion import CONTROL, KICK, NO_BALL, motions_into, roll_table, rule_parameters
+from soccer_drill.cycle import RUNNING, outcome, possession, recap, reward, tackle, velocities_into
+from soccer_drill.motion import motions_into, roll_table, rule_parameters
 from soccer_drill.skills import Command, Skill
-from soccer_drill.state import BALL, DrillState
+from soccer_drill.state import DrillState
 
 Outcome = Literal["success", "interception", "out", "timeout"]
 OUTCOMES: tuple[Outcome, ...] = ("success", "interception", "out", "timeout")
@@ -61,11 +62,6 @@ class Drill:
         self._dt = cfg.cycle_seconds
         self._sub_dt = cfg.cycle_seconds / cfg.substeps
         self._roll = cfg.ball_damping**cfg.cycle_seconds  # speed kept per cycle
-        self._top_speed = (
-            cfg.attacker_speed, cfg.attacker_speed, cfg.defender_speed, cfg.defender_speed,
-        )
-        self._caps = (*self._top_speed, cfg.ball_max_speed)
-        self._caps2 = tuple(cap * cap for cap in self._caps)
         self._buffer = pymunk.batch.Buffer()  # reused: one batched read per cycle
         self._params, self._table = rule_parameters(cfg), roll_table(cfg)
         # The players' commands as the compiled rules read them, and their motions.
@@ -73,6 +69,12 @@ class Drill:
         self._target = np.zeros((4, 2))
         self._speed = np.ones(4)
         self._motions = np.zeros((4, 5))
+        # The state as arrays (the rules read them), the velocities set before the physics,
+        # and scratch of the possession rule.
+        self._pos, self._vel, self._new_vel = np.zeros((5, 2)), np.zeros((5, 2)), np.zeros((5, 2))
+        self._arrays_of: DrillState | None = None
+        self._order, self._dist = np.zeros(4, dtype=np.int64), np.zeros(4)
+        self._accel = cfg.player_acceleration * cfg.cycle_seconds
         self._build_space()
         _check_batch_order(self._space, self._bodies, self._buffer)  # every space alike
         self.state: DrillState
@@ -140,7 +142,8 @@ class Drill:
         pos.append(ball)
         self.outcome = None
         self.attacker_reward = 0.0
-        self.state = DrillState(tuple(pos), ((0.0, 0.0),) * 5, holder, 0)
+        self.state = self._arrays_of = DrillState(tuple(pos), ((0.0, 0.0),) * 5, holder, 0)
+        self._pos[:], self._vel[:] = self.state.pos, 0.0
         return self.state
 
     # ------------------------------------------------------------------- step
@@ -148,12 +151,10 @@ class Drill:
         """Advance one cycle with one command per player (index order)."""
         if self.outcome is not None:
             raise RuntimeError("the episode has ended; call reset() first")
-        cfg, state, dt = self.config, self.state, self._dt
-        holder, passer, lockout_until = state.holder, state.passer, state.lockout_until
-        ball_velocity: tuple[float, float] | None = None
-        accel = cfg.player_acceleration * dt
         if len(commands) != 4:
             raise ValueError(f"Drill.step needs one command per player (4), got {len(commands)}")
+        cfg, state = self.config, self.state
+        holder, passer, lockout_until = state.holder, state.passer, state.lockout_until
         skill, target, speed = self._skill, self._target, self._speed
         for i, command in enumerate(commands):
             skill[i] = command.skill
@@ -163,37 +164,17 @@ class Drill:
         noise = _NO_NOISE
         if holder >= 0 and commands[holder].skill is _PASS:  # the kick's two normals
             noise = rng.normal(size=2)
-        motions_into(self._motions, np.array(state.pos), np.array(state.vel), holder, skill,
-                     target, speed, noise, self._params, self._table)
-        set_velocity, hypot, old_vel = _set_velocity, math.hypot, state.vel
-        for i, (body, (mvx, mvy, ball_action, mbx, mby)) in enumerate(
-            zip(self._players, self._motions.tolist(), strict=True)
-        ):
-            vx0, vy0 = old_vel[i]
-            dvx, dvy = mvx - vx0, mvy - vy0
-            dv = hypot(dvx, dvy)
-            if dv > accel:
-                dvx, dvy = dvx * accel / dv, dvy * accel / dv
-            vx, vy = vx0 + dvx, vy0 + dvy
-            set_velocity(body, (vx, vy))
-            if ball_action == NO_BALL or i != holder:  # only the ball skills move the ball
-                continue
-            if ball_action == KICK:
-                ball_velocity = (mbx, mby)
-                holder, passer, lockout_until = -1, i, state.cycle + 1 + cfg.pass_lockout_cycles
-            elif ball_action == CONTROL:
-                # A small kick that puts the ball at the control point after this cycle,
-                # turning it round the player by at most _MAX_TURN so it stays controlled.
-                px, py = state.pos[i]
-                bx, by = state.pos[BALL]
-                ux, uy = _turn_toward(bx - px, by - py, mbx, mby)
-                cx = px + vx * dt + ux * cfg.ball_offset
-                cy = py + vy * dt + uy * cfg.ball_offset
-                ball_velocity = ((cx - bx) / dt, (cy - by) / dt)
-        if ball_velocity is None:  # rolling freely
-            bvx, bvy = state.vel[BALL]
-            ball_velocity = (bvx * self._roll, bvy * self._roll)
-        set_velocity(self._ball, _capped(ball_velocity, cfg.ball_max_speed))
+        if self._arrays_of is not state:  # the state was set from outside
+            self._pos[:], self._vel[:] = state.pos, state.vel
+        pos, vel, params, motions = self._pos, self._vel, self._params, self._motions
+        motions_into(motions, pos, vel, holder, skill, target, speed, noise, params, self._table)
+        new_vel = self._new_vel
+        kicker = velocities_into(new_vel, pos, vel, holder, motions, self._accel, self._dt,
+                                 cfg.ball_offset, self._roll, cfg.ball_max_speed)
+        for body, (vx, vy) in zip(self._bodies, new_vel.tolist(), strict=True):
+            _set_velocity(body, (vx, vy))
+        if kicker >= 0:
+            holder, passer, lockout_until = -1, kicker, state.cycle + 1 + cfg.pass_lockout_cycles
 
         step, sub_dt = self._space.step, self._sub_dt
         for _ in range(cfg.substeps):
@@ -204,99 +185,28 @@ class Drill:
         buffer = self._buffer
         buffer.clear()
         get_space_bodies(self._space, _POSITION_VELOCITY, buffer)
-        (x0, y0, vx0, vy0, x1, y1, vx1, vy1, x2, y2, vx2, vy2, x3, y3, vx3, vy3,
-         x4, y4, vx4, vy4, *_) = memoryview(buffer.float_buf()).cast("d").tolist()
-        # A collision can push a body past its speed cap: capped, and set back on it.
-        c0, c1, c2, c3, c4 = self._caps2
-        if vx0 * vx0 + vy0 * vy0 > c0:
-            vx0, vy0 = self._recap(0, vx0, vy0)
-        if vx1 * vx1 + vy1 * vy1 > c1:
-            vx1, vy1 = self._recap(1, vx1, vy1)
-        if vx2 * vx2 + vy2 * vy2 > c2:
-            vx2, vy2 = self._recap(2, vx2, vy2)
-        if vx3 * vx3 + vy3 * vy3 > c3:
-            vx3, vy3 = self._recap(3, vx3, vy3)
-        if vx4 * vx4 + vy4 * vy4 > c4:
-            vx4, vy4 = self._recap(4, vx4, vy4)
-        positions = ((x0, y0), (x1, y1), (x2, y2), (x3, y3), (x4, y4))
-        velocities = ((vx0, vy0), (vx1, vy1), (vx2, vy2), (vx3, vy3), (vx4, vy4))
+        bodies = np.frombuffer(buffer.float_buf(), dtype=np.float64)[:20].reshape(5, 4)
+        pos[:] = bodies[:, :2]
+        vel[:] = bodies[:, 2:]
+        recap(vel, params)  # a collision can push a body past its top speed
         cycle = state.cycle + 1
-        holder = self._holder_after(positions, velocities, holder, cycle, passer, lockout_until, rng)
-        new = _new_state(DrillState, (positions, velocities, holder, cycle, passer, lockout_until))
-        self.state = new
-        self._judge(new)
+        holder, tacklers = possession(self._order, self._dist, pos, vel, holder, cycle, passer,
+                                      lockout_until, cfg.control_radius, cfg.control_speed)
+        if tacklers:
+            taken = tackle(self._order, tacklers, rng, cfg.tackle_probability)
+            holder = taken if taken >= 0 else holder
+        p, v = pos.tolist(), vel.tolist()
+        new = _new_state(DrillState, (
+            (tuple(p[0]), tuple(p[1]), tuple(p[2]), tuple(p[3]), tuple(p[4])),
+            (tuple(v[0]), tuple(v[1]), tuple(v[2]), tuple(v[3]), tuple(v[4])),
+            holder, cycle, passer, lockout_until,
+        ))
+        self.state = self._arrays_of = new
+        code = outcome(pos, holder, cycle, cfg.field_size, cfg.max_cycles)
+        if code != RUNNING:
+            self.outcome = OUTCOMES[code - 1]
+            self.attacker_reward = reward(code, p[4][0], cfg)
         return new
-
-    def _recap(self, body: int, vx: float, vy: float) -> tuple[float, float]:
-        """Body ``body``'s velocity capped at its top speed, and set on it."""
-        v = _capped((vx, vy), self._caps[body])
-        _set_velocity(self._bodies[body], v)
-        return v
-
-    def _holder_after(
-        self,
-        pos: tuple[tuple[float, float], ...],
-        vel: tuple[tuple[float, float], ...],
-        holder: int,
-        cycle: int,
-        passer: int,
-        lockout_until: int,
-        rng: np.random.Generator,
-    ) -> int:
-        """Who holds the ball after this cycle's physics (at most one player).
-
-        ``holder`` is who held it before; the other arguments are the new state's.
-        """
-        cfg = self.config
-        bx, by = pos[BALL]
-        bvx, bvy = vel[BALL]
-        radius, speed, hypot = cfg.control_radius, cfg.control_speed, math.hypot
-        locked_out = passer if cycle < lockout_until else -1
-        in_control = []
-        for i in range(4):
-            px, py = pos[i]
-            dist = hypot(px - bx, py - by)
-            if dist <= radius and i != locked_out:
-                vx, vy = vel[i]
-                if hypot(bvx - vx, bvy - vy) <= speed:
-                    in_control.append((dist, i))
-        in_control.sort()
-        if holder >= 0:
-            for _, i in in_control:
-                if i == holder:
-                    break
-            else:
-                holder = -1  # the holder lost touch with the ball
-        if holder >= 0:
-            for _, i in in_control:
-                if (i >= 2) != (holder >= 2) and rng.random() < cfg.tackle_probability:
-                    return i  # a tackle
-            return holder
-        return in_control[0][1] if in_control else -1
-
-    def _judge(self, s: DrillState) -> None:
-        cfg = self.config
-        bx, by = s.pos[BALL]
-        if s.holder >= 2:
-            self.outcome, self.attacker_reward = "interception", cfg.reward_failure
-        elif s.holder >= 0 and by <= 0.0 and 0.0 <= bx <= cfg.field_size:
-            self.outcome, self.attacker_reward = "success", cfg.success_reward(bx)
-        elif not (0.0 <= bx <= cfg.field_size and 0.0 <= by <= cfg.field_size):
-            self.outcome, self.attacker_reward = "out", cfg.reward_failure
-        elif s.cycle >= cfg.max_cycles:
-            self.outcome, self.attacker_reward = "timeout", cfg.reward_timeout
-
-
-_MAX_TURN = math.radians(40.0)  # the ball's turn round its holder per cycle
-
-
-def _turn_toward(fx: float, fy: float, tx: float, ty: float) -> tuple[float, float]:
-    """Unit vector from direction f toward direction t, rotated by at most _MAX_TURN."""
-    a = math.atan2(fy, fx) if (fx or fy) else math.atan2(ty, tx)
-    b = math.atan2(ty, tx)
-    delta = (b - a + math.pi) % (2 * math.pi) - math.pi
-    a += max(-_MAX_TURN, min(_MAX_TURN, delta))
-    return math.cos(a), math.sin(a)
 
 
 def _check_batch_order(
@@ -316,10 +226,3 @@ def _check_batch_order(
             f"pymunk {pymunk.version}'s batch API lists the space's bodies in an "
             "unexpected order; this pymunk version is not supported by soccer_drill"
         )
-
-
-def _capped(v: tuple[float, float], cap: float) -> tuple[float, float]:
-    speed = math.hypot(v[0], v[1])
-    if speed <= cap:
-        return v
-    return v[0] * cap / speed, v[1] * cap / speed

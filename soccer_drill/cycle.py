@@ -1,0 +1,219 @@
+"""The rules of one cycle around the physics, written once for one drill.
+
+Before the physics, the players' motions (:mod:`soccer_drill.motion`) become velocities
+under the acceleration cap, and the holder's ball action becomes the ball's velocity: a
+kick, a small kick that keeps the ball at the control point, or none (it rolls on,
+damped). After it, a velocity a collision pushed past its cap is capped, possession is
+decided (who controls the ball, and which opponents may tackle), then the outcome.
+
+The functions read one drill's arrays (``pos`` and ``vel``: ``(5, 2)`` float64, the
+four players then the ball) and are compiled per drill (:mod:`soccer_drill.compiled`);
+the single drill calls them for its drill, the batched drill through the loops at the
+end of the module. The random draws stay with the callers, each drill's from its own
+generator in the same order: the tackles' uniforms (:func:`tackle`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from soccer_drill.compiled import compiled, hypot
+from soccer_drill.config import DrillConfig
+from soccer_drill.motion import (
+    ATTACKER_SPEED,
+    BALL_MAX_SPEED,
+    CONTROL,
+    DEFENDER_SPEED,
+    KICK,
+    NO_BALL,
+)
+
+RUNNING, SUCCESS, INTERCEPTION, OUT, TIMEOUT = range(5)
+"""Outcome codes: an episode still running, then ``1 + OUTCOMES.index(name)``."""
+_MAX_TURN = math.radians(40.0)  # the ball's turn round its holder per cycle
+_TWO_PI = 2 * math.pi
+
+
+@compiled
+def capped(vx, vy, cap):
+    """``(vx, vy)`` scaled down to speed ``cap`` if it is faster."""
+    speed = hypot(vx, vy)
+    if speed <= cap:
+        return vx, vy
+    return vx * cap / speed, vy * cap / speed
+
+
+@compiled
+def turn_toward(fx, fy, tx, ty):
+    """Unit vector from direction f toward direction t, rotated by at most 40 degrees."""
+    b = math.atan2(ty, tx)
+    a = math.atan2(fy, fx) if (fx != 0.0 or fy != 0.0) else b
+    delta = (b - a + math.pi) % _TWO_PI - math.pi
+    turn = delta if delta < _MAX_TURN else _MAX_TURN  # max(-t, min(t, delta)), as compared
+    a += turn if turn > -_MAX_TURN else -_MAX_TURN
+    return math.cos(a), math.sin(a)
+
+
+@compiled
+def velocities_into(out, pos, vel, holder, motions, accel, dt, ball_offset, roll, ball_max):
+    """The velocities set before the physics, into ``out`` (``(5, 2)``): each player's
+    desired velocity reached within ``accel`` (m/s per cycle), the ball's from the
+    holder's ball action. Returns the player who kicked the ball, or -1."""
+    kicker = -1
+    bvx, bvy = vel[4, 0] * roll, vel[4, 1] * roll  # rolling freely, unless acted on
+    for i in range(4):
+        vx0, vy0 = vel[i, 0], vel[i, 1]
+        dvx, dvy = motions[i, 0] - vx0, motions[i, 1] - vy0
+        dv = hypot(dvx, dvy)
+        if dv > accel:
+            dvx, dvy = dvx * accel / dv, dvy * accel / dv
+        vx, vy = vx0 + dvx, vy0 + dvy
+        out[i, 0] = vx
+        out[i, 1] = vy
+        action = motions[i, 2]
+        if action == NO_BALL or i != holder:  # only the holder's ball skills move the ball
+            continue
+        if action == KICK:
+            bvx, bvy = motions[i, 3], motions[i, 4]
+            kicker = i
+        elif action == CONTROL:
+            # A small kick that puts the ball at the control point after this cycle,
+            # turning it round the player by at most 40 degrees so it stays controlled.
+            px, py = pos[i, 0], pos[i, 1]
+            bx, by = pos[4, 0], pos[4, 1]
+            ux, uy = turn_toward(bx - px, by - py, motions[i, 3], motions[i, 4])
+            cx = px + vx * dt + ux * ball_offset
+            cy = py + vy * dt + uy * ball_offset
+            bvx, bvy = (cx - bx) / dt, (cy - by) / dt
+    out[4, 0], out[4, 1] = capped(bvx, bvy, ball_max)
+    return kicker
+
+
+@compiled
+def recap(vel, params):
+    """Cap each body's velocity in ``vel`` at its top speed (a collision can push a
+    player past it); the usual case, under the cap, costs no square root."""
+    for i in range(5):
+        if i < 2:
+            cap = params[ATTACKER_SPEED]
+        elif i < 4:
+            cap = params[DEFENDER_SPEED]
+        else:
+            cap = params[BALL_MAX_SPEED]
+        vx, vy = vel[i, 0], vel[i, 1]
+        if vx * vx + vy * vy > cap * cap:
+            vel[i, 0], vel[i, 1] = capped(vx, vy, cap)
+
+
+@compiled
+def possession(order, dist, pos, vel, holder, cycle, passer, lockout_until, radius, speed):
+    """Who holds the ball after this cycle's physics, before any tackle: ``(holder,
+    tacklers)``, with the opponents who may tackle, nearest first, in ``order[:tacklers]``.
+
+    ``holder`` is who held it before the physics (-1: loose, or just kicked). A player
+    controls the ball within ``radius`` of it at a relative speed of at most ``speed``,
+    unless it passed it and is locked out. The holder keeps it while it controls it (then
+    each opponent in control may tackle); a loose ball goes to the nearest player in
+    control (the lower index if equal). ``order`` and ``dist`` (4 entries) are scratch.
+    """
+    bx, by = pos[4, 0], pos[4, 1]
+    bvx, bvy = vel[4, 0], vel[4, 1]
+    locked_out = passer if cycle < lockout_until else -1
+    count = 0
+    for i in range(4):  # in control, sorted by (distance, index) as they come
+        d = hypot(pos[i, 0] - bx, pos[i, 1] - by)
+        if d <= radius and i != locked_out and hypot(bvx - vel[i, 0], bvy - vel[i, 1]) <= speed:
+            k = count
+            while k > 0 and dist[k - 1] > d:
+                order[k], dist[k] = order[k - 1], dist[k - 1]
+                k -= 1
+            order[k], dist[k] = i, d
+            count += 1
+    keeps = False
+    for k in range(count):
+        if order[k] == holder:
+            keeps = True
+    if not keeps:
+        return (order[0] if count > 0 else -1), 0
+    tacklers = 0
+    for k in range(count):
+        i = order[k]
+        if (i >= 2) != (holder >= 2):
+            order[tacklers] = i
+            tacklers += 1
+    return holder, tacklers
+
+
+def tackle(order: np.ndarray, tacklers: int, rng: np.random.Generator, probability: float) -> int:
+    """The first of ``order[:tacklers]`` whose uniform draw from ``rng`` is below
+    ``probability`` (one draw per opponent tried), or -1: no tackle."""
+    for k in range(tacklers):
+        if rng.random() < probability:
+            return int(order[k])
+    return -1
+
+
+@compiled
+def outcome(pos, holder, cycle, size, max_cycles):
+    """The outcome code of one drill's state: an interception (a defender holds the
+    ball), a success (an attacker holds it on or past the goal line, between the posts
+    of the field's width), out (the ball left the field), a timeout, else ``RUNNING``."""
+    bx, by = pos[4, 0], pos[4, 1]
+    if holder >= 2:
+        return INTERCEPTION
+    if holder >= 0 and by <= 0.0 and 0.0 <= bx <= size:
+        return SUCCESS
+    if not (0.0 <= bx <= size and 0.0 <= by <= size):
+        return OUT
+    if cycle >= max_cycles:
+        return TIMEOUT
+    return RUNNING
+
+
+def reward(code: int, ball_x: float, cfg: DrillConfig) -> float:
+    """The attackers' reward for an episode ending with outcome ``code``."""
+    if code == SUCCESS:
+        return cfg.success_reward(ball_x)
+    return cfg.reward_timeout if code == TIMEOUT else cfg.reward_failure
+
+
+# ------------------------------------------------------------------ many drills
+@compiled
+def velocities_of_drills(out, kicker, active, pos, vel, holder, motions, accel, dt,
+                         ball_offset, roll, ball_max):
+    """:func:`velocities_into` of each active drill (``out``: ``(n, 5, 2)``, ``kicker``:
+    ``(n,)``)."""
+    for i in range(pos.shape[0]):
+        if active[i]:
+            kicker[i] = velocities_into(out[i], pos[i], vel[i], holder[i], motions[i], accel,
+                                        dt, ball_offset, roll, ball_max)
+
+
+@compiled
+def recap_drills(vel, active, params):
+    """:func:`recap` of each active drill."""
+    for i in range(vel.shape[0]):
+        if active[i]:
+            recap(vel[i], params)
+
+
+@compiled
+def possession_of_drills(new_holder, tacklers, order, active, pos, vel, holder, cycle, passer,
+                         lockout_until, radius, speed):
+    """:func:`possession` of each active drill: its holder before tackles into
+    ``new_holder``, its tacklers into ``order[i, :tacklers[i]]``."""
+    dist = np.empty(4)
+    for i in range(pos.shape[0]):
+        if active[i]:
+            new_holder[i], tacklers[i] = possession(order[i], dist, pos[i], vel[i], holder[i],
+                                                    cycle[i], passer[i], lockout_until[i],
+                                                    radius, speed)
+
+
+@compiled
+def outcomes_of_drills(code, active, pos, holder, cycle, size, max_cycles):
+    """:func:`outcome` of each active drill into ``code`` (``RUNNING`` elsewhere)."""
+    for i in range(pos.shape[0]):
+        code[i] = outcome(pos[i], holder[i], cycle[i], size, max_cycles) if active[i] else RUNNING
