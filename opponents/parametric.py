@@ -20,8 +20,23 @@ from typing import Any
 
 import numpy as np
 
-from soccer_drill.skills import GUARD_DEPTH, Command, Skill, ball_interception_point
-from soccer_drill.state import BALL, PLAYER_NAMES, DrillState, DrillView
+from soccer_drill.compiled import compiled, hypot, warms
+from soccer_drill.config import DrillConfig
+from soccer_drill.motion import (
+    CONTROL_RADIUS,
+    GUARD_DEPTH,
+    GUARD_LINE,
+    INTERCEPT,
+    MARK,
+    MOVE_TO,
+    SPACING,
+    interception_point,
+    mark_target,
+    roll_table,
+    rule_parameters,
+)
+from soccer_drill.skills import Command, Skill
+from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView
 
 ROLES = ("interceptor", "guard")
 """What a defender does: go for the ball, or protect the goal line."""
@@ -41,6 +56,10 @@ COORDINATIONS = ("press", "cover", "screen")
 _SWITCH_MARGIN = 1.0  # metres: the presser changes only when the other is this much nearer
 _EDGE = 2.0  # guards stay this far inside the touchlines
 _MARK_FRACTION = 0.35  # soccer_drill's MARK skill stands this far from the attacker toward the ball
+# The team's settings as one float64 array, the plan's (see _settings), by index.
+(_GUARD_0, _GUARD_1, _COORDINATION, _SPEED_0, _SPEED_1, _DELAY, _MARK_AT, _CHASE_LOOSE,
+ _SCREEN, _DEPTH, _TRACK, _GUARD_SPACING, _REACH, _PRESS, _SORTIE) = range(15)
+_PRESS_MODE, _COVER, _SCREEN_MODE = range(3)  # COORDINATIONS' indices
 
 
 def _is_number(value: object) -> bool:
@@ -151,8 +170,10 @@ class ParametricTeam:
         self._indices: tuple[int, ...] = ()
         self._rng: np.random.Generator | None = None
         self._history: deque[DrillState] = deque(maxlen=self.reaction_delay + 1)
-        self._sortie_left = [0, 0]
+        self._settings = self._settings_array()
+        self._sortie_left = np.zeros(2, dtype=np.int64)
         self._presser = -1
+        self._plan = (np.zeros(2, dtype=np.int64), np.zeros((2, 2)), np.zeros(2))
         self.sorties = 0
         """Sorties started this episode (for tests and statistics)."""
 
@@ -178,6 +199,26 @@ class ParametricTeam:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params().items())
         return f"{type(self).__name__}({args})"
 
+    def _settings_array(self) -> np.ndarray:
+        """The settings as :func:`plan_into` reads them."""
+        settings = np.array([
+            self.roles[0] == "guard", self.roles[1] == "guard",
+            COORDINATIONS.index(self.coordination), *self.speeds, self.reaction_delay,
+            self.mark_fraction, self.chase_loose, self.screen_distance, self.guard_depth,
+            self.guard_track, self.guard_spacing, self.guard_reach, self.press_probability,
+            self.sortie_cycles,
+        ], dtype=np.float64)
+        settings.flags.writeable = False
+        return settings
+
+    def _draws(self, sortie_left: np.ndarray) -> list[bool]:
+        """Which defenders draw a uniform for a random sortie this cycle: the guards on
+        their line, when sorties can start at random (in defender order, as the plan
+        reads them)."""
+        if self.press_probability <= 0:
+            return [False, False]
+        return [self.roles[k] == "guard" and sortie_left[k] == 0 for k in (0, 1)]
+
     # ------------------------------------------------------------------ protocol
     def reset(self, view: DrillView, rng: np.random.Generator) -> None:
         """Start an episode: sorties and the delay buffer are reset; ``rng`` feeds the sorties."""
@@ -187,7 +228,7 @@ class ParametricTeam:
         self._indices = tuple(PLAYER_NAMES.index(p) for p in self._players)
         self._rng = rng
         self._history.clear()
-        self._sortie_left = [0, 0]
+        self._sortie_left[:] = 0
         self._presser = -1
         self.sorties = 0
 
@@ -199,101 +240,121 @@ class ParametricTeam:
         self._history.append(current)
         seen = self._history[0]  # reaction_delay cycles old (or the oldest we have)
         cfg = view.config
-        skills = self._plan(seen, cfg.field_size)
-        commands = {}
-        for k, (player, index) in enumerate(zip(self._players, self._indices, strict=True)):
-            skill, target = skills[k]
-            speed = self.speeds[k]
-            if target is None and self.reaction_delay > 0:
-                # React to the old state: go where the skill would have gone back then.
-                target = self._skill_target(seen, index, skill, cfg, speed)
-                skill = Skill.MOVE_TO
-            commands[player] = Command(skill, target, speed)
-        return commands
+        draws = self._plan[2]
+        for k, drawn in enumerate(self._draws(self._sortie_left)):
+            if drawn:
+                draws[k] = self._rng.random()
+        skill, target = self._plan[0], self._plan[1]
+        params = rule_parameters(cfg)
+        self._presser, started = plan_into(
+            skill, target, self._sortie_left, self._presser, draws, np.array(seen.pos),
+            np.array(seen.vel), seen.holder, self._settings, cfg.field_size, cfg.defender_speed,
+            params[CONTROL_RADIUS], roll_table(cfg), params[SPACING],
+        )
+        self.sorties += started
+        targets = target.tolist()
+        return {
+            player: Command(Skill(s), tuple(targets[k]) if s == MOVE_TO else None, self.speeds[k])
+            for k, (player, s) in enumerate(zip(self._players, skill.tolist(), strict=True))
+        }
 
     def batch(self, n: int) -> ParametricBatch:
         """This team's behaviour for ``n`` drills at once (see :class:`ParametricBatch`)."""
         return ParametricBatch(self, n)
 
-    # ------------------------------------------------------------------ behaviour
-    def _plan(
-        self, s: DrillState, size: float
-    ) -> list[tuple[Skill, tuple[float, float] | None]]:
-        """``(skill, target)`` per defender; target ``None`` means the skill's own."""
-        idx = self._indices
-        bx, by = s.pos[BALL]
-        loose = s.holder < 0
-        plan: list[tuple[Skill, tuple[float, float] | None]] = [(Skill.INTERCEPT, None)] * 2
-        interceptors = [k for k in (0, 1) if self.roles[k] == "interceptor"]
-        guards = [k for k in (0, 1) if self.roles[k] == "guard"]
 
-        # Guards: sorties (random, or the ball came close), else the line.
-        rng = self._rng
-        assert rng is not None
-        for n, k in enumerate(guards):
-            if self._sortie_left[k] == 0:
-                gx, gy = s.pos[idx[k]]
-                close = self.guard_reach > 0 and math.hypot(bx - gx, by - gy) <= self.guard_reach
-                draw = self.press_probability > 0 and rng.random() < self.press_probability
-                if draw or close:
-                    self._sortie_left[k] = self.sortie_cycles
-                    self.sorties += 1
-            if self._sortie_left[k] > 0:
-                self._sortie_left[k] -= 1
-                plan[k] = (Skill.INTERCEPT, None)
-            else:
-                plan[k] = self._guard_spot(n, len(guards), s, size)
+@compiled
+def plan_into(skill, target, sortie_left, presser, draws, pos, vel, holder, settings, size,
+              defender_speed, reach, table, spacing):
+    """The two defenders' commands in one drill, written into ``skill`` and ``target``
+    (a ``MOVE_TO``'s target; other skills' own targets are the drill's).
 
-        if len(interceptors) == 2 and self.coordination != "press":
-            d = [math.hypot(s.pos[idx[k]][0] - bx, s.pos[idx[k]][1] - by) for k in (0, 1)]
-            if self._presser < 0 or d[1 - self._presser] + _SWITCH_MARGIN < d[self._presser]:
-                self._presser = 0 if d[0] <= d[1] else 1
-            other = 1 - self._presser
-            if not (loose and self.chase_loose):
-                if self.coordination == "cover":
-                    plan[other] = self._mark(s, idx[other])
-                else:  # screen
-                    ty = max(by - self.screen_distance, 1.0)
-                    plan[other] = (Skill.MOVE_TO, (min(max(bx, 1.0), size - 1.0), ty))
-        return plan
-
-    def _guard_spot(
-        self, n: int, count: int, s: DrillState, size: float
-    ) -> tuple[Skill, tuple[float, float] | None]:
-        bx = s.pos[BALL][0]
-        if count == 1:
-            if self.guard_track == 1.0 and self.guard_depth == GUARD_DEPTH:
-                return Skill.GUARD_LINE, None  # exactly the skill's own spot
-            home, offset = size / 2, 0.0
+    Guards on their line start a sortie if the ball comes within reach, or if their
+    uniform in ``draws`` falls below ``press_probability`` (read only for the guards
+    :meth:`ParametricTeam._draws` names); a guard on a sortie intercepts, else stands at
+    its spot on the line. Two interceptors share the work by ``coordination``: the
+    presser (kept until the other is ``_SWITCH_MARGIN`` nearer the ball) intercepts; the
+    other marks or screens, or chases a loose ball. With a reaction delay every command
+    becomes a ``MOVE_TO`` to where its skill would go in the state seen.
+    ``sortie_left`` is updated in place; returns the presser and the sorties started.
+    """
+    bx, by = pos[4, 0], pos[4, 1]
+    guards = int(settings[_GUARD_0] + settings[_GUARD_1])
+    skill[0] = skill[1] = INTERCEPT
+    started, n = 0, 0
+    for k in range(2):
+        if settings[_GUARD_0 + k] == 0.0:
+            continue
+        if sortie_left[k] == 0:
+            gx, gy = pos[2 + k, 0], pos[2 + k, 1]
+            reach_k = settings[_REACH]
+            close = reach_k > 0 and hypot(bx - gx, by - gy) <= reach_k
+            drawn = settings[_PRESS] > 0 and draws[k] < settings[_PRESS]
+            if drawn or close:
+                sortie_left[k] = int(settings[_SORTIE])
+                started += 1
+        if sortie_left[k] > 0:
+            sortie_left[k] -= 1
         else:
-            home = size * (n + 1) / 3
-            offset = (n - 0.5) * self.guard_spacing
-        x = home + self.guard_track * (bx + offset - home)
-        return Skill.MOVE_TO, (min(max(x, _EDGE), size - _EDGE), self.guard_depth)
+            _guard_spot_into(skill, target, k, n, guards, bx, size, settings)
+        n += 1
+    if guards == 0 and settings[_COORDINATION] != _PRESS_MODE:
+        d0 = hypot(pos[2, 0] - bx, pos[2, 1] - by)
+        d1 = hypot(pos[3, 0] - bx, pos[3, 1] - by)
+        if presser < 0 or (d0 if presser == 1 else d1) + _SWITCH_MARGIN < (
+            d1 if presser == 1 else d0
+        ):
+            presser = 0 if d0 <= d1 else 1
+        other = 1 - presser
+        if not (holder < 0 and settings[_CHASE_LOOSE] != 0.0):
+            if settings[_COORDINATION] == _COVER:
+                fraction = settings[_MARK_AT]
+                if fraction == _MARK_FRACTION:
+                    skill[other] = MARK
+                else:
+                    skill[other] = MOVE_TO
+                    target[other, 0], target[other, 1] = mark_target(pos, holder, 2 + other,
+                                                                     fraction)
+            else:  # screen: goal-side of the ball, min(max(...)) as the builtins compare
+                ty = by - settings[_SCREEN]
+                x = 1.0 if 1.0 > bx else bx
+                skill[other] = MOVE_TO
+                target[other, 0] = size - 1.0 if size - 1.0 < x else x
+                target[other, 1] = 1.0 if 1.0 > ty else ty
+    if settings[_DELAY] > 0:
+        # React to the old state: go where the skill would have gone back then.
+        for k in range(2):
+            if skill[k] == INTERCEPT:
+                target[k, 0], target[k, 1] = interception_point(
+                    pos, vel, holder, 2 + k, defender_speed * settings[_SPEED_0 + k], reach,
+                    table, spacing)
+            elif skill[k] == MARK:
+                target[k, 0], target[k, 1] = mark_target(pos, holder, 2 + k, _MARK_FRACTION)
+            elif skill[k] == GUARD_LINE:
+                x = 4.0 if 4.0 > bx else bx
+                target[k, 0], target[k, 1] = (size - 4.0 if size - 4.0 < x else x), GUARD_DEPTH
+            skill[k] = MOVE_TO
+    return presser, started
 
-    def _mark(self, s: DrillState, index: int) -> tuple[Skill, tuple[float, float] | None]:
-        if self.mark_fraction == _MARK_FRACTION:
-            return Skill.MARK, None
-        bx, by = s.pos[BALL]
-        fx, fy = s.pos[s.free_opponent_of(index)]
-        f = self.mark_fraction
-        return Skill.MOVE_TO, (fx + f * (bx - fx), fy + f * (by - fy))
 
-    @staticmethod
-    def _skill_target(
-        s: DrillState, index: int, skill: Skill, cfg: Any, speed: float
-    ) -> tuple[float, float]:
-        if skill is Skill.INTERCEPT:
-            return ball_interception_point(s, index, cfg.defender_speed * speed, cfg)
-        if skill is Skill.MARK:
-            bx, by = s.pos[BALL]
-            fx, fy = s.pos[s.free_opponent_of(index)]
-            f = _MARK_FRACTION
-            return fx + f * (bx - fx), fy + f * (by - fy)
-        if skill is Skill.GUARD_LINE:
-            x = min(max(s.pos[BALL][0], 4.0), cfg.field_size - 4.0)
-            return x, GUARD_DEPTH
-        raise AssertionError(f"no target rule for {skill!r}")  # pragma: no cover
+@compiled
+def _guard_spot_into(skill, target, k, n, guards, bx, size, settings):
+    """Guard ``k``, the ``n``-th of ``guards``, on its line: level with the ball as far as
+    ``guard_track`` says, from its home spot."""
+    track, depth = settings[_TRACK], settings[_DEPTH]
+    if guards == 1:
+        if track == 1.0 and depth == GUARD_DEPTH:
+            skill[k] = GUARD_LINE  # exactly the skill's own spot
+            return
+        home, offset = size / 2, 0.0
+    else:
+        home = size * (n + 1) / 3
+        offset = (n - 0.5) * settings[_GUARD_SPACING]
+    x = home + track * (bx + offset - home)
+    x = _EDGE if _EDGE > x else x  # min(max(x, _EDGE), size - _EDGE), as the builtins compare
+    skill[k] = MOVE_TO
+    target[k, 0] = size - _EDGE if size - _EDGE < x else x
+    target[k, 1] = depth
 
 
 # ---------------------------------------------------------------------- sampler
@@ -423,88 +484,56 @@ class ParametricBatch:
         return self._pos[drills, oldest], self._vel[drills, oldest], self._holder[drills, oldest]
 
     def act(self, view: Any, drills: np.ndarray) -> Any:
-        """The two defenders' commands in each of ``drills``."""
+        """The two defenders' commands in each of ``drills``: the plan of
+        :meth:`ParametricTeam.act` (:func:`plan_into`), drill by drill."""
         from soccer_drill.batch_teams import BatchCommands
-        from soccer_drill.motion import interception_points, mark_targets
 
         t, cfg = self.team, view.config
-        size = cfg.field_size
         pos, vel, holder = self._seen(view, drills)
         m = len(drills)
-        bx, by = pos[:, BALL, 0], pos[:, BALL, 1]
-        skill = np.full((m, 2), int(Skill.INTERCEPT), dtype=np.int64)
+        draws = np.zeros((m, 2))
+        for k, drawn in enumerate(t._draws(self._sortie_left[drills].T)):
+            if np.count_nonzero(drawn):  # each drill's guard k on its line, in turn
+                draws[drawn, k] = self._rng.random(drills[drawn])
+        skill = np.empty((m, 2), dtype=np.int64)
         target = np.zeros((m, 2, 2))
-        guards = [k for k in (0, 1) if t.roles[k] == "guard"]
-        for n_guard, k in enumerate(guards):
-            left = self._sortie_left[drills, k]
-            on_line = left == 0
-            gx, gy = pos[:, 2 + k, 0], pos[:, 2 + k, 1]
-            start = on_line & (t.guard_reach > 0) & (np.hypot(bx - gx, by - gy) <= t.guard_reach)
-            if t.press_probability > 0 and np.count_nonzero(on_line):
-                draws = np.zeros(m, dtype=bool)
-                draws[on_line] = self._rng.random(drills[on_line]) < t.press_probability
-                start |= draws & on_line
-            left = np.where(start, t.sortie_cycles, left)
-            self.sorties[drills[start]] += 1
-            out = left > 0
-            self._sortie_left[drills, k] = np.where(out, left - 1, left)
-            spot_skill, spot = self._guard_spots(n_guard, len(guards), bx, size)
-            skill[:, k] = np.where(out, int(Skill.INTERCEPT), spot_skill)
-            target[:, k] = np.where(out[:, None], 0.0, spot)
-        interceptors = [k for k in (0, 1) if t.roles[k] == "interceptor"]
-        if len(interceptors) == 2 and t.coordination != "press":
-            d = np.hypot(pos[:, 2:4, 0] - bx[:, None], pos[:, 2:4, 1] - by[:, None])
-            r = np.arange(m)
-            presser = self._presser[drills]
-            p = np.where(presser >= 0, presser, 0)
-            switch = (presser < 0) | (d[r, 1 - p] + _SWITCH_MARGIN < d[r, p])
-            presser = np.where(switch, np.where(d[:, 0] <= d[:, 1], 0, 1), presser)
-            self._presser[drills] = presser
-            other = 1 - presser
-            second = ~((holder < 0) & t.chase_loose)
-            if t.coordination == "cover":
-                if t.mark_fraction == _MARK_FRACTION:
-                    what, where = int(Skill.MARK), np.zeros((m, 2))
-                else:
-                    spots = mark_targets(pos, holder, t.mark_fraction)
-                    what, where = int(Skill.MOVE_TO), spots[r, 2 + other]
-            else:  # screen
-                what = int(Skill.MOVE_TO)
-                where = np.stack(
-                    (np.minimum(np.maximum(bx, 1.0), size - 1.0),
-                     np.maximum(by - t.screen_distance, 1.0)), axis=1)
-            rows = r[second]
-            skill[rows, other[second]] = what
-            target[rows, other[second]] = where[second] if where.ndim == 2 else where
-        speed = np.broadcast_to(np.array(t.speeds), (m, 2)).copy()
-        if t.reaction_delay > 0:
-            # React to the old state: go where the skill would have gone back then.
-            vmax = np.ones((m, 4))
-            vmax[:, 2:] = cfg.defender_speed * speed
-            to_ball = interception_points(pos, vel, holder, vmax, cfg)[:, 2:]
-            marks = mark_targets(pos, holder)[:, 2:]
-            line = np.stack(
-                (np.minimum(np.maximum(bx, 4.0), size - 4.0), np.full(m, GUARD_DEPTH)), axis=1)
-            own = np.stack([skill == int(s) for s in (Skill.INTERCEPT, Skill.MARK, Skill.GUARD_LINE)])
-            target = np.where(own[0][..., None], to_ball, target)
-            target = np.where(own[1][..., None], marks, target)
-            target = np.where(own[2][..., None], line[:, None, :], target)
-            skill = np.where(own.any(axis=0), int(Skill.MOVE_TO), skill)
-        return BatchCommands(skill, target, speed)
+        started = np.zeros(m, dtype=np.int64)
+        params = rule_parameters(cfg)
+        _plans_of_drills(skill, target, started, self._sortie_left, self._presser,
+                         np.array(drills, dtype=np.int64), draws, np.array(pos, dtype=np.float64),
+                         np.array(vel, dtype=np.float64), np.array(holder, dtype=np.int64),
+                         t._settings,
+                         cfg.field_size, cfg.defender_speed, params[CONTROL_RADIUS],
+                         roll_table(cfg), params[SPACING])
+        self.sorties[drills] += started
+        return BatchCommands(skill, target, np.broadcast_to(np.array(t.speeds), (m, 2)).copy())
 
-    def _guard_spots(
-        self, n_guard: int, count: int, bx: np.ndarray, size: float
-    ) -> tuple[int | np.ndarray, np.ndarray]:
-        t = self.team
-        if count == 1:
-            if t.guard_track == 1.0 and t.guard_depth == GUARD_DEPTH:
-                return int(Skill.GUARD_LINE), np.zeros((len(bx), 2))
-            home, offset = size / 2, 0.0
-        else:
-            home = size * (n_guard + 1) / 3
-            offset = (n_guard - 0.5) * t.guard_spacing
-        x = home + t.guard_track * (bx + offset - home)
-        spot = np.stack(
-            (np.minimum(np.maximum(x, _EDGE), size - _EDGE), np.full(len(bx), t.guard_depth)),
-            axis=1)
-        return int(Skill.MOVE_TO), spot
+
+@compiled
+def _plans_of_drills(skill, target, started, sortie_left, presser, drills, draws, pos, vel,
+                     holder, settings, size, defender_speed, reach, table, spacing):
+    """:func:`plan_into` of drill ``drills[r]`` for each row ``r``."""
+    for r in range(drills.shape[0]):
+        i = drills[r]
+        presser[i], started[r] = plan_into(skill[r], target[r], sortie_left[i], presser[i],
+                                           draws[r], pos[r], vel[r], holder[r], settings, size,
+                                           defender_speed, reach, table, spacing)
+
+
+@warms
+def _compile_plans() -> None:
+    """:func:`plan_into` and its batched loop, called once with their callers' types
+    (compiled before a team's time-bounded call reaches them)."""
+    cfg = DrillConfig()
+    params, table = rule_parameters(cfg), roll_table(cfg)
+    settings = ParametricTeam(roles=("interceptor", "guard"), press_probability=0.5)._settings
+    pos = np.array([*cfg.attacker_starts, *cfg.defender_starts, (10.0, 10.0)])
+    plan_into(np.zeros(2, dtype=np.int64), np.zeros((2, 2)), np.zeros(2, dtype=np.int64), -1,
+              np.zeros(2), pos, np.zeros((5, 2)), -1, settings, cfg.field_size,
+              cfg.defender_speed, params[CONTROL_RADIUS], table, params[SPACING])
+    _plans_of_drills(np.zeros((1, 2), dtype=np.int64), np.zeros((1, 2, 2)),
+                     np.zeros(1, dtype=np.int64), np.zeros((1, 2), dtype=np.int64),
+                     np.full(1, -1, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros((1, 2)),
+                     pos[None], np.zeros((1, 5, 2)), np.full(1, -1, dtype=np.int64), settings,
+                     cfg.field_size, cfg.defender_speed, params[CONTROL_RADIUS], table,
+                     params[SPACING])

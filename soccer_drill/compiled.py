@@ -31,6 +31,7 @@ except ImportError:  # pragma: no cover - numba is a dependency; tested with it 
     numba = None
 
 F = TypeVar("F", bound=Callable[..., Any])
+W = TypeVar("W", bound=Callable[[], None])
 
 COMPILED = numba is not None and not numba.config.DISABLE_JIT
 """Whether the rules run compiled (numba importable, ``NUMBA_DISABLE_JIT`` not set)."""
@@ -42,6 +43,29 @@ def compiled(function: F) -> F:
     if not COMPILED:
         return function
     return numba.njit(cache=True)(function)  # type: ignore[union-attr, return-value]
+
+
+_warmers: list[Callable[[], None]] = []
+_warmed: set[Callable[[], None]] = set()
+
+
+def warms(warmer: W) -> W:
+    """Register ``warmer``, a call of some compiled rules with the types their callers
+    pass, for :func:`warm_up`."""
+    _warmers.append(warmer)
+    return warmer
+
+
+def warm_up() -> None:
+    """Compile every registered rule now (or load it from the disk cache), once per
+    process: a rule's first use compiles it, which can take seconds, and must not fall
+    inside a scripted team's time-bounded call (``TeamDriver`` calls this first)."""
+    if not COMPILED:
+        return
+    for warmer in list(_warmers):
+        if warmer not in _warmed:
+            _warmed.add(warmer)
+            warmer()
 
 
 _SPLIT = 134217729.0  # 2**27 + 1: Dekker's split of a double into two halves

@@ -43,6 +43,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from soccer_drill.first_use import warm_up
 from soccer_drill.interruptions import MAX_ITEMS, delivered_by_signal, short_repr
 from soccer_drill.skills import BALL_SKILLS, Command, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillView
@@ -601,6 +602,7 @@ class TeamDriver:
     ) -> None:
         self.team, self.name, self.players = team, name, tuple(players)
         self.team_timeout = check_team_timeout(team_timeout)
+        warm_up()  # the rules a team may call, compiled before any bounded call
         self.drill = drill
         # How its errors name the team: with the drill of a batch it plays in, if any.
         self._who = f"team {name!r}" if drill is None else f"team {name!r} (drill {drill})"

@@ -98,3 +98,27 @@ def test_episodes_are_the_same_compiled_and_as_plain_python():
 def test_the_package_says_whether_its_rules_are_compiled():
     assert soccer_drill.compiled.COMPILED == (
         os.environ.get("NUMBA_DISABLE_JIT", "0") in ("", "0"))
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not COMPILED, reason="the rules are not compiled in this process")
+def test_a_fresh_process_compiles_the_rules_before_a_teams_time_bound(tmp_path):
+    """With nothing compiled yet (an empty cache), the rules a team calls are compiled
+    before its first bounded call, not inside it: a tight bound is not exceeded."""
+    script = (
+        "import numpy as np, soccer_drill\n"
+        "from soccer_drill.vector import HolderVectorEnv\n"
+        "env = soccer_drill.HolderEnv(opponent='interceptors_cover', team_timeout=0.2)\n"
+        "env.reset(seed=0)\n"
+        "for _ in range(3): env.step(0)\n"
+        "venv = HolderVectorEnv(num_envs=3, opponent='interceptor_guard', team_timeout=0.2)\n"
+        "venv.reset(seed=0)\n"
+        "for _ in range(3): venv.step(np.zeros(3, dtype=np.int64))\n"
+        "print('played')\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=600,
+        env={**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}, check=False,
+    )
+    assert done.returncode == 0 and done.stdout.strip() == "played", done.stderr[-2000:]
+    assert any(tmp_path.rglob("*.nbi"))  # it did compile into the empty cache
