@@ -19,6 +19,7 @@ from soccer_drill.batch_physics import DRILLS_PER_SPACE, BatchPhysics
 from soccer_drill.config import DrillConfig
 from soccer_drill.cycle import (
     RUNNING,
+    draw_start,
     outcomes_of_drills,
     possession_of_drills,
     recap_drills,
@@ -75,7 +76,6 @@ class BatchDrill:
         """Drill-cycles advanced since construction (for benchmarks)."""
         self._roll = cfg.ball_damping**cfg.cycle_seconds
         self._sub_dt = cfg.cycle_seconds / cfg.substeps
-        self._starts = np.array([*cfg.attacker_starts, *cfg.defender_starts])
         self._params, self._table = rule_parameters(cfg), roll_table(cfg)
         self._noise = np.zeros((n, 2))  # the two normals of each drill's pass
         self._motions = np.zeros((n, 4, 5))  # each player's motion (skills' rules)
@@ -97,11 +97,7 @@ class BatchDrill:
         cfg = self.config
         self.physics.renew(drills)
         for i, rng in zip(drills.tolist(), rngs, strict=True):
-            jitter = rng.uniform(-cfg.start_jitter, cfg.start_jitter, size=(4, 2))
-            self.pos[i, :4] = self._starts + jitter
-            holder = int(rng.integers(2))
-            self.pos[i, 4] = (self.pos[i, holder, 0], self.pos[i, holder, 1] - cfg.ball_offset)
-            self.holder[i] = holder
+            self.pos[i], self.holder[i] = draw_start(rng, cfg)
         self.vel[drills] = 0.0
         self.cycle[drills] = 0
         self.passer[drills] = -1

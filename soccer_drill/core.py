@@ -29,18 +29,23 @@ from soccer_drill.teams import (
 ObsType = Literal["features", "kinematic"]
 IllegalAction = Literal["raise", "default"]
 
-_ATTACKER_HOLDER_MASK = np.array([1, 1, 1, 0, 0], dtype=np.int8)
-_ATTACKER_OFF_BALL_MASK = np.array([0, 0, 0, 1, 1], dtype=np.int8)
-_DEFENDER_MASK = np.ones(len(DEFENDER_ACTIONS), dtype=np.int8)
-# With shared spaces a defender has an attacker's Discrete(5); its last two actions are masked.
-_SHARED_DEFENDER_MASK = np.array([1, 1, 1, 0, 0], dtype=np.int8)
-for _mask in (_ATTACKER_HOLDER_MASK, _ATTACKER_OFF_BALL_MASK, _DEFENDER_MASK, _SHARED_DEFENDER_MASK):
+# The action masks by role, and the action a masked one is replaced by (illegal_action
+# "default"): the single and the batched multi-agent environments read them here.
+HOLDER_MASK = np.array([1, 1, 1, 0, 0], dtype=np.int8)
+"""An attacker holding the ball: HOLD, PASS, DRIBBLE."""
+OFF_BALL_MASK = np.array([0, 0, 0, 1, 1], dtype=np.int8)
+"""An attacker off the ball: GET_OPEN, GO_TO_BALL."""
+DEFENDER_MASK = np.ones(len(DEFENDER_ACTIONS), dtype=np.int8)
+"""A defender agent: all three of its actions."""
+SHARED_DEFENDER_MASK = np.array([1, 1, 1, 0, 0], dtype=np.int8)
+"""A defender with shared spaces (an attacker's ``Discrete(5)``): its last two masked."""
+for _mask in (HOLDER_MASK, OFF_BALL_MASK, DEFENDER_MASK, SHARED_DEFENDER_MASK):
     _mask.flags.writeable = False
+HOLDER_DEFAULT, OFF_BALL_DEFAULT, DEFENDER_DEFAULT = 0, 3, 0
+"""The default actions by role: HOLD, GET_OPEN, INTERCEPT."""
 # The same masks as tuples of bools, for checking an action (indexing a tuple is cheaper).
-_ATTACKER_HOLDER_LEGAL = tuple(bool(x) for x in _ATTACKER_HOLDER_MASK)
-_ATTACKER_OFF_BALL_LEGAL = tuple(bool(x) for x in _ATTACKER_OFF_BALL_MASK)
-_DEFAULT_ATTACKER_ACTION = {True: 0, False: 3}  # holder: HOLD; off the ball: GET_OPEN
-_DEFAULT_DEFENDER_ACTION = 0  # INTERCEPT
+_ATTACKER_HOLDER_LEGAL = tuple(bool(x) for x in HOLDER_MASK)
+_ATTACKER_OFF_BALL_LEGAL = tuple(bool(x) for x in OFF_BALL_MASK)
 
 
 def resolve_shared_spaces(shared_spaces: object, opponent: object) -> bool:
@@ -123,7 +128,7 @@ class DrillCore:
         self.obs_type = obs_type
         self.illegal_action = illegal_action
         self.shared_spaces = shared_spaces
-        self._defender_mask = _SHARED_DEFENDER_MASK if shared_spaces else _DEFENDER_MASK
+        self._defender_mask = SHARED_DEFENDER_MASK if shared_spaces else DEFENDER_MASK
         self._defender_legal = tuple(bool(x) for x in self._defender_mask)
         self._defender_commands = _legal_commands(DEFENDER_ACTIONS, self._defender_legal)
         self.replaced: tuple[int, int] | None = None
@@ -220,7 +225,7 @@ class DrillCore:
         """Action mask of player ``index`` (read-only int8)."""
         if index >= 2:
             return self._defender_mask
-        return _ATTACKER_HOLDER_MASK if self.drill.state.holder == index else _ATTACKER_OFF_BALL_MASK
+        return HOLDER_MASK if self.drill.state.holder == index else OFF_BALL_MASK
 
     # --------------------------------------------------------------- actions
     def command_for(self, agent: str, index: int, action: object) -> Command:
@@ -261,11 +266,8 @@ class DrillCore:
         if not legal[a]:
             if self.illegal_action == "default":
                 given = a
-                a = (
-                    _DEFAULT_ATTACKER_ACTION[self.drill.state.holder == index]
-                    if index < 2
-                    else _DEFAULT_DEFENDER_ACTION
-                )
+                holds = self.drill.state.holder == index
+                a = (HOLDER_DEFAULT if holds else OFF_BALL_DEFAULT) if index < 2 else DEFENDER_DEFAULT
                 self.replaced = (given, a)
             else:
                 legal_now = [f"{i}={actions[i].name}" for i in np.flatnonzero(self.mask(index))]

@@ -1,4 +1,5 @@
-"""The rules of one cycle around the physics, written once for one drill.
+"""The rules of one cycle around the physics, and of an episode's start, written once for
+one drill.
 
 Before the physics, the players' motions (:mod:`soccer_drill.motion`) become velocities
 under the acceleration cap, and the holder's ball action becomes the ball's velocity: a
@@ -177,6 +178,18 @@ def reward(code: int, ball_x: float, cfg: DrillConfig) -> float:
     if code == SUCCESS:
         return cfg.success_reward(ball_x)
     return cfg.reward_timeout if code == TIMEOUT else cfg.reward_failure
+
+
+def draw_start(rng: np.random.Generator, cfg: DrillConfig) -> tuple[np.ndarray, int]:
+    """An episode's start, drawn from ``rng``: each player's nominal start plus a uniform
+    jitter (the four players' draws first), then the attacker given the ball, which
+    starts ``ball_offset`` below it. Returns the positions (``(5, 2)``) and the holder."""
+    jitter = rng.uniform(-cfg.start_jitter, cfg.start_jitter, size=(4, 2))
+    pos = np.empty((5, 2))
+    pos[:4] = np.array([*cfg.attacker_starts, *cfg.defender_starts]) + jitter
+    holder = int(rng.integers(2))
+    pos[4] = pos[holder, 0], pos[holder, 1] - cfg.ball_offset
+    return pos, holder
 
 
 # ------------------------------------------------------------------ many drills

@@ -21,7 +21,16 @@ import pymunk.batch
 from pymunk.batch import get_space_bodies
 
 from soccer_drill.config import DrillConfig
-from soccer_drill.cycle import RUNNING, outcome, possession, recap, reward, tackle, velocities_into
+from soccer_drill.cycle import (
+    RUNNING,
+    draw_start,
+    outcome,
+    possession,
+    recap,
+    reward,
+    tackle,
+    velocities_into,
+)
 from soccer_drill.motion import motions_into, roll_table, rule_parameters
 from soccer_drill.skills import Command, Skill
 from soccer_drill.state import DrillState
@@ -129,20 +138,13 @@ class Drill:
         """
         cfg = self.config
         self._build_space()
-        starts = (*cfg.attacker_starts, *cfg.defender_starts)
-        jitter = rng.uniform(-cfg.start_jitter, cfg.start_jitter, size=(4, 2))
-        pos = []
-        for body, (x, y), (jx, jy) in zip(self._players, starts, jitter, strict=True):
-            p = (float(x + jx), float(y + jy))
+        start, holder = draw_start(rng, cfg)
+        pos = tuple(map(tuple, start.tolist()))
+        for body, p in zip(self._bodies, pos, strict=True):
             _set_position(body, p)  # new bodies are at rest
-            pos.append(p)
-        holder = int(rng.integers(2))
-        ball = (pos[holder][0], pos[holder][1] - cfg.ball_offset)
-        _set_position(self._ball, ball)
-        pos.append(ball)
         self.outcome = None
         self.attacker_reward = 0.0
-        self.state = self._arrays_of = DrillState(tuple(pos), ((0.0, 0.0),) * 5, holder, 0)
+        self.state = self._arrays_of = DrillState(pos, ((0.0, 0.0),) * 5, holder, 0)
         self._pos[:], self._vel[:] = self.state.pos, 0.0
         return self.state
 

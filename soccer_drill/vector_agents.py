@@ -13,7 +13,19 @@ from soccer_drill.batch_core import BatchCore, check_num_envs, check_seed
 from soccer_drill.batch_physics import DRILLS_PER_SPACE, check_drills_per_space
 from soccer_drill.batch_render import BatchRenderer, check_render_mode
 from soccer_drill.config import DrillConfig
-from soccer_drill.core import IllegalAction, ObsType, make_config, resolve_shared_spaces
+from soccer_drill.core import (
+    DEFENDER_DEFAULT,
+    DEFENDER_MASK,
+    HOLDER_DEFAULT,
+    HOLDER_MASK,
+    OFF_BALL_DEFAULT,
+    OFF_BALL_MASK,
+    SHARED_DEFENDER_MASK,
+    IllegalAction,
+    ObsType,
+    make_config,
+    resolve_shared_spaces,
+)
 from soccer_drill.features import (
     batch_global_state,
     batch_kinematics,
@@ -27,14 +39,8 @@ from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
 from soccer_drill.vector import first_non_integer
 
-_HOLDER_MASK = np.array([1, 1, 1, 0, 0], dtype=np.int8)
-_OFF_BALL_MASK = np.array([0, 0, 0, 1, 1], dtype=np.int8)
-_DEFENDER_MASK = np.ones(len(DEFENDER_ACTIONS), dtype=np.int8)
-_SHARED_DEFENDER_MASK = np.array([1, 1, 1, 0, 0], dtype=np.int8)  # Discrete(5), 3 and 4 masked
 _ATTACKER_SKILLS = np.array([int(s) for s in ATTACKER_ACTIONS])
 _DEFENDER_SKILLS = np.array([int(s) for s in DEFENDER_ACTIONS])
-_DEFAULT_ATTACKER = (3, 0)  # off the ball: GET_OPEN; holder: HOLD
-_DEFAULT_DEFENDER = 0  # INTERCEPT
 _OUTCOMES = np.array(OUTCOME_NAMES, dtype=object)
 
 
@@ -174,7 +180,7 @@ class ParallelVectorEnv:
                       np.append(bounds[1], 1.0).astype(np.float32))
             self._role = np.array([1.0 if i < 2 else 0.0 for i in self._indices], dtype=np.float32)
         self._obs_box = spaces.Box(*bounds, dtype=np.float32)
-        self._defender_mask = _SHARED_DEFENDER_MASK if shared_spaces else _DEFENDER_MASK
+        self._defender_mask = SHARED_DEFENDER_MASK if shared_spaces else DEFENDER_MASK
         self._spaces = {
             a: spaces.Discrete(len(ATTACKER_ACTIONS if i < 2 or shared_spaces else DEFENDER_ACTIONS))
             for a, i in self._index.items()
@@ -226,7 +232,7 @@ class ParallelVectorEnv:
             if i >= 2:
                 out[agent] = np.broadcast_to(self._defender_mask, (self.num_envs, len(self._defender_mask))).copy()
             else:
-                out[agent] = np.where((holder == i)[:, None], _HOLDER_MASK, _OFF_BALL_MASK)
+                out[agent] = np.where((holder == i)[:, None], HOLDER_MASK, OFF_BALL_MASK)
         return out
 
     def _observations(self) -> dict[str, Any]:
@@ -305,8 +311,8 @@ class ParallelVectorEnv:
                 given[masked] = a[masked]
                 a = a.copy()
                 a[masked] = (
-                    np.where(b.holder[masked] == i, _DEFAULT_ATTACKER[1], _DEFAULT_ATTACKER[0])
-                    if i < 2 else _DEFAULT_DEFENDER
+                    np.where(b.holder[masked] == i, HOLDER_DEFAULT, OFF_BALL_DEFAULT)
+                    if i < 2 else DEFENDER_DEFAULT
                 )
                 done[masked] = a[masked]
             if not stepping.all():  # a drill being reset ignores its action, whatever it is
