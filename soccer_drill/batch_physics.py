@@ -125,15 +125,38 @@ class BatchPhysics:
         self._get_buffer.clear()
         pmb.get_space_bodies(space, _FIELDS, self._get_buffer)
         array[:] = np.frombuffer(self._get_buffer.float_buf(), dtype=np.float64).reshape(-1, 4)
-        buffer = pmb.Buffer()
-        buffer.set_float_buf(array)  # shares the array's memory: written in place
         self.spaces[k] = space
         self._arrays[k] = array
+        self._attach(k)
+        self._fresh[k] = True
+
+    def _attach(self, k: int) -> None:
+        """What space ``k`` is written and stepped through: a batch buffer sharing its
+        array's memory (written in place), the players' view of that array, its step."""
+        space, array = self.spaces[k], self._arrays[k]
+        buffer = pmb.Buffer()
+        buffer.set_float_buf(array)
         self._set_buffers[k] = buffer
-        self._bodies[k] = array[:-1].reshape(count, 4, 4)
+        self._bodies[k] = array[:-1].reshape(-1, 4, 4)
         direct = _SPACE_STEP is not None and hasattr(space, "_space")
         self._steps[k] = functools.partial(_SPACE_STEP, space._space) if direct else space.step
-        self._fresh[k] = True
+
+    def __getstate__(self) -> dict:
+        """Everything but the C handles and the views, which a copy makes anew; pymunk's
+        spaces copy themselves, their contacts included."""
+        state = self.__dict__.copy()
+        for name in ("_set_buffers", "_get_buffer", "_steps", "_bodies", "_offsets"):
+            del state[name]
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        k = len(self.spaces)
+        self._set_buffers, self._bodies, self._steps = [None] * k, [None] * k, [None] * k
+        self._get_buffer = pmb.Buffer()
+        self._offsets = self.offsets[:, None, :]
+        for space in range(k):
+            self._attach(space)
 
     def _check_order(self, space: pymunk.Space, count: int) -> None:
         """The batched reads list the players first, in the order added (as the drill checks)."""

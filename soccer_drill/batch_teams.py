@@ -82,6 +82,9 @@ class BatchView:
     def __setattr__(self, name: str, value: object) -> None:
         raise AttributeError(f"BatchView is read-only: cannot set {name!r}")
 
+    def __reduce__(self) -> tuple[type, tuple[object, tuple[str, ...]]]:
+        return BatchView, (self._batch, self._players)
+
     @property
     def n(self) -> int:
         """Number of drills."""

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, ClassVar
 
@@ -125,30 +126,26 @@ class HolderVectorEnv(VectorEnv):
     So ``reset(seed=s)`` with the same actions gives the same observations, rewards and
     infos, whatever ran before. Drill ``i`` starts exactly where ``HolderEnv`` started
     with ``reset(seed=s + i)`` does, and its rules (skills, support player, team,
-    possession, outcome) are the single drill's formulas in the same order, with its
-    random draws in the same order from the same streams. With ``drills_per_space=1``
-    its episodes follow the single environment's decision by decision, the later
-    episodes of its stream included, however the drills are batched (a space none of
-    whose drills moves is not stepped, and a drill's reset builds its space anew as
-    ``HolderEnv.reset`` does): equal bit for bit until the first of three last-bit
-    differences, a length from NumPy's ``hypot`` against the single drill's
-    ``math.hypot`` (about one call in 170 on random vectors), a pass direction from
-    NumPy's ``arctan2`` against ``math.atan2`` (about one call in 12), or pymunk's
-    solution of a contact between players (the batch writes each body's position and
-    velocity every cycle, the single drill its velocity only). How soon depends on the
-    play: over 300 decisions of each of 6 drills with random actions, one run against
-    ``chasers`` saw one drill differ first at its 159th decision and the others not at
-    all, another run (other actions) all six from decisions 41 to 146, and against
-    ``interceptors_cover`` 3 of 6 (``tests/test_vector_async.py`` checks the first
-    decisions). With shared spaces (the default, which
-    costs less) its episodes part sooner from the single environment's: contacts are
-    solved in an order that depends on the other drills, drills standing still while
-    others move are still stepped (their contact caches change), a reset keeps the
-    space while other drills in it go on, and the drills' positions are shifted into
-    their own regions of the space (rounding). The single environment is the reference:
-    ``tests/test_vector.py`` checks the rules against it step by step, and
-    ``python -m opponents.agreement`` (a ``slow`` test runs a small version) that success
-    rates agree within 95% intervals.
+    possession, outcome) are the single drill's own compiled rules (:mod:`soccer_drill.motion`,
+    :mod:`soccer_drill.cycle`), run drill by drill, with its random draws in the same order
+    from the same streams. What differs is the physics around them: the batch writes each
+    player's position and velocity into pymunk every cycle (the single drill its velocity
+    only), which can change pymunk's solution of a contact between players in the last
+    bit, and with shared spaces (the default, which costs less) contacts are solved in an
+    order that depends on the other drills, drills standing still while others move are
+    still stepped (their contact caches change), a reset keeps the space while other
+    drills in it go on, and the drills' positions are shifted into their own regions of
+    the space (rounding). With ``drills_per_space=1`` a drill's episodes follow the single
+    environment's decision by decision until the first such contact
+    (``tests/test_vector_async.py`` checks the first decisions; ``tests/test_vector.py``
+    whole episodes of one drill); ``python -m opponents.agreement`` (a ``slow`` test runs a
+    small version) checks that success rates agree within 95% intervals.
+
+    ## Copies
+
+    ``copy.deepcopy``, ``copy.copy`` and ``pickle`` give an independent environment
+    continuing every drill's episode: the same actions give bit-identical steps in the
+    copy and the original (pymunk's spaces are copied with their contacts).
 
     ## Errors
 
@@ -243,6 +240,11 @@ class HolderVectorEnv(VectorEnv):
         self._ready_at = np.zeros(n, dtype=np.int64)  # since when (recv's cycles)
         self._recv_cycles = 0
         self._renderer = BatchRenderer(self.config) if self.render_mode else None
+
+    def __copy__(self) -> HolderVectorEnv:
+        """An independent copy continuing every drill's episode, as ``copy.deepcopy``
+        and ``pickle`` give (the single environments' ``copy.copy`` does the same)."""
+        return copy.deepcopy(self)
 
     # ------------------------------------------------------------------ reset
     def reset(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
@@ -191,6 +192,11 @@ class ParallelVectorEnv:
         self._renderer = BatchRenderer(self.config) if self.render_mode else None
         self._autoreset = np.zeros(n, dtype=bool)
         self._has_reset = False
+
+    def __copy__(self) -> ParallelVectorEnv:
+        """An independent copy continuing every drill's episode, as ``copy.deepcopy``
+        and ``pickle`` give (the single environments' ``copy.copy`` does the same)."""
+        return copy.deepcopy(self)
 
     def observation_space(self, agent: str) -> spaces.Box:
         """One drill's observation ``Box`` of ``agent``."""

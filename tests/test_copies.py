@@ -1,5 +1,5 @@
-"""One behaviour for copies of the three environments: ``copy.deepcopy``, ``copy.copy``
-and ``pickle`` give an independent environment that continues the episode."""
+"""One behaviour for copies of the environments, single and batched: ``copy.deepcopy``,
+``copy.copy`` and ``pickle`` give an independent environment that continues the episode."""
 
 from __future__ import annotations
 
@@ -11,6 +11,8 @@ import numpy as np
 import pytest
 
 import soccer_drill
+from soccer_drill.vector import HolderVectorEnv
+from soccer_drill.vector_agents import ParallelVectorEnv
 
 COPIES = {
     "deepcopy": copy.deepcopy,
@@ -121,3 +123,40 @@ def test_through_gym_make_only_copy_copy_shares_the_environment_as_the_docstring
     assert duplicate.unwrapped is not env.unwrapped
     copied = _rest("holder", duplicate.unwrapped, 5)
     assert _rest("holder", env.unwrapped, 5) == copied and len(copied) > 1
+
+
+BATCHED = {
+    "holder vector": lambda: HolderVectorEnv(num_envs=5, opponent="goal_guards", drills_per_space=2),
+    "parallel vector": lambda: ParallelVectorEnv(num_envs=4, opponent="goal_guards"),
+}
+
+
+def _batched_steps(env, seed: int, steps: int) -> list:
+    """``steps`` steps of random legal actions drawn from ``seed``; what they returned."""
+    rng = np.random.default_rng(seed)
+    seen = []
+    for _ in range(steps):
+        if isinstance(env, HolderVectorEnv):
+            obs, rewards, terms, truncs, infos = env.step(rng.integers(3, size=env.num_envs))
+            seen.append((obs.tobytes(), rewards.tobytes(), terms.tobytes(), truncs.tobytes(),
+                         infos["cycles"].tobytes()))
+        else:
+            actions = {a: np.array([_pick(rng, m) for m in masks])
+                       for a, masks in env.action_masks().items()}
+            obs, rewards, terms, truncs, _ = env.step(actions)
+            seen.append(({a: o["observation"].tobytes() for a, o in obs.items()},
+                         {a: r.tobytes() for a, r in rewards.items()}, env.state().tobytes()))
+    return seen
+
+
+@pytest.mark.parametrize("how", list(COPIES))
+@pytest.mark.parametrize("kind", list(BATCHED))
+def test_a_copy_of_a_batched_environment_continues_bit_for_bit_and_on_its_own(kind, how):
+    original = BATCHED[kind]()
+    original.reset(seed=3)
+    _batched_steps(original, 4, 5)
+    duplicate = COPIES[how](original)
+    assert duplicate is not original
+    copied = _batched_steps(duplicate, 7, 30)
+    # The original, not moved by the copy's steps, plays the same from where it was copied.
+    assert _batched_steps(original, 7, 30) == copied
