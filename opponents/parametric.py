@@ -227,6 +227,7 @@ class ParametricTeam:
         self._players = tuple(view.players)
         self._indices = tuple(PLAYER_NAMES.index(p) for p in self._players)
         self._rng = rng
+        self._numbers = _drill_numbers(view.config)
         self._history.clear()
         self._sortie_left[:] = 0
         self._presser = -1
@@ -239,17 +240,14 @@ class ParametricTeam:
         current = view.state
         self._history.append(current)
         seen = self._history[0]  # reaction_delay cycles old (or the oldest we have)
-        cfg = view.config
         draws = self._plan[2]
         for k, drawn in enumerate(self._draws(self._sortie_left)):
             if drawn:
                 draws[k] = self._rng.random()
         skill, target = self._plan[0], self._plan[1]
-        params = rule_parameters(cfg)
         self._presser, started = plan_into(
             skill, target, self._sortie_left, self._presser, draws, np.array(seen.pos),
-            np.array(seen.vel), seen.holder, self._settings, cfg.field_size, cfg.defender_speed,
-            params[CONTROL_RADIUS], roll_table(cfg), params[SPACING],
+            np.array(seen.vel), seen.holder, self._settings, *self._numbers,
         )
         self.sorties += started
         targets = target.tolist()
@@ -261,6 +259,13 @@ class ParametricTeam:
     def batch(self, n: int) -> ParametricBatch:
         """This team's behaviour for ``n`` drills at once (see :class:`ParametricBatch`)."""
         return ParametricBatch(self, n)
+
+
+def _drill_numbers(cfg: DrillConfig) -> tuple[float, float, float, np.ndarray, float]:
+    """What :func:`plan_into` reads of the drill's configuration, after the settings."""
+    params = rule_parameters(cfg)
+    return (cfg.field_size, cfg.defender_speed, float(params[CONTROL_RADIUS]), roll_table(cfg),
+            float(params[SPACING]))
 
 
 @compiled
@@ -445,6 +450,7 @@ class ParametricBatch:
         self._presser = np.full(n, -1, dtype=np.int64)
         self.sorties = np.zeros(n, dtype=np.int64)
         """Sorties started in each drill's episode."""
+        self._speeds = np.array([team.speeds])
         self._rng: Any = None
 
     def reset(self, view: Any, drills: np.ndarray, rng: Any) -> None:
@@ -458,6 +464,7 @@ class ParametricBatch:
             self._vel = np.zeros((self.n, depth, 5, 2))
             self._holder = np.zeros((self.n, depth), dtype=np.int64)
         self._rng = rng
+        self._numbers = _drill_numbers(view.config)
         self._count[drills] = 0
         self._sortie_left[drills] = 0
         self._presser[drills] = -1
@@ -488,7 +495,7 @@ class ParametricBatch:
         :meth:`ParametricTeam.act` (:func:`plan_into`), drill by drill."""
         from soccer_drill.batch_teams import BatchCommands
 
-        t, cfg = self.team, view.config
+        t = self.team
         pos, vel, holder = self._seen(view, drills)
         m = len(drills)
         draws = np.zeros((m, 2))
@@ -498,15 +505,12 @@ class ParametricBatch:
         skill = np.empty((m, 2), dtype=np.int64)
         target = np.zeros((m, 2, 2))
         started = np.zeros(m, dtype=np.int64)
-        params = rule_parameters(cfg)
         _plans_of_drills(skill, target, started, self._sortie_left, self._presser,
                          np.array(drills, dtype=np.int64), draws, np.array(pos, dtype=np.float64),
                          np.array(vel, dtype=np.float64), np.array(holder, dtype=np.int64),
-                         t._settings,
-                         cfg.field_size, cfg.defender_speed, params[CONTROL_RADIUS],
-                         roll_table(cfg), params[SPACING])
+                         t._settings, *self._numbers)
         self.sorties[drills] += started
-        return BatchCommands(skill, target, np.broadcast_to(np.array(t.speeds), (m, 2)).copy())
+        return BatchCommands(skill, target, np.repeat(self._speeds, m, axis=0))
 
 
 @compiled
@@ -525,15 +529,13 @@ def _compile_plans() -> None:
     """:func:`plan_into` and its batched loop, called once with their callers' types
     (compiled before a team's time-bounded call reaches them)."""
     cfg = DrillConfig()
-    params, table = rule_parameters(cfg), roll_table(cfg)
+    numbers = _drill_numbers(cfg)
     settings = ParametricTeam(roles=("interceptor", "guard"), press_probability=0.5)._settings
     pos = np.array([*cfg.attacker_starts, *cfg.defender_starts, (10.0, 10.0)])
     plan_into(np.zeros(2, dtype=np.int64), np.zeros((2, 2)), np.zeros(2, dtype=np.int64), -1,
-              np.zeros(2), pos, np.zeros((5, 2)), -1, settings, cfg.field_size,
-              cfg.defender_speed, params[CONTROL_RADIUS], table, params[SPACING])
+              np.zeros(2), pos, np.zeros((5, 2)), -1, settings, *numbers)
     _plans_of_drills(np.zeros((1, 2), dtype=np.int64), np.zeros((1, 2, 2)),
                      np.zeros(1, dtype=np.int64), np.zeros((1, 2), dtype=np.int64),
                      np.full(1, -1, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros((1, 2)),
                      pos[None], np.zeros((1, 5, 2)), np.full(1, -1, dtype=np.int64), settings,
-                     cfg.field_size, cfg.defender_speed, params[CONTROL_RADIUS], table,
-                     params[SPACING])
+                     *numbers)
