@@ -16,15 +16,12 @@ is not stepped at all, and a space all of whose drills start a new episode is bu
 anew (:meth:`BatchPhysics.renew`), so that with one drill per space a drill's physics
 is the single drill's, waits and resets included (see ``HolderVectorEnv``).
 
-The sub-steps call chipmunk's ``cpSpaceStep`` directly when this pymunk has it
-(``Space.step`` is that call plus bookkeeping for callbacks, and for bodies added or
-removed during a step, none of which the drill uses: the same computation without
-about 2 us of Python per call, ten calls per cycle and space); else ``Space.step``.
+The sub-steps call chipmunk's ``cpSpaceStep`` directly when this pymunk has it, as the
+single drill does (:func:`~soccer_drill.drill.space_step`); else ``Space.step``.
 """
 
 from __future__ import annotations
 
-import functools
 import math
 
 import numpy as np
@@ -32,15 +29,9 @@ import pymunk
 import pymunk.batch as pmb
 
 from soccer_drill.config import DrillConfig, is_integer
-from soccer_drill.drill import _PLAYER_MASS
+from soccer_drill.drill import _PLAYER_MASS, space_step
 
 _FIELDS = pmb.BodyFields.POSITION | pmb.BodyFields.VELOCITY
-try:  # chipmunk's own step, behind Space.step
-    from pymunk._chipmunk import lib as _lib
-
-    _SPACE_STEP = _lib.cpSpaceStep
-except (ImportError, AttributeError):  # pragma: no cover - another pymunk build
-    _SPACE_STEP = None
 DRILLS_PER_SPACE = 64
 """The default number of drills sharing one pymunk space."""
 
@@ -138,8 +129,7 @@ class BatchPhysics:
         buffer.set_float_buf(array)
         self._set_buffers[k] = buffer
         self._bodies[k] = array[:-1].reshape(-1, 4, 4)
-        direct = _SPACE_STEP is not None and hasattr(space, "_space")
-        self._steps[k] = functools.partial(_SPACE_STEP, space._space) if direct else space.step
+        self._steps[k] = space_step(space)
 
     def __getstate__(self) -> dict:
         """Everything but the C handles and the views, which a copy makes anew; pymunk's
