@@ -19,10 +19,10 @@ from soccer_drill.batch_physics import DRILLS_PER_SPACE, BatchPhysics
 from soccer_drill.config import DrillConfig
 from soccer_drill.cycle import (
     RUNNING,
+    after_physics_of_drills,
     draw_start,
     outcomes_of_drills,
     possession_of_drills,
-    recap_drills,
     reward,
     tackle,
     velocities_of_drills,
@@ -81,6 +81,7 @@ class BatchDrill:
         self._motions = np.zeros((n, 4, 5))  # each player's motion (skills' rules)
         self._new_vel = np.zeros((n, 5, 2))  # the velocities set before the physics
         self._kicker = np.full(n, -1, dtype=np.int64)
+        self._before = np.full(n, -1, dtype=np.int64)  # who held the ball before the physics
         self._accel = cfg.player_acceleration * cfg.cycle_seconds
         self._order = np.zeros((n, 4), dtype=np.int64)  # the possession rule's tacklers
         self._tacklers = np.zeros(n, dtype=np.int64)
@@ -145,34 +146,13 @@ class BatchDrill:
         velocities_of_drills(new_vel, kicker, active, pos, vel, holder, motions,
                              self._accel, dt, cfg.ball_offset, self._roll, cfg.ball_max_speed)
         n_active = np.count_nonzero(active)
-        if n_active < n:
-            new_vel[~active] = 0.0
         new_pos, out_vel = self.physics.cycle(pos[:, :4], new_vel[:, :4],
                                               active if n_active < n else None)
-        ball_vel = new_vel[:, 4]
-        ball = pos[:, 4].copy()
-        step = ball_vel * self._sub_dt
-        for _ in range(cfg.substeps):  # pymunk's own position update, p + v * dt
-            ball += step
-        if n_active == n:  # the usual case: every drill moved
-            pos[:, :4] = new_pos
-            vel[:, :4] = out_vel
-            pos[:, 4] = ball
-            vel[:, 4] = ball_vel
-        else:
-            where = active[:, None, None]
-            np.copyto(pos[:, :4], new_pos, where=where)
-            np.copyto(vel[:, :4], out_vel, where=where)
-            np.copyto(pos[:, 4], ball, where=active[:, None])
-            np.copyto(vel[:, 4], ball_vel, where=active[:, None])
-        recap_drills(vel, active, self._params)  # a collision can push a body past its cap
-        kicked = active & (kicker >= 0)
-        before = holder
-        if np.count_nonzero(kicked):
-            before = np.where(kicked, -1, holder)
-            self.passer[kicked] = kicker[kicked]
-            self.lockout_until[kicked] = self.cycle[kicked] + 1 + cfg.pass_lockout_cycles
-        self.cycle += active
+        before = self._before
+        before[:] = holder
+        after_physics_of_drills(pos, vel, before, self.passer, self.lockout_until, self.cycle,
+                                active, kicker, new_pos, out_vel, new_vel, cfg.substeps,
+                                self._sub_dt, cfg.pass_lockout_cycles, self._params)
         self.cycles_run += n_active
         self._possession(active, before, rngs)
         self._judge(active)

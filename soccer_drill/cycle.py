@@ -197,19 +197,41 @@ def draw_start(rng: np.random.Generator, cfg: DrillConfig) -> tuple[np.ndarray, 
 def velocities_of_drills(out, kicker, active, pos, vel, holder, motions, accel, dt,
                          ball_offset, roll, ball_max):
     """:func:`velocities_into` of each active drill (``out``: ``(n, 5, 2)``, ``kicker``:
-    ``(n,)``)."""
+    ``(n,)``); an inactive drill's bodies stand still (velocity 0)."""
     for i in range(pos.shape[0]):
         if active[i]:
             kicker[i] = velocities_into(out[i], pos[i], vel[i], holder[i], motions[i], accel,
                                         dt, ball_offset, roll, ball_max)
+        else:
+            out[i] = 0.0
 
 
 @compiled
-def recap_drills(vel, active, params):
-    """:func:`recap` of each active drill."""
-    for i in range(vel.shape[0]):
-        if active[i]:
-            recap(vel[i], params)
+def after_physics_of_drills(pos, vel, before, passer, lockout_until, cycle, active, kicker,
+                            new_pos, new_vel, set_vel, substeps, sub_dt, lockout_cycles, params):
+    """Each active drill's state after the physics: its players' ``new_pos`` and
+    ``new_vel``; its ball moved by its velocity in ``set_vel`` in ``substeps`` steps of
+    ``sub_dt`` (the additions pymunk makes, ``p + v * dt``); every velocity capped
+    (:func:`recap`); a kick's passer and lock-out, and ``before[i]`` (who held the ball
+    before the physics) -1 after a kick; the cycle counted."""
+    for i in range(pos.shape[0]):
+        if not active[i]:
+            continue
+        pos[i, :4] = new_pos[i]
+        vel[i, :4] = new_vel[i]
+        bx, by = pos[i, 4, 0], pos[i, 4, 1]
+        step_x, step_y = set_vel[i, 4, 0] * sub_dt, set_vel[i, 4, 1] * sub_dt
+        for _ in range(substeps):
+            bx += step_x
+            by += step_y
+        pos[i, 4, 0], pos[i, 4, 1] = bx, by
+        vel[i, 4] = set_vel[i, 4]
+        recap(vel[i], params)
+        if kicker[i] >= 0:
+            before[i] = -1
+            passer[i] = kicker[i]
+            lockout_until[i] = cycle[i] + 1 + lockout_cycles
+        cycle[i] += 1
 
 
 @compiled
