@@ -222,6 +222,7 @@ def _merge(into: dict | None, part: dict) -> dict:
 
 
 def memory_per_drill(n: int, team: str) -> float:
+    HolderVectorEnv(num_envs=1, opponent=team).reset(seed=0)  # first use: compiled rules
     tracemalloc.start()
     env = HolderVectorEnv(num_envs=n, opponent=team)
     env.reset(seed=0)
