@@ -33,15 +33,25 @@ import numpy as np
 
 from soccer_drill.batch import rows
 from soccer_drill.config import DrillConfig
-from soccer_drill.skills import BALL_SKILLS, Skill
+from soccer_drill.skills import Skill
 from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView
-from soccer_drill.teams import Team, TeamDriver, TeamError, make_team, resolve_team
+from soccer_drill.teams import (
+    SCRIPTED_SKILLS,
+    Team,
+    TeamDriver,
+    TeamError,
+    make_team,
+    resolve_team,
+    skill_refused,
+    speed_allowed,
+    speed_refused,
+    target_refused,
+)
 from soccer_drill.time_bound import counted_cpu
 
-_ALLOWED = np.array(sorted(int(s) for s in Skill if s not in BALL_SKILLS))
 _MOVE_TO = int(Skill.MOVE_TO)
 _IS_ALLOWED = np.zeros(len(Skill), dtype=bool)  # by skill value: may a scripted defender use it
-_IS_ALLOWED[_ALLOWED] = True
+_IS_ALLOWED[[int(s) for s in SCRIPTED_SKILLS]] = True
 
 
 class BatchCommands(NamedTuple):
@@ -473,16 +483,15 @@ def check_commands(
 
     # One test of everything (the usual case), then, only if it fails, which and where.
     allowed = _IS_ALLOWED[skill] & in_range
-    good_speed = (speed > 0.0) & (speed <= 1.0)  # NaN fails too
+    good_speed = speed_allowed(speed)
     finite = (skill != _MOVE_TO) | (np.isfinite(target[..., 0]) & np.isfinite(target[..., 1]))
     if (allowed & good_speed & finite).all():
         return BatchCommands(skill, target, speed)
     if not allowed.all():
         r, k = map(int, np.argwhere(~allowed)[0])
-        raise fail(r, k, f"skill {raw_skill[r, k].item()!r} is not allowed for a scripted defender; "
-                         f"allowed: {[Skill(s).name + '=' + str(int(s)) for s in _ALLOWED]}")
+        raise fail(r, k, skill_refused(raw_skill[r, k].item()))
     if not good_speed.all():
         r, k = map(int, np.argwhere(~good_speed)[0])
-        raise fail(r, k, f"speed must be in (0, 1], got {float(speed[r, k])!r}")
+        raise fail(r, k, speed_refused(float(speed[r, k])))
     r, k = map(int, np.argwhere(~finite)[0])
-    raise fail(r, k, f"MOVE_TO needs a finite (x, y) target, got {tuple(target[r, k].tolist())}")
+    raise fail(r, k, target_refused(tuple(target[r, k].tolist())))

@@ -412,6 +412,34 @@ def _what_happened(exc: BaseException) -> str:
     return short_repr(exc)
 
 
+SCRIPTED_SKILLS: tuple[Skill, ...] = tuple(s for s in Skill if s not in BALL_SKILLS)
+"""The skills a scripted team may command: any but the holder's ball skills."""
+
+
+def skill_refused(skill: object) -> str:
+    """Why a scripted team's command of ``skill`` is refused (the checks of a team's
+    commands in the single and the batched drill alike)."""
+    allowed = [f"{s.name}={int(s)}" for s in SCRIPTED_SKILLS]
+    shown = f"{skill.name}={int(skill)}" if isinstance(skill, Skill) else short_repr(skill)
+    return f"skill {shown} is not allowed for a scripted defender; allowed: {allowed}"
+
+
+def speed_allowed(speed: Any) -> Any:
+    """Whether a command's ``speed`` lies in (0, 1] (NaN does not): a bool, or one per
+    element of an array of speeds."""
+    return (speed > 0.0) & (speed <= 1.0)
+
+
+def speed_refused(speed: object) -> str:
+    """Why a command of ``speed`` is refused."""
+    return f"speed must be in (0, 1], got {short_repr(speed)}"
+
+
+def target_refused(target: object) -> str:
+    """Why a ``MOVE_TO`` to ``target`` is refused."""
+    return f"MOVE_TO needs a finite (x, y) target, got {short_repr(target)}"
+
+
 class _PlayerSet:
     """The players a team drives, as :func:`check_commands` compares and indexes them."""
 
@@ -515,16 +543,12 @@ def _check(team: str, player: str, command: object, cycle: int, drill: int | Non
         raise _invalid(team, drill, player, cycle, f"expected a Command, got {short_repr(command)}")
     skill, target, speed = command.skill, command.target, command.speed
     if not isinstance(skill, Skill) or skill in BALL_SKILLS:
-        raise _invalid(
-            team, drill, player, cycle, f"skill {short_repr(skill)} is not allowed for a scripted "
-            f"defender; allowed: {[s.name for s in Skill if s not in BALL_SKILLS]}"
-        )
+        raise _invalid(team, drill, player, cycle, skill_refused(skill))
     plain = type(command) is Command and (type(speed) is float or type(speed) is int)
-    if not (plain and 0.0 < speed <= 1.0):  # else the general check, and a copy
+    if not (plain and speed_allowed(speed)):  # else the general check, and a copy
         checked = float(speed) if not plain and _is_real(speed) else speed  # type: ignore[arg-type]
-        if not (_is_real(checked) and 0.0 < checked <= 1.0):  # type: ignore[operator]
-            raise _invalid(team, drill, player, cycle,
-                           f"speed must be in (0, 1], got {short_repr(speed)}")
+        if not (_is_real(checked) and speed_allowed(checked)):
+            raise _invalid(team, drill, player, cycle, speed_refused(speed))
         speed = checked
     if skill is not _MOVE_TO:
         return command if plain else Command(skill, None, speed)  # type: ignore[arg-type]
@@ -538,8 +562,7 @@ def _check(team: str, player: str, command: object, cycle: int, drill: int | Non
     ):
         point = _point(target)
         if point is None:
-            raise _invalid(team, drill, player, cycle,
-                           f"MOVE_TO needs a finite (x, y) target, got {short_repr(target)}")
+            raise _invalid(team, drill, player, cycle, target_refused(target))
         target, plain = point, False
     return command if plain else Command(skill, target, speed)  # type: ignore[arg-type]
 

@@ -4,6 +4,7 @@ whose team failed asks for a reset."""
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 
@@ -12,7 +13,9 @@ import pytest
 
 from soccer_drill import Command, HolderEnv, Skill
 from soccer_drill.batch_teams import BatchCommands
+from soccer_drill.batch_teams import check_commands as batched_check
 from soccer_drill.teams import TeamError
+from soccer_drill.teams import check_commands as single_check
 from soccer_drill.vector import HolderVectorEnv
 from soccer_drill.vector_agents import ParallelVectorEnv
 
@@ -304,3 +307,23 @@ def test_a_batch_whose_methods_are_not_callable_is_refused_when_made():
     team.batch = lambda n: NotCallable()
     with pytest.raises(TeamError, match="lacks reset"):
         HolderVectorEnv(num_envs=2, opponent=team)
+
+
+@pytest.mark.parametrize(("skill", "target", "speed"), [
+    (1, None, 1.0),  # a ball skill, as a bare value
+    (Skill.MARK, None, 2.0),
+    (Skill.MOVE_TO, (math.nan, 0.0), 1.0),
+])
+def test_the_single_and_the_batched_drill_refuse_a_bad_command_in_the_same_words(skill, target,
+                                                                                 speed):
+    players = ("defender_0", "defender_1")
+    with pytest.raises(TeamError) as single:
+        single_check({"defender_0": Command(skill, target, speed),
+                      "defender_1": Command(Skill.MARK)}, players, "t", 0)
+    batched_commands = BatchCommands(np.array([[int(skill), int(Skill.MARK)]]),
+                                     np.array([[target or (0.0, 0.0), (0.0, 0.0)]]),
+                                     np.array([[speed, 1.0]]))
+    with pytest.raises(TeamError) as batched:
+        batched_check(batched_commands, np.array([0]), np.zeros(1, dtype=np.int64), "t", players)
+    said = [str(e.value).split("cycle 0: ", 1)[1] for e in (single, batched)]
+    assert said[0] == said[1]
