@@ -249,14 +249,11 @@ class DrillCore:
             if isinstance(action, bool) or not isinstance(action, int | np.integer):
                 raise TypeError(
                     f"action for {agent!r} must be an integer in [0, {n - 1}] "
-                    f"({_names(actions, n)}), got {action!r} of type {type(action).__name__}"
+                    f"({action_list(index, n)}), got {action!r} of type {type(action).__name__}"
                 )
             a = int(action)
         if not 0 <= a < n:
-            raise ValueError(
-                f"action {a} for {agent!r} is out of range; allowed: 0..{n - 1} "
-                f"({_names(actions, n)})"
-            )
+            raise ValueError(out_of_range(agent, index, n, a))
         if index >= 2:
             legal = self._defender_legal
         else:
@@ -270,13 +267,8 @@ class DrillCore:
                 a = (HOLDER_DEFAULT if holds else OFF_BALL_DEFAULT) if index < 2 else DEFENDER_DEFAULT
                 self.replaced = (given, a)
             else:
-                legal_now = [f"{i}={actions[i].name}" for i in np.flatnonzero(self.mask(index))]
-                raise ValueError(
-                    f"action {a} ({_name(actions, a)}) is masked for {agent!r} at cycle "
-                    f"{self.drill.state.cycle}; legal actions now: {legal_now}. "
-                    "illegal_action='default' replaces a masked action by the role's "
-                    "default action instead (and reports it in infos)"
-                )
+                raise ValueError(masked_action(agent, index, n, a, self.drill.state.cycle,
+                                               self.mask(index)))
         return _COMMANDS[actions[a]]
 
 
@@ -315,12 +307,33 @@ def not_reset(method: str) -> RuntimeError:
     return RuntimeError(f"{method}() called before reset(); call reset() first")
 
 
-def _name(actions: tuple[Skill, ...], a: int) -> str:
-    return actions[a].name if a < len(actions) else "padding"
+def action_names(index: int, n: int) -> list[str]:
+    """The names of player ``index``'s ``n`` actions (with shared spaces a defender has an
+    attacker's five, its last two padding)."""
+    actions = ATTACKER_ACTIONS if index < 2 else DEFENDER_ACTIONS
+    return [s.name for s in actions] + ["padding"] * (n - len(actions))
 
 
-def _names(actions: tuple[Skill, ...], n: int) -> str:
-    return ", ".join(f"{i}={_name(actions, i)}" for i in range(n))
+def action_list(index: int, n: int) -> str:
+    """``0=HOLD, 1=PASS, ...``: player ``index``'s ``n`` actions, for messages."""
+    return ", ".join(f"{k}={name}" for k, name in enumerate(action_names(index, n)))
+
+
+def out_of_range(agent: str, index: int, n: int, action: int) -> str:
+    """Why ``action`` of ``agent`` (player ``index``, ``n`` actions) is refused: out of
+    range (the single and the batched multi-agent environments alike)."""
+    return (f"action {action} for {agent!r} is out of range; allowed: 0..{n - 1} "
+            f"({action_list(index, n)})")
+
+
+def masked_action(agent: str, index: int, n: int, action: int, cycle: int,
+                  mask: np.ndarray) -> str:
+    """Why ``action`` of ``agent`` is refused: masked now (``mask``: its action mask)."""
+    names = action_names(index, n)
+    legal_now = [f"{k}={names[k]}" for k in np.flatnonzero(mask)]
+    return (f"action {action} ({names[action]}) is masked for {agent!r} at cycle {cycle}; "
+            f"legal actions now: {legal_now}. illegal_action='default' replaces a masked "
+            "action by the role's default action instead (and reports it in infos)")
 
 
 _COMMANDS = {skill: Command(skill) for skill in Skill if skill is not Skill.MOVE_TO}

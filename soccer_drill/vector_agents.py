@@ -24,7 +24,10 @@ from soccer_drill.core import (
     SHARED_DEFENDER_MASK,
     IllegalAction,
     ObsType,
+    action_list,
     make_config,
+    masked_action,
+    out_of_range,
     resolve_shared_spaces,
 )
 from soccer_drill.features import (
@@ -288,16 +291,13 @@ class ParallelVectorEnv:
                 d = first_non_integer(a)
                 raise TypeError(
                     f"drill {d}: action for {agent!r} must be an integer in [0, {n_actions - 1}] "
-                    f"({_names(i, n_actions)}), got {a[d]!r} (actions of dtype {a.dtype}; an "
+                    f"({action_list(i, n_actions)}), got {a[d]!r} (actions of dtype {a.dtype}; an "
                     "integer dtype is needed)"
                 )
             # One test of the range (a negative action is a large unsigned one).
             if np.count_nonzero(stepping & (a.astype(np.uint64, copy=False) >= n_actions)):
                 d = int(np.nonzero(stepping & ((a < 0) | (a >= n_actions)))[0][0])
-                raise ValueError(
-                    f"drill {d}: action {int(a[d])} for {agent!r} is out of range; allowed: "
-                    f"0..{n_actions - 1} ({_names(i, n_actions)})"
-                )
+                raise ValueError(f"drill {d}: {out_of_range(agent, i, n_actions, int(a[d]))}")
             legal = is_legal(a, b.holder, i)
             masked = np.nonzero(stepping & ~legal)[0]
             given = np.full(self.num_envs, -1)
@@ -306,14 +306,9 @@ class ParallelVectorEnv:
                 masks = self.action_masks()
                 if self.illegal_action == "raise":
                     d = int(masked[0])
-                    names = _action_names(i, n_actions)
-                    legal_now = [f"{k}={names[k]}" for k in np.nonzero(masks[agent][d])[0]]
-                    raise ValueError(
-                        f"drill {d}: action {int(a[d])} ({names[int(a[d])]}) is "
-                        f"masked for {agent!r} at cycle {int(b.cycle[d])}; legal actions now: "
-                        f"{legal_now}. illegal_action='default' replaces a masked action by the "
-                        "role's default action instead (and reports it in infos)"
-                    )
+                    why = masked_action(agent, i, n_actions, int(a[d]), int(b.cycle[d]),
+                                        masks[agent][d])
+                    raise ValueError(f"drill {d}: {why}")
                 given[masked] = a[masked]
                 a = a.copy()
                 a[masked] = (
@@ -379,13 +374,3 @@ def is_legal(actions: np.ndarray, holder: np.ndarray, index: int) -> np.ndarray:
     action masks say, without making the masks: an attacker may take a ball action
     (0-2) exactly when it holds the ball, a defender any of its three actions."""
     return (actions < 3) == (holder == index) if index < 2 else actions < 3
-
-
-def _action_names(index: int, n: int) -> list[str]:
-    """The names of an agent's ``n`` actions (a defender's last two: masked, unused)."""
-    actions = ATTACKER_ACTIONS if index < 2 else DEFENDER_ACTIONS
-    return [s.name for s in actions] + ["(unused)"] * (n - len(actions))
-
-
-def _names(index: int, n: int) -> str:
-    return ", ".join(f"{k}={name}" for k, name in enumerate(_action_names(index, n)))

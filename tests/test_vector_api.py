@@ -94,7 +94,7 @@ def test_shared_spaces_mask_a_defenders_last_two_actions_and_replace_them():
     obs, _ = strict.reset(seed=1)
     actions = {a: obs[a]["action_mask"].argmax(axis=1) for a in strict.agents}
     actions["defender_0"] = np.array([0, 0, 3, 0])
-    with pytest.raises(ValueError, match=r"drill 2: action 3 \(\(unused\)\) is masked for 'defender_0'"):
+    with pytest.raises(ValueError, match=r"drill 2: action 3 \(padding\) is masked for 'defender_0'"):
         strict.step(actions)
     with pytest.raises(TypeError, match=r"shared_spaces must be None .*, True or False, got 1"):
         ParallelVectorEnv(num_envs=2, shared_spaces=1)
@@ -310,3 +310,19 @@ def test_the_batched_agents_spaces_options_and_flags_as_parallel_env():
     _, infos = env.reset(seed=0)
     illegal = infos["illegal_action"]
     assert illegal["attacker_0"] is not illegal["attacker_1"]
+
+
+def test_the_single_and_the_batched_multi_agent_env_refuse_an_action_in_the_same_words():
+    single = soccer_drill.parallel_env(opponent=None, illegal_action="raise")
+    single.reset(seed=4)
+    batched = ParallelVectorEnv(num_envs=1, opponent=None, illegal_action="raise")
+    batched.reset(seed=4)  # drill 0 starts as the single env's reset(seed=4)
+    holds = single.drill_state.holder == 0
+    for bad in (7, 3 if holds else 0):  # out of range; masked for attacker_0 now
+        actions = {a: 0 for a in single.agents}
+        actions["attacker_0"] = bad
+        with pytest.raises(ValueError) as said_single:
+            single.step(actions)
+        with pytest.raises(ValueError) as said_batched:
+            batched.step({a: np.array([x]) for a, x in actions.items()})
+        assert str(said_batched.value) == f"drill 0: {said_single.value}"
