@@ -36,7 +36,7 @@ def since(t):
     return c - t[0], w - t[1]
 t = now()
 import soccer_drill, opponents.parametric
-from soccer_drill.compiled import warm_up
+from soccer_drill.rules.compiled import warm_up
 out = {"import": since(t)}
 t = now()
 warm_up()

@@ -42,9 +42,9 @@ RULES: tuple[tuple[str, str, str], ...] = (
     ("pymunk/batch.py", "*", "physics: pymunk body reads and writes"),
     ("pymunk/", "*", "physics: pymunk body reads and writes"),
     ("soccer_drill/skills.py", "*", "drill: skills (commands to velocities)"),
-    ("soccer_drill/motion.py", "*", "drill: skills (commands to velocities)"),
+    ("soccer_drill/rules/motion.py", "*", "drill: skills (commands to velocities)"),
     ("soccer_drill/support.py", "*", "drill: support player"),
-    ("soccer_drill/cycle.py", "*", "drill: ball holder, outcome, state"),
+    ("soccer_drill/rules/cycle.py", "*", "drill: ball holder, outcome, state"),
     # The compiled rules run inside Drill.step's frame: skills, caps, ball, possession, outcome.
     ("soccer_drill/drill.py", "step", "drill: step (its compiled rules and its own code)"),
     ("soccer_drill/time_bound.py", "*", "team: time bound"),

@@ -27,7 +27,7 @@ import soccer_drill.batch as batch_module
 import soccer_drill.batch_core as core_module
 import soccer_drill.batch_physics as physics_module
 import soccer_drill.batch_teams as teams_module
-import soccer_drill.motion as motion_module
+import soccer_drill.rules.motion as motion_module
 import soccer_drill.vector as vector_module
 import soccer_drill.vector_agents as agents_module
 

@@ -20,9 +20,9 @@ from typing import Any
 
 import numpy as np
 
-from soccer_drill.compiled import compiled, hypot, warms
 from soccer_drill.config import DrillConfig
-from soccer_drill.motion import (
+from soccer_drill.rules.compiled import compiled, hypot, warms
+from soccer_drill.rules.motion import (
     CONTROL_RADIUS,
     GUARD_DEPTH,
     GUARD_LINE,

@@ -2,7 +2,7 @@
 
 :class:`BatchDrill` holds ``N`` drills' states as arrays and advances any subset of
 them by one cycle: the players' commands become velocities (the skills' rules of
-:mod:`soccer_drill.motion`, the single drill's, run drill by drill), the holder keeps
+:mod:`soccer_drill.rules.motion`, the single drill's, run drill by drill), the holder keeps
 or kicks the ball, the physics runs (:class:`~soccer_drill.batch_physics.BatchPhysics`),
 then possession, tackles and the outcome are decided, with the formulas of
 :class:`~soccer_drill.drill.Drill` in the same order. The random draws of drill ``i`` come from its own generator, in the
@@ -17,7 +17,8 @@ import numpy as np
 
 from soccer_drill.batch_physics import DRILLS_PER_SPACE, BatchPhysics
 from soccer_drill.config import DrillConfig
-from soccer_drill.cycle import (
+from soccer_drill.drill import OUTCOMES
+from soccer_drill.rules.cycle import (
     RUNNING,
     after_physics_of_drills,
     draw_start,
@@ -27,8 +28,7 @@ from soccer_drill.cycle import (
     tackle,
     velocities_of_drills,
 )
-from soccer_drill.drill import OUTCOMES
-from soccer_drill.motion import (
+from soccer_drill.rules.motion import (
     PASS,
     motions_of_drills,
     roll_table,
@@ -158,7 +158,7 @@ class BatchDrill:
         self._judge(active)
 
     def _possession(self, active: np.ndarray, before: np.ndarray, rngs: list) -> None:
-        """Possession and tackles (:func:`~soccer_drill.cycle.possession`) in the
+        """Possession and tackles (:func:`~soccer_drill.rules.cycle.possession`) in the
         ``active`` drills (``before``: who held the ball before the physics)."""
         cfg = self.config
         order, tacklers = self._order, self._tacklers
@@ -172,7 +172,7 @@ class BatchDrill:
                     self.holder[i] = taken
 
     def _judge(self, active: np.ndarray) -> None:
-        """The outcome (:func:`~soccer_drill.cycle.outcome`) of the ``active`` drills."""
+        """The outcome (:func:`~soccer_drill.rules.cycle.outcome`) of the ``active`` drills."""
         cfg, code = self.config, self._codes
         outcomes_of_drills(code, active, self.pos, self.holder, self.cycle, cfg.field_size,
                            cfg.max_cycles)

@@ -22,7 +22,7 @@ import pymunk.batch
 from pymunk.batch import get_space_bodies
 
 from soccer_drill.config import DrillConfig
-from soccer_drill.cycle import (
+from soccer_drill.rules.cycle import (
     RUNNING,
     draw_start,
     outcome,
@@ -32,7 +32,7 @@ from soccer_drill.cycle import (
     tackle,
     velocities_into,
 )
-from soccer_drill.motion import motions_into, roll_table, rule_parameters
+from soccer_drill.rules.motion import motions_into, roll_table, rule_parameters
 from soccer_drill.skills import Command, Skill
 from soccer_drill.state import DrillState
 

@@ -27,8 +27,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from soccer_drill.compiled import compiled, hypot
 from soccer_drill.config import DrillConfig
+from soccer_drill.rules.compiled import compiled, hypot
 from soccer_drill.state import BALL, DrillState
 
 Bounds = np.ndarray | Sequence[float]

@@ -2,7 +2,7 @@
 
 A player is driven each cycle by one :class:`Command`. The drill turns it into a
 desired velocity and, for the ball holder, a ball action (keep the ball at a
-control point, or kick it). The rules are :mod:`soccer_drill.motion`'s, written once
+control point, or kick it). The rules are :mod:`soccer_drill.rules.motion`'s, written once
 for one drill's arrays; the functions here offer them on a
 :class:`~soccer_drill.state.DrillState` (for teams and tests).
 """
@@ -15,8 +15,8 @@ from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
-from soccer_drill import motion as rules
-from soccer_drill.motion import CONTROL, GUARD_DEPTH, KICK, NO_BALL  # noqa: F401  (re-exported)
+from soccer_drill.rules import motion as rules
+from soccer_drill.rules.motion import CONTROL, GUARD_DEPTH, KICK, NO_BALL  # noqa: F401  (re-exported)
 
 if TYPE_CHECKING:
     from soccer_drill.config import DrillConfig

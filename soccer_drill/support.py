@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from soccer_drill.compiled import compiled, hypot
 from soccer_drill.config import DrillConfig
-from soccer_drill.motion import GO_TO_BALL, MOVE_TO, support_spot
+from soccer_drill.rules.compiled import compiled, hypot
+from soccer_drill.rules.motion import GO_TO_BALL, MOVE_TO, support_spot
 from soccer_drill.skills import Command, Skill
 from soccer_drill.state import DrillState
 

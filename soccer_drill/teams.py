@@ -43,8 +43,8 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from soccer_drill.first_use import warm_up
 from soccer_drill.interruptions import MAX_ITEMS, delivered_by_signal, short_repr
+from soccer_drill.rules.first_use import warm_up
 from soccer_drill.skills import BALL_SKILLS, Command, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillView
 from soccer_drill.time_bound import Overrun, call_within

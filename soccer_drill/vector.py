@@ -126,8 +126,8 @@ class HolderVectorEnv(VectorEnv):
     So ``reset(seed=s)`` with the same actions gives the same observations, rewards and
     infos, whatever ran before. Drill ``i`` starts exactly where ``HolderEnv`` started
     with ``reset(seed=s + i)`` does, and its rules (skills, support player, team,
-    possession, outcome) are the single drill's own compiled rules (:mod:`soccer_drill.motion`,
-    :mod:`soccer_drill.cycle`), run drill by drill, with its random draws in the same order
+    possession, outcome) are the single drill's own compiled rules (:mod:`soccer_drill.rules.motion`,
+    :mod:`soccer_drill.rules.cycle`), run drill by drill, with its random draws in the same order
     from the same streams. What differs is the physics around them: the batch writes each
     player's position and velocity into pymunk every cycle (the single drill its velocity
     only), which can change pymunk's solution of a contact between players in the last

@@ -1,6 +1,6 @@
 """The drill's rules give the same floats compiled (numba) and as plain Python.
 
-The rules are written once (:mod:`soccer_drill.compiled`); these tests check the two
+The rules are written once (:mod:`soccer_drill.rules.compiled`); these tests check the two
 promises that make the plain-Python fallback a fallback rather than another drill: the
 length function compiled code uses is CPython's ``math.hypot`` float for float, and
 whole episodes, single and batched, are the same bit for bit with ``NUMBA_DISABLE_JIT=1``.
@@ -21,7 +21,7 @@ import pytest
 from episode_digests import _feed, digest
 
 import soccer_drill
-from soccer_drill.compiled import COMPILED, python_hypot
+from soccer_drill.rules.compiled import COMPILED, python_hypot
 from soccer_drill.vector import HolderVectorEnv
 from soccer_drill.vector_agents import ParallelVectorEnv
 
@@ -96,7 +96,7 @@ def test_episodes_are_the_same_compiled_and_as_plain_python():
 
 
 def test_the_package_says_whether_its_rules_are_compiled():
-    assert soccer_drill.compiled.COMPILED == (
+    assert soccer_drill.rules.compiled.COMPILED == (
         os.environ.get("NUMBA_DISABLE_JIT", "0") in ("", "0"))
 
 

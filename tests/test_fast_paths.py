@@ -17,9 +17,9 @@ from soccer_drill.features import (
     kinematic_bounds,
     kinematics,
 )
-from soccer_drill.motion import HEADINGS as _HEADINGS
-from soccer_drill.motion import _roll_tuples as _roll_table
-from soccer_drill.motion import unit as _unit
+from soccer_drill.rules.motion import HEADINGS as _HEADINGS
+from soccer_drill.rules.motion import _roll_tuples as _roll_table
+from soccer_drill.rules.motion import unit as _unit
 from soccer_drill.skills import (
     ball_interception_point,
     dribble_heading,

@@ -13,14 +13,14 @@ from opponents.parametric import ParametricTeam, sample_opponents
 from soccer_drill.batch_teams import BatchCommands
 from soccer_drill.features import batch_features, feature_bounds, features
 from soccer_drill.holder import HolderEnv
-from soccer_drill.motion import (
+from soccer_drill.policies import HOLDER_POLICIES
+from soccer_drill.rules.motion import (
     interception_points,
     mark_targets,
     motions_of_drills,
     roll_table,
     rule_parameters,
 )
-from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.skills import Command, Skill, ball_interception_point, execute
 from soccer_drill.teams import TeamError
 from soccer_drill.vector import HolderVectorEnv, play_episodes

@@ -8,7 +8,7 @@ import pytest
 import soccer_drill
 from soccer_drill.batch import BatchDrill
 from soccer_drill.batch_physics import BatchPhysics
-from soccer_drill.cycle import INTERCEPTION, OUT, RUNNING, SUCCESS, TIMEOUT, outcome, reward
+from soccer_drill.rules.cycle import INTERCEPTION, OUT, RUNNING, SUCCESS, TIMEOUT, outcome, reward
 
 
 def test_the_direct_chipmunk_step_moves_the_players_as_space_step_does():

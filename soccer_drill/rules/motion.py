@@ -3,7 +3,7 @@ for the ball holder, a ball action.
 
 Every function here reads one drill's arrays, ``pos`` and ``vel`` (``(5, 2)`` float64:
 the four players then the ball, as :attr:`~soccer_drill.state.DrillState.pos`), and is
-compiled per drill (:mod:`soccer_drill.compiled`). The single drill calls them for its
+compiled per drill (:mod:`soccer_drill.rules.compiled`). The single drill calls them for its
 one drill; the batched drill and the batched teams through the loops at the end of the
 module, over many drills; :mod:`soccer_drill.skills` offers them on a
 :class:`~soccer_drill.state.DrillState`. The parameters they need of a
@@ -18,8 +18,8 @@ import math
 
 import numpy as np
 
-from soccer_drill.compiled import compiled, hypot
 from soccer_drill.config import DrillConfig
+from soccer_drill.rules.compiled import compiled, hypot
 
 NO_BALL, CONTROL, KICK = 0, 1, 2
 """Ball actions: none, keep the ball at the control point, kick it."""

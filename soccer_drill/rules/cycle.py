@@ -1,14 +1,14 @@
 """The rules of one cycle around the physics, and of an episode's start, written once for
 one drill.
 
-Before the physics, the players' motions (:mod:`soccer_drill.motion`) become velocities
+Before the physics, the players' motions (:mod:`soccer_drill.rules.motion`) become velocities
 under the acceleration cap, and the holder's ball action becomes the ball's velocity: a
 kick, a small kick that keeps the ball at the control point, or none (it rolls on,
 damped). After it, a velocity a collision pushed past its cap is capped, possession is
 decided (who controls the ball, and which opponents may tackle), then the outcome.
 
 The functions read one drill's arrays (``pos`` and ``vel``: ``(5, 2)`` float64, the
-four players then the ball) and are compiled per drill (:mod:`soccer_drill.compiled`);
+four players then the ball) and are compiled per drill (:mod:`soccer_drill.rules.compiled`);
 the single drill calls them for its drill, the batched drill through the loops at the
 end of the module. The random draws stay with the callers, each drill's from its own
 generator in the same order: the tackles' uniforms (:func:`tackle`).
@@ -20,9 +20,9 @@ import math
 
 import numpy as np
 
-from soccer_drill.compiled import compiled, hypot
 from soccer_drill.config import DrillConfig
-from soccer_drill.motion import (
+from soccer_drill.rules.compiled import compiled, hypot
+from soccer_drill.rules.motion import (
     ATTACKER_SPEED,
     BALL_MAX_SPEED,
     CONTROL,

@@ -1,6 +1,6 @@
 """The drill's compiled rules, called once with the types their callers pass.
 
-Registered with :func:`soccer_drill.compiled.warms`, so that :func:`warm_up` (which
+Registered with :func:`soccer_drill.rules.compiled.warms`, so that :func:`warm_up` (which
 :class:`~soccer_drill.teams.TeamDriver` calls before running a team) compiles them, or
 loads them from numba's disk cache, before any time-bounded call of a team can reach
 them: a team's ``act`` may call the skills' rules, and the first use of a rule compiles
@@ -12,7 +12,6 @@ from __future__ import annotations
 import numpy as np
 
 from soccer_drill.batch import BatchDrill
-from soccer_drill.compiled import warm_up, warms
 from soccer_drill.config import DrillConfig
 from soccer_drill.drill import Drill
 from soccer_drill.features import (
@@ -27,7 +26,8 @@ from soccer_drill.features import (
     players_features,
     state_bounds,
 )
-from soccer_drill.motion import interception_points, mark_targets
+from soccer_drill.rules.compiled import warm_up, warms
+from soccer_drill.rules.motion import interception_points, mark_targets
 from soccer_drill.skills import (
     Command,
     Skill,
