@@ -132,3 +132,43 @@ def test_a_kept_job_that_is_a_link_is_refused_not_followed(tmp_path, capsys):
     capsys.readouterr()
     assert _run(tmp_path, keep)[0] == 1
     assert f"{kept}: a symbolic link inside the job folder" in capsys.readouterr().err
+
+
+def _tampered(keep, kind: str, change):
+    """A kept file of ``kind`` changed by ``change(result)`` and its digest recomputed, as
+    an editor who knows the format would leave it."""
+    from ilpss._io import json_record_bytes, load_json_record
+    from ilpss.experiments.kept_jobs import JOB_SCHEMA
+
+    path = sorted(keep.glob(f"{kind}-*.json"))[0]
+    record = load_json_record(path, JOB_SCHEMA)
+    record["result"] = change(record["result"])
+    path.write_bytes(json_record_bytes(record))
+    return path
+
+
+@pytest.mark.parametrize(("kind", "change", "said"), [
+    ("learning", lambda r: {**r, "eval": [5.0, 7.0, 1.0]}, r"result\.eval must be a list of 3 "
+     r"values, each a finite number in \[-1, 1\], got \[5\.0, 7\.0, 1\.0\]"),
+    ("learning", lambda r: {**r, "eval": ["a", "b", "c"]}, r"result\.eval must be a list"),
+    ("learning", lambda r: {**r, "curve": r["curve"][:1]}, r"result\.curve must be a list of 2"),
+    ("learning", lambda r: {**r, "team": "goal_guards"}, "is the job of team 'chasers'"),
+    ("learning", lambda r: {**r, "seed": 7}, "is the job of seed"),
+    ("learning", lambda r: "hello", "must be an object, got str"),
+    ("learning", lambda r: {**r, "extra": 1}, r"unknown field\(s\) \['extra'\]"),
+    ("rule", lambda r: {**r, "rule": "pass_first" if r["rule"] != "pass_first" else "hold"},
+     "is the job of rule"),
+    ("rule", lambda r: {**r, "eval": [1.5, 0.0, 0.0]}, r"result\.eval must be a list of 3"),
+])
+def test_a_kept_result_edited_with_its_digest_recomputed_is_refused(tmp_path, capsys, kind,
+                                                                    change, said):
+    import re
+
+    keep = tmp_path / "keep"
+    assert _run(tmp_path, keep)[0] == 0
+    path = _tampered(keep, kind, change)
+    capsys.readouterr()
+    assert _run(tmp_path, keep)[0] == 1
+    err = capsys.readouterr().err
+    assert str(path) in err and re.search(said, err), err
+    assert "delete it to compute that job again" in err

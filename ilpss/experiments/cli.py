@@ -121,6 +121,9 @@ def parser() -> argparse.ArgumentParser:
                    help="where the checkpoints go (default: the run folder); on a cluster, a "
                    "path or URI every node reaches (s3://..., gs://..., file:///...)")
     p.add_argument("--out", required=True, help="output folder (one per run)")
+    p.add_argument("--allow-mixed-code", action="store_true",
+                   help="resume a run folder whose results were made by other code (refused "
+                   "otherwise); the report names every version of the code it mixes")
     p.add_argument("--no-report", action="store_true", help="skip figures and tables")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     return p
@@ -145,7 +148,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         results = run_experiment(cfg, args.out, progress=not args.quiet,
                                  ray_address=args.ray_address,
-                                 on_done=None if args.quiet else _say_resumed)
+                                 on_done=None if args.quiet else _say_resumed,
+                                 allow_mixed_code=args.allow_mixed_code)
     except (FolderInUseError, StorageError, JobError, ValueError, OSError,
             drill_exception(TEAM_ERROR)) as exc:
         # another run's folder, a bad file, a failed job, a full disk (naming the file), a
