@@ -150,7 +150,7 @@ def test_a_fifo_in_place_of_result_json_is_refused_at_once(tmp_path):
 
     def read() -> None:
         try:
-            _io.load_json_record(fifo, "ilpss.experiment_result/2")
+            _io.load_json_record(fifo, "ilpss.experiment_result/3")
         except BaseException as exc:
             outcome.append(exc)
 
