@@ -518,6 +518,23 @@ def test_compare_splits_an_item_where_a_run_folder_follows(tmp_path, monkeypatch
         split_run("A=nowhere:scratch")
 
 
+def test_compare_refuses_a_label_given_twice(tmp_path, monkeypatch, capsys):
+    from ilpss.experiments.compare import main as compare_main
+
+    monkeypatch.chdir(tmp_path)
+    for name in ("base", "one", "two"):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "config.json").write_text("{}")
+    # Refused before any run is read: keeping the last would drop a row from the table
+    # and a run from the Holm family.
+    with pytest.raises(SystemExit) as exc:
+        compare_main(["--baseline", "base:scratch", "A=one:ilpss", "B=one:ilpss",
+                      "A=two:ilpss"])
+    assert exc.value.code == 2
+    assert ("the label 'A' is given twice ('A=one:ilpss' and 'A=two:ilpss'); every run "
+            "needs a label of its own") in capsys.readouterr().err
+
+
 def test_a_partial_config_keeps_the_experiments_defaults(tmp_path):
     path = tmp_path / "config.json"
     path.write_text(json.dumps({"protocol": "A", "lifelong": {"train_episodes": 50,
