@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import math
 import numbers
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any
+
+import pymunk
 
 Point = tuple[float, float]
 
@@ -67,6 +70,46 @@ def _whole(low: int, high: int) -> dict[str, Limits]:
     return {"limits": Limits(low, high, integer=True)}
 
 
+SUBSTEPS = Limits(1, 1000, integer=True)
+"""What ``DrillConfig.substeps`` allows, before :func:`step_bound`."""
+COLLISION_BIAS: float = pymunk.Space().collision_bias
+"""pymunk's default ``Space.collision_bias`` (about 0.0018), which the drill's spaces keep:
+the fraction of an overlap (beyond pymunk's ``collision_slop`` of 0.1 m) not yet undone
+after 1 s."""
+SPEEDS = ("attacker_speed", "dribble_speed", "hold_speed", "defender_speed")
+"""The fields a player's speed in a sub-step comes from (a dribbler runs at
+``dribble_speed`` until the physics has moved it, even above ``attacker_speed``)."""
+
+
+def step_bound(cycle_seconds: float, player_radius: float) -> float:
+    """The furthest a player may move in one physics sub-step, in metres.
+
+    pymunk has no continuous collision detection: it sees a contact only where two
+    shapes overlap after a sub-step, and undoes an overlap gradually (a fraction
+    ``c = 1 - COLLISION_BIAS ** cycle_seconds`` of it per cycle), while the drill sets a
+    player's velocity into a wall again at the start of every cycle. A player running
+    into a wall then settles about ``0.1 + d / c`` deep into it, ``d`` being its move in
+    one sub-step; once that reaches ``player_radius + 0.1`` (the walls are 0.1 m thick on
+    each side, as much as pymunk's slop) its centre is past the wall's middle, and the
+    wall pushes it out of the field. So ``d`` must stay below ``c * player_radius``;
+    measured (cycles of 0.01 to 1 s, 1 to 30 sub-steps, radii of 0.1 to 2 m, the four
+    players pressing into a wall or corner together), players left the field from 0.8 to
+    1.05 times that. Half of it, the bound, kept every centre at least about half a
+    radius short of the wall's middle.
+    """
+    return 0.5 * (1.0 - COLLISION_BIAS**cycle_seconds) * player_radius
+
+
+def fewest_substeps(top_speed: float, cycle_seconds: float, player_radius: float) -> int:
+    """The fewest sub-steps per cycle that keep a player at ``top_speed`` within
+    :func:`step_bound` (possibly more than ``substeps`` allows)."""
+    bound = step_bound(cycle_seconds, player_radius)
+    need = max(1, math.ceil(top_speed * cycle_seconds / bound))
+    while top_speed * cycle_seconds / need > bound:  # the rounding of the division
+        need += 1
+    return need
+
+
 @dataclass(frozen=True)
 class DrillConfig:
     """Every number of the drill, in SI units (metres, seconds, m/s).
@@ -87,7 +130,8 @@ class DrillConfig:
     """Side of the square training region, in metres."""
     cycle_seconds: float = field(default=0.1, metadata=_within(0.001, 1.0))
     """Simulated time of one cycle (one decision of every agent)."""
-    substeps: int = field(default=10, metadata=_whole(1, 1000))
+    substeps: int = field(default=10, metadata={"limits": SUBSTEPS})
+    # (and enough of them that no player moves further than step_bound() in one)
     """Physics sub-steps per cycle (fixed step ``cycle_seconds / substeps``)."""
     max_cycles: int = field(default=100, metadata=_whole(1, 1_000_000))
     """Cycles after which the episode is truncated (a failure: timeout)."""
@@ -154,6 +198,7 @@ class DrillConfig:
                 f"(the holder must keep control), got {self.ball_offset} >= "
                 f"{self.control_radius - 0.05}"
             )
+        self._check_substeps()
         for name in ("attacker_starts", "defender_starts"):
             points = _points(getattr(self, name), self.field_size)
             if points is None:
@@ -163,6 +208,30 @@ class DrillConfig:
                 )
             object.__setattr__(self, name, points)
         self._check_start_area()
+
+    def _check_substeps(self) -> None:
+        """Sub-steps short enough that no player can pass through a wall
+        (:func:`step_bound`): a player may run at any allowed speed, toward any target."""
+        name = max(SPEEDS, key=lambda n: getattr(self, n))  # the first of the fastest
+        top, cycle = getattr(self, name), self.cycle_seconds
+        bound = step_bound(cycle, self.player_radius)
+        if top * cycle / self.substeps <= bound:
+            return
+        need = fewest_substeps(top, cycle, self.player_radius)
+        fastest = bound * self.substeps / cycle
+        if need <= SUBSTEPS.high:
+            fix = f"make substeps at least {need}, or every speed at most {fastest:.3g} m/s"
+        else:
+            fix = (f"substeps cannot be raised enough (at most {SUBSTEPS.high:g}, for speeds up "
+                   f"to {bound * SUBSTEPS.high / cycle:.3g} m/s): make every speed at most "
+                   f"{fastest:.3g} m/s")
+        raise ValueError(
+            f"DrillConfig: with {self.substeps} physics sub-step(s) per cycle of {cycle:g} s, "
+            f"a player at its top speed of {top:g} m/s ({name}) moves "
+            f"{top * cycle / self.substeps:.3g} m in a sub-step, and can pass through a "
+            f"wall: with player_radius {self.player_radius:g}, at most {bound:.3g} m is "
+            f"allowed; {fix}, or player_radius larger"
+        )
 
     def _check_start_area(self) -> None:
         """Every jittered start inside the walls, and the ball given to an attacker

@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 import soccer_drill
-from soccer_drill.config import DrillConfig
+from soccer_drill.config import COLLISION_BIAS, DrillConfig, fewest_substeps
+from soccer_drill.skills import Command, Skill
 
 NUMERIC = [f.name for f in fields(DrillConfig) if f.type in ("float", "int")]
 INTEGERS = [f.name for f in fields(DrillConfig) if f.type == "int"]
@@ -111,3 +112,42 @@ def test_a_start_that_is_out_of_play_before_the_first_cycle_is_refused(values, m
 def test_a_start_near_the_field_s_edge_within_the_walls_is_taken():
     config = DrillConfig(defender_starts=((1.0, 2.0), (34.0, 2.0)))  # jitter 1.5: x >= -0.5
     assert config.defender_starts == ((1.0, 2.0), (34.0, 2.0))
+
+
+class _RunRight:
+    """A team whose defenders run to (900, 17.5), far beyond the field's right wall."""
+
+    def reset(self, view, rng):
+        self.players = view.players
+
+    def act(self, view):
+        return dict.fromkeys(self.players, Command(Skill.MOVE_TO, (900.0, 17.5)))
+
+
+@pytest.mark.parametrize("speed, substeps", [(25, 1), (25, 3), (100, 1), (100, 10)])
+def test_sub_steps_through_which_a_player_could_pass_a_wall_are_refused(speed, substeps):
+    config = {"defender_speed": speed, "substeps": substeps}
+    # Allowed before, and the defenders ran out through the wall to x = 900.
+    need = fewest_substeps(speed, 0.1, 0.5)
+    with pytest.raises(ValueError, match=(
+            rf"^DrillConfig: with {substeps} physics sub-step\(s\) per cycle of 0.1 s, a player at "
+            rf"its top speed of {speed} m/s \(defender_speed\) moves {speed * 0.1 / substeps:.3g} "
+            r"m in a sub-step, and can pass through a wall: with player_radius 0.5, at most "
+            rf"0.117 m is allowed; make substeps at least {need}, or every speed at most ")):
+        soccer_drill.HolderEnv(opponent=_RunRight(), config=config)
+    # What the message advises keeps every player inside the walls.
+    env = soccer_drill.HolderEnv(opponent=_RunRight(), config={**config, "substeps": need})
+    env.reset(seed=0)
+    done, wall = False, 35.0 + 1.0  # field_size + wall_margin
+    while not done:
+        _, _, term, trunc, _ = env.step(0)  # HOLD: the episode runs to its timeout
+        assert all(-1.0 < c < wall for p in env.drill_state.pos[:4] for c in p)
+        done = term or trunc
+    assert max(p[0] for p in env.drill_state.pos[2:4]) > wall - 1.0  # they reached the wall
+
+
+def test_the_step_bound_leaves_the_default_drill_room():
+    # pymunk's default collision bias, which the drill's spaces keep.
+    assert COLLISION_BIAS == pytest.approx(0.9**60, rel=1e-5)
+    # The defaults' fastest player (6 m/s) needs 6 of their 10 sub-steps.
+    assert fewest_substeps(DrillConfig().attacker_speed, 0.1, 0.5) == 6
