@@ -584,6 +584,23 @@ def test_learning_that_diverges_stops_at_once_naming_the_settings():
         learner.train(env, 3, seed=0)
 
 
+def test_a_job_failing_for_its_settings_is_not_advised_to_run_again(tmp_path, capsys):
+    from ilpss.experiments import cli
+
+    argv = ["--protocol", "A", "--seeds", "1", "--methods", "scratch", *_TINY, "--no-report",
+            "--set", "learner.max_decisions=1", "--out", str(tmp_path)]
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(argv)
+    assert exit_info.value.code == 1
+    err = capsys.readouterr().err
+    assert ("seed 0, stream 0: DecisionLimitError: episode exceeded max_decisions=1 "
+            "(LearnerConfig.max_decisions") in err
+    # The same command fails the same way: the advice is to change the setting elsewhere.
+    assert "run the same command again" not in err
+    assert ("running the same command again does not help: change the setting named above "
+            "and run into a new --out folder") in err
+
+
 # ------------------------------------------------------------ outputs checked first
 def test_holder_learning_checks_its_output_before_learning(tmp_path, monkeypatch, capsys):
     from ilpss.experiments import holder_learning
