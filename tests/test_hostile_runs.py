@@ -352,8 +352,65 @@ def test_a_signal_to_the_driver_stops_its_workers_and_frees_the_run_folder(tmp_p
             pass
     finally:
         _kill_all(proc, workers)
-    if sig != signal.SIGKILL:
-        assert proc.returncode != 0
+    if sig != signal.SIGKILL:  # the shell's status for a signal, and one line
+        assert proc.returncode == 128 + sig
+        err = proc.stderr.read().decode()
+        assert "Traceback" not in err
+        assert err.startswith("ilpss-experiment: stopped by ")
+        assert err.endswith("the finished jobs are kept, and the same command goes on from "
+                            "them\n")
+
+
+def test_a_sigterm_during_a_job_run_in_the_driver_stops_the_command(monkeypatch):
+    """With one worker the jobs run in the driver: the SIGTERM handler's exit is the
+    command's, not a failure of the job it interrupted (after which the rest ran)."""
+    from ilpss.experiments.executor import LocalExecutor, Stopped, stop_on_sigterm
+
+    ran = []
+
+    def job(i):
+        ran.append(i)
+        if i == 0:
+            os.kill(os.getpid(), signal.SIGTERM)
+            _spin_briefly()  # the handler runs here
+        return i
+
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        stop_on_sigterm()
+        with pytest.raises(Stopped) as stopped:
+            LocalExecutor(1, progress=False).map(job, [0, 1, 2])
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert stopped.value.code == 143 and ran == [0]
+
+
+def _spin_briefly() -> None:
+    for _ in range(100_000):
+        pass
+
+
+@pytest.mark.parametrize("command", ["ilpss-experiment", "ilpss-demo", "ilpss-results"])
+def test_ctrl_c_ends_a_command_in_one_line_with_status_130(tmp_path, monkeypatch, capsys,
+                                                           command):
+    from ilpss.lifelong import LifelongLearner
+
+    def run_trial(self, env, name, callback=None):
+        raise KeyboardInterrupt  # as Ctrl-C does in the middle of a job
+
+    monkeypatch.setattr(LifelongLearner, "run_trial", run_trial)
+    main_module, _, arguments, _, _ = REPORTING_COMMANDS[command]
+    main = importlib.import_module(f"ilpss.experiments.{main_module}").main
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        with pytest.raises(SystemExit) as exit_info:
+            main(arguments(tmp_path))
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert exit_info.value.code == 130
+    assert capsys.readouterr().err.endswith(
+        f"{command}: stopped by Ctrl-C (SIGINT); the finished jobs are kept, and the same "
+        "command goes on from them\n")
 
 
 def test_forked_workers_do_not_hold_the_drivers_folder_lock(tmp_path):

@@ -24,7 +24,7 @@ from ilpss._io import FolderInUseError
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.drill import TEAM_ERROR, drill_exception
-from ilpss.experiments.executor import stop_on_sigterm
+from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.methods import METHODS
 from ilpss.experiments.outputs import unwritten_report
 from ilpss.experiments.protocols import PROTOCOLS
@@ -128,6 +128,11 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the experiment and write its report."""
+    with stopped_in_one_line("ilpss-experiment"):  # Ctrl-C or SIGTERM: one line, 130 or 143
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     p = parser()
     args = p.parse_args(argv)
     try:

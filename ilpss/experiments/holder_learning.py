@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import os
 import shlex
 import sys
 import time
@@ -61,9 +62,9 @@ from ilpss.experiments.drill import (
     drill_exception,
     drill_object,
 )
-from ilpss.experiments.executor import LocalExecutor
+from ilpss.experiments.executor import LocalExecutor, stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.kept_jobs import KeptJobs, KeptJobsFailed, run_kept
-from ilpss.experiments.outputs import check_out_dir, check_out_file
+from ilpss.experiments.outputs import check_out_dir, check_out_file, unwritten_report
 from ilpss.lifelong import LIFELONG_CONSTRAINTS, LearnerConfig
 from ilpss.metrics import holm, improvement_test, t_interval, t_test_pvalue, wilson_interval
 from ilpss.smdp import SmdpLearner
@@ -200,6 +201,21 @@ def _shown(value: object) -> str:
     return str(value)
 
 
+def check_utf8(args: argparse.Namespace) -> None:
+    """Refuse (``ValueError``) a flag's value that is not UTF-8 (a path of other bytes):
+    the page shows the command that made it, in UTF-8, and could not be written after
+    every job, nor by a rerun."""
+    for dest, value in vars(args).items():
+        for item in value if isinstance(value, list) else [value]:
+            if isinstance(item, str) and not item.isascii():
+                try:
+                    item.encode()
+                except UnicodeEncodeError:
+                    raise ValueError(
+                        f"--{dest.replace('_', '-')} {os.fsencode(item)!r}: not UTF-8; the "
+                        "page shows its command in UTF-8, so give a name in UTF-8") from None
+
+
 def parser() -> argparse.ArgumentParser:
     """The command-line parser of ``ilpss-holder-learning``."""
     p = argparse.ArgumentParser(prog="ilpss-holder-learning", description=__doc__.splitlines()[0])
@@ -225,9 +241,15 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the comparison and write its markdown page."""
+    with stopped_in_one_line("ilpss-holder-learning"):  # Ctrl-C, SIGTERM: one line
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     p = parser()
     args = p.parse_args(argv)
     try:  # before hours of learning, not after
+        check_utf8(args)
         check_fields("", args, {f"--{name}": c for name, c in FLAG_CONSTRAINTS.items()},
                      get=lambda a, flag: getattr(a, flag[2:]))
         out = check_out_file(args.out)
@@ -242,6 +264,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error(str(exc))
     except (ImportError, AttributeError) as exc:
         p.error(f"--rules {args.rules}: {exc}")
+    stop_on_sigterm()
     start = time.perf_counter()
     pool = LocalExecutor(args.workers)
     kept = KeptJobs(keep)
@@ -256,7 +279,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 pool, rule_rewards,
                 [(t, args.rules, n, args.eval) for t in args.teams for n in names],
                 "rule", rule_key, kept, desc="fixed rules")
-    except (KeptJobsFailed, FolderInUseError, ValueError) as exc:
+    except (KeptJobsFailed, FolderInUseError, ValueError, OSError) as exc:
+        # OSError: a full disk while a job is kept, naming the file (the others stay kept)
         print(f"ilpss-holder-learning: error: {exc}", file=sys.stderr)
         return 1
     took = f"{(time.perf_counter() - start) / 60:.1f} min with {args.workers} worker(s)"
@@ -323,7 +347,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     for t, c in curves.items():
         cells = [f"{np.mean(c[i:i + 100]):+.2f}" for i in blocks]
         lines.append(f"| {t} | " + " | ".join(cells) + " |")
-    atomic_write_bytes(out, ("\n".join(lines) + "\n").encode())
+    try:
+        atomic_write_bytes(out, ("\n".join(lines) + "\n").encode())
+    except OSError as exc:  # a full disk: every job is kept, and a rerun writes the page
+        print(f"ilpss-holder-learning: error: {unwritten_report(keep, exc)}", file=sys.stderr)
+        return 1
     print("\n".join(lines))
     return 0
 
