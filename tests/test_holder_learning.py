@@ -188,8 +188,8 @@ def test_a_path_that_is_not_utf8_is_refused_before_learning(tmp_path, monkeypatc
         holder_learning.main(["--teams", "chasers", "--seeds", "2", "--episodes", "2", "--eval",
                               "3", "--workers", "1", *(x for kv in paths.items() for x in kv)])
     assert exit_info.value.code == 2
-    assert (f"{flag} {os.fsencode(tmp_path / name)!r}: not UTF-8; the page shows its command "
-            "in UTF-8, so give a name in UTF-8") in capsys.readouterr().err
+    assert (f"{flag} {os.fsencode(tmp_path / name)!r}: not UTF-8; the page written at the "
+            "end names it in UTF-8, so give a name in UTF-8") in capsys.readouterr().err
 
 
 def test_ctrl_c_ends_holder_learning_in_one_line_with_status_130(tmp_path, monkeypatch, capsys):

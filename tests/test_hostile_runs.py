@@ -517,6 +517,24 @@ def test_a_full_disk_at_the_report_is_a_clear_error_and_keeps_the_results(
     assert page.is_file()
 
 
+@pytest.mark.parametrize("command", REPORTING_COMMANDS)
+def test_a_folder_that_is_not_utf8_is_refused_before_any_job(tmp_path, monkeypatch, capsys,
+                                                             command):
+    from ilpss.experiments.executor import LocalExecutor
+
+    monkeypatch.setattr(LocalExecutor, "map", lambda *a, **k: pytest.fail("it ran a job"))
+    main_module, _, arguments, _, _ = REPORTING_COMMANDS[command]
+    main = importlib.import_module(f"ilpss.experiments.{main_module}").main
+    out = tmp_path / os.fsdecode(b"run\xff")  # as argv decodes a byte that is not UTF-8
+    with pytest.raises(SystemExit) as exit_info:
+        main(arguments(out))
+    assert exit_info.value.code == 2  # before: every job ran, then the page failed
+    err = capsys.readouterr().err
+    assert ": not UTF-8; the page written at the end names it in UTF-8" in err
+    assert repr(os.fsencode(out))[:-1] in err  # the folder's bytes (or a path under it)
+    assert not out.exists()
+
+
 def test_a_full_disk_at_a_result_is_a_clear_error_and_keeps_the_results_written(
         tmp_path, monkeypatch, capsys):
     from ilpss.experiments import cli

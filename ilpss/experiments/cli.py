@@ -26,7 +26,7 @@ from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.drill import TEAM_ERROR, drill_exception
 from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.methods import METHODS
-from ilpss.experiments.outputs import unwritten_report
+from ilpss.experiments.outputs import check_utf8, unwritten_report
 from ilpss.experiments.protocols import PROTOCOLS
 from ilpss.experiments.run import JobError, read_config, run_experiment
 
@@ -136,6 +136,8 @@ def _main(argv: Sequence[str] | None) -> int:
     p = parser()
     args = p.parse_args(argv)
     try:
+        if not args.no_report:
+            check_utf8(args)
         cfg = build_config(args)
     except OSError as exc:
         p.error(f"--config {args.config}: {exc.strerror or exc}")

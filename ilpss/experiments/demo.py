@@ -37,7 +37,7 @@ from ilpss.experiments.figures import (
 )
 from ilpss.experiments.folder import RunFolder
 from ilpss.experiments.methods import METHODS, FineTuneMethod, LifelongMethod
-from ilpss.experiments.outputs import check_out_dir, unwritten_report
+from ilpss.experiments.outputs import check_out_dir, check_utf8, unwritten_report
 from ilpss.experiments.protocols import make_env
 from ilpss.experiments.report import label, write_report
 from ilpss.experiments.run import JobError, run_experiment
@@ -82,6 +82,7 @@ def _main(argv: Sequence[str] | None) -> int:
     args = parser.parse_args(argv)
     command = "ilpss-demo " + shlex.join(sys.argv[1:] if argv is None else list(argv))
     try:  # the output folder, the configuration and the method shown, before any work
+        check_utf8(args)
         check_out_dir(args.out)
         cfg = ExperimentConfig(protocol="A", n_seeds=args.seeds, workers=args.workers,
                                methods=demo_methods(), featured="ilpss").with_overrides(

@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import argparse
 import functools
-import os
 import shlex
 import sys
 import time
@@ -64,7 +63,12 @@ from ilpss.experiments.drill import (
 )
 from ilpss.experiments.executor import LocalExecutor, stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.kept_jobs import KeptJobs, KeptJobsFailed, run_kept
-from ilpss.experiments.outputs import check_out_dir, check_out_file, unwritten_report
+from ilpss.experiments.outputs import (
+    check_out_dir,
+    check_out_file,
+    check_utf8,
+    unwritten_report,
+)
 from ilpss.lifelong import LIFELONG_CONSTRAINTS, LearnerConfig
 from ilpss.metrics import holm, improvement_test, t_interval, t_test_pvalue, wilson_interval
 from ilpss.smdp import SmdpLearner
@@ -199,21 +203,6 @@ def _shown(value: object) -> str:
         short = f"{value:g}"
         return short if float(short) == value else repr(value)
     return str(value)
-
-
-def check_utf8(args: argparse.Namespace) -> None:
-    """Refuse (``ValueError``) a flag's value that is not UTF-8 (a path of other bytes):
-    the page shows the command that made it, in UTF-8, and could not be written after
-    every job, nor by a rerun."""
-    for dest, value in vars(args).items():
-        for item in value if isinstance(value, list) else [value]:
-            if isinstance(item, str) and not item.isascii():
-                try:
-                    item.encode()
-                except UnicodeEncodeError:
-                    raise ValueError(
-                        f"--{dest.replace('_', '-')} {os.fsencode(item)!r}: not UTF-8; the "
-                        "page shows its command in UTF-8, so give a name in UTF-8") from None
 
 
 def parser() -> argparse.ArgumentParser:

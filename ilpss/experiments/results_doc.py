@@ -39,7 +39,7 @@ from ilpss.experiments.drill import (
 )
 from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.folder import RunFolder
-from ilpss.experiments.outputs import check_out_dir, unwritten_report
+from ilpss.experiments.outputs import check_out_dir, check_utf8, unwritten_report
 from ilpss.experiments.protocols import PROTOCOLS as PROTOCOLS_REGISTRY
 from ilpss.experiments.report import doc_reference, label, metrics_note, write_report
 from ilpss.experiments.run import JobError, load_result, read_config, run_experiment
@@ -108,6 +108,7 @@ def _main(argv: Sequence[str] | None) -> int:
     p = parser()
     args = p.parse_args(argv)
     try:  # every output and every configuration checked before any work
+        check_utf8(args)
         runs = check_out_dir(args.runs, "--runs", run_folder=False)
         docs = check_out_dir(args.docs, "--docs", run_folder=False)
         for sub in ("figures", "results"):
