@@ -199,6 +199,7 @@ class DrillConfig:
                 f"{self.control_radius - 0.05}"
             )
         self._check_substeps()
+        self._check_control_per_cycle()
         for name in ("attacker_starts", "defender_starts"):
             points = _points(getattr(self, name), self.field_size)
             if points is None:
@@ -231,6 +232,34 @@ class DrillConfig:
             f"{top * cycle / self.substeps:.3g} m in a sub-step, and can pass through a "
             f"wall: with player_radius {self.player_radius:g}, at most {bound:.3g} m is "
             f"allowed; {fix}, or player_radius larger"
+        )
+
+    def _check_control_per_cycle(self) -> None:
+        """A ball that a player could control never passes it unseen.
+
+        The ball collides with nothing (it cannot pass through anything in the physics);
+        who controls it is decided once per cycle, from where the ball and the players
+        are then. A ball moving relative to a player at a speed it can be controlled at
+        (``control_speed``, and never faster than ``ball_max_speed`` plus the fastest
+        player) must therefore move at most the control area's width, ``2 *
+        control_radius``, in a cycle: else it can go through a player who would have
+        controlled it without ever being within ``control_radius`` of it at the end of a
+        cycle (an interception becomes a pass, or a pass is never received).
+        """
+        fastest = max(getattr(self, name) for name in SPEEDS)
+        speed = min(self.control_speed, self.ball_max_speed + fastest)
+        width, cycle = 2.0 * self.control_radius, self.cycle_seconds
+        if speed * cycle <= width:
+            return
+        raise ValueError(
+            f"DrillConfig: a ball that a player can control moves up to {speed:g} m/s relative "
+            f"to it (control_speed {self.control_speed:g}, ball_max_speed "
+            f"{self.ball_max_speed:g} plus the fastest player's {fastest:g}), "
+            f"{speed * cycle:.3g} m in a cycle of {cycle:g} s: more than the control area's "
+            f"width of {width:g} m (2 * control_radius), so it can pass through a player who "
+            f"would control it; make control_speed (or ball_max_speed plus the fastest "
+            f"player's speed) at most {width / cycle:.3g} m/s, cycle_seconds shorter or "
+            "control_radius larger"
         )
 
     def _check_start_area(self) -> None:

@@ -151,3 +151,48 @@ def test_the_step_bound_leaves_the_default_drill_room():
     assert COLLISION_BIAS == pytest.approx(0.9**60, rel=1e-5)
     # The defaults' fastest player (6 m/s) needs 6 of their 10 sub-steps.
     assert fewest_substeps(DrillConfig().attacker_speed, 0.1, 0.5) == 6
+
+
+@pytest.mark.parametrize("config, speed", [
+    ({"control_speed": 1000.0}, 31),  # capped by the ball's 25 m/s and a player's 6 m/s
+    ({"control_speed": 25.0, "cycle_seconds": 0.1}, 25),
+    ({"control_speed": 5.0, "cycle_seconds": 1.0, "substeps": 1000}, 5),
+])
+def test_a_ball_that_could_be_controlled_cannot_pass_a_player_between_two_cycles(config,
+                                                                                   speed):
+    cycle = config.get("cycle_seconds", 0.1)
+    with pytest.raises(ValueError, match=(
+            rf"^DrillConfig: a ball that a player can control moves up to {speed} m/s relative "
+            rf"to it .*, {speed * cycle:.3g} m in a cycle of {cycle:g} s: more than the "
+            r"control area's width of 2 m \(2 \* control_radius\), so it can pass through a "
+            r"player who would control it; make control_speed \(or ball_max_speed plus the "
+            rf"fastest player's speed\) at most {2 / cycle:.3g} m/s")):
+        soccer_drill.HolderEnv(config=config)
+    # At the bound, and where the ball can never be that fast relative to a player.
+    DrillConfig(**{**config, "control_speed": 2 / cycle})
+    if 2 / cycle > 6.0:  # the fastest player: 6 m/s
+        DrillConfig(**{**config, "ball_max_speed": 2 / cycle - 6.0})
+
+
+@pytest.mark.parametrize("along", np.linspace(0.0, 2.0, 9))
+def test_at_the_bound_a_defender_on_the_line_of_a_pass_takes_the_ball(along):
+    """A pass at control_speed (20 m/s, 2 m a cycle: the control area's width) is within
+    control_radius of a defender standing on its line at the end of some cycle, wherever
+    he stands. (At 1000 m/s, allowed before, a 25 m/s pass went through a defender
+    standing on its line, never closer than 1.01 m at the end of a cycle.)"""
+    from soccer_drill.drill import Drill
+
+    ball = (4.0, 30.25)  # below the first attacker, who passes to the second at (31, 31)
+    t = (13.5 + along) / math.dist(ball, (31.0, 31.0))
+    on_line = (ball[0] + t * 27.0, ball[1] + t * 0.75)
+    cfg = DrillConfig(kick_angle_noise=0.0, kick_speed_noise=0.0, start_jitter=0.0,
+                      ball_damping=1.0, pass_arrival_speed=20.0, control_speed=20.0,
+                      defender_starts=(on_line, (20.0, 5.0)))
+    drill, rng = Drill(cfg), np.random.default_rng(0)
+    while drill.reset(rng).holder != 0:
+        pass
+    stay = [Command(Skill.MOVE_TO, p) for p in drill.state.pos[:4]]
+    drill.step([Command(Skill.PASS), *stay[1:]], rng)
+    while drill.outcome is None:
+        drill.step(stay, rng)
+    assert drill.outcome == "interception" and drill.state.holder == 2
