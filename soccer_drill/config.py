@@ -72,38 +72,59 @@ def _whole(low: int, high: int) -> dict[str, Limits]:
 
 SUBSTEPS = Limits(1, 1000, integer=True)
 """What ``DrillConfig.substeps`` allows, before :func:`step_bound`."""
-COLLISION_BIAS: float = pymunk.Space().collision_bias
-"""pymunk's default ``Space.collision_bias`` (about 0.0018), which the drill's spaces keep:
-the fraction of an overlap (beyond pymunk's ``collision_slop`` of 0.1 m) not yet undone
-after 1 s."""
+_SPACE = pymunk.Space()  # pymunk's defaults, which the drill's spaces keep
+COLLISION_BIAS: float = _SPACE.collision_bias
+"""pymunk's ``Space.collision_bias`` (about 0.0018): the fraction of an overlap (beyond
+:data:`COLLISION_SLOP`) not yet undone after 1 s."""
+COLLISION_SLOP: float = _SPACE.collision_slop
+"""pymunk's ``Space.collision_slop`` (0.1 m): the overlap it leaves alone."""
+del _SPACE
 SPEEDS = ("attacker_speed", "dribble_speed", "hold_speed", "defender_speed")
 """The fields a player's speed in a sub-step comes from (a dribbler runs at
 ``dribble_speed`` until the physics has moved it, even above ``attacker_speed``)."""
 
 
 def step_bound(cycle_seconds: float, player_radius: float) -> float:
-    """The furthest a player may move in one physics sub-step, in metres.
+    """The furthest a player may move in one physics sub-step, in metres (0 or less: no
+    move is short enough).
 
     pymunk has no continuous collision detection: it sees a contact only where two
-    shapes overlap after a sub-step, and undoes an overlap gradually (a fraction
-    ``c = 1 - COLLISION_BIAS ** cycle_seconds`` of it per cycle), while the drill sets a
-    player's velocity into a wall again at the start of every cycle. A player running
-    into a wall then settles about ``0.1 + d / c`` deep into it, ``d`` being its move in
-    one sub-step; once that reaches ``player_radius + 0.1`` (the walls are 0.1 m thick on
-    each side, as much as pymunk's slop) its centre is past the wall's middle, and the
-    wall pushes it out of the field. So ``d`` must stay below ``c * player_radius``;
-    measured (cycles of 0.01 to 1 s, 1 to 30 sub-steps, radii of 0.1 to 2 m, the four
-    players pressing into a wall or corner together), players left the field from 0.8 to
-    1.05 times that. Half of it, the bound, kept every centre at least about half a
-    radius short of the wall's middle.
+    shapes overlap after a sub-step, and undoes an overlap gradually (beyond the slop
+    ``s``, a fraction ``c = 1 - COLLISION_BIAS ** cycle_seconds`` of it per cycle), while
+    the drill sets a player's velocity again at the start of every cycle. A player
+    running into a wall then settles about ``s + d / c`` deep into it, ``d`` being its
+    move in one sub-step; once that reaches ``player_radius + 0.1`` (the walls are 0.1 m
+    thick on each side) its centre is past the wall's middle, and the wall pushes it out
+    of the field. Two players running into each other settle ``s + 2 d / c`` deep, and
+    pass through each other at ``2 * player_radius``. So ``d`` must stay below ``c *
+    (player_radius - s / 2)`` (and players of a radius of at most ``s / 2`` pass through
+    each other at any speed). Measured at cycles of 0.01 to 1 s, 1 to 30 sub-steps and
+    radii of 0.1 to 2 m: players left the field from 0.8 to 1.05 times ``c *
+    player_radius`` (the four pressing into a wall or a corner together); two players
+    running into each other (radii from 0.06 m) passed through each other from twice the
+    bound on, never at 1.5 times it. At the bound, half of the limit, every centre stayed
+    at least about half a radius short of a wall's middle.
     """
-    return 0.5 * (1.0 - COLLISION_BIAS**cycle_seconds) * player_radius
+    return 0.5 * (1.0 - COLLISION_BIAS**cycle_seconds) * (player_radius - COLLISION_SLOP / 2)
 
 
 def fewest_substeps(top_speed: float, cycle_seconds: float, player_radius: float) -> int:
     """The fewest sub-steps per cycle that keep a player at ``top_speed`` within
-    :func:`step_bound` (possibly more than ``substeps`` allows)."""
+    :func:`step_bound` (possibly more than ``substeps`` allows).
+
+    Raises
+    ------
+    ValueError
+        If no number of sub-steps does: ``player_radius`` at most half of
+        :data:`COLLISION_SLOP`.
+    """
     bound = step_bound(cycle_seconds, player_radius)
+    if bound <= 0.0:
+        raise ValueError(
+            f"DrillConfig: player_radius {player_radius:g} is at most half of pymunk's "
+            f"collision slop ({COLLISION_SLOP:.3g} m, the overlap it leaves alone), so two "
+            f"players pass through each other at any speed; make player_radius larger than "
+            f"{COLLISION_SLOP / 2:.3g}")
     need = max(1, math.ceil(top_speed * cycle_seconds / bound))
     while top_speed * cycle_seconds / need > bound:  # the rounding of the division
         need += 1
@@ -211,14 +232,15 @@ class DrillConfig:
         self._check_start_area()
 
     def _check_substeps(self) -> None:
-        """Sub-steps short enough that no player can pass through a wall
-        (:func:`step_bound`): a player may run at any allowed speed, toward any target."""
+        """Sub-steps short enough that no player can pass through a wall or another
+        player (:func:`step_bound`): a player may run at any allowed speed, toward any
+        target."""
         name = max(SPEEDS, key=lambda n: getattr(self, n))  # the first of the fastest
         top, cycle = getattr(self, name), self.cycle_seconds
         bound = step_bound(cycle, self.player_radius)
         if top * cycle / self.substeps <= bound:
             return
-        need = fewest_substeps(top, cycle, self.player_radius)
+        need = fewest_substeps(top, cycle, self.player_radius)  # or no number will do
         fastest = bound * self.substeps / cycle
         if need <= SUBSTEPS.high:
             fix = f"make substeps at least {need}, or every speed at most {fastest:.3g} m/s"
@@ -230,7 +252,7 @@ class DrillConfig:
             f"DrillConfig: with {self.substeps} physics sub-step(s) per cycle of {cycle:g} s, "
             f"a player at its top speed of {top:g} m/s ({name}) moves "
             f"{top * cycle / self.substeps:.3g} m in a sub-step, and can pass through a "
-            f"wall: with player_radius {self.player_radius:g}, at most {bound:.3g} m is "
+            f"wall or a player: with player_radius {self.player_radius:g}, at most {bound:.3g} m is "
             f"allowed; {fix}, or player_radius larger"
         )
 

@@ -64,12 +64,12 @@ def test_absurd_values_are_refused_up_front_with_the_allowed_range(name, value, 
 
 def test_numpy_numbers_are_accepted_and_stored_as_python_numbers():
     config = DrillConfig(
-        max_cycles=np.int64(50), substeps=np.uint8(5), pass_lockout_cycles=np.int32(3),
+        max_cycles=np.int64(50), substeps=np.uint8(8), pass_lockout_cycles=np.int32(3),
         attacker_speed=np.float32(5.5), tackle_probability=np.float64(0.25), field_size=40,
         attacker_starts=np.array([[4.0, 31.0], [31.0, 31.0]]),
     )
     assert config == DrillConfig(
-        max_cycles=50, substeps=5, pass_lockout_cycles=3, attacker_speed=5.5,
+        max_cycles=50, substeps=8, pass_lockout_cycles=3, attacker_speed=5.5,
         tackle_probability=0.25, field_size=40.0,
     )
     for f in fields(DrillConfig):
@@ -132,8 +132,9 @@ def test_sub_steps_through_which_a_player_could_pass_a_wall_are_refused(speed, s
     with pytest.raises(ValueError, match=(
             rf"^DrillConfig: with {substeps} physics sub-step\(s\) per cycle of 0.1 s, a player at "
             rf"its top speed of {speed} m/s \(defender_speed\) moves {speed * 0.1 / substeps:.3g} "
-            r"m in a sub-step, and can pass through a wall: with player_radius 0.5, at most "
-            rf"0.117 m is allowed; make substeps at least {need}, or every speed at most ")):
+            r"m in a sub-step, and can pass through a wall or a player: with player_radius 0.5, "
+            rf"at most 0.105 m is allowed; make substeps at least {need}, or every speed at "
+            "most ")):
         soccer_drill.HolderEnv(opponent=_RunRight(), config=config)
     # What the message advises keeps every player inside the walls.
     env = soccer_drill.HolderEnv(opponent=_RunRight(), config={**config, "substeps": need})
@@ -144,6 +145,16 @@ def test_sub_steps_through_which_a_player_could_pass_a_wall_are_refused(speed, s
         assert all(-1.0 < c < wall for p in env.drill_state.pos[:4] for c in p)
         done = term or trunc
     assert max(p[0] for p in env.drill_state.pos[2:4]) > wall - 1.0  # they reached the wall
+
+
+def test_players_thinner_than_pymunks_slop_are_refused():
+    # Two such players pass through each other at any speed.
+    with pytest.raises(ValueError, match=r"^DrillConfig: player_radius 0.05 is at most half of "
+                                         r"pymunk's collision slop \(0.1 m, the overlap it "
+                                         r"leaves alone\), so two players pass through each "
+                                         r"other at any speed; make player_radius larger than "
+                                         r"0.05$"):
+        DrillConfig(player_radius=0.05)
 
 
 def test_the_step_bound_leaves_the_default_drill_room():
