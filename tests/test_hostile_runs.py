@@ -672,8 +672,8 @@ def test_a_job_failing_for_its_settings_is_not_advised_to_run_again(tmp_path, ca
             "(LearnerConfig.max_decisions") in err
     # The same command fails the same way: the advice is to change the setting elsewhere.
     assert "run the same command again" not in err
-    assert ("running the same command again does not help: change the setting named above "
-            "and run into a new --out folder") in err
+    assert ("running the same command again does not help: change the setting named above, "
+            "in a new run folder") in err
 
 
 # ------------------------------------------------------------ outputs checked first

@@ -6,8 +6,8 @@
 Each run is ``LABEL=FOLDER:METHOD`` (a folder written by ``ilpss-experiment``), with a
 label of its own. Runs are compared on the targets of every stream (each seed's curves
 averaged over them, when there are several: protocol A with targets, R, and B's held-out
-teams, pooled as the reports pool them) over the seeds whose every stream every run and the baseline
-finished, with :func:`ilpss.metrics.compare` (Student t intervals over the
+teams, pooled as the reports pool them) over the seeds whose every stream every run and
+the baseline finished, with :func:`ilpss.metrics.compare` (Student t intervals over the
 paired seeds, Fieller for the time ratio) on the headline metrics of every report
 (:func:`ilpss.metrics.headline_metrics`), using the windows and threshold of the
 experiment reports (:mod:`ilpss.experiments.report`). The jumpstart and total-reward

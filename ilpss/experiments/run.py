@@ -326,8 +326,8 @@ class JobError(RuntimeError):
             # The same settings fail the same way again, and the run folder keeps them (a
             # resume with others is refused): only a new folder can take other settings.
             advice = ("they fail the same way with these settings, so running the same "
-                      "command again does not help: change the setting named above and run "
-                      "into a new --out folder (this one's config.json keeps these settings)")
+                      "command again does not help: change the setting named above, in a new "
+                      "run folder (this one's config.json keeps these settings)")
         else:
             advice = "run the same command again to run only the failed one(s)"
         super().__init__(
