@@ -152,8 +152,8 @@ class DrillConfig:
     cycle_seconds: float = field(default=0.1, metadata=_within(0.001, 1.0))
     """Simulated time of one cycle (one decision of every agent)."""
     substeps: int = field(default=10, metadata={"limits": SUBSTEPS})
-    # (and enough of them that no player moves further than step_bound() in one)
-    """Physics sub-steps per cycle (fixed step ``cycle_seconds / substeps``)."""
+    """Physics sub-steps per cycle (fixed step ``cycle_seconds / substeps``): enough that
+    no player moves further than :func:`step_bound` in one."""
     max_cycles: int = field(default=100, metadata=_whole(1, 1_000_000))
     """Cycles after which the episode is truncated (a failure: timeout)."""
     player_radius: float = field(default=0.5, metadata=_within(0.05, 5.0))
@@ -251,9 +251,9 @@ class DrillConfig:
         raise ValueError(
             f"DrillConfig: with {self.substeps} physics sub-step(s) per cycle of {cycle:g} s, "
             f"a player at its top speed of {top:g} m/s ({name}) moves "
-            f"{top * cycle / self.substeps:.3g} m in a sub-step, and can pass through a "
-            f"wall or a player: with player_radius {self.player_radius:g}, at most {bound:.3g} m is "
-            f"allowed; {fix}, or player_radius larger"
+            f"{top * cycle / self.substeps:.3g} m in a sub-step, and can pass through a wall "
+            f"or a player: with player_radius {self.player_radius:g}, at most {bound:.3g} m "
+            f"is allowed; {fix}, or player_radius larger"
         )
 
     def _check_control_per_cycle(self) -> None:
