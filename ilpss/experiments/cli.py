@@ -24,9 +24,9 @@ from ilpss._io import FolderInUseError
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.drill import TEAM_ERROR, drill_exception
-from ilpss.experiments.executor import stop_on_sigterm
+from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.methods import METHODS
-from ilpss.experiments.outputs import unwritten_report
+from ilpss.experiments.outputs import check_utf8, unwritten_report
 from ilpss.experiments.protocols import PROTOCOLS
 from ilpss.experiments.run import JobError, read_config, run_experiment
 
@@ -131,9 +131,16 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the experiment and write its report."""
+    with stopped_in_one_line("ilpss-experiment"):  # Ctrl-C or SIGTERM: one line, 130 or 143
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     p = parser()
     args = p.parse_args(argv)
     try:
+        if not args.no_report:
+            check_utf8(args)
         cfg = build_config(args)
     except OSError as exc:
         p.error(f"--config {args.config}: {exc.strerror or exc}")

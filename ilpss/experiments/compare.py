@@ -3,11 +3,11 @@
     ilpss-compare --baseline results/protocol_a:scratch \\
         "ILPSS=results/protocol_a:ilpss" "K = 1=results/variant_k1:ilpss"
 
-Each run is ``LABEL=FOLDER:METHOD`` (a folder written by ``ilpss-experiment``). Runs are
-compared on the targets of every stream (each seed's curves averaged over them, when
-there are several: protocol A with targets, R, and B's held-out teams, pooled as the
-reports pool them) over the seeds whose every stream every run and the baseline
-finished, with :func:`ilpss.metrics.compare` (Student t intervals over the
+Each run is ``LABEL=FOLDER:METHOD`` (a folder written by ``ilpss-experiment``), with a
+label of its own. Runs are compared on the targets of every stream (each seed's curves
+averaged over them, when there are several: protocol A with targets, R, and B's held-out
+teams, pooled as the reports pool them) over the seeds whose every stream every run and
+the baseline finished, with :func:`ilpss.metrics.compare` (Student t intervals over the
 paired seeds, Fieller for the time ratio) on the headline metrics of every report
 (:func:`ilpss.metrics.headline_metrics`), using the windows and threshold of the
 experiment reports (:mod:`ilpss.experiments.report`). The jumpstart and total-reward
@@ -228,10 +228,16 @@ def main(argv: Sequence[str] | None = None) -> int:
                    "table's note names every version of the code")
     args = p.parse_args(argv)
     try:
-        runs = {}
+        runs, items = {}, {}
         for item in args.runs:
             label, folder, method = split_run(item)
-            runs[label] = (folder, method)
+            if label in runs:
+                # A second entry would replace the first one's row and shrink the Holm
+                # family without a word.
+                raise ValueError(
+                    f"the label {label!r} is given twice ({items[label]!r} and {item!r}); "
+                    "every run needs a label of its own (it names the run's row)")
+            runs[label], items[label] = (folder, method), item
         print("\n".join(compare_runs(_parse(args.baseline), runs,
                                      allow_mixed_code=args.allow_mixed_code)))
     except (ValueError, OSError, KeyError) as exc:

@@ -62,9 +62,14 @@ from ilpss.experiments.drill import (
     drill_exception,
     drill_object,
 )
-from ilpss.experiments.executor import LocalExecutor
+from ilpss.experiments.executor import LocalExecutor, stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.kept_jobs import KeptJobs, KeptJobsFailed, run_kept
-from ilpss.experiments.outputs import check_out_dir, check_out_file
+from ilpss.experiments.outputs import (
+    check_out_dir,
+    check_out_file,
+    check_utf8,
+    unwritten_report,
+)
 from ilpss.experiments.provenance import code_line
 from ilpss.lifelong import LIFELONG_CONSTRAINTS, LearnerConfig
 from ilpss.metrics import holm, improvement_test, t_interval, t_test_pvalue, wilson_interval
@@ -262,9 +267,15 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the comparison and write its markdown page."""
+    with stopped_in_one_line("ilpss-holder-learning"):  # Ctrl-C, SIGTERM: one line
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     p = parser()
     args = p.parse_args(argv)
     try:  # before hours of learning, not after
+        check_utf8(args)
         check_fields("", args, {f"--{name}": c for name, c in FLAG_CONSTRAINTS.items()},
                      get=lambda a, flag: getattr(a, flag[2:]))
         out = check_out_file(args.out)
@@ -279,6 +290,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error(str(exc))
     except (ImportError, AttributeError) as exc:
         p.error(f"--rules {args.rules}: {exc}")
+    stop_on_sigterm()
     start = time.perf_counter()
     pool = LocalExecutor(args.workers)
     kept = KeptJobs(keep, allow_mixed_code=args.allow_mixed_code)
@@ -293,7 +305,8 @@ def main(argv: Sequence[str] | None = None) -> int:
                 pool, rule_rewards,
                 [(t, args.rules, n, args.eval) for t in args.teams for n in names],
                 "rule", rule_key, kept, desc="fixed rules", check=check_rule_result)
-    except (KeptJobsFailed, FolderInUseError, ValueError) as exc:
+    except (KeptJobsFailed, FolderInUseError, ValueError, OSError) as exc:
+        # OSError: a full disk while a job is kept, naming the file (the others stay kept)
         print(f"ilpss-holder-learning: error: {exc}", file=sys.stderr)
         return 1
     took = f"{(time.perf_counter() - start) / 60:.1f} min with {args.workers} worker(s)"
@@ -362,7 +375,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     for t, c in curves.items():
         cells = [f"{np.mean(c[i:i + 100]):+.2f}" for i in blocks]
         lines.append(f"| {t} | " + " | ".join(cells) + " |")
-    atomic_write_bytes(out, ("\n".join(lines) + "\n").encode())
+    try:
+        atomic_write_bytes(out, ("\n".join(lines) + "\n").encode())
+    except OSError as exc:  # a full disk: every job is kept, and a rerun writes the page
+        print(f"ilpss-holder-learning: error: {unwritten_report(keep, exc)}", file=sys.stderr)
+        return 1
     print("\n".join(lines))
     return 0
 

@@ -37,9 +37,9 @@ from ilpss.experiments.drill import (
     TEAM_ERROR,
     drill_exception,
 )
-from ilpss.experiments.executor import stop_on_sigterm
+from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.folder import RunFolder
-from ilpss.experiments.outputs import check_out_dir, unwritten_report
+from ilpss.experiments.outputs import check_out_dir, check_utf8, unwritten_report
 from ilpss.experiments.protocols import PROTOCOLS as PROTOCOLS_REGISTRY
 from ilpss.experiments.provenance import code_line, code_record
 from ilpss.experiments.report import doc_reference, label, metrics_note, write_report
@@ -104,9 +104,15 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run or resume the chosen protocols and regenerate ``<docs>/results.md``."""
+    with stopped_in_one_line("ilpss-results"):  # Ctrl-C or SIGTERM: one line, 130 or 143
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     p = parser()
     args = p.parse_args(argv)
     try:  # every output and every configuration checked before any work
+        check_utf8(args)
         runs = check_out_dir(args.runs, "--runs", run_folder=False)
         docs = check_out_dir(args.docs, "--docs", run_folder=False)
         for sub in ("figures", "results"):

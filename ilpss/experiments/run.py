@@ -35,6 +35,7 @@ from ilpss._io import (
     read_json,
     remove_stale_temporaries,
 )
+from ilpss.episode import DecisionLimitError
 from ilpss.experiments.checkpoints import (
     CheckpointStore,
     LocalStore,
@@ -51,6 +52,7 @@ from ilpss.experiments.methods import METHODS, Job, LifelongMethod, lifelong_ent
 from ilpss.experiments.outputs import check_out_dir
 from ilpss.experiments.protocols import Stream, make_env
 from ilpss.experiments.provenance import check_code_field, check_same_code, code_record
+from ilpss.traces import DivergedError
 
 __all__ = [
     "RESULT_SCHEMA",
@@ -338,11 +340,23 @@ class JobError(RuntimeError):
                          for spec, exc in zip(specs, failed.failures.values(), strict=True)}
         lines = [f"seed {seed}, stream {index}: {type(exc).__name__}: {exc}"
                  for (seed, index), exc in self.failures.items()]
+        if all(isinstance(exc, SETTINGS_ERRORS) for exc in self.failures.values()):
+            # The same settings fail the same way again, and the run folder keeps them (a
+            # resume with others is refused): only a new folder can take other settings.
+            advice = ("they fail the same way with these settings, so running the same "
+                      "command again does not help: change the setting named above, in a new "
+                      "run folder (this one's config.json keeps these settings)")
+        else:
+            advice = "run the same command again to run only the failed one(s)"
         super().__init__(
             f"{len(specs)} of {n_jobs} job(s) failed:\n  " + "\n  ".join(lines) +
-            f"\nThe {n_done} finished job(s) are kept; run the same command again to run "
-            "only the failed one(s)"
+            f"\nThe {n_done} finished job(s) are kept; {advice}"
         )
+
+
+SETTINGS_ERRORS = (DecisionLimitError, DivergedError)
+"""What a job raises because of the run's settings (a learner's bound too small, a step
+size that diverges): a rerun with the same settings raises it again."""
 
 
 @contextlib.contextmanager
