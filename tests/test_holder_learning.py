@@ -251,3 +251,18 @@ def test_ctrl_c_ends_holder_learning_in_one_line_with_status_130(tmp_path, monke
     assert err.splitlines()[-1] == (  # after the progress bar
         "ilpss-holder-learning: stopped by Ctrl-C (SIGINT); the finished jobs are kept, and "
         "the same command goes on from them")
+
+
+def test_jobs_failing_for_their_settings_are_not_advised_to_run_again(tmp_path, monkeypatch,
+                                                                      capsys):
+    from ilpss.experiments import holder_learning
+    from ilpss.traces import DivergedError
+
+    def diverge(job):
+        raise DivergedError("the values left the range of a float")
+
+    monkeypatch.setattr(holder_learning, "learn_and_evaluate", diverge)
+    assert _run(tmp_path, tmp_path / "keep")[0] == 1
+    err = capsys.readouterr().err
+    assert "running the same command again does not help: change the setting" in err
+    assert "computes only what is left" not in err

@@ -18,6 +18,12 @@ from tqdm.auto import tqdm
 
 from ilpss._check import OneOf, check
 from ilpss._io import release_inherited_locks
+from ilpss.episode import DecisionLimitError
+from ilpss.traces import DivergedError
+
+SETTINGS_ERRORS = (DecisionLimitError, DivergedError)
+"""What a job raises because of its settings (a learner's bound too small, a step size
+that diverges): running it again with the same settings raises it again."""
 
 EXECUTOR = OneOf(("local", "ray"))
 """Where jobs run (``ExperimentConfig.executor`` is checked with it)."""

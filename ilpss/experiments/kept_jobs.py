@@ -34,7 +34,7 @@ from ilpss._io import (
     json_record_bytes,
     load_json_record,
 )
-from ilpss.experiments.executor import JobsFailed
+from ilpss.experiments.executor import SETTINGS_ERRORS, JobsFailed
 from ilpss.experiments.provenance import check_code_field, check_same_code, code_record
 
 __all__ = ["JOB_SCHEMA", "KeptJobs", "KeptJobsFailed", "ResultCheck", "run_kept"]
@@ -146,10 +146,14 @@ def run_kept(
     except JobsFailed as exc:
         failed = "; ".join(f"{_named(key(jobs[todo[k]]))}: {type(e).__name__}: {e}"
                            for k, e in exc.failures.items())
+        if all(isinstance(e, SETTINGS_ERRORS) for e in exc.failures.values()):
+            advice = ("they fail the same way with these settings, so running the same "
+                      "command again does not help: change the setting named above")
+        else:
+            advice = "the same command computes only what is left"
         raise KeptJobsFailed(
             f"{len(exc.failures)} of {len(jobs)} {kind} job(s) failed ({failed}); the "
-            f"{len(jobs) - len(exc.failures)} others are kept in {kept.folder}, and the same "
-            "command computes only what is left"
+            f"{len(jobs) - len(exc.failures)} others are kept in {kept.folder}; {advice}"
         ) from exc
     return results, len(jobs) - len(todo)
 

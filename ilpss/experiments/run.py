@@ -35,7 +35,6 @@ from ilpss._io import (
     read_json,
     remove_stale_temporaries,
 )
-from ilpss.episode import DecisionLimitError
 from ilpss.experiments.checkpoints import (
     CheckpointStore,
     LocalStore,
@@ -46,13 +45,17 @@ from ilpss.experiments.checkpoints import (
 )
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.drill import ENV_ID, TEAM_CODE, drill_object
-from ilpss.experiments.executor import JobsFailed, check_ray_address, make_executor
+from ilpss.experiments.executor import (
+    SETTINGS_ERRORS,
+    JobsFailed,
+    check_ray_address,
+    make_executor,
+)
 from ilpss.experiments.folder import RunFolder, checkpoint_key
 from ilpss.experiments.methods import METHODS, Job, LifelongMethod, lifelong_entry
 from ilpss.experiments.outputs import check_out_dir
 from ilpss.experiments.protocols import Stream, make_env
 from ilpss.experiments.provenance import check_code_field, check_same_code, code_record
-from ilpss.traces import DivergedError
 
 __all__ = [
     "RESULT_SCHEMA",
@@ -353,10 +356,6 @@ class JobError(RuntimeError):
             f"\nThe {n_done} finished job(s) are kept; {advice}"
         )
 
-
-SETTINGS_ERRORS = (DecisionLimitError, DivergedError)
-"""What a job raises because of the run's settings (a learner's bound too small, a step
-size that diverges): a rerun with the same settings raises it again."""
 
 
 @contextlib.contextmanager
