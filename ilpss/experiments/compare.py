@@ -87,10 +87,13 @@ def _streams_of(cfg: ExperimentConfig, seed: int) -> dict[str, Any]:
                         for i, stream in enumerate(cfg.streams(seed))}}
 
 
-def target_curves(folder: Path, method: str) -> dict[int, tuple[list[float], list[dict]]]:
+def target_curves(
+    folder: Path, method: str, codes: dict[str, tuple[dict, str]] | None = None,
+) -> dict[int, tuple[list[float], list[dict]]]:
     """``{seed: (curve on the targets of every stream, averaged over them, that method's
-    result on each stream)}``, for the seeds whose every stream is finished."""
-    return _target_curves(folder, method)[0]
+    result on each stream)}``, for the seeds whose every stream is finished; the code of
+    every result read is added to ``codes`` (by its digest: the code and a file)."""
+    return _target_curves(folder, method, codes)[0]
 
 
 def _target_curves(
