@@ -169,3 +169,18 @@ def test_kept_jobs_of_other_code_are_refused_not_reported(tmp_path, code_copy, c
     assert "was made by" in err and "--allow-mixed-code" in err
     assert _holder(tmp_path, "--allow-mixed-code") == 0
     assert "**Mixed code**" in (tmp_path / "learning.md").read_text()
+
+
+def test_the_commit_is_named_only_at_the_top_of_the_packages_own_work_tree(tmp_path):
+    import subprocess
+
+    top = tmp_path / "repo"
+    inner = top / "lib" / "site-packages"
+    inner.mkdir(parents=True)
+    subprocess.run(["git", "init", "-q", str(top)], check=True)
+    subprocess.run(["git", "-C", str(top), "-c", "user.email=a@b", "-c", "user.name=a",
+                    "commit", "-q", "--allow-empty", "-m", "x"], check=True)
+    assert len(provenance._git_commit(top)) == 40
+    # an installed copy inside another repository's tree is not that commit's code
+    assert provenance._git_commit(inner) is None
+    assert provenance._git_commit(tmp_path / "nowhere") is None

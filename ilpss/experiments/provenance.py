@@ -74,14 +74,17 @@ def source_digest(package_dirs: Iterable[Path]) -> str:
 
 
 def _git_commit(source: Path) -> str | None:
-    """The commit checked out where the packages are, if that is a git work tree."""
+    """The commit checked out where the packages are, if that folder is the top of a git
+    work tree (an installed copy inside some other repository's tree is not its code)."""
     try:
-        out = subprocess.run(["git", "-C", str(source), "rev-parse", "HEAD"],
+        out = subprocess.run(["git", "-C", str(source), "rev-parse", "--show-toplevel", "HEAD"],
                              capture_output=True, text=True, timeout=10, check=False)
     except (OSError, subprocess.SubprocessError):
         return None
-    commit = out.stdout.strip()
-    return commit if out.returncode == 0 and len(commit) == 40 else None
+    lines = out.stdout.split()
+    if out.returncode != 0 or len(lines) != 2 or len(lines[1]) != 40:
+        return None
+    return lines[1] if Path(lines[0]).resolve() == source.resolve() else None
 
 
 def _version() -> str | None:
