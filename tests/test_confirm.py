@@ -112,3 +112,11 @@ def test_the_confirmatory_command_runs_the_plan_and_adjusts_across_the_whole_fam
     assert (tmp_path / "again.md").read_text() == page
     adjusted = [float(row.split("|")[5]) for row in rows]
     assert all(0.0 <= p <= 1.0 or math.isnan(p) for p in adjusted)
+
+
+def test_the_committed_plan_is_a_valid_plan_of_the_confirmatory_run():
+    from pathlib import Path
+
+    plan = Plan.read(Path(__file__).resolve().parents[1] / "docs" / "confirmatory.json")
+    assert all(plan.config(p).first_seed >= 2000 for p in plan.protocols)  # fresh seeds
+    assert len(plan.methods) <= 6 and set(plan.protocols) == {"A", "B", "R", "C"}
