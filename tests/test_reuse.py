@@ -251,8 +251,10 @@ def test_steps_inside_an_option_bootstrap_only_from_choices_available_there():
     the choices available at the next state, as a choice point does, does not."""
     every = _highest_primitive_values(step_targets="every_choice")
     available = _highest_primitive_values(step_targets="available_choices")
+    primitives = _highest_primitive_values(step_targets="primitive_choices")
     assert min(every) > 1.15, every
     assert max(available) < 1.1, available
+    assert max(primitives) < 1.1, primitives
 
 
 def test_options_valued_from_their_policies_primitives_do_not_inherit_its_options_values():

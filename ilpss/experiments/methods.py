@@ -450,6 +450,12 @@ for _method in (
                    lambda base: _fine_tuned(base, "kernels_finetune", "available_choices",
                                             value_bounds=drill.EPISODE_REWARD,
                                             option_traces="cut")),
+    LifelongMethod("ilpss_ft_bounded_cut_primitives",
+                   "ILPSS-FT, values bounded, traces cut before an option, steps inside "
+                   "options bootstrapped from the primitives",
+                   lambda base: _fine_tuned(base, "kernels_finetune", "primitive_choices",
+                                            value_bounds=drill.EPISODE_REWARD,
+                                            option_traces="cut")),
     LifelongMethod("ilpss_ft_oracle", "ILPSS-FT with the true regions as kernels (oracle)",
                    lambda base: _fine_tuned(base, "oracle_regions_finetune")),
 ):
