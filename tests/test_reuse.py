@@ -88,11 +88,17 @@ def test_fine_tuning_starts_as_the_source_policy_at_the_first_decision():
     source = _zone_policy(Y)
     learner = SmdpLearner(3, _coder(), None, LC, seed=0)
     LatestPast().start(learner, [_zone_policy(X), source], MappedCorridor(COMPOSED), seed=0)
+    _assert_acts_as(learner, source, learner_seed=0)
+
+
+def _assert_acts_as(learner: SmdpLearner, policy: FrozenPolicy, learner_seed: int) -> None:
+    """``learner`` holds ``policy``'s values and plays its first episode on the target
+    exactly as ``policy`` does."""
     for x in np.arange(0.25, 9.0, 0.5):
         s = np.array([x])
-        np.testing.assert_array_equal(learner.q.q_values(s), source.q_values(s))
+        np.testing.assert_array_equal(learner.q.q_values(s), policy.q_values(s))
     first = learner.run_episode(MappedCorridor(COMPOSED), learn=False, seed=3)
-    replay = SmdpLearner.from_policy(source, None, LC, seed=0).run_episode(
+    replay = SmdpLearner.from_policy(policy, None, LC, seed=learner_seed).run_episode(
         MappedCorridor(COMPOSED), learn=False, seed=3)
     assert first.choices == replay.choices
 
@@ -409,10 +415,4 @@ def test_chained_fine_tuning_starts_each_task_from_its_own_latest_policy():
     previous = lifelong.policies[-1]
     learner = lifelong.make_learner(5)
     small.reuse.start.start(learner, lifelong.policies, MappedCorridor(COMPOSED), seed=0)
-    for x in np.arange(0.25, 9.0, 0.5):
-        s = np.array([x])
-        np.testing.assert_array_equal(learner.q.q_values(s), previous.q_values(s))
-    first = learner.run_episode(MappedCorridor(COMPOSED), learn=False, seed=3)
-    replay = SmdpLearner.from_policy(previous, None, LC, seed=5).run_episode(
-        MappedCorridor(COMPOSED), learn=False, seed=3)
-    assert first.choices == replay.choices
+    _assert_acts_as(learner, previous, learner_seed=5)
