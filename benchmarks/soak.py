@@ -65,7 +65,7 @@ try:
     import resource
 except ImportError:  # Windows
     resource = None  # type: ignore[assignment]
-from soccer_drill.config import DrillConfig
+from soccer_drill.config import SPEEDS, DrillConfig, fewest_substeps
 from soccer_drill.files import atomic_write_text, check_output_file
 from soccer_drill.teams import team_ids
 
@@ -108,7 +108,16 @@ def random_config(rng: random.Random) -> dict[str, Any]:
         "pass_lockout_cycles": lambda: rng.randint(0, 8),
     }
     names = rng.sample(sorted(draws), rng.randint(1, len(draws)))
-    return {name: draws[name]() for name in names}
+    return enough_substeps({name: draws[name]() for name in names})
+
+
+def enough_substeps(config: dict[str, Any]) -> dict[str, Any]:
+    """``config`` with ``substeps`` raised, if need be, to the fewest that keep its fastest
+    player from passing through a wall (what ``DrillConfig`` requires)."""
+    full = {**DrillConfig().to_dict(), **config}
+    fewest = fewest_substeps(max(full[name] for name in SPEEDS), full["cycle_seconds"],
+                             full["player_radius"])
+    return config if full["substeps"] >= fewest else {**config, "substeps": fewest}
 
 
 def team_schedule() -> list[tuple[str | None, dict[str, Any] | None]]:

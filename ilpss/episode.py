@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "DecisionLimitError",
     "EpisodeLog",
     "EpisodeResult",
     "EpisodicLearner",
@@ -160,6 +161,11 @@ def step_duration(info: dict[str, Any]) -> int:
 
 
 # ------------------------------------------------------------------------- the log
+class DecisionLimitError(RuntimeError):
+    """An episode took more decisions than ``LearnerConfig.max_decisions``: a setting too
+    small for the environment, which a rerun with the same settings meets again."""
+
+
 class EpisodeLog:
     """What one episode did so far; :meth:`result` makes its :class:`EpisodeResult`.
 
@@ -200,7 +206,10 @@ class EpisodeLog:
     def visit(self, state: np.ndarray) -> None:
         """The agent decides at ``state`` (it joins the trace)."""
         if len(self.trace) >= self.max_decisions:
-            raise RuntimeError(f"episode exceeded max_decisions={self.max_decisions}")
+            raise DecisionLimitError(
+                f"episode exceeded max_decisions={self.max_decisions} (LearnerConfig."
+                "max_decisions, a safety bound: it must exceed the decisions of the "
+                "environment's longest episode)")
         self.trace.append(state)
 
     def step(

@@ -1300,6 +1300,16 @@ class Paired:
                 threshold_times(self.baseline, self.threshold, self.window,
                                 warmup=self.warmup))
 
+    @functools.cached_property
+    def warm_times(self) -> tuple[tuple[FloatArray, NDArray[np.bool_]],
+                                  tuple[FloatArray, NDArray[np.bool_]]]:
+        """:attr:`times` with the first episodes counted (:func:`threshold_times`'
+        ``warmup``), whatever :attr:`warmup` says: a second view, in which one good first
+        episode gives time 1."""
+        assert self.threshold is not None
+        return (threshold_times(self.transfer, self.threshold, self.window, warmup=True),
+                threshold_times(self.baseline, self.threshold, self.window, warmup=True))
+
 
 @dataclass(frozen=True)
 class Metric:
@@ -1473,6 +1483,13 @@ METRICS: tuple[Metric, ...] = (
            lambda p: (p.times[0][0], p.times[1][0]),
            lambda p: "time_to_threshold_transfer / time_to_threshold_baseline (ratio of the "
                      "restricted mean times); < 1 favours transfer",
+           test=True, threshold=True, better=-1, headline=True),
+    Metric("time_to_threshold_ratio_warm", "time to threshold, warm start (ratio)", ".2f",
+           "ratio", lambda p: (p.warm_times[0][0], p.warm_times[1][0]),
+           lambda p: "the time-to-threshold ratio with the first episodes counted, on the "
+                     f"mean of the episodes played so far before episode {p.window} (a "
+                     "method at the threshold from its first episode has time 1, so one "
+                     "good first episode decides it); < 1 favours transfer",
            test=True, threshold=True, better=-1, headline=True),
     Metric("median_time_to_threshold_transfer", "median time to threshold", ".0f", "median",
            lambda p: p.times[0], lambda p: _MEDIAN.format(who="transfer"),

@@ -196,18 +196,26 @@ class BestOfPast:
     ``episodes x len(policies)`` episodes, only the latest ``budget // episodes`` past
     policies are tried, and the best of those is chosen (each tried policy's episodes
     are the same as when all are tried); when not even one can be tried, the learner
-    starts from the latest past policy, spending nothing (as :class:`LatestPast`)."""
+    starts from the latest past policy, spending nothing (as :class:`LatestPast`).
+
+    ``recent`` bounds the choice to the latest ``recent`` past policies (``None``: all of
+    them), so that its cost does not grow with the length of the stream: on a stream of
+    20 opponents, 10 episodes for each of 19 sources would spend 190 of the target's
+    episodes choosing."""
 
     episodes: int = 10
+    recent: int | None = None
 
     def __post_init__(self) -> None:
         check("BestOfPast.episodes", self.episodes, Integer(1, 10_000))
+        if self.recent is not None:
+            check("BestOfPast.recent", self.recent, Integer(1, 10_000))
 
     def start(self, learner: SmdpLearner, policies: Sequence[FrozenPolicy], env: Any,
               seed: int, *, budget: int | None = None) -> list[EpisodeResult]:
         if not policies:
             return []
-        n = len(policies)
+        n = len(policies) if self.recent is None else min(len(policies), self.recent)
         if budget is not None:
             check("BestOfPast budget", budget, Integer(0))
             n = min(n, budget // self.episodes)

@@ -123,7 +123,7 @@ SMDP_CONSTRAINTS = {
     "initial_value": Real(-1e6, 1e6),
     "option_initial_value": NoneOr(Real(-1e6, 1e6)),
     "option_values": OneOf(("constant", "policy", "policy_primitives")),
-    "step_targets": OneOf(("every_choice", "available_choices")),
+    "step_targets": OneOf(("every_choice", "available_choices", "primitive_choices")),
     "value_bounds": NoneOr(ListOf(Real(-1e6, 1e6), min_len=2, max_len=2)),
     "option_traces": OneOf(("kept", "cut")),
     "trace_decay": Real(0.0, 1.0),
@@ -195,7 +195,9 @@ class LearnerConfig:
     ``intra_option_primitives``) bootstrap from at the next state: ``"every_choice"`` (as
     before: the largest value of any of the learner's choices) or ``"available_choices"``
     (the primitives and the options that the library makes available there, sampled as
-    at a choice point, which is what the choice point's own target reads). With regions,
+    at a choice point, which is what the choice point's own target reads) or
+    ``"primitive_choices"`` (the primitives only: no option's value, and no draw of the
+    learner's random numbers). With regions,
     an option's values outside its region are never corrected, because it is never taken
     there; bootstrapping from them carries whatever they started at into the primitives,
     and along a stream of fine-tuned starts (each task starting from the last one's
@@ -523,6 +525,8 @@ class SmdpLearner(EpisodicLearner):
                 cont = lib.continuation_probabilities(m_next)[self._lib_pos]
                 if self.config.step_targets == "available_choices":
                     allowed, _ = self._choice_mask(next_state, m_next)
+                elif self.config.step_targets == "primitive_choices":
+                    allowed = np.arange(self.n_choices) < self.n_primitive
             best_next = float(q_next.max() if allowed is None else q_next[allowed].max())
         disc = self.config.gamma**duration
         targets: dict[int, float] = {}

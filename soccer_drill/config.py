@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import math
 import numbers
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any
+
+import pymunk
 
 Point = tuple[float, float]
 
@@ -67,6 +70,67 @@ def _whole(low: int, high: int) -> dict[str, Limits]:
     return {"limits": Limits(low, high, integer=True)}
 
 
+SUBSTEPS = Limits(1, 1000, integer=True)
+"""What ``DrillConfig.substeps`` allows, before :func:`step_bound`."""
+_SPACE = pymunk.Space()  # pymunk's defaults, which the drill's spaces keep
+COLLISION_BIAS: float = _SPACE.collision_bias
+"""pymunk's ``Space.collision_bias`` (about 0.0018): the fraction of an overlap (beyond
+:data:`COLLISION_SLOP`) not yet undone after 1 s."""
+COLLISION_SLOP: float = _SPACE.collision_slop
+"""pymunk's ``Space.collision_slop`` (0.1 m): the overlap it leaves alone."""
+del _SPACE
+SPEEDS = ("attacker_speed", "dribble_speed", "hold_speed", "defender_speed")
+"""The fields a player's speed in a sub-step comes from (a dribbler runs at
+``dribble_speed`` until the physics has moved it, even above ``attacker_speed``)."""
+
+
+def step_bound(cycle_seconds: float, player_radius: float) -> float:
+    """The furthest a player may move in one physics sub-step, in metres (0 or less: no
+    move is short enough).
+
+    pymunk has no continuous collision detection: it sees a contact only where two
+    shapes overlap after a sub-step, and undoes an overlap gradually (beyond the slop
+    ``s``, a fraction ``c = 1 - COLLISION_BIAS ** cycle_seconds`` of it per cycle), while
+    the drill sets a player's velocity again at the start of every cycle. A player
+    running into a wall then settles about ``s + d / c`` deep into it, ``d`` being its
+    move in one sub-step; once that reaches ``player_radius + 0.1`` (the walls are 0.1 m
+    thick on each side) its centre is past the wall's middle, and the wall pushes it out
+    of the field. Two players running into each other settle ``s + 2 d / c`` deep, and
+    pass through each other at ``2 * player_radius``. So ``d`` must stay below ``c *
+    (player_radius - s / 2)`` (and players of a radius of at most ``s / 2`` pass through
+    each other at any speed). Measured at cycles of 0.01 to 1 s, 1 to 30 sub-steps and
+    radii of 0.1 to 2 m: players left the field from 0.8 to 1.05 times ``c *
+    player_radius`` (the four pressing into a wall or a corner together); two players
+    running into each other (radii from 0.06 m) passed through each other from twice the
+    bound on, never at 1.5 times it. At the bound, half of the limit, every centre stayed
+    at least about half a radius short of a wall's middle.
+    """
+    return 0.5 * (1.0 - COLLISION_BIAS**cycle_seconds) * (player_radius - COLLISION_SLOP / 2)
+
+
+def fewest_substeps(top_speed: float, cycle_seconds: float, player_radius: float) -> int:
+    """The fewest sub-steps per cycle that keep a player at ``top_speed`` within
+    :func:`step_bound` (possibly more than ``substeps`` allows).
+
+    Raises
+    ------
+    ValueError
+        If no number of sub-steps does: ``player_radius`` at most half of
+        :data:`COLLISION_SLOP`.
+    """
+    bound = step_bound(cycle_seconds, player_radius)
+    if bound <= 0.0:
+        raise ValueError(
+            f"DrillConfig: player_radius {player_radius:g} is at most half of pymunk's "
+            f"collision slop ({COLLISION_SLOP:.3g} m, the overlap it leaves alone), so two "
+            f"players pass through each other at any speed; make player_radius larger than "
+            f"{COLLISION_SLOP / 2:.3g}")
+    need = max(1, math.ceil(top_speed * cycle_seconds / bound))
+    while top_speed * cycle_seconds / need > bound:  # the rounding of the division
+        need += 1
+    return need
+
+
 @dataclass(frozen=True)
 class DrillConfig:
     """Every number of the drill, in SI units (metres, seconds, m/s).
@@ -87,8 +151,9 @@ class DrillConfig:
     """Side of the square training region, in metres."""
     cycle_seconds: float = field(default=0.1, metadata=_within(0.001, 1.0))
     """Simulated time of one cycle (one decision of every agent)."""
-    substeps: int = field(default=10, metadata=_whole(1, 1000))
-    """Physics sub-steps per cycle (fixed step ``cycle_seconds / substeps``)."""
+    substeps: int = field(default=10, metadata={"limits": SUBSTEPS})
+    """Physics sub-steps per cycle (fixed step ``cycle_seconds / substeps``): enough that
+    no player moves further than :func:`step_bound` in one."""
     max_cycles: int = field(default=100, metadata=_whole(1, 1_000_000))
     """Cycles after which the episode is truncated (a failure: timeout)."""
     player_radius: float = field(default=0.5, metadata=_within(0.05, 5.0))
@@ -154,6 +219,8 @@ class DrillConfig:
                 f"(the holder must keep control), got {self.ball_offset} >= "
                 f"{self.control_radius - 0.05}"
             )
+        self._check_substeps()
+        self._check_control_per_cycle()
         for name in ("attacker_starts", "defender_starts"):
             points = _points(getattr(self, name), self.field_size)
             if points is None:
@@ -163,6 +230,59 @@ class DrillConfig:
                 )
             object.__setattr__(self, name, points)
         self._check_start_area()
+
+    def _check_substeps(self) -> None:
+        """Sub-steps short enough that no player can pass through a wall or another
+        player (:func:`step_bound`): a player may run at any allowed speed, toward any
+        target."""
+        name = max(SPEEDS, key=lambda n: getattr(self, n))  # the first of the fastest
+        top, cycle = getattr(self, name), self.cycle_seconds
+        bound = step_bound(cycle, self.player_radius)
+        if top * cycle / self.substeps <= bound:
+            return
+        need = fewest_substeps(top, cycle, self.player_radius)  # or no number will do
+        fastest = bound * self.substeps / cycle
+        if need <= SUBSTEPS.high:
+            fix = f"make substeps at least {need}, or every speed at most {fastest:.3g} m/s"
+        else:
+            fix = (f"substeps cannot be raised enough (at most {SUBSTEPS.high:g}, for speeds up "
+                   f"to {bound * SUBSTEPS.high / cycle:.3g} m/s): make every speed at most "
+                   f"{fastest:.3g} m/s")
+        raise ValueError(
+            f"DrillConfig: with {self.substeps} physics sub-step(s) per cycle of {cycle:g} s, "
+            f"a player at its top speed of {top:g} m/s ({name}) moves "
+            f"{top * cycle / self.substeps:.3g} m in a sub-step, and can pass through a wall "
+            f"or a player: with player_radius {self.player_radius:g}, at most {bound:.3g} m "
+            f"is allowed; {fix}, or player_radius larger"
+        )
+
+    def _check_control_per_cycle(self) -> None:
+        """A ball that a player could control never passes it unseen.
+
+        The ball collides with nothing (it cannot pass through anything in the physics);
+        who controls it is decided once per cycle, from where the ball and the players
+        are then. A ball moving relative to a player at a speed it can be controlled at
+        (``control_speed``, and never faster than ``ball_max_speed`` plus the fastest
+        player) must therefore move at most the control area's width, ``2 *
+        control_radius``, in a cycle: else it can go through a player who would have
+        controlled it without ever being within ``control_radius`` of it at the end of a
+        cycle (an interception becomes a pass, or a pass is never received).
+        """
+        fastest = max(getattr(self, name) for name in SPEEDS)
+        speed = min(self.control_speed, self.ball_max_speed + fastest)
+        width, cycle = 2.0 * self.control_radius, self.cycle_seconds
+        if speed * cycle <= width:
+            return
+        raise ValueError(
+            f"DrillConfig: a ball that a player can control moves up to {speed:g} m/s relative "
+            f"to it (control_speed {self.control_speed:g}, ball_max_speed "
+            f"{self.ball_max_speed:g} plus the fastest player's {fastest:g}), "
+            f"{speed * cycle:.3g} m in a cycle of {cycle:g} s: more than the control area's "
+            f"width of {width:g} m (2 * control_radius), so it can pass through a player who "
+            f"would control it; make control_speed (or ball_max_speed plus the fastest "
+            f"player's speed) at most {width / cycle:.3g} m/s, cycle_seconds shorter or "
+            "control_radius larger"
+        )
 
     def _check_start_area(self) -> None:
         """Every jittered start inside the walls, and the ball given to an attacker

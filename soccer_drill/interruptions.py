@@ -9,7 +9,7 @@ exception occurs (nothing is added to a call that succeeds):
 
 | the exception | delivered by a signal when |
 |---|---|
-| ``KeyboardInterrupt`` | its innermost frame did not stop at a ``raise`` statement: Python's own ``SIGINT`` handler (C code) raises it wherever the interpreter was, never at a ``raise`` |
+| ``KeyboardInterrupt`` | its innermost frame did not stop at a ``raise`` statement nor at a generator's ``yield`` (where ``generator.throw()`` raises it): Python's own ``SIGINT`` handler (C code) raises it wherever the interpreter checks for signals, never at either |
 | any | one of its frames runs a Python signal handler installed now (e.g. a ``SIGTERM`` handler calling ``sys.exit()``) |
 
 A team that catches the user's Ctrl-C and re-raises it (``raise`` alone) keeps the
@@ -24,7 +24,15 @@ import reprlib
 import signal
 from types import TracebackType
 
-_RAISE = dis.opmap["RAISE_VARARGS"]
+# Where code raises: a raise statement, or ``generator.throw()`` (also a coroutine's), which
+# raises at the generator's suspended yield, or at the start of one not yet started. The
+# interpreter delivers a signal at none of them (it checks for signals on calls, loops'
+# backward jumps and a frame's resumption, after its yield). The names are looked up, so
+# an instruction a Python version lacks is left out: its throw() then counts as a signal.
+_RAISED_BY_CODE = frozenset(
+    dis.opmap[name] for name in ("RAISE_VARARGS", "YIELD_VALUE", "RETURN_GENERATOR")
+    if name in dis.opmap
+)
 _short = reprlib.Repr()
 _short.maxlevel, _short.maxstring, _short.maxother, _short.maxlong = 2, 400, 400, 40
 _short.maxdict = _short.maxlist = _short.maxtuple = _short.maxset = 6
@@ -70,7 +78,7 @@ def delivered_by_signal(exc: BaseException) -> bool:
     if isinstance(exc, KeyboardInterrupt):
         last = _innermost(tb)
         try:
-            if last.tb_frame.f_code.co_code[last.tb_lasti] != _RAISE:
+            if last.tb_frame.f_code.co_code[last.tb_lasti] not in _RAISED_BY_CODE:
                 return True
         except IndexError:  # pragma: no cover - an offset outside the code: be safe
             return True

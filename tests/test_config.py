@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 import soccer_drill
-from soccer_drill.config import DrillConfig
+from soccer_drill.config import COLLISION_BIAS, DrillConfig, fewest_substeps
+from soccer_drill.skills import Command, Skill
 
 NUMERIC = [f.name for f in fields(DrillConfig) if f.type in ("float", "int")]
 INTEGERS = [f.name for f in fields(DrillConfig) if f.type == "int"]
@@ -63,12 +64,12 @@ def test_absurd_values_are_refused_up_front_with_the_allowed_range(name, value, 
 
 def test_numpy_numbers_are_accepted_and_stored_as_python_numbers():
     config = DrillConfig(
-        max_cycles=np.int64(50), substeps=np.uint8(5), pass_lockout_cycles=np.int32(3),
+        max_cycles=np.int64(50), substeps=np.uint8(8), pass_lockout_cycles=np.int32(3),
         attacker_speed=np.float32(5.5), tackle_probability=np.float64(0.25), field_size=40,
         attacker_starts=np.array([[4.0, 31.0], [31.0, 31.0]]),
     )
     assert config == DrillConfig(
-        max_cycles=50, substeps=5, pass_lockout_cycles=3, attacker_speed=5.5,
+        max_cycles=50, substeps=8, pass_lockout_cycles=3, attacker_speed=5.5,
         tackle_probability=0.25, field_size=40.0,
     )
     for f in fields(DrillConfig):
@@ -111,3 +112,98 @@ def test_a_start_that_is_out_of_play_before_the_first_cycle_is_refused(values, m
 def test_a_start_near_the_field_s_edge_within_the_walls_is_taken():
     config = DrillConfig(defender_starts=((1.0, 2.0), (34.0, 2.0)))  # jitter 1.5: x >= -0.5
     assert config.defender_starts == ((1.0, 2.0), (34.0, 2.0))
+
+
+class _RunRight:
+    """A team whose defenders run to (900, 17.5), far beyond the field's right wall."""
+
+    def reset(self, view, rng):
+        self.players = view.players
+
+    def act(self, view):
+        return dict.fromkeys(self.players, Command(Skill.MOVE_TO, (900.0, 17.5)))
+
+
+@pytest.mark.parametrize("speed, substeps", [(25, 1), (25, 3), (100, 1), (100, 10)])
+def test_sub_steps_through_which_a_player_could_pass_a_wall_are_refused(speed, substeps):
+    config = {"defender_speed": speed, "substeps": substeps}
+    # Allowed before, and the defenders ran out through the wall to x = 900.
+    need = fewest_substeps(speed, 0.1, 0.5)
+    with pytest.raises(ValueError, match=(
+            rf"^DrillConfig: with {substeps} physics sub-step\(s\) per cycle of 0.1 s, a player at "
+            rf"its top speed of {speed} m/s \(defender_speed\) moves {speed * 0.1 / substeps:.3g} "
+            r"m in a sub-step, and can pass through a wall or a player: with player_radius 0.5, "
+            rf"at most 0.105 m is allowed; make substeps at least {need}, or every speed at "
+            "most ")):
+        soccer_drill.HolderEnv(opponent=_RunRight(), config=config)
+    # What the message advises keeps every player inside the walls.
+    env = soccer_drill.HolderEnv(opponent=_RunRight(), config={**config, "substeps": need})
+    env.reset(seed=0)
+    done, wall = False, 35.0 + 1.0  # field_size + wall_margin
+    while not done:
+        _, _, term, trunc, _ = env.step(0)  # HOLD: the episode runs to its timeout
+        assert all(-1.0 < c < wall for p in env.drill_state.pos[:4] for c in p)
+        done = term or trunc
+    assert max(p[0] for p in env.drill_state.pos[2:4]) > wall - 1.0  # they reached the wall
+
+
+def test_players_thinner_than_pymunks_slop_are_refused():
+    # Two such players pass through each other at any speed.
+    with pytest.raises(ValueError, match=r"^DrillConfig: player_radius 0.05 is at most half of "
+                                         r"pymunk's collision slop \(0.1 m, the overlap it "
+                                         r"leaves alone\), so two players pass through each "
+                                         r"other at any speed; make player_radius larger than "
+                                         r"0.05$"):
+        DrillConfig(player_radius=0.05)
+
+
+def test_the_step_bound_leaves_the_default_drill_room():
+    # pymunk's default collision bias, which the drill's spaces keep.
+    assert COLLISION_BIAS == pytest.approx(0.9**60, rel=1e-5)
+    # The defaults' fastest player (6 m/s) needs 6 of their 10 sub-steps.
+    assert fewest_substeps(DrillConfig().attacker_speed, 0.1, 0.5) == 6
+
+
+@pytest.mark.parametrize("config, speed", [
+    ({"control_speed": 1000.0}, 31),  # capped by the ball's 25 m/s and a player's 6 m/s
+    ({"control_speed": 25.0, "cycle_seconds": 0.1}, 25),
+    ({"control_speed": 5.0, "cycle_seconds": 1.0, "substeps": 1000}, 5),
+])
+def test_a_ball_that_could_be_controlled_cannot_pass_a_player_between_two_cycles(config,
+                                                                                   speed):
+    cycle = config.get("cycle_seconds", 0.1)
+    with pytest.raises(ValueError, match=(
+            rf"^DrillConfig: a ball that a player can control moves up to {speed} m/s relative "
+            rf"to it .*, {speed * cycle:.3g} m in a cycle of {cycle:g} s: more than the "
+            r"control area's width of 2 m \(2 \* control_radius\), so it can pass through a "
+            r"player who would control it; make control_speed \(or ball_max_speed plus the "
+            rf"fastest player's speed\) at most {2 / cycle:.3g} m/s")):
+        soccer_drill.HolderEnv(config=config)
+    # At the bound, and where the ball can never be that fast relative to a player.
+    DrillConfig(**{**config, "control_speed": 2 / cycle})
+    if 2 / cycle > 6.0:  # the fastest player: 6 m/s
+        DrillConfig(**{**config, "ball_max_speed": 2 / cycle - 6.0})
+
+
+@pytest.mark.parametrize("along", np.linspace(0.0, 2.0, 9))
+def test_at_the_bound_a_defender_on_the_line_of_a_pass_takes_the_ball(along):
+    """A pass at control_speed (20 m/s, 2 m a cycle: the control area's width) is within
+    control_radius of a defender standing on its line at the end of some cycle, wherever
+    he stands. (At 1000 m/s, allowed before, a 25 m/s pass went through a defender
+    standing on its line, never closer than 1.01 m at the end of a cycle.)"""
+    from soccer_drill.drill import Drill
+
+    ball = (4.0, 30.25)  # below the first attacker, who passes to the second at (31, 31)
+    t = (13.5 + along) / math.dist(ball, (31.0, 31.0))
+    on_line = (ball[0] + t * 27.0, ball[1] + t * 0.75)
+    cfg = DrillConfig(kick_angle_noise=0.0, kick_speed_noise=0.0, start_jitter=0.0,
+                      ball_damping=1.0, pass_arrival_speed=20.0, control_speed=20.0,
+                      defender_starts=(on_line, (20.0, 5.0)))
+    drill, rng = Drill(cfg), np.random.default_rng(0)
+    while drill.reset(rng).holder != 0:
+        pass
+    stay = [Command(Skill.MOVE_TO, p) for p in drill.state.pos[:4]]
+    drill.step([Command(Skill.PASS), *stay[1:]], rng)
+    while drill.outcome is None:
+        drill.step(stay, rng)
+    assert drill.outcome == "interception" and drill.state.holder == 2

@@ -7,7 +7,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 import soccer_drill
-from soccer_drill.config import DrillConfig
+from soccer_drill.config import SPEEDS, DrillConfig, fewest_substeps
 
 OUTCOMES = {"success", "interception", "out", "timeout"}
 
@@ -25,6 +25,17 @@ configs = st.fixed_dictionaries(
         "start_jitter": st.floats(0.0, 3.0),
     },
 )
+
+
+def _enough_substeps(config: dict) -> dict:
+    """Sub-steps raised where the speeds drawn need more (``DrillConfig`` refuses fewer)."""
+    full = {**DrillConfig().to_dict(), **config}
+    fewest = fewest_substeps(max(full[name] for name in SPEEDS), full["cycle_seconds"],
+                             full["player_radius"])
+    return config if full["substeps"] >= fewest else {**config, "substeps": fewest}
+
+
+configs = configs.map(_enough_substeps)
 SETTINGS = settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
 

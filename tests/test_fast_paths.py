@@ -9,7 +9,7 @@ import pytest
 
 import soccer_drill
 from soccer_drill import drill as drill_module
-from soccer_drill.config import DrillConfig
+from soccer_drill.config import DrillConfig, fewest_substeps
 from soccer_drill.features import (
     _clip_into,
     feature_bounds,
@@ -131,7 +131,10 @@ def _scanned_interception_point(state, player, vmax, cfg):
 @pytest.mark.parametrize("damping", [1e-9, 0.05, 0.4, 0.9, 1.0])
 @pytest.mark.parametrize("cycle", [0.01, 0.1, 0.5])
 def test_the_interception_search_finds_the_point_a_full_scan_finds(damping, cycle):
-    cfg = DrillConfig(ball_damping=damping, cycle_seconds=cycle)
+    # Long cycles need more sub-steps and a lower control speed than the defaults'.
+    cfg = DrillConfig(ball_damping=damping, cycle_seconds=cycle,
+                      substeps=max(10, fewest_substeps(6.0, cycle, 0.5)),
+                      control_speed=min(9.0, 2.0 / cycle))
     times, travels, _, _ = _roll_table(damping, cycle)
     rng = np.random.default_rng(0)
     for _ in range(1500):

@@ -2,11 +2,18 @@
 
 from __future__ import annotations
 
+import os
+import signal
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy import stats
 
 from ilpss.experiments.holder_learning import compare_to_rule, learn_and_evaluate
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # full_disk
 
 
 def test_episodes_are_not_replicates_of_the_learnt_policy():
@@ -132,3 +139,130 @@ def test_a_kept_job_that_is_a_link_is_refused_not_followed(tmp_path, capsys):
     capsys.readouterr()
     assert _run(tmp_path, keep)[0] == 1
     assert f"{kept}: a symbolic link inside the job folder" in capsys.readouterr().err
+
+
+def _tampered(keep, kind: str, change):
+    """A kept file of ``kind`` changed by ``change(result)`` and its digest recomputed, as
+    an editor who knows the format would leave it."""
+    from ilpss._io import json_record_bytes, load_json_record
+    from ilpss.experiments.kept_jobs import JOB_SCHEMA
+
+    path = sorted(keep.glob(f"{kind}-*.json"))[0]
+    record = load_json_record(path, JOB_SCHEMA)
+    record["result"] = change(record["result"])
+    path.write_bytes(json_record_bytes(record))
+    return path
+
+
+@pytest.mark.parametrize(("kind", "change", "said"), [
+    ("learning", lambda r: {**r, "eval": [5.0, 7.0, 1.0]}, r"result\.eval must be a list of 3 "
+     r"values, each a finite number in \[-1, 1\], got \[5\.0, 7\.0, 1\.0\]"),
+    ("learning", lambda r: {**r, "eval": ["a", "b", "c"]}, r"result\.eval must be a list"),
+    ("learning", lambda r: {**r, "curve": r["curve"][:1]}, r"result\.curve must be a list of 2"),
+    ("learning", lambda r: {**r, "team": "goal_guards"}, "is the job of team 'chasers'"),
+    ("learning", lambda r: {**r, "seed": 7}, "is the job of seed"),
+    ("learning", lambda r: "hello", "must be an object, got str"),
+    ("learning", lambda r: {**r, "extra": 1}, r"unknown field\(s\) \['extra'\]"),
+    ("rule", lambda r: {**r, "rule": "pass_first" if r["rule"] != "pass_first" else "hold"},
+     "is the job of rule"),
+    ("rule", lambda r: {**r, "eval": [1.5, 0.0, 0.0]}, r"result\.eval must be a list of 3"),
+])
+def test_a_kept_result_edited_with_its_digest_recomputed_is_refused(tmp_path, capsys, kind,
+                                                                    change, said):
+    import re
+
+    keep = tmp_path / "keep"
+    assert _run(tmp_path, keep)[0] == 0
+    path = _tampered(keep, kind, change)
+    capsys.readouterr()
+    assert _run(tmp_path, keep)[0] == 1
+    err = capsys.readouterr().err
+    assert str(path) in err and re.search(said, err), err
+    assert "delete it to compute that job again" in err
+
+
+def test_a_full_disk_at_the_page_is_one_line_and_a_rerun_writes_it(tmp_path, monkeypatch,
+                                                                    capsys):
+    from full_disk import full_disk
+
+    from ilpss.experiments import holder_learning
+
+    keep, page = tmp_path / "keep", tmp_path / "learning.md"
+    monkeypatch.setattr(holder_learning, "atomic_write_bytes", full_disk(
+        holder_learning.atomic_write_bytes, at=lambda path: path == page))
+    assert _run(tmp_path, keep)[0] == 1  # not a traceback
+    err = capsys.readouterr().err.splitlines()[-1]  # after the progress bars
+    assert err.startswith(f"ilpss-holder-learning: error: the runs finished and their results "
+                          f"are kept in {keep}, but their report could not be written: ")
+    assert f"cannot write {page}: No space left on device" in err and not page.exists()
+    monkeypatch.undo()
+    calls = _counting_learner(monkeypatch)
+    assert _run(tmp_path, keep) == (0, page) and calls == []  # the page, nothing learnt again
+    assert page.is_file()
+
+
+def test_a_full_disk_at_a_kept_job_is_one_line(tmp_path, monkeypatch, capsys):
+    from full_disk import full_disk
+
+    from ilpss.experiments import kept_jobs
+
+    monkeypatch.setattr(kept_jobs, "atomic_write_bytes", full_disk())
+    assert _run(tmp_path, tmp_path / "keep")[0] == 1
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert err.splitlines()[-1].startswith(  # after the progress bar
+        f"ilpss-holder-learning: error: [Errno 28] cannot write {tmp_path / 'keep'}/learning-")
+
+
+@pytest.mark.parametrize("flag", ["--out", "--keep"])
+def test_a_path_that_is_not_utf8_is_refused_before_learning(tmp_path, monkeypatch, capsys,
+                                                            flag):
+    from ilpss.experiments import holder_learning
+    from ilpss.experiments.executor import LocalExecutor
+
+    monkeypatch.setattr(LocalExecutor, "map", lambda *a, **k: pytest.fail("it learnt"))
+    name = os.fsdecode(b"\xff")  # a byte of no UTF-8 character, as argv decodes it
+    paths = {"--out": str(tmp_path / "learning.md"), "--keep": str(tmp_path / "keep"),
+             flag: str(tmp_path / name)}
+    with pytest.raises(SystemExit) as exit_info:
+        holder_learning.main(["--teams", "chasers", "--seeds", "2", "--episodes", "2", "--eval",
+                              "3", "--workers", "1", *(x for kv in paths.items() for x in kv)])
+    assert exit_info.value.code == 2
+    assert (f"{flag} {os.fsencode(tmp_path / name)!r}: not UTF-8; the page written at the "
+            "end names it in UTF-8, so give a name in UTF-8") in capsys.readouterr().err
+
+
+def test_ctrl_c_ends_holder_learning_in_one_line_with_status_130(tmp_path, monkeypatch, capsys):
+    from ilpss.experiments import holder_learning
+
+    def learn(job):
+        raise KeyboardInterrupt  # as Ctrl-C does in the middle of a job
+
+    monkeypatch.setattr(holder_learning, "learn_and_evaluate", learn)
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        with pytest.raises(SystemExit) as exit_info:
+            _run(tmp_path, tmp_path / "keep")
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert exit_info.value.code == 130
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert err.splitlines()[-1] == (  # after the progress bar
+        "ilpss-holder-learning: stopped by Ctrl-C (SIGINT); the finished jobs are kept, and "
+        "the same command goes on from them")
+
+
+def test_jobs_failing_for_their_settings_are_not_advised_to_run_again(tmp_path, monkeypatch,
+                                                                      capsys):
+    from ilpss.experiments import holder_learning
+    from ilpss.traces import DivergedError
+
+    def diverge(job):
+        raise DivergedError("the values left the range of a float")
+
+    monkeypatch.setattr(holder_learning, "learn_and_evaluate", diverge)
+    assert _run(tmp_path, tmp_path / "keep")[0] == 1
+    err = capsys.readouterr().err
+    assert "running the same command again does not help: change the setting" in err
+    assert "computes only what is left" not in err

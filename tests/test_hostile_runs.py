@@ -150,7 +150,7 @@ def test_a_fifo_in_place_of_result_json_is_refused_at_once(tmp_path):
 
     def read() -> None:
         try:
-            _io.load_json_record(fifo, "ilpss.experiment_result/2")
+            _io.load_json_record(fifo, "ilpss.experiment_result/3")
         except BaseException as exc:
             outcome.append(exc)
 
@@ -352,8 +352,65 @@ def test_a_signal_to_the_driver_stops_its_workers_and_frees_the_run_folder(tmp_p
             pass
     finally:
         _kill_all(proc, workers)
-    if sig != signal.SIGKILL:
-        assert proc.returncode != 0
+    if sig != signal.SIGKILL:  # the shell's status for a signal, and one line
+        assert proc.returncode == 128 + sig
+        err = proc.stderr.read().decode()
+        assert "Traceback" not in err
+        assert err.startswith("ilpss-experiment: stopped by ")
+        assert err.endswith("the finished jobs are kept, and the same command goes on from "
+                            "them\n")
+
+
+def test_a_sigterm_during_a_job_run_in_the_driver_stops_the_command(monkeypatch):
+    """With one worker the jobs run in the driver: the SIGTERM handler's exit is the
+    command's, not a failure of the job it interrupted (after which the rest ran)."""
+    from ilpss.experiments.executor import LocalExecutor, Stopped, stop_on_sigterm
+
+    ran = []
+
+    def job(i):
+        ran.append(i)
+        if i == 0:
+            os.kill(os.getpid(), signal.SIGTERM)
+            _spin_briefly()  # the handler runs here
+        return i
+
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        stop_on_sigterm()
+        with pytest.raises(Stopped) as stopped:
+            LocalExecutor(1, progress=False).map(job, [0, 1, 2])
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert stopped.value.code == 143 and ran == [0]
+
+
+def _spin_briefly() -> None:
+    for _ in range(100_000):
+        pass
+
+
+@pytest.mark.parametrize("command", ["ilpss-experiment", "ilpss-demo", "ilpss-results"])
+def test_ctrl_c_ends_a_command_in_one_line_with_status_130(tmp_path, monkeypatch, capsys,
+                                                           command):
+    from ilpss.lifelong import LifelongLearner
+
+    def run_trial(self, env, name, callback=None):
+        raise KeyboardInterrupt  # as Ctrl-C does in the middle of a job
+
+    monkeypatch.setattr(LifelongLearner, "run_trial", run_trial)
+    main_module, _, arguments, _, _ = REPORTING_COMMANDS[command]
+    main = importlib.import_module(f"ilpss.experiments.{main_module}").main
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        with pytest.raises(SystemExit) as exit_info:
+            main(arguments(tmp_path))
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert exit_info.value.code == 130
+    assert capsys.readouterr().err.endswith(
+        f"{command}: stopped by Ctrl-C (SIGINT); the finished jobs are kept, and the same "
+        "command goes on from them\n")
 
 
 def test_forked_workers_do_not_hold_the_drivers_folder_lock(tmp_path):
@@ -460,6 +517,24 @@ def test_a_full_disk_at_the_report_is_a_clear_error_and_keeps_the_results(
     assert page.is_file()
 
 
+@pytest.mark.parametrize("command", REPORTING_COMMANDS)
+def test_a_folder_that_is_not_utf8_is_refused_before_any_job(tmp_path, monkeypatch, capsys,
+                                                             command):
+    from ilpss.experiments.executor import LocalExecutor
+
+    monkeypatch.setattr(LocalExecutor, "map", lambda *a, **k: pytest.fail("it ran a job"))
+    main_module, _, arguments, _, _ = REPORTING_COMMANDS[command]
+    main = importlib.import_module(f"ilpss.experiments.{main_module}").main
+    out = tmp_path / os.fsdecode(b"run\xff")  # as argv decodes a byte that is not UTF-8
+    with pytest.raises(SystemExit) as exit_info:
+        main(arguments(out))
+    assert exit_info.value.code == 2  # before: every job ran, then the page failed
+    err = capsys.readouterr().err
+    assert ": not UTF-8; the page written at the end names it in UTF-8" in err
+    assert repr(os.fsencode(out))[:-1] in err  # the folder's bytes (or a path under it)
+    assert not out.exists()
+
+
 def test_a_full_disk_at_a_result_is_a_clear_error_and_keeps_the_results_written(
         tmp_path, monkeypatch, capsys):
     from ilpss.experiments import cli
@@ -518,6 +593,23 @@ def test_compare_splits_an_item_where_a_run_folder_follows(tmp_path, monkeypatch
         split_run("A=nowhere:scratch")
 
 
+def test_compare_refuses_a_label_given_twice(tmp_path, monkeypatch, capsys):
+    from ilpss.experiments.compare import main as compare_main
+
+    monkeypatch.chdir(tmp_path)
+    for name in ("base", "one", "two"):
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "config.json").write_text("{}")
+    # Refused before any run is read: keeping the last would drop a row from the table
+    # and a run from the Holm family.
+    with pytest.raises(SystemExit) as exc:
+        compare_main(["--baseline", "base:scratch", "A=one:ilpss", "B=one:ilpss",
+                      "A=two:ilpss"])
+    assert exc.value.code == 2
+    assert ("the label 'A' is given twice ('A=one:ilpss' and 'A=two:ilpss'); every run "
+            "needs a label of its own") in capsys.readouterr().err
+
+
 def test_a_partial_config_keeps_the_experiments_defaults(tmp_path):
     path = tmp_path / "config.json"
     path.write_text(json.dumps({"protocol": "A", "lifelong": {"train_episodes": 50,
@@ -565,6 +657,23 @@ def test_learning_that_diverges_stops_at_once_naming_the_settings():
     with pytest.raises(DivergedError, match=r"SMDP learning diverged in learning episode 1: a "
                                             r"TD target of -?inf .*alpha=0.125"):
         learner.train(env, 3, seed=0)
+
+
+def test_a_job_failing_for_its_settings_is_not_advised_to_run_again(tmp_path, capsys):
+    from ilpss.experiments import cli
+
+    argv = ["--protocol", "A", "--seeds", "1", "--methods", "scratch", *_TINY, "--no-report",
+            "--set", "learner.max_decisions=1", "--out", str(tmp_path)]
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(argv)
+    assert exit_info.value.code == 1
+    err = capsys.readouterr().err
+    assert ("seed 0, stream 0: DecisionLimitError: episode exceeded max_decisions=1 "
+            "(LearnerConfig.max_decisions") in err
+    # The same command fails the same way: the advice is to change the setting elsewhere.
+    assert "run the same command again" not in err
+    assert ("running the same command again does not help: change the setting named above, "
+            "in a new run folder") in err
 
 
 # ------------------------------------------------------------ outputs checked first

@@ -651,7 +651,7 @@ def _scratch(record: dict) -> dict:
     [
         ("result.json", lambda p: p.write_text(p.read_text()[:40]), "result.json: not valid JSON"),
         ("result.json", lambda p: p.write_text(p.read_text().replace(
-            "ilpss.experiment_result/2", "ilpss.experiment_result/0")), "result.json: schema"),
+            "ilpss.experiment_result/3", "ilpss.experiment_result/0")), "result.json: schema"),
         # One character changed: the digest refuses it.
         ("result.json", lambda p: p.write_text(p.read_text().replace("-1.0", "-9.0", 1)),
          r"result.json: content checksum mismatch"),

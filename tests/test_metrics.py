@@ -228,7 +228,8 @@ def test_compare_values_by_hand():
     # p-values exactly where there is a difference to test
     with_p = {k for k, e in est.items() if not math.isnan(e.p_value)}
     assert with_p == {"jumpstart", "final_gain", "total_reward_gain", "transfer_ratio",
-                      "largest_dip_gain", "time_to_threshold_gain", "time_to_threshold_ratio"}
+                      "largest_dip_gain", "time_to_threshold_gain", "time_to_threshold_ratio",
+                      "time_to_threshold_ratio_warm"}
     # the transfer ratio's test at 1 is the total-reward gain's test at 0
     assert est["transfer_ratio"].p_value == pytest.approx(est["total_reward_gain"].p_value)
 
@@ -742,3 +743,16 @@ def _paired(rng):
 
     return Paired(rng.uniform(-1, 1, (4, 30)), rng.uniform(-1, 1, (4, 30)), first=5, last=5,
                   threshold=0.0, window=5)
+
+
+def test_reported_time_to_threshold_needs_a_full_window_the_warm_start_is_its_own_column():
+    """One lucky first episode (1.0, then failures until the method learns) gives time 1
+    with the warm start; the reported time needs a whole window at the threshold."""
+    lucky = np.array([[1.0, -1, -1, -1, -1, 1, 1, 1, 1, 1]] * 2)
+    baseline = np.array([[-1.0, -1, -1, -1, -1, -1, 1, 1, 1, 1]] * 2)
+    lucky[1, -1] = baseline[1, -1] = 0.9  # two seeds, not two copies of one
+    est = compare(lucky, baseline, first=2, last=2, threshold=0.5, window=3)
+    # full windows: transfer at 8 (episodes 6-8), baseline at 9 (7-9)
+    assert est["time_to_threshold_ratio"].value == pytest.approx(8 / 9)
+    # warm start: transfer at 1 (its first episode alone), baseline at 9
+    assert est["time_to_threshold_ratio_warm"].value == pytest.approx(1 / 9)

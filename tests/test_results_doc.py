@@ -10,6 +10,7 @@ import pytest
 from PIL import Image
 
 from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.provenance import code_record
 from ilpss.experiments.results_doc import command_for, main, parser, protocol_config
 
 pytestmark = pytest.mark.slow  # runs every protocol end to end
@@ -35,8 +36,10 @@ def test_results_doc_runs_every_protocol_and_resumes(tmp_path):
         assert f"## Protocol {protocol}:" in text
         saved = json.loads((docs / "results" / f"protocol_{protocol.lower()}_config.json")
                            .read_text())
-        cfg = ExperimentConfig.from_dict(saved)
-        assert json.loads(cfg.to_json()) == saved and cfg.protocol == protocol
+        assert saved["code"] == code_record()  # the configuration names the code it ran
+        cfg = ExperimentConfig.from_dict({k: v for k, v in saved.items() if k != "code"})
+        assert {**json.loads(cfg.to_json()), "code": code_record()} == saved
+        assert cfg.protocol == protocol
         assert saved == json.loads((runs / f"protocol_{protocol.lower()}" / "config.json")
                                    .read_text())
         assert f"(results/protocol_{protocol.lower()}_config.json)" in text

@@ -88,11 +88,17 @@ def test_fine_tuning_starts_as_the_source_policy_at_the_first_decision():
     source = _zone_policy(Y)
     learner = SmdpLearner(3, _coder(), None, LC, seed=0)
     LatestPast().start(learner, [_zone_policy(X), source], MappedCorridor(COMPOSED), seed=0)
+    _assert_acts_as(learner, source, learner_seed=0)
+
+
+def _assert_acts_as(learner: SmdpLearner, policy: FrozenPolicy, learner_seed: int) -> None:
+    """``learner`` holds ``policy``'s values and plays its first episode on the target
+    exactly as ``policy`` does."""
     for x in np.arange(0.25, 9.0, 0.5):
         s = np.array([x])
-        np.testing.assert_array_equal(learner.q.q_values(s), source.q_values(s))
+        np.testing.assert_array_equal(learner.q.q_values(s), policy.q_values(s))
     first = learner.run_episode(MappedCorridor(COMPOSED), learn=False, seed=3)
-    replay = SmdpLearner.from_policy(source, None, LC, seed=0).run_episode(
+    replay = SmdpLearner.from_policy(policy, None, LC, seed=learner_seed).run_episode(
         MappedCorridor(COMPOSED), learn=False, seed=3)
     assert first.choices == replay.choices
 
@@ -251,8 +257,10 @@ def test_steps_inside_an_option_bootstrap_only_from_choices_available_there():
     the choices available at the next state, as a choice point does, does not."""
     every = _highest_primitive_values(step_targets="every_choice")
     available = _highest_primitive_values(step_targets="available_choices")
+    primitives = _highest_primitive_values(step_targets="primitive_choices")
     assert min(every) > 1.15, every
     assert max(available) < 1.1, available
+    assert max(primitives) < 1.1, primitives
 
 
 def test_options_valued_from_their_policies_primitives_do_not_inherit_its_options_values():
@@ -333,3 +341,78 @@ def test_an_options_error_reaches_the_choices_before_it_only_with_kept_traces(op
         learner._td_update = traced
         learner.train(MappedCorridor(X, cost=0.02, start_high=0.5), 5, seed=seed)
     assert (reached > 0) == (option_traces == "kept"), reached
+
+
+# ------------------------------------------------------------------ the controls
+def test_the_best_of_the_recent_sources_tries_only_those_and_costs_no_more():
+    env = MappedCorridor(Y, cost=0.02)
+    # The best source is the oldest: a choice among the 2 latest does not see it.
+    policies = [_zone_policy(Y), _zone_policy(X), _zone_policy(X)]
+    every = SmdpLearner(3, _coder(), None, LC, seed=0)
+    all_spent = BestOfPast(episodes=5).start(every, policies, env, seed=11)
+    recent = SmdpLearner(3, _coder(), None, LC, seed=0)
+    spent = BestOfPast(episodes=5, recent=2).start(recent, policies, env, seed=11)
+    assert len(all_spent) == 15 and len(spent) == 10
+    np.testing.assert_array_equal(every.q.weights, policies[0].weights)
+    np.testing.assert_array_equal(recent.q.weights, policies[2].weights)
+    # each tried source plays the episodes it plays when all are tried
+    assert [e.total_reward for e in spent] == [e.total_reward for e in all_spent[5:]]
+    with pytest.raises(ValueError, match=r"BestOfPast\.recent"):
+        BestOfPast(recent=0)
+
+
+def test_the_bounded_fine_tuning_control_clips_every_target_into_the_bounds(monkeypatch):
+    """The control of the bounded methods is fine-tuning with their base learner: from a
+    source valued at 5 where the corridor pays at most 1, every target it learns towards
+    lies within the bounds, where fine-tuning without them learns towards values above."""
+    from types import SimpleNamespace
+
+    from ilpss.experiments.config import ExperimentConfig
+    from ilpss.experiments.methods import METHODS, FineTuneMethod
+
+    coder = _coder()
+    valued = FrozenPolicy(coder, 3, (), np.full((3, coder.n_weights), 5.0 / coder.n_active))
+    scratch = SimpleNamespace(n_primitive=3, tile_coder=coder, policies=[valued])
+    cfg = ExperimentConfig().with_overrides(lifelong={"train_episodes": 10,
+                                                      "learner": LC.__dict__})
+    targets = []
+    update = SmdpLearner._td_update
+
+    def spied(self, traces, active, choice, target, *args):
+        targets.append(target)
+        return update(self, traces, active, choice, target, *args)
+
+    monkeypatch.setattr(SmdpLearner, "_td_update", spied)
+    highest = {}
+    for name in ("finetune", "finetune_bounded"):
+        targets.clear()
+        method = METHODS.get(name)
+        assert isinstance(method, FineTuneMethod)
+        method.learn_target(cfg, 0, scratch, 1, MappedCorridor(X, cost=0.02))
+        highest[name] = max(targets)
+    assert highest["finetune"] > 1.5 and highest["finetune_bounded"] <= 1.0
+    candidate = METHODS.get("whole_policies_ft_bounded_cut").config(cfg.lifelong).learner
+    assert METHODS.get("finetune_bounded").value_bounds == candidate.value_bounds
+
+
+def test_chained_fine_tuning_starts_each_task_from_its_own_latest_policy():
+    """``finetune_chained`` is the lifelong loop with the ``finetune_latest`` reuse: the
+    learner of each task starts from the policy it learnt on the task before (itself
+    fine-tuned), and acts at its first decision exactly as that policy."""
+    from ilpss.experiments.config import ExperimentConfig
+    from ilpss.experiments.methods import METHODS
+
+    base = ExperimentConfig().lifelong
+    config = METHODS.get("finetune_chained").config(base)
+    assert config.options == "finetune_latest" and not config.reuse.offers_options
+    bounded = METHODS.get("finetune_chained_bounded").config(base)
+    assert bounded.learner.value_bounds is not None
+
+    small = replace(config, train_episodes=15, rollout_episodes=2, learner=LC)
+    lifelong = LifelongLearner(small, MappedCorridor(X).observation_space, 3, seed=0)
+    lifelong.run_trial(MappedCorridor(X, cost=0.02), "x")
+    lifelong.run_trial(MappedCorridor(Y, cost=0.02), "y")  # starts from the policy on x
+    previous = lifelong.policies[-1]
+    learner = lifelong.make_learner(5)
+    small.reuse.start.start(learner, lifelong.policies, MappedCorridor(COMPOSED), seed=0)
+    _assert_acts_as(learner, previous, learner_seed=5)

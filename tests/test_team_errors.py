@@ -71,12 +71,28 @@ def _raises_keyboard_interrupt(players):
     raise KeyboardInterrupt
 
 
+def _waiting():
+    yield
+
+
+def _throws_keyboard_interrupt(players):
+    waiting = _waiting()
+    next(waiting)
+    waiting.throw(KeyboardInterrupt)  # raised at the generator's yield, not at a raise
+
+
+def _throws_keyboard_interrupt_into_a_new_generator(players):
+    _waiting().throw(KeyboardInterrupt)
+
+
 @pytest.mark.parametrize("kind", KINDS)
 @pytest.mark.parametrize(("behave", "message"), [
     (_exits, r"team '_Acting' raised in act\(\) at cycle 1: it called sys\.exit\(3\) \(SystemExit\); "
              r"a team must not end the program"),
-    (_raises_keyboard_interrupt, r"team '_Acting' raised in act\(\) at cycle 1: it raised "
-                                 r"KeyboardInterrupt itself \(not a Ctrl-C"),
+    *((raising, r"team '_Acting' raised in act\(\) at cycle 1: it raised KeyboardInterrupt "
+                r"itself \(not a Ctrl-C")
+      for raising in (_raises_keyboard_interrupt, _throws_keyboard_interrupt,
+                      _throws_keyboard_interrupt_into_a_new_generator)),
 ])
 def test_a_teams_system_exit_and_keyboard_interrupt_are_its_errors(kind, behave, message):
     env = _make(kind, _Acting(behave))

@@ -24,9 +24,9 @@ from ilpss._io import FolderInUseError
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.drill import TEAM_ERROR, drill_exception
-from ilpss.experiments.executor import stop_on_sigterm
+from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.methods import METHODS
-from ilpss.experiments.outputs import unwritten_report
+from ilpss.experiments.outputs import check_utf8, unwritten_report
 from ilpss.experiments.protocols import PROTOCOLS
 from ilpss.experiments.run import JobError, read_config, run_experiment
 
@@ -121,6 +121,9 @@ def parser() -> argparse.ArgumentParser:
                    help="where the checkpoints go (default: the run folder); on a cluster, a "
                    "path or URI every node reaches (s3://..., gs://..., file:///...)")
     p.add_argument("--out", required=True, help="output folder (one per run)")
+    p.add_argument("--allow-mixed-code", action="store_true",
+                   help="resume a run folder whose results were made by other code (refused "
+                   "otherwise); the report names every version of the code it mixes")
     p.add_argument("--no-report", action="store_true", help="skip figures and tables")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     return p
@@ -128,9 +131,16 @@ def parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the experiment and write its report."""
+    with stopped_in_one_line("ilpss-experiment"):  # Ctrl-C or SIGTERM: one line, 130 or 143
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     p = parser()
     args = p.parse_args(argv)
     try:
+        if not args.no_report:
+            check_utf8(args)
         cfg = build_config(args)
     except OSError as exc:
         p.error(f"--config {args.config}: {exc.strerror or exc}")
@@ -145,7 +155,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         results = run_experiment(cfg, args.out, progress=not args.quiet,
                                  ray_address=args.ray_address,
-                                 on_done=None if args.quiet else _say_resumed)
+                                 on_done=None if args.quiet else _say_resumed,
+                                 allow_mixed_code=args.allow_mixed_code)
     except (FolderInUseError, StorageError, JobError, ValueError, OSError,
             drill_exception(TEAM_ERROR)) as exc:
         # another run's folder, a bad file, a failed job, a full disk (naming the file), a

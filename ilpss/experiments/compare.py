@@ -3,11 +3,11 @@
     ilpss-compare --baseline results/protocol_a:scratch \\
         "ILPSS=results/protocol_a:ilpss" "K = 1=results/variant_k1:ilpss"
 
-Each run is ``LABEL=FOLDER:METHOD`` (a folder written by ``ilpss-experiment``). Runs are
-compared on the targets of every stream (each seed's curves averaged over them, when
-there are several: protocol A with targets, R, and B's held-out teams, pooled as the
-reports pool them) over the seeds whose every stream every run and the baseline
-finished, with :func:`ilpss.metrics.compare` (Student t intervals over the
+Each run is ``LABEL=FOLDER:METHOD`` (a folder written by ``ilpss-experiment``), with a
+label of its own. Runs are compared on the targets of every stream (each seed's curves
+averaged over them, when there are several: protocol A with targets, R, and B's held-out
+teams, pooled as the reports pool them) over the seeds whose every stream every run and
+the baseline finished, with :func:`ilpss.metrics.compare` (Student t intervals over the
 paired seeds, Fieller for the time ratio) on the headline metrics of every report
 (:func:`ilpss.metrics.headline_metrics`), using the windows and threshold of the
 experiment reports (:mod:`ilpss.experiments.report`). The jumpstart and total-reward
@@ -36,6 +36,7 @@ from ilpss import metrics
 from ilpss._io import json_differences
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.folder import RunFolder
+from ilpss.experiments.provenance import check_same_code, code_line
 from ilpss.experiments.report import PRIMARY, interval_text, threshold_for, windows
 from ilpss.experiments.run import load_result, read_config
 
@@ -86,16 +87,21 @@ def _streams_of(cfg: ExperimentConfig, seed: int) -> dict[str, Any]:
                         for i, stream in enumerate(cfg.streams(seed))}}
 
 
-def target_curves(folder: Path, method: str) -> dict[int, tuple[list[float], list[dict]]]:
+def target_curves(
+    folder: Path, method: str, codes: dict[str, tuple[dict, str]] | None = None,
+) -> dict[int, tuple[list[float], list[dict]]]:
     """``{seed: (curve on the targets of every stream, averaged over them, that method's
-    result on each stream)}``, for the seeds whose every stream is finished."""
-    return _target_curves(folder, method)[0]
+    result on each stream)}``, for the seeds whose every stream is finished; the code of
+    every result read is added to ``codes`` (by its digest: the code and a file)."""
+    return _target_curves(folder, method, codes)[0]
 
 
 def _target_curves(
-    folder: Path, method: str
+    folder: Path, method: str, codes: dict[str, tuple[dict, str]] | None = None,
 ) -> tuple[dict[int, tuple[list[float], list[dict]]], dict[int, dict[str, Any]]]:
-    """:func:`target_curves` and, per seed, what it was compared on (:func:`_streams_of`)."""
+    """:func:`target_curves` and, per seed, what it was compared on (:func:`_streams_of`);
+    the code of every result read is added to ``codes`` (by its digest: the code and the
+    first file that had it)."""
     run = RunFolder(folder)
     config = run.config
     if not config.is_file():
@@ -110,6 +116,8 @@ def _target_curves(
         curves, data = [], []
         for i, (path, stream) in enumerate(zip(paths, seed_streams, strict=True)):
             result = load_result(path, cfg, seed, i, stream)  # checked, clear errors
+            if codes is not None:
+                codes.setdefault(result["code"]["source_digest"], (result["code"], str(path)))
             if method not in result["methods"]:
                 raise ValueError(
                     f"{path}: no method {method!r}; it has {sorted(result['methods'])}")
@@ -124,7 +132,8 @@ def _target_curves(
     return out, streams
 
 
-def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]]) -> list[str]:
+def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]], *,
+                 allow_mixed_code: bool = False) -> list[str]:
     """The markdown table comparing every run with the baseline, and the best of them.
 
     Raises
@@ -132,11 +141,15 @@ def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]]) 
     ValueError
         If a run's stream differs from the baseline's on a seed both finished (other
         tasks, target, environment or budget): its curves would not be paired.
+    MixedCodeError
+        If the results compared were made by different code (naming two of them), unless
+        ``allow_mixed_code``: then the table's note names every code.
     """
-    base, base_streams = _target_curves(*baseline)
+    codes: dict[str, tuple[dict, str]] = {}
+    base, base_streams = _target_curves(*baseline, codes)
     loaded = {}
     for label, spec in runs.items():
-        loaded[label], streams = _target_curves(*spec)
+        loaded[label], streams = _target_curves(*spec, codes)
         for seed in sorted(set(streams) & set(base_streams)):
             diffs = json_differences(base_streams[seed], streams[seed])
             if diffs:
@@ -145,6 +158,10 @@ def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]]) 
                     f"learns on seed {seed}: {'; '.join(diffs[:3])} (baseline first); only "
                     "runs of the same stream, target and budget can be paired by seed"
                 )
+    if len(codes) > 1:
+        (first_code, first_file), (other_code, other_file) = list(codes.values())[:2]
+        check_same_code(other_code, other_file, allow=allow_mixed_code, current=first_code,
+                        current_where=first_file)
     seeds = sorted(set(base).intersection(*(set(r) for r in loaded.values())))
     if len(seeds) < 2:
         raise ValueError(f"need at least 2 seeds finished by every run, got {seeds}")
@@ -157,7 +174,7 @@ def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]]) 
         if c.shape != b.shape:
             raise ValueError(f"{label}: curves of shape {c.shape}, baseline {b.shape}")
         estimates[label] = metrics.compare(c, b, first=first, last=last, threshold=threshold,
-                                           window=window, warmup=True)
+                                           window=window)
         gains[label] = metrics.per_seed_gains(c, b, first=first, last=last)
         used[label] = np.mean([np.mean([entry.get("options_used", [0])[-1]
                                         for entry in by_seed[s][1]]) for s in seeds])
@@ -174,6 +191,8 @@ def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]]) 
         "restricted mean times to threshold, censored at the budget). p: the paired t-test, "
         f"Holm-adjusted across the {k} runs x {len(PRIMARY)} endpoints (jumpstart, total-reward "
         "gain).",
+        "",
+        code_line({"code": code} for code, _ in codes.values()),
         "",
         "| run | " + " | ".join(head) + " | seeds reaching the threshold | options used by "
         "the greedy policy at the target |",
@@ -207,13 +226,23 @@ def main(argv: Sequence[str] | None = None) -> int:
                                 epilog=__doc__)
     p.add_argument("--baseline", required=True, help="FOLDER:METHOD, e.g. results/protocol_a:scratch")
     p.add_argument("runs", nargs="+", help="LABEL=FOLDER:METHOD")
+    p.add_argument("--allow-mixed-code", action="store_true",
+                   help="compare results made by different code (refused otherwise); the "
+                   "table's note names every version of the code")
     args = p.parse_args(argv)
     try:
-        runs = {}
+        runs, items = {}, {}
         for item in args.runs:
             label, folder, method = split_run(item)
-            runs[label] = (folder, method)
-        print("\n".join(compare_runs(_parse(args.baseline), runs)))
+            if label in runs:
+                # A second entry would replace the first one's row and shrink the Holm
+                # family without a word.
+                raise ValueError(
+                    f"the label {label!r} is given twice ({items[label]!r} and {item!r}); "
+                    "every run needs a label of its own (it names the run's row)")
+            runs[label], items[label] = (folder, method), item
+        print("\n".join(compare_runs(_parse(args.baseline), runs,
+                                     allow_mixed_code=args.allow_mixed_code)))
     except (ValueError, OSError, KeyError) as exc:
         p.error(str(exc))
     return 0

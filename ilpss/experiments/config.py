@@ -83,8 +83,12 @@ class ExperimentConfig:
     """Seeds are ``first_seed .. first_seed + n_seeds - 1``."""
     methods: tuple[str, ...] = ("ilpss", "scratch", "whole_policies", "prq", "ilpss_plus",
                                 "whole_policies_plus", "finetune", "finetune_best", "ilpss_ft",
-                                "whole_policies_ft")
-    """Registered methods to run (:data:`~ilpss.experiments.methods.METHODS`)."""
+                                "whole_policies_ft", "finetune_bounded", "finetune_chained",
+                                "finetune_chained_bounded", "finetune_best_recent")
+    """Registered methods to run (:data:`~ilpss.experiments.methods.METHODS`): by default
+    the paper's, the transfer baselines a reviewer asks for first and their controls (the
+    same learner with bounded values, chained starts, a choice among the recent sources
+    only)."""
     env_id: str = drill.ENV_ID
     """Gymnasium id of the environment (see :func:`~ilpss.experiments.registry.check_env_id`)."""
     teams: tuple[str, ...] = drill.PAPER_TEAMS

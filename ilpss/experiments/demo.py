@@ -28,7 +28,7 @@ from ilpss._io import FolderInUseError, atomic_write_bytes
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.drill import TEAM_ERROR, drill_exception
-from ilpss.experiments.executor import stop_on_sigterm
+from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.figures import (
     greedy_agent,
     greedy_runs,
@@ -37,7 +37,7 @@ from ilpss.experiments.figures import (
 )
 from ilpss.experiments.folder import RunFolder
 from ilpss.experiments.methods import METHODS, FineTuneMethod, LifelongMethod
-from ilpss.experiments.outputs import check_out_dir, unwritten_report
+from ilpss.experiments.outputs import check_out_dir, check_utf8, unwritten_report
 from ilpss.experiments.protocols import make_env
 from ilpss.experiments.report import label, write_report
 from ilpss.experiments.run import JobError, run_experiment
@@ -69,6 +69,11 @@ def demo_methods() -> tuple[str, ...]:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the small protocol A and write its report, kernels picture and GIFs."""
+    with stopped_in_one_line("ilpss-demo"):  # Ctrl-C or SIGTERM: one line, 130 or 143
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = argparse.ArgumentParser(prog="ilpss-demo", description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=6)
     parser.add_argument("--episodes", type=int, default=300)
@@ -77,6 +82,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     command = "ilpss-demo " + shlex.join(sys.argv[1:] if argv is None else list(argv))
     try:  # the output folder, the configuration and the method shown, before any work
+        check_utf8(args)
         check_out_dir(args.out)
         cfg = ExperimentConfig(protocol="A", n_seeds=args.seeds, workers=args.workers,
                                methods=demo_methods(), featured="ilpss").with_overrides(

@@ -10,7 +10,7 @@ import os
 import signal
 import socket
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from typing import Any, Protocol
 
@@ -18,6 +18,12 @@ from tqdm.auto import tqdm
 
 from ilpss._check import OneOf, check
 from ilpss._io import release_inherited_locks
+from ilpss.episode import DecisionLimitError
+from ilpss.traces import DivergedError
+
+SETTINGS_ERRORS = (DecisionLimitError, DivergedError)
+"""What a job raises because of its settings (a learner's bound too small, a step size
+that diverges): running it again with the same settings raises it again."""
 
 EXECUTOR = OneOf(("local", "ray"))
 """Where jobs run (``ExperimentConfig.executor`` is checked with it)."""
@@ -156,6 +162,8 @@ class LocalExecutor:
                 for i, item in enumerate(items):
                     try:
                         result = fn(item)
+                    except Stopped:
+                        raise  # a signal to the command, not this job's sys.exit()
                     except (Exception, SystemExit) as exc:
                         failures[i] = _failure(exc)
                         continue
@@ -271,15 +279,36 @@ class RayExecutor:
         self._ray.shutdown()
 
 
+class Stopped(SystemExit):
+    """A signal stopped the command (``SIGTERM``, or ``SIGINT``: Ctrl-C); its code is
+    ``128 + signum``, the shell's status for a process a signal ended. A ``SystemExit``,
+    so that it ends the program, but never taken for a job's own ``sys.exit()``."""
+
+
 def stop_on_sigterm() -> None:
     """Make ``SIGTERM`` (``kill PID``) end the command as Ctrl-C would, by raising
-    ``SystemExit`` in it: the running jobs are terminated with it, and the same command
+    :class:`Stopped` in it: the running jobs are terminated with it, and the same command
     resumes the run. (Without this, ``SIGTERM`` ends the process with no clean-up.)"""
     signal.signal(signal.SIGTERM, _exit_on_signal)
 
 
 def _exit_on_signal(signum: int, frame: object) -> None:
-    raise SystemExit(128 + signum)
+    raise Stopped(128 + signum)
+
+
+@contextlib.contextmanager
+def stopped_in_one_line(prog: str) -> Iterator[None]:
+    """Around a command's work (with :func:`stop_on_sigterm`): Ctrl-C (``SIGINT``) and
+    ``SIGTERM`` end it with one line on stderr and status 130 or 143, not a traceback.
+    The running jobs are terminated on the way, and what finished is kept."""
+    try:
+        yield
+    except (KeyboardInterrupt, Stopped) as exc:
+        signum = exc.code - 128 if isinstance(exc, Stopped) else signal.SIGINT
+        name = "Ctrl-C (SIGINT)" if signum == signal.SIGINT else signal.Signals(signum).name
+        sys.stderr.write(f"{prog}: stopped by {name}; the finished jobs are kept, and the "
+                         "same command goes on from them\n")
+        raise Stopped(128 + signum) from None
 
 
 def check_ray_address(address: str | None, timeout: float = 5.0) -> None:

@@ -43,7 +43,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from ilpss._check import Integer, ListOf, Text, check_fields
+from ilpss._check import Integer, ListOf, Real, Text, check_fields, check_keys
 from ilpss._io import (
     FolderInUseError,
     atomic_write_bytes,
@@ -53,6 +53,7 @@ from ilpss._io import (
 from ilpss.experiments.config import EXPERIMENT_CONSTRAINTS
 from ilpss.experiments.drill import (
     ENV_ID,
+    EPISODE_REWARD,
     HOLDER_RULES,
     PAPER_TEAMS,
     TEAM_CODE,
@@ -61,9 +62,15 @@ from ilpss.experiments.drill import (
     drill_exception,
     drill_object,
 )
-from ilpss.experiments.executor import LocalExecutor
+from ilpss.experiments.executor import LocalExecutor, stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.kept_jobs import KeptJobs, KeptJobsFailed, run_kept
-from ilpss.experiments.outputs import check_out_dir, check_out_file
+from ilpss.experiments.outputs import (
+    check_out_dir,
+    check_out_file,
+    check_utf8,
+    unwritten_report,
+)
+from ilpss.experiments.provenance import code_line
 from ilpss.lifelong import LIFELONG_CONSTRAINTS, LearnerConfig
 from ilpss.metrics import holm, improvement_test, t_interval, t_test_pvalue, wilson_interval
 from ilpss.smdp import SmdpLearner
@@ -140,6 +147,35 @@ def rule_key(job: tuple[str, str, str, int]) -> dict[str, Any]:
             "eval": n_eval, "eval_seed": EVAL_SEED}
 
 
+def _check_result(where: str, result: Any, fields: dict[str, Any],
+                  series: dict[str, int]) -> None:
+    """A kept result: an object of ``fields`` (each the value its key gives) and
+    ``series`` (each a list of that many episode rewards, within the drill's range)."""
+    if not isinstance(result, dict):
+        raise ValueError(f"{where} must be an object, got {type(result).__name__}")
+    check_keys(where, result, (*fields, *series))
+    for name, expected in fields.items():
+        if result[name] != expected:
+            raise ValueError(f"{where}.{name} is {result[name]!r}, but the file is the job "
+                             f"of {name} {expected!r}")
+    check_fields(where, result, {name: ListOf(Real(*EPISODE_REWARD), n, n)
+                                 for name, n in series.items()}, dict.get)
+
+
+def check_learning_result(where: str, key: dict[str, Any], result: Any) -> None:
+    """A kept learning job's result is the key's team and seed, its curve and evaluation
+    as long as the key says, every reward one the drill can pay."""
+    _check_result(where, result, {"team": key["team"], "seed": key["seed"]},
+                  {"curve": key["episodes"], "eval": key["eval"]})
+
+
+def check_rule_result(where: str, key: dict[str, Any], result: Any) -> None:
+    """A kept rule evaluation is the key's team and rule, as many rewards as the key's
+    evaluation episodes, each one the drill can pay."""
+    _check_result(where, result, {"team": key["team"], "rule": key["rule"]},
+                  {"eval": key["eval"]})
+
+
 def rule_rewards(job: tuple[str, str, str, int]) -> dict[str, Any]:
     """Rewards of one fixed rule against one team on the evaluation seeds."""
     team, spec, name, n_eval = job
@@ -187,6 +223,9 @@ def command(p: argparse.ArgumentParser, args: argparse.Namespace) -> str:
     for dest, value in vars(args).items():  # in the parser's order of flags
         if dest not in LEARNING_FLAGS and value == p.get_default(dest):
             continue
+        if isinstance(value, bool):  # a switch (store_true), shown only when on
+            argv.append(f"--{dest.replace('_', '-')}")
+            continue
         values = value if isinstance(value, list) else [value]
         argv += [f"--{dest.replace('_', '-')}", *(_shown(v) for v in values)]
     return shlex.join(argv)
@@ -220,14 +259,23 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--keep", default="results/holder_learning", metavar="DIR",
                    help="folder where each finished job is kept as it ends; the same command "
                         "loads them and computes only what is left (default: %(default)s)")
+    p.add_argument("--allow-mixed-code", action="store_true",
+                   help="use kept jobs that other code computed (refused otherwise); the "
+                   "page names every version of the code it mixes")
     return p
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the comparison and write its markdown page."""
+    with stopped_in_one_line("ilpss-holder-learning"):  # Ctrl-C, SIGTERM: one line
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     p = parser()
     args = p.parse_args(argv)
     try:  # before hours of learning, not after
+        check_utf8(args)
         check_fields("", args, {f"--{name}": c for name, c in FLAG_CONSTRAINTS.items()},
                      get=lambda a, flag: getattr(a, flag[2:]))
         out = check_out_file(args.out)
@@ -242,21 +290,23 @@ def main(argv: Sequence[str] | None = None) -> int:
         p.error(str(exc))
     except (ImportError, AttributeError) as exc:
         p.error(f"--rules {args.rules}: {exc}")
+    stop_on_sigterm()
     start = time.perf_counter()
     pool = LocalExecutor(args.workers)
-    kept = KeptJobs(keep)
+    kept = KeptJobs(keep, allow_mixed_code=args.allow_mixed_code)
     try:
         with locked_folder(keep, "job folder"):
             remove_stale_temporaries(keep)
             learnt, loaded = run_kept(
                 pool, learn_and_evaluate,
                 [(t, s, args.episodes, args.eval, lc) for t in args.teams for s in range(args.seeds)],
-                "learning", learning_key, kept, desc="learning")
+                "learning", learning_key, kept, desc="learning", check=check_learning_result)
             fixed, loaded_rules = run_kept(
                 pool, rule_rewards,
                 [(t, args.rules, n, args.eval) for t in args.teams for n in names],
-                "rule", rule_key, kept, desc="fixed rules")
-    except (KeptJobsFailed, FolderInUseError, ValueError) as exc:
+                "rule", rule_key, kept, desc="fixed rules", check=check_rule_result)
+    except (KeptJobsFailed, FolderInUseError, ValueError, OSError) as exc:
+        # OSError: a full disk while a job is kept, naming the file (the others stay kept)
         print(f"ilpss-holder-learning: error: {exc}", file=sys.stderr)
         return 1
     took = f"{(time.perf_counter() - start) / 60:.1f} min with {args.workers} worker(s)"
@@ -280,6 +330,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"{args.seeds} learning seeds per team. Evaluation: the greedy policy of each seed "
         f"and every fixed rule on the same {args.eval} episode seeds (unseen in learning); "
         "the best rule is the one with the highest mean reward on them.",
+        "",
+        code_line({"code": code} for code in kept.codes.values()),
         "",
         "How it is compared: the learning seed is the unit. For each seed, the mean over "
         f"the {args.eval} episodes of (learnt reward - rule reward) on the same episode "
@@ -323,7 +375,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     for t, c in curves.items():
         cells = [f"{np.mean(c[i:i + 100]):+.2f}" for i in blocks]
         lines.append(f"| {t} | " + " | ".join(cells) + " |")
-    atomic_write_bytes(out, ("\n".join(lines) + "\n").encode())
+    try:
+        atomic_write_bytes(out, ("\n".join(lines) + "\n").encode())
+    except OSError as exc:  # a full disk: every job is kept, and a rerun writes the page
+        print(f"ilpss-holder-learning: error: {unwritten_report(keep, exc)}", file=sys.stderr)
+        return 1
     print("\n".join(lines))
     return 0
 

@@ -7,7 +7,12 @@ SHA-256, :func:`ilpss._io.json_record_bytes`) holding the key and the result, wr
 atomically. A later run with the same key loads it instead of computing it again; a
 run with other settings has other keys, so it never takes another run's results. The
 file names come from the digest alone, and a kept file that is a symbolic link is
-refused: nothing leads a read or a write outside the folder.
+refused: nothing leads a read or a write outside the folder. Each file records the code
+that computed it (:func:`~ilpss.experiments.provenance.code_record`): a result of other
+code is refused naming both, unless mixing is allowed (then :attr:`KeptJobs.codes` names
+every code the results came from), and a command's ``check`` of each result (types,
+lengths, ranges, and that it is the key's job) refuses a file whose digest was
+recomputed after an edit.
 
 :func:`run_kept` is the loop a command uses: it loads what is kept, runs the rest on an
 executor and keeps each result as it arrives, so that a job that fails, or a stop,
@@ -29,11 +34,16 @@ from ilpss._io import (
     json_record_bytes,
     load_json_record,
 )
-from ilpss.experiments.executor import JobsFailed
+from ilpss.experiments.executor import SETTINGS_ERRORS, JobsFailed
+from ilpss.experiments.provenance import check_code_field, check_same_code, code_record
 
-__all__ = ["JOB_SCHEMA", "KeptJobs", "KeptJobsFailed", "run_kept"]
+__all__ = ["JOB_SCHEMA", "KeptJobs", "KeptJobsFailed", "ResultCheck", "run_kept"]
 
-JOB_SCHEMA = "ilpss.kept_job/1"
+JOB_SCHEMA = "ilpss.kept_job/2"
+
+ResultCheck = Callable[[str, Mapping[str, Any], Any], None]
+"""``check(where, key, result)``: raises ``ValueError`` (naming ``where``) if ``result`` is
+not what the job ``key`` returns."""
 
 
 class KeptJobsFailed(RuntimeError):
@@ -47,24 +57,39 @@ class KeptJobs:
     ----------
     folder : str or os.PathLike
         An existing folder (the caller checks and locks it).
+    allow_mixed_code : bool, default False
+        Load results that other code computed (refused otherwise).
+
+    Attributes
+    ----------
+    codes : dict
+        By its digest, every code that made what a page of these results shows: this
+        process's, and that of every result loaded.
     """
 
-    def __init__(self, folder: str | os.PathLike[str]) -> None:
+    def __init__(self, folder: str | os.PathLike[str], *, allow_mixed_code: bool = False) -> None:
         self.folder = Path(folder)
+        self.allow_mixed_code = allow_mixed_code
+        current = code_record()
+        self.codes: dict[str, dict[str, Any]] = {current["source_digest"]: current}
 
     def path(self, kind: str, key: Mapping[str, Any]) -> Path:
         """Where the result of the job ``key`` of ``kind`` is kept."""
         digest = hashlib.sha256(canonical_json(key).encode()).hexdigest()[:20]
         return self.folder / f"{kind}-{digest}.json"
 
-    def load(self, kind: str, key: Mapping[str, Any]) -> Any | None:
-        """The kept result of the job ``key`` (``None`` if it is not kept).
+    def load(self, kind: str, key: Mapping[str, Any], check: ResultCheck | None = None
+             ) -> Any | None:
+        """The kept result of the job ``key`` (``None`` if it is not kept), checked by
+        ``check`` if given.
 
         Raises
         ------
         ValueError
-            Naming the file: damaged, modified, or holding another job (delete the file
-            to compute that job again).
+            Naming the file: damaged, modified, holding another job or a result that
+            ``check`` refuses (delete the file to compute that job again).
+        MixedCodeError
+            Other code computed it (naming both), unless mixing is allowed.
         """
         path = self.path(kind, key)
         if not path.exists() and not path.is_symlink():
@@ -74,13 +99,19 @@ class KeptJobs:
             record = load_json_record(path, JOB_SCHEMA)
             if record.get("kind") != kind or canonical_json(record.get("key")) != canonical_json(key):
                 raise ValueError(f"{path}: holds the result of another job")
+            code = check_code_field(str(path), record.get("code"))
+            if check is not None:
+                check(f"{path}: result", key, record.get("result"))
         except ValueError as exc:
             raise ValueError(f"{exc}; delete it to compute that job again") from None
+        check_same_code(code, str(path), allow=self.allow_mixed_code)
+        self.codes.setdefault(code["source_digest"], code)
         return record["result"]
 
     def save(self, kind: str, key: Mapping[str, Any], result: Any) -> None:
-        """Keep ``result`` (JSON-ready) of the job ``key``, atomically."""
-        record = {"schema": JOB_SCHEMA, "kind": kind, "key": dict(key), "result": result}
+        """Keep ``result`` (JSON-ready) of the job ``key``, atomically, with this code."""
+        record = {"schema": JOB_SCHEMA, "kind": kind, "key": dict(key), "result": result,
+                  "code": code_record()}
         atomic_write_bytes(self.path(kind, key), json_record_bytes(record))
 
 
@@ -92,17 +123,18 @@ def run_kept(
     key: Callable[[Any], Mapping[str, Any]],
     kept: KeptJobs,
     desc: str = "",
+    check: ResultCheck | None = None,
 ) -> tuple[list[Any], int]:
-    """``[fn(job) for job in jobs]``: the kept results loaded, the others computed on
-    ``executor`` (``map(fn, items, desc, done)``) and kept as each arrives. Returns the
-    results, in job order, and how many were loaded.
+    """``[fn(job) for job in jobs]``: the kept results loaded (each checked by ``check``,
+    if given), the others computed on ``executor`` (``map(fn, items, desc, done)``) and
+    kept as each arrives. Returns the results, in job order, and how many were loaded.
 
     Raises
     ------
     KeptJobsFailed
         After every other job finished and was kept, naming the failed jobs' keys.
     """
-    results = [kept.load(kind, key(job)) for job in jobs]
+    results = [kept.load(kind, key(job), check) for job in jobs]
     todo = [i for i, r in enumerate(results) if r is None]
 
     def done(k: int, result: Any) -> None:
@@ -114,10 +146,14 @@ def run_kept(
     except JobsFailed as exc:
         failed = "; ".join(f"{_named(key(jobs[todo[k]]))}: {type(e).__name__}: {e}"
                            for k, e in exc.failures.items())
+        if all(isinstance(e, SETTINGS_ERRORS) for e in exc.failures.values()):
+            advice = ("they fail the same way with these settings, so running the same "
+                      "command again does not help: change the setting named above")
+        else:
+            advice = "the same command computes only what is left"
         raise KeptJobsFailed(
             f"{len(exc.failures)} of {len(jobs)} {kind} job(s) failed ({failed}); the "
-            f"{len(jobs) - len(exc.failures)} others are kept in {kept.folder}, and the same "
-            "command computes only what is left"
+            f"{len(jobs) - len(exc.failures)} others are kept in {kept.folder}; {advice}"
         ) from exc
     return results, len(jobs) - len(todo)
 

@@ -303,6 +303,9 @@ class FineTuneMethod(Method):
     label: str
     start: StartRule = field(default_factory=LatestPast)
     """How the source policy is chosen."""
+    value_bounds: tuple[float, float] | None = None
+    """The learner's ``value_bounds`` (``None``: the base configuration's): the control of
+    the methods whose targets are clipped, with the same base learner but no option."""
     reuses: tuple[str, ...] = ("scratch",)
 
     def run(self, job: Job) -> dict[str, Any]:
@@ -322,8 +325,11 @@ class FineTuneMethod(Method):
         from the policies of learning anew's learner ``scratch``: the learner it leaves and
         its episodes (a function of these arguments alone, so it can be played again)."""
         learner_seed, env_seed, _, _ = trial_seeds(seed, before)
-        learner = SmdpLearner(scratch.n_primitive, scratch.tile_coder, None,
-                              cfg.lifelong.learner, seed=learner_seed)
+        config = cfg.lifelong.learner
+        if self.value_bounds is not None:
+            config = replace(config, value_bounds=self.value_bounds)
+        learner = SmdpLearner(scratch.n_primitive, scratch.tile_coder, None, config,
+                              seed=learner_seed)
         results = learn_with(self.start, learner, scratch.policies[:before], env,
                              cfg.lifelong.train_episodes, seed=env_seed,
                              choice_seed=choice_seed(seed, before))
@@ -391,6 +397,21 @@ for _method in (
     FineTuneMethod("finetune", "fine-tuning from the latest source", LatestPast()),
     FineTuneMethod("finetune_best", "fine-tuning from the best source (10 episodes each)",
                    BestOfPast()),
+    FineTuneMethod("finetune_best_recent",
+                   "fine-tuning from the best of the 3 latest sources (10 episodes each)",
+                   BestOfPast(recent=3)),
+    # The controls of the bounded methods: the same base learner, without options (the
+    # traces' rule, kept or cut before an option, is moot without options).
+    FineTuneMethod("finetune_bounded", "fine-tuning from the latest source, values bounded",
+                   LatestPast(), value_bounds=drill.EPISODE_REWARD),
+    # Fine-tuning that builds on itself: each task starts from the policy this method
+    # learnt on the task before (the sources too), as the ILPSS-FT family's starts chain.
+    LifelongMethod("finetune_chained", "fine-tuning chained (from its own latest policy)",
+                   lambda base: {"options": "finetune_latest"}),
+    LifelongMethod("finetune_chained_bounded",
+                   "fine-tuning chained (from its own latest policy), values bounded",
+                   lambda base: {"options": "finetune_latest", "learner": replace(
+                       base.learner, value_bounds=drill.EPISODE_REWARD)}),
     LifelongMethod("ilpss_ft", "ILPSS-FT (fine-tuned start, options valued by their policies)",
                    lambda base: _fine_tuned(base, "kernels_finetune")),
     LifelongMethod("whole_policies_ft", "whole past policies, ILPSS-FT's settings",
@@ -421,6 +442,18 @@ for _method in (
                    "whole past policies, ILPSS-FT's settings, values bounded, traces cut "
                    "before an option",
                    lambda base: _fine_tuned(base, "whole_policies_finetune",
+                                            value_bounds=drill.EPISODE_REWARD,
+                                            option_traces="cut")),
+    LifelongMethod("ilpss_ft_bounded_cut_available",
+                   "ILPSS-FT, values bounded, traces cut before an option, steps inside "
+                   "options bootstrapped from the available choices",
+                   lambda base: _fine_tuned(base, "kernels_finetune", "available_choices",
+                                            value_bounds=drill.EPISODE_REWARD,
+                                            option_traces="cut")),
+    LifelongMethod("ilpss_ft_bounded_cut_primitives",
+                   "ILPSS-FT, values bounded, traces cut before an option, steps inside "
+                   "options bootstrapped from the primitives",
+                   lambda base: _fine_tuned(base, "kernels_finetune", "primitive_choices",
                                             value_bounds=drill.EPISODE_REWARD,
                                             option_traces="cut")),
     LifelongMethod("ilpss_ft_oracle", "ILPSS-FT with the true regions as kernels (oracle)",

@@ -7,13 +7,14 @@ of ``ilpss`` checks its outputs with these functions before it computes anything
 
 from __future__ import annotations
 
+import argparse
 import os
 import re
 from pathlib import Path
 
 from soccer_drill.files import TEMPORARY
 
-__all__ = ["check_out_dir", "check_out_file", "unwritten_report"]
+__all__ = ["check_out_dir", "check_out_file", "check_utf8", "unwritten_report"]
 
 _JOB_FOLDER = re.compile(r"seed_\d{3,}")
 
@@ -107,3 +108,25 @@ def unwritten_report(results: str | os.PathLike[str], exc: OSError) -> str:
     return (f"the runs finished and their results are kept in {os.fspath(results)}, but "
             f"their report could not be written: {exc}; run the same command again to "
             "write it (the finished jobs are not rerun)")
+
+
+def check_utf8(args: argparse.Namespace) -> None:
+    """Refuse a flag's value that is not UTF-8 (a path of other bytes, as ``argv`` decodes
+    them): the page a command writes at its end names its folders and its command in
+    UTF-8, and could be written neither after the work nor by a rerun.
+
+    Raises
+    ------
+    ValueError
+        Naming the flag and the value's bytes.
+    """
+    for dest, value in vars(args).items():
+        for item in value if isinstance(value, list) else [value]:
+            if isinstance(item, str) and not item.isascii():
+                try:
+                    item.encode()
+                except UnicodeEncodeError:
+                    raise ValueError(
+                        f"--{dest.replace('_', '-')} {os.fsencode(item)!r}: not UTF-8; the "
+                        "page written at the end names it in UTF-8, so give a name in UTF-8"
+                    ) from None

@@ -29,6 +29,7 @@ from ilpss import metrics
 from ilpss._io import atomic_write_bytes, save_figure
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.methods import METHODS, LifelongMethod
+from ilpss.experiments.provenance import code_line
 from ilpss.plots import plot_learning_curves, plot_score_profiles
 
 JUMPSTART_EPISODES = 20
@@ -85,12 +86,13 @@ def threshold_for(baseline: np.ndarray) -> float:
 def compare_to_baseline(curves: dict[str, np.ndarray], baseline: str,
                         seed: int = 0) -> dict[str, dict]:
     """Taylor & Stone metrics of every method against ``baseline`` (time to threshold
-    with its first episodes counted, :func:`ilpss.metrics.threshold_times`' warmup)."""
+    over full windows; the warm start, :func:`ilpss.metrics.threshold_times`' warmup, is
+    its own column)."""
     base = curves[baseline]
     threshold = threshold_for(base)
     first, last, window = windows(base.shape[1])
     return {method: metrics.compare(c, base, first=first, last=last, threshold=threshold,
-                                    window=window, seed=seed, warmup=True)
+                                    window=window, seed=seed)
             for method, c in curves.items() if method != baseline}
 
 
@@ -517,6 +519,8 @@ def write_report(
         f"{cfg.lifelong.train_episodes} learning episodes per opponent",
         "",
         f"Command: `{command}`; configuration: [`config.json`](config.json).",
+        "",
+        code_line(results),
         "",
         metrics_note(cfg.lifelong.train_episodes, out),
         "",

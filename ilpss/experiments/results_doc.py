@@ -37,10 +37,11 @@ from ilpss.experiments.drill import (
     TEAM_ERROR,
     drill_exception,
 )
-from ilpss.experiments.executor import stop_on_sigterm
+from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.folder import RunFolder
-from ilpss.experiments.outputs import check_out_dir, unwritten_report
+from ilpss.experiments.outputs import check_out_dir, check_utf8, unwritten_report
 from ilpss.experiments.protocols import PROTOCOLS as PROTOCOLS_REGISTRY
+from ilpss.experiments.provenance import code_line, code_record
 from ilpss.experiments.report import doc_reference, label, metrics_note, write_report
 from ilpss.experiments.run import JobError, load_result, read_config, run_experiment
 from ilpss.experiments.sections import page_section
@@ -94,15 +95,24 @@ def parser() -> argparse.ArgumentParser:
                    help="protocol A: held-out teams, each learnt from the state after all of "
                         "--teams (default: none, the last team is held out)")
     p.add_argument("--workers", type=int, default=2, help="parallel jobs (default 2)")
+    p.add_argument("--allow-mixed-code", action="store_true",
+                   help="use or resume runs whose results were made by other code (refused "
+                   "otherwise); the page names every version of the code it mixes")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     return p
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run or resume the chosen protocols and regenerate ``<docs>/results.md``."""
+    with stopped_in_one_line("ilpss-results"):  # Ctrl-C or SIGTERM: one line, 130 or 143
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     p = parser()
     args = p.parse_args(argv)
     try:  # every output and every configuration checked before any work
+        check_utf8(args)
         runs = check_out_dir(args.runs, "--runs", run_folder=False)
         docs = check_out_dir(args.docs, "--docs", run_folder=False)
         for sub in ("figures", "results"):
@@ -113,12 +123,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     stop_on_sigterm()
     configs: dict[str, ExperimentConfig] = {}
     sections: list[str] = []
+    every_result: list[dict[str, Any]] = []
     for protocol in PROTOCOLS:
         folder = RunFolder(runs / f"protocol_{protocol.lower()}")
         if protocol in chosen:
             cfg = chosen[protocol]
             try:
-                results = run_timed(cfg, folder, progress=not args.quiet)
+                results = run_timed(cfg, folder, progress=not args.quiet,
+                                    allow_mixed_code=args.allow_mixed_code)
             except (FolderInUseError, StorageError, JobError, ValueError, OSError,
                     drill_exception(TEAM_ERROR)) as exc:  # TeamError: a team fails to load
                 p.exit(1, f"{p.prog}: error: protocol {protocol}: {exc}\n")
@@ -126,11 +138,15 @@ def main(argv: Sequence[str] | None = None) -> int:
             if not folder.config.exists():
                 continue
             cfg = read_config(folder.config)
-            results = finished_results(cfg, folder)
+            try:
+                results = finished_results(cfg, folder, args.allow_mixed_code)
+            except ValueError as exc:  # another code's results, or a damaged file
+                p.exit(1, f"{p.prog}: error: protocol {protocol}: {exc}\n")
             if results is None:
                 print(f"protocol {protocol}: {folder.root} is unfinished; its section is left out")
                 continue
         configs[protocol] = cfg
+        every_result += results
         command = command_for({protocol: cfg}, args.runs, args.docs)
         config_copy = docs / "results" / f"protocol_{protocol.lower()}_config.json"
         try:
@@ -141,7 +157,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         except OSError as exc:  # a full disk: the results stay, a rerun writes the pages
             p.exit(1, f"{p.prog}: error: protocol {protocol}: "
                       f"{unwritten_report(folder.root, exc)}\n")
-    text = [*intro(configs, args.runs, args.docs), *sections]
+    text = [*intro(configs, args.runs, args.docs), code_line(every_result), "", *sections]
     path = docs / "results.md"
     try:
         atomic_write_bytes(path, ("\n".join(text).rstrip() + "\n").encode())
@@ -213,21 +229,27 @@ def job_files(cfg: ExperimentConfig, folder: RunFolder) -> list[Path]:
             for seed in cfg.seeds for index in range(len(cfg.streams(seed)))]
 
 
-def finished_results(cfg: ExperimentConfig, folder: RunFolder) -> list[dict[str, Any]] | None:
-    """Every job's result (checked) if all are finished, else ``None`` (nothing is run)."""
+def finished_results(
+    cfg: ExperimentConfig, folder: RunFolder, allow_mixed_code: bool = False,
+) -> list[dict[str, Any]] | None:
+    """Every job's result (checked, and made by this code unless ``allow_mixed_code``) if
+    all are finished, else ``None`` (nothing is run)."""
     if not all(f.exists() for f in job_files(cfg, folder)):
         return None
-    return [load_result(folder.result(seed, index), cfg, seed, index, stream)
+    return [load_result(folder.result(seed, index), cfg, seed, index, stream,
+                        code=code_record(), allow_mixed_code=allow_mixed_code)
             for seed in cfg.seeds for index, stream in enumerate(cfg.streams(seed))]
 
 
-def run_timed(cfg: ExperimentConfig, folder: RunFolder, progress: bool) -> list[dict[str, Any]]:
+def run_timed(cfg: ExperimentConfig, folder: RunFolder, progress: bool,
+              allow_mixed_code: bool = False) -> list[dict[str, Any]]:
     """:func:`run_experiment`, adding its wall time to the folder's timing record when it
     finished jobs (also when interrupted after some); a finished run adds nothing."""
     todo = [f for f in job_files(cfg, folder) if not f.exists()]
     start = time.perf_counter()
     try:
-        return run_experiment(cfg, folder.root, progress=progress)
+        return run_experiment(cfg, folder.root, progress=progress,
+                              allow_mixed_code=allow_mixed_code)
     finally:
         if any(f.exists() for f in todo):
             folder.add_wall_time(time.perf_counter() - start, cfg.workers, cfg.executor)

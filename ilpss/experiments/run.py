@@ -16,6 +16,7 @@ experiment ends identical to an uninterrupted one. The folder's layout is
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -44,11 +45,17 @@ from ilpss.experiments.checkpoints import (
 )
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.drill import ENV_ID, TEAM_CODE, drill_object
-from ilpss.experiments.executor import JobsFailed, check_ray_address, make_executor
+from ilpss.experiments.executor import (
+    SETTINGS_ERRORS,
+    JobsFailed,
+    check_ray_address,
+    make_executor,
+)
 from ilpss.experiments.folder import RunFolder, checkpoint_key
 from ilpss.experiments.methods import METHODS, Job, LifelongMethod, lifelong_entry
 from ilpss.experiments.outputs import check_out_dir
 from ilpss.experiments.protocols import Stream, make_env
+from ilpss.experiments.provenance import check_code_field, check_same_code, code_record
 
 __all__ = [
     "RESULT_SCHEMA",
@@ -59,11 +66,12 @@ __all__ = [
     "check_tasks",
     "load_result",
     "read_config",
+    "read_run_code",
     "run_experiment",
     "run_stream",
 ]
 
-RESULT_SCHEMA = "ilpss.experiment_result/2"
+RESULT_SCHEMA = "ilpss.experiment_result/3"
 
 
 @dataclass(frozen=True)
@@ -116,35 +124,42 @@ def run_stream(spec: JobSpec) -> JobDone:
         "tasks": [t.name for t in stream.tasks],
         "first_target": stream.first_target,
         "methods": methods,
+        "code": code_record(),  # the code that ran the job, wherever it ran
     }
     return JobDone(result, dict(context.resumed))
 
 
 RESULT_FIELDS = ("schema", "config", "seed", "stream", "stream_index", "tasks", "first_target",
-                 "methods")
+                 "methods", "code")
 
 
 def load_result(
     path: Path, cfg: ExperimentConfig, seed: int, stream_index: int, stream: Stream,
-    store: CheckpointStore | None = None,
+    store: CheckpointStore | None = None, *, code: dict[str, Any] | None = None,
+    allow_mixed_code: bool = False,
 ) -> dict[str, Any]:
     """A job's saved ``result.json``, every field checked against the job and its
-    configuration, and against the job's checkpoints (in ``store``, by default the run's
-    checkpoint storage) when they are there.
+    configuration, against the code ``code`` when given (a resume gives this process's:
+    :func:`~ilpss.experiments.provenance.check_same_code`), and against the job's
+    checkpoints (in ``store``, by default the run's checkpoint storage) when they are
+    there.
 
     Raises
     ------
     ValueError
         Naming the file and the field: unreadable, modified (digest), of another schema,
-        configuration or job, a curve of the wrong length or a reward outside the
+        configuration, job or code, a curve of the wrong length or a reward outside the
         environment's range, or disagreeing with a method's last checkpoint.
     """
     hint = "delete it to run this job again"
     try:
         result = load_json_record(path, RESULT_SCHEMA)
         check_keys(str(path), result, RESULT_FIELDS)
+        check_code_field(str(path), result["code"])
     except ValueError as exc:
         raise ValueError(f"{exc}; {hint}") from exc
+    if code is not None:
+        check_same_code(result["code"], str(path), allow=allow_mixed_code, current=code)
     diffs = json_differences(result["config"], cfg.results_record(), "config")
     if diffs:
         raise ValueError(f"{path}: comes from another configuration ({'; '.join(diffs)}); {hint}")
@@ -223,12 +238,16 @@ def _check_against_checkpoint(
 def run_experiment(
     cfg: ExperimentConfig, out_dir: str | os.PathLike[str], progress: bool = True, *,
     ray_address: str | None = None, on_done: Callable[[JobSpec, JobDone], None] | None = None,
+    allow_mixed_code: bool = False,
 ) -> list[dict[str, Any]]:
     """Run (or resume) every job of ``cfg`` into ``out_dir``; return the job results.
 
     With the Ray executor, ``ray_address`` (else ``RAY_ADDRESS``) names a cluster to
     join; ``cfg.workers`` then bounds the jobs in flight. ``on_done`` is called here as
-    each job's ``result.json`` is written.
+    each job's ``result.json`` is written. A run folder records the code that started
+    it, and every result the code that made it: a resume with other code, or a job
+    that ran other code (a cluster's node), is refused naming both
+    (:class:`~ilpss.experiments.provenance.MixedCodeError`) unless ``allow_mixed_code``.
 
     Raises
     ------
@@ -238,7 +257,8 @@ def run_experiment(
         If a job's node cannot reach the checkpoint storage, or another run claimed it.
     ValueError
         If ``out_dir`` is not a folder that can be written, holds a run of another
-        configuration, or a file of it is damaged; a task's environment cannot be made.
+        configuration (or code), or a file of it is damaged; a task's environment cannot
+        be made.
     """
     out = check_out_dir(out_dir)
     if cfg.executor == "ray":  # a wrong address fails now, not after config.json
@@ -251,7 +271,7 @@ def run_experiment(
     # mixing its configuration, checkpoints and results with the first one's.
     with locked_folder(out, "run folder"), _storage(cfg, out) as (store, location):
         remove_stale_temporaries(out)
-        _write_or_check_config(cfg, folder)
+        _write_or_check_config(cfg, folder, allow_mixed_code)
         _write_or_check_team_code(team_codes(cfg), folder)
         results: dict[int, dict[str, Any]] = {}
         for i, (seed, index, stream) in enumerate(jobs):
@@ -259,7 +279,8 @@ def run_experiment(
                 remove_stale_temporaries(folder.job(seed, index))
             if folder.result(seed, index).exists():
                 results[i] = load_result(folder.result(seed, index), cfg, seed, index, stream,
-                                         store)
+                                         store, code=code_record(),
+                                         allow_mixed_code=allow_mixed_code)
         todo = [i for i in range(len(jobs)) if i not in results]
         # A storage that is not this process's own run folder is claimed: a job that
         # cannot reach it, or finds another run's claim, stops with an error saying so.
@@ -269,6 +290,8 @@ def run_experiment(
 
         def write(k: int, done: JobDone) -> None:
             seed, index, _ = jobs[todo[k]]
+            check_same_code(done.result["code"], f"the job of seed {seed}, stream {index}",
+                            allow=allow_mixed_code)
             folder.job(seed, index).mkdir(parents=True, exist_ok=True)
             atomic_write_bytes(folder.result(seed, index), json_record_bytes(done.result))
             results[todo[k]] = done.result
@@ -320,11 +343,19 @@ class JobError(RuntimeError):
                          for spec, exc in zip(specs, failed.failures.values(), strict=True)}
         lines = [f"seed {seed}, stream {index}: {type(exc).__name__}: {exc}"
                  for (seed, index), exc in self.failures.items()]
+        if all(isinstance(exc, SETTINGS_ERRORS) for exc in self.failures.values()):
+            # The same settings fail the same way again, and the run folder keeps them (a
+            # resume with others is refused): only a new folder can take other settings.
+            advice = ("they fail the same way with these settings, so running the same "
+                      "command again does not help: change the setting named above, in a new "
+                      "run folder (this one's config.json keeps these settings)")
+        else:
+            advice = "run the same command again to run only the failed one(s)"
         super().__init__(
             f"{len(specs)} of {n_jobs} job(s) failed:\n  " + "\n  ".join(lines) +
-            f"\nThe {n_done} finished job(s) are kept; run the same command again to run "
-            "only the failed one(s)"
+            f"\nThe {n_done} finished job(s) are kept; {advice}"
         )
+
 
 
 @contextlib.contextmanager
@@ -353,8 +384,11 @@ def _storage(cfg: ExperimentConfig, out: Path) -> Iterator[tuple[CheckpointStore
 
 
 def read_config(path: Path) -> ExperimentConfig:
-    """A run folder's ``config.json`` (errors name the file)."""
+    """A run folder's ``config.json`` (errors name the file); the code it records, if
+    any, is :func:`read_run_code`'s."""
     values = read_json(path)
+    if isinstance(values, dict):
+        values = {k: v for k, v in values.items() if k != "code"}
     try:
         return ExperimentConfig.from_dict(values)
     except ValueError as exc:
@@ -396,12 +430,25 @@ def _write_or_check_team_code(codes: dict[str, dict[str, str]], folder: RunFolde
         )
 
 
-def _write_or_check_config(cfg: ExperimentConfig, folder: RunFolder) -> None:
-    """Write ``config.json``, or refuse a folder whose ``config.json`` differs (naming the
-    fields); the caller holds the folder's lock, so no other run is between the two."""
+def read_run_code(path: Path) -> dict[str, Any] | None:
+    """The code that started the run whose ``config.json`` is ``path`` (``None``: a run
+    started before runs recorded it)."""
+    values = read_json(path)
+    if not isinstance(values, dict) or "code" not in values:
+        return None
+    return check_code_field(str(path), values["code"])
+
+
+def _write_or_check_config(cfg: ExperimentConfig, folder: RunFolder,
+                           allow_mixed_code: bool = False) -> None:
+    """Write ``config.json`` with the code that starts the run, or refuse a folder whose
+    ``config.json`` differs (naming the fields) or was written by other code (naming both,
+    unless ``allow_mixed_code``); the caller holds the folder's lock, so no other run is
+    between the two."""
     config_file = folder.config
     if not config_file.exists():
-        atomic_write_bytes(config_file, cfg.to_json().encode())
+        record = {**cfg.to_dict(), "code": code_record()}
+        atomic_write_bytes(config_file, json.dumps(record, indent=2, sort_keys=True).encode())
         return
     saved = read_config(config_file)
     diffs = json_differences(saved.results_record(), cfg.results_record())
@@ -410,3 +457,5 @@ def _write_or_check_config(cfg: ExperimentConfig, folder: RunFolder) -> None:
             f"{folder.root} holds a run with a different configuration ({'; '.join(diffs)}); "
             "choose another output folder or delete it"
         )
+    check_same_code(read_run_code(config_file), f"the run in {folder.root}",
+                    allow=allow_mixed_code)

@@ -1,0 +1,122 @@
+"""The confirmatory run: a plan checked when read, Holm across the whole family, and the
+pick rule applied as written."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import pytest
+
+from ilpss.experiments.confirm import PRIMARY, Comparison, Plan, main, pick
+from ilpss.metrics import MetricEstimate
+
+PLAN = {
+    "methods": ["scratch", "finetune", "finetune_bounded", "whole_policies_ft_bounded_cut",
+                "ilpss_ft_bounded_cut_available"],
+    "protocols": {"A": {"n_seeds": 2, "first_seed": 2000,
+                        "lifelong": {"train_episodes": 3, "rollout_episodes": 1}}},
+    "comparisons": [["whole_policies_ft_bounded_cut", "finetune"],
+                    ["whole_policies_ft_bounded_cut", "finetune_bounded"],
+                    ["ilpss_ft_bounded_cut_available", "finetune"],
+                    ["ilpss_ft_bounded_cut_available", "finetune_bounded"],
+                    ["ilpss_ft_bounded_cut_available", "whole_policies_ft_bounded_cut"],
+                    ["finetune_bounded", "finetune"]],
+    "candidates": ["whole_policies_ft_bounded_cut", "ilpss_ft_bounded_cut_available"],
+    "controls": ["finetune", "finetune_bounded"],
+    "fallback": "finetune",
+}
+W, K, FB = "whole_policies_ft_bounded_cut", "ilpss_ft_bounded_cut_available", "finetune_bounded"
+
+
+def _plan() -> Plan:
+    return Plan(**{**PLAN, **{k: tuple(PLAN[k]) for k in ("methods", "candidates",
+                                                          "controls")},
+                   "comparisons": tuple(tuple(c) for c in PLAN["comparisons"])})
+
+
+def _test(protocol: str, method: str, against: str, gain: float, low: float,
+          adjusted: float) -> Comparison:
+    estimate = MetricEstimate(PRIMARY, gain, low, 2 * gain - low, 10, "", p_value=adjusted)
+    return Comparison(protocol, method, against, {PRIMARY: estimate}, adjusted)
+
+
+def _family(gains: dict[tuple[str, str], list[tuple[float, float, float]]]) -> list[Comparison]:
+    """Tests in protocols A and B: ``(gain, low, adjusted p)`` per protocol."""
+    return [_test(p, m, a, *values[i]) for (m, a), values in gains.items()
+            for i, p in enumerate("AB")]
+
+
+SHOWN, LEVEL, LOSS = (30.0, 10.0, 0.01), (5.0, -10.0, 1.0), (-30.0, -50.0, 0.01)
+
+
+def test_a_candidate_that_gains_somewhere_and_loses_nowhere_is_picked():
+    tests = _family({(W, "finetune"): [SHOWN, LEVEL], (W, FB): [SHOWN, LEVEL],
+                     (K, "finetune"): [LEVEL, LEVEL], (K, FB): [LEVEL, LEVEL],
+                     (K, W): [LEVEL, LEVEL], (FB, "finetune"): [LEVEL, LEVEL]})
+    chosen, said = pick(_plan(), tests)
+    assert chosen == W and f"- `{W}` against `finetune`, `{FB}`: qualifies." in said
+
+
+def test_a_later_candidate_replaces_an_earlier_only_if_it_beats_it():
+    gains = {(W, "finetune"): [SHOWN, LEVEL], (W, FB): [SHOWN, LEVEL],
+             (K, "finetune"): [SHOWN, SHOWN], (K, FB): [SHOWN, SHOWN],
+             (K, W): [LEVEL, LEVEL], (FB, "finetune"): [LEVEL, LEVEL]}
+    assert pick(_plan(), _family(gains))[0] == W  # both qualify; the simpler stays
+    gains[K, W] = [SHOWN, LEVEL]
+    assert pick(_plan(), _family(gains))[0] == K
+
+
+def test_a_loss_anywhere_or_no_gain_shown_disqualifies_and_the_rule_falls_back():
+    gains = {(W, "finetune"): [SHOWN, LOSS], (W, FB): [SHOWN, LEVEL],  # loses on B
+             (K, "finetune"): [LEVEL, LEVEL], (K, FB): [LEVEL, LEVEL],  # shows nothing
+             (K, W): [LEVEL, LEVEL], (FB, "finetune"): [LEVEL, LEVEL]}
+    assert pick(_plan(), _family(gains))[0] == "finetune"
+    gains[FB, "finetune"] = [LEVEL, SHOWN]  # the control beats the fallback
+    assert pick(_plan(), _family(gains))[0] == FB
+    # gains shown against one control only, in different protocols: not shown
+    gains[W, "finetune"] = [SHOWN, LEVEL]
+    gains[W, FB] = [LEVEL, SHOWN]
+    assert pick(_plan(), _family(gains))[0] == FB
+
+
+def test_a_plan_is_checked_when_read(tmp_path):
+    path = tmp_path / "plan.json"
+    for change, said in [({"methods": [*PLAN["methods"], "nope"]}, "nope"),
+                         ({"candidates": ["prq"]}, "candidates"),
+                         ({"fallback": "scratch"}, "fallback"),
+                         ({"comparisons": [["finetune", "finetune"]]}, "two different"),
+                         ({"comparisons": [["finetune"]]}, "pairs"),
+                         ({"extra": 1}, "unknown field"),
+                         ({"margin": 5}, "margin")]:
+        path.write_text(json.dumps({**PLAN, **change}))
+        with pytest.raises((ValueError, KeyError), match=said):
+            Plan.read(path)
+
+
+def test_the_confirmatory_command_runs_the_plan_and_adjusts_across_the_whole_family(
+        tmp_path):
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(PLAN))
+    assert main([str(path), "--runs", str(tmp_path / "runs"), "--quiet"]) == 0
+    page = (tmp_path / "runs" / "confirm.md").read_text()
+    rows = [line for line in page.splitlines() if line.startswith("| A |")]
+    assert len(rows) == len(PLAN["comparisons"])
+    assert "Holm-adjusted together" in page and "**The rule picks `" in page
+    assert "Code: version" in page
+    config = json.loads((tmp_path / "runs" / "protocol_a" / "config.json").read_text())
+    assert config["first_seed"] == 2000 and config["methods"] == PLAN["methods"]
+    # analysed again without running: the same page
+    assert main([str(path), "--runs", str(tmp_path / "runs"), "--analyse-only",
+                 "--out", str(tmp_path / "again.md")]) == 0
+    assert (tmp_path / "again.md").read_text() == page
+    adjusted = [float(row.split("|")[5]) for row in rows]
+    assert all(0.0 <= p <= 1.0 or math.isnan(p) for p in adjusted)
+
+
+def test_the_committed_plan_is_a_valid_plan_of_the_confirmatory_run():
+    from pathlib import Path
+
+    plan = Plan.read(Path(__file__).resolve().parents[1] / "docs" / "confirmatory.json")
+    assert all(plan.config(p).first_seed >= 2000 for p in plan.protocols)  # fresh seeds
+    assert len(plan.methods) <= 6 and set(plan.protocols) == {"A", "B", "R", "C"}
