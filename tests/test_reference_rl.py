@@ -145,3 +145,48 @@ def test_without_torch_the_flags_are_checked_and_the_missing_extra_named(argv, m
     assert message in run.stderr
     setting = json.loads(json.dumps(cli.dataclasses.asdict(cli.SETTINGS["ppo"])))
     assert setting["ppo"]["gamma"] == 1.0 and setting["reward"]["timeout_reward"] is None
+    assert setting["timeout_terminal"] is True
+
+
+@pytest.mark.integrations
+@pytest.mark.parametrize("reward, terminal", [(None, True), (-1.5, False), (-1.5, True)])
+def test_the_timeout_wrapper_changes_only_a_timeout(reward, terminal):
+    pytest.importorskip("stable_baselines3")
+    import numpy as np
+    from gymnasium import spaces
+    from stable_baselines3.common.vec_env import VecEnv
+
+    from ilpss.reference.holder import TimeoutWrapper
+    from ilpss.reference.settings import RewardOption
+
+    class Ends(VecEnv):  # three drills: a timeout, an interception, one going on
+        def __init__(self):
+            super().__init__(3, spaces.Box(-1, 1, (1,)), spaces.Discrete(3))
+
+        def reset(self):
+            return np.zeros((3, 1), np.float32)
+
+        def step_async(self, actions):
+            pass
+
+        def step_wait(self):
+            infos = [{"outcome": "timeout", "TimeLimit.truncated": True},
+                     {"outcome": "intercepted", "TimeLimit.truncated": False},
+                     {"outcome": None, "TimeLimit.truncated": False}]
+            return (np.zeros((3, 1), np.float32), np.array([-1.0, -1.0, 0.0], np.float32),
+                    np.array([True, True, False]), infos)
+
+        def get_attr(self, name, indices=None):
+            return [None] * 3
+
+        def env_is_wrapped(self, wrapper_class, indices=None):
+            return [False] * 3
+
+        close = set_attr = env_method = lambda *a, **k: None
+
+    env = TimeoutWrapper(Ends(), RewardOption(reward), terminal)
+    env.reset()
+    _, rewards, dones, infos = env.step(np.zeros(3, np.int64))
+    assert rewards.tolist() == [-1.0 if reward is None else reward, -1.0, 0.0]
+    assert [i["TimeLimit.truncated"] for i in infos] == [not terminal, False, False]
+    assert dones.tolist() == [True, True, False]

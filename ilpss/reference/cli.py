@@ -17,9 +17,11 @@ Each job (a setting, a team, a seed) is kept in ``--keep`` as soon as it ends
 atomically, naming the code that computed it): the same command loads the finished jobs
 and computes only what is left, and a changed setting is a new job. ``--ppo KEY=VALUE``
 changes a field of every selected setting's PPO configuration (for a small run), and
-``--timeout-reward``/``--timeout-terminal`` the holder's reward
-(:class:`~ilpss.reference.settings.RewardOption`, off by default); both are recorded in
-every result and shown in the page's command.
+``--timeout-reward`` the holder's reward
+(:class:`~ilpss.reference.settings.RewardOption`, off by default), ``--timeout-bootstrap``
+SB3's treatment of the drill's timeout (see
+:class:`~ilpss.reference.settings.HolderSetting`); each is recorded in every result and
+shown in the page's command.
 
 Needs ``pip install -e ".[integrations]"`` (torch); the parser and the checks of the flags
 run without it.
@@ -84,10 +86,11 @@ def parse_ppo(items: Sequence[str]) -> dict[str, Any]:
 def build_settings(args: argparse.Namespace) -> dict[str, Any]:
     """The selected settings with the flags' changes, checked by the dataclasses."""
     ppo = parse_ppo(args.ppo)
-    reward = RewardOption(args.timeout_reward, args.timeout_terminal)
+    reward = RewardOption(args.timeout_reward)
 
     def holder(h: HolderSetting) -> HolderSetting:
-        return dataclasses.replace(h, ppo=dataclasses.replace(h.ppo, **ppo), reward=reward)
+        return dataclasses.replace(h, ppo=dataclasses.replace(h.ppo, **ppo), reward=reward,
+                                   timeout_terminal=not args.timeout_bootstrap)
 
     out = {}
     for name in args.settings:
@@ -149,8 +152,9 @@ def parser() -> argparse.ArgumentParser:
                         f"({', '.join(PPO_FIELDS)})")
     p.add_argument("--timeout-reward", type=float, default=None,
                    help="holder: the reward of a timeout (default: the drill's, -1)")
-    p.add_argument("--timeout-terminal", action="store_true",
-                   help="holder: a timeout ends the task (no value bootstrap at it)")
+    p.add_argument("--timeout-bootstrap", action="store_true",
+                   help="holder: bootstrap the value at the drill's timeout, as SB3 does for a "
+                        "truncation (default: the timeout is a terminal end)")
     p.add_argument("--source-steps", type=int, default=None,
                    help="transfer: decisions per source team (default: the setting's)")
     p.add_argument("--target-episodes", type=int, default=None,

@@ -2,8 +2,9 @@
 
 The environment stack, bottom to top: ``soccer_drill.sb3.HolderSB3VecEnv`` (the batched
 holder as an SB3 ``VecEnv``), ``VecMonitor`` (the drill's episode rewards, for the
-learning curve), :class:`RewardOptionWrapper` (only when the setting's
-:class:`~ilpss.reference.settings.RewardOption` is active) and ``VecNormalize``
+learning curve), :class:`TimeoutWrapper` (the timeout as a terminal end, and the
+setting's :class:`~ilpss.reference.settings.RewardOption` when it is active) and
+``VecNormalize``
 (observations only). The greedy evaluation plays the single holder environment
 (``gymnasium.make``) on the held-out episode seeds, the episodes the fixed rules are
 evaluated on, with the observation statistics frozen.
@@ -25,7 +26,7 @@ from stable_baselines3.common.vec_env import VecEnvWrapper, VecMonitor, VecNorma
 from ilpss.experiments.drill import ENV_ID, drill_object
 from ilpss.reference.settings import HolderSetting, RewardOption, TransferSetting
 
-__all__ = ["Curve", "RewardOptionWrapper", "evaluate", "train", "transfer"]
+__all__ = ["Curve", "TimeoutWrapper", "evaluate", "train", "transfer"]
 
 HOLDER_VEC_ENV = "soccer_drill.sb3:HolderSB3VecEnv"
 """The batched holder as an SB3 ``VecEnv``, looked up by name (``ilpss`` imports no drill
@@ -35,14 +36,14 @@ MAX_DECISIONS = 1_000
 cycles): a bound on the steps of a budget given in episodes."""
 
 
-class RewardOptionWrapper(VecEnvWrapper):
-    """The setting's :class:`RewardOption` applied to the drill's reward: a timeout pays
-    ``timeout_reward`` instead, and/or is a terminal end (``TimeLimit.truncated``
-    cleared, so that SB3 does not bootstrap the value there)."""
+class TimeoutWrapper(VecEnvWrapper):
+    """The drill's timeout as the learner takes it: a terminal end when ``terminal``
+    (``TimeLimit.truncated`` cleared, so that SB3 does not bootstrap the value there),
+    and paid ``option.timeout_reward`` instead of the drill's -1 when that is set."""
 
-    def __init__(self, venv: Any, option: RewardOption) -> None:
+    def __init__(self, venv: Any, option: RewardOption, terminal: bool) -> None:
         super().__init__(venv)
-        self.option = option
+        self.option, self.terminal = option, terminal
 
     def reset(self) -> np.ndarray:
         return self.venv.reset()
@@ -54,7 +55,7 @@ class RewardOptionWrapper(VecEnvWrapper):
                 continue
             if self.option.timeout_reward is not None:
                 rewards[i] = self.option.timeout_reward
-            if self.option.timeout_terminal:
+            if self.terminal:
                 infos[i]["TimeLimit.truncated"] = False
         return obs, rewards, dones, infos
 
@@ -107,8 +108,8 @@ def _venv(team: str, setting: HolderSetting, seed: int,
     venv = drill_object(HOLDER_VEC_ENV)(setting.ppo.n_envs, opponent=team)
     venv.seed(seed)
     venv = VecMonitor(venv)
-    if setting.reward.active:
-        venv = RewardOptionWrapper(venv, setting.reward)
+    if setting.reward.active or setting.timeout_terminal:
+        venv = TimeoutWrapper(venv, setting.reward, setting.timeout_terminal)
     if setting.normalize_obs:
         venv = VecNormalize(venv, norm_obs=True, norm_reward=False, gamma=setting.ppo.gamma)
         if obs_rms is not None:  # fine-tuning: the statistics learnt so far
