@@ -159,7 +159,7 @@ class MultiAgentSetting:
     space's bounds; masked actions get no probability."""
 
     ppo: PPOConfig = field(default_factory=lambda: PPOConfig(
-        steps=2_000_000, n_envs=64, n_steps=128, batch_size=2048, n_epochs=4,
+        steps=5_000_000, n_envs=64, n_steps=128, batch_size=2048, n_epochs=4,
         learning_rate=2.5e-4, gamma=1.0, ent_coef=0.01))
 
 
@@ -170,7 +170,7 @@ class SelfPlaySetting:
     reward; its attackers are then evaluated against each team."""
 
     ppo: PPOConfig = field(default_factory=lambda: PPOConfig(
-        steps=2_000_000, n_envs=64, n_steps=128, batch_size=4096, n_epochs=4,
+        steps=5_000_000, n_envs=64, n_steps=128, batch_size=4096, n_epochs=4,
         learning_rate=2.5e-4, gamma=1.0, ent_coef=0.01))
 
 
