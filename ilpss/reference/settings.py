@@ -1,0 +1,203 @@
+"""The settings of the reference runs, written down: frozen dataclasses, passed whole.
+
+Every job's kept record holds its settings (``dataclasses.asdict``), so that a changed
+setting is a new job and never takes another's results. This module imports no torch:
+the command's parser and its checks run without it.
+
+Why these values (the holder; the issue this command answers saw SB3's defaults learn in
+2 of 7 seeds and unnormalised features in none):
+
+- ``normalize_obs=True``: the holder's features go up to 180 (angles in degrees); SB3's
+  ``VecNormalize`` (observations only: the rewards are already in [-1, 1]).
+- ``gamma=1.0``: an episode pays one reward at its end, -1 for an interception and for a
+  timeout alike. Under a discount a later -1 is worth more than an early one, so holding
+  the ball until the timeout looks better than trying; the holder's episodes are a few
+  dozen decisions, so no discount is needed to keep returns bounded.
+- ``timeout_terminal=True``: no value bootstrap at the timeout (see
+  :class:`HolderSetting`). In a check against ``chasers`` at 200,000 decisions, SB3's
+  bootstrap left 3 of 3 seeds at 0% greedy success, where the terminal timeout reached
+  85-95% (``docs/reference_rl.md``).
+- ``ent_coef=0.01``, ``net_arch=(64, 64)``, ``n_envs=16``, ``n_steps=256``: SB3's
+  usual small-MLP settings, with more drills per rollout than the default for a steadier
+  gradient on a sparse reward.
+
+:class:`RewardOption` is the one change to the drill's reward this command can make, off
+by default, recorded in every result: the drill is left as the paper defines it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+__all__ = [
+    "ALGOS",
+    "SETTINGS",
+    "EvalSettings",
+    "HolderSetting",
+    "MultiAgentSetting",
+    "PPOConfig",
+    "RewardOption",
+    "SelfPlaySetting",
+    "TransferSetting",
+]
+
+ALGOS = ("ppo", "maskable_ppo")
+"""The Stable-Baselines3 learners of the holder: SB3's ``PPO``, sb3-contrib's
+``MaskablePPO``."""
+
+
+@dataclass(frozen=True)
+class RewardOption:
+    """A change to the holder's reward, made by a wrapper of this command (off by default:
+    the drill's reward as the paper defines it).
+
+    Parameters
+    ----------
+    timeout_reward : float or None, default None
+        The reward of an episode that ends by the timeout (the drill pays -1, as for an
+        interception); ``None`` keeps the drill's.
+    """
+
+    timeout_reward: float | None = None
+
+    def __post_init__(self) -> None:
+        r = self.timeout_reward
+        if r is not None and (not isinstance(r, int | float) or isinstance(r, bool)
+                              or not -10.0 <= r <= 1.0):
+            raise ValueError(f"RewardOption.timeout_reward must be None or a number in "
+                             f"[-10, 1], got {r!r}")
+
+    @property
+    def active(self) -> bool:
+        """Whether the reward differs from the drill's."""
+        return self.timeout_reward is not None
+
+
+@dataclass(frozen=True)
+class PPOConfig:
+    """PPO's hyperparameters (names as SB3's ``PPO`` arguments).
+
+    ``steps`` is the budget in environment steps: the holder's decisions, or the
+    parallel drill's cycles times drills (each step of every drill counted once, however
+    many agents act in it).
+    """
+
+    steps: int = 1_000_000
+    n_envs: int = 16
+    n_steps: int = 256
+    batch_size: int = 512
+    n_epochs: int = 10
+    learning_rate: float = 3e-4
+    gamma: float = 1.0
+    gae_lambda: float = 0.95
+    clip_range: float = 0.2
+    ent_coef: float = 0.01
+    vf_coef: float = 0.5
+    max_grad_norm: float = 0.5
+    net_arch: tuple[int, ...] = (64, 64)
+
+    def __post_init__(self) -> None:
+        for name in ("steps", "n_envs", "n_steps", "batch_size", "n_epochs"):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
+                raise ValueError(f"PPOConfig.{name} must be an integer >= 1, got {value!r}")
+        if (self.n_envs * self.n_steps) % self.batch_size:
+            raise ValueError(f"PPOConfig.batch_size ({self.batch_size}) must divide "
+                             f"n_envs * n_steps ({self.n_envs * self.n_steps})")
+        for name, low, high in (("learning_rate", 0.0, 1.0), ("gamma", 0.0, 1.0),
+                                ("gae_lambda", 0.0, 1.0), ("clip_range", 0.0, 1.0),
+                                ("ent_coef", 0.0, 1.0), ("vf_coef", 0.0, 10.0),
+                                ("max_grad_norm", 0.0, 100.0)):
+            value = getattr(self, name)
+            if not isinstance(value, int | float) or isinstance(value, bool) \
+                    or not low <= value <= high:
+                raise ValueError(f"PPOConfig.{name} must be a number in [{low}, {high}], "
+                                 f"got {value!r}")
+        if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
+            raise ValueError(f"PPOConfig.net_arch must be a non-empty tuple of layer widths "
+                             f">= 1, got {self.net_arch!r}")
+
+
+@dataclass(frozen=True)
+class EvalSettings:
+    """The greedy evaluation: ``episodes`` held-out episode seeds from 10,000 on (those of
+    ``ilpss-holder-learning``; training episodes start from 1,000,000 (seed + 1)), and
+    what counts as a seed that learned: a greedy success of at least
+    ``learned_fraction`` of the best fixed rule's on the same episodes."""
+
+    episodes: int = 200
+    learned_fraction: float = 0.5
+
+
+@dataclass(frozen=True)
+class HolderSetting:
+    """PPO or MaskablePPO on the holder (``HolderSB3VecEnv``), one team per job.
+
+    ``timeout_terminal``: the drill ends an episode at its timeout paying -1, a failure
+    as an interception is, but reports it as a truncation, at which SB3 adds the
+    discounted value of the last state to the reward (a bootstrap, right for an episode
+    cut short, not for one that ended). With ``True`` (the default) the learner takes
+    the timeout as the end it is (``TimeLimit.truncated`` cleared); the reward is the
+    drill's either way. ``False`` is SB3's treatment.
+    """
+
+    algo: str = "ppo"
+    ppo: PPOConfig = field(default_factory=PPOConfig)
+    normalize_obs: bool = True
+    timeout_terminal: bool = True
+    reward: RewardOption = field(default_factory=RewardOption)
+
+    def __post_init__(self) -> None:
+        if self.algo not in ALGOS:
+            raise ValueError(f"HolderSetting.algo must be one of {list(ALGOS)}, got {self.algo!r}")
+
+
+@dataclass(frozen=True)
+class MultiAgentSetting:
+    """One shared masked policy for the two attackers of the parallel drill
+    (``ParallelVectorEnv``), against a team. Observations are scaled to [-1, 1] by the
+    space's bounds; masked actions get no probability."""
+
+    ppo: PPOConfig = field(default_factory=lambda: PPOConfig(
+        steps=5_000_000, n_envs=64, n_steps=128, batch_size=2048, n_epochs=4,
+        learning_rate=2.5e-4, gamma=1.0, ent_coef=0.01))
+
+
+@dataclass(frozen=True)
+class SelfPlaySetting:
+    """One shared masked policy for all four players (shared spaces: the last feature
+    tells attacker from defender), the defenders paid the negative of the attackers'
+    reward; its attackers are then evaluated against each team."""
+
+    ppo: PPOConfig = field(default_factory=lambda: PPOConfig(
+        steps=5_000_000, n_envs=64, n_steps=128, batch_size=4096, n_epochs=4,
+        learning_rate=2.5e-4, gamma=1.0, ent_coef=0.01))
+
+
+@dataclass(frozen=True)
+class TransferSetting:
+    """PPO fine-tuned on the holder from its policy after the source teams (in order,
+    ``source_steps`` each), against learning anew, on the held-out target for
+    ``target_episodes`` episodes (its learning curve in episodes, as ``ilpss``'s), then
+    evaluated greedily. ``window`` episodes make the jumpstart (first) and the final
+    (last)."""
+
+    holder: HolderSetting = field(default_factory=HolderSetting)
+    source_steps: int = 500_000
+    target_episodes: int = 5_000
+    window: int = 500
+
+    def __post_init__(self) -> None:
+        if self.window * 2 > self.target_episodes:
+            raise ValueError(f"TransferSetting.window ({self.window}) must be at most half of "
+                             f"target_episodes ({self.target_episodes})")
+
+
+SETTINGS: dict[str, HolderSetting | MultiAgentSetting | SelfPlaySetting | TransferSetting] = {
+    "ppo": HolderSetting(algo="ppo"),
+    "maskable_ppo": HolderSetting(algo="maskable_ppo"),
+    "shared_ppo": MultiAgentSetting(),
+    "self_play": SelfPlaySetting(),
+    "transfer": TransferSetting(),
+}
+"""The command's settings by name, in the page's order."""
