@@ -36,7 +36,7 @@ from ilpss import metrics
 from ilpss._io import json_differences
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.folder import RunFolder
-from ilpss.experiments.provenance import check_same_code, code_line
+from ilpss.experiments.provenance import check_one_code, code_line
 from ilpss.experiments.report import PRIMARY, interval_text, threshold_for, windows
 from ilpss.experiments.run import load_result, read_config
 
@@ -158,10 +158,7 @@ def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]], 
                     f"learns on seed {seed}: {'; '.join(diffs[:3])} (baseline first); only "
                     "runs of the same stream, target and budget can be paired by seed"
                 )
-    if len(codes) > 1:
-        (first_code, first_file), (other_code, other_file) = list(codes.values())[:2]
-        check_same_code(other_code, other_file, allow=allow_mixed_code, current=first_code,
-                        current_where=first_file)
+    check_one_code(codes, allow=allow_mixed_code)
     seeds = sorted(set(base).intersection(*(set(r) for r in loaded.values())))
     if len(seeds) < 2:
         raise ValueError(f"need at least 2 seeds finished by every run, got {seeds}")

@@ -40,7 +40,7 @@ from ilpss.experiments.compare import target_curves
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.methods import METHODS
 from ilpss.experiments.protocols import PROTOCOLS
-from ilpss.experiments.provenance import check_same_code, code_line
+from ilpss.experiments.provenance import check_one_code, code_line
 from ilpss.experiments.report import interval_text, threshold_for, windows
 from ilpss.experiments.run import run_experiment
 
@@ -157,10 +157,7 @@ def analyse(plan: Plan, folders: Mapping[str, Path], *,
             estimates = metrics.compare(curves[method], base, first=first, last=last,
                                         threshold=threshold_for(base), window=window)
             tests.append(Comparison(protocol, method, against, estimates))
-    if len(codes) > 1:
-        (one, one_file), (other, other_file) = list(codes.values())[:2]
-        check_same_code(other, other_file, allow=allow_mixed_code, current=one,
-                        current_where=one_file)
+    check_one_code(codes, allow=allow_mixed_code)
     adjusted = metrics.holm([t.gain.p_value for t in tests])
     tests = [Comparison(t.protocol, t.method, t.against, t.estimates, float(p))
              for t, p in zip(tests, adjusted, strict=True)]

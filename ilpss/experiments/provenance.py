@@ -27,6 +27,7 @@ __all__ = [
     "CODE_PACKAGES",
     "MixedCodeError",
     "check_code_field",
+    "check_one_code",
     "check_same_code",
     "code_line",
     "code_record",
@@ -144,6 +145,15 @@ def check_same_code(
         f"mixed: use another folder (or put that code back), or pass {ALLOW_FLAG} to mix "
         "them knowingly (what is written then says so)"
     )
+
+
+def check_one_code(codes: Mapping[str, tuple[Mapping[str, Any], str]], *,
+                   allow: bool = False) -> None:
+    """Refuse results of more than one code (``codes``: by digest, a code and a file that
+    has it), naming two of them, unless ``allow``."""
+    if len(codes) > 1:
+        (one, one_file), (other, other_file) = list(codes.values())[:2]
+        check_same_code(other, other_file, allow=allow, current=one, current_where=one_file)
 
 
 def code_line(results: Iterable[Mapping[str, Any]]) -> str:
