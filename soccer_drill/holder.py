@@ -33,6 +33,21 @@ def check_decision_cycles(decision_cycles: object) -> int:
     return int(decision_cycles)
 
 
+
+def check_holder_action(action: object) -> int:
+    """``action`` as an int in 0..2, as ``HolderEnv.step`` takes it: an int, a NumPy
+    integer or a 0-d integer array; bools, floats and values out of range are refused."""
+    if isinstance(action, np.ndarray) and action.shape == ():
+        action = action.item()
+    if isinstance(action, bool) or not isinstance(action, int | np.integer) or not (
+        0 <= action < len(HOLDER_ACTIONS)
+    ):
+        raise ValueError(
+            f"action must be an integer in 0..{len(HOLDER_ACTIONS) - 1} "
+            f"(0=HOLD, 1=PASS, 2=DRIBBLE), got {action!r}"
+        )
+    return int(action)
+
 class HolderEnv(gym.Env):
     """The drill as seen by whichever attacker holds the ball: keepaway's SMDP.
 
@@ -218,15 +233,7 @@ class HolderEnv(gym.Env):
         drill = self._core.drill
         if drill.outcome is not None:
             raise RuntimeError("step() called after the episode ended; call reset()")
-        if isinstance(action, np.ndarray) and action.shape == ():
-            action = action.item()
-        if isinstance(action, bool) or not isinstance(action, int | np.integer) or not (
-            0 <= action < len(HOLDER_ACTIONS)
-        ):
-            raise ValueError(
-                f"action must be an integer in 0..{len(HOLDER_ACTIONS) - 1} "
-                f"(0=HOLD, 1=PASS, 2=DRIBBLE), got {action!r}"
-            )
+        action = check_holder_action(action)
         holder = drill.state.holder
         command = _HOLDER_COMMANDS[int(action)]
         start = drill.state.cycle

@@ -14,8 +14,9 @@ what SB3's ``DummyVecEnv`` of ``num_envs`` ``HolderEnv`` gives, episode for epis
 | ``reset()`` | every drill starts an episode, seeded by the last ``seed(s)`` (drill ``i``: ``s + i``) or, without one, each going on with its own stream; options of the last ``set_options`` (one dict for all drills); ``reset_infos`` holds each drill's reset info |
 | ``step_async(actions)`` / ``step_wait()`` | one action per drill (``(num_envs,)`` integers); returns observations ``(num_envs, 9)`` float32, rewards float32, ``dones`` (terminated or truncated) and one info dict per drill |
 | an episode's end | the drill is reset within the step: its observation is the next episode's first; ``infos[i]["terminal_observation"]`` is the final one, ``infos[i]["TimeLimit.truncated"]`` whether it was a timeout, and ``reset_infos[i]`` the new episode's reset info |
-| ``get_attr``, ``env_method`` | the batched env's attribute or method, once per index asked (the drills share it); ``env_method("action_masks")`` gives each drill its row of ``HolderVectorEnv.action_masks()`` (all three actions, as ``HolderEnv.action_masks``: sb3-contrib's ``MaskablePPO`` runs on it) |
-| ``set_attr`` | on the batched env, for every drill at once (other indices: ``ValueError``) |
+| ``get_attr``, ``env_method`` | the batched env's attribute or method, once per index asked (the drills share it; no index: nothing is called); ``env_method("action_masks")`` gives each drill its row of ``HolderVectorEnv.action_masks()`` (all three actions, as ``HolderEnv.action_masks``: sb3-contrib's ``MaskablePPO`` runs on it); a method that acts on every drill at once (``reset``, ``close``, ...) for only some of them: ``ValueError`` |
+| ``set_attr`` | on the batched env, for every drill at once (other indices: ``ValueError``); ``autoreset_mode``, ``batch_size`` and ``num_envs``, which this class sets itself, are refused |
+| ``indices`` | ``None`` (every drill), an int or a sequence of ints in ``0..num_envs-1``, as SB3's ``_get_indices`` reads them; anything else (out of range, strings, floats, bools): ``TypeError``/``ValueError`` |
 | ``env_is_wrapped`` | ``False`` for each drill (no Gymnasium wrapper is inside) |
 | ``get_images()`` | one frame per drill with ``render_mode="rgb_array"`` |
 
@@ -37,13 +38,24 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import VecEnv
 
-from soccer_drill.vector import HolderVectorEnv
+from soccer_drill.vector import HolderVectorEnv, check_drill_indices
 
 __all__ = ["HolderSB3VecEnv"]
 
 _ROW_PER_DRILL = frozenset({"action_masks"})
 """Methods of ``HolderVectorEnv`` that return one row per drill: ``env_method`` gives each
 drill its own."""
+
+_EVERY_DRILL = frozenset({
+    "reset", "close", "step", "step_async", "step_wait", "async_reset", "send", "recv",
+    "render", "close_extras",
+})
+"""Methods of ``HolderVectorEnv`` that act on every drill at once: ``env_method`` calls them
+only for every drill, never for some (which ``DummyVecEnv`` would do)."""
+
+_FIXED_ATTRS = frozenset({"autoreset_mode", "batch_size", "num_envs"})
+"""Attributes this class sets itself: ``set_attr`` refuses them (SB3's conventions need them
+as they are)."""
 
 
 class HolderSB3VecEnv(VecEnv):
@@ -111,11 +123,20 @@ class HolderSB3VecEnv(VecEnv):
         return [None] * self.num_envs if frames is None else list(frames)
 
     # ---------------------------------------------------------- attributes
+    def _get_indices(self, indices: Any) -> list[int]:
+        """SB3's indices, checked (see ``soccer_drill.vector.check_drill_indices``)."""
+        return check_drill_indices(indices, self.num_envs)
+
     def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
         value = getattr(self.venv, attr_name)
         return [value for _ in self._get_indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
+        if attr_name in _FIXED_ATTRS:
+            raise ValueError(
+                f"set_attr({attr_name!r}): HolderSB3VecEnv sets it itself (SB3 steps every drill "
+                f"and resets a drill within its step); attributes it refuses: {sorted(_FIXED_ATTRS)}"
+            )
         if sorted(self._get_indices(indices)) != list(range(self.num_envs)):
             raise ValueError(
                 f"set_attr({attr_name!r}): the drills share one environment, so an attribute is "
@@ -125,7 +146,14 @@ class HolderSB3VecEnv(VecEnv):
 
     def env_method(self, method_name: str, *method_args: Any, indices: Any = None,
                    **method_kwargs: Any) -> list[Any]:
-        chosen = list(self._get_indices(indices))
+        chosen = self._get_indices(indices)
+        if not chosen:
+            return []  # no drill: nothing is called, as DummyVecEnv
+        if method_name in _EVERY_DRILL and sorted(set(chosen)) != list(range(self.num_envs)):
+            raise ValueError(
+                f"env_method({method_name!r}) acts on every drill of the shared batch at once: "
+                f"call it for every drill (indices=None), not for {chosen}"
+            )
         result = getattr(self.venv, method_name)(*method_args, **method_kwargs)
         if method_name in _ROW_PER_DRILL:
             return [result[i] for i in chosen]

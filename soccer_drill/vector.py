@@ -18,7 +18,7 @@ from soccer_drill.batch_render import BatchRenderer, check_render_mode
 from soccer_drill.config import DrillConfig, is_integer
 from soccer_drill.core import make_config
 from soccer_drill.features import batch_features, feature_bounds
-from soccer_drill.holder import check_decision_cycles
+from soccer_drill.holder import check_decision_cycles, check_holder_action
 from soccer_drill.skills import HOLDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
@@ -28,6 +28,50 @@ _PASS = 1
 _NAMES = np.array([*PLAYER_NAMES, None], dtype=object)  # index -1: None
 _OUTCOMES = np.array(OUTCOME_NAMES, dtype=object)
 _TIMEOUT = 4  # the outcome code of a timeout (truncation)
+
+
+RESET_OPTIONS = ("reset_mask",)
+"""The keys ``HolderVectorEnv.reset``'s ``options`` may hold."""
+
+
+def check_reset_options(options: object) -> Mapping[str, Any]:
+    """``reset``'s ``options``: a dict (or other mapping) whose keys are all in
+    ``RESET_OPTIONS``; anything else refused, naming the key and the allowed ones."""
+    if not isinstance(options, Mapping):
+        raise TypeError(
+            f"options must be a dict (keys: {', '.join(map(repr, RESET_OPTIONS))}) or None, "
+            f"got {type(options).__name__}"
+        )
+    unknown = [key for key in options if key not in RESET_OPTIONS]
+    if unknown:
+        raise ValueError(
+            f"unknown reset option {unknown[0]!r}; the options HolderVectorEnv.reset takes: "
+            f"{', '.join(map(repr, RESET_OPTIONS))}"
+        )
+    return options
+
+
+def check_drill_indices(indices: object, n: int) -> list[int]:
+    """Drill indices as SB3's ``VecEnv._get_indices`` reads them, checked: ``None`` (every
+    drill), an int or a sequence of ints (Python or NumPy, not bools), each in ``0..n-1``.
+    Returns them as a list of ints; anything else is refused, saying what is allowed."""
+    allowed = f"indices must be None (every drill), an int in 0..{n - 1} or a sequence of them"
+    if indices is None:
+        return list(range(n))
+    if is_integer(indices):
+        chosen = [indices]
+    elif (isinstance(indices, np.ndarray) and indices.ndim == 1) or (
+        isinstance(indices, Sequence) and not isinstance(indices, str | bytes)
+    ):
+        chosen = list(indices)
+    else:
+        raise TypeError(f"{allowed}; got {indices!r} of type {type(indices).__name__}")
+    for i in chosen:
+        if not is_integer(i):
+            raise TypeError(f"{allowed}; got {i!r} of type {type(i).__name__} in {indices!r}")
+        if not 0 <= i < n:
+            raise ValueError(f"{allowed}; got {i!r} (there are {n} drills)")
+    return [int(i) for i in chosen]
 
 
 def first_non_integer(actions: np.ndarray) -> int:
@@ -115,7 +159,7 @@ class HolderVectorEnv(VectorEnv):
     | ``reset(seed=s)`` (an int) | its episode starts from the generator of a single ``HolderEnv``'s ``reset(seed=s + i)`` (as ``SyncVectorEnv`` seeds its ``i``-th env) |
     | ``reset(seed=[s_0, ..., s_N-1])`` | seed ``s_i`` (``None``: keep its stream) |
     | ``reset()`` | every stream goes on (fresh entropy the first time) |
-    | ``reset(seed=..., options={"reset_mask": m})`` | only the drills where ``m`` (``(N,)`` bool) is true are reset, each seeded as a full reset would seed it: ``s + i`` for an int ``s``; a list still has ``N`` entries, one per drill, those of the drills not reset ignored; the other drills go on untouched |
+    | ``reset(seed=..., options={"reset_mask": m})`` | only the drills where ``m`` (``(N,)`` bool) is true are reset, each seeded as a full reset would seed it: ``s + i`` for an int ``s``; a list still has ``N`` entries, one per drill, those of the drills not reset ignored; the other drills go on untouched; any other key, or options that are not a dict: ``ValueError``/``TypeError`` naming it |
     | any reset of every drill of a space (a full ``reset``, or drills that all end together) | that space is built anew: no contact of an earlier episode is carried over, as in ``HolderEnv.reset`` |
     | an autoreset | its own stream goes on |
 
@@ -265,7 +309,7 @@ class HolderVectorEnv(VectorEnv):
         for an action."""
         core = self._core
         seeds = check_seed(seed, self.num_envs)
-        mask = None if options is None else options.get("reset_mask")
+        mask = None if options is None else check_reset_options(options).get("reset_mask")
         if mask is not None:
             mask = np.asarray(mask)
             if mask.shape != (self.num_envs,) or mask.dtype != np.bool_ or not mask.any():
@@ -569,9 +613,19 @@ def play_episodes(
     waits for the others' decisions). Several rules in one call keep a batch full for
     longer than one rule's episodes would (calibration plays every rule against a team
     at once). Returns ``(total reward, outcome)`` per seed, in the order of ``seeds``.
-    The environment must then be ``reset()`` before it is stepped.
+    A rule's action is checked as ``HolderEnv.step`` checks it, and the seeds as
+    ``HolderEnv.reset`` takes them (integers >= 0): anything else is a ``ValueError``
+    naming the drill and the seed. The environment must then be ``reset()`` before it is
+    stepped.
     """
     core, b, n = env._core, env._core.batch, env.num_envs
+    seeds = list(seeds)
+    for k, s in enumerate(seeds):
+        if not is_integer(s) or s < 0:
+            raise ValueError(
+                f"seeds[{k}] must be an integer >= 0 (a seed of HolderEnv.reset), got {s!r} "
+                f"of type {type(s).__name__}"
+            )
     seeds = [int(s) for s in seeds]
     policies = [policy] * len(seeds) if callable(policy) else list(policy)
     if len(policies) != len(seeds) or not all(callable(p) for p in policies):
@@ -603,7 +657,13 @@ def play_episodes(
             obs = batch_features(b.pos[deciding], b.holder[deciding], env.config, env._low, env._high)
             actions = np.zeros(n, dtype=np.int64)
             for k, (i, e) in enumerate(zip(deciding.tolist(), episode[deciding].tolist(), strict=True)):
-                actions[i] = policies[e](obs[k], rngs[i])  # type: ignore[arg-type]
+                action = policies[e](obs[k], rngs[i])  # type: ignore[arg-type]
+                try:
+                    actions[i] = check_holder_action(action)
+                except ValueError as error:
+                    raise ValueError(
+                        f"drill {i} (seed {seeds[e]}): the rule returned {action!r}; {error}"
+                    ) from None
             env._begin(deciding, actions)
         env._cycle()
         ended = np.nonzero((episode >= 0) & (b.outcome != 0))[0]

@@ -274,9 +274,10 @@ class ParallelVectorEnv:
     def _commands(self, actions: Mapping[str, Any], stepping: np.ndarray) -> tuple[dict, dict]:
         """Check every drill's actions (nothing changes on an error), then set the commands."""
         if not isinstance(actions, Mapping) or set(actions) != set(self.agents):
-            got = sorted(actions) if isinstance(actions, Mapping) else type(actions).__name__
-            raise ValueError(f"actions must be a mapping of every agent {self.agents} to "
-                             f"({self.num_envs},) integers, got {got}")
+            got = (f"keys {', '.join(sorted(map(repr, actions)))}" if isinstance(actions, Mapping)
+                   else type(actions).__name__)
+            raise ValueError(f"actions must be a mapping of every agent {self.agents} (and no "
+                             f"other key) to ({self.num_envs},) integers, got {got}")
         b, core = self._core.batch, self._core
         checked, illegal, taken = {}, {}, {}
         for agent, i in self._index.items():

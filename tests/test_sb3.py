@@ -98,3 +98,23 @@ def test_step_wait_without_step_async_is_refused():
     env.reset()
     with pytest.raises(RuntimeError, match="without step_async"):
         env.step_wait()
+
+
+def test_indices_are_checked_and_what_the_batch_cannot_do_per_drill_is_refused():
+    env = HolderSB3VecEnv(3, opponent=TEAM)
+    env.reset()
+    for bad in ([5], "a", -1, 3.0):
+        with pytest.raises((TypeError, ValueError), match="indices must be"):
+            env.get_attr("num_envs", indices=bad)
+        with pytest.raises((TypeError, ValueError), match="indices must be"):
+            env.env_method("action_masks", indices=bad)
+    assert env.get_attr("num_envs", indices=[2]) == [3]
+    with pytest.raises(ValueError, match=r"env_method\('reset'\).*every drill"):
+        env.env_method("reset", indices=[1])
+    with pytest.raises(ValueError, match=r"env_method\('close'\).*every drill"):
+        env.env_method("close", indices=[0, 1])
+    assert env.env_method("close", indices=[]) == []  # no drill: nothing called, as DummyVecEnv
+    env.step(np.zeros(3, dtype=np.int64))  # not closed
+    with pytest.raises(ValueError, match=r"set_attr\('autoreset_mode'\).*HolderSB3VecEnv sets it"):
+        env.set_attr("autoreset_mode", "NextStep")
+    env.step(np.zeros(3, dtype=np.int64))

@@ -1,0 +1,68 @@
+"""What the batched environments refuse: unknown reset options, what a rule returns in
+``play_episodes``, non-string agent keys and ``HolderSB3VecEnv``'s drill indices."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from soccer_drill import vector
+from soccer_drill.policies import HOLDER_POLICIES
+from soccer_drill.vector import HolderVectorEnv, play_episodes
+from soccer_drill.vector_agents import ParallelVectorEnv
+
+
+def test_reset_refuses_unknown_options_and_options_that_are_not_a_dict():
+    venv = HolderVectorEnv(num_envs=3, opponent="goal_guards")
+    venv.reset(seed=0)
+    mask = np.array([True, False, False])
+    with pytest.raises(ValueError, match=r"unknown reset option 'reset_masks'.*'reset_mask'"):
+        venv.reset(options={"reset_masks": mask})
+    with pytest.raises(TypeError, match=r"options must be a dict.*got list"):
+        venv.reset(options=[1])
+    with pytest.raises(ValueError, match=r"unknown reset option 1\b"):
+        venv.reset(options={1: 2})
+    venv.reset(options={})  # an empty dict: every drill, as None
+    venv.reset(options={"reset_mask": mask})
+
+
+def _returning(value):
+    return lambda obs, rng: value
+
+
+@pytest.mark.parametrize("value", [-1, -2, -3, 3, 7, 1.9, True, np.True_, "1", None, np.float64(1.0)])
+def test_play_episodes_refuses_what_a_rule_returns_that_is_not_an_action(value):
+    venv = HolderVectorEnv(num_envs=2, opponent="goal_guards")
+    with pytest.raises(ValueError, match=r"drill \d+ \(seed \d+\): the rule returned .*action must "
+                                         r"be an integer in 0\.\.2 \(0=HOLD, 1=PASS, 2=DRIBBLE\)"):
+        play_episodes(venv, _returning(value), [4, 5])
+
+
+def test_play_episodes_takes_numpy_integer_actions_and_refuses_seeds_that_are_not_integers():
+    venv = HolderVectorEnv(num_envs=2, opponent="goal_guards")
+    assert len(play_episodes(venv, _returning(np.int64(0)), [1, np.int32(2)])) == 2
+    for seeds in ([1.5], [True], ["3"], [-1]):
+        with pytest.raises((TypeError, ValueError), match=r"seeds\[0\] must be an integer"):
+            play_episodes(venv, HOLDER_POLICIES["hold"], seeds)
+
+
+def test_a_bad_agent_key_is_named_without_failing_to_sort_the_keys():
+    env = ParallelVectorEnv(num_envs=2)
+    env.reset(seed=0)
+    actions = {a: np.zeros(2, dtype=np.int64) for a in env.agents}
+    actions[3] = np.zeros(2, dtype=np.int64)
+    with pytest.raises(ValueError, match=r"actions must be a mapping of every agent .*got keys .*3"):
+        env.step(actions)
+
+
+def test_drill_indices_are_checked_as_sb3_reads_them():
+    assert vector.check_drill_indices(None, 3) == [0, 1, 2]
+    assert vector.check_drill_indices(2, 3) == [2]
+    assert vector.check_drill_indices(np.int64(1), 3) == [1]
+    assert vector.check_drill_indices([0, 2], 3) == [0, 2]
+    assert vector.check_drill_indices(np.array([1]), 3) == [1]
+    assert vector.check_drill_indices([], 3) == []
+    for bad in (5, -1, [5], [0, 3], "a", 1.0, True, [True], [0.0], {"a": 1}):
+        with pytest.raises((TypeError, ValueError), match=r"indices must be None \(every drill\), "
+                                                           r"an int in 0\.\.2 or a sequence of them"):
+            vector.check_drill_indices(bad, 3)
