@@ -13,12 +13,48 @@ from soccer_drill.config import DrillConfig, is_integer
 from soccer_drill.support import OFFSET_STD, RESAMPLE_CYCLES, support_commands_of_drills
 from soccer_drill.teams import Team, check_team_timeout
 
+DRILL_BYTES = 32 * 1024
+"""An upper estimate of one drill's memory in a batch (measured at 13-23 KiB a drill from
+64 drills on, 42 KiB in the first small batch of a process: docs/benchmarks.md)."""
+
+
+def available_memory() -> int | None:
+    """Bytes this process can still take: the smaller of the system's available memory
+    and what its cgroup's limit leaves (``None`` where neither can be read)."""
+    found = []
+    try:
+        with open("/proc/meminfo") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    found.append(int(line.split()[1]) * 1024)
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        with open("/sys/fs/cgroup/memory.max") as limit, \
+                open("/sys/fs/cgroup/memory.current") as current:
+            text = limit.read().strip()
+            if text != "max":
+                found.append(max(0, int(text) - int(current.read().strip())))
+    except (OSError, ValueError):
+        pass
+    return min(found) if found else None
+
 
 def check_num_envs(num_envs: object) -> int:
-    """``num_envs`` as an int, or ``ValueError`` saying what is allowed."""
+    """``num_envs`` as an int, or ``ValueError`` saying what is allowed: an integer in
+    1..1000000 whose drills fit in the memory available (at :data:`DRILL_BYTES` a drill;
+    beyond it the process is killed, or crashes inside pymunk, while it builds them)."""
     if not is_integer(num_envs) or not 1 <= num_envs <= 1_000_000:  # type: ignore[operator]
         raise ValueError(f"num_envs must be an integer in 1..1000000, got {num_envs!r}")
-    return int(num_envs)
+    n = int(num_envs)
+    available = available_memory()
+    if available is not None and n * DRILL_BYTES > available:
+        raise ValueError(
+            f"num_envs={n} needs about {n * DRILL_BYTES / 2**20:,.0f} MiB (up to "
+            f"{DRILL_BYTES // 1024} KiB a drill), more than the {available / 2**20:,.0f} MiB "
+            f"of memory available; at most {available // DRILL_BYTES:,} drills fit now"
+        )
+    return n
 
 
 def check_seed(seed: object, n: int) -> list[int | None] | None:

@@ -66,3 +66,20 @@ def test_drill_indices_are_checked_as_sb3_reads_them():
         with pytest.raises((TypeError, ValueError), match=r"indices must be None \(every drill\), "
                                                            r"an int in 0\.\.2 or a sequence of them"):
             vector.check_drill_indices(bad, 3)
+
+
+def test_num_envs_beyond_the_memory_available_is_refused_with_the_estimate(monkeypatch):
+    """Up to 1,000,000 drills were accepted whatever the memory (about 20 MB per 1,000),
+    and under a memory limit 200,000 crashed inside pymunk: the estimate is checked
+    against what is available before any drill is built."""
+    from soccer_drill import batch_core
+    from soccer_drill.vector import HolderVectorEnv
+
+    assert batch_core.available_memory() is None or batch_core.available_memory() > 0
+    monkeypatch.setattr(batch_core, "available_memory", lambda: 10 * 2**20)  # 10 MiB
+    with pytest.raises(ValueError, match=r"num_envs=1000 needs about 31 MiB \(up to 32 KiB a "
+                                         r"drill\), more than the 10 MiB of memory available; "
+                                         r"at most 320 drills fit now"):
+        HolderVectorEnv(1000, opponent="chasers")
+    env = HolderVectorEnv(8, opponent="chasers")  # 256 KiB: fits
+    env.close()
