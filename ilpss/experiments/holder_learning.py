@@ -47,8 +47,6 @@ from ilpss._check import Integer, ListOf, Real, Text, check_fields, check_keys
 from ilpss._io import (
     FolderInUseError,
     atomic_write_bytes,
-    locked_folder,
-    remove_stale_temporaries,
 )
 from ilpss.experiments.config import EXPERIMENT_CONSTRAINTS
 from ilpss.experiments.drill import (
@@ -295,8 +293,7 @@ def _main(argv: Sequence[str] | None) -> int:
     pool = LocalExecutor(args.workers)
     kept = KeptJobs(keep, allow_mixed_code=args.allow_mixed_code)
     try:
-        with locked_folder(keep, "job folder"):
-            remove_stale_temporaries(keep)
+        with kept.held():
             learnt, loaded = run_kept(
                 pool, learn_and_evaluate,
                 [(t, s, args.episodes, args.eval, lc) for t in args.teams for s in range(args.seeds)],

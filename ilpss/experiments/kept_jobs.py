@@ -21,9 +21,10 @@ loses only the jobs still running.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +34,8 @@ from ilpss._io import (
     check_inside,
     json_record_bytes,
     load_json_record,
+    locked_folder,
+    remove_stale_temporaries,
 )
 from ilpss.experiments.executor import SETTINGS_ERRORS, JobsFailed
 from ilpss.experiments.provenance import check_code_field, check_same_code, code_record
@@ -77,6 +80,14 @@ class KeptJobs:
         """Where the result of the job ``key`` of ``kind`` is kept."""
         digest = hashlib.sha256(canonical_json(key).encode()).hexdigest()[:20]
         return self.folder / f"{kind}-{digest}.json"
+
+    @contextlib.contextmanager
+    def held(self) -> Iterator[KeptJobs]:
+        """The folder locked for this process, its stale temporaries removed: what a
+        command holds while it loads and keeps jobs."""
+        with locked_folder(self.folder, "job folder"):
+            remove_stale_temporaries(self.folder)
+            yield self
 
     def load(self, kind: str, key: Mapping[str, Any], check: ResultCheck | None = None
              ) -> Any | None:

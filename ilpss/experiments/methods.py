@@ -364,6 +364,14 @@ def _fine_tuned(base: LifelongConfig, options: str, step_targets: str = "every_c
                                value_bounds=bounds, option_traces=traces)}
 
 
+def _bounded_cut(base: LifelongConfig, options: str,
+                 step_targets: str = "every_choice") -> dict[str, Any]:
+    """:func:`_fine_tuned` with values bounded by the drill's returns (one reward an
+    episode, undiscounted) and the traces cut before an option."""
+    return _fine_tuned(base, options, step_targets, value_bounds=drill.EPISODE_REWARD,
+                       option_traces="cut")
+
+
 # The oracle's regions: both sides of each split of protocol R's targets.
 register_reuse(Reuse("oracle_regions_finetune", GivenRegions(tuple(
     (feature, threshold, below) for feature, threshold in drill.REGION_SPLITS
@@ -435,27 +443,19 @@ for _method in (
                                             value_bounds=drill.EPISODE_REWARD)),
     LifelongMethod("ilpss_ft_bounded_cut",
                    "ILPSS-FT, values bounded, traces cut before an option",
-                   lambda base: _fine_tuned(base, "kernels_finetune",
-                                            value_bounds=drill.EPISODE_REWARD,
-                                            option_traces="cut")),
+                   lambda base: _bounded_cut(base, "kernels_finetune")),
     LifelongMethod("whole_policies_ft_bounded_cut",
                    "whole past policies, ILPSS-FT's settings, values bounded, traces cut "
                    "before an option",
-                   lambda base: _fine_tuned(base, "whole_policies_finetune",
-                                            value_bounds=drill.EPISODE_REWARD,
-                                            option_traces="cut")),
+                   lambda base: _bounded_cut(base, "whole_policies_finetune")),
     LifelongMethod("ilpss_ft_bounded_cut_available",
                    "ILPSS-FT, values bounded, traces cut before an option, steps inside "
                    "options bootstrapped from the available choices",
-                   lambda base: _fine_tuned(base, "kernels_finetune", "available_choices",
-                                            value_bounds=drill.EPISODE_REWARD,
-                                            option_traces="cut")),
+                   lambda base: _bounded_cut(base, "kernels_finetune", "available_choices")),
     LifelongMethod("ilpss_ft_bounded_cut_primitives",
                    "ILPSS-FT, values bounded, traces cut before an option, steps inside "
                    "options bootstrapped from the primitives",
-                   lambda base: _fine_tuned(base, "kernels_finetune", "primitive_choices",
-                                            value_bounds=drill.EPISODE_REWARD,
-                                            option_traces="cut")),
+                   lambda base: _bounded_cut(base, "kernels_finetune", "primitive_choices")),
     LifelongMethod("ilpss_ft_oracle", "ILPSS-FT with the true regions as kernels (oracle)",
                    lambda base: _fine_tuned(base, "oracle_regions_finetune")),
 ):

@@ -38,7 +38,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ilpss._io import FolderInUseError, atomic_write_bytes, locked_folder, remove_stale_temporaries
+from ilpss._io import FolderInUseError, atomic_write_bytes
 from ilpss.experiments.drill import HOLDER_RULES, PAPER_TEAMS, TEAM_ERROR, drill_exception
 from ilpss.experiments.executor import LocalExecutor, stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.holder_learning import check_rule_result, rule_key, rule_rewards
@@ -231,8 +231,7 @@ def _main(argv: Sequence[str] | None) -> int:
     pool = LocalExecutor(args.workers)
     kept = KeptJobs(keep, allow_mixed_code=args.allow_mixed_code)
     try:
-        with locked_folder(keep, "job folder"):
-            remove_stale_temporaries(keep)
+        with kept.held():
             fixed, _ = run_kept(pool, rule_rewards,
                                 [(t, HOLDER_RULES, n, args.eval) for t in rule_teams for n in names],
                                 "rule", rule_key, kept, desc="fixed rules", check=check_rule_result)
