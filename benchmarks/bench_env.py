@@ -151,7 +151,7 @@ class PhysicsLoop:
     def __init__(self, cycles: int = 1 << 16) -> None:
         drill = Drill()
         drill.reset(np.random.default_rng(0))
-        self.space: pymunk.Space = drill._space
+        self.space: pymunk.Space = drill.physics.space
         self.bodies = list(self.space.bodies)  # the 4 players and the ball
         cfg = drill.config
         self.dt, self.substeps = cfg.cycle_seconds / cfg.substeps, cfg.substeps
@@ -195,7 +195,7 @@ def reset_us(rebuild: bool, number: int = 100, repeat: int = 30) -> float:
     rng = np.random.default_rng(0)
     drill.reset(rng)
     if not rebuild:
-        drill._build_space = lambda: None  # the old reset: same bodies, same space
+        drill.physics.renew = lambda drills, pos: None  # the old reset: same bodies, same space
     return _fastest_us(lambda: drill.reset(rng), number, repeat)
 
 

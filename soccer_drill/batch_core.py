@@ -7,9 +7,10 @@ from typing import Any
 
 import numpy as np
 
-from soccer_drill.batch import RUNNING, BatchDrill
 from soccer_drill.batch_teams import BatchRandom, BatchTeamDriver
 from soccer_drill.config import DrillConfig, is_integer
+from soccer_drill.drill import BatchDrill
+from soccer_drill.rules.cycle import RUNNING
 from soccer_drill.support import OFFSET_STD, RESAMPLE_CYCLES, support_commands_of_drills
 from soccer_drill.teams import Team, check_team_timeout
 

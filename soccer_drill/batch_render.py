@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from soccer_drill.batch import OUTCOME_NAMES
 from soccer_drill.config import DrillConfig
+from soccer_drill.drill import OUTCOME_NAMES
 
 RENDER_MODES = ("rgb_array",)
 """What the batched environments draw: one off-screen frame per drill."""

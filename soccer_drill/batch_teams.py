@@ -31,8 +31,8 @@ from typing import Any, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
-from soccer_drill.batch import rows
 from soccer_drill.config import DrillConfig
+from soccer_drill.drill.drills import rows
 from soccer_drill.skills import Skill
 from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView
 from soccer_drill.teams import (

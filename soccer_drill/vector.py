@@ -11,12 +11,11 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from soccer_drill.batch import OUTCOME_NAMES
 from soccer_drill.batch_core import BatchCore, check_num_envs, check_seed
-from soccer_drill.batch_physics import DRILLS_PER_SPACE, check_drills_per_space
 from soccer_drill.batch_render import BatchRenderer, check_render_mode
 from soccer_drill.config import DrillConfig, is_integer
 from soccer_drill.core import make_config
+from soccer_drill.drill import DRILLS_PER_SPACE, OUTCOME_NAMES, check_drills_per_space
 from soccer_drill.features import batch_features, feature_bounds
 from soccer_drill.holder import check_decision_cycles, check_holder_action
 from soccer_drill.skills import HOLDER_ACTIONS

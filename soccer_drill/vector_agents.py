@@ -9,9 +9,7 @@ from typing import Any, ClassVar
 import numpy as np
 from gymnasium import spaces
 
-from soccer_drill.batch import OUTCOME_NAMES, RUNNING
 from soccer_drill.batch_core import BatchCore, check_num_envs, check_seed
-from soccer_drill.batch_physics import DRILLS_PER_SPACE, check_drills_per_space
 from soccer_drill.batch_render import BatchRenderer, check_render_mode
 from soccer_drill.config import DrillConfig
 from soccer_drill.core import (
@@ -30,6 +28,7 @@ from soccer_drill.core import (
     out_of_range,
     resolve_shared_spaces,
 )
+from soccer_drill.drill import DRILLS_PER_SPACE, OUTCOME_NAMES, check_drills_per_space
 from soccer_drill.features import (
     batch_global_state,
     batch_kinematics,
@@ -38,6 +37,7 @@ from soccer_drill.features import (
     players_features,
     state_bounds,
 )
+from soccer_drill.rules.cycle import RUNNING
 from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team

@@ -91,11 +91,11 @@ def test_observations_are_the_same_with_array_and_float_bounds():
 
 
 def test_a_batched_read_in_another_order_is_refused_by_name():
-    drill = drill_module.Drill()
-    drill_module._check_batch_order(drill._space, drill._bodies, drill._buffer)  # as built
+    physics = drill_module.Drill().physics
+    drill_module.check_batch_order(physics.space, physics._bodies)  # as built
     with pytest.raises(RuntimeError, match=r"pymunk .*batch API lists the space's bodies in "
                        r"an unexpected order; this pymunk version is not supported"):
-        drill_module._check_batch_order(drill._space, drill._bodies[::-1], drill._buffer)
+        drill_module.check_batch_order(physics.space, physics._bodies[::-1])
 
 
 def test_a_drill_with_its_batch_buffer_pickles_and_continues_identically():

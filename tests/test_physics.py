@@ -127,3 +127,29 @@ def test_pass_moves_possession_between_attackers():
             changes += env.drill_state.holder != before
             assert info["duration"] > 1
     assert changes >= 8
+
+
+def test_the_ball_moves_on_the_arrays_exactly_as_pymunk_moves_it_in_the_single_drill():
+    """The rules move the ball on arrays (the batched drill has no ball body); the single
+    drill keeps it a body of its space as well, and both agree to the bit, the sign of a
+    zero included, over passes, dribbles and loose balls."""
+    from soccer_drill.drill import Drill
+
+    drill, rng = Drill(), np.random.default_rng(3)
+    skills = [Skill.PASS, Skill.DRIBBLE, Skill.HOLD, Skill.GO_TO_BALL]
+    checked = passes = 0
+    for _ in range(40):
+        state = drill.reset(rng)
+        while drill.outcome is None:
+            holder = state.holder
+            commands = [Command(Skill.GET_OPEN), Command(Skill.GET_OPEN),
+                        Command(Skill.INTERCEPT), Command(Skill.MARK)]
+            if holder in (0, 1):
+                commands[holder] = Command(skills[int(rng.integers(len(skills) - 1))])
+                passes += commands[holder].skill is Skill.PASS
+            state = drill.step(commands, rng)
+            ball = drill.physics._bodies[4]
+            got = np.array([*ball.position, *ball.velocity])
+            assert got.tobytes() == np.array([*state.pos[4], *state.vel[4]]).tobytes()
+            checked += 1
+    assert checked > 500 and passes > 10

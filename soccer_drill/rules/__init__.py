@@ -7,7 +7,8 @@
 | :mod:`~soccer_drill.rules.cycle` | around the physics: the acceleration cap, the ball, the speed caps, possession and tackles, the outcome; an episode's start |
 | :mod:`~soccer_drill.rules.first_use` | every rule called once, so that ``warm_up`` compiles them before a team's time bound |
 
-The single drill calls them for its one drill, the batched drill and the batched teams
-through their loops over drills. The observations' rules are in
+The drill (:class:`~soccer_drill.drill.BatchDrill`, one drill or many) and the batched
+teams run them through their loops over drills; the single teams and skills call them
+for one drill. The observations' rules are in
 :mod:`soccer_drill.features`, the support player's in :mod:`soccer_drill.support`.
 """

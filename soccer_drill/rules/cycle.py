@@ -1,17 +1,20 @@
 """The rules of one cycle around the physics, and of an episode's start, written once for
 one drill.
 
-Before the physics, the players' motions (:mod:`soccer_drill.rules.motion`) become velocities
-under the acceleration cap, and the holder's ball action becomes the ball's velocity: a
-kick, a small kick that keeps the ball at the control point, or none (it rolls on,
-damped). After it, a velocity a collision pushed past its cap is capped, possession is
-decided (who controls the ball, and which opponents may tackle), then the outcome.
+Before the physics (:func:`before_physics`), the players' motions
+(:mod:`soccer_drill.rules.motion`) become velocities under the acceleration cap, and the
+holder's ball action becomes the ball's velocity: a kick, a small kick that keeps the
+ball at the control point, or none (it rolls on, damped). After it
+(:func:`after_physics`), the ball moves on arrays as pymunk moves a free body, a velocity
+a collision pushed past its cap is capped, possession is decided (who controls the ball,
+and which opponents may tackle), then the outcome.
 
 The functions read one drill's arrays (``pos`` and ``vel``: ``(5, 2)`` float64, the
 four players then the ball) and are compiled per drill (:mod:`soccer_drill.rules.compiled`);
-the single drill calls them for its drill, the batched drill through the loops at the
-end of the module. The random draws stay with the callers, each drill's from its own
-generator in the same order: the tackles' uniforms (:func:`tackle`).
+:class:`~soccer_drill.drill.BatchDrill` runs them through the loops at the end of the
+module, for one drill (the single environments) or many. The random draws stay with the
+caller, each drill's from its own generator in the same order: the pass's two normals,
+the tackles' uniforms (:func:`tackle`).
 """
 
 from __future__ import annotations
@@ -29,6 +32,8 @@ from soccer_drill.rules.motion import (
     DEFENDER_SPEED,
     KICK,
     NO_BALL,
+    PASS,
+    motions_into,
 )
 
 RUNNING, SUCCESS, INTERCEPTION, OUT, TIMEOUT = range(5)
@@ -192,63 +197,124 @@ def draw_start(rng: np.random.Generator, cfg: DrillConfig) -> tuple[np.ndarray, 
     return pos, holder
 
 
+# ------------------------------------------------------------------ one cycle
+@compiled
+def before_physics(out, motions, pos, vel, holder, skill, target, speed, noise, params, table,
+                   accel, dt, ball_offset, roll, ball_max):
+    """One drill's velocities set before the physics, into ``out`` (``(5, 2)``): every
+    player's motion by the skills' rules (:func:`~soccer_drill.rules.motion.motions_into`,
+    into ``motions``), then :func:`velocities_into`. Returns the player who kicked the
+    ball, or -1."""
+    motions_into(motions, pos, vel, holder, skill, target, speed, noise, params, table)
+    return velocities_into(out, pos, vel, holder, motions, accel, dt, ball_offset, roll,
+                           ball_max)
+
+
+@compiled
+def after_physics(pos, vel, players, set_vel, order, dist, holder, kicker, cycle, passer,
+                  lockout_until, substeps, sub_dt, lockout_cycles, params, radius,
+                  control_speed, size, max_cycles):
+    """One drill's state after the physics, written into ``pos`` and ``vel``: the
+    players as the physics left them (``players``: ``(4, 4)``, ``x, y, vx, vy``), the
+    ball moved by its velocity in ``set_vel``, every velocity capped (:func:`recap`).
+
+    The ball meets nothing, so it moves as pymunk moves a free body with no gravity and
+    a damping of 1, on arrays: ``p + (v + 0) * dt`` each of the ``substeps`` sub-steps,
+    keeping ``v + 0`` (the addition of pymunk's zero force and bias velocity, which turns
+    a -0.0 into 0.0). Then a kick's passer and lock-out, the cycle counted, possession
+    (:func:`possession`, before any tackle) and the outcome.
+
+    Returns ``(holder, tacklers, cycle, passer, lockout_until, code)``, the opponents
+    who may tackle in ``order[:tacklers]`` (``order`` and ``dist``: scratch of 4).
+    """
+    for k in range(4):
+        pos[k, 0], pos[k, 1] = players[k, 0], players[k, 1]
+        vel[k, 0], vel[k, 1] = players[k, 2], players[k, 3]
+    bvx, bvy = set_vel[4, 0] + 0.0, set_vel[4, 1] + 0.0
+    step_x, step_y = bvx * sub_dt, bvy * sub_dt
+    bx, by = pos[4, 0], pos[4, 1]
+    for _ in range(substeps):
+        bx += step_x
+        by += step_y
+    pos[4, 0], pos[4, 1] = bx, by
+    vel[4, 0], vel[4, 1] = bvx, bvy
+    recap(vel, params)  # a collision can push a body past its top speed
+    if kicker >= 0:
+        holder, passer, lockout_until = -1, kicker, cycle + 1 + lockout_cycles
+    cycle += 1
+    holder, tacklers = possession(order, dist, pos, vel, holder, cycle, passer, lockout_until,
+                                  radius, control_speed)
+    return (holder, tacklers, cycle, passer, lockout_until,
+            outcome(pos, holder, cycle, size, max_cycles))
+
+
 # ------------------------------------------------------------------ many drills
+# Each drill's scratch of a cycle, one int64 row: who may tackle (4), their number, the
+# kicker, whether its holder passes (in one array: every array handed to compiled code
+# costs its dispatch about 50 ns, as much as the rules of a step of some skills).
+ORDER, TACKLERS, KICKER, PASSING, SCRATCH = 0, 4, 5, 6, 7
+
+
 @compiled
-def velocities_of_drills(out, kicker, active, pos, vel, holder, motions, accel, dt,
-                         ball_offset, roll, ball_max):
-    """:func:`velocities_into` of each active drill (``out``: ``(n, 5, 2)``, ``kicker``:
-    ``(n,)``); an inactive drill's bodies stand still (velocity 0)."""
+def before_physics_of_drills(out, scratch, motions, active, first, code, pos, vel, holder, skill,
+                             target, speed, noise, params, table, accel, dt, ball_offset, roll,
+                             ball_max):
+    """:func:`before_physics` of the drills, the kicker into ``scratch[i, KICKER]``.
+
+    With ``first`` true: of every active drill whose holder does not pass (the others are
+    marked in ``scratch[i, PASSING]``: their two normals are drawn before their rules
+    run); an inactive drill's bodies stand still (velocity 0). Returns ``(ended, passes,
+    active)``: the first active drill whose episode has ended (-1: none), the passes,
+    the active drills. With ``first`` false: of the drills marked, their ``noise`` drawn.
+    """
+    ended, passes, count = -1, 0, 0
     for i in range(pos.shape[0]):
-        if active[i]:
-            kicker[i] = velocities_into(out[i], pos[i], vel[i], holder[i], motions[i], accel,
-                                        dt, ball_offset, roll, ball_max)
-        else:
+        if not first:
+            if scratch[i, PASSING] == 0:
+                continue
+        elif not active[i]:
             out[i] = 0.0
+            scratch[i, KICKER] = -1
+            scratch[i, PASSING] = 0
+            continue
+        else:
+            count += 1
+            if code[i] != RUNNING and ended < 0:
+                ended = i
+            h = holder[i]
+            scratch[i, PASSING] = 0
+            if h >= 0 and skill[i, h] == PASS:
+                scratch[i, PASSING] = 1
+                passes += 1
+                continue
+        scratch[i, KICKER] = before_physics(out[i], motions[i], pos[i], vel[i], holder[i],
+                                            skill[i], target[i], speed[i], noise[i], params,
+                                            table, accel, dt, ball_offset, roll, ball_max)
+    return ended, passes, count
 
 
 @compiled
-def after_physics_of_drills(pos, vel, before, passer, lockout_until, cycle, active, kicker,
-                            new_pos, new_vel, set_vel, substeps, sub_dt, lockout_cycles, params):
-    """Each active drill's state after the physics: its players' ``new_pos`` and
-    ``new_vel``; its ball moved by its velocity in ``set_vel`` in ``substeps`` steps of
-    ``sub_dt`` (the additions pymunk makes, ``p + v * dt``); every velocity capped
-    (:func:`recap`); a kick's passer and lock-out, and ``before[i]`` (who held the ball
-    before the physics) -1 after a kick; the cycle counted."""
+def after_physics_of_drills(pos, vel, holder, cycle, passer, lockout_until, code, scratch,
+                            active, players, set_vel, substeps, sub_dt, lockout_cycles, params,
+                            radius, control_speed, size, max_cycles):
+    """:func:`after_physics` of each active drill, into its rows of the state's arrays,
+    ``code`` (the outcome before any tackle) and ``scratch`` (the opponents who may tackle
+    and their number, 0 in inactive drills). Returns the number of active drills with a
+    tackle to draw, and of those ended."""
+    dist = np.empty(4)
+    tackling = ended = 0
     for i in range(pos.shape[0]):
         if not active[i]:
+            scratch[i, TACKLERS] = 0
             continue
-        pos[i, :4] = new_pos[i]
-        vel[i, :4] = new_vel[i]
-        bx, by = pos[i, 4, 0], pos[i, 4, 1]
-        step_x, step_y = set_vel[i, 4, 0] * sub_dt, set_vel[i, 4, 1] * sub_dt
-        for _ in range(substeps):
-            bx += step_x
-            by += step_y
-        pos[i, 4, 0], pos[i, 4, 1] = bx, by
-        vel[i, 4] = set_vel[i, 4]
-        recap(vel[i], params)
-        if kicker[i] >= 0:
-            before[i] = -1
-            passer[i] = kicker[i]
-            lockout_until[i] = cycle[i] + 1 + lockout_cycles
-        cycle[i] += 1
-
-
-@compiled
-def possession_of_drills(new_holder, tacklers, order, active, pos, vel, holder, cycle, passer,
-                         lockout_until, radius, speed):
-    """:func:`possession` of each active drill: its holder before tackles into
-    ``new_holder``, its tacklers into ``order[i, :tacklers[i]]``."""
-    dist = np.empty(4)
-    for i in range(pos.shape[0]):
-        if active[i]:
-            new_holder[i], tacklers[i] = possession(order[i], dist, pos[i], vel[i], holder[i],
-                                                    cycle[i], passer[i], lockout_until[i],
-                                                    radius, speed)
-
-
-@compiled
-def outcomes_of_drills(code, active, pos, holder, cycle, size, max_cycles):
-    """:func:`outcome` of each active drill into ``code`` (``RUNNING`` elsewhere)."""
-    for i in range(pos.shape[0]):
-        code[i] = outcome(pos[i], holder[i], cycle[i], size, max_cycles) if active[i] else RUNNING
+        h, t, c, p, lock, result = after_physics(
+            pos[i], vel[i], players[i], set_vel[i], scratch[i, ORDER:TACKLERS], dist, holder[i],
+            scratch[i, KICKER], cycle[i], passer[i], lockout_until[i], substeps, sub_dt,
+            lockout_cycles, params, radius, control_speed, size, max_cycles)
+        holder[i], scratch[i, TACKLERS], cycle[i], passer[i], lockout_until[i], code[i] = (
+            h, t, c, p, lock, result)
+        if t > 0:
+            tackling += 1
+        if result != RUNNING:
+            ended += 1
+    return tackling, ended

@@ -11,9 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from soccer_drill.batch import BatchDrill
 from soccer_drill.config import DrillConfig
-from soccer_drill.drill import Drill
+from soccer_drill.drill import BatchDrill, Drill
 from soccer_drill.features import (
     batch_features,
     batch_global_state,

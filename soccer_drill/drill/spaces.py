@@ -1,0 +1,321 @@
+"""The pymunk side of the drill: the players (and walls) of one drill or of many.
+
+One cycle of the physics takes every body's velocity set by the rules and runs
+``substeps`` steps; the players come back as one ``(n, 4, 4)`` array (``x, y, vx, vy``
+per player, field coordinates). The ball touches nothing, so the rules move it on arrays
+(:func:`~soccer_drill.rules.cycle.after_physics`) exactly as pymunk moves a free body.
+
+* :class:`DrillSpace`: one drill in a space of its own, the single environments' physics.
+  The ball is a body of the space too (its shape meets nothing): chipmunk's spatial index
+  holds every shape, and the order in which it finds contacts, hence the floats of
+  simultaneous contacts, depends on all of them; the single drill's episodes are
+  recorded with the ball in its space. The players stay where pymunk left them between
+  cycles (nothing is written but velocities).
+* :class:`BatchPhysics`: the players of ``n`` drills in spaces of up to
+  ``drills_per_space`` drills, far apart, written and read through ``pymunk.batch``.
+
+The sub-steps call chipmunk's ``cpSpaceStep`` directly when this pymunk has it
+(:func:`space_step`); else ``Space.step``.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import pymunk
+import pymunk.batch as pmb
+
+from soccer_drill.config import DrillConfig, is_integer
+
+PLAYER_MASS = 75.0
+_BALL_MASS, _BALL_RADIUS = 0.45, 0.11
+_BALL_MOMENT = pymunk.moment_for_circle(_BALL_MASS, 0.0, _BALL_RADIUS)
+_BALL_FILTER = pymunk.ShapeFilter(categories=0, mask=0)  # the ball's shape meets nothing
+# pymunk's property setters called directly: the same code as ``body.velocity = v``
+# without pymunk's generic ``__setattr__`` wrapper, which costs as much again.
+_set_velocity = pymunk.Body.velocity.fset
+_set_position = pymunk.Body.position.fset
+_set_filter = pymunk.Shape.filter.fset
+try:  # chipmunk's own step, behind Space.step
+    from pymunk._chipmunk import lib as _chipmunk
+
+    _SPACE_STEP = _chipmunk.cpSpaceStep
+except (ImportError, AttributeError):  # pragma: no cover - another pymunk build
+    _SPACE_STEP = None
+_FIELDS = pmb.BodyFields.POSITION | pmb.BodyFields.VELOCITY
+DRILLS_PER_SPACE = 64
+"""The default number of drills sharing one pymunk space."""
+
+
+def space_step(space: pymunk.Space) -> Callable[[float], object]:
+    """``space.step``, or chipmunk's ``cpSpaceStep`` on the space when this pymunk has it:
+    ``Space.step`` is that call plus bookkeeping for callbacks and for bodies added or
+    removed during a step, none of which the drill uses (the same computation, without
+    about a microsecond of Python per sub-step)."""
+    if _SPACE_STEP is not None and hasattr(space, "_space"):
+        return functools.partial(_SPACE_STEP, space._space)
+    return space.step
+
+
+def check_batch_order(space: pymunk.Space, bodies: Sequence[pymunk.Body]) -> None:
+    """Check that pymunk's batched reads list ``bodies`` first, in their order.
+
+    Every cycle reads the bodies at once through ``pymunk.batch`` (an API pymunk calls
+    experimental) and relies on that order; a pymunk release that changed it would
+    otherwise mix the bodies up silently.
+    """
+    buffer = pmb.Buffer()
+    pmb.get_space_bodies(space, pmb.BodyFields.BODY_ID, buffer)
+    ids = memoryview(buffer.int_buf()).cast("P").tolist()
+    if ids[: len(bodies)] != [body.id for body in bodies]:
+        raise RuntimeError(
+            f"pymunk {pymunk.version}'s batch API lists the space's bodies in an "
+            "unexpected order; this pymunk version is not supported by soccer_drill"
+        )
+
+
+def check_drills_per_space(drills_per_space: object) -> int:
+    """``drills_per_space`` as an int, or ``ValueError`` saying what is allowed."""
+    if not is_integer(drills_per_space) or drills_per_space < 1:  # type: ignore[operator]
+        raise ValueError(f"drills_per_space must be an integer >= 1, got {drills_per_space!r}")
+    return int(drills_per_space)  # type: ignore[call-overload]
+
+
+def _walls(space: pymunk.Space, cfg: DrillConfig, ox: float = 0.0, oy: float = 0.0) -> list:
+    """The four walls just outside one drill's field, its region starting at ``(ox, oy)``."""
+    lo, hi = -cfg.wall_margin, cfg.field_size + cfg.wall_margin
+    corners = [(ox + a, oy + b) for a, b in ((lo, lo), (hi, lo), (hi, hi), (lo, hi))]
+    return [pymunk.Segment(space.static_body, a, b, 0.1)
+            for a, b in zip(corners, corners[1:] + corners[:1], strict=True)]
+
+
+class DrillSpace:
+    """One drill's pymunk space: its four players, the ball and the walls.
+
+    Args:
+        config: the drill's parameters.
+
+    :meth:`renew` builds the space anew at every episode's start: a space keeps contact
+    caches and other internal state from earlier episodes that change later collisions,
+    so reusing one would make an episode depend on what ran before it, not only on its
+    seed. The bodies are new too: a body keeps the bias velocity of the last step's
+    contacts (pymunk does not expose it), which would move it in the next episode's
+    first step. Everything is added in one call (bodies first, then shapes, in order),
+    and shapes keep pymunk's default elasticity and friction (0), which the drill wants:
+    setting them costs more than the rest of a shape's creation.
+    """
+
+    n = 1
+
+    def __init__(self, config: DrillConfig) -> None:
+        self.config = config
+        self._sub_dt = config.cycle_seconds / config.substeps
+        self._buffer = pmb.Buffer()  # reused: one batched read per cycle
+        self.renew(np.zeros(1, dtype=np.int64), np.zeros((1, 5, 2)))
+        check_batch_order(self.space, self._bodies)
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        del state["_buffer"], state["_step"]  # C handles, not picklable: a copy makes its own
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._buffer = pmb.Buffer()
+        self._step = space_step(self.space)
+
+    def renew(self, drills: np.ndarray, pos: np.ndarray) -> None:
+        """A new space with the bodies at rest at ``pos[0]`` (the drill's start)."""
+        cfg = self.config
+        space = pymunk.Space()
+        players = [pymunk.Body(PLAYER_MASS, math.inf) for _ in range(4)]  # no spin
+        ball = pymunk.Body(_BALL_MASS, _BALL_MOMENT)
+        # Players and walls keep pymunk's default filter (every shape meets every other),
+        # which gives the drill's collisions: player with player, player with wall (two
+        # static walls never meet). Setting a filter costs about 1 us a shape.
+        shapes = [pymunk.Circle(body, cfg.player_radius) for body in players]
+        ball_shape = pymunk.Circle(ball, _BALL_RADIUS)
+        _set_filter(ball_shape, _BALL_FILTER)  # touches nothing
+        shapes.append(ball_shape)
+        self._bodies = (*players, ball)
+        space.add(*self._bodies, *shapes, *_walls(space, cfg))
+        # Placed once in the space (as the recorded episodes were): the spatial index is
+        # built from where the shapes stood when added.
+        for body, p in zip(self._bodies, map(tuple, pos[0].tolist()), strict=True):
+            _set_position(body, p)
+        self.space = space
+        self._step = space_step(space)
+
+    def cycle(self, pos: np.ndarray, vel: np.ndarray, active: np.ndarray | None) -> np.ndarray:
+        """One cycle with the bodies' velocities ``vel[0]`` (``(1, 5, 2)``; the ball's too,
+        so that it moves in the space as on the arrays). The players start where the last
+        cycle left them (``pos`` is not read). Returns the players, ``(1, 4, 4)``."""
+        for body, (vx, vy) in zip(self._bodies, vel[0].tolist(), strict=True):
+            _set_velocity(body, (vx, vy))
+        step, sub_dt = self._step, self._sub_dt
+        for _ in range(self.config.substeps):
+            step(sub_dt)
+        # One batched read of every body: x, y, vx, vy each, the players first
+        # (check_batch_order), then the ball and the space's static body.
+        buffer = self._buffer
+        buffer.clear()
+        pmb.get_space_bodies(self.space, _FIELDS, buffer)
+        return np.frombuffer(buffer.float_buf(), dtype=np.float64)[:16].reshape(1, 4, 4)
+
+
+class BatchPhysics:
+    """The players of ``n`` drills in shared pymunk spaces, moved by batched writes and reads.
+
+    Args:
+        n: number of drills.
+        config: the drills' parameters (one for all).
+        drills_per_space: drills sharing one space (the last space may hold fewer).
+
+    Each drill's four players and its four walls sit in a region of their own, the
+    regions :attr:`spacing` metres apart so that no two drills' shapes ever meet
+    (``benchmarks/bench_vector.py`` measures the layouts: one space per 64 drills costs
+    least per drill at every batch size tried). The ball is not a body here.
+
+    One cycle is one batched write of every player's position and velocity per space
+    (``pymunk.batch.set_space_bodies``), the sub-steps of each space, and one batched
+    read back. Writing the positions too lets a drill stand still (a drill waiting for
+    its holder's decision, or one just reset): it is written where it stood with no
+    velocity before every cycle, and after it. A space none of whose drills moves is not
+    stepped at all, and a space all of whose drills start a new episode is built anew
+    (:meth:`renew`), so that with one drill per space a drill's physics depends on its
+    own episode alone, waits and resets included.
+    """
+
+    def __init__(self, n: int, config: DrillConfig, drills_per_space: int = DRILLS_PER_SPACE) -> None:
+        self.n, self.config = n, config
+        self.drills_per_space = check_drills_per_space(drills_per_space)
+        self._sub_dt = config.cycle_seconds / config.substeps
+        span = config.field_size + 2 * config.wall_margin
+        self.spacing = span + 4 * config.field_size  # far beyond any reach of a player
+        self.build()
+
+    def build(self) -> None:
+        """New spaces and bodies (every contact cache and bias velocity forgotten)."""
+        g = self.drills_per_space
+        self._slices = [slice(first, min(first + g, self.n)) for first in range(0, self.n, g)]
+        k = len(self._slices)
+        self.spaces: list[pymunk.Space] = [None] * k  # type: ignore[list-item]
+        self._arrays: list[np.ndarray] = [None] * k  # type: ignore[list-item]
+        self._set_buffers: list[pmb.Buffer] = [None] * k  # type: ignore[list-item]
+        self._bodies: list[np.ndarray] = [None] * k  # type: ignore[list-item]  # (count, 4, 4) views
+        self._steps: list = [None] * k
+        self._fresh = np.ones(k, dtype=bool)  # built and not stepped since: nothing to forget
+        self._get_buffer = pmb.Buffer()
+        self.offsets = np.zeros((self.n, 2))  # (n, 2): where each drill's region starts in its space
+        self._offsets = self.offsets[:, None, :]
+        for space in range(k):
+            self._build_space(space)
+        self._out = np.zeros((self.n, 4, 4))
+
+    def renew(self, drills: np.ndarray, pos: np.ndarray | None = None) -> None:
+        """New spaces and bodies for the spaces all of whose drills are in ``drills``
+        (drills starting a new episode): their contact caches and bias velocities are
+        forgotten, as :class:`DrillSpace` forgets its own. A space shared with a drill
+        that goes on is kept, and so is one not stepped since it was built (it has
+        nothing to forget). The players are written where ``pos`` says at the next cycle."""
+        resetting = np.zeros(self.n, dtype=bool)
+        resetting[drills] = True
+        for k, sl in enumerate(self._slices):
+            if not self._fresh[k] and resetting[sl].all():
+                self._build_space(k)
+
+    def _build_space(self, k: int) -> None:
+        """Space ``k``: its drills' players and walls, each drill in its own region."""
+        cfg, sl = self.config, self._slices[k]
+        count = sl.stop - sl.start
+        cols = max(1, math.ceil(math.sqrt(self.drills_per_space)))
+        space = pymunk.Space()
+        objects: list = []
+        bodies: list[pymunk.Body] = []
+        for j in range(count):
+            ox, oy = (j % cols) * self.spacing, (j // cols) * self.spacing
+            self.offsets[sl.start + j] = (ox, oy)
+            for _ in range(4):
+                body = pymunk.Body(PLAYER_MASS, math.inf)
+                body.position = (ox, oy)
+                bodies.append(body)
+                objects += [body, pymunk.Circle(body, cfg.player_radius)]
+            objects += _walls(space, cfg, ox, oy)
+        space.add(*objects)
+        space.step(0.0)  # Space.step's checks of the new bodies, once; nothing moves
+        check_batch_order(space, bodies)
+        array = np.zeros((4 * count + 1, 4))  # x, y, vx, vy per body, then the static body
+        self._get_buffer.clear()
+        pmb.get_space_bodies(space, _FIELDS, self._get_buffer)
+        array[:] = np.frombuffer(self._get_buffer.float_buf(), dtype=np.float64).reshape(-1, 4)
+        self.spaces[k] = space
+        self._arrays[k] = array
+        self._attach(k)
+        self._fresh[k] = True
+
+    def _attach(self, k: int) -> None:
+        """What space ``k`` is written and stepped through: a batch buffer sharing its
+        array's memory (written in place), the players' view of that array, its step."""
+        space, array = self.spaces[k], self._arrays[k]
+        buffer = pmb.Buffer()
+        buffer.set_float_buf(array)
+        self._set_buffers[k] = buffer
+        self._bodies[k] = array[:-1].reshape(-1, 4, 4)
+        self._steps[k] = space_step(space)
+
+    def __getstate__(self) -> dict:
+        """Everything but the C handles and the views, which a copy makes anew; pymunk's
+        spaces copy themselves, their contacts included."""
+        state = self.__dict__.copy()
+        for name in ("_set_buffers", "_get_buffer", "_steps", "_bodies", "_offsets"):
+            del state[name]
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        k = len(self.spaces)
+        self._set_buffers, self._bodies, self._steps = [None] * k, [None] * k, [None] * k
+        self._get_buffer = pmb.Buffer()
+        self._offsets = self.offsets[:, None, :]
+        for space in range(k):
+            self._attach(space)
+
+    def cycle(self, pos: np.ndarray, vel: np.ndarray, active: np.ndarray | None) -> np.ndarray:
+        """One cycle of the players from ``pos``/``vel`` (``(n, 5, 2)``, field coordinates;
+        the ball's row is not read).
+
+        ``active`` (``(n,)`` bool, ``None``: every drill) names the drills that move; a
+        space none of whose drills moves is not stepped, so its contacts are kept as they
+        were rather than solved again for players standing still (with one drill per
+        space, a drill that waits then moves on exactly as if it had not waited).
+
+        Returns the players after the sub-steps, ``(n, 4, 4)`` (an array of this object,
+        overwritten by the next cycle; the rows of drills in spaces not stepped are stale).
+        """
+        offsets, out = self._offsets, self._out
+        sub_dt, substeps = self._sub_dt, self.config.substeps
+        stepped = []
+        for k, (sl, bodies, buffer, space, step) in enumerate(zip(
+            self._slices, self._bodies, self._set_buffers, self.spaces, self._steps, strict=True
+        )):
+            if active is not None and not np.count_nonzero(active[sl]):
+                continue
+            self._fresh[k] = False
+            np.add(pos[sl, :4], offsets[sl], out=bodies[..., 0:2])
+            bodies[..., 2:4] = vel[sl, :4]
+            pmb.set_space_bodies(space, _FIELDS, buffer)
+            stepped.append((sl, space, step))
+        for _, _, step in stepped:
+            for _ in range(substeps):
+                step(sub_dt)
+        get, buffer = pmb.get_space_bodies, self._get_buffer
+        for sl, space, _ in stepped:
+            buffer.clear()
+            get(space, _FIELDS, buffer)
+            rows = np.frombuffer(buffer.float_buf(), dtype=np.float64)[:-4].reshape(-1, 4, 4)
+            np.subtract(rows[..., 0:2], offsets[sl], out=out[sl, :, 0:2])
+            out[sl, :, 2:4] = rows[..., 2:4]
+        return out
