@@ -6,7 +6,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from soccer_drill.batch_teams import BatchCommands
+from soccer_drill.batch_teams import SameCommands
 from soccer_drill.skills import Command, Skill
 from soccer_drill.state import DrillView
 
@@ -23,36 +23,23 @@ class Chasers:
             raise ValueError(f"speed must be in (0, 1], got {speed!r}")
         self.speed = speed
         self._players: tuple[str, ...] = ()
-        self._command = Command(Skill.INTERCEPT, speed=speed)
+        self._command = self.command()
+
+    def command(self) -> Command:
+        """The command of both defenders: INTERCEPT at :attr:`speed`."""
+        return Command(Skill.INTERCEPT, speed=self.speed)
 
     def reset(self, view: DrillView, rng: np.random.Generator) -> None:
         """Remember the players to drive and the command for them."""
         self._players = view.players
         # Made once per episode (a Command is immutable): making one costs about a
         # microsecond, over 1% of the drill's cycle.
-        self._command = Command(Skill.INTERCEPT, speed=self.speed)
+        self._command = self.command()
 
     def act(self, view: DrillView) -> Mapping[str, Command]:
         """INTERCEPT for both defenders."""
         return dict.fromkeys(self._players, self._command)
 
-    def batch(self, n: int) -> BatchChasers:
-        """This team for ``n`` drills at once (``soccer_drill.batch_teams``)."""
-        return BatchChasers(self.speed)
-
-
-class BatchChasers:
-    """:class:`Chasers` in many drills at once: INTERCEPT for both defenders everywhere."""
-
-    def __init__(self, speed: float) -> None:
-        self.speed = speed
-
-    def reset(self, view: object, drills: np.ndarray, rng: object) -> None:
-        """Nothing to remember."""
-
-    def act(self, view: object, drills: np.ndarray) -> BatchCommands:
-        """INTERCEPT at ``speed`` for both defenders of each drill."""
-        m = len(drills)
-        return BatchCommands(
-            np.full((m, 2), int(Skill.INTERCEPT)), np.zeros((m, 2, 2)), np.full((m, 2), self.speed)
-        )
+    def batch(self, n: int) -> SameCommands:
+        """This team for ``n`` drills at once (``soccer_drill.batch_teams``): its one command."""
+        return SameCommands(self.command)

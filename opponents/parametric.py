@@ -14,7 +14,6 @@ settings, so a lifelong stream can meet as many different teams as it likes::
 from __future__ import annotations
 
 import math
-from collections import deque
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -36,7 +35,7 @@ from soccer_drill.rules.motion import (
     rule_parameters,
 )
 from soccer_drill.skills import Command, Skill
-from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView
+from soccer_drill.state import DrillView
 
 ROLES = ("interceptor", "guard")
 """What a defender does: go for the ball, or protect the goal line."""
@@ -167,15 +166,9 @@ class ParametricTeam:
         self.press_probability = float(press_probability)
         self.sortie_cycles = int(sortie_cycles)
         self._players: tuple[str, ...] = ()
-        self._indices: tuple[int, ...] = ()
-        self._rng: np.random.Generator | None = None
-        self._history: deque[DrillState] = deque(maxlen=self.reaction_delay + 1)
         self._settings = self._settings_array()
-        self._sortie_left = np.zeros(2, dtype=np.int64)
-        self._presser = -1
-        self._plan = (np.zeros(2, dtype=np.int64), np.zeros((2, 2)), np.zeros(2))
-        self.sorties = 0
-        """Sorties started this episode (for tests and statistics)."""
+        self._one: ParametricBatch | None = None  # this team in its one drill
+        self._rng: _OneDrill | None = None
 
     def params(self) -> dict[str, Any]:
         """The keyword parameters that rebuild this team (JSON-ready)."""
@@ -219,37 +212,35 @@ class ParametricTeam:
             return [False, False]
         return [self.roles[k] == "guard" and sortie_left[k] == 0 for k in (0, 1)]
 
+    @property
+    def sorties(self) -> int:
+        """Sorties started this episode (for tests and statistics)."""
+        return 0 if self._one is None else int(self._one.sorties[0])
+
     # ------------------------------------------------------------------ protocol
     def reset(self, view: DrillView, rng: np.random.Generator) -> None:
         """Start an episode: sorties and the delay buffer are reset; ``rng`` feeds the sorties."""
-        if len(view.players) != 2:
-            raise ValueError(f"this team drives two defenders, got players {view.players!r}")
+        if self._one is None:
+            self._one = ParametricBatch(self, 1)
+        self._one.reset(view, _FIRST, None)
         self._players = tuple(view.players)
-        self._indices = tuple(PLAYER_NAMES.index(p) for p in self._players)
-        self._rng = rng
-        self._numbers = _drill_numbers(view.config)
-        self._history.clear()
-        self._sortie_left[:] = 0
-        self._presser = -1
-        self.sorties = 0
+        self._rng = _OneDrill(rng)
+        fixed = self._one.fixed  # a plan that never reads the state: its commands made once
+        self._fixed = None if fixed is None else self._commands(fixed[0][0], fixed[1][0])
 
     def act(self, view: DrillView) -> dict[str, Command]:
-        """One command per defender, from the (possibly delayed) state."""
-        if self._rng is None:
+        """One command per defender, from the (possibly delayed) state: the batched plan
+        (:class:`ParametricBatch`) in this team's one drill."""
+        if self._rng is None or self._one is None:
             raise RuntimeError("reset() first")
-        current = view.state
-        self._history.append(current)
-        seen = self._history[0]  # reaction_delay cycles old (or the oldest we have)
-        draws = self._plan[2]
-        for k, drawn in enumerate(self._draws(self._sortie_left)):
-            if drawn:
-                draws[k] = self._rng.random()
-        skill, target = self._plan[0], self._plan[1]
-        self._presser, started = plan_into(
-            skill, target, self._sortie_left, self._presser, draws, np.array(seen.pos),
-            np.array(seen.vel), seen.holder, self._settings, *self._numbers,
-        )
-        self.sorties += started
+        if self._fixed is not None:
+            return self._fixed
+        state = view.state
+        skill, target = self._one.plan(_FIRST, np.array(state.pos)[None], np.array(state.vel)[None],
+                                       np.array([state.holder]), self._rng)
+        return self._commands(skill[0], target[0])
+
+    def _commands(self, skill: np.ndarray, target: np.ndarray) -> dict[str, Command]:
         targets = target.tolist()
         return {
             player: Command(Skill(s), tuple(targets[k]) if s == MOVE_TO else None, self.speeds[k])
@@ -259,6 +250,21 @@ class ParametricTeam:
     def batch(self, n: int) -> ParametricBatch:
         """This team's behaviour for ``n`` drills at once (see :class:`ParametricBatch`)."""
         return ParametricBatch(self, n)
+
+
+_FIRST = np.zeros(1, dtype=np.int64)
+_FIRST.flags.writeable = False
+
+
+class _OneDrill:
+    """The single team's generator, drawn from as the batched plan draws from each drill's
+    (``random(drills)``: one uniform per drill, the next ``Generator.random()``)."""
+
+    def __init__(self, rng: np.random.Generator) -> None:
+        self.rng = rng
+
+    def random(self, drills: np.ndarray) -> np.ndarray:
+        return self.rng.random(len(drills))
 
 
 def _drill_numbers(cfg: DrillConfig) -> tuple[float, float, float, np.ndarray, float]:
@@ -427,16 +433,17 @@ def spec_label(params: Mapping[str, Any]) -> str:
 
 # ---------------------------------------------------------------------- batched
 class ParametricBatch:
-    """:class:`ParametricTeam`'s behaviour for ``n`` drills at once (``team.batch(n)``).
+    """:class:`ParametricTeam`'s behaviour for ``n`` drills at once (``team.batch(n)``), and
+    the single team's in its one drill.
 
-    The same plan as :meth:`ParametricTeam.act` (sorties, the presser's hysteresis, the
-    reaction delay, every target), computed for all drills acting in a cycle on arrays
-    (:mod:`soccer_drill.batch_teams`); each drill's sortie draws come from its own
-    generator in the order the single team makes them.
+    Each drill has its own sorties, presser and reaction-delay buffer, and its sortie
+    draws come from its own generator in the order the single team makes them; the plan
+    (:func:`plan_into`) runs drill by drill in one compiled loop.
 
     The delay's buffer holds at most ``max_cycles + 1`` states per drill: an episode
     acts at most ``max_cycles`` times, so a longer delay sees the episode's first state
-    throughout, as the single team does, and would only cost memory.
+    throughout and would only cost memory. Two interceptors pressing without delay read
+    no state: their plan (:attr:`fixed`) is made once.
     """
 
     def __init__(self, team: ParametricTeam, n: int) -> None:
@@ -452,6 +459,11 @@ class ParametricBatch:
         """Sorties started in each drill's episode."""
         self._speeds = np.array([team.speeds])
         self._rng: Any = None
+        self.fixed: tuple[np.ndarray, np.ndarray] | None = None
+        """``(skill, target)`` of one drill when the plan never reads the state, else ``None``."""
+        if (team.roles == ("interceptor", "interceptor") and team.coordination == "press"
+                and team.reaction_delay == 0):
+            self.fixed = (np.full((1, 2), INTERCEPT, dtype=np.int64), np.zeros((1, 2, 2)))
 
     def reset(self, view: Any, drills: np.ndarray, rng: Any) -> None:
         """Start an episode in ``drills``; ``rng`` (a ``BatchRandom``) feeds the sorties."""
@@ -465,63 +477,73 @@ class ParametricBatch:
             self._holder = np.zeros((self.n, depth), dtype=np.int64)
         self._rng = rng
         self._numbers = _drill_numbers(view.config)
+        # Read-only, as compiled before any team's call (a copy of the team's is writable).
+        self._settings = self.team._settings_array()
         self._count[drills] = 0
         self._sortie_left[drills] = 0
         self._presser[drills] = -1
         self.sorties[drills] = 0
 
-    def _seen(self, view: Any, drills: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The states ``reaction_delay`` cycles old (or the oldest since reset)."""
-        from soccer_drill.batch_teams import every_drill
-
-        if every_drill(drills, view.n):  # the arrays themselves (read-only views), no copies
-            pos, vel, holder = view.pos, view.vel, view.holder
-        else:
-            pos, vel, holder = view.pos[drills], view.vel[drills], view.holder[drills]
-        depth = self._depth
-        if depth == 1:
-            return pos, vel, holder
-        count = self._count[drills] + 1
-        self._count[drills] = count
-        slot = (count - 1) % depth
-        self._pos[drills, slot] = pos
-        self._vel[drills, slot] = vel
-        self._holder[drills, slot] = holder
-        oldest = np.where(count <= depth, 0, count % depth)
-        return self._pos[drills, oldest], self._vel[drills, oldest], self._holder[drills, oldest]
-
     def act(self, view: Any, drills: np.ndarray) -> Any:
-        """The two defenders' commands in each of ``drills``: the plan of
-        :meth:`ParametricTeam.act` (:func:`plan_into`), drill by drill."""
-        from soccer_drill.batch_teams import BatchCommands
+        """The two defenders' commands in each of ``drills`` (:meth:`plan`)."""
+        from soccer_drill.batch_teams import BatchCommands, every_drill
 
+        m = len(drills)
+        if self.fixed is not None:
+            skill, target = (np.repeat(a, m, axis=0) for a in self.fixed)
+        else:  # writable copies: the plan is compiled for those
+            rows = slice(None) if every_drill(drills, view.n) else drills
+            skill, target = self.plan(drills, np.array(view.pos[rows]), np.array(view.vel[rows]),
+                                      np.array(view.holder[rows]), self._rng)
+        return BatchCommands(skill, target, np.repeat(self._speeds, m, axis=0))
+
+    def plan(self, drills: np.ndarray, pos: np.ndarray, vel: np.ndarray, holder: np.ndarray,
+             rng: Any) -> tuple[np.ndarray, np.ndarray]:
+        """The plan (:func:`plan_into`) of each of ``drills`` from its current state (rows
+        of ``pos``, ``vel``, ``holder``: writable float64 and int64 arrays), on the state it
+        sees ``reaction_delay`` cycles old; ``rng.random(drills)`` gives each drill's next
+        uniform. Returns ``(skill, target)``."""
         t = self.team
-        pos, vel, holder = self._seen(view, drills)
         m = len(drills)
         draws = np.zeros((m, 2))
-        for k, drawn in enumerate(t._draws(self._sortie_left[drills].T)):
-            if np.count_nonzero(drawn):  # each drill's guard k on its line, in turn
-                draws[drawn, k] = self._rng.random(drills[drawn])
+        if t.press_probability > 0:
+            for k, drawn in enumerate(t._draws(self._sortie_left[drills].T)):
+                if np.count_nonzero(drawn):  # each drill's guard k on its line, in turn
+                    draws[drawn, k] = rng.random(drills[drawn])
         skill = np.empty((m, 2), dtype=np.int64)
         target = np.zeros((m, 2, 2))
-        started = np.zeros(m, dtype=np.int64)
-        _plans_of_drills(skill, target, started, self._sortie_left, self._presser,
-                         np.array(drills, dtype=np.int64), draws, np.array(pos, dtype=np.float64),
-                         np.array(vel, dtype=np.float64), np.array(holder, dtype=np.int64),
-                         t._settings, *self._numbers)
-        self.sorties[drills] += started
-        return BatchCommands(skill, target, np.repeat(self._speeds, m, axis=0))
+        _plans_of_drills(skill, target, self._sortie_left, self._presser, self.sorties,
+                         self._pos, self._vel, self._holder, self._count,
+                         np.array(drills, dtype=np.int64), draws, pos, vel, holder, self._settings,
+                         *self._numbers)
+        return skill, target
 
 
 @compiled
-def _plans_of_drills(skill, target, started, sortie_left, presser, drills, draws, pos, vel,
-                     holder, settings, size, defender_speed, reach, table, spacing):
-    """:func:`plan_into` of drill ``drills[r]`` for each row ``r``."""
+def _plans_of_drills(skill, target, sortie_left, presser, sorties, hist_pos, hist_vel,
+                     hist_holder, count, drills, draws, pos, vel, holder, settings, size,
+                     defender_speed, reach, table, spacing):
+    """:func:`plan_into` of drill ``drills[r]`` for each row ``r``, on the state it sees:
+    the current one is kept in the drill's ring of the last ``depth`` states, and the
+    oldest there (``reaction_delay`` cycles old, or the episode's first) is planned on."""
+    depth = hist_pos.shape[1]
     for r in range(drills.shape[0]):
         i = drills[r]
-        presser[i], started[r] = plan_into(skill[r], target[r], sortie_left[i], presser[i],
-                                           draws[r], pos[r], vel[r], holder[r], settings, size,
-                                           defender_speed, reach, table, spacing)
+        if depth == 1:
+            seen_pos, seen_vel, seen_holder = pos[r], vel[r], holder[r]
+        else:
+            count[i] += 1
+            slot = (count[i] - 1) % depth
+            hist_pos[i, slot] = pos[r]
+            hist_vel[i, slot] = vel[r]
+            hist_holder[i, slot] = holder[r]
+            oldest = 0 if count[i] <= depth else count[i] % depth
+            seen_pos, seen_vel = hist_pos[i, oldest], hist_vel[i, oldest]
+            seen_holder = hist_holder[i, oldest]
+        presser[i], started = plan_into(skill[r], target[r], sortie_left[i], presser[i],
+                                        draws[r], seen_pos, seen_vel, seen_holder, settings,
+                                        size, defender_speed, reach, table, spacing)
+        sorties[i] += started
 
 
 @warms
@@ -534,8 +556,11 @@ def _compile_plans() -> None:
     pos = np.array([*cfg.attacker_starts, *cfg.defender_starts, (10.0, 10.0)])
     plan_into(np.zeros(2, dtype=np.int64), np.zeros((2, 2)), np.zeros(2, dtype=np.int64), -1,
               np.zeros(2), pos, np.zeros((5, 2)), -1, settings, *numbers)
-    _plans_of_drills(np.zeros((1, 2), dtype=np.int64), np.zeros((1, 2, 2)),
-                     np.zeros(1, dtype=np.int64), np.zeros((1, 2), dtype=np.int64),
-                     np.full(1, -1, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros((1, 2)),
-                     pos[None], np.zeros((1, 5, 2)), np.full(1, -1, dtype=np.int64), settings,
-                     *numbers)
+    for depth in (1, 2):
+        _plans_of_drills(np.zeros((1, 2), dtype=np.int64), np.zeros((1, 2, 2)),
+                         np.zeros((1, 2), dtype=np.int64), np.full(1, -1, dtype=np.int64),
+                         np.zeros(1, dtype=np.int64), np.zeros((1, depth, 5, 2)),
+                         np.zeros((1, depth, 5, 2)), np.zeros((1, depth), dtype=np.int64),
+                         np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64),
+                         np.zeros((1, 2)), pos[None], np.zeros((1, 5, 2)),
+                         np.full(1, -1, dtype=np.int64), settings, *numbers)

@@ -26,14 +26,14 @@ from __future__ import annotations
 
 import contextlib
 import copy
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any, NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
 from soccer_drill.config import DrillConfig
 from soccer_drill.drill.drills import rows
-from soccer_drill.skills import Skill
+from soccer_drill.skills import Command, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView
 from soccer_drill.teams import (
     SCRIPTED_SKILLS,
@@ -207,6 +207,29 @@ def every_drill(drills: np.ndarray, n: int) -> bool:
     """Whether ``drills`` is ``0, 1, ..., n - 1`` in order (then a team may read the
     batch's arrays as they are rather than gather its rows)."""
     return len(drills) == n and not np.count_nonzero(drills - rows(n))
+
+
+class SameCommands:
+    """The batched form of a team whose players all get one command, the same in every
+    drill and every cycle of an episode: ``command()``, the team's own rule, made again at
+    each reset (as the single team makes it at its own).
+    """
+
+    def __init__(self, command: Callable[[], Command]) -> None:
+        self._command = command
+        self._row = (0, (0.0, 0.0), 1.0)
+
+    def reset(self, view: BatchView, drills: np.ndarray, rng: BatchRandom) -> None:
+        """Make the command for the episodes starting."""
+        command = self._command()
+        self._row = (int(command.skill), command.target or (0.0, 0.0), command.speed)
+
+    def act(self, view: BatchView, drills: np.ndarray) -> BatchCommands:
+        """The command for both players of each of ``drills``."""
+        m = len(drills)
+        skill, target, speed = self._row
+        return BatchCommands(np.full((m, 2), skill), np.full((m, 2, 2), target),
+                             np.full((m, 2), speed))
 
 
 @runtime_checkable

@@ -252,3 +252,21 @@ def test_chasers_give_one_command_per_episode_at_the_speed_set_then():
     team.speed = 1.0  # taken up at the next episode
     env.reset(seed=0)
     assert team.act(env._core.view)["defender_0"] == Command(Skill.INTERCEPT, speed=1.0)
+
+
+def test_batched_chasers_take_up_a_new_speed_at_the_next_episode_as_the_single_team_does():
+    from opponents.chasers import Chasers
+    from soccer_drill.vector import HolderVectorEnv
+
+    team = Chasers(speed=0.5)
+    venv = HolderVectorEnv(num_envs=3, opponent=team)
+    venv.reset(seed=0)
+    batched = venv._core.team
+    drills = np.arange(3)
+    skill, target, speed = (np.zeros((3, 4), dtype=np.int64), np.zeros((3, 4, 2)), np.ones((3, 4)))
+    batched.act(drills, skill, target, speed)
+    assert (skill[:, 2:] == int(Skill.INTERCEPT)).all() and (speed[:, 2:] == 0.5).all()
+    team.speed = 1.0  # the team's own rule, made again at each episode's start
+    venv.reset(seed=0)
+    batched.act(drills, skill, target, speed)
+    assert (speed[:, 2:] == 1.0).all()

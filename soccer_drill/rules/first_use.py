@@ -26,6 +26,7 @@ from soccer_drill.features import (
     state_bounds,
 )
 from soccer_drill.rules.compiled import warm_up, warms
+from soccer_drill.rules.cycle import outcome
 from soccer_drill.rules.motion import interception_points, mark_targets
 from soccer_drill.skills import (
     Command,
@@ -75,6 +76,7 @@ def _drill_rules() -> None:
                                np.zeros((2, 2, 2)), cfg.field_size)
     batch.step(np.ones(2, dtype=bool), skill, target, speed,
                [np.random.default_rng(3), np.random.default_rng(4)])
+    outcome(batch.pos[0], 0, batch.cycle[0], cfg.field_size, cfg.max_cycles)  # after a tackle
     locked = np.where(batch.cycle < batch.lockout_until, batch.passer, -1)
     batch_features(batch.pos, batch.holder.clip(0, 1), cfg, *bounds["features"])
     players_features(batch.pos, (0, 1), cfg, *bounds["features"])
