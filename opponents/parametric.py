@@ -204,13 +204,13 @@ class ParametricTeam:
         settings.flags.writeable = False
         return settings
 
-    def _draws(self, sortie_left: np.ndarray) -> list[bool]:
-        """Which defenders draw a uniform for a random sortie this cycle: the guards on
-        their line, when sorties can start at random (in defender order, as the plan
-        reads them)."""
+    def _drawing(self) -> tuple[int, ...]:
+        """The defenders who may draw a uniform for a random sortie (guards, when sorties
+        can start at random), in defender order: each draws in a cycle it starts on its
+        line, as the plan reads them."""
         if self.press_probability <= 0:
-            return [False, False]
-        return [self.roles[k] == "guard" and sortie_left[k] == 0 for k in (0, 1)]
+            return ()
+        return tuple(k for k in (0, 1) if self.roles[k] == "guard")
 
     @property
     def sorties(self) -> int:
@@ -252,8 +252,7 @@ class ParametricTeam:
         return ParametricBatch(self, n)
 
 
-_FIRST = np.zeros(1, dtype=np.int64)
-_FIRST.flags.writeable = False
+_FIRST = np.zeros(1, dtype=np.int64)  # the single team's drill (the plan reads it only)
 
 
 class _OneDrill:
@@ -282,7 +281,7 @@ def plan_into(skill, target, sortie_left, presser, draws, pos, vel, holder, sett
 
     Guards on their line start a sortie if the ball comes within reach, or if their
     uniform in ``draws`` falls below ``press_probability`` (read only for the guards
-    :meth:`ParametricTeam._draws` names); a guard on a sortie intercepts, else stands at
+    :meth:`ParametricTeam._drawing` names); a guard on a sortie intercepts, else stands at
     its spot on the line. Two interceptors share the work by ``coordination``: the
     presser (kept until the other is ``_SWITCH_MARGIN`` nearer the ball) intercepts; the
     other marks or screens, or chases a loose ball. With a reaction delay every command
@@ -459,6 +458,7 @@ class ParametricBatch:
         """Sorties started in each drill's episode."""
         self._speeds = np.array([team.speeds])
         self._rng: Any = None
+        self._drawing = team._drawing()
         self.fixed: tuple[np.ndarray, np.ndarray] | None = None
         """``(skill, target)`` of one drill when the plan never reads the state, else ``None``."""
         if (team.roles == ("interceptor", "interceptor") and team.coordination == "press"
@@ -493,29 +493,36 @@ class ParametricBatch:
             skill, target = (np.repeat(a, m, axis=0) for a in self.fixed)
         else:  # writable copies: the plan is compiled for those
             rows = slice(None) if every_drill(drills, view.n) else drills
-            skill, target = self.plan(drills, np.array(view.pos[rows]), np.array(view.vel[rows]),
-                                      np.array(view.holder[rows]), self._rng)
+            skill, target = self.plan(np.array(drills, dtype=np.int64), np.array(view.pos[rows]),
+                                      np.array(view.vel[rows]), np.array(view.holder[rows]),
+                                      self._rng)
         return BatchCommands(skill, target, np.repeat(self._speeds, m, axis=0))
 
     def plan(self, drills: np.ndarray, pos: np.ndarray, vel: np.ndarray, holder: np.ndarray,
              rng: Any) -> tuple[np.ndarray, np.ndarray]:
         """The plan (:func:`plan_into`) of each of ``drills`` from its current state (rows
-        of ``pos``, ``vel``, ``holder``: writable float64 and int64 arrays), on the state it
+        of ``pos``, ``vel``, ``holder``; ``drills`` too: writable int64 and float64 arrays,
+        as compiled), on the state it
         sees ``reaction_delay`` cycles old; ``rng.random(drills)`` gives each drill's next
         uniform. Returns ``(skill, target)``."""
-        t = self.team
         m = len(drills)
         draws = np.zeros((m, 2))
-        if t.press_probability > 0:
-            for k, drawn in enumerate(t._draws(self._sortie_left[drills].T)):
-                if np.count_nonzero(drawn):  # each drill's guard k on its line, in turn
-                    draws[drawn, k] = rng.random(drills[drawn])
+        if self._drawing and m == 1:  # the single team's: no arrays of drills to index
+            left = self._sortie_left[drills[0]]
+            for k in self._drawing:
+                if left[k] == 0:
+                    draws[0, k] = rng.random(drills)[0]
+        elif self._drawing:
+            left = self._sortie_left[drills]
+            for k in self._drawing:  # each drill's guard k on its line, in turn
+                on_line = left[:, k] == 0
+                if np.count_nonzero(on_line):
+                    draws[on_line, k] = rng.random(drills[on_line])
         skill = np.empty((m, 2), dtype=np.int64)
         target = np.zeros((m, 2, 2))
         _plans_of_drills(skill, target, self._sortie_left, self._presser, self.sorties,
                          self._pos, self._vel, self._holder, self._count,
-                         np.array(drills, dtype=np.int64), draws, pos, vel, holder, self._settings,
-                         *self._numbers)
+                         drills, draws, pos, vel, holder, self._settings, *self._numbers)
         return skill, target
 
 
