@@ -23,15 +23,15 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import soccer_drill.batch as batch_module
 import soccer_drill.batch_core as core_module
-import soccer_drill.batch_physics as physics_module
 import soccer_drill.batch_teams as teams_module
-import soccer_drill.rules.motion as motion_module
+import soccer_drill.drill.drills as drills_module
+import soccer_drill.drill.spaces as physics_module
+import soccer_drill.rules.cycle as cycle_module
 import soccer_drill.vector as vector_module
 import soccer_drill.vector_agents as agents_module
 
-_MODULES = (batch_module, core_module, physics_module, motion_module, teams_module,
+_MODULES = (drills_module, core_module, physics_module, cycle_module, teams_module,
             vector_module, agents_module)
 _SPENT: collections.Counter = collections.Counter()
 
@@ -40,10 +40,12 @@ COMPONENTS = (
     ("whole cycle of the agents (step)", agents_module.ParallelVectorEnv, "step"),
     ("whole cycle of the holder (_cycle)", vector_module.HolderVectorEnv, "_cycle"),
     ("  physics (pymunk spaces, batched reads/writes)", physics_module.BatchPhysics, "cycle"),
-    ("  the drill's rules (BatchDrill.step less the physics)", batch_module.BatchDrill, "step"),
-    ("    skills (every player's motion, compiled)", motion_module, "motions_of_drills"),
-    ("    possession and tackles", batch_module.BatchDrill, "_possession"),
-    ("    outcome", batch_module.BatchDrill, "_judge"),
+    ("  the drill's rules (BatchDrill.step less the physics)", drills_module.BatchDrill, "step"),
+    ("    before the physics (skills, kicks, compiled)", cycle_module, "before_physics_of_drills"),
+    ("    after the physics (ball, possession, outcome, compiled)", cycle_module,
+     "after_physics_of_drills"),
+    ("    tackles", drills_module.BatchDrill, "_tackle"),
+    ("    rewards", drills_module.BatchDrill, "_rewards"),
     ("  team (batched act, its bound and checks)", teams_module.BatchTeamDriver, "act"),
     ("  support players' commands (holder)", core_module.BatchCore, "support_commands"),
     ("  observations and masks (agents)", agents_module.ParallelVectorEnv, "_observations"),

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import copy
+import math
 from collections.abc import Callable, Iterator, Mapping
 from typing import Any, NamedTuple, Protocol, runtime_checkable
 
@@ -33,6 +34,7 @@ import numpy as np
 
 from soccer_drill.config import DrillConfig
 from soccer_drill.drill.drills import rows
+from soccer_drill.rules.compiled import compiled, warms
 from soccer_drill.skills import Command, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView
 from soccer_drill.teams import (
@@ -43,7 +45,7 @@ from soccer_drill.teams import (
     make_team,
     resolve_team,
     skill_refused,
-    speed_allowed,
+    speed_allowed_compiled,
     speed_refused,
     target_refused,
 )
@@ -492,29 +494,48 @@ def check_commands(
                 f"{_Calling(drills, cycles):}"
             )
     raw_skill = given[0]
-    # Range first, on the values given: a cast of a huge value to int64 would wrap.
-    in_range = (raw_skill >= 0) & (raw_skill < len(_IS_ALLOWED))
-    skill = np.where(in_range, raw_skill, 0).astype(np.int64, copy=False)
+    # As int64, a value out of the int64 range wraps to a negative one, refused all the same.
+    skill = raw_skill.astype(np.int64)
     target = np.array(given[1], dtype=np.float64)
     speed = np.array(given[2], dtype=np.float64)
-
-    def fail(r: int, k: int, what: str) -> TeamError:
-        return TeamError(
-            f"team {team!r}, drill {int(drills[r])}, player {players[k]!r}, cycle "
-            f"{int(cycles[drills[r]])}: {what}"
-        )
-
-    # One test of everything (the usual case), then, only if it fails, which and where.
-    allowed = _IS_ALLOWED[skill] & in_range
-    good_speed = speed_allowed(speed)
-    finite = (skill != _MOVE_TO) | (np.isfinite(target[..., 0]) & np.isfinite(target[..., 1]))
-    if (allowed & good_speed & finite).all():
+    what, r, k = _first_refused(skill, target, speed, _IS_ALLOWED, _MOVE_TO)
+    if what == _NONE:
         return BatchCommands(skill, target, speed)
-    if not allowed.all():
-        r, k = map(int, np.argwhere(~allowed)[0])
-        raise fail(r, k, skill_refused(raw_skill[r, k].item()))
-    if not good_speed.all():
-        r, k = map(int, np.argwhere(~good_speed)[0])
-        raise fail(r, k, speed_refused(float(speed[r, k])))
-    r, k = map(int, np.argwhere(~finite)[0])
-    raise fail(r, k, target_refused(tuple(target[r, k].tolist())))
+    where = (f"team {team!r}, drill {int(drills[r])}, player {players[k]!r}, cycle "
+             f"{int(cycles[drills[r]])}: ")
+    if what == _SKILL:
+        raise TeamError(where + skill_refused(raw_skill[r, k].item()))
+    if what == _SPEED:
+        raise TeamError(where + speed_refused(float(speed[r, k])))
+    raise TeamError(where + target_refused(tuple(target[r, k].tolist())))
+
+
+_NONE, _SKILL, _SPEED, _TARGET = range(4)
+
+
+@compiled
+def _first_refused(skill, target, speed, allowed, move_to):
+    """The first command refused, as ``(what, row, player)``: every skill checked first
+    (one a scripted defender may use), then every speed (in (0, 1], not NaN), then every
+    ``MOVE_TO``'s target (finite), rows in order; ``(_NONE, -1, -1)`` if none is."""
+    for what in range(_SKILL, _TARGET + 1):
+        for r in range(skill.shape[0]):
+            for k in range(2):
+                s = skill[r, k]
+                if what == _SKILL:
+                    bad = s < 0 or s >= allowed.shape[0] or not allowed[s]
+                elif what == _SPEED:
+                    bad = not speed_allowed_compiled(speed[r, k])
+                else:
+                    bad = s == move_to and not (math.isfinite(target[r, k, 0])
+                                                and math.isfinite(target[r, k, 1]))
+                if bad:
+                    return what, r, k
+    return _NONE, -1, -1
+
+
+@warms
+def _compile_check() -> None:
+    """:func:`_first_refused` with its caller's types, before a team's bounded call."""
+    _first_refused(np.zeros((1, 2), dtype=np.int64), np.zeros((1, 2, 2)), np.ones((1, 2)),
+                   _IS_ALLOWED, _MOVE_TO)

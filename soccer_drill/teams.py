@@ -44,6 +44,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from soccer_drill.interruptions import MAX_ITEMS, delivered_by_signal, short_repr
+from soccer_drill.rules.compiled import compiled
 from soccer_drill.rules.first_use import warm_up
 from soccer_drill.skills import BALL_SKILLS, Command, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillView
@@ -424,10 +425,13 @@ def skill_refused(skill: object) -> str:
     return f"skill {shown} is not allowed for a scripted defender; allowed: {allowed}"
 
 
-def speed_allowed(speed: Any) -> Any:
-    """Whether a command's ``speed`` lies in (0, 1] (NaN does not): a bool, or one per
-    element of an array of speeds."""
-    return (speed > 0.0) & (speed <= 1.0)
+def speed_allowed(speed: Any) -> bool:
+    """Whether a command's ``speed`` lies in (0, 1] (NaN does not); the batched check runs
+    it compiled (:data:`speed_allowed_compiled`)."""
+    return speed > 0.0 and speed <= 1.0
+
+
+speed_allowed_compiled = compiled(speed_allowed)
 
 
 def speed_refused(speed: object) -> str:
