@@ -498,3 +498,33 @@ def test_a_library_limited_to_some_pairs_offers_pruned_options_again():
     assert [library.registry[int(o)] for o in limited.option_ids] == [(0, 0), (1, 1)]
     assert first in limited and limited.scales.tolist() == [1.0, 1.0]
     assert first not in library  # the library itself is unchanged
+
+
+def test_who_runs_where_counts_every_decision_by_side_and_source():
+    """The region-use count of a composed target: every greedy decision once, by the side
+    of its split and by what acts; the assignment oracle's options are only ever the
+    right source's on each side."""
+    from ilpss.experiments.region_use import OWN, target_use
+
+    try:
+        learner = _oracle_learner(True)
+        learner.run_trial(MappedCorridor(COMPOSED, cost=0.02), "COMPOSED")
+        env = MappedCorridor(COMPOSED, cost=0.02)
+        use = target_use(learner, 2, env, range(4), corridor_composition("COMPOSED"))
+        assert sum(use.counts.values()) == sum(
+            SmdpLearner.from_policy(learner.policies[2], use_library(learner), replace(
+                learner.config.learner, epsilon=0.0), seed=s).run_episode(
+                env, learn=False, seed=s).decisions for s in range(4))
+        assert {actor for _, actor in use.counts} <= {OWN, "X", "Y"}
+        assert use.counts.get((True, "Y"), 0) == use.counts.get((False, "X"), 0) == 0
+        for below in (True, False):
+            n, right, other, own = use.shares(below)
+            assert n == 0 or (other == 0.0 and right + own == pytest.approx(1.0))
+    finally:
+        REUSES.unregister("test_oracle")
+
+
+def use_library(learner: LifelongLearner) -> OptionLibrary:
+    """The options the target's trial was offered (the oracle's offer, again)."""
+    names = [r.name for r in learner.records]
+    return learner.config.reuse.offer.offer(learner.library, names[:2], names[2])
