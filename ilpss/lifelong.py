@@ -303,10 +303,16 @@ class LifelongLearner:
         return len(self.records)
 
     # ------------------------------------------------------------------ learning
-    def make_learner(self, seed: int, with_options: bool = True) -> SmdpLearner:
-        """A fresh SMDP learner offered the current options (or none)."""
+    def make_learner(self, seed: int, with_options: bool = True,
+                     task: str | None = None) -> SmdpLearner:
+        """A fresh SMDP learner offered the current options (or none): those the reuse's
+        offer rule gives for the task named ``task``, if it has one and ``task`` is
+        given."""
         lc = self.config.learner
-        library = self.library if with_options and self.config.reuse.offers_options else None
+        reuse = self.config.reuse
+        library = self.library if with_options and reuse.offers_options else None
+        if library is not None and reuse.offer is not None and task is not None:
+            library = reuse.offer.offer(library, [r.name for r in self.records], task)
         return SmdpLearner(self.n_primitive, self.tile_coder, library, lc, seed=seed)
 
     def learn(
@@ -315,6 +321,7 @@ class LifelongLearner:
         *,
         trial: int | None = None,
         with_options: bool = True,
+        task: str | None = None,
         callback: Callable[[int, EpisodeResult], None] | None = None,
     ) -> tuple[SmdpLearner, list[EpisodeResult]]:
         """Learn on ``env`` for ``train_episodes``, without changing the lifelong state (its
@@ -325,11 +332,11 @@ class LifelongLearner:
         reuse's start rule sets the learner's initial values first; any episodes it
         spends choosing them are the first of the ``train_episodes`` (its greedy
         episodes seeded apart from the learning episodes, which are the same as without
-        them).
+        them). ``task``, the task's name, is what the reuse's offer rule reads.
         """
         index = self.n_trials if trial is None else trial
         learner_seed, env_seed, _, _ = trial_seeds(self.seed, index)
-        learner = self.make_learner(learner_seed, with_options)
+        learner = self.make_learner(learner_seed, with_options, task)
         start = self.config.reuse.start if with_options else Fresh()
         results = learn_with(start, learner, self.policies, env, self.config.train_episodes,
                              seed=env_seed, choice_seed=choice_seed(self.seed, index),
@@ -351,7 +358,7 @@ class LifelongLearner:
         # Learning counts option starts in the library: a failed trial undoes them too,
         # so that a retry runs as the first try did.
         with self._all_or_nothing():
-            learner, results = self.learn(env, callback=callback)
+            learner, results = self.learn(env, task=name, callback=callback)
             return self.extract(env, name, learner, results)
 
     def extract(

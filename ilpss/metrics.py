@@ -1445,6 +1445,16 @@ METRICS: tuple[Metric, ...] = (
            lambda p: f"mean over seeds of (sum of the {p.n_episodes} rewards with transfer) "
                      f"- (same for baseline), {_PAIRED}",
            test=True, headline=True, pairwise=True),
+    # The paper's aim is a quick response: the same gain over the first episodes alone
+    # (a run's first 20 or 50 episodes are what a run of that budget would play). Not
+    # pairwise: that would enlarge the Holm family of every report's method-against-method
+    # table; a plan names them where they are endpoints.
+    *(Metric(f"total_reward_gain_first_{k}", f"total-reward gain, first {k} episodes",
+             "+.1f", "mean",
+             lambda p, k=k: (p.transfer[:, :k].sum(axis=1) - p.baseline[:, :k].sum(axis=1)),
+             lambda p, k=k: f"mean over seeds of (sum of the first {min(k, p.n_episodes)} "
+                            f"rewards with transfer) - (same for baseline), {_PAIRED}",
+             test=True) for k in (20, 50)),
     Metric("transfer_ratio", "transfer ratio", ".2f", "ratio",
            lambda p: ((p.transfer - p.floor).sum(axis=1), (p.baseline - p.floor).sum(axis=1)),
            lambda p: f"ratio of mean areas: mean over seeds of sum(transfer - ({p.floor:g})) "

@@ -751,6 +751,42 @@ class OptionLibrary:
             used=tuple(sorted(used_set)), discounted=tuple(discounted), pruned=pruned_ids
         )
 
+    def only(self, pairs: Iterable[tuple[int, int]]) -> OptionLibrary:
+        """A library offering only the options of ``pairs`` (``(kernel position, policy
+        id)``), under their ids in this library, pruned ones included (with scale 1), so
+        that the policies' pointers and this library's :meth:`end_trial` still read them.
+        What an oracle offers a task whose regions and their sources it knows.
+
+        Raises
+        ------
+        ValueError
+            If a pair names a kernel or policy this library does not have.
+        """
+        wanted: set[tuple[int, int]] = set()
+        for k, p in pairs:
+            if not (0 <= int(k) < self.n_kernels and 0 <= int(p) < len(self.policies)):
+                raise ValueError(
+                    f"OptionLibrary.only: pair {(k, p)!r} is not a (kernel position in "
+                    f"[0, {self.n_kernels}), policy id in [0, {len(self.policies)})) pair"
+                )
+            wanted.add((int(self.kernel_ids[int(k)]), int(p)))
+        latest = {pair: oid for oid, pair in sorted(self.registry.items())}
+        missing = sorted(wanted - latest.keys())
+        if missing:
+            raise ValueError(f"OptionLibrary.only: no option was ever issued for the "
+                             f"(kernel id, policy id) pairs {missing}")
+        ids = np.array(sorted(latest[pair] for pair in wanted), dtype=np.int64)
+        at = [self._position.get(int(o)) for o in ids]
+        state = LibraryState(
+            kernel_ids=self.kernel_ids.copy(), registry=dict(self.registry), option_ids=ids,
+            scales=np.array([1.0 if j is None else self.scales[j] for j in at]),
+            uses=np.array([0 if j is None else self.uses[j] for j in at], dtype=np.int64),
+            trial_uses=np.zeros(len(ids), dtype=np.int64),
+            pruned=self.pruned - wanted, next_option_id=self._next_option_id,
+            next_kernel_id=self._next_kernel_id,
+        )
+        return OptionLibrary(self.kernel_model, self.policies, self.settings, state=state)
+
     def undo_point(self) -> Callable[[], None]:
         """A function that puts the options back as they are now: active set, scales,
         usage counts and pruned pairs (what :meth:`end_trial` and :meth:`record_use`

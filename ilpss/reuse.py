@@ -58,6 +58,7 @@ from ilpss._check import Integer, check
 from ilpss._registry import Registry
 from ilpss.episode import EpisodeResult
 from ilpss.kernels import RegionKernels, SharedKernelModel, UniformKernel
+from ilpss.options import OptionLibrary
 from ilpss.policy import FrozenPolicy
 from ilpss.smdp import SmdpLearner
 
@@ -71,6 +72,7 @@ __all__ = [
     "Fresh",
     "GivenRegions",
     "LatestPast",
+    "OfferRule",
     "Regions",
     "Reuse",
     "StartRule",
@@ -275,6 +277,17 @@ def _takes_budget(start: StartRule) -> bool:
     return any(p.name == "budget" or p.kind is p.VAR_KEYWORD for p in parameters)
 
 
+# ---------------------------------------------------------------------- offers
+class OfferRule(Protocol):
+    """Which of the library's options a task's learner is offered (an oracle's knowledge
+    of the task; without a rule, every active option)."""
+
+    def offer(self, library: OptionLibrary, past: Sequence[str], task: str) -> OptionLibrary:
+        """The library offered on the task named ``task``, after the tasks named ``past``
+        (``past[i]`` is the task of policy ``i``)."""
+        ...
+
+
 # ---------------------------------------------------------------------- reuse
 @dataclass(frozen=True)
 class Reuse:
@@ -288,11 +301,14 @@ class Reuse:
         How the options' regions are refitted after every trial; ``None``: no options.
     start : StartRule
         The values the learner of a new task starts from.
+    offer : OfferRule or None
+        Which options a task's learner is offered (``None``: every active option).
     """
 
     name: str
     regions: Regions | None
     start: StartRule = Fresh()
+    offer: OfferRule | None = None
 
     @property
     def offers_options(self) -> bool:

@@ -74,8 +74,10 @@ class Candidate:
         return team
 
 
-CHECK_SOURCES: tuple[str, ...] = (*SOURCES, "goal_guards")
-"""The pure teams: the stream's sources, and paper team 4 for the first candidate."""
+CHECK_SOURCES: tuple[str, ...] = (*SOURCES, "goal_guards", "interceptors_cover",
+                                  "interceptor_guard")
+"""The pure teams: the stream's sources, and paper teams 2, 3 and 4, each composed far from
+the line with ``contain_cover`` near it."""
 CANDIDATES: tuple[Candidate, ...] = (
     Candidate("press_far_guard_near", "interceptors_press", "goal_guards", NEAR,
               extra=(("late_pass", "dribble"),)),
@@ -83,6 +85,16 @@ CANDIDATES: tuple[Candidate, ...] = (
     Candidate("contain_far_press_near", "contain_cover", "interceptors_press", NEAR),
     Candidate("contain_left_press_right", "interceptors_press", "contain_cover", LEFT, True),
     Candidate("press_left_contain_right", "contain_cover", "interceptors_press", LEFT, True),
+    # The sharp test's candidates: every episode starts far and nearly all reach near, so
+    # a change of behaviour within the episode is needed. The other paper teams far from
+    # the line, then the press at two more boundaries.
+    Candidate("cover_far_contain_near", "interceptors_cover", "contain_cover", NEAR),
+    Candidate("guard_far_contain_near", "interceptor_guard", "contain_cover", NEAR),
+    Candidate("guards_far_contain_near", "goal_guards", "contain_cover", NEAR),
+    Candidate("press_far_contain_near_9", "interceptors_press", "contain_cover",
+              Region("dist_goal", 9.0), True),
+    Candidate("press_far_contain_near_15", "interceptors_press", "contain_cover",
+              Region("dist_goal", 15.0), True),
 )
 """The compositions judged, in the page's order (the registered ones are the targets)."""
 
@@ -232,6 +244,26 @@ class Judged:
     def kept(self) -> bool:
         """The composed rule beats the best single rule by an interval above zero."""
         return self.difference(self.singles[self.best_single])[1] > 0.0
+
+    @property
+    def within_episode(self) -> bool:
+        """Kept, and one of its two rules per episode (by the region of the first decision)
+        gets less than half of the composed rule's gain over the best single rule, and is
+        beaten by it by an interval above zero: the gain needs a change of behaviour
+        within the episode, not only the right source for the episode."""
+        if not self.kept or self.once is None:
+            return False
+        best = self.singles[self.best_single].rewards.mean()
+        gain = self.composed_play.rewards.mean() - best
+        return (self.once.rewards.mean() - best < 0.5 * gain
+                and self.difference(self.once)[1] > 0.0)
+
+    @property
+    def verdict(self) -> str:
+        """``target, within episodes``, ``target`` or ``not a target``."""
+        if self.within_episode:
+            return "target, within episodes"
+        return "target" if self.kept else "not a target"
 
 
 def judge(
@@ -475,7 +507,39 @@ def _history(judged: Sequence[Judged]) -> list[str]:
             "the ball. Hence the second and third targets split the field into left and "
             "right halves instead." + _lateral_note(by)
         )
+    lines += _sharp_note(by)
     return [*lines, ""]
+
+
+def _sharp_note(by: Mapping[str, Judged]) -> list[str]:
+    """The search for the sharp test's targets: a change within the episode needed."""
+    tried = [by[c] for c in ("cover_far_contain_near", "guard_far_contain_near",
+                             "guards_far_contain_near") if c in by]
+    kept = [j for j in by.values() if j.within_episode]
+    if not tried and not kept:
+        return []
+    said = "; ".join(f"`{j.candidate.label}` {_diff_text(j, j.best_single)} against "
+                     f"`{j.best_single}`" for j in tried)
+    return [
+        "5. The sharp test of regions needs targets whose gain needs a change of behaviour "
+        "within the episode: one of the two rules per episode (by the first decision's "
+        "region) gets less than half of the composed rule's gain and is beaten by it. The "
+        "left/right targets do not (they get most of it per episode). The other paper teams "
+        "far from the line with the contain near it, so that each target would need a "
+        f"different source far, were tried first and fail: {said} (the composed rule is "
+        "not better than the best single rule).",
+        "6. Kept as needing the change within the episode: "
+        + ", ".join(f"`{j.candidate.label}` (composed less one rule per episode "
+                    f"{_once_diff(j)})"
+                    for j in kept)
+        + ": the press far from the line and the contain near it, at three boundaries "
+        "(`opponents.region_stream.SHARP_TARGETS`).",
+    ]
+
+
+def _once_diff(j: Judged) -> str:
+    mean, lo, hi = j.difference(j.once)
+    return f"{mean:+.3f} [{lo:+.3f}, {hi:+.3f}]"
 
 
 def _lateral_note(by: Mapping[str, Judged]) -> str:
@@ -528,6 +592,10 @@ def write_page(
         "| `press_far_contain_near`, `contain_left_press_right`, `press_left_contain_right` "
         "| targets: `RegionTeam`s of the two sources (`opponents/regions.py`, "
         "`opponents/region_stream.py`) |",
+        "| `press_far_contain_near_9`, `press_far_contain_near_15` | the sharp test's targets "
+        "with `press_far_contain_near`: the same composition at 9 and 15 m |",
+        "| `interceptors_cover`, `interceptor_guard`, `goal_guards` | paper teams 2-4, "
+        "composed far from the line with `contain_cover` near it (candidates) |",
         "",
         "A `RegionTeam` plays one team while the ball is above the region's threshold and "
         "the other below it, deciding each cycle at the attacker in possession (at the "
@@ -566,7 +634,7 @@ def write_page(
             f"{composed.rewards.mean():+.3f} | {mean:+.3f} [{lo:+.3f}, {hi:+.3f}] | "
             f"{_once_text(j)} | "
             f"{_share(above)} / {_share(below)} / {_share(above & below)} | "
-            f"{'target' if j.kept else 'not a target'} |"
+            f"{j.verdict} |"
         )
     lines += [
         "",
@@ -611,7 +679,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     for j in judged:
         mean, lo, hi = j.difference(j.singles[j.best_single])
         print(f"{j.candidate.label}: {j.composed_rule} less {j.best_single} "
-              f"{mean:+.3f} [{lo:+.3f}, {hi:+.3f}] -> {'target' if j.kept else 'not a target'}")
+              f"{mean:+.3f} [{lo:+.3f}, {hi:+.3f}] -> {j.verdict}")
     print(f"wrote {path} in {seconds:.0f} s")
     return 0
 

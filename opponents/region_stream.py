@@ -11,6 +11,12 @@ and the other on the other side:
 | ``press_far_contain_near`` | target | ``interceptors_press`` beyond 12 m of the goal line, ``contain_cover`` within it |
 | ``contain_left_press_right`` | target | ``contain_cover`` in the left half, ``interceptors_press`` in the right |
 | ``press_left_contain_right`` | target | ``interceptors_press`` in the left half, ``contain_cover`` in the right |
+| ``press_far_contain_near_9`` | target | ``press_far_contain_near`` with the boundary 9 m from the line |
+| ``press_far_contain_near_15`` | target | ``press_far_contain_near`` with the boundary 15 m from the line |
+
+The last two and ``press_far_contain_near`` are the sharp test's targets: every episode
+starts far from the line and nearly all reach near it, so the gain needs a change of
+behaviour within the episode (choosing one source per episode gets none of it).
 
 Each class is a setting of :class:`~opponents.parametric.ParametricTeam` or
 :class:`~opponents.regions.RegionTeam` (``DEFAULTS``); keyword arguments override it.
@@ -34,6 +40,15 @@ TARGETS: tuple[str, str, str] = (
     "press_far_contain_near", "contain_left_press_right", "press_left_contain_right",
 )
 """The compositions kept as targets by the pre-check (``docs/regions.md``)."""
+SHARP_SOURCES: tuple[str, ...] = ("interceptors_press", "interceptors_cover",
+                                  "interceptor_guard", "goal_guards", "contain_cover")
+"""The sharp test's sources: the paper's four teams, then the contain (the targets' two
+behaviours among three others: which source to run where must be found)."""
+SHARP_TARGETS: tuple[str, ...] = ("press_far_contain_near_9", "press_far_contain_near",
+                                  "press_far_contain_near_15")
+"""The sharp test's targets: the press far from the goal line, the contain near it, at three
+boundaries; each kept by the pre-check as needing a change within the episode
+(``docs/regions.md``)."""
 
 
 class ContainCover(ParametricTeam):
@@ -118,4 +133,35 @@ class PressLeftContainRight(_Composition):
 
     DEFAULTS: ClassVar[dict[str, Any]] = {
         "above": "contain_cover", "below": "interceptors_press", "region": LEFT,
+    }
+
+
+
+class _PressFarContainNearAt(_Composition):
+    """:class:`PressFarContainNear` with the boundary elsewhere."""
+
+
+class PressFarContainNear9(_PressFarContainNearAt):
+    """:class:`PressFarContainNear` with the boundary 9 m from the goal line.
+
+    Settings: ``above="interceptors_press"``, ``below="contain_cover"``,
+    ``region={"feature": "dist_goal", "threshold": 9.0}``.
+    """
+
+    DEFAULTS: ClassVar[dict[str, Any]] = {
+        "above": "interceptors_press", "below": "contain_cover",
+        "region": Region("dist_goal", 9.0),
+    }
+
+
+class PressFarContainNear15(_PressFarContainNearAt):
+    """:class:`PressFarContainNear` with the boundary 15 m from the goal line.
+
+    Settings: ``above="interceptors_press"``, ``below="contain_cover"``,
+    ``region={"feature": "dist_goal", "threshold": 15.0}``.
+    """
+
+    DEFAULTS: ClassVar[dict[str, Any]] = {
+        "above": "interceptors_press", "below": "contain_cover",
+        "region": Region("dist_goal", 15.0),
     }

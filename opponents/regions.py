@@ -29,7 +29,7 @@ from soccer_drill.batch_teams import BatchCommands, BatchRandom
 from soccer_drill.features import FEATURE_NAMES
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.state import BALL, DrillView
-from soccer_drill.teams import make_team
+from soccer_drill.teams import make_team, team_ids
 
 REGION_FEATURES = ("dist_goal", "lateral")
 """The features a :class:`Region` may split on (names of :data:`FEATURE_NAMES`)."""
@@ -259,3 +259,16 @@ class RegionRule:
     def __call__(self, obs: np.ndarray, rng: np.random.Generator) -> int:
         rule = self.below if self.region.observed_below(obs) else self.above
         return HOLDER_POLICIES[rule](obs, rng)
+
+
+def composition(team_id: str) -> tuple[int, float, str, str] | None:
+    """What an oracle knows of the team with id ``team_id``: ``(feature index, threshold,
+    team below, team above)`` if it is a :class:`RegionTeam` (observations with
+    ``obs[index] <= threshold`` in float32 meet the team below), else ``None`` (also for
+    an id no team has, such as a task's label)."""
+    if team_id not in team_ids():
+        return None
+    team = make_team(team_id)
+    if not isinstance(team, RegionTeam):
+        return None
+    return team.region.index, team.region.threshold, team.below_id, team.above_id

@@ -47,6 +47,8 @@ def _holder(argv, capsys) -> tuple[int, str]:
     ({"protocol": "B", "stream_length": 5}, "ExperimentConfig.stream_length: protocol B"),
     ({"protocol": "A", "n_shuffles": 3}, "ExperimentConfig.n_shuffles: protocol A"),
     ({"protocol": "B", "sampler_team": "chasers"}, "ExperimentConfig.sampler_team: protocol B"),
+    ({"protocol": "S", "stream_length": 5}, "ExperimentConfig.stream_length: protocol S"),
+    ({"protocol": "L", "n_shuffles": 3}, "ExperimentConfig.n_shuffles: protocol L"),
 ])
 def test_a_protocol_refuses_a_field_it_does_not_use(fields, said):
     with pytest.raises(ValueError, match=None) as info:
@@ -60,6 +62,24 @@ def test_a_protocol_accepts_the_fields_it_uses_and_defaults_of_the_others():
     ExperimentConfig(protocol="R", teams=TWO_TEAMS, targets=("interceptors_press",))
     ExperimentConfig(protocol="B", teams=TWO_TEAMS, n_shuffles=0)
     ExperimentConfig(protocol="A", teams=TWO_TEAMS, stream_length=20)
+    ExperimentConfig(protocol="S")
+    ExperimentConfig(protocol="L", stream_length=3)
+
+
+def test_the_sharp_tests_streams_hold_its_sources_then_its_targets_from_the_same_state():
+    """S: the paper's teams and the contain, then each target after them; L: the same
+    after a prefix drawn by protocol C's sampler (the same draw as C's stream)."""
+    from ilpss.experiments import drill
+
+    (s,) = ExperimentConfig(protocol="S").streams(3)
+    assert [t.name for t in s.tasks] == [*drill.SHARP_SOURCES, *drill.SHARP_TARGETS]
+    assert s.first_target == len(drill.SHARP_SOURCES) and s.shared_start
+    (long,) = ExperimentConfig(protocol="L", stream_length=4).streams(3)
+    (c,) = ExperimentConfig(protocol="C", stream_length=4).streams(3)
+    assert long.tasks[:4] == c.tasks
+    assert long.tasks[4:] == s.tasks and long.first_target == 4 + s.first_target
+    with pytest.raises(ValueError, match="are also sources"):
+        ExperimentConfig(protocol="L", teams=TWO_TEAMS, targets=TWO_TEAMS[:1])
 
 
 @pytest.mark.parametrize("argv, said", [

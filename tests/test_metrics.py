@@ -201,6 +201,8 @@ def test_compare_values_by_hand():
     assert est["total_reward_transfer"].value == pytest.approx(2.0)
     assert est["total_reward_baseline"].value == pytest.approx((-0.5 - 3.0) / 2)
     assert est["total_reward_gain"].value == pytest.approx((4.5 + 3.0) / 2)
+    # the budget of 6 is shorter than 20: the first 20 episodes are all of them
+    assert est["total_reward_gain_first_20"].value == pytest.approx((4.5 + 3.0) / 2)
     # ratio of mean areas: ((10 + 6) / 2) / ((5.5 + 3) / 2), not the mean of ratios
     assert est["transfer_ratio"].value == pytest.approx(16 / 8.5)
     # per seed, censored at the budget of 6: transfer reaches 0.5 at 3 (T) and never
@@ -229,7 +231,8 @@ def test_compare_values_by_hand():
     with_p = {k for k, e in est.items() if not math.isnan(e.p_value)}
     assert with_p == {"jumpstart", "final_gain", "total_reward_gain", "transfer_ratio",
                       "largest_dip_gain", "time_to_threshold_gain", "time_to_threshold_ratio",
-                      "time_to_threshold_ratio_warm"}
+                      "time_to_threshold_ratio_warm", "total_reward_gain_first_20",
+                      "total_reward_gain_first_50"}
     # the transfer ratio's test at 1 is the total-reward gain's test at 0
     assert est["transfer_ratio"].p_value == pytest.approx(est["total_reward_gain"].p_value)
 
@@ -756,3 +759,19 @@ def test_reported_time_to_threshold_needs_a_full_window_the_warm_start_is_its_ow
     assert est["time_to_threshold_ratio"].value == pytest.approx(8 / 9)
     # warm start: transfer at 1 (its first episode alone), baseline at 9
     assert est["time_to_threshold_ratio_warm"].value == pytest.approx(1 / 9)
+
+
+def test_the_gain_over_the_first_episodes_reads_only_those_episodes():
+    """The short-budget endpoints: the total-reward gain over the first 20 and 50
+    episodes, paired by seed, whatever follows them."""
+    rng = np.random.default_rng(5)
+    transfer, baseline = rng.uniform(-1, 1, (4, 80)), rng.uniform(-1, 1, (4, 80))
+    est = compare(transfer, baseline, first=5, last=5, threshold=None, window=5)
+    later = transfer.copy()
+    later[:, 50:] = 1.0  # only episodes after the 50th change
+    est_later = compare(later, baseline, first=5, last=5, threshold=None, window=5)
+    for k in (20, 50):
+        by_hand = (transfer[:, :k].sum(axis=1) - baseline[:, :k].sum(axis=1)).mean()
+        assert est[f"total_reward_gain_first_{k}"].value == pytest.approx(by_hand)
+        assert est_later[f"total_reward_gain_first_{k}"].value == pytest.approx(by_hand)
+    assert est_later["total_reward_gain"].value != pytest.approx(est["total_reward_gain"].value)

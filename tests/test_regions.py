@@ -13,8 +13,15 @@ import pytest
 import soccer_drill
 from opponents import region_check
 from opponents.region_check import CANDIDATES, t_interval
-from opponents.region_stream import LEFT, NEAR, SOURCES, TARGETS
-from opponents.regions import Region, RegionRule, RegionTeam
+from opponents.region_stream import (
+    LEFT,
+    NEAR,
+    SHARP_SOURCES,
+    SHARP_TARGETS,
+    SOURCES,
+    TARGETS,
+)
+from opponents.regions import Region, RegionRule, RegionTeam, composition
 from soccer_drill import teams
 from soccer_drill.batch_teams import BatchView
 from soccer_drill.config import DrillConfig
@@ -228,7 +235,8 @@ def test_the_stream_teams_are_installed_and_are_what_the_pre_check_judges():
     assert set(SOURCES) | set(TARGETS) <= set(listed)
     for c in CANDIDATES:
         assert c.team().region == c.region  # a registered id is checked to be its composition
-    assert {c.label for c in CANDIDATES if c.registered} == set(TARGETS)
+    assert {c.label for c in CANDIDATES if c.registered} == set(TARGETS) | set(SHARP_TARGETS)
+    assert set(SHARP_SOURCES) | set(SHARP_TARGETS) <= set(listed)
     press_far = teams.make_team("press_far_contain_near")
     assert (press_far.above_id, press_far.below_id, press_far.region) == (
         "interceptors_press", "contain_cover", NEAR)
@@ -300,3 +308,12 @@ def test_the_plugin_pages_region_example_runs():
     obs, _ = namespace["env"].reset(seed=0)
     assert namespace["rule"](obs, None) in (0, 1, 2)
     assert namespace["team"].region == NEAR
+
+
+def test_the_sharp_tests_names_are_the_same_on_both_sides():
+    """``ilpss`` names the drill's teams without importing them: its copies must agree."""
+    from ilpss.experiments import drill
+
+    assert drill.SHARP_SOURCES == SHARP_SOURCES and drill.SHARP_TARGETS == SHARP_TARGETS
+    splits = {(c[0], c[1]) for c in map(composition, SHARP_TARGETS)}
+    assert splits <= set(drill.REGION_SPLITS) | set(drill.SHARP_SPLITS)

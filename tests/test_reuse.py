@@ -416,3 +416,115 @@ def test_chained_fine_tuning_starts_each_task_from_its_own_latest_policy():
     learner = lifelong.make_learner(5)
     small.reuse.start.start(learner, lifelong.policies, MappedCorridor(COMPOSED), seed=0)
     _assert_acts_as(learner, previous, learner_seed=5)
+
+
+def corridor_composition(task: str) -> tuple[int, float, str, str] | None:
+    """The oracles' knowledge of the corridor's tasks: ``COMPOSED`` plays X below x = 6
+    (zones A and B) and Y above it; the sources are not composed."""
+    return (0, 6.0, "X", "Y") if task == "COMPOSED" else None
+
+
+def _oracle_learner(assigned: bool) -> LifelongLearner:
+    from ilpss.experiments.oracles import TrueRegions
+
+    REUSES.register("test_oracle", Reuse(
+        "test_oracle", GivenRegions(((0, 1e9, True), (0, 6.0, True), (0, 6.0, False),
+                                     (0, 3.0, True), (0, 3.0, False))), LatestPast(),
+        TrueRegions(assigned, composition=f"{__name__}:corridor_composition")),
+        overwrite=True)
+    cfg = LifelongConfig(n_kernels=4, train_episodes=10, rollout_episodes=3,
+                         options="test_oracle", learner=replace(LC, option_values="policy"))
+    learner = LifelongLearner(cfg, MappedCorridor(X).observation_space, 3, seed=4)
+    for name, fast in (("X", X), ("Y", Y)):
+        learner.run_trial(MappedCorridor(fast, cost=0.02), name)
+    return learner
+
+
+@pytest.mark.parametrize("assigned", [False, True])
+def test_the_oracles_offer_a_composed_target_the_options_of_its_own_regions(assigned):
+    """On the composed target, the true-regions oracle offers both sides of its split with
+    every past policy; the assignment oracle only X's policy below x = 6 and Y's above,
+    which act there as X and Y do. A task that is not composed is offered the whole past
+    policies (the region that holds every state), as the sources were."""
+    try:
+        learner = _oracle_learner(assigned)
+        target = learner.make_learner(0, task="COMPOSED")
+        library = target.library
+        pairs = {(int(library.kernel_model.thresholds[k]), bool(library.kernel_model.below[k]),
+                  int(p)) for k, p in zip(library.option_kernel, library.option_policy,
+                                          strict=True)}
+        if assigned:
+            assert pairs == {(6, True, 0), (6, False, 1)}
+            rng = np.random.default_rng(0)
+            for j, oid in enumerate(library.option_ids):
+                x = 2.0 if library.kernel_model.below[library.option_kernel[j]] else 8.0
+                source = learner.policies[library.option_policy[j]]
+                assert library.act(int(oid), np.array([x]), rng) == source.greedy(
+                    np.array([x]), rng, primitive_only=True)
+        else:
+            assert pairs == {(6, below, p) for below in (True, False) for p in (0, 1)}
+        whole = learner.make_learner(0, task="X").library
+        assert whole.option_kernel.tolist() == [0, 0]
+        assert whole.option_policy.tolist() == [0, 1]
+        assert learner.records[1].options_offered == 1  # Y's trial: X's whole policy
+        assert learner.make_learner(0).library is learner.library
+    finally:
+        REUSES.unregister("test_oracle")
+
+
+def test_the_assignment_oracle_names_what_it_cannot_find():
+    from ilpss.experiments.oracles import TrueRegions
+
+    try:
+        learner = _oracle_learner(True)
+        library = learner.library
+        with pytest.raises(ValueError, match="no past task is 'Y'"):
+            TrueRegions(True, f"{__name__}:corridor_composition").offer(
+                library, ["X", "Z"], "COMPOSED")
+        with pytest.raises(ValueError, match=r"pair \(9, 0\) is not a \(kernel position"):
+            library.only([(9, 0)])
+    finally:
+        REUSES.unregister("test_oracle")
+
+
+def test_a_library_limited_to_some_pairs_offers_pruned_options_again():
+    library = OptionLibrary(RegionKernels(1, [0, 0], [6.0, 6.0], [True, False]),
+                            [_zone_policy(X), _zone_policy(Y)])
+    first = int(library.option_ids[0])
+    library.settings = replace(library.settings, prune_threshold=0.99)
+    library.end_trial(used=[], offered=[first])  # discounted below the threshold: pruned
+    assert first not in library
+    limited = library.only([(0, 0), (1, 1)])
+    assert [library.registry[int(o)] for o in limited.option_ids] == [(0, 0), (1, 1)]
+    assert first in limited and limited.scales.tolist() == [1.0, 1.0]
+    assert first not in library  # the library itself is unchanged
+
+
+def test_who_runs_where_counts_every_decision_by_side_and_source():
+    """The region-use count of a composed target: every greedy decision once, by the side
+    of its split and by what acts; the assignment oracle's options are only ever the
+    right source's on each side."""
+    from ilpss.experiments.region_use import OWN, target_use
+
+    try:
+        learner = _oracle_learner(True)
+        learner.run_trial(MappedCorridor(COMPOSED, cost=0.02), "COMPOSED")
+        env = MappedCorridor(COMPOSED, cost=0.02)
+        use = target_use(learner, 2, env, range(4), corridor_composition("COMPOSED"))
+        assert sum(use.counts.values()) == sum(
+            SmdpLearner.from_policy(learner.policies[2], use_library(learner), replace(
+                learner.config.learner, epsilon=0.0), seed=s).run_episode(
+                env, learn=False, seed=s).decisions for s in range(4))
+        assert {actor for _, actor in use.counts} <= {OWN, "X", "Y"}
+        assert use.counts.get((True, "Y"), 0) == use.counts.get((False, "X"), 0) == 0
+        for below in (True, False):
+            n, right, other, own = use.shares(below)
+            assert n == 0 or (other == 0.0 and right + own == pytest.approx(1.0))
+    finally:
+        REUSES.unregister("test_oracle")
+
+
+def use_library(learner: LifelongLearner) -> OptionLibrary:
+    """The options the target's trial was offered (the oracle's offer, again)."""
+    names = [r.name for r in learner.records]
+    return learner.config.reuse.offer.offer(learner.library, names[:2], names[2])

@@ -6,6 +6,7 @@ import subprocess
 import sys
 import textwrap
 import threading
+import traceback
 
 import numpy as np
 import pytest
@@ -107,8 +108,8 @@ def test_separate_environments_in_separate_threads_are_fine():
     def run(seed: int) -> None:
         try:
             results[seed] = _holder_episodes(seed)
-        except BaseException as exc:  # reported below
-            errors.append(exc)
+        except BaseException:  # reported below, with where it was raised
+            errors.append(f"seed {seed}: {traceback.format_exc()}")
 
     switch = sys.getswitchinterval()
     sys.setswitchinterval(1e-6)
@@ -120,8 +121,16 @@ def test_separate_environments_in_separate_threads_are_fine():
             t.join()
     finally:
         sys.setswitchinterval(switch)
-    assert not errors
-    assert results == expected
+    assert not errors, "\n".join(errors)
+    for seed, steps in expected.items():
+        got = results[seed]
+        first = next((i for i, (a, b) in enumerate(zip(got, steps, strict=False))
+                      if a != b), None)
+        assert got == steps, (
+            f"seed {seed}: {len(got)} steps against {len(steps)} alone; first differing step "
+            f"{first}: {got[first] if first is not None else None} against "
+            f"{steps[first] if first is not None else None}"
+        )
 
 
 def test_an_environment_can_move_to_another_thread():

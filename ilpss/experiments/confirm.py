@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from ilpss import metrics
-from ilpss._check import ListOf, Name, OneOf, Real, check_fields, check_keys
+from ilpss._check import ListOf, Name, OneOf, Real, Text, check_fields, check_keys
 from ilpss._io import atomic_write_bytes, read_json
 from ilpss.experiments.compare import target_curves
 from ilpss.experiments.config import ExperimentConfig
@@ -73,12 +73,15 @@ class Plan:
                                   "time_to_threshold_ratio")
     """Metrics reported for every comparison, with plain intervals; not in the rule."""
     alpha: float = 0.05
+    title: str = "The confirmatory run"
+    """The page's heading."""
 
     def __post_init__(self) -> None:
         names = ListOf(Name(), min_len=1, unique=True)
         check_fields("Plan", self, {"methods": names, "candidates": names, "controls": names,
                                     "margin": Real(-1e6, 0.0), "alpha": Real(0.0, 0.5),
-                                    "secondary": ListOf(OneOf(tuple(metrics.METRIC)))})
+                                    "secondary": ListOf(OneOf(tuple(metrics.METRIC))),
+                                    "title": Text()})
         for name in self.methods:
             METHODS.get(name)  # an unknown method: KeyError naming the known ones
         for field in ("candidates", "controls"):
@@ -99,7 +102,7 @@ class Plan:
         """The plan in ``path`` (errors name the file)."""
         values = read_json(path)
         fields = ("methods", "protocols", "comparisons", "candidates", "controls", "fallback",
-                  "margin", "secondary", "alpha")
+                  "margin", "secondary", "alpha", "title")
         try:
             if not isinstance(values, dict):
                 raise ValueError("the plan must be a JSON object")
@@ -211,7 +214,7 @@ def page(plan: Plan, tests: Sequence[Comparison], codes: Sequence[dict]) -> list
             "p (Holm, whole family)",
             *(metrics.METRIC[e].label for e in plan.secondary)]
     lines = [
-        "# The confirmatory run", "",
+        f"# {plan.title}", "",
         code_line({"code": c} for c in codes), "",
         f"{len(tests)} tests in the family ({len(plan.comparisons)} comparisons x "
         f"{len(plan.protocols)} protocols), Holm-adjusted together; margin "

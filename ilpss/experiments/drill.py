@@ -24,6 +24,11 @@ fact                        used by
 :data:`REGION_SOURCES`,     protocol R (a stream where regions matter) and its oracle
 :data:`REGION_TARGETS`,     arm's regions
 :data:`REGION_SPLITS`
+:data:`SHARP_SOURCES`,      protocols S and L (the sharp test of regions: behaviour
+:data:`SHARP_TARGETS`,      that changes within an episode) and its oracles' regions
+:data:`SHARP_SPLITS`
+:data:`TEAM_COMPOSITION`    the oracles' knowledge of a target: its region and the
+                            source played on each side
 :data:`HOLDER_RULES`        ``ilpss-holder-learning``'s fixed rules to beat
 :data:`GIF_WRITER`          the GIF of the agent (one GIF writer for the project)
 :data:`TEAM_ERROR`          the commands' one-line error for a team that fails
@@ -32,7 +37,7 @@ fact                        used by
                             ``team_code.json``
 ==========================  =========================================================
 
-:data:`HOLDER_RULES`, :data:`GIF_WRITER` and :data:`TEAM_CODE` are drill code that
+:data:`HOLDER_RULES`, :data:`GIF_WRITER`, :data:`TEAM_CODE` and :data:`TEAM_COMPOSITION` are drill code that
 ``ilpss`` uses by name (:func:`drill_object`), imported only when used, and
 :data:`TEAM_ERROR` is caught by name
 (:func:`drill_exception`), so that ``ilpss`` itself never depends on the drill's rules.
@@ -78,6 +83,20 @@ REGION_SPLITS = ((GOAL_DISTANCE, 12.0), (LATERAL, 0.0))
 """The splits of protocol R's targets, as ``(feature index, threshold)``: within 12 m of
 the goal line, and the left half (``opponents.region_stream``); the oracle's regions are
 both sides of each."""
+SHARP_SOURCES = ("interceptors_press", "interceptors_cover", "interceptor_guard",
+                 "goal_guards", "contain_cover")
+"""Protocol S's sources: the paper's four teams, then the contain
+(``opponents.region_stream.SHARP_SOURCES``)."""
+SHARP_TARGETS = ("press_far_contain_near_9", "press_far_contain_near",
+                 "press_far_contain_near_15")
+"""Protocol S's targets: the press far from the goal line, the contain near it, at 9, 12
+and 15 m; each kept by the pre-check as needing a change of behaviour within the episode
+(``docs/regions.md``)."""
+SHARP_SPLITS = ((GOAL_DISTANCE, 9.0), (GOAL_DISTANCE, 15.0))
+"""The splits of protocol S's targets besides :data:`REGION_SPLITS`' 12 m."""
+TEAM_COMPOSITION = "opponents.regions:composition"
+"""``composition(team_id) -> (feature index, threshold, team below, team above) | None``:
+a region-composed team's split and the source on each side (``None``: not composed)."""
 HOLDER_RULES = "soccer_drill.policies:HOLDER_POLICIES"
 """Where the drill's fixed holder rules are: a mapping of name to ``rule(obs, rng)``."""
 GIF_WRITER = "soccer_drill.gif:save_gif"

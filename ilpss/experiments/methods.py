@@ -26,7 +26,10 @@ from typing import TYPE_CHECKING, Any
 from ilpss._check import Constraint, Integer, Real
 from ilpss._io import json_differences
 from ilpss.baselines import PrqLearner
-from ilpss.experiments import drill
+from ilpss.experiments import (
+    drill,
+    oracles,  # noqa: F401  (registers the oracles' reuses)
+)
 from ilpss.experiments.checkpoints import CheckpointStore, is_uri
 from ilpss.experiments.folder import checkpoint_key
 from ilpss.experiments.protocols import Stream, make_env
@@ -41,12 +44,9 @@ from ilpss.lifelong import (
 )
 from ilpss.reuse import (
     BestOfPast,
-    GivenRegions,
     LatestPast,
-    Reuse,
     StartRule,
     learn_with,
-    register_reuse,
 )
 from ilpss.smdp import EpisodeResult, SmdpLearner
 
@@ -372,11 +372,6 @@ def _bounded_cut(base: LifelongConfig, options: str,
                        option_traces="cut")
 
 
-# The oracle's regions: both sides of each split of protocol R's targets.
-register_reuse(Reuse("oracle_regions_finetune", GivenRegions(tuple(
-    (feature, threshold, below) for feature, threshold in drill.REGION_SPLITS
-    for below in (True, False))), LatestPast()))
-
 METHODS = Registry("ilpss.methods", "method", Method)
 """Every method, by name."""
 
@@ -458,5 +453,18 @@ for _method in (
                    lambda base: _bounded_cut(base, "kernels_finetune", "primitive_choices")),
     LifelongMethod("ilpss_ft_oracle", "ILPSS-FT with the true regions as kernels (oracle)",
                    lambda base: _fine_tuned(base, "oracle_regions_finetune")),
+    # The sharp test's oracles, with the kernel method's settings: the target's true
+    # regions (which past policy runs in each learnt), and the regions with their sources.
+    LifelongMethod("true_regions_ft_bounded_cut_primitives",
+                   "the target's true regions, every past policy in each (oracle), "
+                   "ILPSS-FT's settings, values bounded, traces cut, primitives' targets",
+                   lambda base: _bounded_cut(base, "true_regions_finetune",
+                                             "primitive_choices")),
+    LifelongMethod("assigned_regions_ft_bounded_cut_primitives",
+                   "the target's true regions, each with its source's policy (assignment "
+                   "oracle), ILPSS-FT's settings, values bounded, traces cut, primitives' "
+                   "targets",
+                   lambda base: _bounded_cut(base, "assigned_regions_finetune",
+                                             "primitive_choices")),
 ):
     register_method(_method)

@@ -3,8 +3,8 @@
 A :class:`Protocol` gives the streams of a configuration for one seed
 (:meth:`~Protocol.streams`), refuses a configuration it cannot run
 (:meth:`~Protocol.check`) and says what its streams are (:meth:`~Protocol.describe`).
-Protocols are registered by name in :data:`PROTOCOLS` (``A``, ``B``, ``C``, ``R`` here; more
-with :func:`register_protocol` or the entry-point group ``ilpss.protocols``), and the
+Protocols are registered by name in :data:`PROTOCOLS` (``A``, ``B``, ``C``, ``R``, ``S``,
+``L`` here; more with :func:`register_protocol` or the entry-point group ``ilpss.protocols``), and the
 configuration and the runner only dispatch to them: a new protocol needs no change
 anywhere else. How a protocol's results are presented is the reports' business
 (:mod:`ilpss.experiments.report` and :mod:`ilpss.experiments.sections`, keyed by the
@@ -161,18 +161,7 @@ class HeldOutTeam(Protocol):
         if not cfg.targets:
             _check_teams(cfg, distinct=False)
             return
-        if len(set(cfg.targets)) != len(cfg.targets):
-            raise ValueError(
-                f"ExperimentConfig.targets must not repeat a team, got {cfg.targets!r}"
-            )
-        both = [t for t in cfg.targets if t in cfg.teams]
-        if both:
-            raise ValueError(
-                f"ExperimentConfig.targets: {both} are also sources; with targets, "
-                f"ExperimentConfig.teams lists the sources only (e.g. --teams "
-                f"{' '.join(t for t in cfg.teams if t not in both)} --targets "
-                f"{' '.join(cfg.targets)})"
-            )
+        _check_targets(cfg)
 
     def sources_and_targets(self, cfg: ExperimentConfig) -> tuple[tuple[str, ...],
                                                                   tuple[str, ...]]:
@@ -194,6 +183,20 @@ class HeldOutTeam(Protocol):
                    "after the sources")
         return (f"Opponent teams {_teams(sources)} in sequence, with extraction after "
                 f"each; then against {against}.")
+
+
+def _check_targets(cfg: ExperimentConfig) -> None:
+    """Targets given: distinct, and none of them also a source."""
+    if len(set(cfg.targets)) != len(cfg.targets):
+        raise ValueError(f"ExperimentConfig.targets must not repeat a team, got {cfg.targets!r}")
+    both = [t for t in cfg.targets if t in cfg.teams]
+    if both:
+        raise ValueError(
+            f"ExperimentConfig.targets: {both} are also sources; with targets, "
+            f"ExperimentConfig.teams lists the sources only (e.g. --teams "
+            f"{' '.join(t for t in cfg.teams if t not in both)} --targets "
+            f"{' '.join(cfg.targets)})"
+        )
 
 
 class RegionStream(HeldOutTeam):
@@ -226,6 +229,59 @@ class RegionStream(HeldOutTeam):
                 f"targets {_teams(targets)}, which play one source's behaviour in one region "
                 "of the field and another's in another, every one from the state after the "
                 "sources.")
+
+
+class SharpRegionTest(RegionStream):
+    """S: the sharp test of regions. The sources are the paper's four teams and the
+    contain (:data:`~ilpss.experiments.drill.SHARP_SOURCES`), the targets teams that play
+    one paper team far from the goal line and the contain near it
+    (:data:`~ilpss.experiments.drill.SHARP_TARGETS`): every episode starts far and most
+    reach near, so the gain needs a change of behaviour within the episode, and each
+    target needs a different source far from the line. Each target is learnt from the
+    state after the sources; ``teams`` and ``targets`` replace both when ``targets`` are
+    given."""
+
+    name = "S"
+    title = "regions within an episode (the sharp test)"
+
+    def sources_and_targets(self, cfg: ExperimentConfig) -> tuple[tuple[str, ...],
+                                                                  tuple[str, ...]]:
+        if cfg.targets:
+            return cfg.teams, cfg.targets
+        return drill.SHARP_SOURCES, drill.SHARP_TARGETS
+
+
+class LargeLibrarySharpTest(SharpRegionTest):
+    """L: protocol S after a long stream: ``stream_length`` opponents drawn per seed by the
+    sampler (as protocol C's), then S's sources, then each of S's targets from the state
+    after them. The library is large when the targets come, which is where offering
+    options by region could matter most."""
+
+    name = "L"
+    title = "the sharp test after a long stream (a large library)"
+
+    def check(self, cfg: ExperimentConfig) -> None:
+        refuse_unused(cfg, ("teams", "targets", "stream_length", "sampler", "sampler_team"),
+                      "it reads the prefix's stream_length, sampler and sampler_team, and "
+                      "teams with targets")
+        SAMPLERS.check("ExperimentConfig.sampler", cfg.sampler)
+        if cfg.targets:
+            _check_targets(cfg)
+
+    def streams(self, cfg: ExperimentConfig, seed: int) -> list[Stream]:
+        specs = SAMPLERS.get(cfg.sampler)(cfg.stream_length, seed)
+        prefix = tuple(
+            Task(f"{cfg.sampler_team}_{i}", {"opponent": cfg.sampler_team, "opponent_params": p})
+            for i, p in enumerate(specs)
+        )
+        sources, targets = self.sources_and_targets(cfg)
+        tasks = (*prefix, *(team_task(t) for t in (*sources, *targets)))
+        return [Stream(f"after={len(prefix)},held_out={'+'.join(targets)}", tasks,
+                       len(prefix) + len(sources), shared_start=True)]
+
+    def describe(self, cfg: ExperimentConfig) -> str:
+        return (f"{cfg.stream_length} opponents of the `{cfg.sampler_team}` family (drawn per "
+                f"seed by `{cfg.sampler}`); then the sharp test: " + super().describe(cfg))
 
 
 class EveryTeamHeldOut(Protocol):
@@ -292,5 +348,6 @@ def register_protocol(protocol: Protocol, *, overwrite: bool = False) -> None:
     PROTOCOLS.add(protocol, overwrite=overwrite)
 
 
-for _protocol in (HeldOutTeam(), EveryTeamHeldOut(), ParametricStream(), RegionStream()):
+for _protocol in (HeldOutTeam(), EveryTeamHeldOut(), ParametricStream(), RegionStream(),
+                  SharpRegionTest(), LargeLibrarySharpTest()):
     register_protocol(_protocol)
