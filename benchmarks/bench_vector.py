@@ -60,7 +60,7 @@ from bench_env import AecLoop, HolderLoop, PhysicsLoop
 
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.vector import HolderVectorEnv, play_episodes
-from soccer_drill.vector_agents import ParallelVectorEnv
+from soccer_drill.vector.agents import ParallelVectorEnv
 
 
 class HolderStep:

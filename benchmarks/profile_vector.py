@@ -23,13 +23,13 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-import soccer_drill.batch_core as core_module
-import soccer_drill.batch_teams as teams_module
 import soccer_drill.drill.drills as drills_module
 import soccer_drill.drill.spaces as physics_module
 import soccer_drill.rules.cycle as cycle_module
+import soccer_drill.teams.batch as teams_module
 import soccer_drill.vector as vector_module
-import soccer_drill.vector_agents as agents_module
+import soccer_drill.vector.agents as agents_module
+import soccer_drill.vector.core as core_module
 
 _MODULES = (drills_module, core_module, physics_module, cycle_module, teams_module,
             vector_module, agents_module)

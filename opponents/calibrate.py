@@ -41,10 +41,10 @@ from scipy import stats
 
 from opponents import PAPER_TEAMS
 from opponents.parametric import sample_opponents, spec_label
+from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.files import atomic_write_text, check_output_file
-from soccer_drill.gif import record_episode, save_gif
-from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
+from soccer_drill.rendering.gif import record_episode, save_gif
 from soccer_drill.teams import TeamError, describe, team_ids
 from soccer_drill.vector import HolderVectorEnv, play_episodes
 

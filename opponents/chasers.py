@@ -6,9 +6,9 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from soccer_drill.batch_teams import SameCommands
 from soccer_drill.skills import Command, Skill
 from soccer_drill.state import DrillView
+from soccer_drill.teams.batch import SameCommands
 
 
 class Chasers:
@@ -41,5 +41,5 @@ class Chasers:
         return dict.fromkeys(self._players, self._command)
 
     def batch(self, n: int) -> SameCommands:
-        """This team for ``n`` drills at once (``soccer_drill.batch_teams``): its one command."""
+        """This team for ``n`` drills at once (``soccer_drill.teams.batch``): its one command."""
         return SameCommands(self.command)

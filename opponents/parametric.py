@@ -465,6 +465,13 @@ class ParametricBatch:
                 and team.reaction_delay == 0):
             self.fixed = (np.full((1, 2), INTERCEPT, dtype=np.int64), np.zeros((1, 2, 2)))
 
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        if "_numbers" in state:  # a copy's arrays are writable: read-only, as compiled
+            self._settings = self._settings.copy()
+            self._settings.flags.writeable = False
+            self._numbers = _drill_numbers(self._config)
+
     def reset(self, view: Any, drills: np.ndarray, rng: Any) -> None:
         """Start an episode in ``drills``; ``rng`` (a ``BatchRandom``) feeds the sorties."""
         if len(view.players) != 2:
@@ -476,6 +483,7 @@ class ParametricBatch:
             self._vel = np.zeros((self.n, depth, 5, 2))
             self._holder = np.zeros((self.n, depth), dtype=np.int64)
         self._rng = rng
+        self._config = view.config
         self._numbers = _drill_numbers(view.config)
         # Read-only, as compiled before any team's call (a copy of the team's is writable).
         self._settings = self.team._settings_array()
@@ -486,7 +494,7 @@ class ParametricBatch:
 
     def act(self, view: Any, drills: np.ndarray) -> Any:
         """The two defenders' commands in each of ``drills`` (:meth:`plan`)."""
-        from soccer_drill.batch_teams import BatchCommands, every_drill
+        from soccer_drill.teams.batch import BatchCommands, every_drill
 
         m = len(drills)
         if self.fixed is not None:

@@ -39,8 +39,8 @@ from scipy import stats
 from opponents.calibrate import wilson_interval
 from opponents.region_stream import LEFT, NEAR, SOURCES
 from opponents.regions import Region, RegionRule, RegionTeam
+from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.files import atomic_write_text, check_output_file
-from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES, HolderPolicy
 from soccer_drill.teams import make_team
 

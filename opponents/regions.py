@@ -25,11 +25,11 @@ from typing import Any
 
 import numpy as np
 
-from soccer_drill.batch_teams import BatchCommands, BatchRandom
-from soccer_drill.features import FEATURE_NAMES
 from soccer_drill.policies import HOLDER_POLICIES
+from soccer_drill.rules.features import FEATURE_NAMES
 from soccer_drill.state import BALL, DrillView
 from soccer_drill.teams import make_team, team_ids
+from soccer_drill.teams.batch import BatchCommands, BatchRandom
 
 REGION_FEATURES = ("dist_goal", "lateral")
 """The features a :class:`Region` may split on (names of :data:`FEATURE_NAMES`)."""

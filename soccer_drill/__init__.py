@@ -9,11 +9,14 @@
 
 from __future__ import annotations
 
+import sys
+
 import gymnasium
 
+from soccer_drill import _moved
 from soccer_drill.config import DrillConfig
-from soccer_drill.env import env, parallel_env, raw_env
-from soccer_drill.holder import HolderEnv
+from soccer_drill.envs.agents import env, parallel_env, raw_env
+from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.skills import Command, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView
 from soccer_drill.teams import Team, TeamError, available_teams, make_team, register
@@ -36,10 +39,12 @@ __all__ = [
     "register",
 ]
 
+_moved.install(sys.modules[__name__])  # the modules' old paths import as before
+
 HOLDER_ENV_ID = "soccer_drill/Holder-v0"
 if HOLDER_ENV_ID not in gymnasium.registry:
     gymnasium.register(
         id=HOLDER_ENV_ID,
-        entry_point="soccer_drill.holder:HolderEnv",
-        vector_entry_point="soccer_drill.vector:HolderVectorEnv",
+        entry_point="soccer_drill.envs.holder:HolderEnv",
+        vector_entry_point="soccer_drill.vector.holder:HolderVectorEnv",
     )

@@ -1,6 +1,6 @@
 """Fixed ball-holder policies: baselines, calibration rules and GIF drivers.
 
-Each policy maps the holder's 9 features (see :mod:`soccer_drill.features`) and a
+Each policy maps the holder's 9 features (see :mod:`soccer_drill.rules.features`) and a
 random generator to an action of the holder environment (0 HOLD, 1 PASS,
 2 DRIBBLE). They read features only, so they run on any holder observation.
 """
@@ -14,7 +14,7 @@ import numpy as np
 HOLD, PASS, DRIBBLE = 0, 1, 2
 HolderPolicy = Callable[[np.ndarray, np.random.Generator], int]
 
-# Feature indices (see soccer_drill.features.FEATURE_NAMES).
+# Feature indices (see soccer_drill.rules.features.FEATURE_NAMES).
 _DIST_OPP, _MATE_OPP, _PASS_ANGLE, _DRIBBLE_ANGLE = 1, 3, 4, 8
 
 

@@ -33,7 +33,8 @@ def team_registry(monkeypatch):
     (so the copy holds them all, and the registry put back afterwards too), then teams the
     test registers are gone after it."""
     import soccer_drill.teams as teams
+    import soccer_drill.teams.registry as registry
 
     teams.team_ids()
-    monkeypatch.setattr(teams, "_registry", dict(teams._registry))
+    monkeypatch.setattr(registry, "_registry", dict(registry._registry))
     return teams

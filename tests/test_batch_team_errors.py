@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 from soccer_drill import Command, HolderEnv, Skill
-from soccer_drill.batch_teams import BatchCommands
-from soccer_drill.batch_teams import check_commands as batched_check
 from soccer_drill.teams import TeamError
 from soccer_drill.teams import check_commands as single_check
+from soccer_drill.teams.batch import BatchCommands
+from soccer_drill.teams.batch import check_commands as batched_check
 from soccer_drill.vector import HolderVectorEnv
-from soccer_drill.vector_agents import ParallelVectorEnv
+from soccer_drill.vector.agents import ParallelVectorEnv
 
 
 class Plain:
@@ -269,7 +269,7 @@ def test_a_batched_team_cannot_write_into_the_drills_it_is_shown():
 
 
 def test_batch_random_refuses_indices_that_are_not_distinct_drills():
-    from soccer_drill.batch_teams import BatchRandom
+    from soccer_drill.teams.batch import BatchRandom
 
     rng = BatchRandom(3)
     rng.seed(np.arange(3), [0, 1, 2])

@@ -13,7 +13,7 @@ import pytest
 import soccer_drill
 from opponents.calibrate import Cell, criteria, main
 from soccer_drill import Command, Skill
-from soccer_drill.teams import _registry
+from soccer_drill.teams.registry import _registry
 
 ROOT = Path(__file__).resolve().parents[1]
 

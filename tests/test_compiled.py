@@ -23,7 +23,7 @@ from episode_digests import _feed, digest
 import soccer_drill
 from soccer_drill.rules.compiled import COMPILED, python_hypot
 from soccer_drill.vector import HolderVectorEnv
-from soccer_drill.vector_agents import ParallelVectorEnv
+from soccer_drill.vector.agents import ParallelVectorEnv
 
 _SINGLE = (
     ("aec", "chasers", {"obs_type": "kinematic", "obs_format": "flat", "shared_spaces": False}),

@@ -12,7 +12,7 @@ import pytest
 
 import soccer_drill
 from soccer_drill.vector import HolderVectorEnv
-from soccer_drill.vector_agents import ParallelVectorEnv
+from soccer_drill.vector.agents import ParallelVectorEnv
 
 COPIES = {
     "deepcopy": copy.deepcopy,
@@ -160,3 +160,36 @@ def test_a_copy_of_a_batched_environment_continues_bit_for_bit_and_on_its_own(ki
     copied = _batched_steps(duplicate, 7, 30)
     # The original, not moved by the copy's steps, plays the same from where it was copied.
     assert _batched_steps(original, 7, 30) == copied
+
+
+def _compiled_signatures() -> dict[str, int]:
+    import sys
+
+    import numba
+
+    return {f"{name}.{key}": len(value.signatures)
+            for name, module in list(sys.modules.items())
+            if name.startswith(("soccer_drill", "opponents")) and module is not None
+            for key, value in vars(module).items() if isinstance(value, numba.core.registry.CPUDispatcher)}
+
+
+@pytest.mark.parametrize("clone", [copy.deepcopy, lambda env: pickle.loads(pickle.dumps(env))])
+def test_a_copy_runs_the_rules_compiled_for_the_original(clone):
+    """A copy's arrays are writable where the original's are read-only (the shared
+    configuration arrays, a team's settings): they are made read-only again, or the rules
+    would be compiled anew for them, inside a team's time-bounded call."""
+    from soccer_drill.rules.compiled import COMPILED
+
+    if not COMPILED:
+        pytest.skip("the rules run as plain Python")
+    env = soccer_drill.env(opponent="goal_guards")
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    for _ in range(8):
+        env.step(_pick(rng, env.last()[0]["action_mask"]))
+    before = _compiled_signatures()
+    copied = clone(env)
+    for _ in range(8):
+        obs, _, term, trunc, _ = copied.last()
+        copied.step(None if term or trunc else _pick(rng, obs["action_mask"]))
+    assert _compiled_signatures() == before

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import soccer_drill
-from soccer_drill.features import STATE_SIZE
+from soccer_drill.rules.features import STATE_SIZE
 
 
 def _legal(mask: np.ndarray, rng: np.random.Generator) -> int:

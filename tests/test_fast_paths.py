@@ -10,7 +10,7 @@ import pytest
 import soccer_drill
 from soccer_drill import drill as drill_module
 from soccer_drill.config import DrillConfig, fewest_substeps
-from soccer_drill.features import (
+from soccer_drill.rules.features import (
     _clip_into,
     feature_bounds,
     features,

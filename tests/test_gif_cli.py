@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-import soccer_drill.gif as gif
-from soccer_drill.gif import main
+import soccer_drill.rendering.gif as gif
+from soccer_drill.rendering.gif import main
 
 
 @pytest.fixture

@@ -19,7 +19,7 @@ from opponents.calibrate import (
 )
 from opponents.calibrate import main as calibrate_main
 from opponents.cli import main as list_teams
-from soccer_drill.holder import HolderEnv
+from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.skills import Command, Skill, ball_interception_point
 from soccer_drill.state import BALL

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ilpss.kernels import SharedKernelModel
-from soccer_drill.holder import HolderEnv
+from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.policies import always_dribble, pass_first
 
 

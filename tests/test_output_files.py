@@ -14,8 +14,8 @@ from opponents import PAPER_TEAMS
 from opponents.calibrate import Cell, write_markdown
 from opponents.region_check import write_page
 from soccer_drill.files import TEMPORARY, atomic_write_text
-from soccer_drill.gif import save_gif
 from soccer_drill.policies import HOLDER_POLICIES
+from soccer_drill.rendering.gif import save_gif
 
 
 def _calibration_page(path: Path) -> None:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from opponents.parametric import ParametricTeam, sample_opponents
-from soccer_drill.holder import HolderEnv
+from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.vector import HolderVectorEnv
 
 

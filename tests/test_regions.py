@@ -23,13 +23,13 @@ from opponents.region_stream import (
 )
 from opponents.regions import Region, RegionRule, RegionTeam, composition
 from soccer_drill import teams
-from soccer_drill.batch_teams import BatchView
 from soccer_drill.config import DrillConfig
-from soccer_drill.features import feature_bounds, features
-from soccer_drill.holder import HolderEnv
+from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
+from soccer_drill.rules.features import feature_bounds, features
 from soccer_drill.skills import Skill
 from soccer_drill.state import DrillState, DrillView
+from soccer_drill.teams.batch import BatchView
 from soccer_drill.vector import HolderVectorEnv, play_episodes
 
 DEFENDERS = ("defender_0", "defender_1")

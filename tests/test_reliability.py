@@ -20,7 +20,7 @@ import pytest
 from benchmark_scripts import load_benchmark
 
 import soccer_drill
-import soccer_drill.core
+import soccer_drill.envs.core
 from ilpss.baselines import PrqConfig
 from ilpss.experiments.cli import main as cli_main
 from ilpss.experiments.config import ExperimentConfig
@@ -69,13 +69,13 @@ def test_the_soak_checks_its_output_before_any_episode(tmp_path, monkeypatch, ca
 @pytest.mark.slow
 def test_soak_counts_and_reports_violations(monkeypatch, tmp_path):
     """A drill whose observations turn NaN at cycle 3 must fail the soak (exit status 1)."""
-    features = soccer_drill.core.features
+    features = soccer_drill.envs.core.features
 
     def broken(state, index, *args):
         obs = features(state, index, *args)
         return np.full_like(obs, np.nan) if state.cycle == 3 else obs
 
-    monkeypatch.setattr(soccer_drill.core, "features", broken)
+    monkeypatch.setattr(soccer_drill.envs.core, "features", broken)
     out = tmp_path / "r.md"
     assert soak.main(["--episodes", "30", "--warmup", "20", "--out", str(out)]) == 1
     text = out.read_text()
@@ -438,7 +438,7 @@ class _SigWithFailingTimer:
 def test_the_previous_handler_is_back_even_when_arming_the_timer_fails(
     monkeypatch, sentinel_prof_handler
 ):
-    import soccer_drill.time_bound as time_bound
+    import soccer_drill.teams.time_bound as time_bound
 
     env = soccer_drill.HolderEnv(opponent="chasers", team_timeout=1.0)
     monkeypatch.setattr(time_bound, "_sig", _SigWithFailingTimer(time_bound._sig))

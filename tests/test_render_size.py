@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import soccer_drill
 from soccer_drill.config import DrillConfig
-from soccer_drill.render import MAX_SIDE, Renderer
+from soccer_drill.rendering.draw import MAX_SIDE, Renderer
 
 
 def _frame(config):

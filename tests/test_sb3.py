@@ -1,4 +1,4 @@
-"""``soccer_drill.sb3.HolderSB3VecEnv`` against SB3's own ``DummyVecEnv`` of ``HolderEnv``:
+"""``soccer_drill.vector.sb3.HolderSB3VecEnv`` against SB3's own ``DummyVecEnv`` of ``HolderEnv``:
 the same observations, rewards, dones and infos, step for step, across autoresets.
 
 SB3 needs torch, so these run with ``pytest -m integrations`` (``pip install -e
@@ -15,7 +15,7 @@ pytest.importorskip("stable_baselines3")
 from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor  # noqa: E402
 
 from soccer_drill import HolderEnv  # noqa: E402
-from soccer_drill.sb3 import HolderSB3VecEnv  # noqa: E402
+from soccer_drill.vector.sb3 import HolderSB3VecEnv  # noqa: E402
 
 N = 6
 TEAM = "interceptors_cover"

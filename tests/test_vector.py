@@ -10,10 +10,9 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 import soccer_drill
 from opponents.agreement import agreement
 from opponents.parametric import ParametricTeam, sample_opponents
-from soccer_drill.batch_teams import BatchCommands
-from soccer_drill.features import batch_features, feature_bounds, features
-from soccer_drill.holder import HolderEnv
+from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
+from soccer_drill.rules.features import batch_features, feature_bounds, features
 from soccer_drill.rules.motion import (
     interception_points,
     mark_targets,
@@ -23,8 +22,9 @@ from soccer_drill.rules.motion import (
 )
 from soccer_drill.skills import Command, Skill, ball_interception_point, execute
 from soccer_drill.teams import TeamError
+from soccer_drill.teams.batch import BatchCommands
 from soccer_drill.vector import HolderVectorEnv, play_episodes
-from soccer_drill.vector_agents import ParallelVectorEnv
+from soccer_drill.vector.agents import ParallelVectorEnv
 
 TEAMS = ("chasers", "interceptors_press", "interceptors_cover", "interceptor_guard", "goal_guards")
 

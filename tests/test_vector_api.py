@@ -12,12 +12,12 @@ import pytest
 import soccer_drill
 from opponents.calibrate import evaluate_rules
 from opponents.parametric import ParametricTeam
-from soccer_drill.batch_teams import BatchCommands, BatchRandom
-from soccer_drill.holder import HolderEnv
+from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.teams import TeamError
+from soccer_drill.teams.batch import BatchCommands, BatchRandom
 from soccer_drill.vector import HolderVectorEnv, play_episodes
-from soccer_drill.vector_agents import ParallelVectorEnv
+from soccer_drill.vector.agents import ParallelVectorEnv
 
 
 def test_the_holder_batch_renders_one_frame_per_drill_as_the_single_env_draws_it():

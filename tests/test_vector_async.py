@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import soccer_drill  # noqa: F401  (registers soccer_drill/Holder-v0)
-from soccer_drill.holder import HolderEnv
+from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.vector import HolderVectorEnv
 

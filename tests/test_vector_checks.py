@@ -91,7 +91,7 @@ def test_gymnasiums_vector_wrappers_run_on_the_batched_holder():
 
 
 def test_a_bad_agent_action_in_drill_17_names_it_and_changes_no_drill():
-    from soccer_drill.vector_agents import ParallelVectorEnv
+    from soccer_drill.vector.agents import ParallelVectorEnv
 
     def fresh():
         venv = ParallelVectorEnv(num_envs=32, opponent="interceptors_cover", illegal_action="raise")

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import soccer_drill
-from soccer_drill.holder import HolderEnv
+from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.vector import HolderVectorEnv
-from soccer_drill.vector_agents import ParallelVectorEnv
+from soccer_drill.vector.agents import ParallelVectorEnv
 
 ALLOWED = r"seed must be None, an integer >= 0 \(drill i gets seed \+ i\) or a sequence of 4 seeds"
 MASK = np.array([True, False, False, True])

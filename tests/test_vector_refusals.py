@@ -9,7 +9,7 @@ import pytest
 from soccer_drill import vector
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.vector import HolderVectorEnv, play_episodes
-from soccer_drill.vector_agents import ParallelVectorEnv
+from soccer_drill.vector.agents import ParallelVectorEnv
 
 
 def test_reset_refuses_unknown_options_and_options_that_are_not_a_dict():

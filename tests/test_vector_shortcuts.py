@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import soccer_drill
-from soccer_drill.batch import BatchDrill
-from soccer_drill.batch_physics import BatchPhysics
+from soccer_drill.drill.drills import BatchDrill
+from soccer_drill.drill.spaces import BatchPhysics
 from soccer_drill.rules.cycle import INTERCEPTION, OUT, RUNNING, SUCCESS, TIMEOUT, outcome, reward
 
 
@@ -62,7 +62,7 @@ def test_the_batched_rewards_are_those_of_the_active_drills_that_ended(n):
 
 @pytest.mark.parametrize("shared", [False, True])
 def test_the_legality_test_says_what_the_action_masks_say(shared):
-    from soccer_drill.vector_agents import ParallelVectorEnv, is_legal
+    from soccer_drill.vector.agents import ParallelVectorEnv, is_legal
 
     venv = ParallelVectorEnv(num_envs=32, opponent=None, shared_spaces=shared)
     obs, _ = venv.reset(seed=0)
@@ -81,8 +81,8 @@ def test_the_legality_test_says_what_the_action_masks_say(shared):
 def test_a_frames_pixels_are_the_surfaces_as_surfarray_reads_them():
     import pygame
 
-    from soccer_drill.holder import HolderEnv
-    from soccer_drill.render import surface_pixels
+    from soccer_drill.envs.holder import HolderEnv
+    from soccer_drill.rendering.draw import surface_pixels
 
     env = HolderEnv(opponent="interceptors_cover", render_mode="rgb_array")
     env.reset(seed=3)
@@ -99,7 +99,7 @@ def test_a_frames_pixels_are_the_surfaces_as_surfarray_reads_them():
 def test_a_gif_of_few_colours_is_written_with_its_exact_colours(tmp_path):
     from PIL import Image
 
-    from soccer_drill.gif import palette_images, save_gif
+    from soccer_drill.rendering.gif import palette_images, save_gif
 
     rng = np.random.default_rng(0)
     colours = rng.integers(0, 256, size=(200, 3), dtype=np.uint8)

@@ -91,7 +91,7 @@ ONE_FRAME = 0.1 + 1e-6
 
 @pytest.mark.integrations
 def test_record_video_of_a_holder_episode_lasts_as_long_as_the_episode(tmp_path):
-    from soccer_drill.video import RecordVideo
+    from soccer_drill.rendering.video import RecordVideo
 
     env = RecordVideo(gym.make("soccer_drill/Holder-v0", render_mode="rgb_array_list"),
                       str(tmp_path / "ours"), name_prefix="holder")

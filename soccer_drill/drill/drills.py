@@ -88,8 +88,17 @@ class BatchDrill:
         self.attacker_reward = np.zeros(n)
         self.cycles_run = 0
         """Drill-cycles advanced since construction (for benchmarks)."""
+        self._numbers()
+        self._noise = np.zeros((n, 2))  # the two normals of each drill's pass
+        self._motions = np.zeros((n, 4, 5))  # each player's motion (skills' rules)
+        self._new_vel = np.zeros((n, 5, 2))  # the velocities set before the physics
+        self._scratch = np.zeros((n, SCRATCH), dtype=np.int64)  # see rules.cycle.SCRATCH
+
+    def _numbers(self) -> None:
+        """The rules' numbers read every cycle, after the arrays: the configuration's, its
+        arrays the shared read-only ones the rules are compiled for."""
+        cfg = self.config
         self._params, self._table = rule_parameters(cfg), roll_table(cfg)
-        # The rules' numbers read every cycle, after the arrays.
         self._before_numbers = (self._params, self._table,
                                 cfg.player_acceleration * cfg.cycle_seconds, cfg.cycle_seconds,
                                 cfg.ball_offset, cfg.ball_damping**cfg.cycle_seconds,
@@ -97,10 +106,10 @@ class BatchDrill:
         self._after_numbers = (cfg.substeps, cfg.cycle_seconds / cfg.substeps,
                                cfg.pass_lockout_cycles, self._params, cfg.control_radius,
                                cfg.control_speed, cfg.field_size, cfg.max_cycles)
-        self._noise = np.zeros((n, 2))  # the two normals of each drill's pass
-        self._motions = np.zeros((n, 4, 5))  # each player's motion (skills' rules)
-        self._new_vel = np.zeros((n, 5, 2))  # the velocities set before the physics
-        self._scratch = np.zeros((n, SCRATCH), dtype=np.int64)  # see rules.cycle.SCRATCH
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._numbers()  # a copy's arrays are writable: the shared read-only ones again
 
     # ------------------------------------------------------------------ reset
     def reset(self, drills: np.ndarray, rngs: Sequence[np.random.Generator]) -> None:

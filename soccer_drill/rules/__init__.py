@@ -10,5 +10,5 @@
 The drill (:class:`~soccer_drill.drill.BatchDrill`, one drill or many) and the batched
 teams run them through their loops over drills; the single teams and skills call them
 for one drill. The observations' rules are in
-:mod:`soccer_drill.features`, the support player's in :mod:`soccer_drill.support`.
+:mod:`soccer_drill.rules.features`, the support player's in :mod:`soccer_drill.rules.support`.
 """

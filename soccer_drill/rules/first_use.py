@@ -13,7 +13,9 @@ import numpy as np
 
 from soccer_drill.config import DrillConfig
 from soccer_drill.drill import BatchDrill, Drill
-from soccer_drill.features import (
+from soccer_drill.rules.compiled import warm_up, warms
+from soccer_drill.rules.cycle import outcome
+from soccer_drill.rules.features import (
     batch_features,
     batch_global_state,
     batch_kinematics,
@@ -25,9 +27,8 @@ from soccer_drill.features import (
     players_features,
     state_bounds,
 )
-from soccer_drill.rules.compiled import warm_up, warms
-from soccer_drill.rules.cycle import outcome
 from soccer_drill.rules.motion import interception_points, mark_targets
+from soccer_drill.rules.support import SupportPlayer, support_commands_of_drills
 from soccer_drill.skills import (
     Command,
     Skill,
@@ -37,7 +38,6 @@ from soccer_drill.skills import (
     shield_direction,
     support_spot,
 )
-from soccer_drill.support import SupportPlayer, support_commands_of_drills
 
 __all__ = ["warm_up"]
 

@@ -7,12 +7,12 @@ from typing import Any
 
 import numpy as np
 
-from soccer_drill.batch_teams import BatchRandom, BatchTeamDriver
 from soccer_drill.config import DrillConfig, is_integer
 from soccer_drill.drill import BatchDrill
 from soccer_drill.rules.cycle import RUNNING
-from soccer_drill.support import OFFSET_STD, RESAMPLE_CYCLES, support_commands_of_drills
+from soccer_drill.rules.support import OFFSET_STD, RESAMPLE_CYCLES, support_commands_of_drills
 from soccer_drill.teams import Team, check_team_timeout
+from soccer_drill.teams.batch import BatchRandom, BatchTeamDriver
 
 DRILL_BYTES = 32 * 1024
 """An upper estimate of one drill's memory in a batch (measured at 13-23 KiB a drill from
@@ -104,7 +104,7 @@ class BatchCore:
     Seeding: drill ``i`` has its own generator, the stream that a single environment's
     ``reset(seed=s_i)`` starts (``np.random.default_rng(s_i)``); at each of its episode's
     starts it draws the start as :meth:`Drill.reset` does, then the seeds of its support
-    player's and its team's own generators, as :class:`~soccer_drill.core.DrillCore` does.
+    player's and its team's own generators, as :class:`~soccer_drill.envs.core.DrillCore` does.
     """
 
     def __init__(
@@ -184,7 +184,7 @@ class BatchCore:
 
     def check_team(self) -> None:
         """:class:`~soccer_drill.teams.TeamError` if the team failed and the drills were
-        not all reset since (see :class:`~soccer_drill.batch_teams.BatchTeamDriver`)."""
+        not all reset since (see :class:`~soccer_drill.teams.batch.BatchTeamDriver`)."""
         if self.team is not None:
             self.team.check_usable()
 

@@ -1,4 +1,4 @@
-"""Frames of a batch's drills: :mod:`soccer_drill.render`'s drawing, one frame per drill."""
+"""Frames of a batch's drills: :mod:`soccer_drill.rendering.draw`'s drawing, one frame per drill."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ def check_render_mode(render_mode: str | None, env: str) -> str | None:
 
 
 class BatchRenderer:
-    """Draws every drill of a :class:`~soccer_drill.batch.BatchDrill` off-screen
+    """Draws every drill of a :class:`~soccer_drill.drill.drills.BatchDrill` off-screen
     (pygame is imported at the first frame)."""
 
     def __init__(self, config: DrillConfig) -> None:
@@ -36,7 +36,7 @@ class BatchRenderer:
         if not has_reset:
             raise RuntimeError("render() called before reset(); call reset() first")
         if self._renderer is None:
-            from soccer_drill.render import Renderer
+            from soccer_drill.rendering.draw import Renderer
 
             self._renderer = Renderer(self.config, "rgb_array")
         n = batch.n  # type: ignore[attr-defined]

@@ -37,19 +37,16 @@ from soccer_drill.drill.drills import rows
 from soccer_drill.rules.compiled import compiled, warms
 from soccer_drill.skills import Command, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView
-from soccer_drill.teams import (
+from soccer_drill.teams.driver import (
     SCRIPTED_SKILLS,
-    Team,
     TeamDriver,
-    TeamError,
-    make_team,
-    resolve_team,
     skill_refused,
     speed_allowed_compiled,
     speed_refused,
     target_refused,
 )
-from soccer_drill.time_bound import counted_cpu
+from soccer_drill.teams.registry import Team, TeamError, make_team, resolve_team
+from soccer_drill.teams.time_bound import counted_cpu
 
 _MOVE_TO = int(Skill.MOVE_TO)
 _IS_ALLOWED = np.zeros(len(Skill), dtype=bool)  # by skill value: may a scripted defender use it

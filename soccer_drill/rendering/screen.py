@@ -1,7 +1,7 @@
 """What the three environments share about rendering: what each ``render_mode`` does
 after every cycle and on ``render()``, at one frame per cycle.
 
-pygame is imported only when a frame is first drawn (:mod:`soccer_drill.render`).
+pygame is imported only when a frame is first drawn (:mod:`soccer_drill.rendering.draw`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from soccer_drill.config import DrillConfig
 from soccer_drill.state import DrillState
 
 if TYPE_CHECKING:
-    from soccer_drill.render import Renderer
+    from soccer_drill.rendering.draw import Renderer
 
 RENDER_MODES = ("human", "rgb_array", "rgb_array_list")
 
@@ -71,7 +71,7 @@ class Screen:
         """Draw ``state`` in ``mode`` (``"rgb_array"`` or ``"human"``)."""
         renderer = self._renderers.get(mode)
         if renderer is None:
-            from soccer_drill.render import Renderer
+            from soccer_drill.rendering.draw import Renderer
 
             renderer = self._renderers[mode] = Renderer(self.config, mode, self.fps)
         return renderer.draw(state, outcome, self.caption)

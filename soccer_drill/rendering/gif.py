@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
+from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.files import atomic_write_bytes, check_output_file
-from soccer_drill.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES, HolderPolicy, get_policy
 from soccer_drill.teams import TeamError, team_ids
 

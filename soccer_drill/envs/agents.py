@@ -11,7 +11,7 @@ from gymnasium import spaces
 from pettingzoo import AECEnv, ParallelEnv
 
 from soccer_drill.config import DrillConfig
-from soccer_drill.core import (
+from soccer_drill.envs.core import (
     DrillCore,
     IllegalAction,
     ObsType,
@@ -20,8 +20,8 @@ from soccer_drill.core import (
     not_reset,
     resolve_shared_spaces,
 )
-from soccer_drill.features import global_state, state_bounds
-from soccer_drill.screen import RENDER_MODES, Screen, frames_per_second
+from soccer_drill.rendering.screen import RENDER_MODES, Screen, frames_per_second
+from soccer_drill.rules.features import global_state, state_bounds
 from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
@@ -256,7 +256,7 @@ class raw_env(_DrillEnvBase, AECEnv):
     | ``"flat"`` | the ``Box`` alone (for SB3's ``MlpPolicy``, SuperSuit) | ``infos[agent]["action_mask"]`` (current at the agent's turn) and ``action_mask(agent)`` |
 
     With ``obs_type="features"`` the ``Box`` holds the paper's 9 features from the
-    agent's point of view (table in :mod:`soccer_drill.features`); with
+    agent's point of view (table in :mod:`soccer_drill.rules.features`); with
     ``"kinematic"`` a 26-value egocentric vector of positions, velocities and
     possession flags. With shared spaces (the default with no opponent) one more value
     ends it: 1 for an attacker, 0 for a defender, so that one shared policy knows
@@ -274,7 +274,7 @@ class raw_env(_DrillEnvBase, AECEnv):
     ``state()`` returns the whole drill, 29 float32 values in ``state_space``
     (positions and velocities of the four players and the ball in field coordinates,
     holder and passer flags, elapsed fraction of ``max_cycles``; layout in
-    :func:`soccer_drill.features.global_state`), for centralised critics.
+    :func:`soccer_drill.rules.features.global_state`), for centralised critics.
 
     ## Rewards
 

@@ -11,8 +11,8 @@ import numpy as np
 from gymnasium import spaces
 
 from soccer_drill.config import DrillConfig, is_integer
-from soccer_drill.core import DrillCore, concurrent_use, make_config, not_reset
-from soccer_drill.screen import RENDER_MODES, Screen, frames_per_second
+from soccer_drill.envs.core import DrillCore, concurrent_use, make_config, not_reset
+from soccer_drill.rendering.screen import RENDER_MODES, Screen, frames_per_second
 from soccer_drill.skills import HOLDER_ACTIONS, Command
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
@@ -52,7 +52,7 @@ class HolderEnv(gym.Env):
     """The drill as seen by whichever attacker holds the ball: keepaway's SMDP.
 
     Only the ball holder decides; its teammate runs a fixed stochastic support
-    behaviour (:class:`~soccer_drill.support.SupportPlayer`) and the defenders
+    behaviour (:class:`~soccer_drill.rules.support.SupportPlayer`) and the defenders
     are a scripted team. One :meth:`step` applies the holder's action -- for
     ``decision_cycles`` cycles (0.4 s by default) for HOLD and DRIBBLE, for one kick
     for PASS -- and then runs cycles until an attacker holds the ball again (the
@@ -68,7 +68,7 @@ class HolderEnv(gym.Env):
     ## Observation space
 
     ``Box(9,)`` float32: the 9 features of the holder (units and bounds in
-    :mod:`soccer_drill.features`).
+    :mod:`soccer_drill.rules.features`).
 
     ## Rewards
 
@@ -101,7 +101,7 @@ class HolderEnv(gym.Env):
     ``metadata["render_fps"]`` is ``1 / cycle_seconds`` (10 by default): one frame per
     cycle is true speed. A step lasts several cycles, so Gymnasium's ``RecordVideo``,
     which keeps one frame per step (the last of a list), plays fast:
-    :class:`soccer_drill.video.RecordVideo` takes the same arguments and keeps every
+    :class:`soccer_drill.rendering.video.RecordVideo` takes the same arguments and keeps every
     frame (``render_mode="rgb_array_list"``), and ``gymnasium.utils.save_video.save_video(
     env.render(), "videos", fps=env.metadata["render_fps"])`` writes the frames of a
     list at true speed too (both need moviepy).

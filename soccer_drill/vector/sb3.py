@@ -38,7 +38,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import VecEnv
 
-from soccer_drill.vector import HolderVectorEnv, check_drill_indices
+from soccer_drill.vector.holder import HolderVectorEnv, check_drill_indices
 
 __all__ = ["HolderSB3VecEnv"]
 

@@ -14,10 +14,10 @@ from gymnasium.utils import seeding
 
 from soccer_drill.config import DrillConfig
 from soccer_drill.drill import Drill
-from soccer_drill.features import feature_bounds, features, kinematic_bounds, kinematics
+from soccer_drill.rules.features import feature_bounds, features, kinematic_bounds, kinematics
+from soccer_drill.rules.support import SupportPlayer
 from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS, Command, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillView
-from soccer_drill.support import SupportPlayer
 from soccer_drill.teams import (
     DEFAULT_TEAM_TIMEOUT,
     Team,

@@ -11,16 +11,16 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from soccer_drill.batch_core import BatchCore, check_num_envs, check_seed
-from soccer_drill.batch_render import BatchRenderer, check_render_mode
 from soccer_drill.config import DrillConfig, is_integer
-from soccer_drill.core import make_config
 from soccer_drill.drill import DRILLS_PER_SPACE, OUTCOME_NAMES, check_drills_per_space
-from soccer_drill.features import batch_features, feature_bounds
-from soccer_drill.holder import check_decision_cycles, check_holder_action
+from soccer_drill.envs.core import make_config
+from soccer_drill.envs.holder import check_decision_cycles, check_holder_action
+from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
+from soccer_drill.rules.features import batch_features, feature_bounds
 from soccer_drill.skills import HOLDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
+from soccer_drill.vector.core import BatchCore, check_num_envs, check_seed
 
 _HOLDER_SKILLS = np.array([int(s) for s in HOLDER_ACTIONS])
 _PASS = 1
@@ -80,7 +80,7 @@ def first_non_integer(actions: np.ndarray) -> int:
 
 
 class HolderVectorEnv(VectorEnv):
-    """``num_envs`` ball-holder drills stepped together: :class:`~soccer_drill.holder.HolderEnv` batched.
+    """``num_envs`` ball-holder drills stepped together: :class:`~soccer_drill.envs.holder.HolderEnv` batched.
 
     Made by ``gymnasium.make_vec("soccer_drill/Holder-v0", num_envs=N,
     vectorization_mode="vector_entry_point", opponent=...)``. Each drill is a

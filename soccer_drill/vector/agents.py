@@ -9,10 +9,9 @@ from typing import Any, ClassVar
 import numpy as np
 from gymnasium import spaces
 
-from soccer_drill.batch_core import BatchCore, check_num_envs, check_seed
-from soccer_drill.batch_render import BatchRenderer, check_render_mode
 from soccer_drill.config import DrillConfig
-from soccer_drill.core import (
+from soccer_drill.drill import DRILLS_PER_SPACE, OUTCOME_NAMES, check_drills_per_space
+from soccer_drill.envs.core import (
     DEFENDER_DEFAULT,
     DEFENDER_MASK,
     HOLDER_DEFAULT,
@@ -28,8 +27,9 @@ from soccer_drill.core import (
     out_of_range,
     resolve_shared_spaces,
 )
-from soccer_drill.drill import DRILLS_PER_SPACE, OUTCOME_NAMES, check_drills_per_space
-from soccer_drill.features import (
+from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
+from soccer_drill.rules.cycle import RUNNING
+from soccer_drill.rules.features import (
     batch_global_state,
     batch_kinematics,
     feature_bounds,
@@ -37,11 +37,11 @@ from soccer_drill.features import (
     players_features,
     state_bounds,
 )
-from soccer_drill.rules.cycle import RUNNING
 from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
-from soccer_drill.vector import first_non_integer
+from soccer_drill.vector.core import BatchCore, check_num_envs, check_seed
+from soccer_drill.vector.holder import first_non_integer
 
 _ATTACKER_SKILLS = np.array([int(s) for s in ATTACKER_ACTIONS])
 _DEFENDER_SKILLS = np.array([int(s) for s in DEFENDER_ACTIONS])
@@ -55,7 +55,7 @@ class ParallelVectorEnv:
     game), batched: the same agents, actions, masks, observations, rewards and episode
     end, each a ``(num_envs, ...)`` array per agent. With ``opponent`` a team id the
     agents are the two attackers and the team drives the defenders (batched when it has
-    a batched ``act``: :mod:`soccer_drill.batch_teams`); with ``opponent=None`` all four
+    a batched ``act``: :mod:`soccer_drill.teams.batch`); with ``opponent=None`` all four
     players are agents.
 
     ## Spaces (per agent; batched values add a leading ``num_envs`` axis)
@@ -69,7 +69,7 @@ class ParallelVectorEnv:
     ``observation_space(agent)`` and ``action_space(agent)`` are one drill's spaces. With
     shared spaces (as ``parallel_env``'s, the default with no opponent) every agent has the same spaces, and
     one more value ends every observation: 1 for an attacker, 0 for a defender.
-    ``state()`` is every drill's :func:`~soccer_drill.features.global_state` (29 values,
+    ``state()`` is every drill's :func:`~soccer_drill.rules.features.global_state` (29 values,
     the layout of ``parallel_env``'s ``state()``): ``(num_envs, 29)`` float32 in
     ``state_space`` batched (``state_space`` is one drill's ``Box``).
 
