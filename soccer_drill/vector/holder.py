@@ -168,13 +168,15 @@ class HolderVectorEnv(VectorEnv):
 
     So ``reset(seed=s)`` with the same actions gives the same observations, rewards and
     infos, whatever ran before. Drill ``i`` starts exactly where ``HolderEnv`` started
-    with ``reset(seed=s + i)`` does, and its rules (skills, support player, team,
-    possession, outcome) are the single drill's own compiled rules (:mod:`soccer_drill.rules.motion`,
-    :mod:`soccer_drill.rules.cycle`), run drill by drill, with its random draws in the same order
-    from the same streams. What differs is the physics around them: the batch writes each
-    player's position and velocity into pymunk every cycle (the single drill its velocity
-    only), which can change pymunk's solution of a contact between players in the last
-    bit, and with shared spaces (the default, which costs less) contacts are solved in an
+    with ``reset(seed=s + i)`` does, and its cycle is the single drill's own
+    (:class:`~soccer_drill.drill.BatchDrill`, of which the single drill is one): the same
+    compiled rules (skills, support player, team, possession, outcome), the ball moved on
+    arrays as pymunk moves it, the random draws in the same order from the same streams.
+    What differs is the physics of the players: the single drill's space holds its ball
+    as a body too (shapes that meet nothing still shape the spatial index, hence the
+    order in which simultaneous contacts are solved), the batch writes each player's
+    position and velocity into pymunk every cycle (the single drill its velocity only),
+    and with shared spaces (the default, which costs less) contacts are solved in an
     order that depends on the other drills, drills standing still while others move are
     still stepped (their contact caches change), a reset keeps the space while other
     drills in it go on, and the drills' positions are shifted into their own regions of
