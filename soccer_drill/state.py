@@ -74,7 +74,39 @@ def _frozen(values: object) -> np.ndarray:
     return array
 
 
-class DrillView:
+class ReadOnlyView:
+    """What a team is handed: a window on ``source`` (a drill, or a batch of drills) and
+    the names of the players the team drives, whose own attributes cannot be set or
+    deleted (:class:`DrillView` for one drill, ``soccer_drill.teams.batch.BatchView`` for
+    a batch)."""
+
+    __slots__ = ("_players", "_source")
+
+    def __init__(self, source: object, players: tuple[str, ...]) -> None:
+        object.__setattr__(self, "_source", source)
+        object.__setattr__(self, "_players", tuple(players))
+
+    def __setattr__(self, name: str, value: object) -> None:
+        raise AttributeError(f"{type(self).__name__} is read-only: cannot set {name!r}")
+
+    def __delattr__(self, name: str) -> None:
+        raise AttributeError(f"{type(self).__name__} is read-only: cannot delete {name!r}")
+
+    def __reduce__(self) -> tuple[type, tuple[object, tuple[str, ...]]]:
+        return type(self), (self._source, self._players)
+
+    @property
+    def players(self) -> tuple[str, ...]:
+        """Names of the players the team drives."""
+        return self._players
+
+    @property
+    def config(self) -> DrillConfig:
+        """The drill's configuration (every drill's, in a batch)."""
+        return self._source.config  # type: ignore[attr-defined]
+
+
+class DrillView(ReadOnlyView):
     """A live, read-only window on the drill, handed to scripted teams.
 
     ``view.state`` is always the current (immutable) :class:`DrillState`; the array
@@ -84,35 +116,12 @@ class DrillView:
     sets out to reach the drill's internals.)
     """
 
-    __slots__ = ("_drill", "_players")
-
-    def __init__(self, drill: object, players: tuple[str, ...]) -> None:
-        object.__setattr__(self, "_drill", drill)
-        object.__setattr__(self, "_players", tuple(players))
-
-    def __setattr__(self, name: str, value: object) -> None:
-        raise AttributeError(f"DrillView is read-only: cannot set {name!r}")
-
-    def __delattr__(self, name: str) -> None:
-        raise AttributeError(f"DrillView is read-only: cannot delete {name!r}")
-
-    def __reduce__(self) -> tuple[type, tuple[object, tuple[str, ...]]]:
-        return DrillView, (self._drill, self._players)
-
-    @property
-    def players(self) -> tuple[str, ...]:
-        """Names of the players the team drives."""
-        return self._players
+    __slots__ = ()
 
     @property
     def state(self) -> DrillState:
         """The current snapshot."""
-        return self._drill.state  # type: ignore[attr-defined]
-
-    @property
-    def config(self) -> DrillConfig:
-        """The drill's configuration."""
-        return self._drill.config  # type: ignore[attr-defined]
+        return self._source.state  # type: ignore[attr-defined]
 
     @property
     def cycle(self) -> int:

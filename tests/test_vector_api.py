@@ -326,3 +326,23 @@ def test_the_single_and_the_batched_multi_agent_env_refuse_an_action_in_the_same
         with pytest.raises(ValueError) as said_batched:
             batched.step({a: np.array([x]) for a, x in actions.items()})
         assert str(said_batched.value) == f"drill 0: {said_single.value}"
+
+
+def test_the_batched_view_is_read_only_as_the_single_view_is():
+    import pickle
+
+    from soccer_drill.state import DrillView
+    from soccer_drill.teams.batch import BatchView
+
+    venv = HolderVectorEnv(num_envs=2, opponent="chasers")
+    venv.reset(seed=0)
+    views = (BatchView(venv._core.batch, ("defender_0", "defender_1")),
+             DrillView(soccer_drill.HolderEnv(opponent="chasers")._core.drill, ("defender_0",)))
+    for view in views:
+        name = type(view).__name__
+        with pytest.raises(AttributeError, match=f"{name} is read-only: cannot set 'players'"):
+            view.players = ()
+        with pytest.raises(AttributeError, match=f"{name} is read-only: cannot delete '_source'"):
+            del view._source
+        assert type(pickle.loads(pickle.dumps(view))) is type(view)
+    assert views[0].pos.shape == (2, 5, 2) and not views[0].pos.flags.writeable

@@ -36,7 +36,7 @@ from soccer_drill.config import DrillConfig
 from soccer_drill.drill.drills import rows
 from soccer_drill.rules.compiled import compiled, warms
 from soccer_drill.skills import Command, Skill
-from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView
+from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView, ReadOnlyView
 from soccer_drill.teams.driver import (
     SCRIPTED_SKILLS,
     TeamDriver,
@@ -75,69 +75,49 @@ def _read_only(array: np.ndarray) -> np.ndarray:
     return out
 
 
-class BatchView:
+class BatchView(ReadOnlyView):
     """A read-only window on every drill of a batch, handed to batched teams.
 
     Each array is a read-only copy of the batch's state, taken when it is read (a team
     that writes to it, even after setting it writeable, changes only its copy).
     """
 
-    __slots__ = ("_batch", "_players")
-
-    def __init__(self, batch: object, players: tuple[str, ...]) -> None:
-        object.__setattr__(self, "_batch", batch)
-        object.__setattr__(self, "_players", tuple(players))
-
-    def __setattr__(self, name: str, value: object) -> None:
-        raise AttributeError(f"BatchView is read-only: cannot set {name!r}")
-
-    def __reduce__(self) -> tuple[type, tuple[object, tuple[str, ...]]]:
-        return BatchView, (self._batch, self._players)
+    __slots__ = ()
 
     @property
     def n(self) -> int:
         """Number of drills."""
-        return self._batch.n  # type: ignore[attr-defined]
-
-    @property
-    def players(self) -> tuple[str, ...]:
-        """Names of the players the team drives."""
-        return self._players
-
-    @property
-    def config(self) -> DrillConfig:
-        """The drills' configuration."""
-        return self._batch.config  # type: ignore[attr-defined]
+        return self._source.n  # type: ignore[attr-defined]
 
     @property
     def pos(self) -> np.ndarray:
         """``(n, 5, 2)``: the four players (``PLAYER_NAMES`` order) then the ball, metres."""
-        return _read_only(self._batch.pos)  # type: ignore[attr-defined]
+        return _read_only(self._source.pos)  # type: ignore[attr-defined]
 
     @property
     def vel(self) -> np.ndarray:
         """``(n, 5, 2)`` velocities, m/s."""
-        return _read_only(self._batch.vel)  # type: ignore[attr-defined]
+        return _read_only(self._source.vel)  # type: ignore[attr-defined]
 
     @property
     def holder(self) -> np.ndarray:
         """``(n,)`` index of the player in possession, -1 for a loose ball."""
-        return _read_only(self._batch.holder)  # type: ignore[attr-defined]
+        return _read_only(self._source.holder)  # type: ignore[attr-defined]
 
     @property
     def cycle(self) -> np.ndarray:
         """``(n,)`` cycles since each drill's reset."""
-        return _read_only(self._batch.cycle)  # type: ignore[attr-defined]
+        return _read_only(self._source.cycle)  # type: ignore[attr-defined]
 
     @property
     def passer(self) -> np.ndarray:
         """``(n,)`` the last player who passed, or -1."""
-        return _read_only(self._batch.passer)  # type: ignore[attr-defined]
+        return _read_only(self._source.passer)  # type: ignore[attr-defined]
 
     @property
     def lockout_until(self) -> np.ndarray:
         """``(n,)`` the passer cannot regain the ball before this cycle."""
-        return _read_only(self._batch.lockout_until)  # type: ignore[attr-defined]
+        return _read_only(self._source.lockout_until)  # type: ignore[attr-defined]
 
 
 class BatchRandom:
