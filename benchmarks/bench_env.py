@@ -151,7 +151,9 @@ class PhysicsLoop:
     def __init__(self, cycles: int = 1 << 16) -> None:
         drill = Drill()
         drill.reset(np.random.default_rng(0))
-        self.space: pymunk.Space = drill.physics.space
+        # The drill's space (``_space`` in checkouts from before DrillSpace, for --against).
+        physics = getattr(drill, "physics", None)
+        self.space: pymunk.Space = physics.space if physics is not None else drill._space
         self.bodies = list(self.space.bodies)  # the 4 players and the ball
         cfg = drill.config
         self.dt, self.substeps = cfg.cycle_seconds / cfg.substeps, cfg.substeps

@@ -57,10 +57,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_env import AecLoop, HolderLoop, PhysicsLoop
+from soccer_drill.vector_agents import ParallelVectorEnv  # old path: --against's checkouts
 
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.vector import HolderVectorEnv, play_episodes
-from soccer_drill.vector.agents import ParallelVectorEnv
 
 
 class HolderStep:
@@ -243,14 +243,15 @@ def profile(n: int, team: str, cycles: int) -> list[tuple[str, float]]:
     prof.disable()
     stats = pstats.Stats(prof).stats  # type: ignore[attr-defined]
     groups = {
-        "physics (pymunk spaces, batched reads/writes)": ("batch_physics.py", "cycle"),
-        "team (batched act and its checks)": ("batch_teams.py", "act"),
-        "the drill's cycle (BatchDrill.step: skills, ball, physics, possession)": ("batch.py", "step"),
-        "possession and tackles": ("batch.py", "_possession"),
-        "outcome": ("batch.py", "_judge"),
-        "observations and masks": ("vector_agents.py", "_observations"),
-        "action checks": ("vector_agents.py", "_commands"),
-        "whole step": ("vector_agents.py", "step"),
+        "physics (pymunk spaces, batched reads/writes)": ("drill/spaces.py", "cycle"),
+        "team (batched act and its checks)": ("teams/batch.py", "act"),
+        "the drill's cycle (BatchDrill.step: skills, ball, physics, possession)": (
+            "drill/drills.py", "step"),
+        "rules before the physics (compiled)": ("rules/cycle.py", "before_physics_of_drills"),
+        "rules after the physics (compiled)": ("rules/cycle.py", "after_physics_of_drills"),
+        "observations and masks": ("vector/agents.py", "_observations"),
+        "action checks": ("vector/agents.py", "_commands"),
+        "whole step": ("vector/agents.py", "step"),
     }
     out = []
     for label, (file, func) in groups.items():
