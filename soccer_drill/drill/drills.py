@@ -88,24 +88,28 @@ class BatchDrill:
         self.attacker_reward = np.zeros(n)
         self.cycles_run = 0
         """Drill-cycles advanced since construction (for benchmarks)."""
-        self._numbers()
         self._noise = np.zeros((n, 2))  # the two normals of each drill's pass
         self._motions = np.zeros((n, 4, 5))  # each player's motion (skills' rules)
         self._new_vel = np.zeros((n, 5, 2))  # the velocities set before the physics
         self._scratch = np.zeros((n, SCRATCH), dtype=np.int64)  # see rules.cycle.SCRATCH
+        self._numbers()
 
     def _numbers(self) -> None:
-        """The rules' numbers read every cycle, after the arrays: the configuration's, its
-        arrays the shared read-only ones the rules are compiled for."""
+        """What the rules read every cycle after its commands: the state's arrays, the
+        scratch, the configuration's numbers (its arrays the shared read-only ones the rules
+        are compiled for), in one tuple per call."""
         cfg = self.config
         self._params, self._table = rule_parameters(cfg), roll_table(cfg)
-        self._before_numbers = (self._params, self._table,
-                                cfg.player_acceleration * cfg.cycle_seconds, cfg.cycle_seconds,
-                                cfg.ball_offset, cfg.ball_damping**cfg.cycle_seconds,
-                                cfg.ball_max_speed)
-        self._after_numbers = (cfg.substeps, cfg.cycle_seconds / cfg.substeps,
-                               cfg.pass_lockout_cycles, self._params, cfg.control_radius,
-                               cfg.control_speed, cfg.field_size, cfg.max_cycles)
+        self._before_rest = (
+            self.outcome, self.pos, self.vel, self.holder, self._noise, self._new_vel,
+            self._scratch, self._motions, self._params, self._table,
+            cfg.player_acceleration * cfg.cycle_seconds, cfg.cycle_seconds, cfg.ball_offset,
+            cfg.ball_damping**cfg.cycle_seconds, cfg.ball_max_speed)
+        self._after_rest = (
+            self.pos, self.vel, self.holder, self.cycle, self.passer, self.lockout_until,
+            self.outcome, self._scratch, self._new_vel, cfg.substeps,
+            cfg.cycle_seconds / cfg.substeps, cfg.pass_lockout_cycles, self._params,
+            cfg.control_radius, cfg.control_speed, cfg.field_size, cfg.max_cycles)
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
@@ -142,23 +146,17 @@ class BatchDrill:
         are every player's command (rows of inactive drills are ignored); ``rngs[i]`` is
         drill ``i``'s generator. Inactive drills stand still and keep their state.
         """
-        pos, vel, new_vel, scratch = self.pos, self.vel, self._new_vel, self._scratch
-        ended, passes, n_active = before_physics_of_drills(
-            new_vel, scratch, self._motions, active, True, self.outcome, pos, vel, self.holder,
-            skill, target, speed, self._noise, *self._before_numbers)
+        ended, passes, n_active = before_physics_of_drills(active, True, skill, target, speed,
+                                                           *self._before_rest)
         if ended >= 0:
             raise RuntimeError(f"drill {ended}: the episode has ended; reset it first")
         if passes:  # the pass's two draws, then its drill's rules
             noise = self._noise
-            for i in np.flatnonzero(scratch[:, PASSING]).tolist():
+            for i in np.flatnonzero(self._scratch[:, PASSING]).tolist():
                 noise[i] = rngs[i].normal(size=2)
-            before_physics_of_drills(new_vel, scratch, self._motions, active, False, self.outcome,
-                                     pos, vel, self.holder, skill, target, speed, noise,
-                                     *self._before_numbers)
-        players = self.physics.cycle(pos, new_vel, active if n_active < self.n else None)
-        tackling, ended = after_physics_of_drills(
-            pos, vel, self.holder, self.cycle, self.passer, self.lockout_until, self.outcome,
-            scratch, active, players, new_vel, *self._after_numbers)
+            before_physics_of_drills(active, False, skill, target, speed, *self._before_rest)
+        players = self.physics.cycle(self.pos, self._new_vel, active if n_active < self.n else None)
+        tackling, ended = after_physics_of_drills(active, players, *self._after_rest)
         self.cycles_run += n_active
         if tackling:
             self._tackle(rngs)
@@ -229,7 +227,7 @@ class Drill:
         self._skill = np.zeros((1, 4), dtype=np.int64)
         self._target = np.zeros((1, 4, 2))
         self._speed = np.ones((1, 4))
-        self._rows = (self._skill[0], self._target[0], self._speed[0])
+        self._views()
         self._active = np.ones(1, dtype=bool)
         self._arrays_of: DrillState | None = None  # the state the arrays hold
         self.state: DrillState
@@ -238,12 +236,20 @@ class Drill:
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        del state["_rows"]  # views: a copy's own are taken anew
+        del state["_rows"], state["_state"]  # views: a copy's own are taken anew
         return state
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
+        self._views()
+
+    def _views(self) -> None:
+        """The rows of the one drill that a cycle writes and reads (views, which a copy
+        takes anew)."""
+        drills = self.drills
         self._rows = (self._skill[0], self._target[0], self._speed[0])
+        self._state = (drills.pos[0], drills.vel[0], drills.holder, drills.cycle, drills.passer,
+                       drills.lockout_until, drills.outcome)
 
     @property
     def physics(self) -> DrillSpace:
@@ -279,17 +285,15 @@ class Drill:
         if self._arrays_of is not self.state:  # the state was set from outside
             drills.set_state(0, self.state)
         drills.step(self._active, self._skill, self._target, self._speed, (rng,))
-        p, v = drills.pos[0].tolist(), drills.vel[0].tolist()
-        holder, cycle, passer, lockout_until = (
-            drills.holder.item(), drills.cycle.item(), drills.passer.item(),
-            drills.lockout_until.item())
+        pos, vel, holder, cycle, passer, lockout_until, outcome = self._state
+        p, v = pos.tolist(), vel.tolist()
         new = _new_state(DrillState, (
             (tuple(p[0]), tuple(p[1]), tuple(p[2]), tuple(p[3]), tuple(p[4])),
             (tuple(v[0]), tuple(v[1]), tuple(v[2]), tuple(v[3]), tuple(v[4])),
-            holder, cycle, passer, lockout_until,
+            holder.item(), cycle.item(), passer.item(), lockout_until.item(),
         ))
         self.state = self._arrays_of = new
-        code = drills.outcome.item()
+        code = outcome.item()
         if code != RUNNING:
             self.outcome = OUTCOMES[code - 1]
             self.attacker_reward = drills.attacker_reward.item()

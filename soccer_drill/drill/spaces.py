@@ -46,6 +46,7 @@ try:  # chipmunk's own step, behind Space.step
 except (ImportError, AttributeError):  # pragma: no cover - another pymunk build
     _SPACE_STEP = None
 _FIELDS = pmb.BodyFields.POSITION | pmb.BodyFields.VELOCITY
+_get_space_bodies, _frombuffer = pmb.get_space_bodies, np.frombuffer
 DRILLS_PER_SPACE = 64
 """The default number of drills sharing one pymunk space."""
 
@@ -112,7 +113,7 @@ class DrillSpace:
 
     def __init__(self, config: DrillConfig) -> None:
         self.config = config
-        self._sub_dt = config.cycle_seconds / config.substeps
+        self._sub_dt, self._substeps = config.cycle_seconds / config.substeps, config.substeps
         self._buffer = pmb.Buffer()  # reused: one batched read per cycle
         self.renew(np.zeros(1, dtype=np.int64), np.zeros((1, 5, 2)))
         check_batch_order(self.space, self._bodies)
@@ -156,14 +157,14 @@ class DrillSpace:
         for body, (vx, vy) in zip(self._bodies, vel[0].tolist(), strict=True):
             _set_velocity(body, (vx, vy))
         step, sub_dt = self._step, self._sub_dt
-        for _ in range(self.config.substeps):
+        for _ in range(self._substeps):
             step(sub_dt)
         # One batched read of every body: x, y, vx, vy each, the players first
         # (check_batch_order), then the ball and the space's static body.
         buffer = self._buffer
         buffer.clear()
-        pmb.get_space_bodies(self.space, _FIELDS, buffer)
-        return np.frombuffer(buffer.float_buf(), dtype=np.float64)[:16].reshape(1, 4, 4)
+        _get_space_bodies(self.space, _FIELDS, buffer)
+        return _frombuffer(buffer.float_buf(), dtype=np.float64)[:16].reshape(1, 4, 4)
 
 
 class BatchPhysics:

@@ -256,8 +256,8 @@ ORDER, TACKLERS, KICKER, PASSING, SCRATCH = 0, 4, 5, 6, 7
 
 
 @compiled
-def before_physics_of_drills(out, scratch, motions, active, first, code, pos, vel, holder, skill,
-                             target, speed, noise, params, table, accel, dt, ball_offset, roll,
+def before_physics_of_drills(active, first, skill, target, speed, code, pos, vel, holder, noise,
+                             out, scratch, motions, params, table, accel, dt, ball_offset, roll,
                              ball_max):
     """:func:`before_physics` of the drills, the kicker into ``scratch[i, KICKER]``.
 
@@ -294,9 +294,9 @@ def before_physics_of_drills(out, scratch, motions, active, first, code, pos, ve
 
 
 @compiled
-def after_physics_of_drills(pos, vel, holder, cycle, passer, lockout_until, code, scratch,
-                            active, players, set_vel, substeps, sub_dt, lockout_cycles, params,
-                            radius, control_speed, size, max_cycles):
+def after_physics_of_drills(active, players, pos, vel, holder, cycle, passer, lockout_until, code,
+                            scratch, set_vel, substeps, sub_dt, lockout_cycles, params, radius,
+                            control_speed, size, max_cycles):
     """:func:`after_physics` of each active drill, into its rows of the state's arrays,
     ``code`` (the outcome before any tackle) and ``scratch`` (the opponents who may tackle
     and their number, 0 in inactive drills). Returns the number of active drills with a
