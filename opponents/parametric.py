@@ -168,6 +168,7 @@ class ParametricTeam:
         self._players: tuple[str, ...] = ()
         self._settings = self._settings_array()
         self._one: ParametricBatch | None = None  # this team in its one drill
+        self._holder = np.zeros(1, dtype=np.int64)  # its holder, as the plan reads it
         self._rng: _OneDrill | None = None
 
     def params(self) -> dict[str, Any]:
@@ -236,8 +237,10 @@ class ParametricTeam:
         if self._fixed is not None:
             return self._fixed
         state = view.state
-        skill, target = self._one.plan(_FIRST, np.array(state.pos)[None], np.array(state.vel)[None],
-                                       np.array([state.holder]), self._rng)
+        holder = self._holder
+        holder[0] = state.holder
+        skill, target = self._one.plan(_FIRST, np.array((state.pos,)), np.array((state.vel,)),
+                                       holder, self._rng)
         return self._commands(skill[0], target[0])
 
     def _commands(self, skill: np.ndarray, target: np.ndarray) -> dict[str, Command]:
@@ -471,6 +474,7 @@ class ParametricBatch:
             self._settings = self._settings.copy()
             self._settings.flags.writeable = False
             self._numbers = _drill_numbers(self._config)
+            self._prebuild()
 
     def reset(self, view: Any, drills: np.ndarray, rng: Any) -> None:
         """Start an episode in ``drills``; ``rng`` (a ``BatchRandom``) feeds the sorties."""
@@ -487,10 +491,16 @@ class ParametricBatch:
         self._numbers = _drill_numbers(view.config)
         # Read-only, as compiled before any team's call (a copy of the team's is writable).
         self._settings = self.team._settings_array()
+        self._prebuild()
         self._count[drills] = 0
         self._sortie_left[drills] = 0
         self._presser[drills] = -1
         self.sorties[drills] = 0
+
+    def _prebuild(self) -> None:
+        """What the plan's loop reads after a cycle's rows, in one tuple."""
+        self._rest = (self._sortie_left, self._presser, self.sorties, self._pos, self._vel,
+                      self._holder, self._count, self._settings, *self._numbers)
 
     def act(self, view: Any, drills: np.ndarray) -> Any:
         """The two defenders' commands in each of ``drills`` (:meth:`plan`)."""
@@ -528,16 +538,14 @@ class ParametricBatch:
                     draws[on_line, k] = rng.random(drills[on_line])
         skill = np.empty((m, 2), dtype=np.int64)
         target = np.zeros((m, 2, 2))
-        _plans_of_drills(skill, target, self._sortie_left, self._presser, self.sorties,
-                         self._pos, self._vel, self._holder, self._count,
-                         drills, draws, pos, vel, holder, self._settings, *self._numbers)
+        _plans_of_drills(skill, target, drills, draws, pos, vel, holder, *self._rest)
         return skill, target
 
 
 @compiled
-def _plans_of_drills(skill, target, sortie_left, presser, sorties, hist_pos, hist_vel,
-                     hist_holder, count, drills, draws, pos, vel, holder, settings, size,
-                     defender_speed, reach, table, spacing):
+def _plans_of_drills(skill, target, drills, draws, pos, vel, holder, sortie_left, presser, sorties,
+                     hist_pos, hist_vel, hist_holder, count, settings, size, defender_speed,
+                     reach, table, spacing):
     """:func:`plan_into` of drill ``drills[r]`` for each row ``r``, on the state it sees:
     the current one is kept in the drill's ring of the last ``depth`` states, and the
     oldest there (``reaction_delay`` cycles old, or the episode's first) is planned on."""
@@ -573,9 +581,9 @@ def _compile_plans() -> None:
               np.zeros(2), pos, np.zeros((5, 2)), -1, settings, *numbers)
     for depth in (1, 2):
         _plans_of_drills(np.zeros((1, 2), dtype=np.int64), np.zeros((1, 2, 2)),
+                         np.zeros(1, dtype=np.int64), np.zeros((1, 2)), pos[None],
+                         np.zeros((1, 5, 2)), np.full(1, -1, dtype=np.int64),
                          np.zeros((1, 2), dtype=np.int64), np.full(1, -1, dtype=np.int64),
                          np.zeros(1, dtype=np.int64), np.zeros((1, depth, 5, 2)),
                          np.zeros((1, depth, 5, 2)), np.zeros((1, depth), dtype=np.int64),
-                         np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64),
-                         np.zeros((1, 2)), pos[None], np.zeros((1, 5, 2)),
-                         np.full(1, -1, dtype=np.int64), settings, *numbers)
+                         np.zeros(1, dtype=np.int64), settings, *numbers)
