@@ -159,28 +159,26 @@ class BatchCore:
         if self.team is not None:
             self.team.reset(drills, list(team_seeds))
 
-    def support_commands(self, first: np.ndarray, second: np.ndarray) -> None:
-        """The support behaviour's commands: for attacker 0 in the drills where ``first``
-        and attacker 1 where ``second`` (``(n,)`` bool; attacker 0 first, as the single
-        drill asks, since both draw from the drill's one support generator)."""
-        if not np.count_nonzero(first | second):
-            return
+    def support_commands(self, supporting: np.ndarray) -> None:
+        """The support behaviour's commands for attacker ``k`` in the drills where
+        ``supporting[:, k]`` (``(n, 2)`` bool; attacker 0 first, as the single drill asks,
+        since both draw from the drill's one support generator)."""
         b = self.batch
         resample = b.cycle % RESAMPLE_CYCLES == 0
         # The offsets each attacker's spot uses: attacker 0's after its draws, attacker
         # 1's after its own (drawn after attacker 0's, from the same generator).
         offsets = np.empty((self.n, 2, 2))
-        for k, mask in ((0, first), (1, second)):
-            draw = np.nonzero(mask & resample)[0]
+        for k in (0, 1):
+            draw = np.nonzero(supporting[:, k] & resample)[0]
             if len(draw):
                 dx = self.support_rng.random(draw)
                 dy = self.support_rng.random(draw)
                 self.support_offset[draw, 0] = OFFSET_STD * dx
                 self.support_offset[draw, 1] = OFFSET_STD * dy
             offsets[:, k] = self.support_offset
-        support_commands_of_drills(self.skill, self.target, self.speed,
-                                   np.stack((first, second), axis=1), b.pos, b.holder, b.cycle,
-                                   b.passer, b.lockout_until, offsets, self.config.field_size)
+        support_commands_of_drills(self.skill, self.target, self.speed, supporting, b.pos,
+                                   b.holder, b.cycle, b.passer, b.lockout_until, offsets,
+                                   self.config.field_size)
 
     def check_team(self) -> None:
         """:class:`~soccer_drill.teams.TeamError` if the team failed and the drills were

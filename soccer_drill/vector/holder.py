@@ -16,6 +16,7 @@ from soccer_drill.drill import DRILLS_PER_SPACE, OUTCOME_NAMES, check_drills_per
 from soccer_drill.envs.core import make_config
 from soccer_drill.envs.holder import check_decision_cycles, check_holder_action
 from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
+from soccer_drill.rules.compiled import compiled
 from soccer_drill.rules.features import batch_features, feature_bounds
 from soccer_drill.skills import HOLDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
@@ -280,6 +281,7 @@ class HolderVectorEnv(VectorEnv):
         self._decider = np.zeros(n, dtype=np.int64)
         self._action = np.zeros(n, dtype=np.int64)
         self._left = np.zeros(n, dtype=np.int64)
+        self._supporting = np.zeros((n, 2), dtype=bool)  # the attackers the support drives
         self._start = np.zeros(n, dtype=np.int64)  # the cycle at which a drill's step began
         self._ready = np.zeros(n, dtype=bool)  # its step is over, its result not yet received
         self._ready_at = np.zeros(n, dtype=np.int64)  # since when (recv's cycles)
@@ -547,16 +549,12 @@ class HolderVectorEnv(VectorEnv):
         """
         core, b = self._core, self._core.batch
         running, in_action, decider = self._running, self._in_action, self._decider
-        act = np.nonzero(in_action)[0]
-        free = running & ~in_action  # the ball is loose: both attackers support
-        core.skill[act, decider[act]] = _HOLDER_SKILLS[self._action[act]]
-        core.speed[act, decider[act]] = 1.0
-        core.support_commands((in_action & (decider == 1)) | free, (in_action & (decider == 0)) | free)
+        supporting = self._supporting
+        if _holders_and_supporters(core.skill, core.speed, supporting, running, in_action,
+                                   decider, self._action, _HOLDER_SKILLS):
+            core.support_commands(supporting)
         core.advance(running)
-        ended = b.outcome != 0
-        self._left -= in_action
-        in_action &= ~ended & (b.holder == decider) & (self._left > 0)
-        running &= ~ended & (in_action | ((b.holder != 0) & (b.holder != 1)))
+        _after_cycle(running, in_action, self._left, decider, b.outcome, b.holder)
 
     # ------------------------------------------------------------- results
     def _observe(self, rows: np.ndarray, decider: np.ndarray | None = None) -> np.ndarray:
@@ -594,6 +592,41 @@ class HolderVectorEnv(VectorEnv):
         """Let go of the renderer, if any (no window, no worker)."""
         if self._renderer is not None:
             self._renderer.close()
+
+
+@compiled
+def _holders_and_supporters(skill, speed, supporting, running, in_action, decider, action,
+                            holder_skills):
+    """A cycle's commands as ``HolderEnv.step``'s loops give them: each drill's holder in
+    action runs its action's skill at full speed; the support behaviour drives the other
+    attacker (``supporting[i, k]`` for attacker ``k``), or both while the ball is loose in a
+    running drill. Returns the number of drills with an attacker to support."""
+    count = 0
+    for i in range(running.shape[0]):
+        acting, d = in_action[i], decider[i]
+        if acting:
+            skill[i, d] = holder_skills[action[i]]
+            speed[i, d] = 1.0
+        free = running[i] and not acting
+        supporting[i, 0] = (acting and d == 1) or free
+        supporting[i, 1] = (acting and d == 0) or free
+        if supporting[i, 0] or supporting[i, 1]:
+            count += 1
+    return count
+
+
+@compiled
+def _after_cycle(running, in_action, left, decider, outcome, holder):
+    """After a cycle: a drill's action goes on while its holder keeps the ball, for the
+    cycles left; the drill runs on until an outcome, or until an attacker holds the ball
+    again once the action is over."""
+    for i in range(running.shape[0]):
+        if in_action[i]:
+            left[i] -= 1
+        ended = outcome[i] != 0
+        in_action[i] = in_action[i] and not ended and holder[i] == decider[i] and left[i] > 0
+        running[i] = running[i] and not ended and (
+            in_action[i] or (holder[i] != 0 and holder[i] != 1))
 
 
 def play_episodes(
