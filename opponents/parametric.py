@@ -509,10 +509,14 @@ class ParametricBatch:
         m = len(drills)
         if self.fixed is not None:
             skill, target = (np.repeat(a, m, axis=0) for a in self.fixed)
-        else:  # writable copies: the plan is compiled for those
-            rows = slice(None) if every_drill(drills, view.n) else drills
-            skill, target = self.plan(np.array(drills, dtype=np.int64), np.array(view.pos[rows]),
-                                      np.array(view.vel[rows]), np.array(view.holder[rows]),
+        else:  # the view's fresh copies, the team's own: writable, as the plan is compiled
+            pos, vel, holder = view.pos, view.vel, view.holder
+            if every_drill(drills, view.n):
+                for array in (pos, vel, holder):
+                    array.flags.writeable = True
+            else:
+                pos, vel, holder = pos[drills], vel[drills], holder[drills]
+            skill, target = self.plan(np.array(drills, dtype=np.int64), pos, vel, holder,
                                       self._rng)
         return BatchCommands(skill, target, np.repeat(self._speeds, m, axis=0))
 
