@@ -223,15 +223,20 @@ class ParallelVectorEnv:
         if options:  # a reset of every drill: no option changes it (HolderVectorEnv has reset_mask)
             raise ValueError(f"ParallelVectorEnv.reset takes no options, got {options!r}")
         core = self._core
-        core.seed(check_seed(seed, self.num_envs))
-        core.reset(np.arange(self.num_envs))
-        self._autoreset[:] = False
-        self._has_reset = True
+        seeds = check_seed(seed, self.num_envs)
+
         def none() -> np.ndarray:  # an array of each agent's own
             return np.full(self.num_envs, -1)
 
-        return self._observations(), self._infos({a: none() for a in self.agents},
-                                                 {a: none() for a in self.agents})
+        def reset() -> tuple[dict[str, Any], dict[str, Any]]:
+            core.seed(seeds)
+            core.reset(np.arange(self.num_envs))
+            self._autoreset[:] = False
+            self._has_reset = True
+            return self._observations(), self._infos({a: none() for a in self.agents},
+                                                     {a: none() for a in self.agents})
+
+        return core.changing("ParallelVectorEnv.reset()", reset, every_drill=True)
 
     def action_masks(self) -> dict[str, np.ndarray]:
         """``{agent: (num_envs, n) int8}``: the legal actions of each drill now."""
@@ -331,23 +336,29 @@ class ParallelVectorEnv:
         if not self._has_reset:
             raise RuntimeError("step() called before reset(); call reset() first")
         core, b = self._core, self._core.batch
+        core.check_usable()
         stepping = ~self._autoreset
         illegal, taken = self._commands(actions, stepping)
-        resetting = np.nonzero(self._autoreset)[0]
-        if len(resetting):
-            core.reset(resetting)
-        core.advance(stepping)
-        ended = stepping & (b.outcome != RUNNING)
-        reward = np.where(ended, b.attacker_reward, 0.0)
-        truncated = ended & (b.outcome == 4)
-        terminated = ended & ~truncated
-        self._autoreset = ended
-        rewards = {a: (reward.copy() if i < 2 else -reward) for a, i in self._index.items()}
-        return (
-            self._observations(), rewards,
-            {a: terminated.copy() for a in self.agents}, {a: truncated.copy() for a in self.agents},
-            self._infos(illegal, taken),
-        )
+
+        def step():
+            resetting = np.nonzero(self._autoreset)[0]
+            if len(resetting):
+                core.reset(resetting)
+            core.advance(stepping)
+            ended = stepping & (b.outcome != RUNNING)
+            reward = np.where(ended, b.attacker_reward, 0.0)
+            truncated = ended & (b.outcome == 4)
+            terminated = ended & ~truncated
+            self._autoreset = ended
+            rewards = {a: (reward.copy() if i < 2 else -reward) for a, i in self._index.items()}
+            return (
+                self._observations(), rewards,
+                {a: terminated.copy() for a in self.agents},
+                {a: truncated.copy() for a in self.agents},
+                self._infos(illegal, taken),
+            )
+
+        return core.changing("ParallelVectorEnv.step()", step)
 
     def state(self) -> np.ndarray:
         """Every drill's global state: ``(num_envs, 29)`` float32 (see the class docstring)."""
