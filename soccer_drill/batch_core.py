@@ -98,7 +98,8 @@ class BatchCore:
         opponent: team id, ``Team`` instance, or ``None`` (no scripted team).
         opponent_params: keyword parameters of the team factory.
         config: the drills' parameters.
-        team_timeout: CPU-time bound of one batched team call (``None``: no bound).
+        team_timeout: CPU-time bound of one batched team call, or of each drill's copy's
+            (``None``: no bound).
         support: the attackers not given a command are driven by the support behaviour.
         drills_per_space: drills sharing one pymunk space.
 

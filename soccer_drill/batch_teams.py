@@ -14,8 +14,9 @@ without ``batch`` runs as one copy per drill, each behind its own
 :class:`~soccer_drill.teams.TeamDriver` (its checks, as in the single environment).
 
 :class:`BatchTeamDriver` runs either kind: one CPU-time bound per cycle of the batch
-(``team_timeout`` for a batched team; ``team_timeout`` times the drills acting, for the
-copies, each copy's call also held to ``team_timeout`` when it returns), and the
+(``team_timeout`` for a batched team; for the copies, one timer for the cycle whose
+count starts afresh at each copy, so that each copy's call is held to ``team_timeout``
+as the single environment holds its team), and the
 commands checked, a bad one named by drill, player and cycle. An error
 of a copy names its drill; one of a batched call names the drills it was called for (it
 cannot tell which of them failed). After a team's error the drills that acted are
@@ -47,7 +48,7 @@ from soccer_drill.teams import (
     speed_refused,
     target_refused,
 )
-from soccer_drill.time_bound import counted_cpu
+from soccer_drill.time_bound import Overrun, counted_cpu, restart_count
 
 _MOVE_TO = int(Skill.MOVE_TO)
 _IS_ALLOWED = np.zeros(len(Skill), dtype=bool)  # by skill value: may a scripted defender use it
@@ -279,7 +280,8 @@ class BatchTeamDriver:
         opponent_params: keyword parameters of the team factory (with an id).
         n: number of drills.
         config: the drills' configuration.
-        team_timeout: the CPU-time bound of one batched call (see the module docstring).
+        team_timeout: the CPU-time bound of one batched call, or of each copy's call
+            (see the module docstring).
     """
 
     def __init__(
@@ -312,7 +314,9 @@ class BatchTeamDriver:
             copies = [team] + [self._copy(opponent, team, params) for _ in range(n - 1)]
             self._drivers = [TeamDriver(t, self.name, players, None, drill=i)
                              for i, t in enumerate(copies)]
-            # One bound around the calls of all drills acting in a cycle (their own: none).
+            # One bound around the calls of all drills acting in a cycle, counted afresh
+            # for each drill's copy (time_bound.restart_count): each copy is held to
+            # team_timeout, with one timer armed per cycle (the copies' drivers: none).
             self._each_bound = TeamDriver(team, self.name, players, team_timeout)
             self._slots = [_Slot(batch.config) for _ in range(n)]
             self._views = [DrillView(slot, players) for slot in self._slots]
@@ -348,7 +352,6 @@ class BatchTeamDriver:
                                  _read_only(drills), self.rng)
             else:
                 self._refresh(drills)
-                self._each_bound.team_timeout = self._scaled(drills)
                 calling = _Calling(drills, None, self._timeout)
                 self._each_bound.call("reset()", calling, self._each_reset, drills, seeds, calling)
         if len(drills) == len(self._batch.cycle):
@@ -357,8 +360,11 @@ class BatchTeamDriver:
     def _each_reset(self, drills: np.ndarray, seeds: list[int], calling: _Calling) -> None:
         for i, s in zip(drills.tolist(), seeds, strict=True):
             calling.running = i
-            start = counted_cpu()
-            self._drivers[i].reset(self._views[i], np.random.default_rng(s))
+            start = restart_count()
+            try:
+                self._drivers[i].reset(self._views[i], np.random.default_rng(s))
+            except Overrun as exc:
+                raise self._past_copy_bound(i, "reset()", "", exc.cpu, stopped=True) from None
             self._check_copy_time(i, "reset()", "", start)
 
     def act(self, drills: np.ndarray, skill: np.ndarray, target: np.ndarray, speed: np.ndarray) -> None:
@@ -372,7 +378,6 @@ class BatchTeamDriver:
                 commands = self._bound.call("act()", calling, self._checked_act, drills)
             else:
                 self._refresh(drills)
-                self._each_bound.team_timeout = self._scaled(drills)
                 calling = _Calling(drills, self._batch.cycle, self._timeout)
                 commands = self._each_bound.call("act()", calling, self._each_act, drills, calling)
         sk, tg, sp = commands
@@ -380,9 +385,6 @@ class BatchTeamDriver:
         skill[rows, 2:] = sk
         target[rows, 2:] = tg
         speed[rows, 2:] = sp
-
-    def _scaled(self, drills: np.ndarray) -> float | None:
-        return None if self._timeout is None else self._timeout * len(drills)
 
     def check_usable(self) -> None:
         """:class:`TeamError` if the team failed and not every drill was reset since."""
@@ -408,8 +410,12 @@ class BatchTeamDriver:
         speed = np.empty((m, 2))
         for r, i in enumerate(drills.tolist()):
             calling.running = i
-            start = counted_cpu()
-            acted = self._drivers[i].act(self._views[i])
+            start = restart_count()
+            try:
+                acted = self._drivers[i].act(self._views[i])
+            except Overrun as exc:
+                raise self._past_copy_bound(i, "act()", f" at cycle {int(self._batch.cycle[i])}",
+                                            exc.cpu, stopped=True) from None
             self._check_copy_time(i, "act()", f" at cycle {int(self._batch.cycle[i])}", start)
             for index, command in acted:
                 k = index - 2
@@ -421,15 +427,20 @@ class BatchTeamDriver:
 
     def _check_copy_time(self, drill: int, call: str, when: str, start: float) -> None:
         """A copy whose call took more than ``team_timeout`` of CPU time is an overrun,
-        as in the single drill, even when the copies together stayed within their bound
-        (which only stops a copy that never returns)."""
+        as in the single drill, also where the bound cannot interrupt it (off the main
+        thread, without ``setitimer``): then it is said when the call returns."""
         spent = counted_cpu() - start
         if self._timeout is not None and spent > self._timeout:
-            raise TeamError(
-                f"team {self.name!r} (drill {drill}) exceeded its time bound of "
-                f"{self._timeout:g} s of CPU time in {call}{when} (took {spent:.2f} s of CPU "
-                "time); fix the team or pass a larger team_timeout"
-            )
+            raise self._past_copy_bound(drill, call, when, spent, stopped=False)
+
+    def _past_copy_bound(self, drill: int, call: str, when: str, cpu: float,
+                         stopped: bool) -> TeamError:
+        """The error of drill ``drill``'s copy past its bound (``stopped``: interrupted)."""
+        return TeamError(
+            f"team {self.name!r} (drill {drill}) exceeded its time bound of {self._timeout:g} s "
+            f"of CPU time in {call}{when} ({'stopped after' if stopped else 'took'} {cpu:.2f} s "
+            "of CPU time); fix the team or pass a larger team_timeout"
+        )
 
     def _checked_act(self, drills: np.ndarray) -> BatchCommands:
         assert self.batched is not None

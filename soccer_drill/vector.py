@@ -209,7 +209,7 @@ class HolderVectorEnv(VectorEnv):
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``decision_cycles`` | ``4`` | cycles a HOLD or DRIBBLE lasts (an integer in 1..50) |
-    | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take (a team without a batched ``act``: that times the drills acting) |
+    | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take (a team without a batched ``act``: each drill's copy, each call) |
     | ``autoreset_mode`` | ``NEXT_STEP`` | see Autoreset |
     | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
     | ``batch_size`` | ``None`` | drills per ``recv()`` (see Asynchronous use); ``None``: ``num_envs`` |

@@ -136,7 +136,7 @@ class ParallelVectorEnv:
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``illegal_action`` | ``"default"`` | ``"default"`` or ``"raise"`` |
-    | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take |
+    | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take (a team without a batched ``act``: each drill's copy, each call) |
     | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
     | ``shared_spaces`` | ``None`` | as ``parallel_env``'s: ``None`` is ``True`` with no opponent (every agent has the same action and observation spaces), ``False`` with one; ``False``: per-role spaces |
     | ``render_mode`` | ``None`` | ``None`` or ``"rgb_array"`` (see Calls) |
