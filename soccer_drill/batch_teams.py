@@ -292,26 +292,19 @@ class BatchTeamDriver:
         team_timeout: float | None,
     ) -> None:
         players = PLAYER_NAMES[2:]
-        team, self.name, params = resolve_team(opponent, opponent_params)
+        team, self.name, params = resolve_team(opponent, opponent_params, team_timeout)
         n = batch.n
         self._batch = batch
         self.view = BatchView(batch, players)
         self._bound = TeamDriver(team, self.name, players, team_timeout)
-        self.batched: BatchTeam | None = None
-        make_batch = getattr(team, "batch", None)
-        if callable(make_batch):
-            self.batched = self._bound.call("batch()", "", make_batch, n)
-            if not isinstance(self.batched, BatchTeam) or not (
-                callable(self.batched.reset) and callable(self.batched.act)
-            ):
-                raise TeamError(
-                    f"team {self.name!r}: batch({n}) returned {type(self.batched).__name__}, "
-                    "which lacks reset(view, drills, rng) and act(view, drills)"
-                )
+        # Every attribute of the team is read inside its bound and error wrapping (a
+        # property runs the team's code), as its methods are called.
+        self.batched: BatchTeam | None = self._bound.call("batch()", "", self._make_batch, team, n)
+        if self.batched is not None:
             self.rng = BatchRandom(n)
             self._drivers: list[TeamDriver] = []
         else:
-            copies = [team] + [self._copy(opponent, team, params) for _ in range(n - 1)]
+            copies = [team] + [self._copy(opponent, team, params, i) for i in range(1, n)]
             self._drivers = [TeamDriver(t, self.name, players, None, drill=i)
                              for i, t in enumerate(copies)]
             # One bound around the calls of all drills acting in a cycle, counted afresh
@@ -324,19 +317,46 @@ class BatchTeamDriver:
         self.failure: str | None = None
         """The error of the team's last failed call, until every drill is reset."""
 
-    def _copy(self, opponent: str | Team, team: Team, params: dict[str, Any]) -> Team:
-        """One more copy of the team, for a drill of its own."""
+    def _make_batch(self, team: Team, n: int) -> BatchTeam | None:
+        """The team's batched form (``team.batch(n)``, checked), or ``None`` if it has none."""
+        make_batch = getattr(team, "batch", None)
+        if not callable(make_batch):
+            return None
+        batched = make_batch(n)
+        if not isinstance(batched, BatchTeam) or not (
+            callable(batched.reset) and callable(batched.act)
+        ):
+            raise TeamError(
+                f"team {self.name!r}: batch({n}) returned {type(batched).__name__}, "
+                "which lacks reset(view, drills, rng) and act(view, drills)"
+            )
+        return batched
+
+    def _copy(self, opponent: str | Team, team: Team, params: dict[str, Any], drill: int) -> Team:
+        """One more copy of the team, for drill ``drill`` (``copy.deepcopy`` runs inside
+        the team's bound: a ``__deepcopy__`` is the team's code)."""
         if isinstance(opponent, str):
             return make_team(opponent, **params)
-        try:
-            return copy.deepcopy(team)
-        except Exception as exc:
+        failed: list[tuple[str, Exception]] = []
+
+        def copying() -> Team | None:
+            try:
+                return copy.deepcopy(team)
+            except Exception as exc:  # not copyable: said below, with what to do
+                text = str(exc)  # the team's code too (an exception of its own)
+                text = text if len(text) <= 400 else text[:400] + "..."
+                failed.append((f"{type(exc).__name__}: {text}", exc))
+                return None
+
+        copied = self._bound.call("copy.deepcopy()", f" for drill {drill}", copying)
+        if failed:
             raise TypeError(
                 f"team {self.name!r}: the batched drill runs a team without batch(n) as one "
                 f"copy per drill, made by copy.deepcopy, and copying it failed "
-                f"({type(exc).__name__}: {exc}); make it copyable, give it a batch(n) "
+                f"({failed[0][0]}); make it copyable, give it a batch(n) "
                 "method, or register its factory and pass its id"
-            ) from exc
+            ) from failed[0][1]
+        return copied  # type: ignore[return-value]
 
     def _refresh(self, drills: np.ndarray) -> None:
         for i in drills.tolist():
@@ -348,8 +368,7 @@ class BatchTeamDriver:
         with self._failing():
             if self.batched is not None:
                 self.rng.seed(drills, seeds)
-                self._bound.call("reset()", _Calling(drills, None), self.batched.reset, self.view,
-                                 _read_only(drills), self.rng)
+                self._bound.call("reset()", _Calling(drills, None), self._batched_reset, drills)
             else:
                 self._refresh(drills)
                 calling = _Calling(drills, None, self._timeout)
@@ -441,6 +460,10 @@ class BatchTeamDriver:
             f"of CPU time in {call}{when} ({'stopped after' if stopped else 'took'} {cpu:.2f} s "
             "of CPU time); fix the team or pass a larger team_timeout"
         )
+
+    def _batched_reset(self, drills: np.ndarray) -> None:
+        assert self.batched is not None
+        self.batched.reset(self.view, _read_only(drills), self.rng)  # its attribute read here
 
     def _checked_act(self, drills: np.ndarray) -> BatchCommands:
         assert self.batched is not None

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 import signal
+import sys
 import threading
 import time
 
@@ -409,3 +410,146 @@ def test_no_timer_longer_than_team_timeout_is_armed_whatever_the_number_of_drill
     env.reset(seed=0)
     _step_n(env, 8)
     assert recorder.armed and max(recorder.armed) == 86_400
+
+
+# -------------------------------------- a team's attributes, read inside its bound
+def _spin(seconds=3.0):
+    end = time.thread_time() + seconds
+    while time.thread_time() < end:
+        pass
+
+
+def _exit():
+    sys.exit(3)
+
+
+def _waiting():
+    yield
+
+
+def _throw():
+    waiting = _waiting()
+    next(waiting)
+    waiting.throw(KeyboardInterrupt)  # raised at the generator's yield, by code
+
+
+HOSTILE = {  # what a hostile attribute does, and how the error says it
+    "exits": (_exit, r"it called sys\.exit\(3\) \(SystemExit\); a team must not end the program"),
+    "throws": (_throw, r"it raised KeyboardInterrupt itself \(not a Ctrl-C"),
+    "spins": (_spin, r"exceeded its time bound of 0\.2 s of CPU time"),
+}
+
+
+class HostileBatchProperty(Plain):
+    def __init__(self, behave):
+        self.behave = behave
+
+    @property
+    def batch(self):
+        self.behave()
+        return lambda n: BatchedCommands(int(Skill.INTERCEPT))
+
+
+class _HostileReset(BatchedCommands):
+    def __init__(self, behave):
+        super().__init__(int(Skill.INTERCEPT))
+        self.behave = behave
+
+    @property
+    def reset(self):
+        self.behave()
+        return super().reset
+
+
+class HostileBatchReset(Plain):
+    def __init__(self, behave):
+        self.behave = behave
+
+    def batch(self, n):
+        return _HostileReset(self.behave)
+
+
+class HostileCopy(Plain):
+    def __init__(self, behave):
+        self.behave = behave
+
+    def __deepcopy__(self, memo):
+        self.behave()
+        return HostileCopy(self.behave)
+
+
+@pytest.mark.parametrize("kind", ["holder", "agents"])
+@pytest.mark.parametrize("hostile", list(HOSTILE))
+@pytest.mark.parametrize(("team", "where"), [
+    pytest.param(HostileBatchProperty, r"batch\(\)", id="batch"),
+    pytest.param(HostileBatchReset, r"batch\(\)", id="batch-reset"),
+    pytest.param(HostileCopy, r"copy\.deepcopy\(\) for drill 1", id="deepcopy"),
+])
+def test_a_teams_attributes_are_read_inside_its_bound_and_its_errors(kind, hostile, team, where):
+    """A ``batch`` property, a property on the batch's ``reset`` or a ``__deepcopy__`` that
+    called sys.exit(3) ended the program quietly with status 3, one that raised
+    KeyboardInterrupt through generator.throw() passed as the user's Ctrl-C, and one that
+    spun hung the program: each is now the team's error, named, within its bound."""
+    if hostile == "spins" and not UNIX_TIMER:
+        pytest.skip("setitimer (Unix)")
+    behave, said = HOSTILE[hostile]
+    start = time.process_time()
+    with pytest.raises(TeamError, match=rf"^team '{team.__name__}' .*{where}.*{said}|"
+                                        rf"^team '{team.__name__}' {said} in {where}"):
+        _make(kind, team(behave), team_timeout=0.2)
+    assert time.process_time() - start < 1.5
+
+
+class _ReadsResetLater(BatchedCommands):
+    """A batch whose ``reset`` exits the program from its second read on."""
+
+    reads = 0
+
+    @property
+    def reset(self):
+        type(self).reads += 1
+        if type(self).reads > 1:
+            sys.exit(5)
+        return super().reset
+
+
+def test_the_batchs_reset_is_read_inside_the_bound_at_every_reset():
+    team = WithBatch(int(Skill.INTERCEPT))
+    team.batch = lambda n: _ReadsResetLater(int(Skill.INTERCEPT))
+    _ReadsResetLater.reads = 0
+    env = HolderVectorEnv(num_envs=2, opponent=team)
+    with pytest.raises(TeamError, match=r"raised in reset\(\) of drills 0, 1 .*sys\.exit\(5\)"):
+        env.reset(seed=0)
+
+
+class HostileAct:
+    """A team whose ``act``, looked up through ``__getattr__``, exits the program."""
+
+    def reset(self, view, rng):
+        pass
+
+    def __getattr__(self, name):
+        if name == "act":
+            sys.exit(6)
+        raise AttributeError(name)
+
+
+@pytest.mark.parametrize("kind", ["single", "holder", "agents"])
+def test_reading_a_teams_reset_and_act_when_it_is_given_is_inside_its_bound(kind):
+    """Whether an instance is a team is read from its reset and act (looked up on the
+    instance when its class does not define them): that ran outside the bound, in the
+    single environment too."""
+    with pytest.raises(TeamError, match=r"^team 'HostileAct' raised in reading its reset and "
+                                        r"act: it called sys\.exit\(6\)"):
+        _make(kind, HostileAct())
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="raise_signal(SIGINT) ends the process")
+def test_a_ctrl_c_while_a_team_is_copied_still_stops_the_program():
+    def ctrl_c():
+        signal.raise_signal(signal.SIGINT)  # as the user's Ctrl-C arrives
+        for _ in range(1000):
+            pass
+
+    with pytest.raises(KeyboardInterrupt):
+        HolderVectorEnv(num_envs=3, opponent=HostileCopy(ctrl_c))
