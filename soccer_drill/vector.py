@@ -14,7 +14,7 @@ from gymnasium.vector.utils import batch_space
 from soccer_drill.batch import OUTCOME_NAMES
 from soccer_drill.batch_core import BatchCore, check_num_envs, check_seed
 from soccer_drill.batch_physics import DRILLS_PER_SPACE, check_drills_per_space
-from soccer_drill.batch_render import BatchRenderer, check_render_mode
+from soccer_drill.batch_render import BatchRenderer, check_frames_fit, check_render_mode
 from soccer_drill.config import DrillConfig, is_integer
 from soccer_drill.core import make_config
 from soccer_drill.features import batch_features, feature_bounds
@@ -262,6 +262,8 @@ class HolderVectorEnv(VectorEnv):
         self.metadata = {**self.metadata, "autoreset_mode": mode}
         self.decision_cycles = decision_cycles
         self.config = make_config(config, max_cycles)
+        if self.render_mode is not None:  # before any drill is built
+            check_frames_fit(n, self.config)
         self._core = BatchCore(
             n, opponent, opponent_params, self.config, team_timeout, True, drills_per_space
         )

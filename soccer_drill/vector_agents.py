@@ -12,7 +12,7 @@ from gymnasium import spaces
 from soccer_drill.batch import OUTCOME_NAMES, RUNNING
 from soccer_drill.batch_core import BatchCore, check_num_envs, check_seed
 from soccer_drill.batch_physics import DRILLS_PER_SPACE, check_drills_per_space
-from soccer_drill.batch_render import BatchRenderer, check_render_mode
+from soccer_drill.batch_render import BatchRenderer, check_frames_fit, check_render_mode
 from soccer_drill.config import DrillConfig
 from soccer_drill.core import (
     DEFENDER_DEFAULT,
@@ -168,6 +168,8 @@ class ParallelVectorEnv:
             raise ValueError(f"illegal_action must be 'raise' or 'default', got {illegal_action!r}")
         self.num_envs, self.obs_type, self.illegal_action = n, obs_type, illegal_action
         self.config = make_config(config, max_cycles)
+        if self.render_mode is not None:  # before any drill is built
+            check_frames_fit(n, self.config)
         self._core = BatchCore(
             n, opponent, opponent_params, self.config, team_timeout, False, drills_per_space
         )
