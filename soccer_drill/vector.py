@@ -189,7 +189,11 @@ class HolderVectorEnv(VectorEnv):
 
     ``copy.deepcopy``, ``copy.copy`` and ``pickle`` give an independent environment
     continuing every drill's episode: the same actions give bit-identical steps in the
-    copy and the original (pymunk's spaces are copied with their contacts).
+    copy and the original (pymunk's spaces are copied with their contacts). So does
+    ``copy.copy`` of ``HolderSB3VecEnv``. Gymnasium's vector wrappers
+    (``RecordEpisodeStatistics``, ...) are copied shallowly by ``copy.copy``, as its
+    single-environment wrappers are (``HolderEnv``'s Copies): that copy shares this
+    environment; there, use ``copy.deepcopy`` or ``pickle``, or ``copy.copy(env.unwrapped)``.
 
     ## Errors
 
