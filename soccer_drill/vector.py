@@ -203,6 +203,14 @@ class HolderVectorEnv(VectorEnv):
     ...``) before any drill moves, so the others are not changed. A team's failure
     raises ``TeamError`` naming the team; then call ``reset()``.
 
+    A call stopped part-way -- a Ctrl-C, a team's error, anything raised once its
+    arguments were checked -- may leave drills part-way through a cycle or a reset: every
+    later ``step``, ``send`` and ``recv`` then raises ``RuntimeError`` naming that call
+    and saying to call ``reset()``, and a reset of every drill (no ``reset_mask``) brings
+    every drill back as in a new environment. A call stopped before its work began (its
+    arguments being checked) changed nothing. A Ctrl-C while pymunk builds or frees a
+    space waits for its end (it could crash the process at a later garbage collection).
+
     ## Arguments
 
     | argument | default | meaning |

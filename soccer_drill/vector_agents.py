@@ -113,6 +113,12 @@ class ParallelVectorEnv:
     ``ValueError``, and actions not of an integer dtype (floats, bools) ``TypeError``, as
     ``parallel_env``'s ``step`` does, naming the drill.
 
+    ## Interruptions
+
+    As :class:`~soccer_drill.vector.HolderVectorEnv`'s: a ``reset`` or ``step`` stopped
+    part-way (a Ctrl-C, a team's error) makes every later ``step`` raise ``RuntimeError``
+    saying to call ``reset()``, which brings every drill back as in a new environment.
+
     ## Seeding
 
     As :class:`~soccer_drill.vector.HolderVectorEnv`: ``reset(seed=s)`` starts drill
