@@ -129,10 +129,10 @@ def restart_count() -> float:
     ``timeout`` after the start of the part running then at the latest). Outside a
     bounded call it only returns :func:`counted_cpu`.
     """
-    call = _innermost.call
+    call, now, collected = _innermost.call, _thread_time(), _gc_time.total
     if call is not None:
-        call.cpu_start, call.gc_start = _thread_time(), _gc_time.total
-    return counted_cpu()
+        call.cpu_start, call.gc_start = now, collected
+    return now - collected
 
 
 def call_within(timeout: float, method: Callable[..., Any], *args: Any) -> Any:
