@@ -311,6 +311,7 @@ class BatchTeamDriver:
             # for each drill's copy (time_bound.restart_count): each copy is held to
             # team_timeout, with one timer armed per cycle (the copies' drivers: none).
             self._each_bound = TeamDriver(team, self.name, players, team_timeout)
+            self._part = counted_cpu if team_timeout is None else restart_count
             self._slots = [_Slot(batch.config) for _ in range(n)]
             self._views = [DrillView(slot, players) for slot in self._slots]
         self._timeout = team_timeout
@@ -379,11 +380,13 @@ class BatchTeamDriver:
     def _each_reset(self, drills: np.ndarray, seeds: list[int], calling: _Calling) -> None:
         for i, s in zip(drills.tolist(), seeds, strict=True):
             calling.running = i
-            start = restart_count()
+            start = self._part()
             try:
                 self._drivers[i].reset(self._views[i], np.random.default_rng(s))
             except Overrun as exc:
-                raise self._past_copy_bound(i, "reset()", "", exc.cpu, stopped=True) from None
+                if self._timeout is None:  # an enclosing bound's, not this driver's
+                    raise
+                raise self._past_copy_bound(i, "reset()", "", exc) from None
             self._check_copy_time(i, "reset()", "", start)
 
     def act(self, drills: np.ndarray, skill: np.ndarray, target: np.ndarray, speed: np.ndarray) -> None:
@@ -429,12 +432,14 @@ class BatchTeamDriver:
         speed = np.empty((m, 2))
         for r, i in enumerate(drills.tolist()):
             calling.running = i
-            start = restart_count()
+            start = self._part()
             try:
                 acted = self._drivers[i].act(self._views[i])
             except Overrun as exc:
+                if self._timeout is None:  # an enclosing bound's, not this driver's
+                    raise
                 raise self._past_copy_bound(i, "act()", f" at cycle {int(self._batch.cycle[i])}",
-                                            exc.cpu, stopped=True) from None
+                                            exc) from None
             self._check_copy_time(i, "act()", f" at cycle {int(self._batch.cycle[i])}", start)
             for index, command in acted:
                 k = index - 2
@@ -450,15 +455,17 @@ class BatchTeamDriver:
         thread, without ``setitimer``): then it is said when the call returns."""
         spent = counted_cpu() - start
         if self._timeout is not None and spent > self._timeout:
-            raise self._past_copy_bound(drill, call, when, spent, stopped=False)
+            raise self._past_copy_bound(drill, call, when, spent)
 
-    def _past_copy_bound(self, drill: int, call: str, when: str, cpu: float,
-                         stopped: bool) -> TeamError:
-        """The error of drill ``drill``'s copy past its bound (``stopped``: interrupted)."""
+    def _past_copy_bound(self, drill: int, call: str, when: str,
+                         past: float | Overrun) -> TeamError:
+        """The error of drill ``drill``'s copy past its bound: ``past`` is the CPU time it
+        took, or the :class:`Overrun` that stopped it."""
+        took = f"took {past:.2f}" if isinstance(past, float) else f"stopped after {past.cpu:.2f}"
         return TeamError(
             f"team {self.name!r} (drill {drill}) exceeded its time bound of {self._timeout:g} s "
-            f"of CPU time in {call}{when} ({'stopped after' if stopped else 'took'} {cpu:.2f} s "
-            "of CPU time); fix the team or pass a larger team_timeout"
+            f"of CPU time in {call}{when} ({took} s of CPU time); fix the team or pass a larger "
+            "team_timeout"
         )
 
     def _batched_reset(self, drills: np.ndarray) -> None:
