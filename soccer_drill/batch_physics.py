@@ -30,6 +30,7 @@ import pymunk.batch as pmb
 
 from soccer_drill.config import DrillConfig, is_integer
 from soccer_drill.drill import _PLAYER_MASS, space_step
+from soccer_drill.interruptions import CtrlCDeferred
 
 _FIELDS = pmb.BodyFields.POSITION | pmb.BodyFields.VELOCITY
 DRILLS_PER_SPACE = 64
@@ -92,7 +93,13 @@ class BatchPhysics:
                 self._build_space(k)
 
     def _build_space(self, k: int) -> None:
-        """Space ``k``: its drills' players and walls, each drill in its own region."""
+        """Space ``k``: its drills' players and walls, each drill in its own region (a
+        Ctrl-C meanwhile waits for the end: :class:`~soccer_drill.interruptions.CtrlCDeferred`)."""
+        self._fresh[k] = False  # until built: a build cut short is built again
+        with CtrlCDeferred():
+            self._build_space_now(k)
+
+    def _build_space_now(self, k: int) -> None:
         cfg, sl = self.config, self._slices[k]
         count = sl.stop - sl.start
         cols = max(1, math.ceil(math.sqrt(self.drills_per_space)))

@@ -22,6 +22,7 @@ import pymunk.batch
 from pymunk.batch import get_space_bodies
 
 from soccer_drill.config import DrillConfig
+from soccer_drill.interruptions import CtrlCDeferred
 from soccer_drill.rules.cycle import (
     RUNNING,
     draw_start,
@@ -109,6 +110,12 @@ class Drill:
 
     # ------------------------------------------------------------------ reset
     def _build_space(self) -> None:
+        """:meth:`_build_space_now`, a Ctrl-C meanwhile waiting for its end (the old space
+        is freed there: :class:`~soccer_drill.interruptions.CtrlCDeferred`)."""
+        with CtrlCDeferred():
+            self._build_space_now()
+
+    def _build_space_now(self) -> None:
         """A new pymunk space with the four players, the ball and the walls.
 
         Built anew on every :meth:`reset`: a space keeps contact caches and other

@@ -358,14 +358,18 @@ def make_team(team_id: str, **params: Any) -> Team:
     return team
 
 
-def resolve_team(opponent: object, opponent_params: object) -> tuple[Team, str, dict[str, Any]]:
+def resolve_team(
+    opponent: object, opponent_params: object, team_timeout: float | None = DEFAULT_TEAM_TIMEOUT
+) -> tuple[Team, str, dict[str, Any]]:
     """The team an environment's ``opponent`` and ``opponent_params`` name, its name in
     errors, and the parameters it was built with.
 
     ``opponent`` is a registered team id (built by :func:`make_team` with
     ``opponent_params``) or a :class:`Team` instance (then ``opponent_params`` must be
     empty: the instance is already built). A class is refused: its methods would be
-    called without an instance.
+    called without an instance. Whether an instance is a team is read from its ``reset``
+    and ``act`` (a property there is the team's code), within ``team_timeout`` and
+    :class:`TeamDriver`'s error wrapping.
     """
     if isinstance(opponent, str):
         params = team_parameters(opponent_params)
@@ -376,7 +380,9 @@ def resolve_team(opponent: object, opponent_params: object) -> tuple[Team, str, 
             f"pass an instance ({opponent.__name__}(...)), or register it "
             "(soccer_drill.teams.register) and pass its id"
         )
-    if isinstance(opponent, Team):
+    name = type(opponent).__name__
+    driver = TeamDriver(opponent, name, (), team_timeout)  # type: ignore[arg-type]
+    if driver.call("reading its reset and act", "", isinstance, opponent, Team):
         if opponent_params:
             raise ValueError(
                 f"opponent_params given with a Team instance ({type(opponent).__name__}): an "

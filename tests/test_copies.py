@@ -160,3 +160,17 @@ def test_a_copy_of_a_batched_environment_continues_bit_for_bit_and_on_its_own(ki
     copied = _batched_steps(duplicate, 7, 30)
     # The original, not moved by the copy's steps, plays the same from where it was copied.
     assert _batched_steps(original, 7, 30) == copied
+
+
+@pytest.mark.parametrize("how", ["deepcopy", "pickle"])
+def test_through_gymnasiums_vector_wrappers_only_copy_copy_shares_the_batch_as_said(how):
+    from gymnasium.wrappers.vector import RecordEpisodeStatistics
+
+    env = RecordEpisodeStatistics(BATCHED["holder vector"]())
+    env.reset(seed=3)
+    assert copy.copy(env).unwrapped is env.unwrapped  # Gymnasium's wrappers, copied shallowly
+    assert "copied shallowly" in HolderVectorEnv.__doc__
+    duplicate = COPIES[how](env)
+    assert duplicate.unwrapped is not env.unwrapped
+    copied = _batched_steps(duplicate.unwrapped, 7, 10)
+    assert _batched_steps(env.unwrapped, 7, 10) == copied
