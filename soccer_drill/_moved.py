@@ -25,7 +25,6 @@ MOVED = {
     "soccer_drill.features": "soccer_drill.rules.features",
     "soccer_drill.support": "soccer_drill.rules.support",
     "soccer_drill.time_bound": "soccer_drill.teams.time_bound",
-    "soccer_drill.interruptions": "soccer_drill.teams.interruptions",
     "soccer_drill.screen": "soccer_drill.rendering.screen",
     "soccer_drill.video": "soccer_drill.rendering.video",
     "soccer_drill.gif": "soccer_drill.rendering.gif",

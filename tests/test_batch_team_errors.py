@@ -5,6 +5,8 @@ whose team failed asks for a reset."""
 from __future__ import annotations
 
 import math
+import signal
+import sys
 import threading
 import time
 
@@ -84,9 +86,9 @@ def test_a_copy_past_its_time_bound_is_reported_as_past_it_naming_the_drill(kind
     with pytest.raises(TeamError) as raised:
         for _ in range(4):
             _step(env)
-    text = str(raised.value)
-    assert text.startswith("team 'SlowAt' exceeded its time bound of 0.03 s of CPU time in act()")
-    assert "each drill's copy bounded by 0.01 s, stopped in drill 0" in text
+    assert str(raised.value).startswith(
+        "team 'SlowAt' (drill 0) exceeded its time bound of 0.01 s of CPU time in act() at "
+        "cycle 2 (")
 
 
 def test_a_bad_command_of_a_copy_names_its_drill():
@@ -327,3 +329,227 @@ def test_the_single_and_the_batched_drill_refuse_a_bad_command_in_the_same_words
         batched_check(batched_commands, np.array([0]), np.zeros(1, dtype=np.int64), "t", players)
     said = [str(e.value).split("cycle 0: ", 1)[1] for e in (single, batched)]
     assert said[0] == said[1]
+
+
+# ------------------------------------------------ each drill's copy under its own bound
+UNIX_TIMER = hasattr(signal, "setitimer") and hasattr(signal, "SIGPROF")
+
+
+class SpinsInSixthCopy(Plain):
+    """The copy reset sixth (drill 5) computes without end in its first act (20 s of CPU
+    time at most, should nothing stop it)."""
+
+    resets = 0
+
+    def reset(self, view, rng):
+        super().reset(view, rng)
+        type(self).resets += 1
+        self.sixth = type(self).resets == 6
+
+    def act(self, view):
+        start = time.thread_time()
+        while self.sixth and time.thread_time() - start < 20.0:
+            pass
+        return super().act(view)
+
+
+@pytest.mark.skipif(not UNIX_TIMER, reason="setitimer (Unix)")
+@pytest.mark.parametrize("kind", ["holder", "agents"])
+def test_a_spinning_copy_is_stopped_after_its_own_bound_whatever_the_number_of_drills(kind):
+    """One bound of team_timeout times the drills acting let a copy spin for 1.6 s of CPU
+    time in 16 drills under a 0.1 s bound (6.4 s in 64): each copy is held to
+    team_timeout, as the single environment holds its team."""
+    SpinsInSixthCopy.resets = 0
+    n = 16
+    env = (HolderVectorEnv if kind == "holder" else ParallelVectorEnv)(
+        num_envs=n, opponent=SpinsInSixthCopy(), team_timeout=0.1)
+    env.reset(seed=0)
+    start = time.process_time()
+    with pytest.raises(TeamError, match=r"^team 'SpinsInSixthCopy' \(drill 5\) exceeded its time "
+                                        r"bound of 0.1 s of CPU time in act\(\) at cycle 0 "
+                                        r"\(stopped after 0\.1\d s of CPU time"):
+        _step_n(env, n)
+    assert time.process_time() - start < 0.6
+
+
+def _step_n(env, n):
+    if isinstance(env, HolderVectorEnv):
+        return env.step(np.zeros(n, dtype=np.int64))
+    return env.step({a: np.zeros(n, dtype=np.int64) for a in env.agents})
+
+
+class _RecordsTimers:
+    """``_signal`` as the time bound uses it, recording every timer armed."""
+
+    def __init__(self, real):
+        self._real, self.armed = real, []
+
+    def __getattr__(self, name):
+        return getattr(self._real, name)
+
+    def setitimer(self, which, seconds, interval=0.0):
+        if seconds > 0:
+            self.armed.append(seconds)
+        return self._real.setitimer(which, seconds, interval)
+
+
+@pytest.mark.skipif(not UNIX_TIMER, reason="setitimer (Unix)")
+@pytest.mark.parametrize("kind", ["holder", "agents"])
+def test_no_timer_longer_than_team_timeout_is_armed_whatever_the_number_of_drills(
+    kind, monkeypatch
+):
+    """team_timeout times the drills acting overflowed setitimer past about 9.2e9 s:
+    team_timeout=86400 (allowed) with 107,000 copies failed every reset with an
+    OverflowError blamed on the team. No timer is armed for more than team_timeout."""
+    from soccer_drill import time_bound
+
+    recorder = _RecordsTimers(time_bound._sig)
+    monkeypatch.setattr(time_bound, "_sig", recorder)
+    env = (HolderVectorEnv if kind == "holder" else ParallelVectorEnv)(
+        num_envs=8, opponent=Plain(), team_timeout=86_400)
+    env.reset(seed=0)
+    _step_n(env, 8)
+    assert recorder.armed and max(recorder.armed) == 86_400
+
+
+# -------------------------------------- a team's attributes, read inside its bound
+def _spin(seconds=3.0):
+    end = time.thread_time() + seconds
+    while time.thread_time() < end:
+        pass
+
+
+def _exit():
+    sys.exit(3)
+
+
+def _waiting():
+    yield
+
+
+def _throw():
+    waiting = _waiting()
+    next(waiting)
+    waiting.throw(KeyboardInterrupt)  # raised at the generator's yield, by code
+
+
+HOSTILE = {  # what a hostile attribute does, and how the error says it
+    "exits": (_exit, r"it called sys\.exit\(3\) \(SystemExit\); a team must not end the program"),
+    "throws": (_throw, r"it raised KeyboardInterrupt itself \(not a Ctrl-C"),
+    "spins": (_spin, r"exceeded its time bound of 0\.2 s of CPU time"),
+}
+
+
+class HostileBatchProperty(Plain):
+    def __init__(self, behave):
+        self.behave = behave
+
+    @property
+    def batch(self):
+        self.behave()
+        return lambda n: BatchedCommands(int(Skill.INTERCEPT))
+
+
+class _HostileReset(BatchedCommands):
+    def __init__(self, behave):
+        super().__init__(int(Skill.INTERCEPT))
+        self.behave = behave
+
+    @property
+    def reset(self):
+        self.behave()
+        return super().reset
+
+
+class HostileBatchReset(Plain):
+    def __init__(self, behave):
+        self.behave = behave
+
+    def batch(self, n):
+        return _HostileReset(self.behave)
+
+
+class HostileCopy(Plain):
+    def __init__(self, behave):
+        self.behave = behave
+
+    def __deepcopy__(self, memo):
+        self.behave()
+        return HostileCopy(self.behave)
+
+
+@pytest.mark.parametrize("kind", ["holder", "agents"])
+@pytest.mark.parametrize("hostile", list(HOSTILE))
+@pytest.mark.parametrize(("team", "where"), [
+    pytest.param(HostileBatchProperty, r"batch\(\)", id="batch"),
+    pytest.param(HostileBatchReset, r"batch\(\)", id="batch-reset"),
+    pytest.param(HostileCopy, r"copy\.deepcopy\(\) for drill 1", id="deepcopy"),
+])
+def test_a_teams_attributes_are_read_inside_its_bound_and_its_errors(kind, hostile, team, where):
+    """A ``batch`` property, a property on the batch's ``reset`` or a ``__deepcopy__`` that
+    called sys.exit(3) ended the program quietly with status 3, one that raised
+    KeyboardInterrupt through generator.throw() passed as the user's Ctrl-C, and one that
+    spun hung the program: each is now the team's error, named, within its bound."""
+    if hostile == "spins" and not UNIX_TIMER:
+        pytest.skip("setitimer (Unix)")
+    behave, said = HOSTILE[hostile]
+    start = time.process_time()
+    with pytest.raises(TeamError, match=rf"^team '{team.__name__}' .*{where}.*{said}|"
+                                        rf"^team '{team.__name__}' {said} in {where}"):
+        _make(kind, team(behave), team_timeout=0.2)
+    assert time.process_time() - start < 1.5
+
+
+class _ReadsResetLater(BatchedCommands):
+    """A batch whose ``reset`` exits the program from its second read on."""
+
+    reads = 0
+
+    @property
+    def reset(self):
+        type(self).reads += 1
+        if type(self).reads > 1:
+            sys.exit(5)
+        return super().reset
+
+
+def test_the_batchs_reset_is_read_inside_the_bound_at_every_reset():
+    team = WithBatch(int(Skill.INTERCEPT))
+    team.batch = lambda n: _ReadsResetLater(int(Skill.INTERCEPT))
+    _ReadsResetLater.reads = 0
+    env = HolderVectorEnv(num_envs=2, opponent=team)
+    with pytest.raises(TeamError, match=r"raised in reset\(\) of drills 0, 1 .*sys\.exit\(5\)"):
+        env.reset(seed=0)
+
+
+class HostileAct:
+    """A team whose ``act``, looked up through ``__getattr__``, exits the program."""
+
+    def reset(self, view, rng):
+        pass
+
+    def __getattr__(self, name):
+        if name == "act":
+            sys.exit(6)
+        raise AttributeError(name)
+
+
+@pytest.mark.parametrize("kind", ["single", "holder", "agents"])
+def test_reading_a_teams_reset_and_act_when_it_is_given_is_inside_its_bound(kind):
+    """Whether an instance is a team is read from its reset and act (looked up on the
+    instance when its class does not define them): that ran outside the bound, in the
+    single environment too."""
+    with pytest.raises(TeamError, match=r"^team 'HostileAct' raised in reading its reset and "
+                                        r"act: it called sys\.exit\(6\)"):
+        _make(kind, HostileAct())
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="raise_signal(SIGINT) ends the process")
+def test_a_ctrl_c_while_a_team_is_copied_still_stops_the_program():
+    def ctrl_c():
+        signal.raise_signal(signal.SIGINT)  # as the user's Ctrl-C arrives
+        for _ in range(1000):
+            pass
+
+    with pytest.raises(KeyboardInterrupt):
+        HolderVectorEnv(num_envs=3, opponent=HostileCopy(ctrl_c))

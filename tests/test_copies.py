@@ -193,3 +193,17 @@ def test_a_copy_runs_the_rules_compiled_for_the_original(clone):
         obs, _, term, trunc, _ = copied.last()
         copied.step(None if term or trunc else _pick(rng, obs["action_mask"]))
     assert _compiled_signatures() == before
+
+
+@pytest.mark.parametrize("how", ["deepcopy", "pickle"])
+def test_through_gymnasiums_vector_wrappers_only_copy_copy_shares_the_batch_as_said(how):
+    from gymnasium.wrappers.vector import RecordEpisodeStatistics
+
+    env = RecordEpisodeStatistics(BATCHED["holder vector"]())
+    env.reset(seed=3)
+    assert copy.copy(env).unwrapped is env.unwrapped  # Gymnasium's wrappers, copied shallowly
+    assert "copied shallowly" in HolderVectorEnv.__doc__
+    duplicate = COPIES[how](env)
+    assert duplicate.unwrapped is not env.unwrapped
+    copied = _batched_steps(duplicate.unwrapped, 7, 10)
+    assert _batched_steps(env.unwrapped, 7, 10) == copied

@@ -118,3 +118,29 @@ def test_indices_are_checked_and_what_the_batch_cannot_do_per_drill_is_refused()
     with pytest.raises(ValueError, match=r"set_attr\('autoreset_mode'\).*HolderSB3VecEnv sets it"):
         env.set_attr("autoreset_mode", "NextStep")
     env.step(np.zeros(3, dtype=np.int64))
+
+
+def _played(env, seed, steps=12):
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(steps):
+        obs, rewards, dones, infos = env.step(rng.integers(3, size=N))
+        out.append((obs.tobytes(), rewards.tobytes(), dones.tobytes(), repr(infos)))
+    return out
+
+
+@pytest.mark.parametrize("how", ["copy", "deepcopy", "pickle"])
+def test_a_copy_is_independent_and_continues_every_drill_bit_for_bit(how):
+    """copy.copy gave an alias: the copy's steps moved the original's drills."""
+    import copy
+    import pickle
+
+    original = HolderSB3VecEnv(N, opponent=TEAM)
+    original.seed(3)
+    original.reset()
+    _played(original, 1, steps=3)
+    duplicate = {"copy": copy.copy, "deepcopy": copy.deepcopy,
+                 "pickle": lambda env: pickle.loads(pickle.dumps(env))}[how](original)
+    assert duplicate.venv is not original.venv
+    copied = _played(duplicate, 2)
+    assert _played(original, 2) == copied  # not moved by the copy's steps

@@ -72,8 +72,8 @@ def test_num_envs_beyond_the_memory_available_is_refused_with_the_estimate(monke
     """Up to 1,000,000 drills were accepted whatever the memory (about 20 MB per 1,000),
     and under a memory limit 200,000 crashed inside pymunk: the estimate is checked
     against what is available before any drill is built."""
-    from soccer_drill import batch_core
     from soccer_drill.vector import HolderVectorEnv
+    from soccer_drill.vector import core as batch_core
 
     assert batch_core.available_memory() is None or batch_core.available_memory() > 0
     monkeypatch.setattr(batch_core, "available_memory", lambda: 10 * 2**20)  # 10 MiB
@@ -82,4 +82,39 @@ def test_num_envs_beyond_the_memory_available_is_refused_with_the_estimate(monke
                                          r"at most 320 drills fit now"):
         HolderVectorEnv(1000, opponent="chasers")
     env = HolderVectorEnv(8, opponent="chasers")  # 256 KiB: fits
+    env.close()
+
+
+@pytest.mark.parametrize("kind", ["holder", "agents"])
+def test_frames_of_every_drill_beyond_the_memory_available_are_refused_with_the_estimate(
+    kind, monkeypatch
+):
+    """render() returns a frame of every drill at once (0.66 MiB each on the default field,
+    3.1 MiB on the largest): with rgb_array, num_envs is checked with its frames, and
+    render() checks them against what is available when it is called."""
+    from soccer_drill.vector import HolderVectorEnv
+    from soccer_drill.vector import core as batch_core
+    from soccer_drill.vector.agents import ParallelVectorEnv
+
+    make = HolderVectorEnv if kind == "holder" else ParallelVectorEnv
+    monkeypatch.setattr(batch_core, "available_memory", lambda: 100 * 2**20)  # 100 MiB
+    with pytest.raises(ValueError, match=r"num_envs=200 with render_mode='rgb_array' needs about "
+                                         r"139 MiB: 200 drills \(up to 32 KiB each\) and their "
+                                         r"frames \(201 of 468 x 492 pixels, 0\.66 MiB each, "
+                                         r"render\(\) returns them together\), more than the "
+                                         r"100 MiB of memory available; at most 143 drills fit "
+                                         r"now with their frames"):
+        make(200, opponent="chasers", render_mode="rgb_array")
+    make(200, opponent="chasers").close()  # without frames: 6 MiB
+    env = make(8, opponent="chasers", render_mode="rgb_array")
+    env.reset(seed=0)
+    assert len(env.render()) == 8
+    monkeypatch.setattr(batch_core, "available_memory", lambda: 2 * 2**20)  # less, since
+    with pytest.raises(RuntimeError, match=r"render\(\) of 8 drills needs about 5\.9 MiB for "
+                                           r"their frames \(9 of 468 x 492 pixels, 0\.66 MiB "
+                                           r"each\), more than the 2\.0 MiB of memory available "
+                                           r"now; at most 2 frames fit"):
+        env.render()
+    monkeypatch.setattr(batch_core, "available_memory", lambda: None)  # unknown: not checked
+    assert len(env.render()) == 8
     env.close()

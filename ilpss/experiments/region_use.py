@@ -1,7 +1,6 @@
 """Which source policy runs in each true region of a region-composed target.
 
-    python -m ilpss.experiments.region_use RUN_FOLDER [--methods M ...] [--seeds 5]
-        [--episodes 20] [--out PAGE.md]
+    ilpss-region-use RUN_FOLDER [--methods M ...] [--seeds 5] [--episodes 20] [--out PAGE.md]
 
 A region-composed target (:data:`~ilpss.experiments.drill.TEAM_COMPOSITION`) plays one
 source's behaviour on one side of a split and another source's on the other. This reads
@@ -196,7 +195,7 @@ def plot(uses: dict[str, list[RegionUse]], path: Path) -> Path:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point."""
-    p = argparse.ArgumentParser(prog="python -m ilpss.experiments.region_use",
+    p = argparse.ArgumentParser(prog="ilpss-region-use",
                                 description=__doc__.splitlines()[0])
     p.add_argument("run", help="a run folder of protocol R, S or L")
     p.add_argument("--methods", nargs="+", help="lifelong methods (default: every one)")
@@ -211,7 +210,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         uses = region_use(Path(args.run), args.methods, args.seeds, args.episodes)
         figure = plot(uses, out.with_suffix(".png"))
         given = sys.argv[1:] if argv is None else list(argv)
-        command = " ".join(["python -m ilpss.experiments.region_use", *given])
+        command = " ".join(["ilpss-region-use", *given])
         atomic_write_bytes(out, page(uses, command, figure.name).encode())
     except (ValueError, KeyError, OSError) as exc:
         p.exit(1, f"{p.prog}: error: {exc}\n")

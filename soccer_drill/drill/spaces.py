@@ -29,6 +29,7 @@ import pymunk
 import pymunk.batch as pmb
 
 from soccer_drill.config import DrillConfig, is_integer
+from soccer_drill.interruptions import CtrlCDeferred
 
 PLAYER_MASS = 75.0
 _BALL_MASS, _BALL_RADIUS = 0.45, 0.11
@@ -129,7 +130,13 @@ class DrillSpace:
         self._step = space_step(self.space)
 
     def renew(self, drills: np.ndarray, pos: np.ndarray) -> None:
-        """A new space with the bodies at rest at ``pos[0]`` (the drill's start)."""
+        """A new space with the bodies at rest at ``pos[0]`` (the drill's start); a Ctrl-C
+        meanwhile waits for its end (the old space is freed there:
+        :class:`~soccer_drill.interruptions.CtrlCDeferred`)."""
+        with CtrlCDeferred():
+            self._renew_now(pos)
+
+    def _renew_now(self, pos: np.ndarray) -> None:
         cfg = self.config
         space = pymunk.Space()
         players = [pymunk.Body(PLAYER_MASS, math.inf) for _ in range(4)]  # no spin
@@ -229,7 +236,13 @@ class BatchPhysics:
                 self._build_space(k)
 
     def _build_space(self, k: int) -> None:
-        """Space ``k``: its drills' players and walls, each drill in its own region."""
+        """Space ``k``: its drills' players and walls, each drill in its own region (a
+        Ctrl-C meanwhile waits for the end: :class:`~soccer_drill.interruptions.CtrlCDeferred`)."""
+        self._fresh[k] = False  # until built: a build cut short is built again
+        with CtrlCDeferred():
+            self._build_space_now(k)
+
+    def _build_space_now(self, k: int) -> None:
         cfg, sl = self.config, self._slices[k]
         count = sl.stop - sl.start
         cols = max(1, math.ceil(math.sqrt(self.drills_per_space)))

@@ -139,7 +139,7 @@ class DrillCore:
                 raise ValueError("opponent_params given but opponent is None")
             self.team, self.team_name = None, None
         else:
-            self.team, self.team_name, _ = resolve_team(opponent, opponent_params)
+            self.team, self.team_name, _ = resolve_team(opponent, opponent_params, team_timeout)
         scripted = set(scripted_attackers) | ({2, 3} if self.team is not None else set())
         self.agent_indices = tuple(i for i in range(4) if i not in scripted)
         self.scripted_attackers = tuple(sorted(scripted_attackers))

@@ -25,6 +25,17 @@ _ATTACKER, _DEFENDER, _HOLDER = (40, 90, 220), (215, 50, 50), (255, 215, 0)
 _GOAL_CENTRE, _GOAL_EDGE = (255, 255, 255), (150, 150, 150)
 
 
+def frame_geometry(config: DrillConfig) -> tuple[float, float, tuple[int, int]]:
+    """How a frame of ``config``'s drill is drawn: the margin drawn around the field
+    (metres), the scale (pixels a metre) and the frame's ``(width, height)`` in pixels."""
+    # Everything a player can reach is drawn: the walls stand wall_margin outside.
+    margin = max(MARGIN, config.wall_margin + config.player_radius)
+    drawn = config.field_size + 2 * margin
+    scale = min(SCALE, MAX_SIDE / drawn)
+    side = round(drawn * scale)
+    return margin, scale, (side, side + 24)  # a strip for the caption
+
+
 class Renderer:
     """Draws :class:`DrillState` snapshots: the field and what lies within the walls, at
     :data:`SCALE` pixels a metre, or less on a field too large for :data:`MAX_SIDE`.
@@ -37,12 +48,7 @@ class Renderer:
 
     def __init__(self, config: DrillConfig, mode: str, fps: int = 10) -> None:
         self.config, self.mode, self.fps = config, mode, fps
-        # Everything a player can reach is drawn: the walls stand wall_margin outside.
-        self.margin = max(MARGIN, config.wall_margin + config.player_radius)
-        drawn = config.field_size + 2 * self.margin
-        self.scale = min(SCALE, MAX_SIDE / drawn)
-        side = round(drawn * self.scale)
-        self.size = (side, side + 24)  # a strip for the caption
+        self.margin, self.scale, self.size = frame_geometry(config)
         pygame.font.init()
         self._font = pygame.font.Font(None, 20)
         self._window = None

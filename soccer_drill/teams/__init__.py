@@ -5,7 +5,7 @@
 | :mod:`~soccer_drill.teams.registry` | the :class:`Team` protocol, :func:`register`, :func:`make_team`, entry-point discovery, :func:`team_code` |
 | :mod:`~soccer_drill.teams.driver` | :func:`check_commands` (what a team returned, checked; the words of each refusal) and :class:`TeamDriver` (a team within its CPU-time bound) |
 | :mod:`~soccer_drill.teams.batch` | the batched protocol (:class:`~soccer_drill.teams.batch.BatchView`, ``BatchCommands``, ``BatchRandom``, ``SameCommands``) and ``BatchTeamDriver`` (a team's ``batch(n)``, or one copy per drill) |
-| :mod:`~soccer_drill.teams.time_bound`, :mod:`~soccer_drill.teams.interruptions` | the CPU-time bound of one call; which exceptions out of a team a signal delivered |
+| :mod:`~soccer_drill.teams.time_bound` | the CPU-time bound of one call (which exceptions a signal delivered: :mod:`soccer_drill.interruptions`) |
 
 The names below are this package's: what plugins and users import from
 ``soccer_drill.teams``.
@@ -17,6 +17,7 @@ from soccer_drill.teams.driver import (
     SCRIPTED_SKILLS,
     TeamDriver,
     check_commands,
+    resolve_team,
     skill_refused,
     speed_allowed,
     speed_refused,
@@ -37,7 +38,6 @@ from soccer_drill.teams.registry import (
     make_team,
     refresh,
     register,
-    resolve_team,
     team_code,
     team_ids,
     team_parameters,

@@ -14,8 +14,9 @@ without ``batch`` runs as one copy per drill, each behind its own
 :class:`~soccer_drill.teams.TeamDriver` (its checks, as in the single environment).
 
 :class:`BatchTeamDriver` runs either kind: one CPU-time bound per cycle of the batch
-(``team_timeout`` for a batched team; ``team_timeout`` times the drills acting, for the
-copies, each copy's call also held to ``team_timeout`` when it returns), and the
+(``team_timeout`` for a batched team; for the copies, one timer for the cycle whose
+count starts afresh at each copy, so that each copy's call is held to ``team_timeout``
+as the single environment holds its team), and the
 commands checked, a bad one named by drill, player and cycle. An error
 of a copy names its drill; one of a batched call names the drills it was called for (it
 cannot tell which of them failed). After a team's error the drills that acted are
@@ -40,13 +41,14 @@ from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView, ReadOnlyView
 from soccer_drill.teams.driver import (
     SCRIPTED_SKILLS,
     TeamDriver,
+    resolve_team,
     skill_refused,
     speed_allowed_compiled,
     speed_refused,
     target_refused,
 )
-from soccer_drill.teams.registry import Team, TeamError, make_team, resolve_team
-from soccer_drill.teams.time_bound import counted_cpu
+from soccer_drill.teams.registry import Team, TeamError, make_team
+from soccer_drill.teams.time_bound import Overrun, counted_cpu, restart_count
 
 _MOVE_TO = int(Skill.MOVE_TO)
 _IS_ALLOWED = np.zeros(len(Skill), dtype=bool)  # by skill value: may a scripted defender use it
@@ -281,7 +283,8 @@ class BatchTeamDriver:
         opponent_params: keyword parameters of the team factory (with an id).
         n: number of drills.
         config: the drills' configuration.
-        team_timeout: the CPU-time bound of one batched call (see the module docstring).
+        team_timeout: the CPU-time bound of one batched call, or of each copy's call
+            (see the module docstring).
     """
 
     def __init__(
@@ -292,49 +295,72 @@ class BatchTeamDriver:
         team_timeout: float | None,
     ) -> None:
         players = PLAYER_NAMES[2:]
-        team, self.name, params = resolve_team(opponent, opponent_params)
+        team, self.name, params = resolve_team(opponent, opponent_params, team_timeout)
         n = batch.n
         self._batch = batch
         self.view = BatchView(batch, players)
         self._bound = TeamDriver(team, self.name, players, team_timeout)
-        self.batched: BatchTeam | None = None
-        make_batch = getattr(team, "batch", None)
-        if callable(make_batch):
-            self.batched = self._bound.call("batch()", "", make_batch, n)
-            if not isinstance(self.batched, BatchTeam) or not (
-                callable(self.batched.reset) and callable(self.batched.act)
-            ):
-                raise TeamError(
-                    f"team {self.name!r}: batch({n}) returned {type(self.batched).__name__}, "
-                    "which lacks reset(view, drills, rng) and act(view, drills)"
-                )
+        # Every attribute of the team is read inside its bound and error wrapping (a
+        # property runs the team's code), as its methods are called.
+        self.batched: BatchTeam | None = self._bound.call("batch()", "", self._make_batch, team, n)
+        if self.batched is not None:
             self.rng = BatchRandom(n)
             self._drivers: list[TeamDriver] = []
         else:
-            copies = [team] + [self._copy(opponent, team, params) for _ in range(n - 1)]
+            copies = [team] + [self._copy(opponent, team, params, i) for i in range(1, n)]
             self._drivers = [TeamDriver(t, self.name, players, None, drill=i)
                              for i, t in enumerate(copies)]
-            # One bound around the calls of all drills acting in a cycle (their own: none).
+            # One bound around the calls of all drills acting in a cycle, counted afresh
+            # for each drill's copy (time_bound.restart_count): each copy is held to
+            # team_timeout, with one timer armed per cycle (the copies' drivers: none).
             self._each_bound = TeamDriver(team, self.name, players, team_timeout)
+            self._part = counted_cpu if team_timeout is None else restart_count
             self._slots = [_Slot(batch.config) for _ in range(n)]
             self._views = [DrillView(slot, players) for slot in self._slots]
         self._timeout = team_timeout
         self.failure: str | None = None
         """The error of the team's last failed call, until every drill is reset."""
 
-    def _copy(self, opponent: str | Team, team: Team, params: dict[str, Any]) -> Team:
-        """One more copy of the team, for a drill of its own."""
+    def _make_batch(self, team: Team, n: int) -> BatchTeam | None:
+        """The team's batched form (``team.batch(n)``, checked), or ``None`` if it has none."""
+        make_batch = getattr(team, "batch", None)
+        if not callable(make_batch):
+            return None
+        batched = make_batch(n)
+        if not isinstance(batched, BatchTeam) or not (
+            callable(batched.reset) and callable(batched.act)
+        ):
+            raise TeamError(
+                f"team {self.name!r}: batch({n}) returned {type(batched).__name__}, "
+                "which lacks reset(view, drills, rng) and act(view, drills)"
+            )
+        return batched
+
+    def _copy(self, opponent: str | Team, team: Team, params: dict[str, Any], drill: int) -> Team:
+        """One more copy of the team, for drill ``drill`` (``copy.deepcopy`` runs inside
+        the team's bound: a ``__deepcopy__`` is the team's code)."""
         if isinstance(opponent, str):
             return make_team(opponent, **params)
-        try:
-            return copy.deepcopy(team)
-        except Exception as exc:
+        failed: list[tuple[str, Exception]] = []
+
+        def copying() -> Team | None:
+            try:
+                return copy.deepcopy(team)
+            except Exception as exc:  # not copyable: said below, with what to do
+                text = str(exc)  # the team's code too (an exception of its own)
+                text = text if len(text) <= 400 else text[:400] + "..."
+                failed.append((f"{type(exc).__name__}: {text}", exc))
+                return None
+
+        copied = self._bound.call("copy.deepcopy()", f" for drill {drill}", copying)
+        if failed:
             raise TypeError(
                 f"team {self.name!r}: the batched drill runs a team without batch(n) as one "
                 f"copy per drill, made by copy.deepcopy, and copying it failed "
-                f"({type(exc).__name__}: {exc}); make it copyable, give it a batch(n) "
+                f"({failed[0][0]}); make it copyable, give it a batch(n) "
                 "method, or register its factory and pass its id"
-            ) from exc
+            ) from failed[0][1]
+        return copied  # type: ignore[return-value]
 
     def _refresh(self, drills: np.ndarray) -> None:
         for i in drills.tolist():
@@ -346,11 +372,9 @@ class BatchTeamDriver:
         with self._failing():
             if self.batched is not None:
                 self.rng.seed(drills, seeds)
-                self._bound.call("reset()", _Calling(drills, None), self.batched.reset, self.view,
-                                 _read_only(drills), self.rng)
+                self._bound.call("reset()", _Calling(drills, None), self._batched_reset, drills)
             else:
                 self._refresh(drills)
-                self._each_bound.team_timeout = self._scaled(drills)
                 calling = _Calling(drills, None, self._timeout)
                 self._each_bound.call("reset()", calling, self._each_reset, drills, seeds, calling)
         if len(drills) == len(self._batch.cycle):
@@ -359,8 +383,13 @@ class BatchTeamDriver:
     def _each_reset(self, drills: np.ndarray, seeds: list[int], calling: _Calling) -> None:
         for i, s in zip(drills.tolist(), seeds, strict=True):
             calling.running = i
-            start = counted_cpu()
-            self._drivers[i].reset(self._views[i], np.random.default_rng(s))
+            start = self._part()
+            try:
+                self._drivers[i].reset(self._views[i], np.random.default_rng(s))
+            except Overrun as exc:
+                if self._timeout is None:  # an enclosing bound's, not this driver's
+                    raise
+                raise self._past_copy_bound(i, "reset()", "", exc) from None
             self._check_copy_time(i, "reset()", "", start)
 
     def act(self, drills: np.ndarray, skill: np.ndarray, target: np.ndarray, speed: np.ndarray) -> None:
@@ -374,7 +403,6 @@ class BatchTeamDriver:
                 commands = self._bound.call("act()", calling, self._checked_act, drills)
             else:
                 self._refresh(drills)
-                self._each_bound.team_timeout = self._scaled(drills)
                 calling = _Calling(drills, self._batch.cycle, self._timeout)
                 commands = self._each_bound.call("act()", calling, self._each_act, drills, calling)
         sk, tg, sp = commands
@@ -382,9 +410,6 @@ class BatchTeamDriver:
         skill[rows, 2:] = sk
         target[rows, 2:] = tg
         speed[rows, 2:] = sp
-
-    def _scaled(self, drills: np.ndarray) -> float | None:
-        return None if self._timeout is None else self._timeout * len(drills)
 
     def check_usable(self) -> None:
         """:class:`TeamError` if the team failed and not every drill was reset since."""
@@ -410,8 +435,14 @@ class BatchTeamDriver:
         speed = np.empty((m, 2))
         for r, i in enumerate(drills.tolist()):
             calling.running = i
-            start = counted_cpu()
-            acted = self._drivers[i].act(self._views[i])
+            start = self._part()
+            try:
+                acted = self._drivers[i].act(self._views[i])
+            except Overrun as exc:
+                if self._timeout is None:  # an enclosing bound's, not this driver's
+                    raise
+                raise self._past_copy_bound(i, "act()", f" at cycle {int(self._batch.cycle[i])}",
+                                            exc) from None
             self._check_copy_time(i, "act()", f" at cycle {int(self._batch.cycle[i])}", start)
             for index, command in acted:
                 k = index - 2
@@ -423,15 +454,26 @@ class BatchTeamDriver:
 
     def _check_copy_time(self, drill: int, call: str, when: str, start: float) -> None:
         """A copy whose call took more than ``team_timeout`` of CPU time is an overrun,
-        as in the single drill, even when the copies together stayed within their bound
-        (which only stops a copy that never returns)."""
+        as in the single drill, also where the bound cannot interrupt it (off the main
+        thread, without ``setitimer``): then it is said when the call returns."""
         spent = counted_cpu() - start
         if self._timeout is not None and spent > self._timeout:
-            raise TeamError(
-                f"team {self.name!r} (drill {drill}) exceeded its time bound of "
-                f"{self._timeout:g} s of CPU time in {call}{when} (took {spent:.2f} s of CPU "
-                "time); fix the team or pass a larger team_timeout"
-            )
+            raise self._past_copy_bound(drill, call, when, spent)
+
+    def _past_copy_bound(self, drill: int, call: str, when: str,
+                         past: float | Overrun) -> TeamError:
+        """The error of drill ``drill``'s copy past its bound: ``past`` is the CPU time it
+        took, or the :class:`Overrun` that stopped it."""
+        took = f"took {past:.2f}" if isinstance(past, float) else f"stopped after {past.cpu:.2f}"
+        return TeamError(
+            f"team {self.name!r} (drill {drill}) exceeded its time bound of {self._timeout:g} s "
+            f"of CPU time in {call}{when} ({took} s of CPU time); fix the team or pass a larger "
+            "team_timeout"
+        )
+
+    def _batched_reset(self, drills: np.ndarray) -> None:
+        assert self.batched is not None
+        self.batched.reset(self.view, _read_only(drills), self.rng)  # its attribute read here
 
     def _checked_act(self, drills: np.ndarray) -> BatchCommands:
         assert self.batched is not None

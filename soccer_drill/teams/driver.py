@@ -13,11 +13,11 @@ from typing import Any
 
 import numpy as np
 
+from soccer_drill.interruptions import MAX_ITEMS, delivered_by_signal, short_repr
 from soccer_drill.rules.compiled import compiled
 from soccer_drill.rules.first_use import warm_up
 from soccer_drill.skills import BALL_SKILLS, Command, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillView
-from soccer_drill.teams.interruptions import MAX_ITEMS, delivered_by_signal, short_repr
 from soccer_drill.teams.registry import (
     DEFAULT_TEAM_TIMEOUT,
     Team,
@@ -25,6 +25,8 @@ from soccer_drill.teams.registry import (
     _is_real,
     _what_happened,
     check_team_timeout,
+    make_team,
+    team_parameters,
 )
 from soccer_drill.teams.time_bound import Overrun, call_within
 
@@ -113,6 +115,41 @@ def check_commands(
             f"{_named(team, drill)} returned commands that could not be checked at cycle "
             f"{cycle}: {_what_happened(exc)}"
         ) from exc
+
+
+def resolve_team(
+    opponent: object, opponent_params: object, team_timeout: float | None = DEFAULT_TEAM_TIMEOUT
+) -> tuple[Team, str, dict[str, Any]]:
+    """The team an environment's ``opponent`` and ``opponent_params`` name, its name in
+    errors, and the parameters it was built with.
+
+    ``opponent`` is a registered team id (built by :func:`make_team` with
+    ``opponent_params``) or a :class:`Team` instance (then ``opponent_params`` must be
+    empty: the instance is already built). A class is refused: its methods would be
+    called without an instance. Whether an instance is a team is read from its ``reset``
+    and ``act`` (a property there is the team's code), within ``team_timeout`` and
+    :class:`TeamDriver`'s error wrapping.
+    """
+    if isinstance(opponent, str):
+        params = team_parameters(opponent_params)
+        return make_team(opponent, **params), opponent, params
+    if isinstance(opponent, type):
+        raise TypeError(
+            f"opponent must be a team id or a Team instance, got the class {opponent.__name__}: "
+            f"pass an instance ({opponent.__name__}(...)), or register it "
+            "(soccer_drill.teams.register) and pass its id"
+        )
+    name = type(opponent).__name__
+    driver = TeamDriver(opponent, name, (), team_timeout)  # type: ignore[arg-type]
+    if driver.call("reading its reset and act", "", isinstance, opponent, Team):
+        if opponent_params:
+            raise ValueError(
+                f"opponent_params given with a Team instance ({type(opponent).__name__}): an "
+                "instance is already built, so give its parameters to its constructor, or pass "
+                "a registered team id with opponent_params"
+            )
+        return opponent, type(opponent).__name__, {}
+    raise TypeError(f"opponent must be a team id or a Team instance, got {short_repr(opponent)}")
 
 
 def _named(team: str, drill: int | None) -> str:
@@ -209,7 +246,7 @@ class TeamDriver:
 
     What the bound counts is the CPU time of the thread running the team during the call
     (``time.thread_time``), less garbage collections (see
-    :mod:`soccer_drill.time_bound`):
+    :mod:`soccer_drill.teams.time_bound`):
 
     | the team's call | counted | stopped |
     |---|---|---|

@@ -38,9 +38,9 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from soccer_drill.interruptions import delivered_by_signal, short_repr
 from soccer_drill.skills import Command
 from soccer_drill.state import DrillView
-from soccer_drill.teams.interruptions import delivered_by_signal, short_repr
 
 ENTRY_POINT_GROUP = "soccer_drill.opponents"
 DEFAULT_TEAM_TIMEOUT = 1.0
@@ -321,7 +321,7 @@ def make_team(team_id: str, **params: Any) -> Team:
             what it takes), or the factory refused them with a ``ValueError``.
         TeamError: the factory failed otherwise (any other exception, ``SystemExit``
             and a ``KeyboardInterrupt`` it raised included; a Ctrl-C is not caught, see
-            :mod:`soccer_drill.teams.interruptions`), or built something that is not a team.
+            :mod:`soccer_drill.interruptions`), or built something that is not a team.
     """
     factory = _lookup(team_id)
     problem = _binding_problem(factory, params)
@@ -347,35 +347,6 @@ def make_team(team_id: str, **params: Any) -> Team:
             "reset(view, rng) and act(view)"
         )
     return team
-
-
-def resolve_team(opponent: object, opponent_params: object) -> tuple[Team, str, dict[str, Any]]:
-    """The team an environment's ``opponent`` and ``opponent_params`` name, its name in
-    errors, and the parameters it was built with.
-
-    ``opponent`` is a registered team id (built by :func:`make_team` with
-    ``opponent_params``) or a :class:`Team` instance (then ``opponent_params`` must be
-    empty: the instance is already built). A class is refused: its methods would be
-    called without an instance.
-    """
-    if isinstance(opponent, str):
-        params = team_parameters(opponent_params)
-        return make_team(opponent, **params), opponent, params
-    if isinstance(opponent, type):
-        raise TypeError(
-            f"opponent must be a team id or a Team instance, got the class {opponent.__name__}: "
-            f"pass an instance ({opponent.__name__}(...)), or register it "
-            "(soccer_drill.teams.register) and pass its id"
-        )
-    if isinstance(opponent, Team):
-        if opponent_params:
-            raise ValueError(
-                f"opponent_params given with a Team instance ({type(opponent).__name__}): an "
-                "instance is already built, so give its parameters to its constructor, or pass "
-                "a registered team id with opponent_params"
-            )
-        return opponent, type(opponent).__name__, {}
-    raise TypeError(f"opponent must be a team id or a Team instance, got {short_repr(opponent)}")
 
 
 def _binding_problem(factory: Callable[..., Any], params: dict[str, Any]) -> str | None:

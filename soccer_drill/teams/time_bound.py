@@ -102,6 +102,15 @@ class _Call:
 _active: _Call | None = None  # the main thread's interruptible call, read by the handler
 
 
+class _Innermost(threading.local):
+    """This thread's innermost bounded call (interruptible or measured)."""
+
+    call: _Call | None = None
+
+
+_innermost = _Innermost()
+
+
 def counted_cpu() -> float:
     """This thread's CPU seconds as a bound counts them: less the garbage collections
     seen inside bounded calls. The difference of two readings within one bounded call is
@@ -109,14 +118,34 @@ def counted_cpu() -> float:
     return _thread_time() - _gc_time.total
 
 
+def restart_count() -> float:
+    """Count the CPU time of this thread's innermost bounded call afresh from now, and
+    return :func:`counted_cpu`.
+
+    For a call that runs parts one after another, each held to the bound on its own (the
+    batched drill runs a team's copies, one per drill, in one bounded call): a part that
+    runs past ``timeout`` from its start is stopped as a call would be, with one timer
+    armed for all of them (the interval timer, re-armed when it fires early, fires
+    ``timeout`` after the start of the part running then at the latest). Outside a
+    bounded call it only returns :func:`counted_cpu`.
+    """
+    call, now, collected = _innermost.call, _thread_time(), _gc_time.total
+    if call is not None:
+        call.cpu_start, call.gc_start = now, collected
+    return now - collected
+
+
 def call_within(timeout: float, method: Callable[..., Any], *args: Any) -> Any:
     """``method(*args)``, raising :class:`Overrun` if it takes more than ``timeout``
-    seconds of CPU time (see the module docstring for how, and what is not counted)."""
+    seconds of CPU time (see the module docstring for how, and what is not counted;
+    :func:`restart_count` for a call of parts, each bounded on its own)."""
     global _active
     callbacks = gc.callbacks
     callbacks.append(_count_gc)
+    innermost = _innermost
+    enclosing = innermost.call
     try:
-        call = _Call(timeout)
+        call = innermost.call = _Call(timeout)
         if (
             CAN_INTERRUPT
             and threading.get_ident() == _MAIN_THREAD
@@ -151,6 +180,7 @@ def call_within(timeout: float, method: Callable[..., Any], *args: Any) -> Any:
             raise Overrun(call.cpu())
         return result
     finally:
+        innermost.call = enclosing
         callbacks.remove(_count_gc)
 
 

@@ -27,7 +27,7 @@ from soccer_drill.envs.core import (
     out_of_range,
     resolve_shared_spaces,
 )
-from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
+from soccer_drill.rendering.batch import BatchRenderer, check_frames_fit, check_render_mode
 from soccer_drill.rules.cycle import RUNNING
 from soccer_drill.rules.features import (
     batch_global_state,
@@ -113,6 +113,12 @@ class ParallelVectorEnv:
     ``ValueError``, and actions not of an integer dtype (floats, bools) ``TypeError``, as
     ``parallel_env``'s ``step`` does, naming the drill.
 
+    ## Interruptions
+
+    As :class:`~soccer_drill.vector.HolderVectorEnv`'s: a ``reset`` or ``step`` stopped
+    part-way (a Ctrl-C, a team's error) makes every later ``step`` raise ``RuntimeError``
+    saying to call ``reset()``, which brings every drill back as in a new environment.
+
     ## Seeding
 
     As :class:`~soccer_drill.vector.HolderVectorEnv`: ``reset(seed=s)`` starts drill
@@ -136,7 +142,7 @@ class ParallelVectorEnv:
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``illegal_action`` | ``"default"`` | ``"default"`` or ``"raise"`` |
-    | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take |
+    | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take (a team without a batched ``act``: each drill's copy, each call) |
     | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
     | ``shared_spaces`` | ``None`` | as ``parallel_env``'s: ``None`` is ``True`` with no opponent (every agent has the same action and observation spaces), ``False`` with one; ``False``: per-role spaces |
     | ``render_mode`` | ``None`` | ``None`` or ``"rgb_array"`` (see Calls) |
@@ -168,6 +174,8 @@ class ParallelVectorEnv:
             raise ValueError(f"illegal_action must be 'raise' or 'default', got {illegal_action!r}")
         self.num_envs, self.obs_type, self.illegal_action = n, obs_type, illegal_action
         self.config = make_config(config, max_cycles)
+        if self.render_mode is not None:  # before any drill is built
+            check_frames_fit(n, self.config)
         self._core = BatchCore(
             n, opponent, opponent_params, self.config, team_timeout, False, drills_per_space
         )
@@ -223,15 +231,20 @@ class ParallelVectorEnv:
         if options:  # a reset of every drill: no option changes it (HolderVectorEnv has reset_mask)
             raise ValueError(f"ParallelVectorEnv.reset takes no options, got {options!r}")
         core = self._core
-        core.seed(check_seed(seed, self.num_envs))
-        core.reset(np.arange(self.num_envs))
-        self._autoreset[:] = False
-        self._has_reset = True
+        seeds = check_seed(seed, self.num_envs)
+
         def none() -> np.ndarray:  # an array of each agent's own
             return np.full(self.num_envs, -1)
 
-        return self._observations(), self._infos({a: none() for a in self.agents},
-                                                 {a: none() for a in self.agents})
+        def reset() -> tuple[dict[str, Any], dict[str, Any]]:
+            core.seed(seeds)
+            core.reset(np.arange(self.num_envs))
+            self._autoreset[:] = False
+            self._has_reset = True
+            return self._observations(), self._infos({a: none() for a in self.agents},
+                                                     {a: none() for a in self.agents})
+
+        return core.changing("ParallelVectorEnv.reset()", reset, every_drill=True)
 
     def action_masks(self) -> dict[str, np.ndarray]:
         """``{agent: (num_envs, n) int8}``: the legal actions of each drill now."""
@@ -331,23 +344,29 @@ class ParallelVectorEnv:
         if not self._has_reset:
             raise RuntimeError("step() called before reset(); call reset() first")
         core, b = self._core, self._core.batch
+        core.check_usable()
         stepping = ~self._autoreset
         illegal, taken = self._commands(actions, stepping)
-        resetting = np.nonzero(self._autoreset)[0]
-        if len(resetting):
-            core.reset(resetting)
-        core.advance(stepping)
-        ended = stepping & (b.outcome != RUNNING)
-        reward = np.where(ended, b.attacker_reward, 0.0)
-        truncated = ended & (b.outcome == 4)
-        terminated = ended & ~truncated
-        self._autoreset = ended
-        rewards = {a: (reward.copy() if i < 2 else -reward) for a, i in self._index.items()}
-        return (
-            self._observations(), rewards,
-            {a: terminated.copy() for a in self.agents}, {a: truncated.copy() for a in self.agents},
-            self._infos(illegal, taken),
-        )
+
+        def step():
+            resetting = np.nonzero(self._autoreset)[0]
+            if len(resetting):
+                core.reset(resetting)
+            core.advance(stepping)
+            ended = stepping & (b.outcome != RUNNING)
+            reward = np.where(ended, b.attacker_reward, 0.0)
+            truncated = ended & (b.outcome == 4)
+            terminated = ended & ~truncated
+            self._autoreset = ended
+            rewards = {a: (reward.copy() if i < 2 else -reward) for a, i in self._index.items()}
+            return (
+                self._observations(), rewards,
+                {a: terminated.copy() for a in self.agents},
+                {a: truncated.copy() for a in self.agents},
+                self._infos(illegal, taken),
+            )
+
+        return core.changing("ParallelVectorEnv.step()", step)
 
     def state(self) -> np.ndarray:
         """Every drill's global state: ``(num_envs, 29)`` float32 (see the class docstring)."""

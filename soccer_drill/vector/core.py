@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
-from typing import Any
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -13,6 +13,8 @@ from soccer_drill.rules.cycle import RUNNING
 from soccer_drill.rules.support import OFFSET_STD, RESAMPLE_CYCLES, support_commands_of_drills
 from soccer_drill.teams import Team, check_team_timeout
 from soccer_drill.teams.batch import BatchRandom, BatchTeamDriver
+
+_T = TypeVar("_T")
 
 DRILL_BYTES = 32 * 1024
 """An upper estimate of one drill's memory in a batch (measured at 13-23 KiB a drill from
@@ -97,7 +99,8 @@ class BatchCore:
         opponent: team id, ``Team`` instance, or ``None`` (no scripted team).
         opponent_params: keyword parameters of the team factory.
         config: the drills' parameters.
-        team_timeout: CPU-time bound of one batched team call (``None``: no bound).
+        team_timeout: CPU-time bound of one batched team call, or of each drill's copy's
+            (``None``: no bound).
         support: the attackers not given a command are driven by the support behaviour.
         drills_per_space: drills sharing one pymunk space.
 
@@ -133,6 +136,44 @@ class BatchCore:
         self.skill = np.zeros((n, 4), dtype=np.int64)
         self.target = np.zeros((n, 4, 2))
         self.speed = np.ones((n, 4))
+        self.interrupted: str | None = None
+        """The call of the environment that stopped part-way (see :meth:`changing`), until
+        every drill is reset."""
+
+    def changing(self, call: str, work: Callable[[], _T], every_drill: bool = False) -> _T:
+        """``work()``, a call of the environment that changes its drills (``call`` names
+        it in errors), made all or nothing as far as the caller can tell.
+
+        Every check of the call's arguments comes before it, so that a refused call
+        changes nothing. If ``work`` stops part-way -- a Ctrl-C, a team's error, anything
+        raised -- drills may be part-way through a cycle or a reset (a cycle is not undone:
+        it would mean copying every drill's physics and generators before each one), so
+        :attr:`interrupted` stays set and :meth:`check_usable` refuses every later step
+        until a reset of every drill (``every_drill``) has ended. A reset of some drills
+        keeps an earlier interruption. The flag is set before ``work`` starts and cleared
+        after its result is complete, so an interruption at any point in between is seen.
+        """
+        before = self.interrupted
+        self.interrupted = call if every_drill or before is None else before
+        try:
+            out = work()
+        except BaseException as exc:
+            if every_drill or before is None:
+                self.interrupted = f"{call} (stopped by {type(exc).__name__})"
+            raise
+        self.interrupted = None if every_drill else before
+        return out
+
+    def check_usable(self) -> None:
+        """The team's error (:meth:`check_team`), or ``RuntimeError`` if a call stopped
+        part-way (:meth:`changing`) and the drills were not all reset since."""
+        self.check_team()
+        if self.interrupted is not None:
+            raise RuntimeError(
+                f"{self.interrupted} stopped part-way, which may leave drills part-way "
+                "through a cycle or a reset; call reset() (of every drill: no reset_mask) to "
+                "start every drill again"
+            )
 
     def seed(self, seeds: list[int | None] | None) -> None:
         """Reseed the drills: ``seeds`` is :func:`check_seed`'s, one seed (or ``None``:

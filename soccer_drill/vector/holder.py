@@ -15,7 +15,7 @@ from soccer_drill.config import DrillConfig, is_integer
 from soccer_drill.drill import DRILLS_PER_SPACE, OUTCOME_NAMES, check_drills_per_space
 from soccer_drill.envs.core import make_config
 from soccer_drill.envs.holder import check_decision_cycles, check_holder_action
-from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
+from soccer_drill.rendering.batch import BatchRenderer, check_frames_fit, check_render_mode
 from soccer_drill.rules.compiled import compiled
 from soccer_drill.rules.features import batch_features, feature_bounds
 from soccer_drill.skills import HOLDER_ACTIONS
@@ -191,7 +191,11 @@ class HolderVectorEnv(VectorEnv):
 
     ``copy.deepcopy``, ``copy.copy`` and ``pickle`` give an independent environment
     continuing every drill's episode: the same actions give bit-identical steps in the
-    copy and the original (pymunk's spaces are copied with their contacts).
+    copy and the original (pymunk's spaces are copied with their contacts). So does
+    ``copy.copy`` of ``HolderSB3VecEnv``. Gymnasium's vector wrappers
+    (``RecordEpisodeStatistics``, ...) are copied shallowly by ``copy.copy``, as its
+    single-environment wrappers are (``HolderEnv``'s Copies): that copy shares this
+    environment; there, use ``copy.deepcopy`` or ``pickle``, or ``copy.copy(env.unwrapped)``.
 
     ## Errors
 
@@ -200,6 +204,14 @@ class HolderVectorEnv(VectorEnv):
     ``ValueError`` naming the drill (``drill 17: action must be an integer in 0..2
     ...``) before any drill moves, so the others are not changed. A team's failure
     raises ``TeamError`` naming the team; then call ``reset()``.
+
+    A call stopped part-way -- a Ctrl-C, a team's error, anything raised once its
+    arguments were checked -- may leave drills part-way through a cycle or a reset: every
+    later ``step``, ``send`` and ``recv`` then raises ``RuntimeError`` naming that call
+    and saying to call ``reset()``, and a reset of every drill (no ``reset_mask``) brings
+    every drill back as in a new environment. A call stopped before its work began (its
+    arguments being checked) changed nothing. A Ctrl-C while pymunk builds or frees a
+    space waits for its end (it could crash the process at a later garbage collection).
 
     ## Arguments
 
@@ -211,7 +223,7 @@ class HolderVectorEnv(VectorEnv):
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``decision_cycles`` | ``4`` | cycles a HOLD or DRIBBLE lasts (an integer in 1..50) |
-    | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take (a team without a batched ``act``: that times the drills acting) |
+    | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take (a team without a batched ``act``: each drill's copy, each call) |
     | ``autoreset_mode`` | ``NEXT_STEP`` | see Autoreset |
     | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
     | ``batch_size`` | ``None`` | drills per ``recv()`` (see Asynchronous use); ``None``: ``num_envs`` |
@@ -264,6 +276,8 @@ class HolderVectorEnv(VectorEnv):
         self.metadata = {**self.metadata, "autoreset_mode": mode}
         self.decision_cycles = decision_cycles
         self.config = make_config(config, max_cycles)
+        if self.render_mode is not None:  # before any drill is built
+            check_frames_fit(n, self.config)
         self._core = BatchCore(
             n, opponent, opponent_params, self.config, team_timeout, True, drills_per_space
         )
@@ -301,40 +315,48 @@ class HolderVectorEnv(VectorEnv):
         options: dict[str, Any] | None = None,
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Reset every drill (or those of ``options["reset_mask"]``); see Seeding."""
-        drills = self._reset(seed, options)
-        self._ready[drills] = False
-        rows = self._all
-        return self._observe(rows), self._infos(rows, np.zeros(self.num_envs, dtype=np.int64))
+        seeds, drills = self._check_reset(seed, options)
 
-    def _reset(self, seed: int | Sequence[int | None] | None,
-               options: dict[str, Any] | None) -> np.ndarray:
-        """Reset the drills ``reset`` names (see Seeding) and return them; they then wait
-        for an action."""
-        core = self._core
+        def reset() -> tuple[np.ndarray, dict[str, Any]]:
+            self._reset(seeds, drills)
+            self._ready[drills] = False
+            rows = self._all
+            return self._observe(rows), self._infos(rows, np.zeros(self.num_envs, dtype=np.int64))
+
+        return self._core.changing("HolderVectorEnv.reset()", reset, len(drills) == self.num_envs)
+
+    def _check_reset(self, seed: int | Sequence[int | None] | None,
+                     options: dict[str, Any] | None) -> tuple[list[int | None] | None, np.ndarray]:
+        """The seeds and the drills ``reset`` names (see Seeding), checked; nothing changes."""
         seeds = check_seed(seed, self.num_envs)
         mask = None if options is None else check_reset_options(options).get("reset_mask")
-        if mask is not None:
-            mask = np.asarray(mask)
-            if mask.shape != (self.num_envs,) or mask.dtype != np.bool_ or not mask.any():
-                raise ValueError(
-                    f"options['reset_mask'] must be a bool array of shape ({self.num_envs},) "
-                    "with at least one True"
-                )
-            if not self._has_reset:
-                raise RuntimeError("reset() with a reset_mask before the first full reset()")
-            drills = np.flatnonzero(mask)
+        if mask is None:
+            return seeds, self._all
+        mask = np.asarray(mask)
+        if mask.shape != (self.num_envs,) or mask.dtype != np.bool_ or not mask.any():
+            raise ValueError(
+                f"options['reset_mask'] must be a bool array of shape ({self.num_envs},) "
+                "with at least one True"
+            )
+        if not self._has_reset:
+            raise RuntimeError("reset() with a reset_mask before the first full reset()")
+        return seeds, np.flatnonzero(mask)
+
+    def _reset(self, seeds: list[int | None] | None, drills: np.ndarray) -> None:
+        """Reset ``drills`` (every drill if they are ``self._all``) with ``seeds`` (one per
+        drill of the batch, those of other drills ignored); they then wait for an action."""
+        core = self._core
+        if drills is not self._all:
             if seeds is not None:  # one entry per drill: those of drills not reset are ignored
                 for i in drills.tolist():
                     if seeds[i] is not None:
                         core.generators[i] = np.random.default_rng(seeds[i])
         else:
             core.seed(seeds)
-            drills = self._all
         self._restart(drills)
         self._running[drills] = False
         self._in_action[drills] = False
         self._has_reset = True
-        return drills
 
     def _restart(self, drills: np.ndarray) -> None:
         """A new episode in each of ``drills``, its step counted from there."""
@@ -380,13 +402,17 @@ class HolderVectorEnv(VectorEnv):
             )
         if not self._has_reset:
             raise RuntimeError("step() called before reset(); call reset() first")
-        self._core.check_team()
+        self._core.check_usable()
         self._check_waiting(self._all, "step()")  # not after a send() without its recv()
         a = self._check_actions(actions, self._all)
-        self._send(a, self._all)
-        obs, rewards, terminated, truncated, infos = self._recv()
-        del infos["_rows"]  # every drill, in order
-        return obs, rewards, terminated, truncated, infos
+
+        def step() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+            self._send(a, self._all)
+            obs, rewards, terminated, truncated, infos = self._recv()
+            del infos["_rows"]  # every drill, in order
+            return obs, rewards, terminated, truncated, infos
+
+        return self._core.changing("HolderVectorEnv.step()", step)
 
     # ---------------------------------------------------------- asynchronous
     def async_reset(
@@ -398,8 +424,14 @@ class HolderVectorEnv(VectorEnv):
         """Reset as ``reset`` does, without returning: the reset drills' first
         observations are what the next ``recv()`` calls return (``batch_size`` at a time,
         the lowest ``env_id`` first), with reward 0 and ``duration`` 0."""
-        drills = self._reset(seed, options)
-        self._make_ready(drills)
+        seeds, drills = self._check_reset(seed, options)
+
+        def reset() -> None:
+            self._reset(seeds, drills)
+            self._make_ready(drills)
+
+        self._core.changing("HolderVectorEnv.async_reset()", reset,
+                            len(drills) == self.num_envs)
 
     def send(self, actions: Any, env_id: Any = None) -> None:
         """The holders of drills ``env_id`` (all drills if ``None``) take ``actions`` (one
@@ -412,10 +444,11 @@ class HolderVectorEnv(VectorEnv):
         """
         if not self._has_reset:
             raise RuntimeError("send() called before reset() or async_reset(); call one first")
-        self._core.check_team()
+        self._core.check_usable()
         drills = self._check_env_id(env_id)
         a = self._check_actions(actions, drills)
-        self._send(a[np.argsort(drills, kind="stable")], np.sort(drills))
+        order = np.argsort(drills, kind="stable")
+        self._core.changing("HolderVectorEnv.send()", lambda: self._send(a[order], drills[order]))
 
     def recv(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """The results of the first ``batch_size`` drills whose step is over.
@@ -427,11 +460,16 @@ class HolderVectorEnv(VectorEnv):
         """
         if not self._has_reset:
             raise RuntimeError("recv() called before reset() or async_reset(); call one first")
-        self._core.check_team()
-        obs, rewards, terminated, truncated, infos = self._recv()
-        rows = infos.pop("_rows")
-        infos["env_id"], infos["_env_id"] = rows, np.ones(len(rows), dtype=bool)
-        return obs, rewards, terminated, truncated, infos
+        self._core.check_usable()
+        self._check_recv()
+
+        def recv() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+            obs, rewards, terminated, truncated, infos = self._recv()
+            rows = infos.pop("_rows")
+            infos["env_id"], infos["_env_id"] = rows, np.ones(len(rows), dtype=bool)
+            return obs, rewards, terminated, truncated, infos
+
+        return self._core.changing("HolderVectorEnv.recv()", recv)
 
     @property
     def batch_cycles(self) -> int:
@@ -482,6 +520,18 @@ class HolderVectorEnv(VectorEnv):
     def _make_ready(self, drills: np.ndarray) -> None:
         self._ready[drills] = True
         self._ready_at[drills] = self._recv_cycles
+
+    def _check_recv(self) -> None:
+        """``RuntimeError`` if fewer than ``batch_size`` drills have or will have results
+        (those running now are all that will): before anything runs."""
+        done, running = np.count_nonzero(self._ready), np.count_nonzero(self._running)
+        if done + running < self.batch_size:
+            raise RuntimeError(
+                f"recv(): {done} drills have results and "
+                + ("none is running" if not running else f"only {running} more are running")
+                + f", so {self.batch_size} (batch_size) never will: send() actions to the "
+                "drills of the last recv() first"
+            )
 
     def _recv(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Cycle until ``batch_size`` drills are done; their results (rows ascending,
@@ -670,6 +720,7 @@ def play_episodes(
     episode = np.full(n, -1)  # the seed index each drill plays, -1: none left
     rngs: list[np.random.Generator | None] = [None] * n
     following = 0
+    env._has_reset = False  # from here on, whatever stops it, a step needs a reset first
     env._running[:] = False
     env._in_action[:] = False
 
@@ -706,5 +757,4 @@ def play_episodes(
                 results[episode[i]] = (float(b.attacker_reward[i]), OUTCOME_NAMES[b.outcome[i]])
             env._running[ended] = False
             start(ended)
-    env._has_reset = False
     return results  # type: ignore[return-value]

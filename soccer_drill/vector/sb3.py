@@ -19,6 +19,7 @@ what SB3's ``DummyVecEnv`` of ``num_envs`` ``HolderEnv`` gives, episode for epis
 | ``indices`` | ``None`` (every drill), an int or a sequence of ints in ``0..num_envs-1``, as SB3's ``_get_indices`` reads them; anything else (out of range, strings, floats, bools): ``TypeError``/``ValueError`` |
 | ``env_is_wrapped`` | ``False`` for each drill (no Gymnasium wrapper is inside) |
 | ``get_images()`` | one frame per drill with ``render_mode="rgb_array"`` |
+| ``copy.copy``, ``copy.deepcopy``, ``pickle`` | an independent copy continuing every drill's episode |
 
 SB3's own vector wrappers (``VecMonitor``, ``VecNormalize``, ``VecFrameStack``) take it
 as any ``VecEnv``; ``Monitor`` wraps a single env, so episode statistics come from
@@ -31,6 +32,7 @@ Arguments: ``num_envs`` and every other keyword argument of ``HolderVectorEnv``
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 from typing import Any
 
@@ -74,6 +76,12 @@ class HolderSB3VecEnv(VecEnv):
             self.venv.num_envs, self.venv.single_observation_space, self.venv.single_action_space
         )
         self._actions: np.ndarray | None = None
+
+    def __copy__(self) -> HolderSB3VecEnv:
+        """An independent copy continuing every drill's episode, as ``copy.deepcopy`` and
+        ``pickle`` give (a shallow copy would share the batched env, and its steps move
+        the original's drills)."""
+        return copy.deepcopy(self)
 
     # -------------------------------------------------------------- stepping
     def reset(self) -> np.ndarray:
