@@ -41,8 +41,13 @@ _TWO_THREADS_ONE_ENV = textwrap.dedent(
         env.step({a: 0 for a in env.agents})
         return not env.agents
 
+    start = threading.Barrier(2)
+
     def run():
-        for _ in range(3000):
+        start.wait()  # both threads in the loop together, even on a loaded machine
+        for _ in range(30000):
+            if clashes:  # seen (by either thread): enough
+                break
             try:
                 if one_step():
                     env.reset()
