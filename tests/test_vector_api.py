@@ -60,7 +60,7 @@ def test_shared_spaces_and_state_equal_the_single_parallel_env_with_one_drill(ob
     env = soccer_drill.parallel_env(opponent=None, shared_spaces=True, obs_type=obs_type)
     for agent in env.possible_agents:
         assert venv.action_space(agent) == env.action_space(agent)
-        assert venv.observation_space(agent) == env.observation_space(agent)["observation"]
+        assert venv.observation_space(agent) == env.observation_space(agent)
     assert venv.state_space == env.state_space
     obs, _ = venv.reset(seed=9)
     single, _ = env.reset(seed=9)
@@ -346,3 +346,17 @@ def test_the_batched_view_is_read_only_as_the_single_view_is():
             del view._source
         assert type(pickle.loads(pickle.dumps(view))) is type(view)
     assert views[0].pos.shape == (2, 5, 2) and not views[0].pos.flags.writeable
+
+
+def test_every_drills_observation_lies_in_its_observation_space():
+    """The spaces say what the observations are: each drill's row of an agent's
+    observation is an element of ``observation_space(agent)``, a dict as
+    ``parallel_env``'s, for teams and for four learning players."""
+    for opponent in ("chasers", None):
+        venv = ParallelVectorEnv(num_envs=3, opponent=opponent)
+        obs, _ = venv.reset(seed=2)
+        for agent, value in obs.items():
+            space = venv.observation_space(agent)
+            for row in range(3):
+                one = {key: array[row] for key, array in value.items()}
+                assert space.contains(one), (agent, one)

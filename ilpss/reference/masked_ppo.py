@@ -107,7 +107,7 @@ def train(env: Any, cfg: PPOConfig, seed: int, reward_agent: str = "attacker_0"
     rng = np.random.default_rng(seed)
     agents = list(env.possible_agents)
     n_envs, n_agents, T = env.num_envs, len(agents), cfg.n_steps
-    space = env.observation_space(agents[0])
+    space = env.observation_space(agents[0])["observation"]
     agent = Agent(space.low.astype(np.float64), space.high.astype(np.float64),
                   int(env.action_space(agents[0]).n), cfg.net_arch)
     optimizer = torch.optim.Adam(agent.parameters(), lr=cfg.learning_rate, eps=1e-5)

@@ -66,7 +66,8 @@ class ParallelVectorEnv:
     | defender | ``Discrete(3)`` | 0 INTERCEPT, 1 MARK, 2 GUARD_LINE (always legal) | the same, from the defender's side |
     | defender, ``shared_spaces=True`` | ``Discrete(5)`` | 0-2 as above; 3 and 4 always masked | the same |
 
-    ``observation_space(agent)`` and ``action_space(agent)`` are one drill's spaces. With
+    ``observation_space(agent)`` (a ``Dict`` of ``"observation"`` and ``"action_mask"``,
+    as ``parallel_env``'s) and ``action_space(agent)`` are one drill's spaces. With
     shared spaces (as ``parallel_env``'s, the default with no opponent) every agent has the same spaces, and
     one more value ends every observation: 1 for an attacker, 0 for a defender.
     ``state()`` is every drill's :func:`~soccer_drill.rules.features.global_state` (29 values,
@@ -197,6 +198,12 @@ class ParallelVectorEnv:
             a: spaces.Discrete(len(ATTACKER_ACTIONS if i < 2 or shared_spaces else DEFENDER_ACTIONS))
             for a, i in self._index.items()
         }
+        # One drill's observation, as ``parallel_env``'s dict observations are spaced.
+        self._observation_spaces = {
+            a: spaces.Dict({"observation": self._obs_box,
+                            "action_mask": spaces.Box(0, 1, shape=(space.n,), dtype=np.int8)})
+            for a, space in self._spaces.items()
+        }
         low, high = state_bounds(self.config)
         self._state_bounds = (low.astype(np.float64), high.astype(np.float64))
         self.state_space = spaces.Box(low, high, dtype=np.float32)
@@ -209,10 +216,12 @@ class ParallelVectorEnv:
         and ``pickle`` give (the single environments' ``copy.copy`` does the same)."""
         return copy.deepcopy(self)
 
-    def observation_space(self, agent: str) -> spaces.Box:
-        """One drill's observation ``Box`` of ``agent``."""
+    def observation_space(self, agent: str) -> spaces.Dict:
+        """One drill's observation space of ``agent``: ``Dict`` of ``"observation"`` (the
+        features ``Box``) and ``"action_mask"``, as ``parallel_env``'s and as every
+        drill's row of the observations returned."""
         self._check_agent(agent)
-        return self._obs_box
+        return self._observation_spaces[agent]
 
     def action_space(self, agent: str) -> spaces.Discrete:
         """One drill's action space of ``agent``."""
