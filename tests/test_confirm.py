@@ -120,3 +120,25 @@ def test_the_committed_plan_is_a_valid_plan_of_the_confirmatory_run():
     plan = Plan.read(Path(__file__).resolve().parents[1] / "docs" / "confirmatory.json")
     assert all(plan.config(p).first_seed >= 2000 for p in plan.protocols)  # fresh seeds
     assert len(plan.methods) <= 6 and set(plan.protocols) == {"A", "B", "R", "C"}
+
+
+def test_a_comparison_written_the_other_way_round_serves_the_rule_mirrored():
+    """The rule reads ``FB`` against ``finetune`` from ``finetune`` against ``FB``: the same
+    paired test, its gain and interval negated (a plan may write either)."""
+    gains = {(W, "finetune"): [LEVEL, LEVEL], (W, FB): [LEVEL, LEVEL],
+             (K, "finetune"): [LEVEL, LEVEL], (K, FB): [LEVEL, LEVEL],
+             (K, W): [LEVEL, LEVEL],
+             ("finetune", FB): [(-30.0, -50.0, 0.01), (0.0, -10.0, 1.0)]}
+    assert pick(_plan(), _family(gains))[0] == FB  # finetune loses 30 [-50, -10] to it
+    gains["finetune", FB] = [(-30.0, -50.0, 0.01), LEVEL]  # mirrored: -5 [-20, +10] on B
+    assert pick(_plan(), _family(gains))[0] == "finetune"
+
+
+def test_the_committed_sharp_test_plan_can_be_decided():
+    """Every comparison the sharp test's pick rule reads is in its family, either way."""
+    from pathlib import Path
+
+    plan = Plan.read(Path(__file__).resolve().parents[1] / "docs" / "sharp_test.json")
+    tests = [_test(p, m, a, *LEVEL) for p in plan.protocols for m, a in plan.comparisons]
+    chosen, _ = pick(plan, tests)
+    assert chosen == plan.fallback

@@ -26,6 +26,7 @@ The results must come from one code (:mod:`~ilpss.experiments.provenance`).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -139,6 +140,14 @@ class Comparison:
     def gain(self) -> metrics.MetricEstimate:
         return self.estimates[PRIMARY]
 
+    def mirrored(self) -> Comparison:
+        """The same comparison the other way round (``against`` less ``method``): the
+        primary gain negated with its interval, the same adjusted p-value."""
+        g = self.gain
+        gain = dataclasses.replace(g, value=-g.value, low=-g.high, high=-g.low)
+        return Comparison(self.protocol, self.against, self.method, {PRIMARY: gain},
+                          self.adjusted)
+
 
 def analyse(plan: Plan, folders: Mapping[str, Path], *,
             allow_mixed_code: bool = False) -> tuple[list[Comparison], list[dict]]:
@@ -171,9 +180,12 @@ def qualifies(tests: Sequence[Comparison], method: str, against: Sequence[str], 
               alpha: float) -> bool:
     """Whether ``method`` gains over every one of ``against`` with a lower bound above
     ``margin`` in every protocol, and above zero after Holm's adjustment over all of
-    them in at least one protocol (the comparisons must be in the family)."""
+    them in at least one protocol (the comparisons must be in the family, either way
+    round)."""
     protocols = sorted({t.protocol for t in tests})
-    mine = {(t.protocol, t.against): t for t in tests if t.method == method}
+    # A comparison written the other way round is the same paired test, mirrored.
+    mine = {(t.protocol, t.method): t.mirrored() for t in tests if t.against == method}
+    mine.update({(t.protocol, t.against): t for t in tests if t.method == method})
     missing = [(p, a) for p in protocols for a in against if (p, a) not in mine]
     if missing:
         raise ValueError(f"the plan's comparisons lack {method} against {missing}")
