@@ -20,8 +20,8 @@ offer rule             what a target's learner is offered
                        hand-composed policy as options, the assignment known too
 =====================  ==============================================================
 
-So the two oracles differ from whole past policies only on the targets, and from each
-other only in the assignment.
+So the two oracles offer what whole past policies offer everywhere but on the targets,
+and differ from each other only in the assignment.
 """
 
 from __future__ import annotations
