@@ -4,7 +4,8 @@
 
 Trains, evaluates and plots every setting of :data:`~ilpss.reference.settings.SETTINGS`
 (``--settings``): SB3's PPO and sb3-contrib's MaskablePPO on the holder against each team
-(``--teams``: the paper's four and ``chasers``), a shared masked PPO for the two
+(``--teams``: the paper's four; ``chasers`` is ``interceptors_press`` cycle for cycle,
+so its rows would repeat that team's), a shared masked PPO for the two
 attackers of the parallel drill against each team, one self-play run of all four players
 (its attackers then evaluated against each team), and the transfer row (PPO fine-tuned
 after the paper's first three teams against learning anew, on the fourth: protocol A's
@@ -57,7 +58,7 @@ from ilpss.reference.settings import (
 )
 
 PROG = "soccer-drill-reference"
-DEFAULT_TEAMS = (*PAPER_TEAMS, "chasers")
+DEFAULT_TEAMS = PAPER_TEAMS
 PPO_FIELDS = {f.name: f.type for f in dataclasses.fields(PPOConfig)}
 
 
@@ -143,7 +144,7 @@ def parser() -> argparse.ArgumentParser:
                    help="the settings to run (default: all, in this order)")
     p.add_argument("--teams", nargs="+", default=list(DEFAULT_TEAMS),
                    help="distinct opponent teams of the per-team settings (default: the "
-                        "paper's four and chasers); the transfer row always takes the paper's")
+                        "paper's four); the transfer row always takes the paper's")
     p.add_argument("--seeds", type=int, default=10, help="training seeds per setting and team")
     p.add_argument("--eval", type=int, default=EvalSettings.episodes,
                    help="held-out evaluation episodes per policy (default: %(default)s)")

@@ -82,7 +82,7 @@ class PPOConfig:
     many agents act in it).
     """
 
-    steps: int = 1_000_000
+    steps: int = 300_000
     n_envs: int = 16
     n_steps: int = 256
     batch_size: int = 512
@@ -159,7 +159,7 @@ class MultiAgentSetting:
     space's bounds; masked actions get no probability."""
 
     ppo: PPOConfig = field(default_factory=lambda: PPOConfig(
-        steps=5_000_000, n_envs=64, n_steps=128, batch_size=2048, n_epochs=4,
+        steps=3_000_000, n_envs=64, n_steps=128, batch_size=2048, n_epochs=4,
         learning_rate=2.5e-4, gamma=1.0, ent_coef=0.01))
 
 
@@ -170,7 +170,7 @@ class SelfPlaySetting:
     reward; its attackers are then evaluated against each team."""
 
     ppo: PPOConfig = field(default_factory=lambda: PPOConfig(
-        steps=5_000_000, n_envs=64, n_steps=128, batch_size=4096, n_epochs=4,
+        steps=3_000_000, n_envs=64, n_steps=128, batch_size=4096, n_epochs=4,
         learning_rate=2.5e-4, gamma=1.0, ent_coef=0.01))
 
 
@@ -183,9 +183,9 @@ class TransferSetting:
     (last)."""
 
     holder: HolderSetting = field(default_factory=HolderSetting)
-    source_steps: int = 500_000
-    target_episodes: int = 5_000
-    window: int = 500
+    source_steps: int = 150_000
+    target_episodes: int = 3_000
+    window: int = 300
 
     def __post_init__(self) -> None:
         if self.window * 2 > self.target_episodes:
