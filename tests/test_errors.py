@@ -116,7 +116,7 @@ def test_step_before_reset():
 
 
 def test_unknown_team_lists_known_ones():
-    with pytest.raises(ValueError, match=r"unknown opponent team 'nobody'; known teams: \[.*'chasers'"):
+    with pytest.raises(ValueError, match=r"unknown team 'nobody'; known teams: \[.*'chasers'"):
         soccer_drill.env(opponent="nobody")
 
 

@@ -791,7 +791,7 @@ def test_an_unknown_team_fails_the_run_naming_it(tmp_path):
     cfg = ExperimentConfig(n_seeds=1, workers=1, methods=("scratch",),
                            teams=("no_such_team", "chasers")).with_overrides(
         lifelong={"train_episodes": 2, "rollout_episodes": 1})
-    with pytest.raises(ValueError, match=r"unknown opponent team 'no_such_team'; known teams: \["):
+    with pytest.raises(ValueError, match=r"unknown team 'no_such_team'; known teams: \["):
         run_experiment(cfg, tmp_path, progress=False)
 
 
