@@ -28,7 +28,8 @@ import numpy as np
 import pymunk
 import pymunk.batch as pmb
 
-from soccer_drill.config import DrillConfig, is_integer
+from soccer_drill.config import DrillConfig
+from soccer_drill.constraints import Integer, checked
 from soccer_drill.interruptions import CtrlCDeferred
 
 PLAYER_MASS = 75.0
@@ -81,9 +82,7 @@ def check_batch_order(space: pymunk.Space, bodies: Sequence[pymunk.Body]) -> Non
 
 def check_drills_per_space(drills_per_space: object) -> int:
     """``drills_per_space`` as an int, or ``ValueError`` saying what is allowed."""
-    if not is_integer(drills_per_space) or drills_per_space < 1:  # type: ignore[operator]
-        raise ValueError(f"drills_per_space must be an integer >= 1, got {drills_per_space!r}")
-    return int(drills_per_space)  # type: ignore[call-overload]
+    return checked("drills_per_space", drills_per_space, Integer(1))
 
 
 def _walls(space: pymunk.Space, cfg: DrillConfig, ox: float = 0.0, oy: float = 0.0) -> list:

@@ -7,7 +7,8 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from soccer_drill.config import DrillConfig, is_integer
+from soccer_drill.config import DrillConfig
+from soccer_drill.constraints import Integer, checked, is_int
 from soccer_drill.drill import BatchDrill
 from soccer_drill.rules.cycle import RUNNING
 from soccer_drill.rules.support import OFFSET_STD, RESAMPLE_CYCLES, support_commands_of_drills
@@ -45,11 +46,9 @@ def available_memory() -> int | None:
 
 def check_num_envs(num_envs: object) -> int:
     """``num_envs`` as an int, or ``ValueError`` saying what is allowed: an integer in
-    1..1000000 whose drills fit in the memory available (at :data:`DRILL_BYTES` a drill;
+    [1, 1,000,000] whose drills fit in the memory available (at :data:`DRILL_BYTES` a drill;
     beyond it the process is killed, or crashes inside pymunk, while it builds them)."""
-    if not is_integer(num_envs) or not 1 <= num_envs <= 1_000_000:  # type: ignore[operator]
-        raise ValueError(f"num_envs must be an integer in 1..1000000, got {num_envs!r}")
-    n = int(num_envs)
+    n = checked("num_envs", num_envs, Integer(1, 1_000_000))
     available = available_memory()
     if available is not None and n * DRILL_BYTES > available:
         raise ValueError(
@@ -74,7 +73,7 @@ def check_seed(seed: object, n: int) -> list[int | None] | None:
         f"seed must be None, an integer >= 0 (drill i gets seed + i) or a sequence of {n} "
         "seeds, one per drill, each None or an integer >= 0"
     )
-    if is_integer(seed):
+    if is_int(seed):
         if seed < 0:
             raise ValueError(f"{allowed}; got {seed!r}")
         return [int(seed) + i for i in range(n)]
@@ -86,7 +85,7 @@ def check_seed(seed: object, n: int) -> list[int | None] | None:
     if len(seeds) != n:
         raise ValueError(f"{allowed}; got a sequence of {len(seeds)}")
     for i, s in enumerate(seeds):
-        if s is not None and not (is_integer(s) and s >= 0):
+        if s is not None and not (is_int(s) and s >= 0):
             raise ValueError(f"{allowed}; got seed[{i}] = {s!r} of type {type(s).__name__}")
     return [None if s is None else int(s) for s in seeds]
 
