@@ -55,17 +55,20 @@ __all__ = [
 def is_real(value: object) -> bool:
     """A real number (Python, NumPy or another :class:`numbers.Real`), not a bool (``True``
     is an ``int`` to Python, but a slip as a number)."""
-    if type(value) is float or type(value) is int:  # the common, fast case
-        return True
-    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
+    if isinstance(value, bool | np.bool_):
+        return False
+    # Python and NumPy numbers first: the common case, faster than the ABC's check.
+    return isinstance(value, float | int | np.floating | np.integer) or isinstance(
+        value, numbers.Real
+    )
 
 
 def is_int(value: object) -> bool:
     """An integer (Python, NumPy or another :class:`numbers.Integral`), not a bool (an
     ``int`` to Python, but a slip as a count, a seed or an action)."""
-    if type(value) is int:
-        return True
-    return isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_)
+    if isinstance(value, bool | np.bool_):
+        return False
+    return isinstance(value, int | np.integer) or isinstance(value, numbers.Integral)
 
 
 class Constraint:

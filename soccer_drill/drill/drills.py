@@ -21,6 +21,7 @@ from typing import Literal
 import numpy as np
 
 from soccer_drill.config import DrillConfig
+from soccer_drill.constraints import Integer, checked
 from soccer_drill.drill.spaces import DRILLS_PER_SPACE, BatchPhysics, DrillSpace
 from soccer_drill.rules.cycle import (
     ORDER,
@@ -73,9 +74,7 @@ class BatchDrill:
         drills_per_space: int = DRILLS_PER_SPACE,
         physics: BatchPhysics | DrillSpace | None = None,
     ) -> None:
-        if not isinstance(n, int) or isinstance(n, bool) or n < 1:
-            raise ValueError(f"the number of drills must be an integer >= 1, got {n!r}")
-        self.n = n
+        self.n = n = checked("the number of drills", n, Integer(1))
         self.config = cfg = config or DrillConfig()
         self.physics = physics if physics is not None else BatchPhysics(n, cfg, drills_per_space)
         self.pos = np.zeros((n, 5, 2))

@@ -13,6 +13,7 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 
 from soccer_drill.config import DrillConfig
+from soccer_drill.constraints import is_int
 from soccer_drill.drill import Drill
 from soccer_drill.rules.features import feature_bounds, features, kinematic_bounds, kinematics
 from soccer_drill.rules.support import SupportPlayer
@@ -246,7 +247,7 @@ class DrillCore:
         else:
             if isinstance(action, np.ndarray) and action.shape == ():
                 action = action.item()
-            if isinstance(action, bool) or not isinstance(action, int | np.integer):
+            if not is_int(action):
                 raise TypeError(
                     f"action for {agent!r} must be an integer in [0, {n - 1}] "
                     f"({action_list(index, n)}), got {action!r} of type {type(action).__name__}"

@@ -11,7 +11,7 @@ import numpy as np
 from gymnasium import spaces
 
 from soccer_drill.config import DrillConfig
-from soccer_drill.constraints import Integer, checked
+from soccer_drill.constraints import Integer, checked, is_int
 from soccer_drill.envs.core import DrillCore, concurrent_use, make_config, not_reset
 from soccer_drill.rendering.screen import RENDER_MODES, Screen, frames_per_second
 from soccer_drill.skills import HOLDER_ACTIONS, Command
@@ -39,9 +39,7 @@ def check_holder_action(action: object) -> int:
     integer or a 0-d integer array; bools, floats and values out of range are refused."""
     if isinstance(action, np.ndarray) and action.shape == ():
         action = action.item()
-    if isinstance(action, bool) or not isinstance(action, int | np.integer) or not (
-        0 <= action < len(HOLDER_ACTIONS)
-    ):
+    if not is_int(action) or not 0 <= action < len(HOLDER_ACTIONS):  # type: ignore[operator]
         raise ValueError(
             f"action must be an integer in 0..{len(HOLDER_ACTIONS) - 1} "
             f"(0=HOLD, 1=PASS, 2=DRIBBLE), got {action!r}"
