@@ -107,25 +107,39 @@ class ParametricTeam:
     leaves its line at least once in an episode of ``n`` cycles with probability
     ``1 - (1 - p) ** n``.
 
-    Args:
-        roles: the two defenders' roles, each ``"interceptor"`` or ``"guard"``.
-        coordination: ``"press"``, ``"cover"`` or ``"screen"`` (two interceptors only).
-        speed: fraction of the defenders' top speed, one number or one per defender, in (0, 1].
-        reaction_delay: the team acts on the state this many cycles old (>= 0); with a
-            delay, every command is a ``MOVE_TO`` to where the skill would have gone.
-        mark_fraction: a marker stands this fraction of the way from the free attacker
-            to the ball (``cover``), in [0, 1]; 0.35 is the MARK skill's own spot.
-        chase_loose: in ``cover`` and ``screen``, the second defender goes for a loose ball.
-        screen_distance: metres goal-side of the ball at which the screening defender stands.
-        guard_depth: metres up from the goal line at which guards stand (> 0).
-        guard_track: how far guards follow the ball sideways, in [0, 1]: 0 keeps them at
-            their home spots (one guard: the centre; two: at 1/3 and 2/3 of the width),
-            1 keeps them level with the ball (two guards then stand ``guard_spacing`` apart).
-        guard_spacing: lateral gap between two guards that follow the ball, metres.
-        guard_reach: a guard sorties when the ball is within this distance of it, metres
-            (0 disables it).
-        press_probability: per-cycle probability that a guard on its line starts a sortie.
-        sortie_cycles: length of a sortie, cycles (>= 1).
+    Parameters
+    ----------
+    roles
+        The two defenders' roles, each ``"interceptor"`` or ``"guard"``.
+    coordination
+        ``"press"``, ``"cover"`` or ``"screen"`` (two interceptors only).
+    speed
+        Fraction of the defenders' top speed, one number or one per defender, in (0, 1].
+    reaction_delay
+        The team acts on the state this many cycles old (>= 0); with a
+        delay, every command is a ``MOVE_TO`` to where the skill would have gone.
+    mark_fraction
+        A marker stands this fraction of the way from the free attacker
+        to the ball (``cover``), in [0, 1]; 0.35 is the MARK skill's own spot.
+    chase_loose
+        In ``cover`` and ``screen``, the second defender goes for a loose ball.
+    screen_distance
+        Metres goal-side of the ball at which the screening defender stands.
+    guard_depth
+        Metres up from the goal line at which guards stand (> 0).
+    guard_track
+        How far guards follow the ball sideways, in [0, 1]: 0 keeps them at
+        their home spots (one guard: the centre; two: at 1/3 and 2/3 of the width),
+        1 keeps them level with the ball (two guards then stand ``guard_spacing`` apart).
+    guard_spacing
+        Lateral gap between two guards that follow the ball, metres.
+    guard_reach
+        A guard sorties when the ball is within this distance of it, metres
+        (0 disables it).
+    press_probability
+        Per-cycle probability that a guard on its line starts a sortie.
+    sortie_cycles
+        Length of a sortie, cycles (>= 1).
     """
 
     def __init__(

@@ -50,10 +50,13 @@ class Region:
     | ``dist_goal`` | 5 | ``y`` (the goal line is ``y = 0``) | within ``threshold`` metres of the goal line |
     | ``lateral`` | 6 | ``x - field_size / 2`` | left of ``threshold`` (0: the left half) |
 
-    Args:
-        feature: ``"dist_goal"`` or ``"lateral"``.
-        threshold: metres, inside the feature's range ([0, 36] or [-18.5, 18.5] on the
-            default 35 m field).
+    Parameters
+    ----------
+    feature
+        ``"dist_goal"`` or ``"lateral"``.
+    threshold
+        Metres, inside the feature's range ([0, 36] or [-18.5, 18.5] on the
+        default 35 m field).
     """
 
     feature: str

@@ -96,8 +96,10 @@ def _walls(space: pymunk.Space, cfg: DrillConfig, ox: float = 0.0, oy: float = 0
 class DrillSpace:
     """One drill's pymunk space: its four players, the ball and the walls.
 
-    Args:
-        config: the drill's parameters.
+    Parameters
+    ----------
+    config
+        The drill's parameters.
 
     :meth:`renew` builds the space anew at every episode's start: a space keeps contact
     caches and other internal state from earlier episodes that change later collisions,
@@ -176,10 +178,14 @@ class DrillSpace:
 class BatchPhysics:
     """The players of ``n`` drills in shared pymunk spaces, moved by batched writes and reads.
 
-    Args:
-        n: number of drills.
-        config: the drills' parameters (one for all).
-        drills_per_space: drills sharing one space (the last space may hold fewer).
+    Parameters
+    ----------
+    n
+        Number of drills.
+    config
+        The drills' parameters (one for all).
+    drills_per_space
+        Drills sharing one space (the last space may hold fewer).
 
     Each drill's four players and its four walls sit in a region of their own, the
     regions :attr:`spacing` metres apart so that no two drills' shapes ever meet

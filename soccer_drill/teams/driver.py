@@ -234,15 +234,21 @@ def _invalid(team: str, drill: int | None, player: str, cycle: int, what: str) -
 class TeamDriver:
     """Runs a team inside the drill, bounds the CPU time of each call, checks every command.
 
-    Args:
-        team: the team.
-        name: its id, named in every error.
-        players: the players it drives.
-        team_timeout: seconds of CPU time each ``reset`` or ``act`` call may take, in
-            :data:`TEAM_TIMEOUT_RANGE` (1 ms to one day), or ``None`` for no bound. A
-            call that exceeds it raises :class:`TeamError`.
-        drill: the drill of a batch this copy of the team plays in (named in its errors),
-            or ``None``.
+    Parameters
+    ----------
+    team
+        The team.
+    name
+        Its id, named in every error.
+    players
+        The players it drives.
+    team_timeout
+        Seconds of CPU time each ``reset`` or ``act`` call may take, in
+        :data:`TEAM_TIMEOUT_RANGE` (1 ms to one day), or ``None`` for no bound. A
+        call that exceeds it raises :class:`TeamError`.
+    drill
+        The drill of a batch this copy of the team plays in (named in its errors),
+        or ``None``.
 
     What the bound counts is the CPU time of the thread running the team during the call
     (``time.thread_time``), less garbage collections (see

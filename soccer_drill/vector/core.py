@@ -93,15 +93,23 @@ def check_seed(seed: object, n: int) -> list[int | None] | None:
 class BatchCore:
     """``n`` drills with their generators, scripted team and support players.
 
-    Args:
-        n: number of drills.
-        opponent: team id, ``Team`` instance, or ``None`` (no scripted team).
-        opponent_params: keyword parameters of the team factory.
-        config: the drills' parameters.
-        team_timeout: CPU-time bound of one batched team call, or of each drill's copy's
-            (``None``: no bound).
-        support: the attackers not given a command are driven by the support behaviour.
-        drills_per_space: drills sharing one pymunk space.
+    Parameters
+    ----------
+    n
+        Number of drills.
+    opponent
+        Team id, ``Team`` instance, or ``None`` (no scripted team).
+    opponent_params
+        Keyword parameters of the team factory.
+    config
+        The drills' parameters.
+    team_timeout
+        CPU-time bound of one batched team call, or of each drill's copy's
+        (``None``: no bound).
+    support
+        The attackers not given a command are driven by the support behaviour.
+    drills_per_space
+        Drills sharing one pymunk space.
 
     Seeding: drill ``i`` has its own generator, the stream that a single environment's
     ``reset(seed=s_i)`` starts (``np.random.default_rng(s_i)``); at each of its episode's
