@@ -72,7 +72,6 @@ from typing import Any
 
 import numpy as np
 
-from ilpss._check import NoneOr, Real, check_fields, from_json
 from ilpss.episode import (
     EpisodeLog,
     EpisodeResult,
@@ -85,6 +84,7 @@ from ilpss.policy import FrozenPolicy, LinearPolicy, epsilon_greedy_choice, gree
 from ilpss.smdp import SMDP_CONSTRAINTS, LearnerConfig, SmdpLearner
 from ilpss.tiles import TileCoder
 from ilpss.traces import DivergedError, ReplacingTraces, td_update
+from soccer_drill.constraints import NoneOr, Real, check_fields, from_json
 
 __all__ = ["PRQ_CONSTRAINTS", "PrqConfig", "PrqLearner"]
 

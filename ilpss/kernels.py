@@ -39,8 +39,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.special import chdtrc
 
 from ilpss import _gmm_numerics as num
-from ilpss._check import Integer, Real, check, check_fields
 from ilpss._io import load_npz, save_npz_atomic
+from soccer_drill.constraints import Integer, Real, check, check_fields
 
 __all__ = [
     "KERNEL_CONSTRAINTS",

@@ -31,18 +31,6 @@ from typing import Any
 
 import numpy as np
 
-from ilpss._check import (
-    Integer,
-    ListOf,
-    Name,
-    NoneOr,
-    Real,
-    Text,
-    check,
-    check_fields,
-    check_keys,
-    from_json,
-)
 from ilpss._io import (
     atomic_write_bytes,
     check_inside,
@@ -62,6 +50,18 @@ from ilpss.policy import FrozenPolicy
 from ilpss.reuse import REUSES, Fresh, Reuse, learn_with
 from ilpss.smdp import LearnerConfig, SmdpLearner
 from ilpss.tiles import box_bounds
+from soccer_drill.constraints import (
+    Integer,
+    ListOf,
+    Name,
+    NoneOr,
+    Real,
+    Text,
+    check,
+    check_fields,
+    check_keys,
+    from_json,
+)
 
 CHECKPOINT_SCHEMA = "ilpss.lifelong/2"
 

@@ -76,10 +76,10 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from ilpss._check import Integer, NoneOr, Real, check_fields, from_json
 from ilpss._io import check_inside, load_npz, save_npz_atomic, sha256_file
 from ilpss.policy import FrozenPolicy
 from ilpss.tiles import TileCoder
+from soccer_drill.constraints import Integer, NoneOr, Real, check_fields, from_json
 
 __all__ = [
     "LIBRARY_SCHEMA",

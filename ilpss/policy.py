@@ -25,9 +25,9 @@ from typing import Self
 
 import numpy as np
 
-from ilpss._check import Real, check
 from ilpss._io import load_npz, save_npz_atomic
 from ilpss.tiles import TileCoder
+from soccer_drill.constraints import Real, check
 
 __all__ = [
     "EPSILON",

@@ -54,13 +54,13 @@ from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-from ilpss._check import Integer, check
-from ilpss._registry import Registry
 from ilpss.episode import EpisodeResult
 from ilpss.kernels import RegionKernels, SharedKernelModel, UniformKernel
 from ilpss.options import OptionLibrary
 from ilpss.policy import FrozenPolicy
 from ilpss.smdp import SmdpLearner
+from soccer_drill.constraints import Integer, check
+from soccer_drill.registry import Registry
 
 if TYPE_CHECKING:
     from ilpss.lifelong import LifelongConfig

@@ -79,7 +79,6 @@ from typing import Any
 
 import numpy as np
 
-from ilpss._check import Bool, Integer, ListOf, NoneOr, OneOf, Real, check_fields, from_json
 from ilpss.episode import (
     EpisodeLog,
     EpisodeResult,
@@ -94,6 +93,16 @@ from ilpss.options import OptionLibrary
 from ilpss.policy import EPSILON, FrozenPolicy, LinearPolicy, epsilon_greedy_choice
 from ilpss.tiles import KEEPAWAY_ALPHA, TILE_CONSTRAINTS, TileCoder, box_bounds
 from ilpss.traces import DivergedError, ReplacingTraces, td_update
+from soccer_drill.constraints import (
+    Bool,
+    Integer,
+    ListOf,
+    NoneOr,
+    OneOf,
+    Real,
+    check_fields,
+    from_json,
+)
 
 __all__ = [
     "KEEPAWAY",

@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from ilpss._check import Integer, Real, check
+from soccer_drill.constraints import Integer, Real, check
 
 __all__ = ["KEEPAWAY_ALPHA", "KEEPAWAY_N_TILINGS", "MAX_WEIGHTS", "TILE_CONSTRAINTS", "TileCoder",
            "box_bounds"]

@@ -14,8 +14,10 @@ from soccer_drill.teams.batch import SameCommands
 class Chasers:
     """Both defenders chase the ball (at speed 1, the same as interceptors_press).
 
-    Args:
-        speed: fraction of the defenders' top speed, in (0, 1].
+    Parameters
+    ----------
+    speed
+        Fraction of the defenders' top speed, in (0, 1].
     """
 
     def __init__(self, speed: float = 1.0) -> None:

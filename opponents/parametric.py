@@ -13,13 +13,24 @@ settings, so a lifelong stream can meet as many different teams as it likes::
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from soccer_drill.config import DrillConfig
+from soccer_drill.constraints import (
+    AnyOf,
+    Bool,
+    Constraint,
+    Integer,
+    ListOf,
+    OneOf,
+    Real,
+    check,
+    check_fields,
+    is_real,
+)
 from soccer_drill.rules.compiled import compiled, hypot, warms
 from soccer_drill.rules.motion import (
     CONTROL_RADIUS,
@@ -61,14 +72,24 @@ _MARK_FRACTION = 0.35  # soccer_drill's MARK skill stands this far from the atta
 _PRESS_MODE, _COVER, _SCREEN_MODE = range(3)  # COORDINATIONS' indices
 
 
-def _is_number(value: object) -> bool:
-    """A Python or NumPy real number, not a bool (``True`` is an ``int`` to Python)."""
-    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool)
-
-
-def _is_integer(value: object) -> bool:
-    """A Python or NumPy integer, not a bool."""
-    return isinstance(value, int | np.integer) and not isinstance(value, bool)
+_SPEED = Real(0.0, 1.0, low_open=True)
+PARAMETERS: dict[str, Constraint] = {
+    "roles": ListOf(OneOf(ROLES), min_len=2, max_len=2),
+    "coordination": OneOf(COORDINATIONS),
+    "speed": AnyOf((_SPEED, ListOf(_SPEED, 2, 2, kinds=(list, tuple, np.ndarray)))),
+    "reaction_delay": Integer(0),
+    "mark_fraction": Real(0.0, 1.0),
+    "chase_loose": Bool(),
+    "screen_distance": Real(0.0, 30.0),
+    "guard_depth": Real(1e-3, 30.0),
+    "guard_track": Real(0.0, 1.0),
+    "guard_spacing": Real(0.0, 30.0),
+    "guard_reach": Real(0.0, 50.0),
+    "press_probability": Real(0.0, 1.0),
+    "sortie_cycles": Integer(1),
+}
+"""What each parameter of :class:`ParametricTeam` allows (NumPy numbers too, never bools
+for numbers)."""
 
 
 class ParametricTeam:
@@ -86,25 +107,39 @@ class ParametricTeam:
     leaves its line at least once in an episode of ``n`` cycles with probability
     ``1 - (1 - p) ** n``.
 
-    Args:
-        roles: the two defenders' roles, each ``"interceptor"`` or ``"guard"``.
-        coordination: ``"press"``, ``"cover"`` or ``"screen"`` (two interceptors only).
-        speed: fraction of the defenders' top speed, one number or one per defender, in (0, 1].
-        reaction_delay: the team acts on the state this many cycles old (>= 0); with a
-            delay, every command is a ``MOVE_TO`` to where the skill would have gone.
-        mark_fraction: a marker stands this fraction of the way from the free attacker
-            to the ball (``cover``), in [0, 1]; 0.35 is the MARK skill's own spot.
-        chase_loose: in ``cover`` and ``screen``, the second defender goes for a loose ball.
-        screen_distance: metres goal-side of the ball at which the screening defender stands.
-        guard_depth: metres up from the goal line at which guards stand (> 0).
-        guard_track: how far guards follow the ball sideways, in [0, 1]: 0 keeps them at
-            their home spots (one guard: the centre; two: at 1/3 and 2/3 of the width),
-            1 keeps them level with the ball (two guards then stand ``guard_spacing`` apart).
-        guard_spacing: lateral gap between two guards that follow the ball, metres.
-        guard_reach: a guard sorties when the ball is within this distance of it, metres
-            (0 disables it).
-        press_probability: per-cycle probability that a guard on its line starts a sortie.
-        sortie_cycles: length of a sortie, cycles (>= 1).
+    Parameters
+    ----------
+    roles
+        The two defenders' roles, each ``"interceptor"`` or ``"guard"``.
+    coordination
+        ``"press"``, ``"cover"`` or ``"screen"`` (two interceptors only).
+    speed
+        Fraction of the defenders' top speed, one number or one per defender, in (0, 1].
+    reaction_delay
+        The team acts on the state this many cycles old (>= 0); with a
+        delay, every command is a ``MOVE_TO`` to where the skill would have gone.
+    mark_fraction
+        A marker stands this fraction of the way from the free attacker
+        to the ball (``cover``), in [0, 1]; 0.35 is the MARK skill's own spot.
+    chase_loose
+        In ``cover`` and ``screen``, the second defender goes for a loose ball.
+    screen_distance
+        Metres goal-side of the ball at which the screening defender stands.
+    guard_depth
+        Metres up from the goal line at which guards stand (> 0).
+    guard_track
+        How far guards follow the ball sideways, in [0, 1]: 0 keeps them at
+        their home spots (one guard: the centre; two: at 1/3 and 2/3 of the width),
+        1 keeps them level with the ball (two guards then stand ``guard_spacing`` apart).
+    guard_spacing
+        Lateral gap between two guards that follow the ball, metres.
+    guard_reach
+        A guard sorties when the ball is within this distance of it, metres
+        (0 disables it).
+    press_probability
+        Per-cycle probability that a guard on its line starts a sortie.
+    sortie_cycles
+        Length of a sortie, cycles (>= 1).
     """
 
     def __init__(
@@ -123,35 +158,9 @@ class ParametricTeam:
         press_probability: float = 0.0,
         sortie_cycles: int = 10,
     ) -> None:
+        check_fields("", locals(), PARAMETERS, get=dict.get)  # the parameters, by name
+        speeds = (speed, speed) if is_real(speed) else tuple(speed)  # type: ignore[arg-type]
         roles = tuple(roles)
-        if len(roles) != 2 or any(r not in ROLES for r in roles):
-            raise ValueError(f"roles must be two of {ROLES}, got {roles!r}")
-        if coordination not in COORDINATIONS:
-            raise ValueError(f"coordination must be one of {COORDINATIONS}, got {coordination!r}")
-        if isinstance(speed, int | float | np.number | np.bool_):  # a bool too: refused below
-            speeds = (speed, speed)
-        else:
-            try:
-                speeds = tuple(speed)
-            except TypeError:  # not a number nor a sequence: the message below says what is
-                speeds = (speed,)
-        if len(speeds) != 2 or not all(_is_number(s) and 0.0 < s <= 1.0 for s in speeds):
-            raise ValueError(f"speed must be in (0, 1], one or two values, got {speed!r}")
-        if not _is_integer(reaction_delay) or reaction_delay < 0:
-            raise ValueError(f"reaction_delay must be an integer >= 0, got {reaction_delay!r}")
-        if not _is_integer(sortie_cycles) or sortie_cycles < 1:
-            raise ValueError(f"sortie_cycles must be an integer >= 1, got {sortie_cycles!r}")
-        for name, value, lo, hi in (
-            ("mark_fraction", mark_fraction, 0.0, 1.0),
-            ("guard_track", guard_track, 0.0, 1.0),
-            ("press_probability", press_probability, 0.0, 1.0),
-            ("screen_distance", screen_distance, 0.0, 30.0),
-            ("guard_spacing", guard_spacing, 0.0, 30.0),
-            ("guard_reach", guard_reach, 0.0, 50.0),
-            ("guard_depth", guard_depth, 1e-3, 30.0),
-        ):
-            if not (_is_number(value) and math.isfinite(value) and lo <= value <= hi):
-                raise ValueError(f"{name} must lie in [{lo}, {hi}], got {value!r}")
         self.roles: tuple[str, str] = roles  # type: ignore[assignment]
         self.coordination = coordination
         self.speeds = (float(speeds[0]), float(speeds[1]))
@@ -385,8 +394,7 @@ def sample_opponents(n: int, seed: int) -> list[dict[str, Any]]:
     them, random play in about 1 %) while the best rule changes from team to team.
     The same ``(n, seed)`` always gives the same list; no two entries are equal.
     """
-    if not _is_integer(n) or n < 0:
-        raise ValueError(f"n must be an integer >= 0, got {n!r}")
+    check("n", n, Integer(0))
     rng = np.random.default_rng(seed)
     out: list[dict[str, Any]] = []
     seen: set[str] = set()

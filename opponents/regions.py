@@ -18,13 +18,13 @@ at every decision of the holder the rule's region is exactly the team's::
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from soccer_drill.constraints import OneOf, Real, check, checked
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.rules.features import FEATURE_NAMES
 from soccer_drill.state import BALL, DrillView
@@ -50,28 +50,23 @@ class Region:
     | ``dist_goal`` | 5 | ``y`` (the goal line is ``y = 0``) | within ``threshold`` metres of the goal line |
     | ``lateral`` | 6 | ``x - field_size / 2`` | left of ``threshold`` (0: the left half) |
 
-    Args:
-        feature: ``"dist_goal"`` or ``"lateral"``.
-        threshold: metres, inside the feature's range ([0, 36] or [-18.5, 18.5] on the
-            default 35 m field).
+    Parameters
+    ----------
+    feature
+        ``"dist_goal"`` or ``"lateral"``.
+    threshold
+        Metres, inside the feature's range ([0, 36] or [-18.5, 18.5] on the
+        default 35 m field).
     """
 
     feature: str
     threshold: float
 
     def __post_init__(self) -> None:
-        if self.feature not in REGION_FEATURES:
-            raise ValueError(f"Region feature must be one of {REGION_FEATURES}, got {self.feature!r}")
-        low, high = _BOUNDS[self.feature]
-        t = self.threshold
-        if isinstance(t, bool) or not isinstance(t, int | float) or not (
-            math.isfinite(t) and low <= t <= high
-        ):
-            raise ValueError(
-                f"Region threshold for {self.feature!r} must be a number in [{low}, {high}], "
-                f"got {t!r}"
-            )
-        object.__setattr__(self, "threshold", float(t))
+        check("Region feature", self.feature, OneOf(REGION_FEATURES))
+        threshold = Real(*_BOUNDS[self.feature])
+        t = checked(f"Region threshold for {self.feature!r}", self.threshold, threshold)
+        object.__setattr__(self, "threshold", t)
 
     @property
     def index(self) -> int:

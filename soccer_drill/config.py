@@ -3,74 +3,24 @@
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
 import pymunk
 
+from soccer_drill.constraints import Integer, Real, checked, is_real
+
 Point = tuple[float, float]
-
-
-@dataclass(frozen=True)
-class Limits:
-    """The interval a numeric :class:`DrillConfig` field must lie in."""
-
-    low: float
-    high: float
-    low_open: bool = False
-    """The interval excludes ``low`` (``(low, high]``)."""
-    integer: bool = False
-    """The field is a whole number (a Python or NumPy integer, not a bool)."""
-
-    def __str__(self) -> str:
-        kind = "an integer" if self.integer else "a number"
-        return f"{kind} in {'(' if self.low_open else '['}{_plain(self.low)}, {_plain(self.high)}]"
-
-    def admit(self, name: str, value: object) -> float | int:
-        """``value`` as a Python ``float`` (or ``int``), or ``ValueError`` naming ``name``."""
-        kind = numbers.Integral if self.integer else numbers.Real
-        number: float | int | None = None
-        if isinstance(value, kind) and not isinstance(value, bool):
-            try:
-                number = int(value) if self.integer else float(value)  # type: ignore[arg-type]
-            except OverflowError:  # e.g. 10**400 as a float
-                pass
-        if number is None or not self.contains(number):
-            raise ValueError(f"DrillConfig.{name} must be {self}, got {value!r}")
-        return number
-
-    def contains(self, number: float) -> bool:
-        """Whether ``number`` lies in the interval (never for NaN)."""
-        above = self.low < number if self.low_open else self.low <= number
-        return above and number <= self.high
-
-
-def is_integer(value: object) -> bool:
-    """A Python or NumPy integer, not a bool (an ``int`` to Python, but a slip as a count,
-    a seed or an action)."""
-    return isinstance(value, numbers.Integral) and not isinstance(value, bool)
-
-
-def _plain(x: float) -> str:
-    return str(int(x)) if float(x).is_integer() else str(x)
 
 
 # The ranges are wide enough for any sensible drill and keep every derived quantity
 # finite and every table small (e.g. the ball's roll table has 1.5 / cycle_seconds rows).
-def _within(low: float, high: float) -> dict[str, Limits]:
-    return {"limits": Limits(low, high)}
+def _limited(default: float, constraint: Real | Integer) -> Any:
+    """A numeric field whose constraint is declared in its metadata."""
+    return field(default=default, metadata={"constraint": constraint})
 
 
-def _above(low: float, high: float) -> dict[str, Limits]:
-    return {"limits": Limits(low, high, low_open=True)}
-
-
-def _whole(low: int, high: int) -> dict[str, Limits]:
-    return {"limits": Limits(low, high, integer=True)}
-
-
-SUBSTEPS = Limits(1, 1000, integer=True)
+SUBSTEPS = Integer(1, 1000)
 """What ``DrillConfig.substeps`` allows, before :func:`step_bound`."""
 _SPACE = pymunk.Space()  # pymunk's defaults, which the drill's spaces keep
 COLLISION_BIAS: float = _SPACE.collision_bias
@@ -140,57 +90,58 @@ class DrillConfig:
     (see ``docs/opponents.md``). The field is ``field_size`` square; ``x`` runs
     left to right, ``y`` from the goal line (``y = 0``) up to the attackers' side.
 
-    Each numeric field declares the interval it must lie in (its ``limits``
-    metadata, a :class:`Limits`). A value outside it, NaN, infinity, a bool or a
-    non-number raises ``ValueError`` naming the field and the interval. NumPy
+    Each numeric field declares the interval it must lie in (its ``constraint``
+    metadata, a :class:`~soccer_drill.constraints.Real` or
+    :class:`~soccer_drill.constraints.Integer`). A value outside it, NaN, infinity, a
+    bool or a non-number raises ``ValueError`` naming the field and the interval. NumPy
     numbers are accepted and stored as Python ``float``/``int``; the start points
     are stored as tuples of floats.
     """
 
-    field_size: float = field(default=35.0, metadata=_within(10.0, 1000.0))
+    field_size: float = _limited(35.0, Real(10.0, 1000.0))
     """Side of the square training region, in metres."""
-    cycle_seconds: float = field(default=0.1, metadata=_within(0.001, 1.0))
+    cycle_seconds: float = _limited(0.1, Real(0.001, 1.0))
     """Simulated time of one cycle (one decision of every agent)."""
-    substeps: int = field(default=10, metadata={"limits": SUBSTEPS})
+    substeps: int = _limited(10, SUBSTEPS)
     """Physics sub-steps per cycle (fixed step ``cycle_seconds / substeps``): enough that
     no player moves further than :func:`step_bound` in one."""
-    max_cycles: int = field(default=100, metadata=_whole(1, 1_000_000))
+    max_cycles: int = _limited(100, Integer(1, 1_000_000))
     """Cycles after which the episode is truncated (a failure: timeout)."""
-    player_radius: float = field(default=0.5, metadata=_within(0.05, 5.0))
+    player_radius: float = _limited(0.5, Real(0.05, 5.0))
     """Radius of a player's body; players collide with each other and the walls."""
-    wall_margin: float = field(default=1.0, metadata=_within(0.0, 100.0))
+    wall_margin: float = _limited(1.0, Real(0.0, 100.0))
     """Players are stopped by walls this far outside the region; the ball is not."""
-    attacker_speed: float = field(default=6.0, metadata=_above(0.0, 100.0))
+    attacker_speed: float = _limited(6.0, Real(0.0, 100.0, low_open=True))
     """Top running speed of an attacker without the ball."""
-    dribble_speed: float = field(default=4.6, metadata=_above(0.0, 100.0))
+    dribble_speed: float = _limited(4.6, Real(0.0, 100.0, low_open=True))
     """Top speed of an attacker running with the ball (dribbling)."""
-    hold_speed: float = field(default=1.5, metadata=_above(0.0, 100.0))
+    hold_speed: float = _limited(1.5, Real(0.0, 100.0, low_open=True))
     """Top speed of the holder while shielding the ball (``HOLD``)."""
-    defender_speed: float = field(default=4.6, metadata=_above(0.0, 100.0))
+    defender_speed: float = _limited(4.6, Real(0.0, 100.0, low_open=True))
     """Top running speed of a defender."""
-    player_acceleration: float = field(default=20.0, metadata=_above(0.0, 10_000.0))
+    player_acceleration: float = _limited(20.0, Real(0.0, 10_000.0, low_open=True))
     """Acceleration cap of every player, m/s^2."""
-    ball_damping: float = field(default=0.4, metadata=_within(0.0, 1.0))
+    ball_damping: float = _limited(0.4, Real(0.0, 1.0))
     """Fraction of its speed a rolling ball keeps after one second."""
-    ball_max_speed: float = field(default=25.0, metadata=_above(0.0, 1000.0))
+    ball_max_speed: float = _limited(25.0, Real(0.0, 1000.0, low_open=True))
     """Speed cap of the ball (a kick never exceeds it)."""
-    pass_arrival_speed: float = field(default=4.0, metadata=_above(0.0, 1000.0))
+    pass_arrival_speed: float = _limited(4.0, Real(0.0, 1000.0, low_open=True))
     """Speed a pass is aimed to have when it reaches the receiver."""
-    kick_angle_noise: float = field(default=4.0, metadata=_within(0.0, 180.0))
+    kick_angle_noise: float = _limited(4.0, Real(0.0, 180.0))
     """Standard deviation of a kick's direction error, in degrees."""
-    kick_speed_noise: float = field(default=0.08, metadata=_within(0.0, 1.0))
+    kick_speed_noise: float = _limited(0.08, Real(0.0, 1.0))
     """Standard deviation of a kick's relative speed error."""
-    control_radius: float = field(default=1.0, metadata=_above(0.0, 10.0))
+    control_radius: float = _limited(1.0, Real(0.0, 10.0, low_open=True))
     """A player controls the ball within this centre-to-centre distance ..."""
-    control_speed: float = field(default=9.0, metadata=_above(0.0, 1000.0))
+    control_speed: float = _limited(9.0, Real(0.0, 1000.0, low_open=True))
     """... if the ball's speed relative to the player is at most this."""
-    ball_offset: float = field(default=0.75, metadata=_above(0.0, 10.0))
+    ball_offset: float = _limited(0.75, Real(0.0, 10.0, low_open=True))
     """Distance ahead of the holder at which dribbling and shielding keep the ball."""
-    tackle_probability: float = field(default=0.2, metadata=_within(0.0, 1.0))
+    tackle_probability: float = _limited(0.2, Real(0.0, 1.0))
     """Chance per cycle that a defender within control range of a held ball takes it."""
-    pass_lockout_cycles: int = field(default=4, metadata=_whole(0, 1_000_000))
+    pass_lockout_cycles: int = _limited(4, Integer(0, 1_000_000))
     """Cycles after a pass during which the passer cannot regain the ball."""
-    start_jitter: float = field(default=1.5, metadata=_within(0.0, 100.0))
+    start_jitter: float = _limited(1.5, Real(0.0, 100.0))
     """Half-width of the uniform jitter added to each starting coordinate; every jittered
     start must lie inside the walls, and the ball (``ball_offset`` below an attacker) in
     the field, above the goal line."""
@@ -198,21 +149,22 @@ class DrillConfig:
     """Nominal starting points of the two attackers (top corners)."""
     defender_starts: tuple[Point, Point] = ((13.0, 9.0), (22.0, 9.0))
     """Nominal starting points of the two defenders (near the goal line)."""
-    reward_success_centre: float = field(default=1.0, metadata=_within(-1000.0, 1000.0))
+    reward_success_centre: float = _limited(1.0, Real(-1000.0, 1000.0))
     """Attackers' reward for crossing the goal line at its centre."""
-    reward_success_edge: float = field(default=0.5, metadata=_within(-1000.0, 1000.0))
+    reward_success_edge: float = _limited(0.5, Real(-1000.0, 1000.0))
     """Attackers' reward for crossing at either end (linear in between)."""
-    reward_failure: float = field(default=-1.0, metadata=_within(-1000.0, 1000.0))
+    reward_failure: float = _limited(-1.0, Real(-1000.0, 1000.0))
     """Attackers' reward for an interception or the ball leaving the region."""
-    reward_timeout: float = field(default=-1.0, metadata=_within(-1000.0, 1000.0))
+    reward_timeout: float = _limited(-1.0, Real(-1000.0, 1000.0))
     """Attackers' reward when ``max_cycles`` pass without an outcome."""
 
     def __post_init__(self) -> None:
         # NumPy numbers are accepted and stored as Python numbers, so to_dict() is JSON.
         for f in fields(self):
-            limits = f.metadata.get("limits")
-            if limits is not None:
-                object.__setattr__(self, f.name, limits.admit(f.name, getattr(self, f.name)))
+            constraint = f.metadata.get("constraint")
+            if constraint is not None:
+                value = checked(f"DrillConfig.{f.name}", getattr(self, f.name), constraint)
+                object.__setattr__(self, f.name, value)
         if self.ball_offset + 0.05 >= self.control_radius:
             raise ValueError(
                 "DrillConfig.ball_offset must be smaller than control_radius - 0.05 "
@@ -343,7 +295,7 @@ def _points(points: object, size: float) -> tuple[Point, Point] | None:
         return None
     if len(pairs) != 2 or any(len(p) != 2 for p in pairs):
         return None
-    if not all(isinstance(c, numbers.Real) and not isinstance(c, bool) for p in pairs for c in p):
+    if not all(is_real(c) for p in pairs for c in p):
         return None
     out = tuple((float(x), float(y)) for x, y in pairs)
     if not all(0.0 <= c <= size for p in out for c in p):  # False for NaN

@@ -64,10 +64,14 @@ HOLDER_ACTIONS: tuple[Skill, ...] = (Skill.HOLD, Skill.PASS, Skill.DRIBBLE)
 class Command:
     """What one player does for one cycle.
 
-    Args:
-        skill: the skill to execute.
-        target: ``(x, y)`` in metres; required for ``MOVE_TO``, ignored otherwise.
-        speed: fraction of the player's top speed to use, in ``(0, 1]``.
+    Parameters
+    ----------
+    skill
+        The skill to execute.
+    target
+        ``(x, y)`` in metres; required for ``MOVE_TO``, ignored otherwise.
+    speed
+        Fraction of the player's top speed to use, in ``(0, 1]``.
     """
 
     skill: Skill

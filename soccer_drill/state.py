@@ -25,13 +25,20 @@ class DrillState(NamedTuple):
     is built every cycle, and a frozen dataclass, whose ``__init__`` sets each field
     through ``object.__setattr__``, takes about three times as long to build.)
 
-    Attributes:
-        pos: ``(x, y)`` of the four players then the ball, metres.
-        vel: their velocities, m/s.
-        holder: index of the player in possession, or -1 for a loose ball.
-        cycle: cycles elapsed since reset.
-        passer: index of the last player who passed, or -1.
-        lockout_until: the passer cannot regain the ball before this cycle.
+    Attributes
+    ----------
+    pos
+        ``(x, y)`` of the four players then the ball, metres.
+    vel
+        Their velocities, m/s.
+    holder
+        Index of the player in possession, or -1 for a loose ball.
+    cycle
+        Cycles elapsed since reset.
+    passer
+        Index of the last player who passed, or -1.
+    lockout_until
+        The passer cannot regain the ball before this cycle.
     """
 
     pos: tuple[tuple[float, float], ...]

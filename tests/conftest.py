@@ -28,13 +28,11 @@ import pytest  # noqa: E402  (after the environment above is set)
 
 
 @pytest.fixture
-def team_registry(monkeypatch):
+def team_registry():
     """The team registry, isolated for one test: the installed teams are discovered first
-    (so the copy holds them all, and the registry put back afterwards too), then teams the
-    test registers are gone after it."""
+    (so the registry put back afterwards holds them all), then teams the test registers
+    are gone after it."""
     import soccer_drill.teams as teams
-    import soccer_drill.teams.registry as registry
 
-    teams.team_ids()
-    monkeypatch.setattr(registry, "_registry", dict(registry._registry))
-    return teams
+    with teams.TEAMS.isolated():
+        yield teams

@@ -13,7 +13,7 @@ import pytest
 import soccer_drill
 from opponents.calibrate import Cell, criteria, main
 from soccer_drill import Command, Skill
-from soccer_drill.teams.registry import _registry
+from soccer_drill.teams import TEAMS
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -32,7 +32,7 @@ class Statues:
 def statues():
     soccer_drill.register("statues", Statues, overwrite=True)
     yield "statues"
-    _registry.pop("statues", None)
+    TEAMS.unregister("statues")
 
 
 def test_teams_and_default_out_never_touch_docs(statues, tmp_path, monkeypatch, capsys):

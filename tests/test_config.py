@@ -11,6 +11,7 @@ import pytest
 
 import soccer_drill
 from soccer_drill.config import COLLISION_BIAS, DrillConfig, fewest_substeps
+from soccer_drill.constraints import Integer, checked
 from soccer_drill.skills import Command, Skill
 
 NUMERIC = [f.name for f in fields(DrillConfig) if f.type in ("float", "int")]
@@ -21,11 +22,11 @@ def test_every_number_declares_its_limits_and_the_defaults_lie_inside():
     defaults = DrillConfig()
     for f in fields(DrillConfig):
         if f.name in NUMERIC:
-            limits = f.metadata["limits"]
-            assert limits.integer == (f.name in INTEGERS)
-            assert limits.admit(f.name, getattr(defaults, f.name)) == getattr(defaults, f.name)
+            limits = f.metadata["constraint"]
+            assert isinstance(limits, Integer) == (f.name in INTEGERS)
+            assert checked(f.name, getattr(defaults, f.name), limits) == getattr(defaults, f.name)
         else:
-            assert "limits" not in f.metadata
+            assert "constraint" not in f.metadata
 
 
 @pytest.mark.parametrize("name", NUMERIC)
@@ -36,7 +37,7 @@ def test_every_number_declares_its_limits_and_the_defaults_lie_inside():
     ids=repr,
 )
 def test_non_finite_and_non_numbers_are_refused_naming_the_field_and_range(name, bad):
-    kind = "an integer" if name in INTEGERS else "a number"
+    kind = "an integer" if name in INTEGERS else "a finite number"
     with pytest.raises(ValueError, match=rf"^DrillConfig\.{name} must be {kind} in [\[(]\S+, \S+\], got "):
         DrillConfig(**{name: bad})
 
@@ -45,16 +46,16 @@ def test_non_finite_and_non_numbers_are_refused_naming_the_field_and_range(name,
     ("name", "value", "message"),
     [
         # Absurd values that used to be accepted, and then hung or broke the drill.
-        ("cycle_seconds", 1e-9, r"cycle_seconds must be a number in \[0.001, 1\], got 1e-09"),
-        ("substeps", 10**9, r"substeps must be an integer in \[1, 1000\], got 1000000000"),
-        ("field_size", 1e300, r"field_size must be a number in \[10, 1000\], got 1e\+300"),
-        ("attacker_speed", 1e200, r"attacker_speed must be a number in \(0, 100\]"),
-        ("ball_max_speed", 1e308, r"ball_max_speed must be a number in \(0, 1000\]"),
-        ("kick_angle_noise", 1e9, r"kick_angle_noise must be a number in \[0, 180\]"),
-        ("reward_failure", -1e300, r"reward_failure must be a number in \[-1000, 1000\]"),
-        ("max_cycles", 10**12, r"max_cycles must be an integer in \[1, 1000000\]"),
-        ("field_size", 10**400, r"field_size must be a number in \[10, 1000\], got 1000"),
-        ("defender_speed", 0.0, r"defender_speed must be a number in \(0, 100\], got 0.0"),
+        ("cycle_seconds", 1e-9, r"cycle_seconds must be a finite number in \[0.001, 1\], got 1e-09"),
+        ("substeps", 10**9, r"substeps must be an integer in \[1, 1,000\], got 1000000000"),
+        ("field_size", 1e300, r"field_size must be a finite number in \[10, 1000\], got 1e\+300"),
+        ("attacker_speed", 1e200, r"attacker_speed must be a finite number in \(0, 100\]"),
+        ("ball_max_speed", 1e308, r"ball_max_speed must be a finite number in \(0, 1000\]"),
+        ("kick_angle_noise", 1e9, r"kick_angle_noise must be a finite number in \[0, 180\]"),
+        ("reward_failure", -1e300, r"reward_failure must be a finite number in \[-1000, 1000\]"),
+        ("max_cycles", 10**12, r"max_cycles must be an integer in \[1, 1,000,000\]"),
+        ("field_size", 10**400, r"field_size must be a finite number in \[10, 1000\], got 1000"),
+        ("defender_speed", 0.0, r"defender_speed must be a finite number in \(0, 100\], got 0.0"),
     ],
 )
 def test_absurd_values_are_refused_up_front_with_the_allowed_range(name, value, message):

@@ -18,7 +18,6 @@ import numpy as np
 import pytest
 from synthetic_smdp import ZoneCorridor
 
-from ilpss._check import Real
 from ilpss.experiments import drill
 from ilpss.experiments.config import EXPERIMENT_CONSTRAINTS, ExperimentConfig
 from ilpss.experiments.folder import RunFolder
@@ -34,6 +33,7 @@ from ilpss.experiments.protocols import (
 from ilpss.experiments.report import write_report
 from ilpss.experiments.run import JobError, run_experiment
 from ilpss.kernels import RegionKernels
+from soccer_drill.constraints import Real
 
 pytestmark = pytest.mark.slow  # runs experiments end to end
 

@@ -56,7 +56,7 @@ def test_an_unknown_team_is_refused_with_the_known_ones(capsys, no_episode):
 def test_fps_outside_what_a_gif_plays_is_refused(capsys, no_episode, fps):
     with pytest.raises(SystemExit):
         main(["--fps", fps])
-    assert "fps must be a number of frames per second in [1, 50]" in _error(capsys)
+    assert "fps must be a finite number in [1, 50] frames per second" in _error(capsys)
 
 
 @pytest.mark.parametrize("seed", ["-1", "1.5", "ten", str(2**63)])
@@ -90,7 +90,7 @@ def test_a_full_disk_names_the_file_and_leaves_nothing(tmp_path, capsys, monkeyp
 
 def test_save_gif_checks_fps_and_path(tmp_path):
     frame = [np.zeros((4, 4, 3), np.uint8)]
-    with pytest.raises(ValueError, match=r"fps must be a number of frames per second in \[1, 50\]"):
+    with pytest.raises(ValueError, match=r"fps must be a finite number in \[1, 50\] frames per second"):
         gif.save_gif(frame, tmp_path / "a.gif", fps=1000)
     with pytest.raises(ValueError, match="the output must name a file"):
         gif.save_gif(frame, tmp_path, fps=10)

@@ -693,7 +693,7 @@ def test_holder_learning_checks_its_output_before_learning(tmp_path, monkeypatch
 
 
 @pytest.mark.parametrize("argv, said", [
-    (["--teams", "chasers", "nope"], "unknown opponent team 'nope'; known teams: ["),
+    (["--teams", "chasers", "nope"], "unknown team 'nope'; known teams: ["),
     (["--rules", "soccer_drill.policies:NOTHING"], "--rules soccer_drill.policies:NOTHING: "),
 ])
 def test_holder_learning_checks_its_teams_and_rules_before_learning(tmp_path, monkeypatch,

@@ -225,11 +225,11 @@ def test_reaction_delay_acts_on_the_state_of_cycles_ago():
 
 def test_family_rejects_bad_parameters_by_name():
     for bad, message in (
-        ({"roles": ["keeper", "guard"]}, "roles must be two of"),
+        ({"roles": ["keeper", "guard"]}, "roles must be a list of 2 values"),
         ({"coordination": "zonal"}, "coordination must be one of"),
-        ({"speed": 1.5}, "speed must be in"),
+        ({"speed": 1.5}, "speed must be a finite number in"),
         ({"reaction_delay": -1}, "reaction_delay must be an integer"),
-        ({"press_probability": 2.0}, "press_probability must lie in"),
+        ({"press_probability": 2.0}, "press_probability must be a finite number in"),
     ):
         with pytest.raises(ValueError, match=message):
             HolderEnv(opponent="parametric", opponent_params=bad)

@@ -13,14 +13,14 @@ from soccer_drill.vector import HolderVectorEnv
 
 
 @pytest.mark.parametrize("params, said", [
-    ({"speed": True}, r"speed must be in \(0, 1\], one or two values, got True"),
-    ({"speed": [1.0, True]}, r"speed must be in \(0, 1\], one or two values, got \[1.0, True\]"),
-    ({"speed": None}, r"speed must be in \(0, 1\], one or two values, got None"),
+    ({"speed": True}, r"speed must be a finite number in \(0, 1\] or a list of 2 values, each a finite number in \(0, 1\], got True"),
+    ({"speed": [1.0, True]}, r"speed must be a finite number in \(0, 1\] or a list of 2 values, each a finite number in \(0, 1\], got \[1.0, True\]"),
+    ({"speed": None}, r"speed must be a finite number in \(0, 1\] or a list of 2 values, each a finite number in \(0, 1\], got None"),
     ({"reaction_delay": True}, "reaction_delay must be an integer >= 0, got True"),
     ({"sortie_cycles": True}, "sortie_cycles must be an integer >= 1, got True"),
-    ({"mark_fraction": True}, r"mark_fraction must lie in \[0.0, 1.0\], got True"),
-    ({"guard_track": False}, r"guard_track must lie in \[0.0, 1.0\], got False"),
-    ({"press_probability": np.True_}, r"press_probability must lie in \[0.0, 1.0\], got np.True_"),
+    ({"mark_fraction": True}, r"mark_fraction must be a finite number in \[0, 1\], got True"),
+    ({"guard_track": False}, r"guard_track must be a finite number in \[0, 1\], got False"),
+    ({"press_probability": np.True_}, r"press_probability must be a finite number in \[0, 1\], got np.True_"),
 ])
 def test_bools_are_refused_for_numbers_in_the_single_and_the_batched_drill(params, said):
     with pytest.raises(ValueError, match=said):

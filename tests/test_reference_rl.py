@@ -101,11 +101,11 @@ def test_tiny_run_writes_resumes_is_deterministic_and_recomputes_a_changed_setti
 @pytest.mark.parametrize("argv, message", [
     (["--ppo", "gama=0.9"], "KEY one of"),
     (["--ppo", "gamma=high"], "gamma takes a number"),
-    (["--ppo", "gamma=2"], "PPOConfig.gamma must be a number in [0.0, 1.0]"),
+    (["--ppo", "gamma=2"], "PPOConfig.gamma must be a finite number in [0, 1]"),
     (["--ppo", "batch_size=100"], "must divide n_envs * n_steps"),
     (["--seeds", "1"], "--seeds must be at least 2"),
     (["--teams", "chasers", "chasers"], "--teams must not repeat"),
-    (["--timeout-reward", "5"], "timeout_reward must be None or a number in [-10, 1]"),
+    (["--timeout-reward", "5"], "timeout_reward must be None or a finite number in [-10, 1]"),
     (["--window", "3000"], "window (3000) must be at most half"),
     (["--teams", "no_such_team"], "no_such_team"),
 ])

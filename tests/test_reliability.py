@@ -401,7 +401,7 @@ def test_no_bound_with_team_timeout_none():
 @pytest.mark.parametrize(("kind", "team"), [("holder", "chasers"), ("aec", "chasers"),
                                             ("parallel", "chasers"), ("aec", None)])
 def test_invalid_team_timeout_is_refused(kind, team, bad):
-    with pytest.raises(ValueError, match=r"team_timeout must be None \(no bound\) or a number of seconds in "
+    with pytest.raises(ValueError, match=r"team_timeout must be None or a finite number in "
                        r"\[0.001, 86400\], got "):
         _make(kind, team, team_timeout=bad)
 
@@ -791,7 +791,7 @@ def test_an_unknown_team_fails_the_run_naming_it(tmp_path):
     cfg = ExperimentConfig(n_seeds=1, workers=1, methods=("scratch",),
                            teams=("no_such_team", "chasers")).with_overrides(
         lifelong={"train_episodes": 2, "rollout_episodes": 1})
-    with pytest.raises(ValueError, match=r"unknown opponent team 'no_such_team'; known teams: \["):
+    with pytest.raises(ValueError, match=r"unknown team 'no_such_team'; known teams: \["):
         run_experiment(cfg, tmp_path, progress=False)
 
 

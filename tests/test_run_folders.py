@@ -107,10 +107,10 @@ def test_a_registered_sampler_makes_the_protocol_c_stream():
 
 
 def test_protocols_methods_and_reuses_register_only_their_own_kind():
-    from ilpss._registry import Registry
     from ilpss.experiments.methods import register_method
     from ilpss.experiments.protocols import register_protocol
     from ilpss.reuse import Reuse, register_reuse
+    from soccer_drill.registry import Registry
 
     for register, kind, cls in ((register_reuse, "reuse", "Reuse"),
                                 (register_method, "method", "Method"),

@@ -8,7 +8,6 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Literal
 
-from ilpss._check import Integer, ListOf, Name, NoneOr, Text, check, check_fields, from_json
 from ilpss.baselines import PrqConfig
 from ilpss.experiments import drill
 from ilpss.experiments.executor import EXECUTOR
@@ -17,6 +16,16 @@ from ilpss.experiments.protocols import PROTOCOLS, Stream, Task
 from ilpss.experiments.registry import SAMPLERS, check_env_id
 from ilpss.lifelong import LIFELONG_CONSTRAINTS, LearnerConfig, LifelongConfig
 from ilpss.reuse import EmKernels
+from soccer_drill.constraints import (
+    Integer,
+    ListOf,
+    Name,
+    NoneOr,
+    Text,
+    check,
+    check_fields,
+    from_json,
+)
 
 __all__ = [
     "EPISODE_REWARDS",

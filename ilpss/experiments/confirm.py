@@ -35,7 +35,6 @@ from typing import Any
 import numpy as np
 
 from ilpss import metrics
-from ilpss._check import ListOf, Name, OneOf, Real, Text, check_fields, check_keys
 from ilpss._io import atomic_write_bytes, read_json
 from ilpss.experiments.compare import target_curves
 from ilpss.experiments.config import ExperimentConfig
@@ -44,6 +43,7 @@ from ilpss.experiments.protocols import PROTOCOLS
 from ilpss.experiments.provenance import check_one_code, code_line
 from ilpss.experiments.report import interval_text, threshold_for, windows
 from ilpss.experiments.run import run_experiment
+from soccer_drill.constraints import ListOf, Name, OneOf, Real, Text, check_fields, check_keys
 
 __all__ = ["Plan", "analyse", "main", "pick"]
 

@@ -16,10 +16,10 @@ from typing import Any, Protocol
 
 from tqdm.auto import tqdm
 
-from ilpss._check import OneOf, check
 from ilpss._io import release_inherited_locks
 from ilpss.episode import DecisionLimitError
 from ilpss.traces import DivergedError
+from soccer_drill.constraints import OneOf, check
 
 SETTINGS_ERRORS = (DecisionLimitError, DivergedError)
 """What a job raises because of its settings (a learner's bound too small, a step size

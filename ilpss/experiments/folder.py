@@ -19,7 +19,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ilpss._check import Integer, Real, check_fields
 from ilpss._io import (
     atomic_write_bytes,
     check_inside,
@@ -28,6 +27,7 @@ from ilpss._io import (
     read_json,
 )
 from ilpss.experiments.executor import EXECUTOR
+from soccer_drill.constraints import Integer, Real, check_fields
 
 __all__ = ["WALL_TIME_FIELDS", "WALL_TIME_SCHEMA", "RunFolder", "checkpoint_key"]
 

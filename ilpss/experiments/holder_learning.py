@@ -43,7 +43,6 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from ilpss._check import Integer, ListOf, Real, Text, check_fields, check_keys
 from ilpss._io import (
     FolderInUseError,
     atomic_write_bytes,
@@ -72,6 +71,7 @@ from ilpss.experiments.provenance import code_line
 from ilpss.lifelong import LIFELONG_CONSTRAINTS, LearnerConfig
 from ilpss.metrics import holm, improvement_test, t_interval, t_test_pvalue, wilson_interval
 from ilpss.smdp import SmdpLearner
+from soccer_drill.constraints import Integer, ListOf, Real, Text, check_fields, check_keys
 
 EVAL_SEED = 10_000  # evaluation episodes use seeds EVAL_SEED + i, never seen in learning
 

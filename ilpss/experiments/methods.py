@@ -23,7 +23,6 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ilpss._check import Constraint, Integer, Real
 from ilpss._io import json_differences
 from ilpss.baselines import PrqLearner
 from ilpss.experiments import (
@@ -49,6 +48,7 @@ from ilpss.reuse import (
     learn_with,
 )
 from ilpss.smdp import EpisodeResult, SmdpLearner
+from soccer_drill.constraints import Constraint, Integer, Real
 
 if TYPE_CHECKING:
     from ilpss.experiments.config import ExperimentConfig

@@ -34,7 +34,8 @@ Methods, protocols and ways of reusing past policies are registries of their own
 :data:`~ilpss.reuse.REUSES`, on the same :class:`Registry`). Other names in the files need
 none: executors and the learner's ``method`` are checked against fixed lists, the kernel
 model named in a checkpoint against the one its configuration's reuse builds, and team ids
-are looked up by the drill in its own registry of teams.
+are looked up in the drill's registry of teams (:data:`soccer_drill.teams.TEAMS`, a
+:class:`Registry` too).
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ilpss._registry import Registry
+from soccer_drill.registry import Registry
 
 __all__ = [
     "ENV_PACKAGES",
@@ -54,7 +55,7 @@ __all__ = [
 ]
 
 
-SAMPLERS = Registry("ilpss.samplers", "sampler")
+SAMPLERS = Registry("ilpss.samplers", "sampler", calls="a function sampler(n, seed)")
 """Protocol C's samplers: ``sampler(n, seed) -> list of n opponent parameter dicts``."""
 ENV_PACKAGES = Registry("ilpss.environments", "environment package")
 """Packages that ``gymnasium.make`` may import for an ``env_id`` of the form ``package:id``."""
@@ -64,8 +65,6 @@ def register_sampler(
     name: str, sampler: Callable[[int, int], list[dict[str, Any]]], *, overwrite: bool = False
 ) -> None:
     """Register a protocol C sampler for this process (tests, notebooks)."""
-    if not callable(sampler):
-        raise TypeError(f"sampler {name!r} must be callable, got {sampler!r}")
     SAMPLERS.register(name, sampler, overwrite=overwrite)
 
 

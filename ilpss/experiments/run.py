@@ -25,7 +25,6 @@ from typing import Any
 
 import gymnasium as gym
 
-from ilpss._check import ListOf, Real, check_fields, check_keys
 from ilpss._io import (
     atomic_write_bytes,
     json_differences,
@@ -56,6 +55,7 @@ from ilpss.experiments.methods import METHODS, Job, LifelongMethod, lifelong_ent
 from ilpss.experiments.outputs import check_out_dir
 from ilpss.experiments.protocols import Stream, make_env
 from ilpss.experiments.provenance import check_code_field, check_same_code, code_record
+from soccer_drill.constraints import ListOf, Real, check_fields, check_keys
 
 __all__ = [
     "RESULT_SCHEMA",

@@ -29,6 +29,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from soccer_drill.constraints import (
+    Bool,
+    Integer,
+    ListOf,
+    NoneOr,
+    OneOf,
+    Real,
+    check_fields,
+)
+
 __all__ = [
     "ALGOS",
     "SETTINGS",
@@ -61,16 +71,23 @@ class RewardOption:
     timeout_reward: float | None = None
 
     def __post_init__(self) -> None:
-        r = self.timeout_reward
-        if r is not None and (not isinstance(r, int | float) or isinstance(r, bool)
-                              or not -10.0 <= r <= 1.0):
-            raise ValueError(f"RewardOption.timeout_reward must be None or a number in "
-                             f"[-10, 1], got {r!r}")
+        check_fields("RewardOption", self, {"timeout_reward": NoneOr(Real(-10.0, 1.0))})
 
     @property
     def active(self) -> bool:
         """Whether the reward differs from the drill's."""
         return self.timeout_reward is not None
+
+
+PPO_CONSTRAINTS = {
+    **dict.fromkeys(("steps", "n_envs", "n_steps", "batch_size", "n_epochs"), Integer(1)),
+    **dict.fromkeys(("learning_rate", "gamma", "gae_lambda", "clip_range", "ent_coef"),
+                    Real(0.0, 1.0)),
+    "vf_coef": Real(0.0, 10.0),
+    "max_grad_norm": Real(0.0, 100.0),
+    "net_arch": ListOf(Integer(1), min_len=1),  # the layer widths
+}
+"""What each field of :class:`PPOConfig` allows."""
 
 
 @dataclass(frozen=True)
@@ -97,25 +114,11 @@ class PPOConfig:
     net_arch: tuple[int, ...] = (64, 64)
 
     def __post_init__(self) -> None:
-        for name in ("steps", "n_envs", "n_steps", "batch_size", "n_epochs"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or isinstance(value, bool) or value < 1:
-                raise ValueError(f"PPOConfig.{name} must be an integer >= 1, got {value!r}")
+        check_fields("PPOConfig", self, PPO_CONSTRAINTS)
         if (self.n_envs * self.n_steps) % self.batch_size:
             raise ValueError(f"PPOConfig.batch_size ({self.batch_size}) must divide "
                              f"n_envs * n_steps ({self.n_envs * self.n_steps})")
-        for name, low, high in (("learning_rate", 0.0, 1.0), ("gamma", 0.0, 1.0),
-                                ("gae_lambda", 0.0, 1.0), ("clip_range", 0.0, 1.0),
-                                ("ent_coef", 0.0, 1.0), ("vf_coef", 0.0, 10.0),
-                                ("max_grad_norm", 0.0, 100.0)):
-            value = getattr(self, name)
-            if not isinstance(value, int | float) or isinstance(value, bool) \
-                    or not low <= value <= high:
-                raise ValueError(f"PPOConfig.{name} must be a number in [{low}, {high}], "
-                                 f"got {value!r}")
-        if not self.net_arch or not all(isinstance(n, int) and n >= 1 for n in self.net_arch):
-            raise ValueError(f"PPOConfig.net_arch must be a non-empty tuple of layer widths "
-                             f">= 1, got {self.net_arch!r}")
+
 
 
 @dataclass(frozen=True)
@@ -127,6 +130,10 @@ class EvalSettings:
 
     episodes: int = 200
     learned_fraction: float = 0.5
+
+    def __post_init__(self) -> None:
+        check_fields("EvalSettings", self,
+                     {"episodes": Integer(1), "learned_fraction": Real(0.0, 1.0)})
 
 
 @dataclass(frozen=True)
@@ -148,8 +155,9 @@ class HolderSetting:
     reward: RewardOption = field(default_factory=RewardOption)
 
     def __post_init__(self) -> None:
-        if self.algo not in ALGOS:
-            raise ValueError(f"HolderSetting.algo must be one of {list(ALGOS)}, got {self.algo!r}")
+        check_fields("HolderSetting", self, {
+            "algo": OneOf(ALGOS), "normalize_obs": Bool(), "timeout_terminal": Bool(),
+        })
 
 
 @dataclass(frozen=True)
@@ -188,6 +196,8 @@ class TransferSetting:
     window: int = 300
 
     def __post_init__(self) -> None:
+        check_fields("TransferSetting", self, dict.fromkeys(
+            ("source_steps", "target_episodes", "window"), Integer(1)))
         if self.window * 2 > self.target_episodes:
             raise ValueError(f"TransferSetting.window ({self.window}) must be at most half of "
                              f"target_episodes ({self.target_episodes})")

@@ -21,6 +21,7 @@ from typing import Literal
 import numpy as np
 
 from soccer_drill.config import DrillConfig
+from soccer_drill.constraints import Integer, checked
 from soccer_drill.drill.spaces import DRILLS_PER_SPACE, BatchPhysics, DrillSpace
 from soccer_drill.rules.cycle import (
     ORDER,
@@ -48,11 +49,16 @@ OUTCOME_NAMES: tuple[str | None, ...] = (None, *OUTCOMES)
 class BatchDrill:
     """``n`` drills without any API around them: physics, possession and outcomes on arrays.
 
-    Args:
-        n: number of drills.
-        config: their parameters (one for all).
-        drills_per_space: drills sharing one pymunk space (:class:`BatchPhysics`).
-        physics: the pymunk side instead (:class:`DrillSpace` for one drill).
+    Parameters
+    ----------
+    n
+        Number of drills.
+    config
+        Their parameters (one for all).
+    drills_per_space
+        Drills sharing one pymunk space (:class:`BatchPhysics`).
+    physics
+        The pymunk side instead (:class:`DrillSpace` for one drill).
 
     Attributes (``i`` indexes drills):
         pos, vel: ``(n, 5, 2)`` float64, the four players then the ball.
@@ -73,9 +79,7 @@ class BatchDrill:
         drills_per_space: int = DRILLS_PER_SPACE,
         physics: BatchPhysics | DrillSpace | None = None,
     ) -> None:
-        if not isinstance(n, int) or isinstance(n, bool) or n < 1:
-            raise ValueError(f"the number of drills must be an integer >= 1, got {n!r}")
-        self.n = n
+        self.n = n = checked("the number of drills", n, Integer(1))
         self.config = cfg = config or DrillConfig()
         self.physics = physics if physics is not None else BatchPhysics(n, cfg, drills_per_space)
         self.pos = np.zeros((n, 5, 2))
@@ -209,8 +213,10 @@ _ONE.flags.writeable = False
 class Drill:
     """The 2v2 drill without any API around it: physics, possession and outcome.
 
-    Args:
-        config: the drill's parameters.
+    Parameters
+    ----------
+    config
+        The drill's parameters.
 
     A :class:`BatchDrill` of one drill in a :class:`~soccer_drill.drill.spaces.DrillSpace`
     of its own. After :meth:`reset`, :attr:`state` is the current :class:`DrillState`;

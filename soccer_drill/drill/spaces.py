@@ -28,7 +28,8 @@ import numpy as np
 import pymunk
 import pymunk.batch as pmb
 
-from soccer_drill.config import DrillConfig, is_integer
+from soccer_drill.config import DrillConfig
+from soccer_drill.constraints import Integer, checked
 from soccer_drill.interruptions import CtrlCDeferred
 
 PLAYER_MASS = 75.0
@@ -81,9 +82,7 @@ def check_batch_order(space: pymunk.Space, bodies: Sequence[pymunk.Body]) -> Non
 
 def check_drills_per_space(drills_per_space: object) -> int:
     """``drills_per_space`` as an int, or ``ValueError`` saying what is allowed."""
-    if not is_integer(drills_per_space) or drills_per_space < 1:  # type: ignore[operator]
-        raise ValueError(f"drills_per_space must be an integer >= 1, got {drills_per_space!r}")
-    return int(drills_per_space)  # type: ignore[call-overload]
+    return checked("drills_per_space", drills_per_space, Integer(1))
 
 
 def _walls(space: pymunk.Space, cfg: DrillConfig, ox: float = 0.0, oy: float = 0.0) -> list:
@@ -97,8 +96,10 @@ def _walls(space: pymunk.Space, cfg: DrillConfig, ox: float = 0.0, oy: float = 0
 class DrillSpace:
     """One drill's pymunk space: its four players, the ball and the walls.
 
-    Args:
-        config: the drill's parameters.
+    Parameters
+    ----------
+    config
+        The drill's parameters.
 
     :meth:`renew` builds the space anew at every episode's start: a space keeps contact
     caches and other internal state from earlier episodes that change later collisions,
@@ -177,10 +178,14 @@ class DrillSpace:
 class BatchPhysics:
     """The players of ``n`` drills in shared pymunk spaces, moved by batched writes and reads.
 
-    Args:
-        n: number of drills.
-        config: the drills' parameters (one for all).
-        drills_per_space: drills sharing one space (the last space may hold fewer).
+    Parameters
+    ----------
+    n
+        Number of drills.
+    config
+        The drills' parameters (one for all).
+    drills_per_space
+        Drills sharing one space (the last space may hold fewer).
 
     Each drill's four players and its four walls sit in a region of their own, the
     regions :attr:`spacing` metres apart so that no two drills' shapes ever meet

@@ -13,6 +13,7 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 
 from soccer_drill.config import DrillConfig
+from soccer_drill.constraints import is_int
 from soccer_drill.drill import Drill
 from soccer_drill.rules.features import feature_bounds, features, kinematic_bounds, kinematics
 from soccer_drill.rules.support import SupportPlayer
@@ -78,27 +79,39 @@ def make_config(config: DrillConfig | Mapping[str, Any] | None, max_cycles: int 
 class DrillCore:
     """One drill, its scripted team and support players, spaces and action checks.
 
-    Args:
-        opponent: team id (see :func:`soccer_drill.teams.team_ids`), a :class:`Team`
-            instance, or ``None`` for no scripted team (the defenders are agents).
-        opponent_params: keyword parameters for the team factory.
-        config: drill parameters.
-        obs_type: ``"features"`` (the 9 features) or ``"kinematic"`` (26 values).
-        illegal_action: ``"raise"`` (a masked action is an error) or ``"default"``
-            (it is replaced by the role's default: HOLD, GET_OPEN or INTERCEPT, and
-            :attr:`replaced` says so).
-        scripted_attackers: attackers driven by :class:`SupportPlayer`.
-        team_timeout: seconds of CPU time each ``reset``/``act`` call of the team may take, or
-            ``None`` for no bound (see :class:`~soccer_drill.teams.TeamDriver`).
-        shared_spaces: defenders get the attackers' ``Discrete(5)`` actions, the last
-            two always masked.
+    Parameters
+    ----------
+    opponent
+        Team id (see :func:`soccer_drill.teams.team_ids`), a :class:`Team`
+        instance, or ``None`` for no scripted team (the defenders are agents).
+    opponent_params
+        Keyword parameters for the team factory.
+    config
+        Drill parameters.
+    obs_type
+        ``"features"`` (the 9 features) or ``"kinematic"`` (26 values).
+    illegal_action
+        ``"raise"`` (a masked action is an error) or ``"default"``
+        (it is replaced by the role's default: HOLD, GET_OPEN or INTERCEPT, and
+        :attr:`replaced` says so).
+    scripted_attackers
+        Attackers driven by :class:`SupportPlayer`.
+    team_timeout
+        Seconds of CPU time each ``reset``/``act`` call of the team may take, or
+        ``None`` for no bound (see :class:`~soccer_drill.teams.TeamDriver`).
+    shared_spaces
+        Defenders get the attackers' ``Discrete(5)`` actions, the last
+        two always masked.
 
-    Attributes:
-        replaced: ``(given, taken)`` after :meth:`command_for` replaced a masked action,
-            else ``None``; the caller reads it and sets it back to ``None``.
-        busy: a lock an environment holds while it steps or resets, so that a second
-            thread using the same environment at the same time gets a clear error
-            (:func:`concurrent_use`) instead of corrupting the physics engine.
+    Attributes
+    ----------
+    replaced
+        ``(given, taken)`` after :meth:`command_for` replaced a masked action,
+        else ``None``; the caller reads it and sets it back to ``None``.
+    busy
+        A lock an environment holds while it steps or resets, so that a second
+        thread using the same environment at the same time gets a clear error
+        (:func:`concurrent_use`) instead of corrupting the physics engine.
     """
 
     def __init__(
@@ -246,7 +259,7 @@ class DrillCore:
         else:
             if isinstance(action, np.ndarray) and action.shape == ():
                 action = action.item()
-            if isinstance(action, bool) or not isinstance(action, int | np.integer):
+            if not is_int(action):
                 raise TypeError(
                     f"action for {agent!r} must be an integer in [0, {n - 1}] "
                     f"({action_list(index, n)}), got {action!r} of type {type(action).__name__}"

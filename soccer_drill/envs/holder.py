@@ -10,7 +10,8 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from soccer_drill.config import DrillConfig, is_integer
+from soccer_drill.config import DrillConfig
+from soccer_drill.constraints import Integer, checked, is_int
 from soccer_drill.envs.core import DrillCore, concurrent_use, make_config, not_reset
 from soccer_drill.rendering.screen import RENDER_MODES, Screen, frames_per_second
 from soccer_drill.skills import HOLDER_ACTIONS, Command
@@ -22,15 +23,14 @@ _HOLDER_COMMANDS = tuple(Command(skill) for skill in HOLDER_ACTIONS)
 
 DECISION_CYCLES_RANGE = (1, 50)
 """The cycles a HOLD or DRIBBLE may last (``decision_cycles``)."""
+DECISION_CYCLES = Integer(*DECISION_CYCLES_RANGE)
+"""What ``decision_cycles`` may be: an integer in :data:`DECISION_CYCLES_RANGE`."""
 
 
 def check_decision_cycles(decision_cycles: object) -> int:
     """``decision_cycles`` as an int (a Python or NumPy integer, not a bool) in
     :data:`DECISION_CYCLES_RANGE`, else ``ValueError`` saying what is allowed."""
-    low, high = DECISION_CYCLES_RANGE
-    if not is_integer(decision_cycles) or not low <= decision_cycles <= high:  # type: ignore[operator]
-        raise ValueError(f"decision_cycles must be an integer in {low}..{high}, got {decision_cycles!r}")
-    return int(decision_cycles)
+    return checked("decision_cycles", decision_cycles, DECISION_CYCLES)
 
 
 
@@ -39,9 +39,7 @@ def check_holder_action(action: object) -> int:
     integer or a 0-d integer array; bools, floats and values out of range are refused."""
     if isinstance(action, np.ndarray) and action.shape == ():
         action = action.item()
-    if isinstance(action, bool) or not isinstance(action, int | np.integer) or not (
-        0 <= action < len(HOLDER_ACTIONS)
-    ):
+    if not is_int(action) or not 0 <= action < len(HOLDER_ACTIONS):  # type: ignore[operator]
         raise ValueError(
             f"action must be an integer in 0..{len(HOLDER_ACTIONS) - 1} "
             f"(0=HOLD, 1=PASS, 2=DRIBBLE), got {action!r}"
@@ -140,7 +138,7 @@ class HolderEnv(gym.Env):
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``render_mode`` | ``None`` | ``"human"``, ``"rgb_array"`` or ``"rgb_array_list"`` (see Rendering) |
-    | ``decision_cycles`` | ``4`` | cycles a ``HOLD`` or ``DRIBBLE`` lasts (an integer in 1..50; fewer if possession changes); ``PASS`` lasts until an attacker controls the ball |
+    | ``decision_cycles`` | ``4`` | cycles a ``HOLD`` or ``DRIBBLE`` lasts (an integer in [1, 50]; fewer if possession changes); ``PASS`` lasts until an attacker controls the ball |
     | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound (see ``soccer_drill.teams.TeamDriver``) |
     """
 

@@ -40,10 +40,14 @@ class Renderer:
     """Draws :class:`DrillState` snapshots: the field and what lies within the walls, at
     :data:`SCALE` pixels a metre, or less on a field too large for :data:`MAX_SIDE`.
 
-    Args:
-        config: the drill's configuration (field size, radii).
-        mode: ``"rgb_array"`` or ``"human"``.
-        fps: frame rate of the ``human`` window.
+    Parameters
+    ----------
+    config
+        The drill's configuration (field size, radii).
+    mode
+        ``"rgb_array"`` or ``"human"``.
+    fps
+        Frame rate of the ``human`` window.
     """
 
     def __init__(self, config: DrillConfig, mode: str, fps: int = 10) -> None:

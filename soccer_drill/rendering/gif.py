@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import io
-import numbers
 import os
 import sys
 from collections.abc import Callable, Sequence
@@ -21,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from soccer_drill.constraints import Real
 from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.files import atomic_write_bytes, check_output_file
 from soccer_drill.policies import HOLDER_POLICIES, HolderPolicy, get_policy
@@ -29,18 +29,17 @@ from soccer_drill.teams import TeamError, team_ids
 FPS_RANGE = (1, 50)
 """Frames per second a GIF can play: its frame delay is counted in hundredths of a second,
 and viewers play a delay under 20 ms (above 50 fps) as 100 ms."""
+FPS = Real(*FPS_RANGE)
 
 
 def check_fps(fps: object) -> float:
     """``fps`` as a number in :data:`FPS_RANGE`, else ``ValueError`` saying what is allowed."""
-    low, high = FPS_RANGE
-    if isinstance(fps, bool) or not isinstance(fps, numbers.Real) or not low <= fps <= high:
+    if not FPS.allows(fps):
         raise ValueError(
-            f"fps must be a number of frames per second in [{low}, {high}] (a GIF counts its "
-            f"frame delay in hundredths of a second; viewers play delays under 20 ms as "
-            f"100 ms), got {fps!r}"
+            f"fps must be {FPS.describe()} frames per second (a GIF counts its frame delay "
+            f"in hundredths of a second; viewers play delays under 20 ms as 100 ms), got {fps!r}"
         )
-    return float(fps)
+    return FPS.plain(fps)
 
 
 def palette_images(frames: Sequence[np.ndarray]) -> list | None:

@@ -40,10 +40,14 @@ class Screen:
     a list of the caller's, whatever the mode. Copies (``pickle``, ``copy``) keep the
     frames but not the renderers: a copy draws with its own, opening its own window.
 
-    Args:
-        config: the drill's configuration (field size, radii, cycle length).
-        render_mode: one of :data:`RENDER_MODES` or ``None``.
-        fps: frames per second of the ``human`` window.
+    Parameters
+    ----------
+    config
+        The drill's configuration (field size, radii, cycle length).
+    render_mode
+        One of :data:`RENDER_MODES` or ``None``.
+    fps
+        Frames per second of the ``human`` window.
     """
 
     def __init__(self, config: DrillConfig, render_mode: str | None, fps: float) -> None:

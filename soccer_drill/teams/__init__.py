@@ -2,7 +2,7 @@
 
 | module | holds |
 |---|---|
-| :mod:`~soccer_drill.teams.registry` | the :class:`Team` protocol, :func:`register`, :func:`make_team`, entry-point discovery, :func:`team_code` |
+| :mod:`~soccer_drill.teams.registry` | the :class:`Team` protocol, :data:`TEAMS` (a :class:`~soccer_drill.registry.Registry`), :func:`register`, :func:`make_team`, :func:`team_code` |
 | :mod:`~soccer_drill.teams.driver` | :func:`check_commands` (what a team returned, checked; the words of each refusal) and :class:`TeamDriver` (a team within its CPU-time bound) |
 | :mod:`~soccer_drill.teams.batch` | the batched protocol (:class:`~soccer_drill.teams.batch.BatchView`, ``BatchCommands``, ``BatchRandom``, ``SameCommands``) and ``BatchTeamDriver`` (a team's ``batch(n)``, or one copy per drill) |
 | :mod:`~soccer_drill.teams.time_bound` | the CPU-time bound of one call (which exceptions a signal delivered: :mod:`soccer_drill.interruptions`) |
@@ -28,6 +28,7 @@ from soccer_drill.teams.registry import (
     DEFAULT_TEAM_TIMEOUT,
     ENTRY_POINT_GROUP,
     TEAM_TIMEOUT_RANGE,
+    TEAMS,
     PluginWarning,
     Team,
     TeamError,
@@ -48,6 +49,7 @@ __all__ = [
     "DEFAULT_TEAM_TIMEOUT",
     "ENTRY_POINT_GROUP",
     "SCRIPTED_SKILLS",
+    "TEAMS",
     "TEAM_TIMEOUT_RANGE",
     "PluginWarning",
     "Team",

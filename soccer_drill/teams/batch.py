@@ -58,10 +58,14 @@ _IS_ALLOWED[[int(s) for s in SCRIPTED_SKILLS]] = True
 class BatchCommands(NamedTuple):
     """The commands of a team's two players in ``m`` drills.
 
-    Attributes:
-        skill: ``(m, 2)`` integers, :class:`~soccer_drill.skills.Skill` values.
-        target: ``(m, 2, 2)`` floats, the ``MOVE_TO`` targets (ignored for other skills).
-        speed: ``(m, 2)`` floats in ``(0, 1]``.
+    Attributes
+    ----------
+    skill
+        ``(m, 2)`` integers, :class:`~soccer_drill.skills.Skill` values.
+    target
+        ``(m, 2, 2)`` floats, the ``MOVE_TO`` targets (ignored for other skills).
+    speed
+        ``(m, 2)`` floats in ``(0, 1]``.
     """
 
     skill: np.ndarray
@@ -236,12 +240,16 @@ class _Calling:
     """The drills of one call of a team, described only if an error names them: its
     ``when`` in a :class:`~soccer_drill.teams.TeamDriver` message (``act()`` + this).
 
-    Args:
-        drills: the drills the call is for.
-        cycles: the batch's cycle counters (``None``: a reset, before any cycle).
-        each: the CPU-time bound of each drill's copy, when the call runs copies one
-            after another under one bound of ``each`` times their number (then
-            :attr:`running` is the copy that was running when it ended).
+    Parameters
+    ----------
+    drills
+        The drills the call is for.
+    cycles
+        The batch's cycle counters (``None``: a reset, before any cycle).
+    each
+        The CPU-time bound of each drill's copy, when the call runs copies one
+        after another under one bound of ``each`` times their number (then
+        :attr:`running` is the copy that was running when it ended).
     """
 
     def __init__(self, drills: np.ndarray, cycles: np.ndarray | None, each: float | None = None) -> None:
@@ -277,14 +285,20 @@ _COMMAND_ARRAYS = (
 class BatchTeamDriver:
     """The scripted team of ``n`` drills: batched if the team offers it, else one per drill.
 
-    Args:
-        opponent: a team id or a :class:`~soccer_drill.teams.Team` instance (copied
-            with ``copy.deepcopy`` for each drill when it has no batched version).
-        opponent_params: keyword parameters of the team factory (with an id).
-        n: number of drills.
-        config: the drills' configuration.
-        team_timeout: the CPU-time bound of one batched call, or of each copy's call
-            (see the module docstring).
+    Parameters
+    ----------
+    opponent
+        A team id or a :class:`~soccer_drill.teams.Team` instance (copied
+        with ``copy.deepcopy`` for each drill when it has no batched version).
+    opponent_params
+        Keyword parameters of the team factory (with an id).
+    n
+        Number of drills.
+    config
+        The drills' configuration.
+    team_timeout
+        The CPU-time bound of one batched call, or of each copy's call
+        (see the module docstring).
     """
 
     def __init__(

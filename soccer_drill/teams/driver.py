@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from soccer_drill.constraints import is_real
 from soccer_drill.interruptions import MAX_ITEMS, delivered_by_signal, short_repr
 from soccer_drill.rules.compiled import compiled
 from soccer_drill.rules.first_use import warm_up
@@ -22,7 +23,6 @@ from soccer_drill.teams.registry import (
     DEFAULT_TEAM_TIMEOUT,
     Team,
     TeamError,
-    _is_real,
     _what_happened,
     check_team_timeout,
     make_team,
@@ -206,8 +206,8 @@ def _check(team: str, player: str, command: object, cycle: int, drill: int | Non
         raise _invalid(team, drill, player, cycle, skill_refused(skill))
     plain = type(command) is Command and (type(speed) is float or type(speed) is int)
     if not (plain and speed_allowed(speed)):  # else the general check, and a copy
-        checked = float(speed) if not plain and _is_real(speed) else speed  # type: ignore[arg-type]
-        if not (_is_real(checked) and speed_allowed(checked)):
+        checked = float(speed) if not plain and is_real(speed) else speed  # type: ignore[arg-type]
+        if not (is_real(checked) and speed_allowed(checked)):
             raise _invalid(team, drill, player, cycle, speed_refused(speed))
         speed = checked
     if skill is not _MOVE_TO:
@@ -234,15 +234,21 @@ def _invalid(team: str, drill: int | None, player: str, cycle: int, what: str) -
 class TeamDriver:
     """Runs a team inside the drill, bounds the CPU time of each call, checks every command.
 
-    Args:
-        team: the team.
-        name: its id, named in every error.
-        players: the players it drives.
-        team_timeout: seconds of CPU time each ``reset`` or ``act`` call may take, in
-            :data:`TEAM_TIMEOUT_RANGE` (1 ms to one day), or ``None`` for no bound. A
-            call that exceeds it raises :class:`TeamError`.
-        drill: the drill of a batch this copy of the team plays in (named in its errors),
-            or ``None``.
+    Parameters
+    ----------
+    team
+        The team.
+    name
+        Its id, named in every error.
+    players
+        The players it drives.
+    team_timeout
+        Seconds of CPU time each ``reset`` or ``act`` call may take, in
+        :data:`TEAM_TIMEOUT_RANGE` (1 ms to one day), or ``None`` for no bound. A
+        call that exceeds it raises :class:`TeamError`.
+    drill
+        The drill of a batch this copy of the team plays in (named in its errors),
+        or ``None``.
 
     What the bound counts is the CPU time of the thread running the team during the call
     (``time.thread_time``), less garbage collections (see
@@ -400,7 +406,7 @@ def _point(target: object) -> tuple[float, float] | None:
         x, y = target  # type: ignore[misc]
     except (TypeError, ValueError):  # not iterable, or not exactly two items
         return None
-    if not (_is_real(x) and _is_real(y)):
+    if not (is_real(x) and is_real(y)):
         return None
     point = (float(x), float(y))
     return point if math.isfinite(point[0]) and math.isfinite(point[1]) else None

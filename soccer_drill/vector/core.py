@@ -7,7 +7,8 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from soccer_drill.config import DrillConfig, is_integer
+from soccer_drill.config import DrillConfig
+from soccer_drill.constraints import Integer, checked, is_int
 from soccer_drill.drill import BatchDrill
 from soccer_drill.rules.cycle import RUNNING
 from soccer_drill.rules.support import OFFSET_STD, RESAMPLE_CYCLES, support_commands_of_drills
@@ -45,11 +46,9 @@ def available_memory() -> int | None:
 
 def check_num_envs(num_envs: object) -> int:
     """``num_envs`` as an int, or ``ValueError`` saying what is allowed: an integer in
-    1..1000000 whose drills fit in the memory available (at :data:`DRILL_BYTES` a drill;
+    [1, 1,000,000] whose drills fit in the memory available (at :data:`DRILL_BYTES` a drill;
     beyond it the process is killed, or crashes inside pymunk, while it builds them)."""
-    if not is_integer(num_envs) or not 1 <= num_envs <= 1_000_000:  # type: ignore[operator]
-        raise ValueError(f"num_envs must be an integer in 1..1000000, got {num_envs!r}")
-    n = int(num_envs)
+    n = checked("num_envs", num_envs, Integer(1, 1_000_000))
     available = available_memory()
     if available is not None and n * DRILL_BYTES > available:
         raise ValueError(
@@ -74,7 +73,7 @@ def check_seed(seed: object, n: int) -> list[int | None] | None:
         f"seed must be None, an integer >= 0 (drill i gets seed + i) or a sequence of {n} "
         "seeds, one per drill, each None or an integer >= 0"
     )
-    if is_integer(seed):
+    if is_int(seed):
         if seed < 0:
             raise ValueError(f"{allowed}; got {seed!r}")
         return [int(seed) + i for i in range(n)]
@@ -86,7 +85,7 @@ def check_seed(seed: object, n: int) -> list[int | None] | None:
     if len(seeds) != n:
         raise ValueError(f"{allowed}; got a sequence of {len(seeds)}")
     for i, s in enumerate(seeds):
-        if s is not None and not (is_integer(s) and s >= 0):
+        if s is not None and not (is_int(s) and s >= 0):
             raise ValueError(f"{allowed}; got seed[{i}] = {s!r} of type {type(s).__name__}")
     return [None if s is None else int(s) for s in seeds]
 
@@ -94,15 +93,23 @@ def check_seed(seed: object, n: int) -> list[int | None] | None:
 class BatchCore:
     """``n`` drills with their generators, scripted team and support players.
 
-    Args:
-        n: number of drills.
-        opponent: team id, ``Team`` instance, or ``None`` (no scripted team).
-        opponent_params: keyword parameters of the team factory.
-        config: the drills' parameters.
-        team_timeout: CPU-time bound of one batched team call, or of each drill's copy's
-            (``None``: no bound).
-        support: the attackers not given a command are driven by the support behaviour.
-        drills_per_space: drills sharing one pymunk space.
+    Parameters
+    ----------
+    n
+        Number of drills.
+    opponent
+        Team id, ``Team`` instance, or ``None`` (no scripted team).
+    opponent_params
+        Keyword parameters of the team factory.
+    config
+        The drills' parameters.
+    team_timeout
+        CPU-time bound of one batched team call, or of each drill's copy's
+        (``None``: no bound).
+    support
+        The attackers not given a command are driven by the support behaviour.
+    drills_per_space
+        Drills sharing one pymunk space.
 
     Seeding: drill ``i`` has its own generator, the stream that a single environment's
     ``reset(seed=s_i)`` starts (``np.random.default_rng(s_i)``); at each of its episode's

@@ -11,7 +11,8 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from soccer_drill.config import DrillConfig, is_integer
+from soccer_drill.config import DrillConfig
+from soccer_drill.constraints import Integer, NoneOr, checked, is_int
 from soccer_drill.drill import DRILLS_PER_SPACE, OUTCOME_NAMES, check_drills_per_space
 from soccer_drill.envs.core import make_config
 from soccer_drill.envs.holder import check_decision_cycles, check_holder_action
@@ -58,7 +59,7 @@ def check_drill_indices(indices: object, n: int) -> list[int]:
     allowed = f"indices must be None (every drill), an int in 0..{n - 1} or a sequence of them"
     if indices is None:
         return list(range(n))
-    if is_integer(indices):
+    if is_int(indices):
         chosen = [indices]
     elif (isinstance(indices, np.ndarray) and indices.ndim == 1) or (
         isinstance(indices, Sequence) and not isinstance(indices, str | bytes)
@@ -67,7 +68,7 @@ def check_drill_indices(indices: object, n: int) -> list[int]:
     else:
         raise TypeError(f"{allowed}; got {indices!r} of type {type(indices).__name__}")
     for i in chosen:
-        if not is_integer(i):
+        if not is_int(i):
             raise TypeError(f"{allowed}; got {i!r} of type {type(i).__name__} in {indices!r}")
         if not 0 <= i < n:
             raise ValueError(f"{allowed}; got {i!r} (there are {n} drills)")
@@ -77,7 +78,7 @@ def check_drill_indices(indices: object, n: int) -> list[int]:
 def first_non_integer(actions: np.ndarray) -> int:
     """The index of the first entry of ``actions`` that is not an integer (0 if every entry
     is one: then the dtype itself is wrong, e.g. an object array of ints)."""
-    return next((i for i, x in enumerate(actions.tolist()) if not is_integer(x)), 0)
+    return next((i for i, x in enumerate(actions.tolist()) if not is_int(x)), 0)
 
 
 class HolderVectorEnv(VectorEnv):
@@ -222,7 +223,7 @@ class HolderVectorEnv(VectorEnv):
     | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
-    | ``decision_cycles`` | ``4`` | cycles a HOLD or DRIBBLE lasts (an integer in 1..50) |
+    | ``decision_cycles`` | ``4`` | cycles a HOLD or DRIBBLE lasts (an integer in [1, 50]) |
     | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take (a team without a batched ``act``: each drill's copy, each call) |
     | ``autoreset_mode`` | ``NEXT_STEP`` | see Autoreset |
     | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
@@ -249,13 +250,8 @@ class HolderVectorEnv(VectorEnv):
         batch_size: int | None = None,
     ) -> None:
         n = check_num_envs(num_envs)
-        if batch_size is None:
-            batch_size = n
-        if not is_integer(batch_size) or not 1 <= batch_size <= n:
-            raise ValueError(
-                f"batch_size must be an integer in 1..num_envs ({n}) or None (num_envs), "
-                f"got {batch_size!r}"
-            )
+        # None: every drill at once; the number of drills is only known here.
+        batch_size = checked("batch_size", batch_size, NoneOr(Integer(1, n))) or n
         drills_per_space = check_drills_per_space(drills_per_space)
         decision_cycles = check_decision_cycles(decision_cycles)
         if opponent is None:
@@ -705,7 +701,7 @@ def play_episodes(
     core, b, n = env._core, env._core.batch, env.num_envs
     seeds = list(seeds)
     for k, s in enumerate(seeds):
-        if not is_integer(s) or s < 0:
+        if not is_int(s) or s < 0:
             raise ValueError(
                 f"seeds[{k}] must be an integer >= 0 (a seed of HolderEnv.reset), got {s!r} "
                 f"of type {type(s).__name__}"

@@ -12,13 +12,19 @@ allowed values::
     ValueError: LearnerConfig.epsilon must be a finite number in [0, 1], got 1.5
 
 Numbers are Python or NumPy numbers, never bools or strings (JSON may carry either by
-mistake); reals must be finite.
+mistake); reals must be finite. :func:`checked` also gives the value back as the plain
+Python value it stands for (a ``float`` for :class:`Real`, an ``int`` for
+:class:`Integer`), so that a configuration holding it is JSON-ready.
+
+This module is the one vocabulary of the three packages (``soccer_drill``, ``opponents``,
+``ilpss``): it imports nothing from them.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -39,6 +45,7 @@ __all__ = [
     "check",
     "check_fields",
     "check_keys",
+    "checked",
     "from_json",
     "is_int",
     "is_real",
@@ -46,15 +53,22 @@ __all__ = [
 
 
 def is_real(value: object) -> bool:
-    """A real number (Python or NumPy), not a bool."""
-    return isinstance(value, int | float | np.integer | np.floating) and not isinstance(
-        value, bool | np.bool_
+    """A real number (Python, NumPy or another :class:`numbers.Real`), not a bool (``True``
+    is an ``int`` to Python, but a slip as a number)."""
+    if isinstance(value, bool | np.bool_):
+        return False
+    # Python and NumPy numbers first: the common case, faster than the ABC's check.
+    return isinstance(value, float | int | np.floating | np.integer) or isinstance(
+        value, numbers.Real
     )
 
 
 def is_int(value: object) -> bool:
-    """An integer (Python or NumPy), not a bool."""
-    return isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
+    """An integer (Python, NumPy or another :class:`numbers.Integral`), not a bool (an
+    ``int`` to Python, but a slip as a count, a seed or an action)."""
+    if isinstance(value, bool | np.bool_):
+        return False
+    return isinstance(value, int | np.integer) or isinstance(value, numbers.Integral)
 
 
 class Constraint:
@@ -67,6 +81,10 @@ class Constraint:
     def describe(self) -> str:  # pragma: no cover - interface
         """What is allowed, as the end of "``field`` must be ...\"."""
         raise NotImplementedError
+
+    def plain(self, value: Any) -> Any:
+        """An allowed ``value`` as the plain Python value it stands for (itself here)."""
+        return value
 
 
 def _bound(x: float) -> str:
@@ -83,9 +101,14 @@ class Real(Constraint):
     high_open: bool = False
 
     def allows(self, value: object) -> bool:
-        if not is_real(value) or not math.isfinite(value):  # type: ignore[arg-type]
+        if not is_real(value):
             return False
-        v = float(value)  # type: ignore[arg-type]
+        try:
+            v = float(value)  # type: ignore[arg-type]
+        except OverflowError:  # an integer beyond float, e.g. 10**400
+            return False
+        if not math.isfinite(v):
+            return False
         above = v > self.low if self.low_open else v >= self.low
         below = v < self.high if self.high_open else v <= self.high
         return above and below
@@ -99,6 +122,10 @@ class Real(Constraint):
             return f"a finite number {'<' if self.high_open else '<='} {_bound(self.high)}"
         return (f"a finite number in {'(' if self.low_open else '['}{_bound(self.low)}, "
                 f"{_bound(self.high)}{')' if self.high_open else ']'}")
+
+    def plain(self, value: Any) -> float:
+        """The number as a Python ``float``."""
+        return float(value)
 
 
 @dataclass(frozen=True)
@@ -117,6 +144,10 @@ class Integer(Constraint):
         if self.high is None:
             return f"an integer >= {self.low:,}"
         return f"an integer in [{self.low:,}, {self.high:,}]"
+
+    def plain(self, value: Any) -> int:
+        """The integer as a Python ``int``."""
+        return int(value)
 
 
 @dataclass(frozen=True)
@@ -163,17 +194,22 @@ class Text(Constraint):
 
 @dataclass(frozen=True)
 class Name(Constraint):
-    """A name: letters, digits, ``_``, ``-`` and ``.``, starting with a letter or ``_``."""
+    """A name: letters, digits, ``_``, ``-`` and (if ``dots``) ``.``, each part between
+    dots starting with a letter or ``_``."""
+
+    dots: bool = True
 
     def allows(self, value: object) -> bool:
-        return (
-            isinstance(value, str)
-            and bool(value)
-            and all(part.replace("-", "_").isidentifier() for part in value.split("."))
-        )
+        if not isinstance(value, str) or not value:
+            return False
+        parts = value.split(".") if self.dots else [value]
+        return all(part.replace("-", "_").isidentifier() for part in parts)
 
     def describe(self) -> str:
-        return "a name (letters, digits, '_', '-' or '.')"
+        if self.dots:
+            return "a name (letters, digits, '_', '-' or '.')"
+        return ("a non-empty identifier (letters, digits, '_' or '-', not starting with a "
+                "digit)")
 
 
 @dataclass(frozen=True)
@@ -242,6 +278,13 @@ def check(field: str, value: object, constraint: Constraint) -> None:
     ``constraint`` allows ``value``."""
     if not constraint.allows(value):
         raise ValueError(f"{field} must be {constraint.describe()}, got {_shown(value)}")
+
+
+def checked(field: str, value: object, constraint: Constraint) -> Any:
+    """:func:`check` ``value``, and give it back as the plain Python value it stands for
+    (:meth:`Constraint.plain`: a NumPy number as a ``float`` or an ``int``)."""
+    check(field, value, constraint)
+    return constraint.plain(value)
 
 
 def check_fields(

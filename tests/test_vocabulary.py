@@ -1,0 +1,121 @@
+"""One vocabulary across soccer_drill, opponents and ilpss: the constraints of
+:mod:`soccer_drill.constraints` are the only way to say what a value may be, and every
+registry of named things is a :class:`soccer_drill.registry.Registry`."""
+
+from __future__ import annotations
+
+import ast
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from soccer_drill.constraints import Integer, Name, Real, checked, is_int, is_real
+from soccer_drill.registry import PluginWarning, Registry
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("soccer_drill", "opponents", "ilpss")
+VOCABULARY = Path("soccer_drill/constraints.py")
+REGISTRY = Path("soccer_drill/registry.py")
+
+# What a second vocabulary would define: a number test of its own, or a class of limits.
+NUMBER_TESTS = {"is_real", "is_int", "is_integer", "is_number", "is_finite_number"}
+LIMIT_CLASSES = {"Limits", "Limit", "Range", "Bounds", "Interval"}
+
+
+def _modules():
+    for package in PACKAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            yield path.relative_to(ROOT), ast.parse(path.read_text(encoding="utf-8"))
+
+
+def _definitions():
+    for path, tree in _modules():
+        for node in ast.walk(tree):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef | ast.ClassDef):
+                yield path, node
+
+
+def test_no_module_defines_its_own_number_tests_or_limits():
+    found = [
+        f"{path}:{node.lineno} {node.name}"
+        for path, node in _definitions()
+        if path != VOCABULARY and (
+            (not isinstance(node, ast.ClassDef) and node.name.lstrip("_") in NUMBER_TESTS)
+            or (isinstance(node, ast.ClassDef) and node.name in LIMIT_CLASSES)
+        )
+    ]
+    assert not found, f"use soccer_drill.constraints instead: {found}"
+
+
+def test_no_module_defines_a_second_registry_class_or_reads_entry_points_itself():
+    classes = [f"{path}:{node.lineno} {node.name}" for path, node in _definitions()
+               if isinstance(node, ast.ClassDef) and node.name.endswith("Registry")
+               and path != REGISTRY]
+    assert not classes, f"a registry is a soccer_drill.registry.Registry: {classes}"
+    readers = []
+    for path, tree in _modules():
+        for node in ast.walk(tree):
+            if (isinstance(node, ast.ImportFrom) and node.module == "importlib.metadata"
+                    and any(a.name == "entry_points" for a in node.names) and path != REGISTRY):
+                readers.append(str(path))
+    assert not readers, f"entry points are read by soccer_drill.registry only: {readers}"
+
+
+def test_the_registries_of_every_kind_are_one_registry_type():
+    from ilpss.experiments.methods import METHODS
+    from ilpss.experiments.protocols import PROTOCOLS
+    from ilpss.experiments.registry import ENV_PACKAGES, SAMPLERS
+    from ilpss.experiments.registry import Registry as ReExported
+    from ilpss.reuse import REUSES
+    from soccer_drill.teams import TEAMS
+    from soccer_drill.teams import PluginWarning as TeamPluginWarning
+
+    assert ReExported is Registry and TeamPluginWarning is PluginWarning
+    registries = {"teams": TEAMS, "methods": METHODS, "protocols": PROTOCOLS,
+                  "reuses": REUSES, "samplers": SAMPLERS, "environment packages": ENV_PACKAGES}
+    for what, registry in registries.items():
+        assert type(registry) is Registry, what
+    assert len({r.group for r in registries.values()}) == len(registries)
+
+
+def test_numbers_are_python_numpy_or_numbers_abc_never_bools():
+    for value in (1, 1.5, np.int8(3), np.float32(0.5), np.uint64(7)):
+        assert is_real(value)
+    for value in (True, np.bool_(False), "1", None, np.array([1.0]), 1 + 2j):
+        assert not is_real(value) and not is_int(value)
+    assert is_int(np.int64(3)) and not is_int(3.0)
+    assert not Real().allows(10**400) and not Real().allows(math.nan)
+    assert type(checked("x", np.float32(0.5), Real(0.0, 1.0))) is float
+    assert type(checked("n", np.uint8(4), Integer(1))) is int
+    with pytest.raises(ValueError, match=r"^n must be an integer >= 1, got 0$"):
+        checked("n", 0, Integer(1))
+
+
+def test_a_registry_s_rules_are_declared_not_subclassed():
+    team_like = Registry("vocabulary.tests", "widget", label="id", names=Name(dots=False),
+                         calls="a widget factory", error=RuntimeError)
+    with pytest.raises(ValueError, match=r"^a widget id must be a non-empty identifier"):
+        team_like.register("a.b", object)
+    with pytest.raises(TypeError, match=r"widget 'w' must be a widget factory \(a callable\)"):
+        team_like.register("w", 5)
+    with team_like.isolated():
+        team_like.register("w", dict)
+        assert team_like.get("w") is dict and team_like.names() == ["w"]
+    assert "w" not in team_like
+    with pytest.raises(ValueError, match=r"unknown widget 'w'; known widgets: \[\]"):
+        team_like.get("w")
+    assert team_like.broken() == {}
+
+
+def test_the_vocabulary_and_the_registry_sit_below_everything():
+    allowed = {VOCABULARY: set(), REGISTRY: {"soccer_drill.constraints"}}
+    for path, tree in _modules():
+        if path not in allowed:
+            continue
+        imported = {node.module for node in ast.walk(tree)
+                    if isinstance(node, ast.ImportFrom) and node.module} | {
+            a.name for node in ast.walk(tree) if isinstance(node, ast.Import) for a in node.names}
+        own = {m for m in imported if m.split(".")[0] in PACKAGES}
+        assert own == allowed[path], path
