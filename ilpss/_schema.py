@@ -47,6 +47,7 @@ __all__ = [
     "ArchiveSchema",
     "Checked",
     "Field",
+    "MappingOf",
     "RowsSumToOne",
     "Symmetric",
 ]
@@ -118,6 +119,22 @@ class Symmetric(Constraint):
 
     def describe(self) -> str:
         return f"symmetric matrices (within a relative {self.rtol:g})"
+
+
+@dataclass(frozen=True)
+class MappingOf(Constraint):
+    """A JSON object (a mapping) whose keys ``keys`` allows and values ``values``."""
+
+    keys: Constraint
+    values: Constraint
+
+    def allows(self, value: object) -> bool:
+        return isinstance(value, Mapping) and all(
+            self.keys.allows(k) and self.values.allows(v) for k, v in value.items())
+
+    def describe(self) -> str:
+        return (f"an object whose keys are each {self.keys.describe()} and values each "
+                f"{self.values.describe()}")
 
 
 @dataclass(frozen=True)
