@@ -77,7 +77,7 @@ META_KEY = "__meta__"
 CONTAINER = "ilpss.npz/1"
 #: Largest JSON file :func:`read_json` reads (and largest record of an archive).
 MAX_JSON_BYTES = 64 * 2**20
-#: Largest archive :func:`load_npz` reads, and file :func:`sha256_file` hashes: far above
+#: Largest archive :func:`load_archive` reads, and file :func:`sha256_file` hashes: far above
 #: any ilpss archive (a policy holds at most ``tiles.MAX_WEIGHTS`` weights per choice).
 MAX_ARCHIVE_BYTES = 2**34
 
@@ -414,7 +414,7 @@ def save_npz_atomic(
         Destination, written exactly as given (no ``.npz`` suffix is appended).
     arrays : mapping of str to array_like
         The arrays. Object arrays are refused: they could only be read back by
-        unpickling, which :func:`load_npz` never does.
+        unpickling, which :func:`load_archive` never does.
     meta : mapping
         JSON-serialisable record (strict JSON: no NaN or infinity). Must contain a string
         ``"schema"`` naming the format and its version, e.g. ``"ilpss.kernels/1"``.
