@@ -920,7 +920,9 @@ class OptionLibrary:
         arrays, meta = checked.arrays, checked.meta
         n_policies = meta["n_policies"]
         _check_saved_files(root, meta["files"], n_policies, where)
-        model = (kernel_loader or SharedKernelModel.load)(root / _KERNELS_FILE)
+        if kernel_loader is None:
+            kernel_loader = SharedKernelModel.load
+        model = kernel_loader(root / _KERNELS_FILE)
         policies = tuple(FrozenPolicy.load(root / f"policy_{p}.npz") for p in range(n_policies))
         try:
             settings = OptionSettings.from_dict(
