@@ -8,13 +8,17 @@ Everything ``ilpss`` saves (kernel models, policies, option libraries, checkpoin
   leaves either the old file or the new one, never half of one.
 * :func:`save_npz_atomic` stores ``arrays`` and a JSON ``meta`` record (which must name
   its ``"schema"``, e.g. ``"ilpss.kernels/1"``) together with a SHA-256 digest of both.
-* :func:`load_npz` reads such a file **without ever unpickling** (``allow_pickle=False``)
-  and refuses, with a :class:`ValueError` saying what is wrong, anything that is not
-  exactly what the caller expects: a truncated or corrupt archive, a member that is not
-  an uncompressed ``.npy`` array, a missing or malformed JSON record, another schema
-  version, missing or unexpected arrays, arrays of the wrong shape or dtype (all checked
-  from the headers, before any array is read, so that a small file cannot fill the
-  memory), or a digest mismatch (arrays or record modified after saving).
+* :func:`load_archive` reads such a file **without ever unpickling**
+  (``allow_pickle=False``) and checks it against its declared
+  :class:`~ilpss._schema.ArchiveSchema` (arrays, dtypes, shapes with named dimensions,
+  bounds, record fields), refusing with a :class:`ValueError` saying what is wrong
+  anything that is not exactly what the caller expects: a truncated or corrupt archive,
+  a member that is not an uncompressed ``.npy`` array, a missing or malformed JSON
+  record, another schema version, missing or unexpected arrays, arrays of the wrong
+  shape or dtype (all checked from the headers, before any array is read, so that a
+  small file cannot fill the memory), a digest mismatch (arrays or record modified after
+  saving), or values and record fields out of their bounds. :func:`load_npz` does the
+  same given only the arrays' shapes and kinds.
 * :func:`json_record_bytes` and :func:`load_json_record` do the same for a JSON file (a
   record naming its ``"schema"``, with the SHA-256 of its canonical form), and
   :func:`read_json` reads any JSON file with errors that name it.
@@ -25,14 +29,7 @@ Everything ``ilpss`` saves (kernel models, policies, option libraries, checkpoin
   :func:`check_inside` refuses a path below a folder that leaves it through a symbolic
   link, so that a data folder never leads a read, a write or a deletion outside itself.
 
-Shape templates
----------------
-``required`` (and ``optional``) map an array name to ``(shape_template, dtype_kinds)``. A template is a
-tuple with one entry per axis: an ``int`` (that exact length), a ``str`` (a symbol that
-must have the same length wherever it appears, e.g. ``("K", "d")`` and
-``("K", "d", "d")``), or ``None`` (any length). ``dtype_kinds`` is a string of accepted
-:attr:`numpy.dtype.kind` codes: ``"f"`` for floats, ``"iu"`` for integers, ``"b"`` for
-booleans, ``"U"`` for strings.
+Shapes are written as :mod:`ilpss._schema` describes.
 """
 
 from __future__ import annotations
@@ -45,12 +42,13 @@ import math
 import os
 import stat
 import zipfile
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
+from ilpss._schema import ArchiveSchema, Checked, Shape
 from soccer_drill.files import TEMPORARY, atomic_write_bytes
 
 __all__ = [
@@ -60,6 +58,7 @@ __all__ = [
     "check_inside",
     "json_differences",
     "json_record_bytes",
+    "load_archive",
     "load_json_record",
     "load_npz",
     "locked_folder",
@@ -78,11 +77,11 @@ META_KEY = "__meta__"
 CONTAINER = "ilpss.npz/1"
 #: Largest JSON file :func:`read_json` reads (and largest record of an archive).
 MAX_JSON_BYTES = 64 * 2**20
-#: Largest archive :func:`load_npz` reads, and file :func:`sha256_file` hashes: far above
+#: Largest archive :func:`load_archive` reads, and file :func:`sha256_file` hashes: far above
 #: any ilpss archive (a policy holds at most ``tiles.MAX_WEIGHTS`` weights per choice).
 MAX_ARCHIVE_BYTES = 2**34
 
-ShapeTemplate = tuple[int | str | None, ...]
+_Headers = dict[str, tuple[tuple[int, ...], np.dtype]]
 
 
 def remove_stale_temporaries(directory: str | os.PathLike[str]) -> list[str]:
@@ -415,7 +414,7 @@ def save_npz_atomic(
         Destination, written exactly as given (no ``.npz`` suffix is appended).
     arrays : mapping of str to array_like
         The arrays. Object arrays are refused: they could only be read back by
-        unpickling, which :func:`load_npz` never does.
+        unpickling, which :func:`load_archive` never does.
     meta : mapping
         JSON-serialisable record (strict JSON: no NaN or infinity). Must contain a string
         ``"schema"`` naming the format and its version, e.g. ``"ilpss.kernels/1"``.
@@ -449,21 +448,59 @@ def save_npz_atomic(
     atomic_write_bytes(path, buffer.getvalue())
 
 
-def load_npz(
+def load_archive(
     path: str | os.PathLike[str],
-    schema: str,
-    required: Mapping[str, tuple[ShapeTemplate, str]],
-    optional: Mapping[str, tuple[ShapeTemplate, str]] | None = None,
-) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    """Load and check a file written by :func:`save_npz_atomic`.
+    schema: ArchiveSchema,
+    dims: Mapping[str, int] | None = None,
+) -> Checked:
+    """Load a file written by :func:`save_npz_atomic` and check it against ``schema``.
 
     Everything that can be checked without reading the arrays is checked first, from the
     zip directory and each member's ``.npy`` header: that every member is an
     uncompressed ``.npy`` array (what :func:`save_npz_atomic` writes, so that no member
-    can expand beyond the file's size), that the members are exactly the record, the
-    ``required`` arrays and some ``optional`` ones, that no array holds Python objects,
-    that each header's shape and dtype give exactly the member's size, and the shape
-    templates. Only then are the record and the arrays read and the digest compared.
+    can expand beyond the file's size), that no array holds Python objects, that each
+    header's shape and dtype give exactly the member's size, and the schema's layout
+    (:meth:`~ilpss._schema.ArchiveSchema.check_layout`: the arrays, their kinds and
+    shapes). Only then are the record and the arrays read, the digest compared, and the
+    values and the record checked (:meth:`~ilpss._schema.ArchiveSchema.validate`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    schema : ArchiveSchema
+        What the file must hold; its ``name`` must be the record's ``"schema"``.
+    dims : mapping of str to int, optional
+        Lengths of named dimensions that the caller already knows.
+
+    Returns
+    -------
+    Checked
+        The arrays (fully read into memory), the record given to
+        :func:`save_npz_atomic`, and the length of every named dimension.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        If the file is not a complete, unmodified archive of this schema; the message
+        names the file, the array or field, and what is allowed.
+    """
+    where = os.fspath(path)
+    arrays, meta = _read_archive(
+        path, schema.name, lambda headers: schema.check_layout(headers, where, dims))
+    return schema.validate(arrays, meta, where, dims)
+
+
+def load_npz(
+    path: str | os.PathLike[str],
+    schema: str,
+    required: Mapping[str, tuple[Shape, str]],
+    optional: Mapping[str, tuple[Shape, str]] | None = None,
+) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """Load a file written by :func:`save_npz_atomic`, given its arrays' shapes and kinds
+    only: :func:`load_archive` with :meth:`ArchiveSchema.from_templates`.
 
     Parameters
     ----------
@@ -471,80 +508,87 @@ def load_npz(
         The file.
     schema : str
         The exact schema the caller understands (``meta["schema"]`` must equal it).
-    required : mapping of str to (shape_template, dtype_kinds)
-        Arrays that must be present, with their shape template and accepted dtype kinds
-        (see the module docstring).
-    optional : mapping of str to (shape_template, dtype_kinds), optional
-        Arrays that may be present, checked the same way. No other array is allowed.
+    required, optional : mapping of str to (shape, dtype_kinds)
+        Arrays that must (may) be present, with their shape and accepted dtype kinds
+        (see :mod:`ilpss._schema`). No other array is allowed.
 
     Returns
     -------
     arrays : dict of str to numpy.ndarray
-        All arrays of the file, fully read into memory.
     meta : dict
-        The JSON record given to :func:`save_npz_atomic`.
 
     Raises
     ------
-    FileNotFoundError
-        If ``path`` does not exist.
-    ValueError
-        If the file is not a complete, unmodified archive of this schema with exactly
-        these arrays; the message names the file and the problem.
+    FileNotFoundError, ValueError
+        As :func:`load_archive`.
     """
+    checked = load_archive(path, ArchiveSchema.from_templates(schema, required, optional))
+    return checked.arrays, checked.meta
+
+
+def _read_archive(
+    path: str | os.PathLike[str], schema: str, check_layout: Callable[[_Headers], object]
+) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """The arrays and record of an archive of ``schema``, digest compared, after
+    ``check_layout`` accepted the arrays' headers."""
     where = os.fspath(path)
-    optional = optional or {}
     with _open_regular(path, "an .npz archive") as fd, \
             os.fdopen(os.dup(fd), "rb") as fh:  # FileNotFoundError, PermissionError
-        size = os.fstat(fd).st_size
-        if size > MAX_ARCHIVE_BYTES:
-            raise ValueError(f"{where}: {size:,} bytes, more than any ilpss archive has "
-                             f"({MAX_ARCHIVE_BYTES:,})")
-        if fh.read(6) == b"\x93NUMPY":
-            raise ValueError(f"{where}: not an .npz archive (a single .npy array?)")
+        _check_container(fh, os.fstat(fd).st_size, where)
         try:
             archive = zipfile.ZipFile(fh)
         except (zipfile.BadZipFile, OSError, EOFError, ValueError) as exc:
             raise _unreadable(where, exc) from exc
         with archive:
-            try:
-                headers = _member_headers(archive, where)
-            except _Refused:
-                raise
-            except _READ_ERRORS as exc:
-                raise _unreadable(where, exc) from exc
-            if META_KEY not in headers:
-                raise ValueError(f"{where}: missing or malformed {META_KEY!r} record")
-            shape, dtype = headers[META_KEY]
-            if dtype.kind != "U" or shape != () or dtype.itemsize > 4 * MAX_JSON_BYTES:
-                raise ValueError(f"{where}: missing or malformed {META_KEY!r} record")
+            headers = _array_headers(archive, where)
             meta, digest = _read_record(archive, where, schema)
-            names = set(headers) - {META_KEY}
-            missing = sorted(set(required) - names)
-            if missing:
-                raise ValueError(f"{where}: missing array {missing[0]!r}")
-            unexpected = sorted(names - set(required) - set(optional))
-            if unexpected:
-                raise ValueError(
-                    f"{where}: unexpected array(s) {unexpected}; this schema holds "
-                    f"{sorted({*required, *optional})}"
-                )
-            templates = {**required, **{k: v for k, v in optional.items() if k in names}}
-            _check_required(headers, templates, where)
-            try:
-                arrays = {}
-                for name in sorted(names):
-                    with archive.open(name + ".npy") as fp:
-                        arrays[name] = np.lib.format.read_array(fp, allow_pickle=False)
-            except _READ_ERRORS as exc:  # e.g. a zip CRC mismatch, found while reading
-                raise _unreadable(where, exc) from exc
-
+            check_layout(headers)
+            arrays = _read_arrays(archive, sorted(headers), where)
     if _digest(arrays, meta) != digest:
         raise ValueError(
             f"{where}: content checksum mismatch; the arrays or the record were modified "
             "after saving"
         )
     return arrays, meta
+
+
+def _check_container(fh: BinaryIO, size: int, where: str) -> None:
+    """Refuse a file too large for any archive, or a single ``.npy`` array."""
+    if size > MAX_ARCHIVE_BYTES:
+        raise ValueError(f"{where}: {size:,} bytes, more than any ilpss archive has "
+                         f"({MAX_ARCHIVE_BYTES:,})")
+    if fh.read(6) == b"\x93NUMPY":
+        raise ValueError(f"{where}: not an .npz archive (a single .npy array?)")
+
+
+def _array_headers(archive: zipfile.ZipFile, where: str) -> _Headers:
+    """The headers of the arrays of an archive, without the record's, which must be
+    one string."""
+    try:
+        headers = _member_headers(archive, where)
+    except _Refused:
+        raise
+    except _READ_ERRORS as exc:
+        raise _unreadable(where, exc) from exc
+    if META_KEY not in headers:
+        raise ValueError(f"{where}: missing or malformed {META_KEY!r} record")
+    shape, dtype = headers.pop(META_KEY)
+    if dtype.kind != "U" or shape != () or dtype.itemsize > 4 * MAX_JSON_BYTES:
+        raise ValueError(f"{where}: missing or malformed {META_KEY!r} record")
+    return headers
+
+
+def _read_arrays(
+    archive: zipfile.ZipFile, names: list[str], where: str
+) -> dict[str, np.ndarray]:
+    try:
+        arrays = {}
+        for name in names:
+            with archive.open(name + ".npy") as fp:
+                arrays[name] = np.lib.format.read_array(fp, allow_pickle=False)
+    except _READ_ERRORS as exc:  # e.g. a zip CRC mismatch, found while reading
+        raise _unreadable(where, exc) from exc
+    return arrays
 
 
 def _read_record(
@@ -575,12 +619,10 @@ _READ_ERRORS = (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile)
 _MAX_HEADER = 10_000
 
 
-def _member_headers(
-    archive: zipfile.ZipFile, where: str
-) -> dict[str, tuple[tuple[int, ...], np.dtype]]:
+def _member_headers(archive: zipfile.ZipFile, where: str) -> _Headers:
     """``{array name: (shape, dtype)}`` from the zip directory and the ``.npy`` headers,
     reading no array data; refuses what :func:`save_npz_atomic` never writes."""
-    out: dict[str, tuple[tuple[int, ...], np.dtype]] = {}
+    out: _Headers = {}
     for info in archive.infolist():
         member = info.filename
         if not member.endswith(".npy") or "/" in member or info.is_dir():
@@ -633,34 +675,3 @@ def _unreadable(where: str, exc: BaseException) -> ValueError:
         f"{where}: not a readable .npz archive (truncated, corrupt, or containing pickled "
         f"objects): {type(exc).__name__}: {exc}"
     )
-
-
-def _check_required(
-    headers: Mapping[str, tuple[tuple[int, ...], np.dtype]],
-    required: Mapping[str, tuple[ShapeTemplate, str]],
-    where: str,
-) -> None:
-    """Check dtype kind and shape (with consistent symbols) of ``required`` arrays from
-    their ``(shape, dtype)`` headers."""
-    bound: dict[str, tuple[int, str]] = {}
-    for name, (template, kinds) in required.items():
-        shape, dtype = headers[name]
-        if dtype.kind not in kinds:
-            raise ValueError(
-                f"{where}: array {name!r} has dtype {dtype} (kind {dtype.kind!r}), "
-                f"expected kind {kinds!r}"
-            )
-        shown = "(" + ", ".join("*" if t is None else str(t) for t in template) + ")"
-        if len(shape) != len(template):
-            raise ValueError(f"{where}: array {name!r} has shape {shape}, expected {shown}")
-        for axis, (size, want) in enumerate(zip(shape, template, strict=True)):
-            if isinstance(want, int) and size != want:
-                raise ValueError(f"{where}: array {name!r} has shape {shape}, expected {shown}")
-            if isinstance(want, str):
-                if want in bound and bound[want][0] != size:
-                    other_size, other = bound[want]
-                    raise ValueError(
-                        f"{where}: array {name!r} axis {axis} has length {size}, but {want} = "
-                        f"{other_size} from array {other!r}"
-                    )
-                bound.setdefault(want, (size, name))

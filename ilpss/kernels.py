@@ -32,24 +32,34 @@ import os
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Self
+from typing import Any, Protocol, Self, runtime_checkable
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import linear_sum_assignment
 from scipy.special import chdtrc
 
 from ilpss import _gmm_numerics as num
-from ilpss._io import load_npz, save_npz_atomic
-from soccer_drill.constraints import Integer, Real, check, check_fields
+from ilpss._io import load_archive, save_npz_atomic
+from ilpss._schema import BOOL, FLOAT, INTEGER, ArchiveSchema, Field, RowsSumToOne, Symmetric
+from soccer_drill.constraints import Bool, Integer, NoneOr, Real, check, check_fields
 
 __all__ = [
+    "KERNELS_ARCHIVE",
     "KERNEL_CONSTRAINTS",
+    "REGION_ARCHIVE",
     "SCHEMA",
+    "UNIFORM_ARCHIVE",
     "KernelConvergenceWarning",
+    "KernelModel",
     "NotFittedError",
     "RegionKernels",
     "SharedKernelModel",
     "UniformKernel",
+    "bhattacharyya_distance",
+    "kernel_distances",
+    "kernel_parameters",
+    "match_kernels",
     "select_n_components",
     "validate_bags",
 ]
@@ -179,6 +189,32 @@ KERNEL_CONSTRAINTS = {
 }
 """What each hyperparameter of :class:`SharedKernelModel` allows (the lifelong
 configuration's kernel settings are checked with these too)."""
+
+_HYPERPARAMETERS = (*KERNEL_CONSTRAINTS, "random_state")
+
+KERNELS_ARCHIVE = ArchiveSchema(
+    SCHEMA,
+    {
+        "weights": Field(("I", "K"), FLOAT, each=Real(0.0), whole=(RowsSumToOne(1e-9),)),
+        "std_means": Field(("K", "d"), FLOAT, each=Real()),
+        "std_covariances": Field(("K", "d", "d"), FLOAT, each=Real(),
+                                 whole=(Symmetric(1e-10),)),
+        "feature_mean": Field(("d",), FLOAT, each=Real()),
+        "feature_scale": Field(("d",), FLOAT, each=Real(0.0, low_open=True)),
+        "n_states_per_instance": Field(("I",), INTEGER, each=Integer(0)),
+        "log_likelihood_trace": Field((None,), FLOAT, each=Real()),
+    },
+    record={
+        **{f"hyperparameters.{k}": c for k, c in KERNEL_CONSTRAINTS.items()},
+        "hyperparameters.random_state": NoneOr(Integer(0)),
+        "fit.converged": Bool(),
+        "fit.n_iter": Integer(0),
+        "fit.lower_bound": Real(),
+    },
+    dims={"I": Integer(1), "d": Integer(1)},
+    sizes={"hyperparameters.n_components": "K"},
+)
+"""What :meth:`SharedKernelModel.save` writes: K kernels over d features, I instances."""
 
 
 # --------------------------------------------------------------------------- the model
@@ -340,6 +376,25 @@ class SharedKernelModel:
             If the kept run did not converge within ``max_iter`` iterations.
         """
         self._check_hyperparameters()
+        Z, slices, n_states, feature_mean, feature_scale = self._standardised_bags(bags)
+        best, n_runs = self._best_run(Z, slices, init_params, feature_mean, feature_scale)
+        self._keep(best, feature_mean, feature_scale, n_states)
+        if not best.converged and self.max_iter > 0:
+            change = abs(best.trace[-1] - best.trace[-2])
+            warnings.warn(
+                f"EM did not converge within max_iter={self.max_iter} iterations (best of "
+                f"{n_runs} start(s); last change of the mean log-likelihood {change:.3g}, "
+                f"tol={self.tol}); increase max_iter or tol, or check for degenerate data",
+                KernelConvergenceWarning,
+                stacklevel=2,
+            )
+        return self
+
+    def _standardised_bags(
+        self, bags: Sequence[ArrayLike]
+    ) -> tuple[Array, list[slice], NDArray[np.int64], Array, Array]:
+        """The pooled states standardised, each instance's slice of them, the number of
+        states of each instance, and the scaler."""
         arrays = validate_bags(bags)
         n_states = np.array([a.shape[0] for a in arrays], dtype=np.int64)
         total = int(n_states.sum())
@@ -356,7 +411,18 @@ class SharedKernelModel:
             feature_mean, feature_scale = _fit_scaler(pooled)
             Z = (pooled - feature_mean) / feature_scale
         _check_standardised(Z, feature_scale)
+        return Z, slices, n_states, feature_mean, feature_scale
 
+    def _best_run(
+        self,
+        Z: Array,
+        slices: list[slice],
+        init_params: Mapping[str, ArrayLike] | None,
+        feature_mean: Array,
+        feature_scale: Array,
+    ) -> tuple[_Fit, int]:
+        """The EM run of the highest final likelihood, and the number of runs: one from
+        ``init_params`` if given, else ``n_init`` from k-means++."""
         if init_params is not None:
             starts = [self._start_from_params(Z, slices, init_params, feature_mean, feature_scale)]
             n_runs = 1
@@ -371,7 +437,12 @@ class SharedKernelModel:
             if best is None or result.trace[-1] > best.trace[-1]:
                 best = result
         assert best is not None
+        return best, n_runs
 
+    def _keep(self, best: _Fit, feature_mean: Array, feature_scale: Array,
+              n_states: NDArray[np.int64]) -> None:
+        """Set the fitted attributes from the kept run; a run whose parameters are not
+        finite in original units leaves no model."""
         self._set_state(
             weights=best.weights,
             std_means=best.means,
@@ -395,16 +466,6 @@ class SharedKernelModel:
             )
         self.n_iter_ = best.n_iter
         self.converged_ = best.converged
-        if not best.converged and self.max_iter > 0:
-            change = abs(best.trace[-1] - best.trace[-2])
-            warnings.warn(
-                f"EM did not converge within max_iter={self.max_iter} iterations (best of "
-                f"{n_runs} start(s); last change of the mean log-likelihood {change:.3g}, "
-                f"tol={self.tol}); increase max_iter or tol, or check for degenerate data",
-                KernelConvergenceWarning,
-                stacklevel=2,
-            )
-        return self
 
     def _start_kmeans(
         self, Z: Array, slices: list[slice], rng: np.random.Generator
@@ -775,77 +836,26 @@ class SharedKernelModel:
             or values (non-finite, weights not summing to 1, covariances not positive
             definite); the message says which.
         """
-        required = {
-            "weights": (("I", "K"), "f"),
-            "std_means": (("K", "d"), "f"),
-            "std_covariances": (("K", "d", "d"), "f"),
-            "feature_mean": (("d",), "f"),
-            "feature_scale": (("d",), "f"),
-            "n_states_per_instance": (("I",), "iu"),
-            "log_likelihood_trace": ((None,), "f"),
-        }
-        arrays, meta = load_npz(path, SCHEMA, required)
+        checked = load_archive(path, KERNELS_ARCHIVE)
+        arrays, meta = checked.arrays, checked.meta
         where = os.fspath(path)
-
-        def field(record: Any, name: str, key: str, kinds: tuple[type, ...]) -> Any:
-            if not isinstance(record, dict) or key not in record:
-                raise ValueError(f"{where}: missing field {name}.{key}")
-            value = record[key]
-            if not isinstance(value, kinds) or (isinstance(value, bool) and bool not in kinds):
-                raise ValueError(f"{where}: field {name}.{key} has invalid value {value!r}")
-            return value
-
-        hp = meta.get("hyperparameters")
-        model = cls(
-            field(hp, "hyperparameters", "n_components", (int,)),
-            reg_covar=field(hp, "hyperparameters", "reg_covar", (int, float)),
-            tol=field(hp, "hyperparameters", "tol", (int, float)),
-            max_iter=field(hp, "hyperparameters", "max_iter", (int,)),
-            n_init=field(hp, "hyperparameters", "n_init", (int,)),
-            random_state=field(hp, "hyperparameters", "random_state", (int, type(None))),
-        )
-        fit_info = meta.get("fit")
-        converged = field(fit_info, "fit", "converged", (bool,))
-        n_iter = field(fit_info, "fit", "n_iter", (int,))
-        lower_bound = field(fit_info, "fit", "lower_bound", (int, float))
-        try:
-            model._check_hyperparameters()
-        except ValueError as exc:
-            raise ValueError(f"{where}: {exc}") from exc
-
-        weights = arrays["weights"].astype(np.float64)
-        n_inst, K = weights.shape
-        d = arrays["std_means"].shape[1]
+        model = cls(**{k: meta["hyperparameters"][k] for k in _HYPERPARAMETERS})
+        n_iter = meta["fit"]["n_iter"]
         trace = arrays["log_likelihood_trace"].astype(np.float64)
         counts = arrays["n_states_per_instance"].astype(np.int64)
-        problems = []
-        if K != model.n_components:
-            problems.append(f"{K} components in the arrays but n_components={model.n_components}")
-        if n_inst == 0 or d == 0:
-            problems.append(f"empty model ({n_inst} instances, {d} features)")
-        floats = [arrays[k] for k in required if arrays[k].dtype.kind == "f"]
-        if not all(np.isfinite(a).all() for a in floats):
-            problems.append("non-finite values")
-        if (weights < 0).any() or not np.allclose(weights.sum(axis=1), 1.0, atol=1e-9, rtol=0):
-            problems.append("weights are not probabilities (rows >= 0 summing to 1)")
-        if (arrays["feature_scale"] <= 0).any():
-            problems.append("feature_scale must be > 0")
-        if (counts < 0).any() or counts.sum() < K:
-            problems.append("n_states_per_instance must be >= 0 with a total >= n_components")
-        if trace.shape[0] != n_iter + 1:
-            problems.append(f"log_likelihood_trace has {trace.shape[0]} values for n_iter={n_iter}")
         cov = arrays["std_covariances"].astype(np.float64)
-        if not np.allclose(cov, cov.transpose(0, 2, 1), rtol=1e-10, atol=0.0):
-            problems.append("covariances are not symmetric")
-        if problems:
-            raise ValueError(f"{where}: invalid kernel model: " + "; ".join(problems))
+        if counts.sum() < model.n_components:
+            raise ValueError(f"{where}: invalid kernel model: n_states_per_instance totals "
+                             f"{counts.sum()}, fewer than n_components={model.n_components}")
+        if trace.shape[0] != n_iter + 1:
+            raise ValueError(f"{where}: invalid kernel model: log_likelihood_trace has "
+                             f"{trace.shape[0]} values for n_iter={n_iter}")
         try:
             prec_chol = num.precision_cholesky(cov)
         except ValueError as exc:
             raise ValueError(f"{where}: invalid kernel model: {exc}") from exc
-
         model._set_state(
-            weights=weights,
+            weights=arrays["weights"].astype(np.float64),
             std_means=arrays["std_means"].astype(np.float64),
             std_covariances=cov,
             feature_mean=arrays["feature_mean"].astype(np.float64),
@@ -853,9 +863,9 @@ class SharedKernelModel:
             n_states_per_instance=counts,
             prec_chol=prec_chol,
         )
-        model.converged_ = converged
+        model.converged_ = bool(meta["fit"]["converged"])
         model.n_iter_ = n_iter
-        model.lower_bound_ = float(lower_bound)
+        model.lower_bound_ = float(meta["fit"]["lower_bound"])
         model.log_likelihood_trace_ = [float(v) for v in trace]
         return model
 
@@ -966,6 +976,11 @@ def select_n_components(
 
 
 UNIFORM_SCHEMA = "ilpss.uniform_kernel/1"
+#: What a given kernel shape allows as its dimension (a saved file names it, and the
+#: covariances are n x n).
+N_FEATURES = Integer(1, 1024)
+UNIFORM_ARCHIVE = ArchiveSchema(UNIFORM_SCHEMA, {}, record={"n_features": N_FEATURES})
+"""What :meth:`UniformKernel.save` writes: its dimension only."""
 
 
 class UniformKernel:
@@ -986,8 +1001,7 @@ class UniformKernel:
     n_components = 1
 
     def __init__(self, n_features: int) -> None:
-        # Bounded: a saved file names this count, and the covariance is n x n.
-        check("n_features", n_features, Integer(1, 1024))
+        check("n_features", n_features, N_FEATURES)
         self.n_features_in_ = int(n_features)
         self.means_ = np.zeros((1, self.n_features_in_))
         self.covariances_ = np.eye(self.n_features_in_)[None]
@@ -1007,15 +1021,19 @@ class UniformKernel:
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> UniformKernel:
         """Load a file written by :meth:`save` (refuses any other schema)."""
-        _, meta = load_npz(path, UNIFORM_SCHEMA, {})
-        n = meta.get("n_features")
-        if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 1024:
-            raise ValueError(f"{os.fspath(path)}: malformed n_features {n!r} (an integer "
-                             "in [1, 1024])")
-        return cls(n)
+        return cls(load_archive(path, UNIFORM_ARCHIVE).meta["n_features"])
 
 
 REGION_SCHEMA = "ilpss.region_kernels/1"
+REGION_ARCHIVE = ArchiveSchema(
+    REGION_SCHEMA,
+    {"features": Field(("K",), INTEGER, each=Integer(0)),
+     "thresholds": Field(("K",), FLOAT, each=Real()),
+     "below": Field(("K",), BOOL)},
+    record={"n_features": N_FEATURES},
+    dims={"K": Integer(1, 1000)},
+)
+"""What :meth:`RegionKernels.save` writes: K regions."""
 
 
 class RegionKernels:
@@ -1041,7 +1059,7 @@ class RegionKernels:
 
     def __init__(self, n_features: int, features: Sequence[int], thresholds: Sequence[float],
                  below: Sequence[bool]) -> None:
-        check("n_features", n_features, Integer(1, 1024))
+        check("n_features", n_features, N_FEATURES)
         self.n_features_in_ = int(n_features)
         self.features = np.asarray(features, dtype=np.int64)
         self.thresholds = np.asarray(thresholds, dtype=np.float64)
@@ -1078,13 +1096,117 @@ class RegionKernels:
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> RegionKernels:
         """Load a file written by :meth:`save` (refuses any other schema)."""
-        arrays, meta = load_npz(path, REGION_SCHEMA, {
-            "features": (("K",), "iu"), "thresholds": (("K",), "f"), "below": (("K",), "b")})
-        n = meta.get("n_features")
-        if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= 1024:
-            raise ValueError(f"{os.fspath(path)}: malformed n_features {n!r} (an integer "
-                             "in [1, 1024])")
+        checked = load_archive(path, REGION_ARCHIVE)
+        arrays = checked.arrays
         try:
-            return cls(n, arrays["features"], arrays["thresholds"], arrays["below"])
+            return cls(checked.meta["n_features"], arrays["features"], arrays["thresholds"],
+                       arrays["below"])
         except ValueError as exc:
             raise ValueError(f"{os.fspath(path)}: {exc}") from exc
+
+
+# --------------------------------------------------------------------------- matching
+# How a refit keeps kernel identities (:meth:`ilpss.options.OptionLibrary.refit`): the
+# kernels of two models are paired by the Bhattacharyya distance of their Gaussians.
+
+
+@runtime_checkable
+class KernelModel(Protocol):
+    """What the library needs from a fitted kernel model (e.g. ``SharedKernelModel``)."""
+
+    n_components: int
+    means_: np.ndarray
+    covariances_: np.ndarray
+
+    def membership(self, X: np.ndarray) -> np.ndarray:  # pragma: no cover - protocol
+        """Kernel memberships of the state(s) ``X``, in [0, 1]."""
+        ...
+
+
+def _logdet_pd(cov: np.ndarray) -> tuple[np.ndarray, float]:
+    """Cholesky factor and log-determinant of a covariance.
+
+    A covariance that is not numerically positive definite (a degenerate kernel) gets a
+    tiny ridge relative to its own diagonal, so that it still has a distance; well
+    conditioned covariances are used exactly (keeping the distance affine-invariant).
+    """
+    try:
+        chol = np.linalg.cholesky(cov)
+    except np.linalg.LinAlgError:
+        diag = np.diag(cov).copy()
+        floor = max(float(diag.max()), 1e-300) * 1e-12
+        ridged = cov + np.diag(np.maximum(diag, floor) * 1e-9 + floor)
+        try:
+            chol = np.linalg.cholesky(ridged)
+        except np.linalg.LinAlgError:
+            raise ValueError("kernel covariance is not positive semi-definite") from None
+    return chol, 2.0 * float(np.log(np.diag(chol)).sum())
+
+
+def bhattacharyya_distance(
+    mean1: np.ndarray, cov1: np.ndarray, mean2: np.ndarray, cov2: np.ndarray
+) -> float:
+    """Bhattacharyya distance between two Gaussians.
+
+    ``D = 1/8 (m1 - m2)' S^-1 (m1 - m2) + 1/2 ln(det S / sqrt(det S1 det S2))`` with
+    ``S = (S1 + S2) / 2``. Zero for identical Gaussians, symmetric, and invariant to an
+    invertible affine change of coordinates (so feature units do not matter).
+    """
+    m1, m2 = np.asarray(mean1, float), np.asarray(mean2, float)
+    s1, s2 = np.asarray(cov1, float), np.asarray(cov2, float)
+    _, logdet1 = _logdet_pd(s1)
+    _, logdet2 = _logdet_pd(s2)
+    chol, logdet_s = _logdet_pd((s1 + s2) / 2.0)
+    z = np.linalg.solve(chol, m1 - m2)
+    return float(z @ z / 8.0 + 0.5 * (logdet_s - 0.5 * (logdet1 + logdet2)))
+
+
+def kernel_distances(old: KernelModel, new: KernelModel) -> np.ndarray:
+    """Bhattacharyya distances, shape (K_old, K_new), between two models' kernels."""
+    om, oc = kernel_parameters(old)
+    nm, nc = kernel_parameters(new)
+    if om.shape[1] != nm.shape[1]:
+        raise ValueError(
+            f"kernel models have different dimensions ({om.shape[1]} and {nm.shape[1]})"
+        )
+    out = np.empty((om.shape[0], nm.shape[0]))
+    for i in range(om.shape[0]):
+        for j in range(nm.shape[0]):
+            out[i, j] = bhattacharyya_distance(om[i], oc[i], nm[j], nc[j])
+    return out
+
+
+def match_kernels(
+    old: KernelModel, new: KernelModel, max_distance: float | None = 3.0
+) -> dict[int, tuple[int, float]]:
+    """Match the kernels of ``new`` to those of ``old``.
+
+    Returns
+    -------
+    dict
+        ``{new_index: (old_index, distance)}`` for every matched pair: the minimum-cost
+        one-to-one assignment on :func:`kernel_distances`, keeping pairs whose distance
+        is at most ``max_distance`` (all assigned pairs if ``None``).
+    """
+    dist = kernel_distances(old, new)
+    rows, cols = linear_sum_assignment(dist)
+    out: dict[int, tuple[int, float]] = {}
+    for i, j in zip(rows, cols, strict=True):
+        if max_distance is None or dist[i, j] <= max_distance:
+            out[int(j)] = (int(i), float(dist[i, j]))
+    return out
+
+
+def kernel_parameters(model: KernelModel) -> tuple[np.ndarray, np.ndarray]:
+    """The ``means_`` (K, d) and ``covariances_`` (K, d, d) of a kernel model, as float64,
+    checked for shape and finiteness."""
+    means = np.asarray(getattr(model, "means_", None), dtype=np.float64)
+    covs = np.asarray(getattr(model, "covariances_", None), dtype=np.float64)
+    if means.ndim != 2 or covs.shape != (means.shape[0], means.shape[1], means.shape[1]):
+        raise ValueError(
+            "kernel model must have means_ of shape (K, d) and covariances_ of shape "
+            f"(K, d, d); got {means.shape} and {covs.shape}"
+        )
+    if not (np.isfinite(means).all() and np.isfinite(covs).all()):
+        raise ValueError("kernel model means_/covariances_ contain NaN or infinity")
+    return means, covs

@@ -35,14 +35,15 @@ from ilpss._io import (
     atomic_write_bytes,
     check_inside,
     json_record_bytes,
+    load_archive,
     load_json_record,
-    load_npz,
     locked_folder,
     read_regular,
     remove_stale_temporaries,
     save_npz_atomic,
     sha256_file,
 )
+from ilpss._schema import FLOAT, ArchiveSchema, Field
 from ilpss.episode import EpisodeResult, options_used
 from ilpss.kernels import KERNEL_CONSTRAINTS, SharedKernelModel, UniformKernel
 from ilpss.options import OptionLibrary, OptionSettings
@@ -55,6 +56,7 @@ from soccer_drill.constraints import (
     ListOf,
     Name,
     NoneOr,
+    OneOf,
     Real,
     Text,
     check,
@@ -541,69 +543,13 @@ class LifelongLearner:
         for path in ckpt.rglob("*"):  # every file read below lies inside the checkpoint
             check_inside(ckpt, path, "checkpoint")
         state, config, records = read_state(ckpt)
-        where = ckpt / "state.json"
-        n = len(records)
-        low, _ = box_bounds(observation_space)
-        widths = config.learner.tile_widths
-        if widths is not None and len(widths) != len(low):  # not a fault of the settings
-            raise ValueError(
-                f"{where}: the checkpoint was saved for a {len(widths)}-feature observation "
-                f"space (its LearnerConfig.tile_widths has {len(widths)} entries), but the "
-                f"observation space given is {observation_space!r}, with {len(low)}: load it "
-                "with the space it was learnt on"
-            )
+        _check_space(config, observation_space, ckpt / "state.json")
         learner = cls(config, observation_space, state["n_primitive"], state["seed"],
                       provenance=state["provenance"])
         learner.records = records
-        d = learner.tile_coder.n_features
-        arrays, _ = load_npz(
-            ckpt / "bags.npz", CHECKPOINT_SCHEMA + "/bags",
-            {f"bag_{i}": ((None, d), "f") for i in range(n)},
-        )
-        learner.bags = [arrays[f"bag_{i}"] for i in range(n)]
-        for i, (bag, record) in enumerate(zip(learner.bags, records, strict=True)):
-            if not np.isfinite(bag).all():
-                raise ValueError(f"{ckpt / 'bags.npz'}: bag_{i} has non-finite states")
-            if len(bag) != record.bag_size:
-                raise ValueError(
-                    f"{ckpt / 'bags.npz'}: bag_{i} holds {len(bag)} states, but records[{i}]"
-                    f".bag_size in {where} is {record.bag_size}"
-                )
-        learner.policies = [FrozenPolicy.load(ckpt / f"policy_{i}.npz") for i in range(n)]
-        for i, (policy, record) in enumerate(zip(learner.policies, records, strict=True)):
-            path = ckpt / f"policy_{i}.npz"
-            if policy.tile_coder != learner.tile_coder:
-                raise ValueError(
-                    f"{path}: its tile coder is not the one the checkpoint's configuration "
-                    "and observation space give"
-                )
-            if policy.n_primitive != learner.n_primitive:
-                raise ValueError(
-                    f"{path}: {policy.n_primitive} primitive actions, but n_primitive in "
-                    f"{where} is {learner.n_primitive}"
-                )
-            if len(policy.option_ids) != record.options_offered:
-                raise ValueError(
-                    f"{path}: chooses among {len(policy.option_ids)} options, but "
-                    f"records[{i}].options_offered in {where} is {record.options_offered}"
-                )
-        library = ckpt / "library"
-        if (state["kernel"] is None) == library.is_dir():
-            raise ValueError(
-                f"{ckpt}: the option library is missing (the state names a "
-                f"{state['kernel']} kernel model)" if state["kernel"] is not None else
-                f"{ckpt}: holds an option library, but kernel in {where} is null"
-            )
-        regions = config.reuse.regions
-        if state["kernel"] is not None and regions is not None:  # read_state: its model
-            learner.library = OptionLibrary.load(library, kernel_loader=regions.load)
-            learner.kernel_model = learner.library.kernel_model
-            _check_library(learner, ckpt)
-        elif n and records[-1].library_size:
-            raise ValueError(
-                f"{where}: records[{n - 1}].library_size is {records[-1].library_size} "
-                "without an option library"
-            )
+        learner.bags = _read_bags(ckpt, records, learner.tile_coder.n_features)
+        learner.policies = _read_policies(learner, ckpt)
+        _read_library(learner, ckpt, state["kernel"])
         # Last, so that the errors above say what is wrong; this catches files that
         # load but were mixed in from another checkpoint.
         for rel, digest in state["files"].items():
@@ -611,6 +557,96 @@ class LifelongLearner:
             if not path.is_file() or sha256_file(path) != digest:
                 raise ValueError(f"{path}: missing, modified, or from another checkpoint")
         return learner
+
+
+def bags_archive(n_bags: int, n_features: int) -> ArchiveSchema:
+    """What the ``bags.npz`` of a checkpoint of ``n_bags`` trials holds: each trial's bag
+    of states, ``(states, n_features)`` finite floats."""
+    return ArchiveSchema(
+        CHECKPOINT_SCHEMA + "/bags",
+        {f"bag_{i}": Field((None, n_features), FLOAT, each=Real()) for i in range(n_bags)},
+        record={"n_bags": OneOf((n_bags,))},
+    )
+
+
+def _check_space(config: LifelongConfig, observation_space: Any, where: Path) -> None:
+    """The observation space given to a load has the dimension the checkpoint's tile
+    widths were set for."""
+    low, _ = box_bounds(observation_space)
+    widths = config.learner.tile_widths
+    if widths is not None and len(widths) != len(low):  # not a fault of the settings
+        raise ValueError(
+            f"{where}: the checkpoint was saved for a {len(widths)}-feature observation "
+            f"space (its LearnerConfig.tile_widths has {len(widths)} entries), but the "
+            f"observation space given is {observation_space!r}, with {len(low)}: load it "
+            "with the space it was learnt on"
+        )
+
+
+def _read_bags(ckpt: Path, records: list[TrialRecord], n_features: int) -> list[np.ndarray]:
+    """The bags of a checkpoint, one per record and of the size it names."""
+    path = ckpt / "bags.npz"
+    arrays = load_archive(path, bags_archive(len(records), n_features)).arrays
+    bags = [arrays[f"bag_{i}"] for i in range(len(records))]
+    for i, (bag, record) in enumerate(zip(bags, records, strict=True)):
+        if len(bag) != record.bag_size:
+            raise ValueError(
+                f"{path}: bag_{i} holds {len(bag)} states, but records[{i}].bag_size in "
+                f"{ckpt / 'state.json'} is {record.bag_size}"
+            )
+    return bags
+
+
+def _read_policies(learner: LifelongLearner, ckpt: Path) -> list[FrozenPolicy]:
+    """The policies of a checkpoint, each on the learner's tile coder and actions, and
+    choosing among the options its record says it was offered."""
+    where = ckpt / "state.json"
+    policies = []
+    for i, record in enumerate(learner.records):
+        path = ckpt / f"policy_{i}.npz"
+        policy = FrozenPolicy.load(path)
+        policies.append(policy)
+        if policy.tile_coder != learner.tile_coder:
+            raise ValueError(
+                f"{path}: its tile coder is not the one the checkpoint's configuration "
+                "and observation space give"
+            )
+        if policy.n_primitive != learner.n_primitive:
+            raise ValueError(
+                f"{path}: {policy.n_primitive} primitive actions, but n_primitive in "
+                f"{where} is {learner.n_primitive}"
+            )
+        if len(policy.option_ids) != record.options_offered:
+            raise ValueError(
+                f"{path}: chooses among {len(policy.option_ids)} options, but "
+                f"records[{i}].options_offered in {where} is {record.options_offered}"
+            )
+    return policies
+
+
+def _read_library(learner: LifelongLearner, ckpt: Path, kernel: str | None) -> None:
+    """Give ``learner`` the option library of a checkpoint (by its reuse's kernel
+    loader), if the state names a kernel model; refuse a library where none is named,
+    or a missing one."""
+    where = ckpt / "state.json"
+    library = ckpt / "library"
+    if (kernel is None) == library.is_dir():
+        raise ValueError(
+            f"{ckpt}: the option library is missing (the state names a {kernel} kernel "
+            "model)" if kernel is not None else
+            f"{ckpt}: holds an option library, but kernel in {where} is null"
+        )
+    regions = learner.config.reuse.regions
+    records = learner.records
+    if kernel is not None and regions is not None:  # read_state: its model
+        learner.library = OptionLibrary.load(library, kernel_loader=regions.load)
+        learner.kernel_model = learner.library.kernel_model
+        _check_library(learner, ckpt)
+    elif records and records[-1].library_size:
+        raise ValueError(
+            f"{where}: records[{len(records) - 1}].library_size is "
+            f"{records[-1].library_size} without an option library"
+        )
 
 
 def _check_name(name: object) -> None:

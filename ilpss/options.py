@@ -71,17 +71,26 @@ import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
-from typing import Any, Protocol, runtime_checkable
+from typing import Any
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
-from ilpss._io import check_inside, load_npz, save_npz_atomic, sha256_file
+from ilpss._io import check_inside, load_archive, save_npz_atomic, sha256_file
+from ilpss._schema import FLOAT, INTEGER, ArchiveSchema, Field, MappingOf
+from ilpss.kernels import (  # kernel matching is the kernels' own; named here as before
+    KernelModel,
+    SharedKernelModel,
+    bhattacharyya_distance,
+    kernel_distances,
+    kernel_parameters,
+    match_kernels,
+)
 from ilpss.policy import FrozenPolicy
 from ilpss.tiles import TileCoder
-from soccer_drill.constraints import Integer, NoneOr, Real, check_fields, from_json
+from soccer_drill.constraints import Integer, NoneOr, Real, Text, check_fields, from_json
 
 __all__ = [
+    "LIBRARY_ARCHIVE",
     "LIBRARY_SCHEMA",
     "OPTION_CONSTRAINTS",
     "KernelModel",
@@ -99,107 +108,6 @@ __all__ = [
 LIBRARY_SCHEMA = "ilpss.options/1"
 _KERNELS_FILE = "kernels.npz"
 _LIBRARY_FILE = "library.npz"
-
-
-@runtime_checkable
-class KernelModel(Protocol):
-    """What the library needs from a fitted kernel model (e.g. ``SharedKernelModel``)."""
-
-    n_components: int
-    means_: np.ndarray
-    covariances_: np.ndarray
-
-    def membership(self, X: np.ndarray) -> np.ndarray:  # pragma: no cover - protocol
-        """Kernel memberships of the state(s) ``X``, in [0, 1]."""
-        ...
-
-
-# --------------------------------------------------------------------------- matching
-def _logdet_pd(cov: np.ndarray) -> tuple[np.ndarray, float]:
-    """Cholesky factor and log-determinant of a covariance.
-
-    A covariance that is not numerically positive definite (a degenerate kernel) gets a
-    tiny ridge relative to its own diagonal, so that it still has a distance; well
-    conditioned covariances are used exactly (keeping the distance affine-invariant).
-    """
-    try:
-        chol = np.linalg.cholesky(cov)
-    except np.linalg.LinAlgError:
-        diag = np.diag(cov).copy()
-        floor = max(float(diag.max()), 1e-300) * 1e-12
-        ridged = cov + np.diag(np.maximum(diag, floor) * 1e-9 + floor)
-        try:
-            chol = np.linalg.cholesky(ridged)
-        except np.linalg.LinAlgError:
-            raise ValueError("kernel covariance is not positive semi-definite") from None
-    return chol, 2.0 * float(np.log(np.diag(chol)).sum())
-
-
-def bhattacharyya_distance(
-    mean1: np.ndarray, cov1: np.ndarray, mean2: np.ndarray, cov2: np.ndarray
-) -> float:
-    """Bhattacharyya distance between two Gaussians.
-
-    ``D = 1/8 (m1 - m2)' S^-1 (m1 - m2) + 1/2 ln(det S / sqrt(det S1 det S2))`` with
-    ``S = (S1 + S2) / 2``. Zero for identical Gaussians, symmetric, and invariant to an
-    invertible affine change of coordinates (so feature units do not matter).
-    """
-    m1, m2 = np.asarray(mean1, float), np.asarray(mean2, float)
-    s1, s2 = np.asarray(cov1, float), np.asarray(cov2, float)
-    _, logdet1 = _logdet_pd(s1)
-    _, logdet2 = _logdet_pd(s2)
-    chol, logdet_s = _logdet_pd((s1 + s2) / 2.0)
-    z = np.linalg.solve(chol, m1 - m2)
-    return float(z @ z / 8.0 + 0.5 * (logdet_s - 0.5 * (logdet1 + logdet2)))
-
-
-def kernel_distances(old: KernelModel, new: KernelModel) -> np.ndarray:
-    """Bhattacharyya distances, shape (K_old, K_new), between two models' kernels."""
-    om, oc = _kernel_params(old)
-    nm, nc = _kernel_params(new)
-    if om.shape[1] != nm.shape[1]:
-        raise ValueError(
-            f"kernel models have different dimensions ({om.shape[1]} and {nm.shape[1]})"
-        )
-    out = np.empty((om.shape[0], nm.shape[0]))
-    for i in range(om.shape[0]):
-        for j in range(nm.shape[0]):
-            out[i, j] = bhattacharyya_distance(om[i], oc[i], nm[j], nc[j])
-    return out
-
-
-def match_kernels(
-    old: KernelModel, new: KernelModel, max_distance: float | None = 3.0
-) -> dict[int, tuple[int, float]]:
-    """Match the kernels of ``new`` to those of ``old``.
-
-    Returns
-    -------
-    dict
-        ``{new_index: (old_index, distance)}`` for every matched pair: the minimum-cost
-        one-to-one assignment on :func:`kernel_distances`, keeping pairs whose distance
-        is at most ``max_distance`` (all assigned pairs if ``None``).
-    """
-    dist = kernel_distances(old, new)
-    rows, cols = linear_sum_assignment(dist)
-    out: dict[int, tuple[int, float]] = {}
-    for i, j in zip(rows, cols, strict=True):
-        if max_distance is None or dist[i, j] <= max_distance:
-            out[int(j)] = (int(i), float(dist[i, j]))
-    return out
-
-
-def _kernel_params(model: KernelModel) -> tuple[np.ndarray, np.ndarray]:
-    means = np.asarray(getattr(model, "means_", None), dtype=np.float64)
-    covs = np.asarray(getattr(model, "covariances_", None), dtype=np.float64)
-    if means.ndim != 2 or covs.shape != (means.shape[0], means.shape[1], means.shape[1]):
-        raise ValueError(
-            "kernel model must have means_ of shape (K, d) and covariances_ of shape "
-            f"(K, d, d); got {means.shape} and {covs.shape}"
-        )
-    if not (np.isfinite(means).all() and np.isfinite(covs).all()):
-        raise ValueError("kernel model means_/covariances_ contain NaN or infinity")
-    return means, covs
 
 
 # --------------------------------------------------------------------------- reports
@@ -378,6 +286,32 @@ class LibraryState:
             raise ValueError("next_kernel_id must exceed every kernel id")
 
 
+_ID = Integer(0)
+LIBRARY_ARCHIVE = ArchiveSchema(
+    LIBRARY_SCHEMA,
+    {
+        "kernel_ids": Field(("K",), INTEGER, each=_ID),
+        "option_ids": Field(("n",), INTEGER, each=_ID),
+        "scales": Field(("n",), FLOAT, each=Real(0.0, 1.0, low_open=True)),
+        "uses": Field(("n",), INTEGER, each=Integer(0)),
+        "trial_uses": Field(("n",), INTEGER, each=Integer(0)),
+        **{f"registry_{ids}": Field(("r",), INTEGER, each=_ID)
+           for ids in ("option_ids", "kernel_ids", "policy_ids")},
+        **{f"pruned_{ids}": Field(("q",), INTEGER, each=_ID)
+           for ids in ("kernel_ids", "policy_ids")},
+    },
+    record={
+        "n_policies": Integer(0),
+        **OPTION_CONSTRAINTS,
+        "next_option_id": _ID,
+        "next_kernel_id": _ID,
+        "files": MappingOf(Text(), Text()),
+    },
+)
+"""What :meth:`OptionLibrary.save` writes: K kernels, n active options, r issued option
+ids (the registry), q pruned (kernel, policy) pairs; the other files' digests."""
+
+
 # --------------------------------------------------------------------------- library
 class OptionLibrary:
     """The options ``o_k^i`` of one kernel model and all frozen policies learnt so far.
@@ -460,7 +394,7 @@ class OptionLibrary:
     def _check_model(model: KernelModel, policies: Sequence[FrozenPolicy]) -> None:
         if not callable(getattr(model, "membership", None)):
             raise TypeError("kernel_model must have a membership(X) method")
-        means, _ = _kernel_params(model)
+        means, _ = kernel_parameters(model)
         K = getattr(model, "n_components", None)
         if isinstance(K, bool) or not isinstance(K, int | np.integer) or K != means.shape[0]:
             raise ValueError(
@@ -833,26 +767,50 @@ class OptionLibrary:
 
         matched = match_kernels(self.kernel_model, kernel_model,
                                 self.settings.max_match_distance)
+        kernel_ids, next_kid = self._carried_kernel_ids(matched, int(kernel_model.n_components))
+        state, kept_oids, new_oids = self._carried_options(kernel_ids, next_kid, len(policies))
+        lib = OptionLibrary(kernel_model, policies, self.settings, state=state)
+        kept_kids = tuple(int(self.kernel_ids[matched[j][0]]) for j in sorted(matched))
+        lib.refit_report = RefitReport(
+            matched=dict(matched),
+            kept_kernel_ids=kept_kids,
+            new_kernel_ids=tuple(range(self._next_kernel_id, next_kid)),
+            retired_kernel_ids=tuple(sorted(set(map(int, self.kernel_ids)) - set(kept_kids))),
+            new_policy_ids=tuple(range(len(self.policies), len(policies))),
+            kept_option_ids=tuple(kept_oids),
+            new_option_ids=tuple(new_oids),
+            retired_option_ids=tuple(sorted(set(map(int, self.option_ids)) - set(kept_oids))),
+        )
+        return lib
+
+    def _carried_kernel_ids(
+        self, matched: Mapping[int, tuple[int, float]], n_kernels: int
+    ) -> tuple[np.ndarray, int]:
+        """The ids of a new model's ``n_kernels`` kernels (a matched kernel keeps its old
+        kernel's id, the others get fresh ones, in index order), and the next fresh id."""
         next_kid = self._next_kernel_id
-        kernel_ids = np.empty(int(kernel_model.n_components), dtype=np.int64)
-        new_kids: list[int] = []
-        for j in range(kernel_ids.shape[0]):
+        kernel_ids = np.empty(n_kernels, dtype=np.int64)
+        for j in range(n_kernels):
             if j in matched:
                 kernel_ids[j] = self.kernel_ids[matched[j][0]]
             else:
                 kernel_ids[j] = next_kid
-                new_kids.append(next_kid)
                 next_kid += 1
-        kept_kids = tuple(int(self.kernel_ids[matched[j][0]]) for j in sorted(matched))
-        retired_kids = tuple(sorted(set(map(int, self.kernel_ids)) - set(kept_kids)))
+        return kernel_ids, next_kid
 
+    def _carried_options(
+        self, kernel_ids: np.ndarray, next_kid: int, n_policies: int
+    ) -> tuple[LibraryState, list[int], list[int]]:
+        """The state of a refit library on kernels ``kernel_ids`` and ``n_policies``
+        policies: every (kernel, policy) pair not pruned, an active option keeping its id,
+        scale and counts, a new one a fresh id and scale 1; and the kept and new ids."""
         by_pair = {self.registry[int(o)]: j for j, o in enumerate(self.option_ids)}
         registry = dict(self.registry)
         next_oid = self._next_option_id
         ids, scales, uses, trial_uses = [], [], [], []
         kept_oids, new_oids = [], []
         # Kept options first, in id order, then new ones: ids stay increasing.
-        pairs = [(int(kid), p) for kid in kernel_ids for p in range(len(policies))]
+        pairs = [(int(kid), p) for kid in kernel_ids for p in range(n_policies)]
         for pair in sorted(pairs, key=lambda pr: (pr not in by_pair, pr)):
             if pair in self.pruned:
                 continue
@@ -885,18 +843,7 @@ class OptionLibrary:
             next_option_id=next_oid,
             next_kernel_id=next_kid,
         )
-        lib = OptionLibrary(kernel_model, policies, self.settings, state=state)
-        lib.refit_report = RefitReport(
-            matched=dict(matched),
-            kept_kernel_ids=kept_kids,
-            new_kernel_ids=tuple(new_kids),
-            retired_kernel_ids=retired_kids,
-            new_policy_ids=tuple(range(len(self.policies), len(policies))),
-            kept_option_ids=tuple(kept_oids),
-            new_option_ids=tuple(new_oids),
-            retired_option_ids=tuple(sorted(set(map(int, self.option_ids)) - set(kept_oids))),
-        )
-        return lib
+        return state, kept_oids, new_oids
 
     # ------------------------------------------------------------- persistence
     def save(self, directory: str | os.PathLike[str]) -> None:
@@ -968,77 +915,19 @@ class OptionLibrary:
         """
         root = Path(directory)
         lib_path = root / _LIBRARY_FILE
-        required = {
-            "kernel_ids": (("K",), "iu"),
-            "option_ids": (("n",), "iu"),
-            "scales": (("n",), "f"),
-            "uses": (("n",), "iu"),
-            "trial_uses": (("n",), "iu"),
-            "registry_option_ids": (("r",), "iu"),
-            "registry_kernel_ids": (("r",), "iu"),
-            "registry_policy_ids": (("r",), "iu"),
-            "pruned_kernel_ids": (("q",), "iu"),
-            "pruned_policy_ids": (("q",), "iu"),
-        }
-        arrays, meta = load_npz(lib_path, LIBRARY_SCHEMA, required)
         where = os.fspath(lib_path)
-        files = meta.get("files")
-        n_policies = meta.get("n_policies")
-        if not isinstance(files, dict) or not isinstance(n_policies, int) or n_policies < 0:
-            raise ValueError(f"{where}: malformed meta record")
-        if n_policies != len(files) - 1:  # bounded by the record before anything is built
-            raise ValueError(f"{where}: n_policies is {n_policies}, but the record lists "
-                             f"{len(files)} files (the kernels and one per policy)")
-        expected = {_KERNELS_FILE} | {f"policy_{p}.npz" for p in range(n_policies)}
-        if set(files) != expected:
-            raise ValueError(
-                f"{where}: meta lists files {sorted(files)}, expected {sorted(expected)}"
-            )
-        for name, digest in files.items():
-            path = check_inside(root, root / name, "option library folder")
-            if not path.is_file():
-                raise ValueError(f"{root}: missing file {name}")
-            if sha256_file(path) != digest:
-                raise ValueError(
-                    f"{path}: content differs from the file saved with {where} "
-                    "(modified, or from another save)"
-                )
+        checked = load_archive(lib_path, LIBRARY_ARCHIVE)
+        arrays, meta = checked.arrays, checked.meta
+        n_policies = meta["n_policies"]
+        _check_saved_files(root, meta["files"], n_policies, where)
         if kernel_loader is None:
-            from ilpss.kernels import SharedKernelModel
-
             kernel_loader = SharedKernelModel.load
         model = kernel_loader(root / _KERNELS_FILE)
         policies = tuple(FrozenPolicy.load(root / f"policy_{p}.npz") for p in range(n_policies))
-        registry = {
-            int(o): (int(k), int(p))
-            for o, k, p in zip(
-                arrays["registry_option_ids"],
-                arrays["registry_kernel_ids"],
-                arrays["registry_policy_ids"],
-                strict=True,
-            )
-        }
-        pruned = frozenset(
-            (int(k), int(p))
-            for k, p in zip(arrays["pruned_kernel_ids"], arrays["pruned_policy_ids"], strict=True)
-        )
-        if len(registry) != arrays["registry_option_ids"].shape[0]:
-            raise ValueError(f"{where}: inconsistent library: duplicate option ids in the registry")
         try:
             settings = OptionSettings.from_dict(
-                {f.name: meta.get(f.name) for f in fields(OptionSettings)})
-            state = LibraryState(
-                kernel_ids=arrays["kernel_ids"].astype(np.int64),
-                registry=registry,
-                option_ids=arrays["option_ids"].astype(np.int64),
-                scales=arrays["scales"].astype(np.float64),
-                uses=arrays["uses"].astype(np.int64),
-                trial_uses=arrays["trial_uses"].astype(np.int64),
-                pruned=pruned,
-                next_option_id=meta.get("next_option_id"),  # type: ignore[arg-type]
-                next_kernel_id=meta.get("next_kernel_id"),  # type: ignore[arg-type]
-            )
-            return cls(model, policies, settings, state=state)
+                {f.name: meta[f.name] for f in fields(OptionSettings)})
+            return cls(model, policies, settings, state=_saved_state(arrays, meta))
         except (TypeError, ValueError) as exc:
             raise ValueError(f"{where}: inconsistent library: {exc}") from exc
 
@@ -1048,3 +937,51 @@ class OptionLibrary:
             f"n_options={len(self)}, pruned={len(self.pruned)})"
         )
 
+
+def _check_saved_files(root: Path, files: Mapping[str, str], n_policies: int,
+                       where: str) -> None:
+    """The files a library record lists are those of ``n_policies`` policies and the
+    kernels, inside ``root``, each with the digest it was saved with."""
+    if n_policies != len(files) - 1:  # bounded by the record before anything is built
+        raise ValueError(f"{where}: n_policies is {n_policies}, but the record lists "
+                         f"{len(files)} files (the kernels and one per policy)")
+    expected = {_KERNELS_FILE} | {f"policy_{p}.npz" for p in range(n_policies)}
+    if set(files) != expected:
+        raise ValueError(
+            f"{where}: meta lists files {sorted(files)}, expected {sorted(expected)}"
+        )
+    for name, digest in files.items():
+        path = check_inside(root, root / name, "option library folder")
+        if not path.is_file():
+            raise ValueError(f"{root}: missing file {name}")
+        if sha256_file(path) != digest:
+            raise ValueError(
+                f"{path}: content differs from the file saved with {where} "
+                "(modified, or from another save)"
+            )
+
+
+def _saved_state(arrays: Mapping[str, np.ndarray], meta: Mapping[str, Any]) -> LibraryState:
+    """The :class:`LibraryState` a library archive holds (checked by the library)."""
+    registry = {
+        int(o): (int(k), int(p))
+        for o, k, p in zip(arrays["registry_option_ids"], arrays["registry_kernel_ids"],
+                           arrays["registry_policy_ids"], strict=True)
+    }
+    if len(registry) != arrays["registry_option_ids"].shape[0]:
+        raise ValueError("duplicate option ids in the registry")
+    pruned = frozenset(
+        (int(k), int(p))
+        for k, p in zip(arrays["pruned_kernel_ids"], arrays["pruned_policy_ids"], strict=True)
+    )
+    return LibraryState(
+        kernel_ids=arrays["kernel_ids"].astype(np.int64),
+        registry=registry,
+        option_ids=arrays["option_ids"].astype(np.int64),
+        scales=arrays["scales"].astype(np.float64),
+        uses=arrays["uses"].astype(np.int64),
+        trial_uses=arrays["trial_uses"].astype(np.int64),
+        pruned=pruned,
+        next_option_id=meta["next_option_id"],
+        next_kernel_id=meta["next_kernel_id"],
+    )

@@ -25,9 +25,10 @@ from typing import Self
 
 import numpy as np
 
-from ilpss._io import load_npz, save_npz_atomic
+from ilpss._io import load_archive, save_npz_atomic
+from ilpss._schema import FLOAT, INTEGER, ArchiveSchema, Field
 from ilpss.tiles import TileCoder
-from soccer_drill.constraints import Real, check
+from soccer_drill.constraints import Integer, Real, check
 
 __all__ = [
     "EPSILON",
@@ -39,6 +40,20 @@ __all__ = [
 ]
 
 POLICY_SCHEMA = "ilpss.policy/1"
+POLICY_ARCHIVE = ArchiveSchema(
+    POLICY_SCHEMA,
+    {
+        "weights": Field(("C", "W"), FLOAT),
+        "option_ids": Field((None,), INTEGER),
+        "tiles_low": Field(("d",), FLOAT),
+        "tiles_high": Field(("d",), FLOAT),
+        "tiles_widths": Field(("d",), FLOAT),
+        "tiles_n_tilings": Field((), INTEGER),
+    },
+    record={"n_primitive": Integer(1)},
+)
+"""What a policy's ``save`` writes: C choices of W weights each, and its tile coder over d
+features (whose values the tile coder and the policy check themselves)."""
 EPSILON = Real(0.0, 1.0)
 """What an exploration rate allows (the learners' ``epsilon`` setting is checked with it)."""
 
@@ -328,19 +343,9 @@ class _LinearQ:
 
     @staticmethod
     def _read(path: str | os.PathLike[str]) -> tuple[TileCoder, int, np.ndarray, np.ndarray]:
-        required = {
-            "weights": (("C", "W"), "f"),
-            "option_ids": ((None,), "iu"),
-            "tiles_low": (("d",), "f"),
-            "tiles_high": (("d",), "f"),
-            "tiles_widths": (("d",), "f"),
-            "tiles_n_tilings": ((), "iu"),
-        }
-        arrays, meta = load_npz(path, POLICY_SCHEMA, required)
+        checked = load_archive(path, POLICY_ARCHIVE)
+        arrays, n_primitive = checked.arrays, checked.meta["n_primitive"]
         where = os.fspath(path)
-        n_primitive = meta.get("n_primitive")
-        if isinstance(n_primitive, bool) or not isinstance(n_primitive, int) or n_primitive < 1:
-            raise ValueError(f"{where}: invalid n_primitive {n_primitive!r}")
         try:
             coder = TileCoder.from_arrays(arrays)
         except (ValueError, TypeError) as exc:

@@ -452,7 +452,7 @@ def test_damaged_checkpoints_are_refused_by_name(checkpoints, tmp_path, tamper, 
         (lambda c: shutil.rmtree(c / "trial_0001" / "library"),
          "the option library is missing"),
         (lambda c: _rewrite_bags(c, lambda a, m: a.update(bag_0=np.full((4, 2), np.nan))),
-         "bag_0 has non-finite states"),
+         "array 'bag_0' holds a non-finite value nan"),
         # One character changed: the digest refuses it.
         (lambda c: (c / "trial_0001" / "state.json").write_text(
             (c / "trial_0001" / "state.json").read_text().replace('"n_primitive": 3',

@@ -531,7 +531,7 @@ def test_damaged_or_foreign_files_are_refused(planted_fit, tmp_path: Path) -> No
         "array 'n_states_per_instance' has dtype float64",
         arrays={"n_states_per_instance": np.ones(4)},
     )
-    refused("weights are not probabilities", arrays={"weights": np.full((4, 4), 0.3)})
+    refused("array 'weights' must be probabilities", arrays={"weights": np.full((4, 4), 0.3)})
     refused("non-finite", arrays={"feature_mean": np.full(D, np.nan)})
     refused("not positive definite", arrays={"std_covariances": -np.tile(np.eye(D), (4, 1, 1))})
     refused(
