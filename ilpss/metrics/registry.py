@@ -5,6 +5,37 @@ interval that summarises them, its written definition, and how reports name and 
 :func:`compare` takes ``(n_seeds, n_episodes)`` arrays for a transfer method and a
 baseline whose rows are *paired* (row ``s`` of both was run with the same seed and
 opponent order) and returns a :class:`MetricEstimate` per metric.
+
+Metrics and point estimates (every metric is first computed per seed, and the seed is the
+unit of every interval and test):
+
+* ``jumpstart``, ``final_*``, ``total_reward_*``: mean over seeds of the per-seed
+  value. ``final_*`` is the mean of the last ``last`` episodes, the *final
+  performance within the budget*: the learner may still be improving, so it is not an
+  asymptote.
+* ``transfer_ratio``: ratio of the mean areas above the floor,
+  ``mean_s area_T[s] / mean_s area_B[s]`` (Taylor & Stone's definition on averaged
+  curves; a mean of per-seed ratios would be biased and unstable).
+* ``time_to_threshold_*``: per seed, the episodes until the trailing mean reaches
+  ``threshold``, *censored at the budget* (:func:`~ilpss.metrics.threshold_times`),
+  summarised by the restricted mean time (:func:`~ilpss.metrics.restricted_mean_time` up
+  to the budget: a seed that never reaches the threshold counts the whole budget).
+  ``time_to_threshold_gain`` is the paired difference and ``time_to_threshold_ratio`` the
+  ratio of the two restricted means (``< 1`` favours transfer; always defined).
+  ``median_time_to_threshold_*`` is the Kaplan-Meier median
+  (:func:`~ilpss.metrics.km_median`, ``inf`` when fewer than half of the seeds reach the
+  threshold) and ``threshold_reached_*`` the share of seeds that reach it.
+
+Intervals (``interval="t"``, the default): Student t on the per-seed values
+(:func:`~ilpss.metrics.t_interval`; for differences, on the paired differences), Fieller
+for the two ratios of means (:func:`~ilpss.metrics.fieller_interval`), Wilson for the
+shares (:func:`~ilpss.metrics.wilson_interval`) and order statistics for the medians
+(:func:`~ilpss.metrics.median_interval`). Differences and ratios carry the p-value of the
+test the interval inverts. ``interval="percentile"`` replaces the t and Fieller intervals
+by a paired percentile bootstrap over seeds (``n_boot`` replicates from
+``np.random.default_rng(seed)``, the same resampled seeds for every metric; no
+p-values), which covers too rarely at 10 seeds (``docs/statistics.md``); it is kept to
+measure that.
 """
 
 from __future__ import annotations
@@ -398,40 +429,9 @@ def compare(
 
     Every metric is one entry of :data:`METRICS` (its per-seed values, its interval, its
     definition, how reports name and format it); this function estimates each of them.
-
     Row ``s`` of ``transfer_curves`` and of ``baseline_curves`` must come from the same
-    seed (same opponent order / environment seed): every metric is first computed per
-    seed, and the seed is the unit of every interval and test.
-
-    Metrics and point estimates:
-
-    * ``jumpstart``, ``final_*``, ``total_reward_*``: mean over seeds of the per-seed
-      value. ``final_*`` is the mean of the last ``last`` episodes, the *final
-      performance within the budget*: the learner may still be improving, so it is not an
-      asymptote.
-    * ``transfer_ratio``: ratio of the mean areas above the floor,
-      ``mean_s area_T[s] / mean_s area_B[s]`` (Taylor & Stone's definition on averaged
-      curves; a mean of per-seed ratios would be biased and unstable).
-    * ``time_to_threshold_*``: per seed, the episodes until the trailing mean reaches
-      ``threshold``, *censored at the budget* (:func:`threshold_times`), summarised by the
-      restricted mean time (:func:`restricted_mean_time` up to the budget: a seed that
-      never reaches the threshold counts the whole budget). ``time_to_threshold_gain`` is
-      the paired difference and ``time_to_threshold_ratio`` the ratio of the two
-      restricted means (``< 1`` favours transfer; always defined).
-      ``median_time_to_threshold_*`` is the Kaplan-Meier median (:func:`km_median`,
-      ``inf`` when fewer than half of the seeds reach the threshold) and
-      ``threshold_reached_*`` the share of seeds that reach it.
-
-    Intervals (``interval="t"``, the default): Student t on the per-seed values
-    (:func:`t_interval`; for differences, on the paired differences), Fieller for the
-    two ratios of means (:func:`fieller_interval`), Wilson for the shares
-    (:func:`wilson_interval`) and order statistics for the medians
-    (:func:`median_interval`). Differences and ratios carry the p-value of the test the
-    interval inverts. ``interval="percentile"`` replaces the t and Fieller intervals by a
-    paired percentile bootstrap over seeds (``n_boot`` replicates from
-    ``np.random.default_rng(seed)``, the same resampled seeds for every metric; no
-    p-values), which covers too rarely at 10 seeds (``docs/statistics.md``); it is kept
-    to measure that.
+    seed (same opponent order / environment seed). The metrics and their intervals are
+    described in :mod:`ilpss.metrics.registry`.
 
     Parameters
     ----------
@@ -450,7 +450,8 @@ def compare(
     floor : float
         Minimum possible reward, the zero of the areas in ``transfer_ratio`` (default -1).
     interval : {"t", "percentile"}
-        Interval family (see above; default ``"t"``).
+        Interval family (default ``"t"``; ``"percentile"``: a paired percentile
+        bootstrap over seeds, no p-values).
     n_boot : int
         Bootstrap replicates for ``interval="percentile"`` (default 10000).
     confidence : float
@@ -459,20 +460,14 @@ def compare(
         Seed of the resampling for ``interval="percentile"``.
     warmup : bool
         Time to threshold also over the first ``window - 1`` episodes, on the mean so
-        far (:func:`threshold_times`); default: full windows only.
+        far (:func:`~ilpss.metrics.threshold_times`); default: full windows only.
 
     Returns
     -------
     dict of str to MetricEstimate
-        Keys, in order: ``jumpstart``, ``final_transfer``, ``final_baseline``,
-        ``final_gain``, ``total_reward_transfer``, ``total_reward_baseline``,
-        ``total_reward_gain``, ``transfer_ratio``, ``largest_dip_transfer``,
-        ``largest_dip_baseline``, ``largest_dip_gain``, ``episodes_below_baseline`` and,
-        if ``threshold`` is given,
-        ``time_to_threshold_transfer``, ``time_to_threshold_baseline``,
-        ``time_to_threshold_gain``, ``time_to_threshold_ratio``,
-        ``median_time_to_threshold_transfer``, ``median_time_to_threshold_baseline``,
-        ``threshold_reached_transfer``, ``threshold_reached_baseline``.
+        One estimate per entry of :data:`METRICS`, in its order (``jumpstart``,
+        ``final_transfer``, ..., ``episodes_below_baseline``), the time-to-threshold
+        ones (``threshold=True``) only if ``threshold`` is given.
 
     Raises
     ------
@@ -481,6 +476,24 @@ def compare(
         range (``first``, ``last``, ``window`` longer than the curves), rewards below
         ``floor``, unknown ``interval``.
     """
+    paired, n_boot, confidence = _paired_inputs(
+        transfer_curves, baseline_curves, first=first, last=last, threshold=threshold,
+        window=window, floor=floor, interval=interval, n_boot=n_boot, confidence=confidence,
+        warmup=warmup)
+    n_seeds = paired.transfer.shape[0]
+    weights = (_resample_counts(n_seeds, n_boot, seed) / n_seeds
+               if interval == "percentile" else None)
+    return {m.name: m.estimate(paired, confidence, weights) for m in METRICS
+            if threshold is not None or not m.threshold}
+
+
+def _paired_inputs(
+    transfer_curves: ArrayLike, baseline_curves: ArrayLike, *, first: int, last: int,
+    threshold: float | None, window: int, floor: float, interval: str, n_boot: int,
+    confidence: float, warmup: bool,
+) -> tuple[Paired, int, float]:
+    """:func:`compare`'s arguments checked: the :class:`Paired` curves and windows, the
+    replicates and the confidence level."""
     t = _as_curves(transfer_curves, "transfer_curves")
     b = _as_curves(baseline_curves, "baseline_curves")
     if t.shape != b.shape:
@@ -499,9 +512,5 @@ def compare(
     if threshold is not None:
         threshold = _check_real(threshold, "threshold")
     window = _check_count(window, "window", n_eps)
-    paired = Paired(t, b, first=first, last=last, threshold=threshold, window=window,
-                    floor=floor, warmup=warmup)
-    weights = (_resample_counts(n_seeds, n_boot, seed) / n_seeds
-               if interval == "percentile" else None)
-    return {m.name: m.estimate(paired, confidence, weights) for m in METRICS
-            if threshold is not None or not m.threshold}
+    return (Paired(t, b, first=first, last=last, threshold=threshold, window=window,
+                   floor=floor, warmup=warmup), n_boot, confidence)
