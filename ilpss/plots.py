@@ -103,60 +103,66 @@ def plot_learning_curves(
     if not curves:
         raise ValueError("curves is empty: nothing to plot")
     path = Path(path)
-
     crowded = len(curves) > LEGEND_INSIDE_AT_MOST
     fig = Figure(figsize=(7.0, 4.5 + (0.2 * ((len(curves) + 1) // 2) if crowded else 0.0)),
                  layout="constrained")
     FigureCanvasAgg(fig)  # explicit Agg canvas: no display, no pyplot state
     ax = fig.add_subplot()
-    palette = [f"C{i}" for i in range(10)]
-    styles = ("-", "--", ":")
-
     for i, (name, raw) in enumerate(curves.items()):
-        arr = np.asarray(raw, dtype=float)
-        if arr.ndim == 1:
-            arr = arr[None, :]
-        sm = smooth(arr, window)  # validates: 2-D, finite, non-empty, window <= n
-        n_seeds, n_eps = sm.shape
-        xs = _x_for(name, n_eps, x)
-        colour = palette[i % len(palette)]
-        style = styles[(i // len(palette)) % len(styles)]
-        label = f"{name} (n={n_seeds} seed{'s' if n_seeds != 1 else ''})"
-        if band and n_seeds >= 2:
-            mean, low, high = mean_curve_band(sm, n_boot=n_boot, confidence=confidence, seed=seed)
-            ax.fill_between(xs, low, high, color=colour, alpha=0.1 if crowded else 0.2,
-                            linewidth=0)
-        else:
-            mean = sm.mean(axis=0)
-        ax.plot(xs, mean, color=colour, linestyle=style, linewidth=1.5, label=label)
-
+        _draw_mean_curve(ax, i, name, raw, window=window, band=band, x=x, crowded=crowded,
+                         n_boot=n_boot, confidence=confidence, seed=seed)
     for label, pos in (markers or {}).items():
-        ax.axvline(pos, color="0.4", linestyle="--", linewidth=0.8)
-        ax.annotate(
-            label,
-            xy=(pos, 1.0),
-            xycoords=("data", "axes fraction"),
-            xytext=(-2, -4),
-            textcoords="offset points",
-            rotation=90,
-            ha="right",
-            va="top",
-            fontsize=8,
-            color="0.3",
-        )
-
+        _draw_marker(ax, label, pos)
     ax.set_title(title)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel + (f" (trailing mean over {window})" if window > 1 else ""))
     ax.grid(True, alpha=0.3)
-    legend_title = f"mean, {confidence * 100:g}% bootstrap band" if band else "mean"
+    _legend(fig, ax, f"mean, {confidence * 100:g}% bootstrap band" if band else "mean", crowded)
+    return save_figure(fig, path, format="png", dpi=dpi)
+
+
+def _legend(fig: Figure, ax, title: str, crowded: bool) -> None:
+    """The legend inside the axes, or below them when ``crowded``."""
     if crowded:
-        fig.legend(title=legend_title, fontsize=8, title_fontsize=8, loc="outside lower center",
+        fig.legend(title=title, fontsize=8, title_fontsize=8, loc="outside lower center",
                    ncols=2)
     else:
-        ax.legend(title=legend_title, fontsize=8, title_fontsize=8, loc="best")
+        ax.legend(title=title, fontsize=8, title_fontsize=8, loc="best")
 
-    return save_figure(fig, path, format="png", dpi=dpi)
+
+_PALETTE = tuple(f"C{i}" for i in range(10))
+_STYLES = ("-", "--", ":")
+
+
+def _draw_mean_curve(ax, i: int, name: str, raw: ArrayLike, *, window: int, band: bool,
+                     x: Mapping[str, ArrayLike] | ArrayLike | None, crowded: bool,
+                     n_boot: int, confidence: float, seed: int) -> None:
+    """The ``i``-th method's smoothed mean curve over seeds, with its band when asked and
+    it has 2 seeds or more (:func:`plot_learning_curves`)."""
+    arr = np.asarray(raw, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    sm = smooth(arr, window)  # validates: 2-D, finite, non-empty, window <= n
+    n_seeds, n_eps = sm.shape
+    xs = _x_for(name, n_eps, x)
+    colour = _PALETTE[i % len(_PALETTE)]
+    style = _STYLES[(i // len(_PALETTE)) % len(_STYLES)]
+    label = f"{name} (n={n_seeds} seed{'s' if n_seeds != 1 else ''})"
+    if band and n_seeds >= 2:
+        mean, low, high = mean_curve_band(sm, n_boot=n_boot, confidence=confidence, seed=seed)
+        ax.fill_between(xs, low, high, color=colour, alpha=0.1 if crowded else 0.2,
+                        linewidth=0)
+    else:
+        mean = sm.mean(axis=0)
+    ax.plot(xs, mean, color=colour, linestyle=style, linewidth=1.5, label=label)
+
+
+def _draw_marker(ax, label: str, pos: float) -> None:
+    """A labelled vertical reference line at ``pos`` (:func:`plot_learning_curves`)."""
+    ax.axvline(pos, color="0.4", linestyle="--", linewidth=0.8)
+    ax.annotate(label, xy=(pos, 1.0), xycoords=("data", "axes fraction"), xytext=(-2, -4),
+                textcoords="offset points", rotation=90, ha="right", va="top", fontsize=8,
+                color="0.3")
 
 
 def plot_score_profiles(

@@ -580,6 +580,29 @@ def write_page(
         "differences with 95% t intervals; outcomes are success / interception / out / "
         "timeout.",
         "",
+    ]
+    lines += _teams_section(judged)
+    lines += _summary_section(judged)
+    lines += [
+        "",
+        "## The sources",
+        "",
+        "Every fixed rule against each pure team; the best (highest mean reward) in bold.",
+        "",
+        *_source_table(sources),
+        "",
+        "## The compositions",
+        "",
+    ]
+    for j in judged:
+        lines += _candidate_section(j)
+    lines += _using(judged) + _history(judged)
+    return atomic_write_text(path, "\n".join(lines).rstrip() + "\n")
+
+
+def _teams_section(judged: Sequence[Judged]) -> list[str]:
+    """The teams, and how each composition's region reads on the holder's features."""
+    lines = [
         "## The teams",
         "",
         "| id | what it does |",
@@ -610,7 +633,13 @@ def write_page(
         status = "target" if j.candidate.registered and j.kept else (
             "registered, NOT kept" if j.candidate.registered else "rejected")
         lines.append(_region_row(j.candidate, status))
-    lines += [
+    return lines
+
+
+def _summary_section(judged: Sequence[Judged]) -> list[str]:
+    """The regions in code, and one row per composition: the best single rule, the composed
+    rule, their paired difference and the verdict."""
+    lines = [
         "",
         "In code: `opponents.region_stream.NEAR` (`Region(\"dist_goal\", 12.0)`) and "
         "`opponents.region_stream.LEFT` (`Region(\"lateral\", 0.0)`); "
@@ -636,21 +665,7 @@ def write_page(
             f"{_share(above)} / {_share(below)} / {_share(above & below)} | "
             f"{j.verdict} |"
         )
-    lines += [
-        "",
-        "## The sources",
-        "",
-        "Every fixed rule against each pure team; the best (highest mean reward) in bold.",
-        "",
-        *_source_table(sources),
-        "",
-        "## The compositions",
-        "",
-    ]
-    for j in judged:
-        lines += _candidate_section(j)
-    lines += _using(judged) + _history(judged)
-    return atomic_write_text(path, "\n".join(lines).rstrip() + "\n")
+    return lines
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -199,13 +199,14 @@ def test_a_new_metric_is_one_entry(tmp_path, monkeypatch) -> None:
     report's tables and ilpss-compare's."""
     from ilpss import metrics
     from ilpss.experiments.compare import compare_runs
+    from ilpss.metrics import registry
 
     share = metrics.Metric(
         "wins_gain", "share of wins gain", "+.2f", "mean",
         lambda p: (p.transfer > 0).mean(axis=1) - (p.baseline > 0).mean(axis=1),
         lambda p: "mean over seeds of (share of episodes won with transfer) - (the same "
                   "for the baseline)", test=True, headline=True, pairwise=True)
-    monkeypatch.setattr(metrics, "METRICS", (*metrics.METRICS, share))
+    monkeypatch.setattr(registry, "METRICS", (*registry.METRICS, share))
     rng = np.random.default_rng(0)
     est = metrics.compare(rng.uniform(-1, 1, (3, 8)), rng.uniform(-1, 1, (3, 8)), first=2,
                           last=2, threshold=None, window=2)

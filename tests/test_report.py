@@ -9,6 +9,7 @@ from ilpss import metrics
 from ilpss.experiments.report import (
     compare_to_baseline,
     holm_primary,
+    pairwise_estimates,
     per_target_dips,
     stream_trend,
     structure_b,
@@ -159,3 +160,76 @@ def test_the_handover_is_reported_on_the_worst_of_many_targets_and_where_it_is()
     (row,) = [line for line in table if line.startswith("| ILPSS")]
     cells = row.strip("| ").split(" | ")[1:]
     assert cells[3].startswith("1.") and all(not c.startswith("1.") for c in cells[:3])
+
+
+# ------------------------------------------------------------- declared Holm families
+def _wins_gain(pairwise: bool = True) -> metrics.Metric:
+    """A metric a newcomer might add: the paired difference of the share of wins."""
+    return metrics.Metric(
+        "wins_gain", "share of wins gain", "+.2f", "mean",
+        lambda p: (p.transfer > 0).mean(axis=1) - (p.baseline > 0).mean(axis=1),
+        lambda p: "mean over seeds of (share of episodes won) - (the same for the other)",
+        test=True, pairwise=pairwise)
+
+
+def _three_methods() -> dict[str, np.ndarray]:
+    rng = np.random.default_rng(3)
+    return {"scratch": _curves(rng), "a": _curves(rng, 0.2), "b": _curves(rng, 0.0),
+            "c": _curves(rng, 0.1)}
+
+
+def test_a_pairwise_metric_leaves_the_family_of_an_existing_report_as_it_was(monkeypatch):
+    """Declaring a metric pairwise shows it method against method, unadjusted; the tests
+    of the table's declared family keep their Holm-adjusted p-values."""
+    import sys
+
+    curves = _three_methods()
+    before = pairwise_estimates(curves, "scratch")
+    assert any(p < 0.05 for est in before.values() for *_, p in est.values())
+    # where the registry of metrics is declared (the module of Metric)
+    registry = sys.modules[metrics.Metric.__module__]
+    monkeypatch.setattr(registry, "METRICS", (*registry.METRICS, _wins_gain()))
+    after = pairwise_estimates(curves, "scratch")
+    for pair, est in before.items():
+        assert {m: after[pair][m] for m in est} == est  # the family's p-values unchanged
+        assert "wins_gain" in after[pair]  # and the new metric is shown beside them
+
+
+def test_a_family_that_declares_a_metric_adjusts_it_with_the_others(monkeypatch):
+    from ilpss.experiments.report_stats import METHOD_PAIRS_FAMILY, HolmFamily
+    from ilpss.experiments.report_text import pairwise_lines
+    from ilpss.metrics import registry
+
+    curves = _three_methods()
+    monkeypatch.setattr(registry, "METRICS", (*registry.METRICS, _wins_gain()))
+    shown = pairwise_estimates(curves, "scratch")
+    wider = HolmFamily("with wins", (*METHOD_PAIRS_FAMILY.metrics, "wins_gain"))
+    adjusted = pairwise_estimates(curves, "scratch", family=wider)
+    keys = [(pair, m) for pair in shown for m in wider.metrics]
+    raw = []
+    for pair, m in keys:  # the family's raw p-values: a paired t-test per pair and metric
+        a, b = pair
+        paired = metrics.Paired(curves[a], curves[b], first=20, last=50, window=20)
+        raw.append(float(metrics.t_test_pvalue(registry.METRIC.get(m, _wins_gain()).values(
+            paired))))
+    assert [adjusted[pair][m][3] for pair, m in keys] == pytest.approx(list(metrics.holm(raw)))
+    assert [shown[pair]["wins_gain"][3] for pair in shown] == pytest.approx(
+        [p for (pair, m), p in zip(keys, raw, strict=True) if m == "wins_gain"])
+    text = "\n".join(pairwise_lines(curves, "scratch"))
+    assert "the p-values of share of wins gain are unadjusted" in text
+    assert text.count(", unadjusted)") == 3  # one per pair
+    text = "\n".join(pairwise_lines(curves, "scratch", family=wider))
+    assert "Holm-adjusted across the 3 pairs x 4 metrics." in text and "unadjusted)" not in text
+
+
+def test_a_family_names_metrics_that_exist_and_are_differences():
+    from ilpss.experiments.report_stats import HolmFamily
+
+    with pytest.raises(ValueError, match="non-empty tuple"):
+        HolmFamily("empty", ())
+    with pytest.raises(ValueError, match="distinct"):
+        HolmFamily("twice", ("jumpstart", "jumpstart"))
+    with pytest.raises(ValueError, match=r"\['no_such'\], which are not metrics"):
+        HolmFamily("unknown", ("no_such",)).members()
+    with pytest.raises(ValueError, match="not paired differences"):
+        HolmFamily("ratio", ("transfer_ratio",)).members()

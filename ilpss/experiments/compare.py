@@ -37,7 +37,8 @@ from ilpss._io import json_differences
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.folder import RunFolder
 from ilpss.experiments.provenance import check_one_code, code_line
-from ilpss.experiments.report import PRIMARY, interval_text, threshold_for, windows
+from ilpss.experiments.report_stats import PRIMARY_FAMILY, threshold_for, windows
+from ilpss.experiments.report_text import interval_text
 from ilpss.experiments.run import load_result, read_config
 
 
@@ -146,18 +147,7 @@ def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]], 
         ``allow_mixed_code``: then the table's note names every code.
     """
     codes: dict[str, tuple[dict, str]] = {}
-    base, base_streams = _target_curves(*baseline, codes)
-    loaded = {}
-    for label, spec in runs.items():
-        loaded[label], streams = _target_curves(*spec, codes)
-        for seed in sorted(set(streams) & set(base_streams)):
-            diffs = json_differences(base_streams[seed], streams[seed])
-            if diffs:
-                raise ValueError(
-                    f"{label} ({spec[0]}) does not learn what the baseline ({baseline[0]}) "
-                    f"learns on seed {seed}: {'; '.join(diffs[:3])} (baseline first); only "
-                    "runs of the same stream, target and budget can be paired by seed"
-                )
+    base, loaded = _paired_runs(baseline, runs, codes)
     check_one_code(codes, allow=allow_mixed_code)
     seeds = sorted(set(base).intersection(*(set(r) for r in loaded.values())))
     if len(seeds) < 2:
@@ -175,22 +165,58 @@ def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]], 
         gains[label] = metrics.per_seed_gains(c, b, first=first, last=last)
         used[label] = np.mean([np.mean([entry.get("options_used", [0])[-1]
                                         for entry in by_seed[s][1]]) for s in seeds])
-    keys = [(label, e) for label in estimates for e in PRIMARY]
-    adjusted = dict(zip(keys, metrics.holm([estimates[k][e].p_value for k, e in keys]),
-                        strict=True))
     k = len(estimates)
-    columns = metrics.headline_metrics()
-    head = [c for m in columns for c in (m.label, *(["p (Holm)"] if m.name in PRIMARY else []))]
     lines = [
         f"Baseline `{baseline[0]}:{baseline[1]}`; {len(seeds)} paired seeds; jumpstart over the "
         f"first {first} episodes, final performance within the budget over the last {last}; "
         "95% Student t intervals over the paired seeds (Fieller for the time ratio, of the "
         "restricted mean times to threshold, censored at the budget). p: the paired t-test, "
-        f"Holm-adjusted across the {k} runs x {len(PRIMARY)} endpoints (jumpstart, total-reward "
-        "gain).",
+        f"Holm-adjusted across the {k} runs x {len(FAMILY.metrics)} endpoints (jumpstart, "
+        "total-reward gain).",
         "",
         code_line({"code": code} for code, _ in codes.values()),
         "",
+        *_table(estimates, used),
+        "",
+    ]
+    return lines + _best_lines(estimates, gains)
+
+
+FAMILY = PRIMARY_FAMILY
+"""The tests ``ilpss-compare`` adjusts together: every run against the baseline on these
+endpoints."""
+
+
+def _paired_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]],
+                 codes: dict[str, tuple[dict, str]]) -> tuple[dict, dict]:
+    """The baseline's and every run's target curves by seed (their codes into ``codes``),
+    refusing a run whose stream differs from the baseline's on a seed both finished."""
+    base, base_streams = _target_curves(*baseline, codes)
+    loaded = {}
+    for label, spec in runs.items():
+        loaded[label], streams = _target_curves(*spec, codes)
+        for seed in sorted(set(streams) & set(base_streams)):
+            diffs = json_differences(base_streams[seed], streams[seed])
+            if diffs:
+                raise ValueError(
+                    f"{label} ({spec[0]}) does not learn what the baseline ({baseline[0]}) "
+                    f"learns on seed {seed}: {'; '.join(diffs[:3])} (baseline first); only "
+                    "runs of the same stream, target and budget can be paired by seed"
+                )
+    return base, loaded
+
+
+def _table(estimates: dict[str, dict[str, metrics.MetricEstimate]],
+           used: dict[str, float]) -> list[str]:
+    """Every run against the baseline on the headline metrics, the endpoints of
+    :data:`FAMILY` with their Holm-adjusted p-values."""
+    keys = [(label, e) for label in estimates for e in FAMILY.metrics]
+    adjusted = dict(zip(keys, metrics.holm([estimates[k][e].p_value for k, e in keys]),
+                        strict=True))
+    columns = metrics.headline_metrics()
+    tested = set(FAMILY.metrics)
+    head = [c for m in columns for c in (m.label, *(["p (Holm)"] if m.name in tested else []))]
+    lines = [
         "| run | " + " | ".join(head) + " | seeds reaching the threshold | options used by "
         "the greedy policy at the target |",
         "|---|" + "".join("---:|" if c == "p (Holm)" else "---|" for c in head) + "---:|---:|",
@@ -200,12 +226,20 @@ def compare_runs(baseline: tuple[Path, str], runs: dict[str, tuple[Path, str]], 
         reached = round(est["threshold_reached_transfer"].value * n)
         cells = [c for m in columns for c in (
             interval_text(est[m.name], m.fmt),
-            *([f"{adjusted[label, m.name]:.2g}"] if m.name in PRIMARY else []))]
+            *([f"{adjusted[label, m.name]:.2g}"] if m.name in tested else []))]
         cells.append(f"{reached}/{n}")
         lines.append(f"| {label} | " + " | ".join(cells) + f" | {used[label]:.1f} |")
-    lines.append("")
+    return lines
+
+
+def _best_lines(estimates: dict[str, dict[str, metrics.MetricEstimate]],
+                gains: dict[str, dict[str, np.ndarray]]) -> list[str]:
+    """The run with the largest value of each endpoint, with a simultaneous interval (none
+    with one run: there is nothing to pick)."""
+    k = len(estimates)
     confidence = 1.0 - 0.05 / k
-    for e in PRIMARY if k > 1 else ():  # with one run there is nothing to pick
+    lines = []
+    for e in FAMILY.metrics if k > 1 else ():
         best = max(estimates, key=lambda label: estimates[label][e].value)
         value, low, high = metrics.t_interval(gains[best][e], confidence)
         lines.append(

@@ -41,7 +41,8 @@ from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.methods import METHODS
 from ilpss.experiments.protocols import PROTOCOLS
 from ilpss.experiments.provenance import check_one_code, code_line
-from ilpss.experiments.report import interval_text, threshold_for, windows
+from ilpss.experiments.report_stats import threshold_for, windows
+from ilpss.experiments.report_text import interval_text
 from ilpss.experiments.run import run_experiment
 from soccer_drill.constraints import ListOf, Name, OneOf, Real, Text, check_fields, check_keys
 

@@ -39,7 +39,8 @@ from ilpss.experiments.folder import RunFolder
 from ilpss.experiments.methods import METHODS, FineTuneMethod, LifelongMethod
 from ilpss.experiments.outputs import check_out_dir, check_utf8, unwritten_report
 from ilpss.experiments.protocols import make_env
-from ilpss.experiments.report import label, write_report
+from ilpss.experiments.report import write_report
+from ilpss.experiments.report_text import label
 from ilpss.experiments.run import JobError, run_experiment
 from ilpss.lifelong import LifelongLearner, trial_seeds
 from ilpss.options import OptionLibrary

@@ -42,7 +42,8 @@ from ilpss.experiments.folder import RunFolder
 from ilpss.experiments.outputs import check_out_dir, check_utf8, unwritten_report
 from ilpss.experiments.protocols import PROTOCOLS as PROTOCOLS_REGISTRY
 from ilpss.experiments.provenance import code_line, code_record
-from ilpss.experiments.report import doc_reference, label, metrics_note, write_report
+from ilpss.experiments.report import write_report
+from ilpss.experiments.report_text import doc_reference, label, metrics_note
 from ilpss.experiments.run import JobError, load_result, read_config, run_experiment
 from ilpss.experiments.sections import page_section
 

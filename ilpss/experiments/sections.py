@@ -21,36 +21,39 @@ from ilpss.experiments.checkpoints import checkpoint_store
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.folder import checkpoint_key
 from ilpss.experiments.methods import METHODS, LifelongMethod
-from ilpss.experiments.report import (
-    ENDPOINT_LABELS,
+from ilpss.experiments.report import report_body
+from ilpss.experiments.report_bodies import pooled_lines
+from ilpss.experiments.report_figures import plot_held_out_panels
+from ilpss.experiments.report_stats import (
+    METHOD_PAIRS_FAMILY,
     PRIMARY,
     collect,
     comparable,
     compare_to_baseline,
+    library_sizes,
+    per_target_curves,
+    stream_estimates,
+    stream_jumpstarts,
+    stream_trend,
+    target_curves,
+    windows,
+)
+from ilpss.experiments.report_text import (
+    ENDPOINT_LABELS,
     comparison_head,
     comparison_row,
     dip_lines,
     headline_table,
     interval_text,
     label,
-    library_sizes,
     pairwise_lines,
-    per_target_curves,
     per_target_dips,
-    plot_held_out_panels,
-    pooled_lines,
     protocol_c_lines,
-    report_body,
-    stream_estimates,
-    stream_jumpstarts,
-    stream_trend,
     structure_b,
     structure_targets,
-    target_curves,
     target_tables,
     trend_line,
     verdict_lines,
-    windows,
     worst_target_dips,
 )
 from ilpss.metrics import format_metrics_markdown
@@ -96,7 +99,8 @@ def section_a(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Pa
     if comparable(curves, cfg.baseline):
         lines += ["### Verdicts", "", *verdict_lines(estimates, cfg.lifelong.train_episodes), "",
                   *headline_table(estimates, f"{cfg.n_seeds} seeds"), "",
-                  *dip_lines(curves, cfg.baseline), *pairwise_lines(curves, cfg.baseline)]
+                  *dip_lines(curves, cfg.baseline),
+                  *pairwise_lines(curves, cfg.baseline, family=METHOD_PAIRS_FAMILY)]
     else:
         lines += ["Transfer metrics need at least 2 seeds.", ""]
     lines += diagnostics(cfg, results)
