@@ -13,13 +13,7 @@ MAX_LINES = 80
 """Lines of a function, from its ``def`` to its last line (``end_lineno - lineno``)."""
 
 LONGER = {
-    "ilpss/_io.py::load_npz",
     "ilpss/experiments/holder_learning.py::_main",
-    "ilpss/kernels.py::SharedKernelModel.fit",
-    "ilpss/kernels.py::SharedKernelModel.load",
-    "ilpss/lifelong.py::LifelongLearner.load",
-    "ilpss/options.py::OptionLibrary.load",
-    "ilpss/options.py::OptionLibrary.refit",
     "ilpss/reference/masked_ppo.py::train",
 }
 """The functions still longer than :data:`MAX_LINES`, as ``path::qualified name``."""
