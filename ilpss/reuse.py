@@ -50,7 +50,7 @@ import inspect
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -62,15 +62,13 @@ from ilpss.options import OptionLibrary
 from ilpss.policy import FrozenPolicy
 from ilpss.smdp import SmdpLearner
 
-if TYPE_CHECKING:
-    from ilpss.lifelong import LifelongConfig
-
 __all__ = [
     "REUSES",
     "BestOfPast",
     "EmKernels",
     "Fresh",
     "GivenRegions",
+    "KernelSettings",
     "LatestPast",
     "OfferRule",
     "Regions",
@@ -83,13 +81,23 @@ __all__ = [
 
 
 # ---------------------------------------------------------------------- regions
+class KernelSettings(Protocol):
+    """What fitting the regions reads of the lifelong configuration
+    (:class:`~ilpss.lifelong.LifelongConfig`, a layer above this module)."""
+
+    n_kernels: int
+    kernel_reg_covar: float
+    kernel_max_iter: int
+    kernel_n_init: int
+
+
 class Regions(Protocol):
     """How the regions of the options are made after every trial."""
 
     model_name: str
     """The class name of the kernel model it builds, as checkpoints record it."""
 
-    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: LifelongConfig,
+    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: KernelSettings,
             seed: int) -> Any | None:
         """The kernel model over all bags of states so far, or ``None`` to keep the
         options as they are (too few states to fit)."""
@@ -108,7 +116,7 @@ class EmKernels:
 
     model_name: str = "SharedKernelModel"
 
-    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: LifelongConfig,
+    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: KernelSettings,
             seed: int) -> SharedKernelModel | None:
         if sum(len(b) for b in bags) < config.n_kernels * 2:
             return None  # too few successful states to fit: keep the options we have
@@ -128,7 +136,7 @@ class Uniform:
 
     model_name: str = "UniformKernel"
 
-    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: LifelongConfig,
+    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: KernelSettings,
             seed: int) -> UniformKernel:
         return UniformKernel(n_features)
 
@@ -145,7 +153,7 @@ class GivenRegions:
     regions: tuple[tuple[int, float, bool], ...]
     model_name: str = "RegionKernels"
 
-    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: LifelongConfig,
+    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: KernelSettings,
             seed: int) -> RegionKernels:
         features, thresholds, below = zip(*self.regions, strict=True)
         return RegionKernels(n_features, features, thresholds, below)

@@ -21,11 +21,11 @@ import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from ilpss._check import Constraint, Integer, Real
 from ilpss._io import json_differences
-from ilpss.baselines import PrqLearner
+from ilpss.baselines import PrqConfig, PrqLearner
 from ilpss.experiments import (
     drill,
     oracles,  # noqa: F401  (registers the oracles' reuses)
@@ -50,26 +50,36 @@ from ilpss.reuse import (
 )
 from ilpss.smdp import EpisodeResult, SmdpLearner
 
-if TYPE_CHECKING:
-    from ilpss.experiments.config import ExperimentConfig
-
 __all__ = [
     "METHODS",
     "FineTuneMethod",
     "Job",
     "LifelongMethod",
     "Method",
+    "MethodSettings",
     "PrqMethod",
     "lifelong_entry",
     "register_method",
 ]
 
 
+class MethodSettings(Protocol):
+    """What a method reads of an experiment's configuration
+    (:class:`~ilpss.experiments.config.ExperimentConfig`, a layer above this module)."""
+
+    env_id: str
+    lifelong: LifelongConfig
+    prq: PrqConfig
+    reward_range: tuple[float, float]
+
+    def results_record(self) -> dict[str, Any]: ...
+
+
 @dataclass
 class Job:
     """One (seed, stream) job: what its methods run on, and the learners they leave."""
 
-    cfg: ExperimentConfig
+    cfg: MethodSettings
     seed: int
     stream_index: int
     stream: Stream
@@ -318,7 +328,7 @@ class FineTuneMethod(Method):
         return {"curves": curves}
 
     def learn_target(
-        self, cfg: ExperimentConfig, seed: int, scratch: LifelongLearner, before: int,
+        self, cfg: MethodSettings, seed: int, scratch: LifelongLearner, before: int,
         env: Any,
     ) -> tuple[SmdpLearner, list[EpisodeResult]]:
         """Fine-tune on one target, the job's seed ``seed`` and ``before`` tasks before it,
