@@ -40,6 +40,11 @@ name                  regions                               start
 finetune``
 ====================  ====================================  =================================
 
+The oracles' reuses (``oracle_regions_finetune``, ``true_regions_finetune``,
+``assigned_regions_finetune``) need the drill's regions, which this module does not
+know: :mod:`ilpss.experiments.oracles` holds them, and ``pyproject.toml`` declares them in
+the entry-point group, so that their names are registered whatever was imported first.
+
 A start rule also serves methods outside the lifelong loop (the fine-tuning baselines of
 :mod:`ilpss.experiments.methods` start from the policies that learning anew learnt).
 """

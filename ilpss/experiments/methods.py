@@ -26,10 +26,7 @@ from typing import Any, Protocol
 from ilpss._check import Constraint, Integer, Real
 from ilpss._io import json_differences
 from ilpss.baselines import PrqConfig, PrqLearner
-from ilpss.experiments import (
-    drill,
-    oracles,  # noqa: F401  (registers the oracles' reuses)
-)
+from ilpss.experiments import drill
 from ilpss.experiments.checkpoints import CheckpointStore, is_uri
 from ilpss.experiments.folder import checkpoint_key
 from ilpss.experiments.protocols import Stream, make_env

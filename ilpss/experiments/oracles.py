@@ -34,9 +34,15 @@ import numpy as np
 from ilpss.experiments import drill
 from ilpss.kernels import RegionKernels
 from ilpss.options import OptionLibrary
-from ilpss.reuse import GivenRegions, LatestPast, Reuse, register_reuse
+from ilpss.reuse import GivenRegions, LatestPast, Reuse
 
-__all__ = ["GIVEN_REGIONS", "TrueRegions"]
+__all__ = [
+    "ASSIGNED_REGIONS_FINETUNE",
+    "GIVEN_REGIONS",
+    "ORACLE_REGIONS_FINETUNE",
+    "TRUE_REGIONS_FINETUNE",
+    "TrueRegions",
+]
 
 
 @dataclass(frozen=True)
@@ -88,13 +94,22 @@ GIVEN_REGIONS = GivenRegions((EVERYWHERE, *((feature, threshold, below)
                                             for feature, threshold in _SPLITS
                                             for below in (True, False))))
 """The oracles' kernels: every state, then both sides of each known split."""
-for _reuse in (
-    # Protocol R's oracle arm, as it was first run: both sides of R's splits, every one
-    # offered on every task.
-    Reuse("oracle_regions_finetune", GivenRegions(tuple(
-        (feature, threshold, below) for feature, threshold in drill.REGION_SPLITS
-        for below in (True, False))), LatestPast()),
-    Reuse("true_regions_finetune", GIVEN_REGIONS, LatestPast(), TrueRegions()),
-    Reuse("assigned_regions_finetune", GIVEN_REGIONS, LatestPast(), TrueRegions(assigned=True)),
-):
-    register_reuse(_reuse)
+
+# The reuses are declared as entry points of the group ``ilpss.reuses`` (pyproject.toml),
+# so that ``LifelongConfig(options=...)`` accepts their names whatever was imported first
+# (this module is higher than :mod:`ilpss.reuse`, which may not import it).
+ORACLE_REGIONS_FINETUNE = Reuse(
+    "oracle_regions_finetune",
+    GivenRegions(tuple((feature, threshold, below) for feature, threshold in drill.REGION_SPLITS
+                       for below in (True, False))),
+    LatestPast(),
+)
+"""Protocol R's oracle arm, as it was first run: both sides of R's splits, every one offered
+on every task."""
+TRUE_REGIONS_FINETUNE = Reuse("true_regions_finetune", GIVEN_REGIONS, LatestPast(),
+                              TrueRegions())
+"""The sharp test's oracle: a target offered both sides of its own split."""
+ASSIGNED_REGIONS_FINETUNE = Reuse("assigned_regions_finetune", GIVEN_REGIONS, LatestPast(),
+                                  TrueRegions(assigned=True))
+"""The sharp test's oracle that knows the assignment too: each side offers the policy of the
+source played there."""
