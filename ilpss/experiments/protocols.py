@@ -22,7 +22,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from ilpss.experiments import drill
+from ilpss.experiments import drill_facts
 from ilpss.experiments.registry import SAMPLERS, Registry
 
 __all__ = [
@@ -216,8 +216,8 @@ class RegionStream(HeldOutTeam):
     """R: a stream where regions matter. The sources are pure behaviours, the targets
     teams that play one source's behaviour in one region of the field and another's in
     another, each learnt from the state after the sources
-    (:data:`~ilpss.experiments.drill.REGION_SOURCES`,
-    :data:`~ilpss.experiments.drill.REGION_TARGETS`); ``teams`` and ``targets`` replace
+    (:data:`~ilpss.experiments.drill_facts.REGION_SOURCES`,
+    :data:`~ilpss.experiments.drill_facts.REGION_TARGETS`); ``teams`` and ``targets`` replace
     both when ``targets`` are given."""
 
     name = "R"
@@ -234,7 +234,7 @@ class RegionStream(HeldOutTeam):
                                                                   tuple[str, ...]]:
         if cfg.targets:
             return cfg.teams, cfg.targets
-        return drill.REGION_SOURCES, drill.REGION_TARGETS
+        return drill_facts.REGION_SOURCES, drill_facts.REGION_TARGETS
 
     def describe(self, cfg: StreamSettings) -> str:
         sources, targets = self.sources_and_targets(cfg)
@@ -246,9 +246,9 @@ class RegionStream(HeldOutTeam):
 
 class SharpRegionTest(RegionStream):
     """S: the sharp test of regions. The sources are the paper's four teams and the
-    contain (:data:`~ilpss.experiments.drill.SHARP_SOURCES`), the targets teams that play
+    contain (:data:`~ilpss.experiments.drill_facts.SHARP_SOURCES`), the targets teams that play
     one paper team far from the goal line and the contain near it
-    (:data:`~ilpss.experiments.drill.SHARP_TARGETS`): every episode starts far and most
+    (:data:`~ilpss.experiments.drill_facts.SHARP_TARGETS`): every episode starts far and most
     reach near, so the gain needs a change of behaviour within the episode, and each
     target needs a different source far from the line. Each target is learnt from the
     state after the sources; ``teams`` and ``targets`` replace both when ``targets`` are
@@ -261,7 +261,7 @@ class SharpRegionTest(RegionStream):
                                                                   tuple[str, ...]]:
         if cfg.targets:
             return cfg.teams, cfg.targets
-        return drill.SHARP_SOURCES, drill.SHARP_TARGETS
+        return drill_facts.SHARP_SOURCES, drill_facts.SHARP_TARGETS
 
 
 class LargeLibrarySharpTest(SharpRegionTest):
