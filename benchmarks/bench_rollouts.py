@@ -35,7 +35,7 @@ import gymnasium as gym
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from ilpss.experiments.drill import ENV_ID, PAPER_TEAMS
+from ilpss.experiments.drill_facts import ENV_ID, PAPER_TEAMS
 from ilpss.lifelong import LifelongConfig, LifelongLearner
 
 

@@ -24,9 +24,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from ilpss.experiments.drill import ENV_ID as DRILL_ENV_ID
-from ilpss.experiments.drill import PAPER_TEAMS
-from ilpss.experiments.drill import TILE_WIDTHS as DRILL_TILE_WIDTHS
+from ilpss.experiments.drill_facts import ENV_ID as DRILL_ENV_ID
+from ilpss.experiments.drill_facts import PAPER_TEAMS
+from ilpss.experiments.drill_facts import TILE_WIDTHS as DRILL_TILE_WIDTHS
 from ilpss.experiments.executor import LocalExecutor
 from ilpss.experiments.holder_learning import evaluation_rewards
 from ilpss.lifelong import LearnerConfig

@@ -40,6 +40,11 @@ name                  regions                               start
 finetune``
 ====================  ====================================  =================================
 
+The oracles' reuses (``oracle_regions_finetune``, ``true_regions_finetune``,
+``assigned_regions_finetune``) need the drill's regions, which this module does not
+know: :mod:`ilpss.experiments.oracles` holds them, and ``pyproject.toml`` declares them in
+the entry-point group, so that their names are registered whatever was imported first.
+
 A start rule also serves methods outside the lifelong loop (the fine-tuning baselines of
 :mod:`ilpss.experiments.methods` start from the policies that learning anew learnt).
 """
@@ -50,7 +55,7 @@ import inspect
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -62,15 +67,13 @@ from ilpss.smdp import SmdpLearner
 from soccer_drill.constraints import Integer, check
 from soccer_drill.registry import Registry
 
-if TYPE_CHECKING:
-    from ilpss.lifelong import LifelongConfig
-
 __all__ = [
     "REUSES",
     "BestOfPast",
     "EmKernels",
     "Fresh",
     "GivenRegions",
+    "KernelSettings",
     "LatestPast",
     "OfferRule",
     "Regions",
@@ -83,13 +86,23 @@ __all__ = [
 
 
 # ---------------------------------------------------------------------- regions
+class KernelSettings(Protocol):
+    """What fitting the regions reads of the lifelong configuration
+    (:class:`~ilpss.lifelong.LifelongConfig`, a layer above this module)."""
+
+    n_kernels: int
+    kernel_reg_covar: float
+    kernel_max_iter: int
+    kernel_n_init: int
+
+
 class Regions(Protocol):
     """How the regions of the options are made after every trial."""
 
     model_name: str
     """The class name of the kernel model it builds, as checkpoints record it."""
 
-    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: LifelongConfig,
+    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: KernelSettings,
             seed: int) -> Any | None:
         """The kernel model over all bags of states so far, or ``None`` to keep the
         options as they are (too few states to fit)."""
@@ -108,7 +121,7 @@ class EmKernels:
 
     model_name: str = "SharedKernelModel"
 
-    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: LifelongConfig,
+    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: KernelSettings,
             seed: int) -> SharedKernelModel | None:
         if sum(len(b) for b in bags) < config.n_kernels * 2:
             return None  # too few successful states to fit: keep the options we have
@@ -128,7 +141,7 @@ class Uniform:
 
     model_name: str = "UniformKernel"
 
-    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: LifelongConfig,
+    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: KernelSettings,
             seed: int) -> UniformKernel:
         return UniformKernel(n_features)
 
@@ -145,7 +158,7 @@ class GivenRegions:
     regions: tuple[tuple[int, float, bool], ...]
     model_name: str = "RegionKernels"
 
-    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: LifelongConfig,
+    def fit(self, bags: Sequence[np.ndarray], n_features: int, config: KernelSettings,
             seed: int) -> RegionKernels:
         features, thresholds, below = zip(*self.regions, strict=True)
         return RegionKernels(n_features, features, thresholds, below)

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from synthetic_smdp import ZoneCorridor
 
-from ilpss.experiments import drill
+from ilpss.experiments import drill_facts
 from ilpss.experiments.config import EXPERIMENT_CONSTRAINTS, ExperimentConfig
 from ilpss.experiments.folder import RunFolder
 from ilpss.experiments.methods import METHODS, Job, LifelongMethod, Method, register_method
@@ -164,7 +164,7 @@ class _HalvesOfTheField:
     model_name: str = "_Halves"
 
     def fit(self, bags, n_features, config, seed):
-        return _Halves(n_features, (drill.LATERAL,) * 2, (0.0, 0.0), (True, False))
+        return _Halves(n_features, (drill_facts.LATERAL,) * 2, (0.0, 0.0), (True, False))
 
     def load(self, path):
         return _Halves.load(path)

@@ -69,11 +69,11 @@ def test_a_protocol_accepts_the_fields_it_uses_and_defaults_of_the_others():
 def test_the_sharp_tests_streams_hold_its_sources_then_its_targets_from_the_same_state():
     """S: the paper's teams and the contain, then each target after them; L: the same
     after a prefix drawn by protocol C's sampler (the same draw as C's stream)."""
-    from ilpss.experiments import drill
+    from ilpss.experiments import drill_facts
 
     (s,) = ExperimentConfig(protocol="S").streams(3)
-    assert [t.name for t in s.tasks] == [*drill.SHARP_SOURCES, *drill.SHARP_TARGETS]
-    assert s.first_target == len(drill.SHARP_SOURCES) and s.shared_start
+    assert [t.name for t in s.tasks] == [*drill_facts.SHARP_SOURCES, *drill_facts.SHARP_TARGETS]
+    assert s.first_target == len(drill_facts.SHARP_SOURCES) and s.shared_start
     (long,) = ExperimentConfig(protocol="L", stream_length=4).streams(3)
     (c,) = ExperimentConfig(protocol="C", stream_length=4).streams(3)
     assert long.tasks[:4] == c.tasks
@@ -207,7 +207,7 @@ def test_a_team_that_fails_ends_the_commands_with_one_line(tmp_path, monkeypatch
 
 
 def test_the_drill_exception_is_caught_without_importing_the_drill():
-    from ilpss.experiments.drill import TEAM_ERROR, drill_exception
+    from ilpss.experiments.drill_facts import TEAM_ERROR, drill_exception
     from soccer_drill.teams import TeamError
 
     assert drill_exception(TEAM_ERROR) is TeamError

@@ -312,8 +312,8 @@ def test_the_plugin_pages_region_example_runs():
 
 def test_the_sharp_tests_names_are_the_same_on_both_sides():
     """``ilpss`` names the drill's teams without importing them: its copies must agree."""
-    from ilpss.experiments import drill
+    from ilpss.experiments import drill_facts
 
-    assert drill.SHARP_SOURCES == SHARP_SOURCES and drill.SHARP_TARGETS == SHARP_TARGETS
+    assert drill_facts.SHARP_SOURCES == SHARP_SOURCES and drill_facts.SHARP_TARGETS == SHARP_TARGETS
     splits = {(c[0], c[1]) for c in map(composition, SHARP_TARGETS)}
-    assert splits <= set(drill.REGION_SPLITS) | set(drill.SHARP_SPLITS)
+    assert splits <= set(drill_facts.REGION_SPLITS) | set(drill_facts.SHARP_SPLITS)

@@ -45,7 +45,7 @@ import socket
 import tempfile
 import uuid
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import Any, Protocol
 
 from ilpss._io import (
     MAX_JSON_BYTES,
@@ -59,14 +59,12 @@ from ilpss.experiments.folder import checkpoint_key
 from ilpss.experiments.protocols import Stream
 from ilpss.lifelong import LifelongLearner, TrialRecord, latest_checkpoint, read_state
 
-if TYPE_CHECKING:
-    from ilpss.experiments.config import ExperimentConfig
-
 __all__ = [
     "OWNER",
     "CheckpointStore",
     "LocalStore",
     "StorageError",
+    "StorageSettings",
     "UriStore",
     "checkpoint_store",
     "is_uri",
@@ -342,7 +340,14 @@ class UriStore:
             self._work = None
 
 
-def checkpoint_store(cfg: ExperimentConfig, root: str | os.PathLike[str]) -> CheckpointStore:
+class StorageSettings(Protocol):
+    """What the storage reads of an experiment's configuration
+    (:class:`~ilpss.experiments.config.ExperimentConfig`, a layer above this module)."""
+
+    storage: str | None
+
+
+def checkpoint_store(cfg: StorageSettings, root: str | os.PathLike[str]) -> CheckpointStore:
     """The checkpoint storage of a run of ``cfg`` whose run folder is ``root``."""
     return open_store(cfg.storage) if cfg.storage is not None else LocalStore(root)
 

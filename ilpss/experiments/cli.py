@@ -23,7 +23,7 @@ from pathlib import Path
 from ilpss._io import FolderInUseError
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
-from ilpss.experiments.drill import TEAM_ERROR, drill_exception
+from ilpss.experiments.drill_facts import TEAM_ERROR, drill_exception
 from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.methods import METHODS
 from ilpss.experiments.outputs import check_utf8, unwritten_report

@@ -9,7 +9,7 @@ from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Literal
 
 from ilpss.baselines import PrqConfig
-from ilpss.experiments import drill
+from ilpss.experiments import drill_facts
 from ilpss.experiments.executor import EXECUTOR
 from ilpss.experiments.methods import METHODS, LifelongMethod
 from ilpss.experiments.protocols import PROTOCOLS, Stream, Task
@@ -36,8 +36,8 @@ __all__ = [
     "Task",
 ]
 
-EPISODE_REWARDS = {drill.ENV_ID: drill.EPISODE_REWARD,
-                   drill.ENV_ID.partition(":")[2]: drill.EPISODE_REWARD}
+EPISODE_REWARDS = {drill_facts.ENV_ID: drill_facts.EPISODE_REWARD,
+                   drill_facts.ENV_ID.partition(":")[2]: drill_facts.EPISODE_REWARD}
 """Range of an episode's total reward, per environment id (other environments: any
 finite number); results are checked against it."""
 RUN_ONLY_FIELDS = ("executor", "workers", "storage")
@@ -98,9 +98,9 @@ class ExperimentConfig:
     the paper's, the transfer baselines a reviewer asks for first and their controls (the
     same learner with bounded values, chained starts, a choice among the recent sources
     only)."""
-    env_id: str = drill.ENV_ID
+    env_id: str = drill_facts.ENV_ID
     """Gymnasium id of the environment (see :func:`~ilpss.experiments.registry.check_env_id`)."""
-    teams: tuple[str, ...] = drill.PAPER_TEAMS
+    teams: tuple[str, ...] = drill_facts.PAPER_TEAMS
     """Protocols A and B: the teams; in A the last one is held out (unless ``targets``
     are given: then all of them are sources)."""
     targets: tuple[str, ...] = ()
@@ -112,14 +112,14 @@ class ExperimentConfig:
     """Protocol B: shuffled source orders per held-out team (besides the given one)."""
     stream_length: int = 20
     """Protocol C: opponents in the stream."""
-    sampler: str = drill.SAMPLER
+    sampler: str = drill_facts.SAMPLER
     """Protocol C: the name of a registered sampler (``sampler(n, seed) -> list of
     parameter dicts``; see :mod:`ilpss.experiments.registry`)."""
-    sampler_team: str = drill.SAMPLER_TEAM
+    sampler_team: str = drill_facts.SAMPLER_TEAM
     """Protocol C: the team id that takes the sampled parameters."""
     lifelong: LifelongConfig = field(
         default_factory=lambda: LifelongConfig(
-            train_episodes=300, learner=LearnerConfig(tile_widths=drill.TILE_WIDTHS)
+            train_episodes=300, learner=LearnerConfig(tile_widths=drill_facts.TILE_WIDTHS)
         )
     )
     """The lifelong learner's configuration (shared by every method)."""

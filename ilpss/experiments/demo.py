@@ -27,7 +27,7 @@ import gymnasium as gym
 from ilpss._io import FolderInUseError, atomic_write_bytes
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
-from ilpss.experiments.drill import TEAM_ERROR, drill_exception
+from ilpss.experiments.drill_facts import TEAM_ERROR, drill_exception
 from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.figures import (
     greedy_agent,

@@ -1,8 +1,8 @@
 """Drill-specific pictures: kernels drawn on the field, and a GIF of the agent with its options.
 
-The drill's 9 features include the holder's position (:data:`~ilpss.experiments.drill.LATERAL`,
+The drill's 9 features include the holder's position (:data:`~ilpss.experiments.drill_facts.LATERAL`,
 its lateral offset from the line centre, and
-:data:`~ilpss.experiments.drill.GOAL_DISTANCE`, its distance to the goal line), so each
+:data:`~ilpss.experiments.drill_facts.GOAL_DISTANCE`, its distance to the goal line), so each
 kernel, projected on those two features, is an ellipse on the field.
 """
 
@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from ilpss._io import save_figure
-from ilpss.experiments.drill import (
+from ilpss.experiments.drill_facts import (
     ACTION_NAMES,
     FIELD,
     GIF_WRITER,
@@ -162,7 +162,7 @@ def write_episode_gif(
     greedy or, with ``learn``, a learning episode (as it happens in training: exploring
     and updating), written as a GIF of every cycle captioned with the action and the
     option running, if any, with the drill's GIF writer
-    (:data:`~ilpss.experiments.drill.GIF_WRITER`). Returns the outcome, reward, options
+    (:data:`~ilpss.experiments.drill_facts.GIF_WRITER`). Returns the outcome, reward, options
     run and the number of frames."""
     import gymnasium as gym
     from PIL import Image, ImageDraw

@@ -19,7 +19,7 @@ Holm-adjusted p-value across the teams is below 0.05. The inference is condition
 the evaluation episodes, which are the same for every seed and rule. The best rule is
 picked on those same episodes, which can only favour the rule. The fixed rules are
 looked up by name (``--rules module:attribute``, by default the drill's, see
-:data:`ilpss.experiments.drill.HOLDER_RULES`), so this module imports no drill code.
+:data:`ilpss.experiments.drill_facts.HOLDER_RULES`), so this module imports no drill code.
 
 The page goes to ``--out`` (default ``results/holder_learning.md``; the documented run
 above writes ``docs/learning.md``). Each learning job (a team and a seed) and each rule's
@@ -48,7 +48,7 @@ from ilpss._io import (
     atomic_write_bytes,
 )
 from ilpss.experiments.config import EXPERIMENT_CONSTRAINTS
-from ilpss.experiments.drill import (
+from ilpss.experiments.drill_facts import (
     ENV_ID,
     EPISODE_REWARD,
     HOLDER_RULES,
@@ -124,7 +124,7 @@ def learn_and_evaluate(job: tuple[str, int, int, int, LearnerConfig]) -> dict[st
 
 @functools.cache
 def _team_code(team: str) -> dict[str, str]:
-    """The team's code (:data:`~ilpss.experiments.drill.TEAM_CODE`), once per process
+    """The team's code (:data:`~ilpss.experiments.drill_facts.TEAM_CODE`), once per process
     (each key takes a copy)."""
     return drill_object(TEAM_CODE)(team)
 

@@ -21,14 +21,11 @@ import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from ilpss._io import json_differences
-from ilpss.baselines import PrqLearner
-from ilpss.experiments import (
-    drill,
-    oracles,  # noqa: F401  (registers the oracles' reuses)
-)
+from ilpss.baselines import PrqConfig, PrqLearner
+from ilpss.experiments import drill_facts
 from ilpss.experiments.checkpoints import CheckpointStore, is_uri
 from ilpss.experiments.folder import checkpoint_key
 from ilpss.experiments.protocols import Stream, make_env
@@ -50,26 +47,36 @@ from ilpss.reuse import (
 from ilpss.smdp import EpisodeResult, SmdpLearner
 from soccer_drill.constraints import Constraint, Integer, Real
 
-if TYPE_CHECKING:
-    from ilpss.experiments.config import ExperimentConfig
-
 __all__ = [
     "METHODS",
     "FineTuneMethod",
     "Job",
     "LifelongMethod",
     "Method",
+    "MethodSettings",
     "PrqMethod",
     "lifelong_entry",
     "register_method",
 ]
 
 
+class MethodSettings(Protocol):
+    """What a method reads of an experiment's configuration
+    (:class:`~ilpss.experiments.config.ExperimentConfig`, a layer above this module)."""
+
+    env_id: str
+    lifelong: LifelongConfig
+    prq: PrqConfig
+    reward_range: tuple[float, float]
+
+    def results_record(self) -> dict[str, Any]: ...
+
+
 @dataclass
 class Job:
     """One (seed, stream) job: what its methods run on, and the learners they leave."""
 
-    cfg: ExperimentConfig
+    cfg: MethodSettings
     seed: int
     stream_index: int
     stream: Stream
@@ -318,7 +325,7 @@ class FineTuneMethod(Method):
         return {"curves": curves}
 
     def learn_target(
-        self, cfg: ExperimentConfig, seed: int, scratch: LifelongLearner, before: int,
+        self, cfg: MethodSettings, seed: int, scratch: LifelongLearner, before: int,
         env: Any,
     ) -> tuple[SmdpLearner, list[EpisodeResult]]:
         """Fine-tune on one target, the job's seed ``seed`` and ``before`` tasks before it,
@@ -368,7 +375,7 @@ def _bounded_cut(base: LifelongConfig, options: str,
                  step_targets: str = "every_choice") -> dict[str, Any]:
     """:func:`_fine_tuned` with values bounded by the drill's returns (one reward an
     episode, undiscounted) and the traces cut before an option."""
-    return _fine_tuned(base, options, step_targets, value_bounds=drill.EPISODE_REWARD,
+    return _fine_tuned(base, options, step_targets, value_bounds=drill_facts.EPISODE_REWARD,
                        option_traces="cut")
 
 
@@ -406,7 +413,7 @@ for _method in (
     # The controls of the bounded methods: the same base learner, without options (the
     # traces' rule, kept or cut before an option, is moot without options).
     FineTuneMethod("finetune_bounded", "fine-tuning from the latest source, values bounded",
-                   LatestPast(), value_bounds=drill.EPISODE_REWARD),
+                   LatestPast(), value_bounds=drill_facts.EPISODE_REWARD),
     # Fine-tuning that builds on itself: each task starts from the policy this method
     # learnt on the task before (the sources too), as the ILPSS-FT family's starts chain.
     LifelongMethod("finetune_chained", "fine-tuning chained (from its own latest policy)",
@@ -414,7 +421,7 @@ for _method in (
     LifelongMethod("finetune_chained_bounded",
                    "fine-tuning chained (from its own latest policy), values bounded",
                    lambda base: {"options": "finetune_latest", "learner": replace(
-                       base.learner, value_bounds=drill.EPISODE_REWARD)}),
+                       base.learner, value_bounds=drill_facts.EPISODE_REWARD)}),
     LifelongMethod("ilpss_ft", "ILPSS-FT (fine-tuned start, options valued by their policies)",
                    lambda base: _fine_tuned(base, "kernels_finetune")),
     LifelongMethod("whole_policies_ft", "whole past policies, ILPSS-FT's settings",
@@ -430,12 +437,12 @@ for _method in (
     # The drill pays one reward an episode, undiscounted: its returns are its episode's.
     LifelongMethod("ilpss_ft_bounded", "ILPSS-FT, targets clipped to the drill's returns",
                    lambda base: _fine_tuned(base, "kernels_finetune",
-                                            value_bounds=drill.EPISODE_REWARD)),
+                                            value_bounds=drill_facts.EPISODE_REWARD)),
     LifelongMethod("whole_policies_ft_bounded",
                    "whole past policies, ILPSS-FT's settings, targets clipped to the "
                    "drill's returns",
                    lambda base: _fine_tuned(base, "whole_policies_finetune",
-                                            value_bounds=drill.EPISODE_REWARD)),
+                                            value_bounds=drill_facts.EPISODE_REWARD)),
     LifelongMethod("ilpss_ft_bounded_cut",
                    "ILPSS-FT, values bounded, traces cut before an option",
                    lambda base: _bounded_cut(base, "kernels_finetune")),

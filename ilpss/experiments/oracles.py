@@ -1,11 +1,11 @@
 """The oracle arms of the region streams: options offered from a target's true regions.
 
-A region-composed target (:data:`~ilpss.experiments.drill.TEAM_COMPOSITION`) plays one
+A region-composed target (:data:`~ilpss.experiments.drill_facts.TEAM_COMPOSITION`) plays one
 source's behaviour on one side of a split of one feature and another source's on the
 other. The oracles' kernels are given regions, the same after every trial
 (:data:`GIVEN_REGIONS`): one that holds every state, and both sides of each known split
-(:data:`~ilpss.experiments.drill.REGION_SPLITS`,
-:data:`~ilpss.experiments.drill.SHARP_SPLITS`). On a task that is not region-composed (a
+(:data:`~ilpss.experiments.drill_facts.REGION_SPLITS`,
+:data:`~ilpss.experiments.drill_facts.SHARP_SPLITS`). On a task that is not region-composed (a
 source) they offer the active options of the region that holds every state: whole past
 policies, as ``whole_policies_finetune`` does. On a target they offer only the options of
 its own split:
@@ -31,12 +31,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ilpss.experiments import drill
+from ilpss.experiments import drill_facts
 from ilpss.kernels import RegionKernels
 from ilpss.options import OptionLibrary
-from ilpss.reuse import GivenRegions, LatestPast, Reuse, register_reuse
+from ilpss.reuse import GivenRegions, LatestPast, Reuse
 
-__all__ = ["GIVEN_REGIONS", "TrueRegions"]
+__all__ = [
+    "ASSIGNED_REGIONS_FINETUNE",
+    "GIVEN_REGIONS",
+    "ORACLE_REGIONS_FINETUNE",
+    "TRUE_REGIONS_FINETUNE",
+    "TrueRegions",
+]
 
 
 @dataclass(frozen=True)
@@ -44,10 +50,10 @@ class TrueRegions:
     """Offer a region-composed target the options of its own split (see the module
     docstring); ``assigned``: only the right source's policy on each side.
     ``composition`` names the function that says what a task is composed of (``"module:
-    attribute"``, as :data:`~ilpss.experiments.drill.TEAM_COMPOSITION`)."""
+    attribute"``, as :data:`~ilpss.experiments.drill_facts.TEAM_COMPOSITION`)."""
 
     assigned: bool = False
-    composition: str = drill.TEAM_COMPOSITION
+    composition: str = drill_facts.TEAM_COMPOSITION
     everywhere: int = 0
     """The position of the given region that holds every state."""
 
@@ -56,7 +62,7 @@ class TrueRegions:
         if not isinstance(model, RegionKernels):
             raise ValueError(f"the oracle's offer needs given regions (RegionKernels), the "
                              f"library's kernels are a {type(model).__name__}")
-        known = drill.drill_object(self.composition)(task)
+        known = drill_facts.drill_object(self.composition)(task)
         if known is None:
             return library.only([(k, p) for k, p in zip(
                 library.option_kernel.tolist(), library.option_policy.tolist(), strict=True)
@@ -81,20 +87,29 @@ class TrueRegions:
         return library.only(pairs)
 
 
-_SPLITS = (*drill.REGION_SPLITS, *drill.SHARP_SPLITS)
-EVERYWHERE = (drill.GOAL_DISTANCE, 1e9, True)
+_SPLITS = (*drill_facts.REGION_SPLITS, *drill_facts.SHARP_SPLITS)
+EVERYWHERE = (drill_facts.GOAL_DISTANCE, 1e9, True)
 """A region that holds every state (no distance reaches 1e9 m)."""
 GIVEN_REGIONS = GivenRegions((EVERYWHERE, *((feature, threshold, below)
                                             for feature, threshold in _SPLITS
                                             for below in (True, False))))
 """The oracles' kernels: every state, then both sides of each known split."""
-for _reuse in (
-    # Protocol R's oracle arm, as it was first run: both sides of R's splits, every one
-    # offered on every task.
-    Reuse("oracle_regions_finetune", GivenRegions(tuple(
-        (feature, threshold, below) for feature, threshold in drill.REGION_SPLITS
-        for below in (True, False))), LatestPast()),
-    Reuse("true_regions_finetune", GIVEN_REGIONS, LatestPast(), TrueRegions()),
-    Reuse("assigned_regions_finetune", GIVEN_REGIONS, LatestPast(), TrueRegions(assigned=True)),
-):
-    register_reuse(_reuse)
+
+# The reuses are declared as entry points of the group ``ilpss.reuses`` (pyproject.toml),
+# so that ``LifelongConfig(options=...)`` accepts their names whatever was imported first
+# (this module is higher than :mod:`ilpss.reuse`, which may not import it).
+ORACLE_REGIONS_FINETUNE = Reuse(
+    "oracle_regions_finetune",
+    GivenRegions(tuple((feature, threshold, below) for feature, threshold in drill_facts.REGION_SPLITS
+                       for below in (True, False))),
+    LatestPast(),
+)
+"""Protocol R's oracle arm, as it was first run: both sides of R's splits, every one offered
+on every task."""
+TRUE_REGIONS_FINETUNE = Reuse("true_regions_finetune", GIVEN_REGIONS, LatestPast(),
+                              TrueRegions())
+"""The sharp test's oracle: a target offered both sides of its own split."""
+ASSIGNED_REGIONS_FINETUNE = Reuse("assigned_regions_finetune", GIVEN_REGIONS, LatestPast(),
+                                  TrueRegions(assigned=True))
+"""The sharp test's oracle that knows the assignment too: each side offers the policy of the
+source played there."""

@@ -14,24 +14,23 @@ protocol's name), not the protocol's.
 from __future__ import annotations
 
 import dataclasses
+import typing
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from ilpss.experiments import drill
+from ilpss.experiments import drill_facts
 from ilpss.experiments.registry import SAMPLERS, Registry
-
-if TYPE_CHECKING:
-    from ilpss.experiments.config import ExperimentConfig
 
 __all__ = [
     "PROTOCOLS",
     "PROTOCOL_FIELDS",
     "Protocol",
     "Stream",
+    "StreamSettings",
     "Task",
     "make_env",
     "refuse_unused",
@@ -84,7 +83,21 @@ such a value would be recorded in ``config.json`` and in the report's command, y
 change nothing."""
 
 
-def refuse_unused(cfg: ExperimentConfig, reads: Iterable[str], why: str) -> None:
+class StreamSettings(typing.Protocol):
+    """What a protocol reads of an experiment's configuration
+    (:class:`~ilpss.experiments.config.ExperimentConfig`, a layer above this module): its
+    name and the :data:`PROTOCOL_FIELDS`."""
+
+    protocol: str
+    teams: tuple[str, ...]
+    targets: tuple[str, ...]
+    n_shuffles: int
+    stream_length: int
+    sampler: str
+    sampler_team: str
+
+
+def refuse_unused(cfg: StreamSettings, reads: Iterable[str], why: str) -> None:
     """Refuse a field of :data:`PROTOCOL_FIELDS` outside ``reads`` that differs from its
     default (``ValueError`` naming it, ``why`` it is unused and its default)."""
     defaults = {f.name: f.default for f in dataclasses.fields(cfg)}
@@ -113,15 +126,15 @@ class Protocol:
     takes_targets = False
     """Whether the protocol reads ``ExperimentConfig.targets`` (others refuse them)."""
 
-    def check(self, cfg: ExperimentConfig) -> None:
+    def check(self, cfg: StreamSettings) -> None:
         """Refuse a configuration this protocol cannot run (``ValueError`` naming the
         field); the default accepts any."""
 
-    def streams(self, cfg: ExperimentConfig, seed: int) -> list[Stream]:  # pragma: no cover
+    def streams(self, cfg: StreamSettings, seed: int) -> list[Stream]:  # pragma: no cover
         """The streams of one seed (the same for every call with the same arguments)."""
         raise NotImplementedError
 
-    def describe(self, cfg: ExperimentConfig) -> str:
+    def describe(self, cfg: StreamSettings) -> str:
         """What the protocol's streams are with ``cfg``, in a sentence (for the results
         page, which adds the methods)."""
         return f"{self.title[:1].upper()}{self.title[1:]}."
@@ -131,7 +144,7 @@ def _teams(teams: tuple[str, ...]) -> str:
     return ", ".join(f"`{t}`" for t in teams)
 
 
-def _check_teams(cfg: ExperimentConfig, distinct: bool) -> None:
+def _check_teams(cfg: StreamSettings, distinct: bool) -> None:
     if len(cfg.teams) < 2:
         raise ValueError(
             f"protocol {cfg.protocol} needs at least 2 teams in ExperimentConfig.teams, "
@@ -156,27 +169,27 @@ class HeldOutTeam(Protocol):
     title = "the paper's Figure 3"
     takes_targets = True
 
-    def check(self, cfg: ExperimentConfig) -> None:
+    def check(self, cfg: StreamSettings) -> None:
         refuse_unused(cfg, ("teams", "targets"), "it reads teams and targets")
         if not cfg.targets:
             _check_teams(cfg, distinct=False)
             return
         _check_targets(cfg)
 
-    def sources_and_targets(self, cfg: ExperimentConfig) -> tuple[tuple[str, ...],
+    def sources_and_targets(self, cfg: StreamSettings) -> tuple[tuple[str, ...],
                                                                   tuple[str, ...]]:
         """The source teams and the target teams of ``cfg``."""
         if cfg.targets:
             return cfg.teams, cfg.targets
         return cfg.teams[:-1], cfg.teams[-1:]
 
-    def streams(self, cfg: ExperimentConfig, seed: int) -> list[Stream]:
+    def streams(self, cfg: StreamSettings, seed: int) -> list[Stream]:
         sources, targets = self.sources_and_targets(cfg)
         tasks = tuple(team_task(t) for t in (*sources, *targets))
         return [Stream(f"held_out={'+'.join(targets)}", tasks, len(sources),
                        shared_start=True)]
 
-    def describe(self, cfg: ExperimentConfig) -> str:
+    def describe(self, cfg: StreamSettings) -> str:
         sources, targets = self.sources_and_targets(cfg)
         against = (f"the held-out team `{targets[0]}`" if len(targets) == 1 else
                    f"each of the held-out teams {_teams(targets)}, every one from the state "
@@ -185,7 +198,7 @@ class HeldOutTeam(Protocol):
                 f"each; then against {against}.")
 
 
-def _check_targets(cfg: ExperimentConfig) -> None:
+def _check_targets(cfg: StreamSettings) -> None:
     """Targets given: distinct, and none of them also a source."""
     if len(set(cfg.targets)) != len(cfg.targets):
         raise ValueError(f"ExperimentConfig.targets must not repeat a team, got {cfg.targets!r}")
@@ -203,27 +216,27 @@ class RegionStream(HeldOutTeam):
     """R: a stream where regions matter. The sources are pure behaviours, the targets
     teams that play one source's behaviour in one region of the field and another's in
     another, each learnt from the state after the sources
-    (:data:`~ilpss.experiments.drill.REGION_SOURCES`,
-    :data:`~ilpss.experiments.drill.REGION_TARGETS`); ``teams`` and ``targets`` replace
+    (:data:`~ilpss.experiments.drill_facts.REGION_SOURCES`,
+    :data:`~ilpss.experiments.drill_facts.REGION_TARGETS`); ``teams`` and ``targets`` replace
     both when ``targets`` are given."""
 
     name = "R"
     title = "a stream where regions matter"
 
-    def check(self, cfg: ExperimentConfig) -> None:
+    def check(self, cfg: StreamSettings) -> None:
         if cfg.targets:
             super().check(cfg)
         else:  # its own sources and targets, unless targets replace both
             refuse_unused(cfg, (), "without targets it plays its own sources and targets; "
                           "teams are read only with targets")
 
-    def sources_and_targets(self, cfg: ExperimentConfig) -> tuple[tuple[str, ...],
+    def sources_and_targets(self, cfg: StreamSettings) -> tuple[tuple[str, ...],
                                                                   tuple[str, ...]]:
         if cfg.targets:
             return cfg.teams, cfg.targets
-        return drill.REGION_SOURCES, drill.REGION_TARGETS
+        return drill_facts.REGION_SOURCES, drill_facts.REGION_TARGETS
 
-    def describe(self, cfg: ExperimentConfig) -> str:
+    def describe(self, cfg: StreamSettings) -> str:
         sources, targets = self.sources_and_targets(cfg)
         return (f"Sources {_teams(sources)}, pure behaviours, in sequence; then each of the "
                 f"targets {_teams(targets)}, which play one source's behaviour in one region "
@@ -233,9 +246,9 @@ class RegionStream(HeldOutTeam):
 
 class SharpRegionTest(RegionStream):
     """S: the sharp test of regions. The sources are the paper's four teams and the
-    contain (:data:`~ilpss.experiments.drill.SHARP_SOURCES`), the targets teams that play
+    contain (:data:`~ilpss.experiments.drill_facts.SHARP_SOURCES`), the targets teams that play
     one paper team far from the goal line and the contain near it
-    (:data:`~ilpss.experiments.drill.SHARP_TARGETS`): every episode starts far and most
+    (:data:`~ilpss.experiments.drill_facts.SHARP_TARGETS`): every episode starts far and most
     reach near, so the gain needs a change of behaviour within the episode, and each
     target needs a different source far from the line. Each target is learnt from the
     state after the sources; ``teams`` and ``targets`` replace both when ``targets`` are
@@ -244,11 +257,11 @@ class SharpRegionTest(RegionStream):
     name = "S"
     title = "regions within an episode (the sharp test)"
 
-    def sources_and_targets(self, cfg: ExperimentConfig) -> tuple[tuple[str, ...],
+    def sources_and_targets(self, cfg: StreamSettings) -> tuple[tuple[str, ...],
                                                                   tuple[str, ...]]:
         if cfg.targets:
             return cfg.teams, cfg.targets
-        return drill.SHARP_SOURCES, drill.SHARP_TARGETS
+        return drill_facts.SHARP_SOURCES, drill_facts.SHARP_TARGETS
 
 
 class LargeLibrarySharpTest(SharpRegionTest):
@@ -260,7 +273,7 @@ class LargeLibrarySharpTest(SharpRegionTest):
     name = "L"
     title = "the sharp test after a long stream (a large library)"
 
-    def check(self, cfg: ExperimentConfig) -> None:
+    def check(self, cfg: StreamSettings) -> None:
         refuse_unused(cfg, ("teams", "targets", "stream_length", "sampler", "sampler_team"),
                       "it reads the prefix's stream_length, sampler and sampler_team, and "
                       "teams with targets")
@@ -268,7 +281,7 @@ class LargeLibrarySharpTest(SharpRegionTest):
         if cfg.targets:
             _check_targets(cfg)
 
-    def streams(self, cfg: ExperimentConfig, seed: int) -> list[Stream]:
+    def streams(self, cfg: StreamSettings, seed: int) -> list[Stream]:
         specs = SAMPLERS.get(cfg.sampler)(cfg.stream_length, seed)
         prefix = tuple(
             Task(f"{cfg.sampler_team}_{i}", {"opponent": cfg.sampler_team, "opponent_params": p})
@@ -279,7 +292,7 @@ class LargeLibrarySharpTest(SharpRegionTest):
         return [Stream(f"after={len(prefix)},held_out={'+'.join(targets)}", tasks,
                        len(prefix) + len(sources), shared_start=True)]
 
-    def describe(self, cfg: ExperimentConfig) -> str:
+    def describe(self, cfg: StreamSettings) -> str:
         return (f"{cfg.stream_length} opponents of the `{cfg.sampler_team}` family (drawn per "
                 f"seed by `{cfg.sampler}`); then the sharp test: " + super().describe(cfg))
 
@@ -291,11 +304,11 @@ class EveryTeamHeldOut(Protocol):
     name = "B"
     title = "every team held out in turn"
 
-    def check(self, cfg: ExperimentConfig) -> None:
+    def check(self, cfg: StreamSettings) -> None:
         refuse_unused(cfg, ("teams", "n_shuffles"), "it reads teams and n_shuffles")
         _check_teams(cfg, distinct=True)
 
-    def streams(self, cfg: ExperimentConfig, seed: int) -> list[Stream]:
+    def streams(self, cfg: StreamSettings, seed: int) -> list[Stream]:
         rng = np.random.default_rng([seed, 0xB])
         streams = []
         for held in cfg.teams:
@@ -307,7 +320,7 @@ class EveryTeamHeldOut(Protocol):
                 streams.append(Stream(label, tasks, len(tasks) - 1))
         return streams
 
-    def describe(self, cfg: ExperimentConfig) -> str:
+    def describe(self, cfg: StreamSettings) -> str:
         return (f"Each of {_teams(cfg.teams)} is held out in turn, after the others in the "
                 f"paper's order and in {cfg.n_shuffles} shuffled order(s) drawn per seed.")
 
@@ -319,13 +332,13 @@ class ParametricStream(Protocol):
     name = "C"
     title = "a long stream of parametric opponents"
 
-    def check(self, cfg: ExperimentConfig) -> None:
+    def check(self, cfg: StreamSettings) -> None:
         refuse_unused(cfg, ("stream_length", "sampler", "sampler_team"),
                       "its opponents are drawn by the sampler; it reads stream_length, "
                       "sampler and sampler_team")
         SAMPLERS.check("ExperimentConfig.sampler", cfg.sampler)
 
-    def streams(self, cfg: ExperimentConfig, seed: int) -> list[Stream]:
+    def streams(self, cfg: StreamSettings, seed: int) -> list[Stream]:
         specs = SAMPLERS.get(cfg.sampler)(cfg.stream_length, seed)
         tasks = tuple(
             Task(f"{cfg.sampler_team}_{i}", {"opponent": cfg.sampler_team, "opponent_params": p})
@@ -333,7 +346,7 @@ class ParametricStream(Protocol):
         )
         return [Stream("parametric_stream", tasks, 1)]
 
-    def describe(self, cfg: ExperimentConfig) -> str:
+    def describe(self, cfg: StreamSettings) -> str:
         return (f"A stream of {cfg.stream_length} opponents of the `{cfg.sampler_team}` "
                 f"family (drawn per seed by the sampler `{cfg.sampler}`); every opponent "
                 "from the second on is a target.")

@@ -2,7 +2,7 @@
 
     ilpss-region-use RUN_FOLDER [--methods M ...] [--seeds 5] [--episodes 20] [--out PAGE.md]
 
-A region-composed target (:data:`~ilpss.experiments.drill.TEAM_COMPOSITION`) plays one
+A region-composed target (:data:`~ilpss.experiments.drill_facts.TEAM_COMPOSITION`) plays one
 source's behaviour on one side of a split and another source's on the other. This reads
 each kept target checkpoint of a run of protocol R, S or L, plays the target's learnt
 policy greedily (the options it was offered, as its trial offered them) for
@@ -28,7 +28,7 @@ from typing import Any
 import numpy as np
 
 from ilpss._io import atomic_write_bytes, save_figure
-from ilpss.experiments import drill
+from ilpss.experiments import drill_facts
 from ilpss.experiments.checkpoints import checkpoint_store
 from ilpss.experiments.folder import RunFolder, checkpoint_key
 from ilpss.experiments.protocols import make_env
@@ -98,7 +98,7 @@ def region_use(folder: Path, methods: Sequence[str] | None, n_seeds: int,
     """Per method, the :class:`RegionUse` of every composed target of the first
     ``n_seeds`` finished seeds of the run in ``folder`` (those with kept checkpoints)."""
     cfg = read_config(RunFolder(folder).config)
-    composition = drill.drill_object(drill.TEAM_COMPOSITION)
+    composition = drill_facts.drill_object(drill_facts.TEAM_COMPOSITION)
     seeds = RunFolder(folder).finished_seeds()[:n_seeds]
     if not seeds:
         raise ValueError(f"{folder}: no finished seed")

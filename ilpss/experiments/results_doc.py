@@ -30,7 +30,7 @@ from typing import Any
 from ilpss._io import MAX_JSON_BYTES, FolderInUseError, atomic_write_bytes, read_regular
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
-from ilpss.experiments.drill import (
+from ilpss.experiments.drill_facts import (
     PAPER_TEAMS,
     REGION_SOURCES,
     REGION_TARGETS,

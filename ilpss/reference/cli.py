@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import Any
 
 from ilpss._io import FolderInUseError, atomic_write_bytes
-from ilpss.experiments.drill import HOLDER_RULES, PAPER_TEAMS, TEAM_ERROR, drill_exception
+from ilpss.experiments.drill_facts import HOLDER_RULES, PAPER_TEAMS, TEAM_ERROR, drill_exception
 from ilpss.experiments.executor import LocalExecutor, stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.holder_learning import check_rule_result, rule_key, rule_rewards
 from ilpss.experiments.kept_jobs import KeptJobs, KeptJobsFailed, run_kept
@@ -210,7 +210,7 @@ def _main(argv: Sequence[str] | None) -> int:
         keep = check_out_dir(args.keep, "--keep", run_folder=False)
         import gymnasium as gym
 
-        from ilpss.experiments.drill import ENV_ID
+        from ilpss.experiments.drill_facts import ENV_ID
         for team in args.teams:  # an unknown team: the drill's error, naming the known ones
             gym.make(ENV_ID, opponent=team, disable_env_checker=True).close()
     except (ValueError, drill_exception(TEAM_ERROR)) as exc:
@@ -225,7 +225,7 @@ def _main(argv: Sequence[str] | None) -> int:
     jobs = make_jobs(settings, args.teams, args.seeds, ev)
     rule_teams = list(dict.fromkeys(
         [j.team for j in jobs if j.team] + [t for j in jobs if j.team is None for t in j.teams]))
-    from ilpss.experiments.drill import drill_object
+    from ilpss.experiments.drill_facts import drill_object
     names = sorted(drill_object(HOLDER_RULES))
     stop_on_sigterm()
     start = time.perf_counter()

@@ -23,7 +23,7 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnvWrapper, VecMonitor, VecNormalize
 
-from ilpss.experiments.drill import ENV_ID, drill_object
+from ilpss.experiments.drill_facts import ENV_ID, drill_object
 from ilpss.reference.settings import HolderSetting, RewardOption, TransferSetting
 
 __all__ = ["Curve", "TimeoutWrapper", "evaluate", "train", "transfer"]

@@ -16,7 +16,7 @@ import functools
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from ilpss.experiments.drill import EPISODE_REWARD, TEAM_CODE, drill_object
+from ilpss.experiments.drill_facts import EPISODE_REWARD, TEAM_CODE, drill_object
 from ilpss.experiments.holder_learning import EVAL_SEED
 from ilpss.reference.settings import (
     EvalSettings,

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from types import ModuleType
+from collections.abc import Callable
 
 import numpy as np
 
@@ -24,14 +24,6 @@ def check_render_mode(render_mode: str | None, env: str) -> str | None:
     return render_mode
 
 
-def _memory() -> ModuleType:
-    """The vector environments' memory estimates, imported when read (those environments
-    import this module)."""
-    from soccer_drill.vector import core
-
-    return core
-
-
 def frame_bytes(config: DrillConfig) -> tuple[int, tuple[int, int]]:
     """The bytes of one ``(H, W, 3)`` frame of ``config``'s drill, and its ``(W, H)``
     (imports pygame, through :mod:`soccer_drill.rendering.draw`)."""
@@ -41,38 +33,18 @@ def frame_bytes(config: DrillConfig) -> tuple[int, tuple[int, int]]:
     return width * height * 3, (width, height)
 
 
-def check_frames_fit(n: int, config: DrillConfig) -> None:
-    """``ValueError`` if ``n`` drills and their frames do not fit in the memory available
-    (:func:`~soccer_drill.vector.core.available_memory`): ``render()`` returns ``n`` frames
-    at once, and draws each through one more (so ``n + 1``), besides the drills themselves
-    (:data:`~soccer_drill.vector.core.DRILL_BYTES` each). Nothing is checked where the
-    memory available cannot be read."""
-    available = _memory().available_memory()
-    if available is None:
-        return
-    each, (width, height) = frame_bytes(config)
-    drill = _memory().DRILL_BYTES
-    needed = n * drill + (n + 1) * each
-    if needed > available:
-        fit = max(0, (available - each) // (drill + each))
-        raise ValueError(
-            f"num_envs={n} with render_mode='rgb_array' needs about {needed / 2**20:,.0f} MiB: "
-            f"{n} drills (up to {drill // 1024} KiB each) and their frames ({n + 1} of {width} "
-            f"x {height} pixels, {each / 2**20:.2f} MiB each, render() returns them together), "
-            f"more than the {available / 2**20:,.0f} MiB of memory available; at most {fit:,} "
-            "drills fit now with their frames (or draw fewer: a HolderEnv draws one drill, "
-            "also as a video)"
-        )
-
-
 class BatchRenderer:
     """Draws every drill of a :class:`~soccer_drill.drill.BatchDrill` off-screen, each
-    time refusing frames that do not fit in the memory available then (``RuntimeError``
-    with the estimate). The environments check ``num_envs`` with its frames when made
-    (:func:`check_frames_fit`, which imports pygame for the frames' size)."""
+    time first calling ``check_memory(n, config)``, if given, to refuse ``n`` frames that
+    do not fit in the memory available then. The batched environments give
+    :func:`~soccer_drill.vector.core.check_frames_memory`, and check ``num_envs`` with its
+    frames when made (:func:`~soccer_drill.vector.core.check_frames_fit`): memory is
+    theirs to estimate."""
 
-    def __init__(self, config: DrillConfig) -> None:
+    def __init__(self, config: DrillConfig,
+                 check_memory: Callable[[int, DrillConfig], None] | None = None) -> None:
         self.config = config
+        self._check_memory = check_memory
         self._renderer = None
 
     def frames(self, batch: object, has_reset: bool) -> tuple[np.ndarray, ...]:
@@ -81,16 +53,8 @@ class BatchRenderer:
         if not has_reset:
             raise RuntimeError("render() called before reset(); call reset() first")
         n = batch.n  # type: ignore[attr-defined]
-        available = _memory().available_memory()
-        if available is not None:  # n frames returned at once, one more while drawing
-            each, (width, height) = frame_bytes(self.config)
-            if (n + 1) * each > available:
-                raise RuntimeError(
-                    f"render() of {n} drills needs about {(n + 1) * each / 2**20:,.1f} MiB for "
-                    f"their frames ({n + 1} of {width} x {height} pixels, {each / 2**20:.2f} MiB "
-                    f"each), more than the {available / 2**20:,.1f} MiB of memory available "
-                    f"now; at most {max(0, available // each - 1):,} frames fit"
-                )
+        if self._check_memory is not None:
+            self._check_memory(n, self.config)
         if self._renderer is None:
             from soccer_drill.rendering.draw import Renderer
 

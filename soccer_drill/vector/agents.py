@@ -27,7 +27,7 @@ from soccer_drill.envs.core import (
     out_of_range,
     resolve_shared_spaces,
 )
-from soccer_drill.rendering.batch import BatchRenderer, check_frames_fit, check_render_mode
+from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
 from soccer_drill.rules.cycle import RUNNING
 from soccer_drill.rules.features import (
     batch_global_state,
@@ -40,7 +40,13 @@ from soccer_drill.rules.features import (
 from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
-from soccer_drill.vector.core import BatchCore, check_num_envs, check_seed
+from soccer_drill.vector.core import (
+    BatchCore,
+    check_frames_fit,
+    check_frames_memory,
+    check_num_envs,
+    check_seed,
+)
 from soccer_drill.vector.holder import first_non_integer
 
 _ATTACKER_SKILLS = np.array([int(s) for s in ATTACKER_ACTIONS])
@@ -207,7 +213,8 @@ class ParallelVectorEnv:
         low, high = state_bounds(self.config)
         self._state_bounds = (low.astype(np.float64), high.astype(np.float64))
         self.state_space = spaces.Box(low, high, dtype=np.float32)
-        self._renderer = BatchRenderer(self.config) if self.render_mode else None
+        self._renderer = (BatchRenderer(self.config, check_frames_memory) if self.render_mode
+                          else None)
         self._autoreset = np.zeros(n, dtype=bool)
         self._has_reset = False
 

@@ -10,6 +10,7 @@ import numpy as np
 from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import Integer, checked, is_int
 from soccer_drill.drill import BatchDrill
+from soccer_drill.rendering.batch import frame_bytes
 from soccer_drill.rules.cycle import RUNNING
 from soccer_drill.rules.support import OFFSET_STD, RESAMPLE_CYCLES, support_commands_of_drills
 from soccer_drill.teams import Team, check_team_timeout
@@ -57,6 +58,46 @@ def check_num_envs(num_envs: object) -> int:
             f"of memory available; at most {available // DRILL_BYTES:,} drills fit now"
         )
     return n
+
+
+def check_frames_fit(n: int, config: DrillConfig) -> None:
+    """``ValueError`` if ``n`` drills and their frames do not fit in the memory available
+    (:func:`available_memory`): ``render()`` returns ``n`` frames at once, and draws each
+    through one more (so ``n + 1``), besides the drills themselves (:data:`DRILL_BYTES`
+    each). Nothing is checked where the memory available cannot be read (imports pygame,
+    for the frames' size)."""
+    available = available_memory()
+    if available is None:
+        return
+    each, (width, height) = frame_bytes(config)
+    drill = DRILL_BYTES
+    needed = n * drill + (n + 1) * each
+    if needed > available:
+        fit = max(0, (available - each) // (drill + each))
+        raise ValueError(
+            f"num_envs={n} with render_mode='rgb_array' needs about {needed / 2**20:,.0f} MiB: "
+            f"{n} drills (up to {drill // 1024} KiB each) and their frames ({n + 1} of {width} "
+            f"x {height} pixels, {each / 2**20:.2f} MiB each, render() returns them together), "
+            f"more than the {available / 2**20:,.0f} MiB of memory available; at most {fit:,} "
+            "drills fit now with their frames (or draw fewer: a HolderEnv draws one drill, "
+            "also as a video)"
+        )
+
+
+def check_frames_memory(n: int, config: DrillConfig) -> None:
+    """``RuntimeError`` if ``render()``'s ``n`` frames (returned at once, and one more while
+    drawing) do not fit in the memory available now: the check that
+    :class:`~soccer_drill.rendering.batch.BatchRenderer` makes before it draws."""
+    available = available_memory()
+    if available is not None:
+        each, (width, height) = frame_bytes(config)
+        if (n + 1) * each > available:
+            raise RuntimeError(
+                f"render() of {n} drills needs about {(n + 1) * each / 2**20:,.1f} MiB for "
+                f"their frames ({n + 1} of {width} x {height} pixels, {each / 2**20:.2f} MiB "
+                f"each), more than the {available / 2**20:,.1f} MiB of memory available "
+                f"now; at most {max(0, available // each - 1):,} frames fit"
+            )
 
 
 def check_seed(seed: object, n: int) -> list[int | None] | None:

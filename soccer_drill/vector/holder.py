@@ -16,13 +16,19 @@ from soccer_drill.constraints import Integer, NoneOr, checked, is_int
 from soccer_drill.drill import DRILLS_PER_SPACE, OUTCOME_NAMES, check_drills_per_space
 from soccer_drill.envs.core import make_config
 from soccer_drill.envs.holder import check_decision_cycles, check_holder_action
-from soccer_drill.rendering.batch import BatchRenderer, check_frames_fit, check_render_mode
+from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
 from soccer_drill.rules.compiled import compiled
 from soccer_drill.rules.features import batch_features, feature_bounds
 from soccer_drill.skills import HOLDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
-from soccer_drill.vector.core import BatchCore, check_num_envs, check_seed
+from soccer_drill.vector.core import (
+    BatchCore,
+    check_frames_fit,
+    check_frames_memory,
+    check_num_envs,
+    check_seed,
+)
 
 _HOLDER_SKILLS = np.array([int(s) for s in HOLDER_ACTIONS])
 _PASS = 1
@@ -296,7 +302,8 @@ class HolderVectorEnv(VectorEnv):
         self._ready = np.zeros(n, dtype=bool)  # its step is over, its result not yet received
         self._ready_at = np.zeros(n, dtype=np.int64)  # since when (recv's cycles)
         self._recv_cycles = 0
-        self._renderer = BatchRenderer(self.config) if self.render_mode else None
+        self._renderer = (BatchRenderer(self.config, check_frames_memory) if self.render_mode
+                          else None)
 
     def __copy__(self) -> HolderVectorEnv:
         """An independent copy continuing every drill's episode, as ``copy.deepcopy``

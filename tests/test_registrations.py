@@ -1,0 +1,66 @@
+"""Registrations that do not depend on import order: a fresh interpreter that imports only
+a registry's module knows every name that importing the whole project registers in it."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+pytestmark = pytest.mark.slow
+
+# Every registry the three packages' modules expose, as {"module:ATTRIBUTE": names}: one
+# object is listed once, under a module whose __all__ names it (its own).
+_EVERY_REGISTRY = """
+import importlib, json, pkgutil
+import ilpss, opponents, soccer_drill
+found = {}
+for package in (soccer_drill, opponents, ilpss):
+    for info in pkgutil.walk_packages(package.__path__, package.__name__ + "."):
+        try:
+            module = importlib.import_module(info.name)
+        except ImportError:  # an optional dependency (torch, stable-baselines3)
+            continue
+        for attribute in getattr(module, "__all__", ()):
+            registry = getattr(module, attribute, None)
+            if type(registry).__name__ == "Registry":
+                found.setdefault(id(registry), (f"{info.name}:{attribute}", registry))
+print(json.dumps({spec: registry.names() for spec, registry in found.values()}))
+"""
+
+_ONE_REGISTRY = """
+import importlib, json, sys
+module, attribute = sys.argv[1].split(":")
+print(json.dumps(getattr(importlib.import_module(module), attribute).names()))
+"""
+
+
+def _run(code: str, *args: str) -> object:
+    out = subprocess.run([sys.executable, "-c", code, *args], capture_output=True,
+                         text=True, check=True, timeout=300)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def test_a_registry_alone_knows_every_name_the_project_registers():
+    everything = _run(_EVERY_REGISTRY)
+    assert {"ilpss.reuse:REUSES", "ilpss.experiments.methods:METHODS",
+            "ilpss.experiments.protocols:PROTOCOLS"} <= set(everything)
+    for spec, names in everything.items():
+        assert _run(_ONE_REGISTRY, spec) == names, spec
+
+
+def test_the_oracles_reuses_are_valid_in_a_fresh_interpreter_that_imports_only_lifelong():
+    """The oracles' reuses are declared in ``ilpss.experiments.oracles``, above
+    ``ilpss.reuse``: as entry points of ``ilpss.reuses``, not registered on import."""
+    code = """
+import json, sys
+from ilpss.lifelong import LifelongConfig
+reuses = [LifelongConfig(options=name).reuse for name in (
+    "oracle_regions_finetune", "true_regions_finetune", "assigned_regions_finetune")]
+print(json.dumps([[r.name, r.model_name, r.offer is not None] for r in reuses]))
+"""
+    assert _run(code) == [["oracle_regions_finetune", "RegionKernels", False],
+                          ["true_regions_finetune", "RegionKernels", True],
+                          ["assigned_regions_finetune", "RegionKernels", True]]
