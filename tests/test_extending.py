@@ -295,14 +295,70 @@ def test_a_protocol_run_that_cannot_be_reported_is_refused_up_front() -> None:
 
 
 # -------------------------------------------------------------------------- a team
-def test_a_new_team_is_taken_by_name(tmp_path) -> None:
-    import soccer_drill
-    from opponents.chasers import Chasers
+class _SlowPressers:
+    """A team written for the test: both defenders go for the ball at 60% of their speed."""
 
-    soccer_drill.register("test_chasers_again", Chasers, overwrite=True)
-    cfg = _tiny(teams=("test_chasers_again", "chasers"), methods=("scratch",))
+    def reset(self, view, rng) -> None:
+        self._players = view.players
+
+    def act(self, view):
+        from soccer_drill import Command, Skill
+
+        return dict.fromkeys(self._players, Command(Skill.INTERCEPT, speed=0.6))
+
+
+class _SlowPressersBatched(_SlowPressers):
+    """The same team with a batched ``act`` for the batched drill."""
+
+    def batch(self, n: int):
+        from soccer_drill import Command, Skill
+        from soccer_drill.teams.batch import SameCommands
+
+        return SameCommands(lambda: Command(Skill.INTERCEPT, speed=0.6))
+
+
+def _holder_episode(opponent: str, seed: int, batched: bool) -> list[tuple]:
+    """Every decision of one holder episode (``pass_first``): the single environment's, or
+    the batched one's with one drill."""
+    from soccer_drill import HolderEnv
+    from soccer_drill.policies import HOLDER_POLICIES
+    from soccer_drill.vector import HolderVectorEnv
+
+    policy, steps = HOLDER_POLICIES["pass_first"], []
+    if batched:
+        env = HolderVectorEnv(num_envs=1, opponent=opponent)
+        obs, _ = env.reset(seed=seed)
+        obs, done = obs[0], False
+        while not done:
+            out, reward, term, trunc, _ = env.step(np.array([policy(obs, None)]))
+            obs, done = out[0], bool(term[0] or trunc[0])
+            steps.append((obs.tolist(), float(reward[0]), done))
+        return steps
+    env = HolderEnv(opponent=opponent)
+    obs, _ = env.reset(seed=seed)
+    done = False
+    while not done:
+        obs, reward, term, trunc, _ = env.step(policy(obs, None))
+        done = term or trunc
+        steps.append((obs.tolist(), float(reward), done))
+    return steps
+
+
+def test_a_new_team_is_taken_by_name(tmp_path, team_registry) -> None:
+    import soccer_drill
+
+    soccer_drill.register("test_slow_pressers", _SlowPressers)
+    soccer_drill.register("test_slow_pressers_batched", _SlowPressersBatched)
+    cfg = _tiny(teams=("test_slow_pressers", "chasers"), methods=("scratch",))
     (result, _) = run_experiment(cfg, tmp_path, progress=False)
-    assert result["tasks"] == ["test_chasers_again", "chasers"]
+    assert result["tasks"] == ["test_slow_pressers", "chasers"]
+    # Single and batched: the batched drill runs a team without ``batch`` as one copy per
+    # drill, and one with it through its batched act; both play the single drill's episodes.
+    for seed in (3, 11):
+        single = _holder_episode("test_slow_pressers", seed, batched=False)
+        assert len(single) > 1
+        assert _holder_episode("test_slow_pressers", seed, batched=True) == single
+        assert _holder_episode("test_slow_pressers_batched", seed, batched=True) == single
 
 
 # ------------------------------------------------------------------------ a setting
