@@ -38,6 +38,7 @@ import sys
 import time
 from collections.abc import Sequence
 from dataclasses import asdict
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -269,10 +270,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _main(argv)
 
 
-def _main(argv: Sequence[str] | None) -> int:
-    p = parser()
-    args = p.parse_args(argv)
-    try:  # before hours of learning, not after
+def _checked_inputs(p: argparse.ArgumentParser, args: argparse.Namespace
+                    ) -> tuple[Path, LearnerConfig, list[str], Path]:
+    """The page's path, the learner, the rules' names and the keep folder, or the parser's
+    error (before hours of learning, not after)."""
+    try:
         check_utf8(args)
         check_fields("", args, {f"--{name}": c for name, c in FLAG_CONSTRAINTS.items()},
                      get=lambda a, flag: getattr(a, flag[2:]))
@@ -288,6 +290,91 @@ def _main(argv: Sequence[str] | None) -> int:
         p.error(str(exc))
     except (ImportError, AttributeError) as exc:
         p.error(f"--rules {args.rules}: {exc}")
+    return out, lc, names, keep
+
+
+def _header(p: argparse.ArgumentParser, args: argparse.Namespace, lc: LearnerConfig,
+            took: str, code: str) -> list[str]:
+    """The page's title, how it was made and how it compares, and the table's head."""
+    return [
+        "# SMDP learning against the best fixed holder rule",
+        "",
+        f"Command: `{command(p, args)}` ({took}). Learning: SMDP "
+        f"{'Q' if lc.method == 'q' else 'Sarsa'}({lc.trace_decay:g}) with replacing traces, "
+        f"keepaway's tile coding, step size {lc.alpha:g}, epsilon {lc.epsilon:g}, initial "
+        f"values {lc.initial_value:g}, no options, {args.episodes} episodes per seed, "
+        f"{args.seeds} learning seeds per team. Evaluation: the greedy policy of each seed "
+        f"and every fixed rule on the same {args.eval} episode seeds (unseen in learning); "
+        "the best rule is the one with the highest mean reward on them.",
+        "",
+        code,
+        "",
+        "How it is compared: the learning seed is the unit. For each seed, the mean over "
+        f"the {args.eval} episodes of (learnt reward - rule reward) on the same episode "
+        "seed; then the mean of these per-seed differences over the seeds with a 95% "
+        "Student t interval and the paired t-test, and the p-value adjusted with Holm's "
+        f"method across the {len(args.teams)} teams. Learnt mean reward and success: mean "
+        "over seeds of each seed's mean, with a t interval over seeds; the rule's: over its "
+        "episodes (t interval; Wilson for the success rate). The evaluation episodes are the "
+        "same for every seed and rule, so the comparison is conditional on them.",
+        "",
+        "| team | learnt: mean reward [95% CI] | learnt: success [95% CI] | best fixed rule | "
+        "rule: mean reward [95% CI] | rule: success [95% CI] | learnt - rule [95% CI] | "
+        "seeds ahead (sign test p) | p (Holm) | learnt better? |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+
+
+def _comparisons(teams: Sequence[str], learnt: list[dict[str, Any]],
+                 fixed: list[dict[str, Any]]) -> list[str]:
+    """A row per team against its best fixed rule (Holm across the teams), and the count
+    of teams where learning is better."""
+    results = {}
+    for team in teams:
+        mine = np.array([r["eval"] for r in learnt if r["team"] == team])
+        rules = {r["rule"]: np.asarray(r["eval"]) for r in fixed if r["team"] == team}
+        best = max(rules, key=lambda n: rules[n].mean())
+        results[team] = (best, compare_to_rule(mine, rules[best]))
+    adjusted = dict(zip(results, holm([c["p"] for _, c in results.values()]), strict=True))
+    lines, beaten = [], 0
+    for team, (best, c) in results.items():
+        better = c["diff_ci"][0] > 0 and adjusted[team] < 0.05
+        beaten += better
+        lm, ll, lh = c["learnt_ci"]
+        sm, sl, sh = c["learnt_success_ci"]
+        rm, rl, rh = c["rule_ci"]
+        qm, ql, qh = c["rule_success"]
+        dm, dl, dh = c["diff_ci"]
+        imp = c["improvement"]
+        sign = "n/a" if np.isnan(imp.sign_p) else f"{imp.sign_p:.2g}"
+        lines.append(
+            f"| {team} | {lm:+.3f} [{ll:+.3f}, {lh:+.3f}] | {sm:.1%} [{sl:.1%}, {sh:.1%}] "
+            f"| {best} | {rm:+.3f} [{rl:+.3f}, {rh:+.3f}] | {qm:.1%} [{ql:.1%}, {qh:.1%}] "
+            f"| {dm:+.3f} [{dl:+.3f}, {dh:+.3f}] | {imp.better} of {imp.n} ({sign}) "
+            f"| {adjusted[team]:.2g} | {'yes' if better else 'no'} |"
+        )
+    return [*lines, "", f"**The learnt policy beats the best fixed rule on {beaten} of "
+            f"{len(teams)} teams** (paired difference over learning seeds above zero, "
+            "Holm-adjusted p < 0.05 across the teams).", ""]
+
+
+def _curves(teams: Sequence[str], learnt: list[dict[str, Any]], episodes: int) -> list[str]:
+    """The mean learning reward per 100 episodes, a row per team."""
+    curves = {t: np.mean([r["curve"] for r in learnt if r["team"] == t], axis=0) for t in teams}
+    blocks = range(0, episodes, 100)
+    lines = ["Mean learning reward per 100 episodes (mean over seeds):", "",
+             "| team | " + " | ".join(f"{i}-{min(i + 99, episodes - 1)}" for i in blocks)
+             + " |", "|---|" + "---|" * len(blocks)]
+    for t, c in curves.items():
+        cells = [f"{np.mean(c[i:i + 100]):+.2f}" for i in blocks]
+        lines.append(f"| {t} | " + " | ".join(cells) + " |")
+    return lines
+
+
+def _main(argv: Sequence[str] | None) -> int:
+    p = parser()
+    args = p.parse_args(argv)
+    out, lc, names, keep = _checked_inputs(p, args)
     stop_on_sigterm()
     start = time.perf_counter()
     pool = LocalExecutor(args.workers)
@@ -310,68 +397,9 @@ def _main(argv: Sequence[str] | None) -> int:
     if loaded:
         took += f", {loaded} of its learning jobs kept from an earlier run"
         print(f"{loaded} learning job(s) and {loaded_rules} rule evaluation(s) loaded from {keep}")
-    results = {}
-    for team in args.teams:
-        mine = np.array([r["eval"] for r in learnt if r["team"] == team])
-        rules = {r["rule"]: np.asarray(r["eval"]) for r in fixed if r["team"] == team}
-        best = max(rules, key=lambda n: rules[n].mean())
-        results[team] = (best, compare_to_rule(mine, rules[best]))
-    adjusted = dict(zip(results, holm([c["p"] for _, c in results.values()]), strict=True))
-    lines = [
-        "# SMDP learning against the best fixed holder rule",
-        "",
-        f"Command: `{command(p, args)}` ({took}). Learning: SMDP "
-        f"{'Q' if lc.method == 'q' else 'Sarsa'}({lc.trace_decay:g}) with replacing traces, "
-        f"keepaway's tile coding, step size {lc.alpha:g}, epsilon {lc.epsilon:g}, initial "
-        f"values {lc.initial_value:g}, no options, {args.episodes} episodes per seed, "
-        f"{args.seeds} learning seeds per team. Evaluation: the greedy policy of each seed "
-        f"and every fixed rule on the same {args.eval} episode seeds (unseen in learning); "
-        "the best rule is the one with the highest mean reward on them.",
-        "",
-        code_line({"code": code} for code in kept.codes.values()),
-        "",
-        "How it is compared: the learning seed is the unit. For each seed, the mean over "
-        f"the {args.eval} episodes of (learnt reward - rule reward) on the same episode "
-        "seed; then the mean of these per-seed differences over the seeds with a 95% "
-        "Student t interval and the paired t-test, and the p-value adjusted with Holm's "
-        f"method across the {len(args.teams)} teams. Learnt mean reward and success: mean "
-        "over seeds of each seed's mean, with a t interval over seeds; the rule's: over its "
-        "episodes (t interval; Wilson for the success rate). The evaluation episodes are the "
-        "same for every seed and rule, so the comparison is conditional on them.",
-        "",
-        "| team | learnt: mean reward [95% CI] | learnt: success [95% CI] | best fixed rule | "
-        "rule: mean reward [95% CI] | rule: success [95% CI] | learnt - rule [95% CI] | "
-        "seeds ahead (sign test p) | p (Holm) | learnt better? |",
-        "|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    beaten = 0
-    for team, (best, c) in results.items():
-        better = c["diff_ci"][0] > 0 and adjusted[team] < 0.05
-        beaten += better
-        lm, ll, lh = c["learnt_ci"]
-        sm, sl, sh = c["learnt_success_ci"]
-        rm, rl, rh = c["rule_ci"]
-        qm, ql, qh = c["rule_success"]
-        dm, dl, dh = c["diff_ci"]
-        imp = c["improvement"]
-        sign = "n/a" if np.isnan(imp.sign_p) else f"{imp.sign_p:.2g}"
-        lines.append(
-            f"| {team} | {lm:+.3f} [{ll:+.3f}, {lh:+.3f}] | {sm:.1%} [{sl:.1%}, {sh:.1%}] "
-            f"| {best} | {rm:+.3f} [{rl:+.3f}, {rh:+.3f}] | {qm:.1%} [{ql:.1%}, {qh:.1%}] "
-            f"| {dm:+.3f} [{dl:+.3f}, {dh:+.3f}] | {imp.better} of {imp.n} ({sign}) "
-            f"| {adjusted[team]:.2g} | {'yes' if better else 'no'} |"
-        )
-    lines += ["", f"**The learnt policy beats the best fixed rule on {beaten} of "
-              f"{len(args.teams)} teams** (paired difference over learning seeds above zero, "
-              "Holm-adjusted p < 0.05 across the teams).", ""]
-    curves = {t: np.mean([r["curve"] for r in learnt if r["team"] == t], axis=0) for t in args.teams}
-    blocks = range(0, args.episodes, 100)
-    lines += ["Mean learning reward per 100 episodes (mean over seeds):", "",
-              "| team | " + " | ".join(f"{i}-{min(i + 99, args.episodes - 1)}" for i in blocks)
-              + " |", "|---|" + "---|" * len(blocks)]
-    for t, c in curves.items():
-        cells = [f"{np.mean(c[i:i + 100]):+.2f}" for i in blocks]
-        lines.append(f"| {t} | " + " | ".join(cells) + " |")
+    code = code_line({"code": code} for code in kept.codes.values())
+    lines = (_header(p, args, lc, took, code) + _comparisons(args.teams, learnt, fixed)
+             + _curves(args.teams, learnt, args.episodes))
     try:
         atomic_write_bytes(out, ("\n".join(lines) + "\n").encode())
     except OSError as exc:  # a full disk: every job is kept, and a rerun writes the page

@@ -24,6 +24,7 @@ The drill's conventions this follows:
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -94,6 +95,107 @@ def _actions(rows: np.ndarray, agents: list[str], n_envs: int) -> dict[str, np.n
 
 
 # ----------------------------------------------------------------------------- training
+@dataclass
+class _Rollout:
+    """One rollout of every agent row, ``(n_steps, rows)`` each (``obs`` and ``mask`` with
+    a last axis of features and actions); ``valid`` marks the decisions (not the steps
+    that only reset a drill)."""
+
+    obs: np.ndarray
+    mask: np.ndarray
+    act: np.ndarray
+    logp: np.ndarray
+    val: np.ndarray
+    rew: np.ndarray
+    done: np.ndarray
+    valid: np.ndarray
+
+    @classmethod
+    def empty(cls, n_steps: int, rows: int, n_features: int, n_actions: int) -> _Rollout:
+        def zeros(dtype: Any, *last: int) -> np.ndarray:
+            return np.zeros((n_steps, rows, *last), dtype)
+        return cls(zeros(np.float32, n_features), zeros(bool, n_actions), zeros(np.int64),
+                   zeros(np.float32), zeros(np.float32), zeros(np.float32), zeros(np.float32),
+                   zeros(bool))
+
+
+class _Drills:
+    """Where the drills are between rollouts: the agents' rows and masks, and which drills'
+    next step only resets them."""
+
+    def __init__(self, env: Any, agents: list[str], observations: dict[str, Any]) -> None:
+        self.env, self.agents = env, agents
+        self.obs, self.mask = _stack(observations, agents)
+        self.resetting = np.zeros(env.num_envs, bool)
+
+    def collect(self, agent: Agent, buf: _Rollout, reward_agent: str) -> list[float]:
+        """Fill ``buf`` with one rollout; the ``reward_agent``'s rewards of the episodes
+        that ended in it."""
+        env, agents, n_agents, ended = self.env, self.agents, len(self.agents), []
+        for t in range(len(buf.act)):
+            with torch.no_grad():
+                o, m = torch.as_tensor(self.obs), torch.as_tensor(self.mask)
+                dist = agent.dist(o, m)
+                action = dist.sample()
+                buf.logp[t], buf.val[t] = dist.log_prob(action).numpy(), agent.value(o).numpy()
+            buf.obs[t], buf.mask[t], buf.act[t] = self.obs, self.mask, action.numpy()
+            buf.valid[t] = np.repeat(~self.resetting, n_agents)
+            observations, rewards, term, trunc, _ = env.step(
+                _actions(buf.act[t], agents, env.num_envs))
+            done = term[agents[0]] | trunc[agents[0]]
+            buf.rew[t] = np.stack([rewards[a] for a in agents], axis=1).reshape(-1)
+            buf.done[t] = np.repeat(done, n_agents)
+            ended += rewards[reward_agent][done].tolist()
+            self.resetting = done
+            self.obs, self.mask = _stack(observations, agents)
+        return ended
+
+
+def _advantages(buf: _Rollout, next_value: np.ndarray, cfg: PPOConfig
+                ) -> tuple[np.ndarray, np.ndarray]:
+    """GAE advantages and returns (an episode's last step is terminal)."""
+    adv = np.zeros_like(buf.rew)
+    last = np.zeros(buf.rew.shape[1], np.float32)
+    n_steps = len(buf.rew)
+    for t in reversed(range(n_steps)):
+        following = next_value if t == n_steps - 1 else buf.val[t + 1]
+        going_on = 1.0 - buf.done[t]
+        delta = buf.rew[t] + cfg.gamma * following * going_on - buf.val[t]
+        last = delta + cfg.gamma * cfg.gae_lambda * going_on * last
+        adv[t] = last
+    return adv, adv + buf.val
+
+
+def _update(agent: Agent, optimizer: torch.optim.Optimizer, buf: _Rollout, adv: np.ndarray,
+            ret: np.ndarray, cfg: PPOConfig, rng: np.random.Generator, n_minibatches: int
+            ) -> None:
+    """PPO's clipped update, on the decisions only."""
+    keep = buf.valid.reshape(-1)
+
+    def flat(a: np.ndarray) -> torch.Tensor:
+        return torch.as_tensor(a.reshape(-1, *a.shape[2:])[keep])
+
+    b_obs, b_mask, b_act, b_logp = flat(buf.obs), flat(buf.mask), flat(buf.act), flat(buf.logp)
+    b_adv, b_ret = flat(adv), flat(ret)
+    for _epoch in range(cfg.n_epochs):
+        for idx in np.array_split(rng.permutation(len(b_act)), n_minibatches):
+            if len(idx) < 2:
+                continue
+            i = torch.as_tensor(idx)
+            dist = agent.dist(b_obs[i], b_mask[i])
+            ratio = torch.exp(dist.log_prob(b_act[i]) - b_logp[i])
+            a = b_adv[i]
+            a = (a - a.mean()) / (a.std() + 1e-8)
+            policy_loss = torch.max(-a * ratio, -a * torch.clamp(
+                ratio, 1 - cfg.clip_range, 1 + cfg.clip_range)).mean()
+            value_loss = 0.5 * ((agent.value(b_obs[i]) - b_ret[i]) ** 2).mean()
+            loss = policy_loss - cfg.ent_coef * dist.entropy().mean() + cfg.vf_coef * value_loss
+            optimizer.zero_grad()
+            loss.backward()
+            nn.utils.clip_grad_norm_(agent.parameters(), cfg.max_grad_norm)
+            optimizer.step()
+
+
 def train(env: Any, cfg: PPOConfig, seed: int, reward_agent: str = "attacker_0"
           ) -> tuple[Agent, list[list[float]]]:
     """Train one shared policy for every agent of ``env`` (a ``ParallelVectorEnv`` of
@@ -106,85 +208,26 @@ def train(env: Any, cfg: PPOConfig, seed: int, reward_agent: str = "attacker_0"
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
     agents = list(env.possible_agents)
-    n_envs, n_agents, T = env.num_envs, len(agents), cfg.n_steps
+    n_envs, n_agents = env.num_envs, len(agents)
     space = env.observation_space(agents[0])["observation"]
-    agent = Agent(space.low.astype(np.float64), space.high.astype(np.float64),
-                  int(env.action_space(agents[0]).n), cfg.net_arch)
+    n_actions = int(env.action_space(agents[0]).n)
+    agent = Agent(space.low.astype(np.float64), space.high.astype(np.float64), n_actions,
+                  cfg.net_arch)
     optimizer = torch.optim.Adam(agent.parameters(), lr=cfg.learning_rate, eps=1e-5)
-
     rows = n_envs * n_agents
-    obs_buf = np.zeros((T, rows, space.shape[0]), np.float32)
-    mask_buf = np.zeros((T, rows, int(env.action_space(agents[0]).n)), bool)
-    act_buf = np.zeros((T, rows), np.int64)
-    logp_buf = np.zeros((T, rows), np.float32)
-    val_buf = np.zeros((T, rows), np.float32)
-    rew_buf = np.zeros((T, rows), np.float32)
-    done_buf = np.zeros((T, rows), np.float32)
-    valid_buf = np.zeros((T, rows), bool)
-
+    buf = _Rollout.empty(cfg.n_steps, rows, space.shape[0], n_actions)
     observations, _ = env.reset(seed=1_000_000 * (seed + 1))
-    obs, mask = _stack(observations, agents)
-    resetting = np.zeros(n_envs, bool)  # the drill's next step only resets it
-    n_updates = -(-cfg.steps // (n_envs * T))
-    n_minibatches = max(1, rows * T // cfg.batch_size)
+    drills = _Drills(env, agents, observations)
+    n_updates = -(-cfg.steps // (n_envs * cfg.n_steps))
+    n_minibatches = max(1, rows * cfg.n_steps // cfg.batch_size)
     start, steps, curve = time.perf_counter(), 0, []
     for _ in range(n_updates):
-        ended: list[float] = []
-        # ---- rollout
-        for t in range(T):
-            with torch.no_grad():
-                o, m = torch.as_tensor(obs), torch.as_tensor(mask)
-                dist = agent.dist(o, m)
-                action = dist.sample()
-                logp_buf[t], val_buf[t] = dist.log_prob(action).numpy(), agent.value(o).numpy()
-            obs_buf[t], mask_buf[t], act_buf[t] = obs, mask, action.numpy()
-            valid_buf[t] = np.repeat(~resetting, n_agents)
-            observations, rewards, term, trunc, _ = env.step(
-                _actions(act_buf[t], agents, n_envs))
-            done = term[agents[0]] | trunc[agents[0]]
-            rew_buf[t] = np.stack([rewards[a] for a in agents], axis=1).reshape(-1)
-            done_buf[t] = np.repeat(done, n_agents)
-            ended += rewards[reward_agent][done].tolist()
-            resetting = done
-            obs, mask = _stack(observations, agents)
-            steps += n_envs
-        # ---- advantages (GAE; an episode's last step is terminal)
+        ended = drills.collect(agent, buf, reward_agent)
+        steps += n_envs * cfg.n_steps
         with torch.no_grad():
-            next_value = agent.value(torch.as_tensor(obs)).numpy()
-        adv = np.zeros_like(rew_buf)
-        last = np.zeros(rows, np.float32)
-        for t in reversed(range(T)):
-            following = next_value if t == T - 1 else val_buf[t + 1]
-            going_on = 1.0 - done_buf[t]
-            delta = rew_buf[t] + cfg.gamma * following * going_on - val_buf[t]
-            last = delta + cfg.gamma * cfg.gae_lambda * going_on * last
-            adv[t] = last
-        ret = adv + val_buf
-        # ---- update, on the decisions only
-        keep = valid_buf.reshape(-1)
-        b_obs = torch.as_tensor(obs_buf.reshape(-1, obs_buf.shape[-1])[keep])
-        b_mask = torch.as_tensor(mask_buf.reshape(-1, mask_buf.shape[-1])[keep])
-        b_act = torch.as_tensor(act_buf.reshape(-1)[keep])
-        b_logp = torch.as_tensor(logp_buf.reshape(-1)[keep])
-        b_adv = torch.as_tensor(adv.reshape(-1)[keep])
-        b_ret = torch.as_tensor(ret.reshape(-1)[keep])
-        for _epoch in range(cfg.n_epochs):
-            for idx in np.array_split(rng.permutation(len(b_act)), n_minibatches):
-                if len(idx) < 2:
-                    continue
-                i = torch.as_tensor(idx)
-                dist = agent.dist(b_obs[i], b_mask[i])
-                ratio = torch.exp(dist.log_prob(b_act[i]) - b_logp[i])
-                a = b_adv[i]
-                a = (a - a.mean()) / (a.std() + 1e-8)
-                policy_loss = torch.max(-a * ratio, -a * torch.clamp(
-                    ratio, 1 - cfg.clip_range, 1 + cfg.clip_range)).mean()
-                value_loss = 0.5 * ((agent.value(b_obs[i]) - b_ret[i]) ** 2).mean()
-                loss = policy_loss - cfg.ent_coef * dist.entropy().mean() + cfg.vf_coef * value_loss
-                optimizer.zero_grad()
-                loss.backward()
-                nn.utils.clip_grad_norm_(agent.parameters(), cfg.max_grad_norm)
-                optimizer.step()
+            next_value = agent.value(torch.as_tensor(drills.obs)).numpy()
+        adv, ret = _advantages(buf, next_value, cfg)
+        _update(agent, optimizer, buf, adv, ret, cfg, rng, n_minibatches)
         r = np.asarray(ended)
         curve.append([float(steps), time.perf_counter() - start,
                       float(r.mean()) if r.size else None,
