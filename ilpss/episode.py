@@ -30,6 +30,8 @@ from typing import Any
 
 import numpy as np
 
+from soccer_drill.constraints import is_int
+
 __all__ = [
     "DecisionLimitError",
     "EpisodeLog",
@@ -155,7 +157,7 @@ def observation(obs: Any, n_features: int) -> np.ndarray:
 def step_duration(info: dict[str, Any]) -> int:
     """Cycles a step took: ``info["duration"]`` (an int >= 1), 1 when absent."""
     d = info.get("duration", 1)
-    if isinstance(d, bool) or not isinstance(d, int | np.integer) or d < 1:
+    if not is_int(d) or d < 1:
         raise ValueError(f"info['duration'] must be an int >= 1, got {d!r}")
     return int(d)
 

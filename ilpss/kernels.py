@@ -27,7 +27,6 @@ Example
 from __future__ import annotations
 
 import math
-import numbers
 import os
 import warnings
 from collections.abc import Iterable, Mapping, Sequence
@@ -42,7 +41,7 @@ from scipy.special import chdtrc
 from ilpss import _gmm_numerics as num
 from ilpss._io import load_archive, save_npz_atomic
 from ilpss._schema import BOOL, FLOAT, INTEGER, ArchiveSchema, Field, RowsSumToOne, Symmetric
-from soccer_drill.constraints import Bool, Integer, NoneOr, Real, check, check_fields
+from soccer_drill.constraints import Bool, Integer, NoneOr, Real, check, check_fields, is_int
 
 __all__ = [
     "KERNELS_ARCHIVE",
@@ -615,11 +614,7 @@ class SharedKernelModel:
         if instance is None:
             with_data = self.n_states_per_instance_ > 0
             return _safe_log(self.weights_[with_data].mean(axis=0))
-        if (
-            isinstance(instance, bool)
-            or not isinstance(instance, numbers.Integral)
-            or not 0 <= instance < self.n_instances_
-        ):
+        if not is_int(instance) or not 0 <= instance < self.n_instances_:
             raise ValueError(
                 f"instance must be None or an int in [0, {self.n_instances_}), got {instance!r}"
             )
@@ -794,7 +789,7 @@ class SharedKernelModel:
         """
         self._check_fitted()
         seed = self.random_state
-        seed = int(seed) if isinstance(seed, numbers.Integral) else None
+        seed = int(seed) if is_int(seed) else None
         meta = {
             "schema": SCHEMA,
             "hyperparameters": {

@@ -87,7 +87,7 @@ from ilpss.kernels import (  # kernel matching is the kernels' own; named here a
 )
 from ilpss.policy import FrozenPolicy
 from ilpss.tiles import TileCoder
-from soccer_drill.constraints import Integer, NoneOr, Real, Text, check_fields, from_json
+from soccer_drill.constraints import Integer, NoneOr, Real, Text, check_fields, from_json, is_int
 
 __all__ = [
     "LIBRARY_ARCHIVE",
@@ -276,9 +276,7 @@ class LibraryState:
         if (np.asarray(self.uses) < 0).any() or (np.asarray(self.trial_uses) < 0).any():
             raise ValueError("usage counts must be non-negative")
         next_o, next_k = self.next_option_id, self.next_kernel_id
-        if isinstance(next_o, bool) or isinstance(next_k, bool) or not (
-            isinstance(next_o, int) and isinstance(next_k, int)
-        ):
+        if not (is_int(next_o) and is_int(next_k)):
             raise ValueError("next_option_id/next_kernel_id must be ints")
         if self.registry and next_o <= max(self.registry):
             raise ValueError("next_option_id must exceed every issued option id")
@@ -396,7 +394,7 @@ class OptionLibrary:
             raise TypeError("kernel_model must have a membership(X) method")
         means, _ = kernel_parameters(model)
         K = getattr(model, "n_components", None)
-        if isinstance(K, bool) or not isinstance(K, int | np.integer) or K != means.shape[0]:
+        if not is_int(K) or K != means.shape[0]:
             raise ValueError(
                 f"kernel_model.n_components ({K!r}) must equal the number of means "
                 f"({means.shape[0]})"
@@ -453,7 +451,7 @@ class OptionLibrary:
         return int(self.option_ids.shape[0])
 
     def __contains__(self, option_id: object) -> bool:
-        return isinstance(option_id, int | np.integer) and int(option_id) in self._position
+        return is_int(option_id) and int(option_id) in self._position
 
     def options(self) -> list[OptionInfo]:
         """Description of every active option, in offering order."""
@@ -475,7 +473,7 @@ class OptionLibrary:
         try:
             return self._position[int(option_id)]
         except (KeyError, TypeError, ValueError):
-            if isinstance(option_id, int | np.integer) and int(option_id) in self.registry:
+            if is_int(option_id) and int(option_id) in self.registry:
                 raise KeyError(
                     f"option id {option_id} is not active (pruned or its kernel retired)"
                 ) from None
@@ -744,7 +742,7 @@ class OptionLibrary:
         return undo
 
     def _known(self, option_id: object) -> int:
-        if not isinstance(option_id, int | np.integer) or int(option_id) not in self.registry:
+        if not is_int(option_id) or int(option_id) not in self.registry:
             raise KeyError(f"unknown option id {option_id!r}")
         return int(option_id)
 

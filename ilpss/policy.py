@@ -28,7 +28,7 @@ import numpy as np
 from ilpss._io import load_archive, save_npz_atomic
 from ilpss._schema import FLOAT, INTEGER, ArchiveSchema, Field
 from ilpss.tiles import TileCoder
-from soccer_drill.constraints import Integer, Real, check
+from soccer_drill.constraints import Integer, Real, check, is_int
 
 __all__ = [
     "EPSILON",
@@ -143,7 +143,7 @@ class _LinearQ:
     ) -> None:
         if not isinstance(tile_coder, TileCoder):
             raise TypeError(f"tile_coder must be a TileCoder, got {type(tile_coder).__name__}")
-        if isinstance(n_primitive, bool) or not isinstance(n_primitive, int | np.integer):
+        if not is_int(n_primitive):
             raise TypeError("n_primitive must be an int")
         if n_primitive < 1:
             raise ValueError(f"n_primitive must be >= 1, got {n_primitive}")

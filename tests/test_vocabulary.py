@@ -49,6 +49,26 @@ def test_no_module_defines_its_own_number_tests_or_limits():
     assert not found, f"use soccer_drill.constraints instead: {found}"
 
 
+def _hand_made_number_test(node: ast.AST) -> bool:
+    """``isinstance(x, ...)`` with ``numbers.Integral``/``numbers.Real``, ``np.integer``, or
+    ``int`` and ``float`` together: what ``is_int``/``is_real`` say once."""
+    if not (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
+            and node.func.id == "isinstance" and len(node.args) == 2):
+        return False
+    parts = list(ast.walk(node.args[1]))
+    attrs = {p.attr for p in parts if isinstance(p, ast.Attribute)}
+    names = {p.id for p in parts if isinstance(p, ast.Name)}
+    return bool(attrs & {"Integral", "Real", "integer"}) or {"int", "float"} <= names
+
+
+def test_no_module_tests_a_number_by_hand():
+    found = [f"{path}:{node.lineno}" for path, tree in _modules() if path != VOCABULARY
+             for node in ast.walk(tree) if _hand_made_number_test(node)]
+    assert not found, f"use is_int/is_real of soccer_drill.constraints: {found}"
+    planted = ast.parse("isinstance(x, int | np.integer) or isinstance(y, numbers.Real)")
+    assert sum(map(_hand_made_number_test, ast.walk(planted))) == 2
+
+
 def test_no_module_defines_a_second_registry_class_or_reads_entry_points_itself():
     classes = [f"{path}:{node.lineno} {node.name}" for path, node in _definitions()
                if isinstance(node, ast.ClassDef) and node.name.endswith("Registry")

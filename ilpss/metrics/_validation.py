@@ -6,10 +6,11 @@ Each raises :class:`ValueError` saying what was wrong and what is allowed.
 from __future__ import annotations
 
 import math
-import numbers
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from soccer_drill.constraints import is_int, is_real
 
 FloatArray = NDArray[np.float64]
 """The float64 arrays every metric takes and gives."""
@@ -51,7 +52,7 @@ def _pair(transfer: ArrayLike, baseline: ArrayLike) -> tuple[FloatArray, FloatAr
 
 def _check_count(value: int, name: str, length: int) -> int:
     """A positive integer ``value`` that does not exceed ``length``."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+    if not is_int(value):
         raise ValueError(f"{name} must be a positive integer, got {value!r}")
     value = int(value)
     if value < 1:
@@ -62,7 +63,7 @@ def _check_count(value: int, name: str, length: int) -> int:
 
 
 def _check_real(value: float, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not math.isfinite(value):
+    if not is_real(value) or not math.isfinite(value):
         raise ValueError(f"{name} must be a finite real number, got {value!r}")
     return float(value)
 

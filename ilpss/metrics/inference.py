@@ -12,7 +12,6 @@ along a stream with seeds as clusters). Which interval is used where, and why, i
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +25,7 @@ from ilpss.metrics._validation import (
     _check_confidence,
     _check_real,
 )
+from soccer_drill.constraints import is_int
 
 
 @dataclass(frozen=True)
@@ -378,7 +378,7 @@ def wilson_interval(successes: int, n: int, confidence: float = 0.95) -> tuple[f
         Non-integer counts, ``n < 1``, ``successes`` outside ``[0, n]``, bad confidence.
     """
     for value, name in ((successes, "successes"), (n, "n")):
-        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+        if not is_int(value):
             raise ValueError(f"{name} must be an integer, got {value!r}")
     k, n = int(successes), int(n)
     if n < 1:
@@ -420,7 +420,7 @@ def _percentile_interval(
 
 
 def _check_boot(n_boot: int, n_seeds: int, confidence: float) -> tuple[int, float]:
-    if isinstance(n_boot, bool) or not isinstance(n_boot, numbers.Integral) or n_boot < 1:
+    if not is_int(n_boot) or n_boot < 1:
         raise ValueError(f"n_boot must be a positive integer, got {n_boot!r}")
     if n_seeds < 2:
         raise ValueError(f"a bootstrap over seeds needs at least 2 seeds, got {n_seeds}")

@@ -25,6 +25,7 @@ from ilpss.reference.settings import (
     SelfPlaySetting,
     TransferSetting,
 )
+from soccer_drill.constraints import is_real
 
 __all__ = ["KIND", "Job", "check_result", "job_key", "run_job"]
 
@@ -105,7 +106,7 @@ def _rewards(where: str, value: Any, n: int) -> None:
     if not isinstance(value, list) or len(value) != n:
         raise ValueError(f"{where} must be a list of {n} episode rewards, got "
                          f"{type(value).__name__} of length {len(value) if isinstance(value, list) else '-'}")
-    if not all(isinstance(r, int | float) and low - 10 <= r <= high for r in value):
+    if not all(is_real(r) and low - 10 <= r <= high for r in value):
         raise ValueError(f"{where} holds a value that is not an episode reward")
 
 
@@ -114,8 +115,8 @@ def _curve(where: str, rows: Any) -> None:
         raise ValueError(f"{where} must be a non-empty list of rows")
     for row in rows:
         if not (isinstance(row, list) and len(row) == 5
-                and all(isinstance(x, int | float) for x in row[:2] + row[4:])
-                and all(x is None or isinstance(x, int | float) for x in row[2:4])
+                and all(is_real(x) for x in row[:2] + row[4:])
+                and all(x is None or is_real(x) for x in row[2:4])
                 and row[0] >= 0 and row[1] >= 0 and row[4] >= 0
                 and (row[3] is None or 0 <= row[3] <= 1)):
             raise ValueError(f"{where}: a row must be [steps, seconds, mean reward, success "
