@@ -155,6 +155,20 @@ def test_no_package_imports_a_higher_layer():
     assert _upward(graph(), PACKAGES) == []
 
 
+ILPSS_SEAM = {"soccer_drill", "soccer_drill.files", "soccer_drill.constraints",
+              "soccer_drill.registry"}
+"""What ``ilpss`` imports of the drill's package (docs/architecture.md): the writes and
+output checks, and the one vocabulary of constraints and registries (``soccer_drill`` is
+the package their import runs). The drill itself only by the names of ``drill_facts``."""
+
+
+def test_ilpss_reaches_the_drill_only_through_its_seam():
+    reached = {f"{a} -> {b}" for a, targets in graph().items() if a.startswith("ilpss.")
+               and a != "ilpss.experiments.drill_facts"
+               for b in targets if b.split(".")[0] == "soccer_drill" and b not in ILPSS_SEAM}
+    assert reached == set()
+
+
 def test_the_import_graph_of_ilpss_has_no_circle():
     cycle = _cycle(graph("ilpss"))
     assert cycle is None, " -> ".join(cycle or [])

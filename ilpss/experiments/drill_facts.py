@@ -35,9 +35,12 @@ fact                        used by
 :data:`TEAM_CODE`           what identifies a team's code: the key of
                             ``ilpss-holder-learning``'s kept jobs, a run folder's
                             ``team_code.json``
+:data:`HOLDER_SB3_VEC_ENV`, the reference deep-RL runs (``soccer-drill-reference``):
+:data:`PARALLEL_VEC_ENV`    the batched holder behind SB3 and the batched parallel drill
 ==========================  =========================================================
 
-:data:`HOLDER_RULES`, :data:`GIF_WRITER`, :data:`TEAM_CODE` and :data:`TEAM_COMPOSITION` are drill code that
+:data:`HOLDER_RULES`, :data:`GIF_WRITER`, :data:`TEAM_CODE`, :data:`TEAM_COMPOSITION` and
+the two vector environments are drill code that
 ``ilpss`` uses by name (:func:`drill_object`), imported only when used, and
 :data:`TEAM_ERROR` is caught by name
 (:func:`drill_exception`), so that ``ilpss`` itself never depends on the drill's rules.
@@ -101,6 +104,10 @@ HOLDER_RULES = "soccer_drill.policies:HOLDER_POLICIES"
 """Where the drill's fixed holder rules are: a mapping of name to ``rule(obs, rng)``."""
 GIF_WRITER = "soccer_drill.gif:save_gif"
 """The drill's GIF writer: ``save_gif(frames, path, fps)``, atomic."""
+HOLDER_SB3_VEC_ENV = "soccer_drill.vector.sb3:HolderSB3VecEnv"
+"""The batched holder behind Stable-Baselines3's ``VecEnv`` (needs SB3)."""
+PARALLEL_VEC_ENV = "soccer_drill.vector.agents:ParallelVectorEnv"
+"""The batched parallel drill, PettingZoo's parallel API with a leading batch axis."""
 
 
 TEAM_CODE = "soccer_drill.teams:team_code"

@@ -1,6 +1,6 @@
 """PPO and MaskablePPO on the holder, with Stable-Baselines3: train, evaluate, transfer.
 
-The environment stack, bottom to top: ``soccer_drill.sb3.HolderSB3VecEnv`` (the batched
+The environment stack, bottom to top: ``soccer_drill.vector.sb3.HolderSB3VecEnv`` (the batched
 holder as an SB3 ``VecEnv``), ``VecMonitor`` (the drill's episode rewards, for the
 learning curve), :class:`TimeoutWrapper` (the timeout as a terminal end, and the
 setting's :class:`~ilpss.reference.settings.RewardOption` when it is active) and
@@ -23,12 +23,11 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import VecEnvWrapper, VecMonitor, VecNormalize
 
-from ilpss.experiments.drill_facts import ENV_ID, drill_object
+from ilpss.experiments.drill_facts import ENV_ID, HOLDER_SB3_VEC_ENV, drill_object
 from ilpss.reference.settings import HolderSetting, RewardOption, TransferSetting
 
 __all__ = ["Curve", "TimeoutWrapper", "evaluate", "train", "transfer"]
 
-HOLDER_VEC_ENV = "soccer_drill.sb3:HolderSB3VecEnv"
 """The batched holder as an SB3 ``VecEnv``, looked up by name (``ilpss`` imports no drill
 module directly)."""
 MAX_DECISIONS = 1_000
@@ -105,7 +104,7 @@ class Curve(BaseCallback):
 def _venv(team: str, setting: HolderSetting, seed: int,
           obs_rms: Any = None) -> VecNormalize | Any:
     """The training stack against ``team``, its drills seeded ``seed, seed + 1, ...``."""
-    venv = drill_object(HOLDER_VEC_ENV)(setting.ppo.n_envs, opponent=team)
+    venv = drill_object(HOLDER_SB3_VEC_ENV)(setting.ppo.n_envs, opponent=team)
     venv.seed(seed)
     venv = VecMonitor(venv)
     if setting.reward.active or setting.timeout_terminal:

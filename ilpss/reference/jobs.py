@@ -16,7 +16,7 @@ import functools
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from ilpss.experiments.drill_facts import EPISODE_REWARD, TEAM_CODE, drill_object
+from ilpss.experiments.drill_facts import EPISODE_REWARD, PARALLEL_VEC_ENV, TEAM_CODE, drill_object
 from ilpss.experiments.holder_learning import EVAL_SEED
 from ilpss.reference.settings import (
     EvalSettings,
@@ -31,7 +31,6 @@ __all__ = ["KIND", "Job", "check_result", "job_key", "run_job"]
 
 KIND = "reference"
 """The kind of the kept files (``reference-<digest>.json``)."""
-PARALLEL_ENV = "soccer_drill.vector_agents:ParallelVectorEnv"
 """The batched parallel drill, looked up by name (``ilpss`` imports no drill module
 directly)."""
 SELF_PLAY = "self_play"
@@ -71,7 +70,7 @@ def job_key(job: Job) -> dict[str, Any]:
 
 
 def _parallel(n: int, opponent: str | None, shared: bool | None = None) -> Any:
-    return drill_object(PARALLEL_ENV)(n, opponent=opponent, shared_spaces=shared)
+    return drill_object(PARALLEL_VEC_ENV)(n, opponent=opponent, shared_spaces=shared)
 
 
 def run_job(job: Job) -> dict[str, Any]:
