@@ -62,8 +62,12 @@ def test_tiny_run_writes_resumes_is_deterministic_and_recomputes_a_changed_setti
     page = (tmp_path / "a.md").read_text(encoding="utf-8")
     for name in cli.SETTINGS:
         assert f"## `{name}`" in page
-    for name in ("ppo", "maskable_ppo", "shared_ppo", "self_play"):
+    for name in ("ppo", "maskable_ppo", "shared_ppo", "self_play", "transfer"):
         assert (tmp_path / "figures" / f"reference_{name}.png").stat().st_size > 1000
+    assert "Budget: 256 decisions per training seed; 2 training seeds" in page
+    assert "Budget: 256 environment steps per training seed" in page
+    # 256 decisions learn nothing: the page says so, team by team
+    assert "Not learned in the budget: `chasers` in 2 of 2 seeds" in page
     first = _records(tmp_path / "a")
     assert len(first) == 10
     assert len(list((tmp_path / "a").glob("rule-*.json"))) == 2 * 9  # chasers, goal_guards

@@ -33,7 +33,7 @@ from ilpss.metrics import (
     wilson_interval,
 )
 from ilpss.reference.jobs import SELF_PLAY, Job
-from ilpss.reference.settings import EvalSettings, TransferSetting
+from ilpss.reference.settings import EvalSettings, HolderSetting, TransferSetting
 
 __all__ = ["learning_md_rows", "write_page"]
 
@@ -100,11 +100,33 @@ def _figure(name: str, by_team: Mapping[str, list[list[list[float]]]], path: Pat
     save_figure(fig, path, dpi=110)
 
 
+def _budget(job: Job, seeds: int) -> str:
+    """The section's budget and seeds, as its settings record them."""
+    s = job.setting
+    unit = "decisions" if isinstance(s, HolderSetting) else "environment steps"
+    return (f"Budget: {s.ppo.steps:,} {unit} per training seed; {seeds} training seeds "
+            f"(0 to {seeds - 1}); evaluation on the held-out episode seeds.")
+
+
+def _unlearned(learned: Mapping[str, tuple[int, int]]) -> str:
+    """Where a seed failed to learn in the budget, said with the counts."""
+    failed = {t: (k, n) for t, (k, n) in learned.items() if k < n}
+    if not learned:
+        return "No fixed rule on these teams: no seed is counted as learned or not."
+    if not failed:
+        return "Every training seed learned against every team in the budget."
+    return ("Not learned in the budget: " + "; ".join(
+        f"`{t}` in {n - k} of {n} seeds" for t, (k, n) in failed.items())
+        + " (the thin lines of the figure are the seeds' curves).")
+
+
 def _section(name: str, jobs: list[Job], results: list[dict[str, Any]],
              rules: Mapping[str, Mapping[str, list[float]]], tile: Mapping[str, tuple[str, str]],
              ev: EvalSettings, figure: str) -> list[str]:
     teams = list(dict.fromkeys(t for r in results for t in r["eval"]))
-    lines = [f"## `{name}`", "", f"![{name}]({figure})", "",
+    seeds = len({j.seed for j in jobs})
+    learned_by_team: dict[str, tuple[int, int]] = {}
+    lines = [f"## `{name}`", "", _budget(jobs[0], seeds), "", f"![{name}]({figure})", "",
              "| team | seeds learned | greedy success, mean over seeds [95% t] | "
              "greedy mean reward [95% t] | best fixed rule: success [Wilson] | rule: mean "
              "reward [95% t] | tile-coded SMDP (docs/learning.md): reward | success |",
@@ -120,6 +142,7 @@ def _section(name: str, jobs: list[Job], results: list[dict[str, Any]],
             best = max(rules[team], key=lambda n: np.mean(rules[team][n]))
             rule_success, rule_cells = _success(rules[team][best])
             learned = sum(s >= ev.learned_fraction * rule_success for s in succ)
+            learned_by_team[team] = (learned, len(rows))
             rule_reward = _ci(*(float(x) for x in t_interval(np.asarray(rules[team][best]))))
         else:
             learned = None
@@ -134,11 +157,33 @@ def _section(name: str, jobs: list[Job], results: list[dict[str, Any]],
             reward = _ci(*(float(x) for x in t_interval(np.asarray(r["eval"][team]))))
             detail.append(f"| {team} | {j.seed} | {_success(r['eval'][team])[1]} | {reward} | "
                           f"{int(last[0])} | {last[1] / 60:.1f} |")
-    return lines + detail + [""]
+    return [*lines, "", _unlearned(learned_by_team), *detail, ""]
 
 
-def _transfer(job_results: list[tuple[Job, dict[str, Any]]], setting: TransferSetting
-              ) -> list[str]:
+def _transfer_figure(job_results: list[tuple[Job, dict[str, Any]]], window: int,
+                     path: Path) -> None:
+    """The target's learning curves, fine-tuned and anew: the reward per episode averaged
+    over ``window`` episodes, a thin line per seed and the mean over seeds in bold."""
+    fig = Figure(figsize=(7, 4))
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
+    kernel = np.ones(window) / window
+    for colour, arm in (("C0", "fine_tuned"), ("C1", "anew")):
+        smooth = np.array([np.convolve(np.asarray(r[arm]["curve"], float), kernel, "valid")
+                           for _, r in job_results])
+        x = np.arange(window, window + smooth.shape[1])
+        for row in smooth:
+            ax.plot(x, row, color=colour, lw=0.5, alpha=0.4)
+        ax.plot(x, smooth.mean(axis=0), color=colour, lw=2, label=arm.replace("_", "-"))
+    ax.set(xlabel="target episodes", ylabel=f"reward per episode (mean of {window})",
+           ylim=(-1.02, 1.02), title=f"transfer to {job_results[0][0].team}")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    save_figure(fig, path, dpi=110)
+
+
+def _transfer(job_results: list[tuple[Job, dict[str, Any]]], setting: TransferSetting,
+              figure: str) -> list[str]:
     w = setting.window
     js, tot, fin, fa, aa = [], [], [], [], []
     for _, r in job_results:
@@ -155,8 +200,9 @@ def _transfer(job_results: list[tuple[Job, dict[str, Any]]], setting: TransferSe
         f"({setting.source_steps} decisions each), then the held-out `{job.team}` for "
         f"{setting.target_episodes} episodes; fine-tuned from the sources' policy (and its "
         "observation statistics) against learning anew, paired by seed. Jumpstart: first "
-        f"{w} episodes; final: last {w}; total: over the {setting.target_episodes} episodes.",
-        "",
+        f"{w} episodes; final: last {w}; total: over the {setting.target_episodes} episodes. "
+        f"{len(js)} training seeds (0 to {len(js) - 1}).",
+        "", f"![transfer]({figure})", "",
         "| target | seeds | jumpstart [95% t] | total reward gain [95% t] | final gain [95% t] "
         "| greedy success, fine-tuned | greedy success, anew |",
         "|---|---|---|---|---|---|---|",
@@ -183,17 +229,19 @@ def write_page(command: str, code: str, took: str, jobs: list[Job],
     names = list(dict.fromkeys(j.name for j in jobs))
     for name in names:
         mine = [(j, r) for j, r in zip(jobs, results, strict=True) if j.name == name]
-        if isinstance(mine[0][0].setting, TransferSetting):
-            lines += _transfer(mine, mine[0][0].setting)
-            continue
-        by_team: dict[str, list] = {}
-        for j, r in mine:
-            by_team.setdefault(j.team or SELF_PLAY, []).append(r["curve"])
         path = figures / f"reference_{name}.png"
-        _figure(name, by_team, path)
         try:
             link = path.resolve().relative_to(page.resolve().parent).as_posix()
         except ValueError:
             link = path.resolve().as_posix()
+        setting = mine[0][0].setting
+        if isinstance(setting, TransferSetting):
+            _transfer_figure(mine, setting.window, path)
+            lines += _transfer(mine, setting, link)
+            continue
+        by_team: dict[str, list] = {}
+        for j, r in mine:
+            by_team.setdefault(j.team or SELF_PLAY, []).append(r["curve"])
+        _figure(name, by_team, path)
         lines += _section(name, [j for j, _ in mine], [r for _, r in mine], rules, tile, ev, link)
     return "\n".join(lines) + "\n"
