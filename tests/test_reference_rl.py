@@ -104,6 +104,11 @@ def test_tiny_run_writes_resumes_is_deterministic_and_recomputes_a_changed_setti
     (["--ppo", "gamma=2"], "PPOConfig.gamma must be a number in [0.0, 1.0]"),
     (["--ppo", "batch_size=100"], "must divide n_envs * n_steps"),
     (["--seeds", "1"], "--seeds must be at least 2"),
+    (["--seeds", "5", "ppo=1"], "--seeds ppo=N must be at least 2, got 1"),
+    (["--seeds", "5", "ppx=10"], "give SETTING=N with SETTING one of"),
+    (["--seeds", "many"], "--seeds must start with a number of seeds"),
+    (["--settings", "ppo", "--seeds", "5", "shared_ppo=10"],
+     "--seeds names ['shared_ppo'], which --settings does not select"),
     (["--teams", "chasers", "chasers"], "--teams must not repeat"),
     (["--timeout-reward", "5"], "timeout_reward must be None or a number in [-10, 1]"),
     (["--window", "3000"], "window (3000) must be at most half"),
@@ -115,6 +120,18 @@ def test_bad_flags_are_refused_naming_what_is_allowed(argv, message, tmp_path, c
     assert exc.value.code == 2
     assert message in capsys.readouterr().err
     assert not list(tmp_path.glob("k/*.json"))
+
+
+def test_seeds_per_setting_add_jobs_to_those_settings_only():
+    ev = cli.EvalSettings(episodes=10)
+    settings = {name: cli.SETTINGS[name] for name in ("ppo", "shared_ppo", "transfer")}
+    every, per = cli.parse_seeds(["2", "ppo=4"])
+    jobs = cli.make_jobs(settings, ["chasers", "goal_guards"], {**dict.fromkeys(settings, every),
+                                                               **per}, ev)
+    counts = {name: sorted({j.seed for j in jobs if j.name == name}) for name in settings}
+    assert counts == {"ppo": [0, 1, 2, 3], "shared_ppo": [0, 1], "transfer": [0, 1]}
+    assert len(jobs) == 4 * 2 + 2 * 2 + 2
+    assert [j.seed for j in jobs] == sorted(j.seed for j in jobs)  # seed by seed
 
 
 BLOCKED = """

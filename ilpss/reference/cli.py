@@ -9,7 +9,8 @@ so its rows would repeat that team's), a shared masked PPO for the two
 attackers of the parallel drill against each team, one self-play run of all four players
 (its attackers then evaluated against each team), and the transfer row (PPO fine-tuned
 after the paper's first three teams against learning anew, on the fourth: protocol A's
-order). ``--seeds`` training seeds each (seed ``s`` trains from episode seed
+order). ``--seeds N`` training seeds each, or more for some settings (``--seeds 5
+ppo=10``); seed ``s`` trains from episode seed
 ``1,000,000 (s + 1)``); each greedy policy is evaluated on ``--eval`` held-out episode
 seeds, the same ones every fixed holder rule is evaluated on.
 
@@ -108,12 +109,30 @@ def build_settings(args: argparse.Namespace) -> dict[str, Any]:
     return out
 
 
-def make_jobs(settings: dict[str, Any], teams: Sequence[str], seeds: int,
+def parse_seeds(items: Sequence[str]) -> tuple[int, dict[str, int]]:
+    """``["5", "ppo=10"]`` as the seeds of every setting and those of named settings;
+    ``ValueError`` naming what is not one of them."""
+    if not items or not items[0].isdigit():
+        raise ValueError(f"--seeds must start with a number of seeds, got {list(items)}")
+    per: dict[str, int] = {}
+    for item in items[1:]:
+        name, sep, text = item.partition("=")
+        if not sep or name not in SETTINGS or not text.isdigit():
+            raise ValueError(f"--seeds {item!r}: give SETTING=N with SETTING one of "
+                             f"{list(SETTINGS)} and N a number of seeds")
+        per[name] = int(text)
+    return int(items[0]), per
+
+
+def make_jobs(settings: dict[str, Any], teams: Sequence[str], seeds: dict[str, int],
               ev: EvalSettings) -> list[Job]:
-    """Every job, seed by seed (so that a stopped run has every setting's first seeds)."""
+    """Every job, seed by seed (so that a stopped run has every setting's first seeds);
+    ``seeds`` by setting name."""
     jobs = []
-    for seed in range(seeds):
+    for seed in range(max(seeds.values())):
         for name, s in settings.items():
+            if seed >= seeds[name]:
+                continue
             if isinstance(s, TransferSetting):
                 jobs.append(Job(name, s, seed, PAPER_TEAMS[-1], tuple(PAPER_TEAMS[:-1]), ev))
             elif isinstance(s, SelfPlaySetting):
@@ -145,7 +164,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--teams", nargs="+", default=list(DEFAULT_TEAMS),
                    help="distinct opponent teams of the per-team settings (default: the "
                         "paper's four); the transfer row always takes the paper's")
-    p.add_argument("--seeds", type=int, default=10, help="training seeds per setting and team")
+    p.add_argument("--seeds", nargs="+", default=["10"], metavar="N [SETTING=N]",
+                   help="training seeds per setting and team, and optionally more or fewer "
+                        "for named settings, e.g. 5 ppo=10 (default: 10)")
     p.add_argument("--eval", type=int, default=EvalSettings.episodes,
                    help="held-out evaluation episodes per policy (default: %(default)s)")
     p.add_argument("--ppo", nargs="+", default=[], metavar="KEY=VALUE",
@@ -183,19 +204,26 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _main(argv)
 
 
-def _check_flags(args: argparse.Namespace) -> None:
+def _check_flags(args: argparse.Namespace) -> dict[str, int]:
+    """Refuse bad flags; the training seeds of each selected setting."""
     if len(set(args.teams)) != len(args.teams):
         raise ValueError(f"--teams must not repeat a team, got {args.teams}")
     if len(set(args.settings)) != len(args.settings):
         raise ValueError(f"--settings must not repeat a setting, got {args.settings}")
-    for flag, value, low in (("--seeds", args.seeds, 2), ("--eval", args.eval, 1),
-                             ("--workers", args.workers, 1)):
+    every, per = parse_seeds(args.seeds)
+    if unselected := sorted(set(per) - set(args.settings)):
+        raise ValueError(f"--seeds names {unselected}, which --settings does not select")
+    seeds = {name: per.get(name, every) for name in args.settings}
+    for flag, value, low in (("--seeds", every, 2), *((f"--seeds {name}=N", n, 2)
+                                                      for name, n in per.items()),
+                             ("--eval", args.eval, 1), ("--workers", args.workers, 1)):
         if value < low:
             raise ValueError(f"{flag} must be at least {low}, got {value}")
     for flag in ("source_steps", "target_episodes", "window"):
         value = getattr(args, flag)
         if value is not None and value < 1:
             raise ValueError(f"--{flag.replace('_', '-')} must be at least 1, got {value}")
+    return seeds
 
 
 def _main(argv: Sequence[str] | None) -> int:
@@ -203,7 +231,7 @@ def _main(argv: Sequence[str] | None) -> int:
     args = p.parse_args(argv)
     try:
         check_utf8(args)
-        _check_flags(args)
+        seeds = _check_flags(args)
         settings = build_settings(args)
         out = check_out_file(args.out)
         figures = Path(args.figures) if args.figures else out.parent / "figures"
@@ -222,7 +250,7 @@ def _main(argv: Sequence[str] | None) -> int:
         p.error(f"{exc}: the reference runs need torch, Stable-Baselines3 and sb3-contrib: "
                 "pip install -e '.[integrations]'")
     ev = EvalSettings(episodes=args.eval)
-    jobs = make_jobs(settings, args.teams, args.seeds, ev)
+    jobs = make_jobs(settings, args.teams, seeds, ev)
     rule_teams = list(dict.fromkeys(
         [j.team for j in jobs if j.team] + [t for j in jobs if j.team is None for t in j.teams]))
     from ilpss.experiments.drill import drill_object
