@@ -53,17 +53,42 @@ def learning_md_rows(path: Path) -> dict[str, tuple[str, str]]:
     return out
 
 
-def _ci(m: float, lo: float, hi: float, pct: bool = False) -> str:
+def _ci(m: float, lo: float, hi: float, pct: bool = False, digits: int = 3) -> str:
     if any(math.isnan(x) for x in (m, lo, hi)):
-        return f"{m:.1%}" if pct else f"{m:+.3f}"
-    return f"{m:.1%} [{lo:.1%}, {hi:.1%}]" if pct else f"{m:+.3f} [{lo:+.3f}, {hi:+.3f}]"
+        return f"{m:.1%}" if pct else f"{m:+.{digits}f}"
+    if pct:
+        return f"{m:.1%} [{lo:.1%}, {hi:.1%}]"
+    return f"{m:+.{digits}f} [{lo:+.{digits}f}, {hi:+.{digits}f}]"
 
 
-def _over_seeds(values: Sequence[float], pct: bool = False) -> str:
+def _over_seeds(values: Sequence[float], pct: bool = False,
+                within: tuple[float, float] = (-math.inf, math.inf), digits: int = 3) -> str:
+    """The mean over seeds with its 95% t interval, the interval cut to ``within`` (what
+    the values can be: a seed that learned and one that did not make a wide interval)."""
     v = np.asarray(values, float)
     if v.size < 2:
-        return _ci(float(v.mean()), math.nan, math.nan, pct)
-    return _ci(*(float(x) for x in t_interval(v)), pct=pct)
+        return _ci(float(v.mean()), math.nan, math.nan, pct, digits)
+    m, lo, hi = (float(x) for x in t_interval(v))
+    return _ci(m, max(lo, within[0]), min(hi, within[1]), pct, digits)
+
+
+def _over_episodes(rewards: Sequence[float], within: tuple[float, float]) -> str:
+    """The mean reward over episodes with its 95% t interval, cut to ``within``."""
+    m, lo, hi = (float(x) for x in t_interval(np.asarray(rewards, float)))
+    return _ci(m, max(lo, within[0]), min(hi, within[1]))
+
+
+SHARE = (0.0, 1.0)
+"""The range of a success rate."""
+
+
+def _reward_range(job: Job) -> tuple[float, float]:
+    """The range of an episode's reward in ``job``: the drill's [-1, 1], lower where the
+    holder's reward option makes a timeout cost more."""
+    holder = getattr(job.setting, "holder", job.setting)
+    option = getattr(holder, "reward", None)
+    low = min(-1.0, option.timeout_reward) if option is not None and option.active else -1.0
+    return low, 1.0
 
 
 def _success(rewards: Sequence[float]) -> tuple[float, str]:
@@ -127,9 +152,10 @@ def _section(name: str, jobs: list[Job], results: list[dict[str, Any]],
     seeds = len({j.seed for j in jobs})
     learned_by_team: dict[str, tuple[int, int]] = {}
     lines = [f"## `{name}`", "", _budget(jobs[0], seeds), "", f"![{name}]({figure})", "",
-             "| team | seeds learned | greedy success, mean over seeds [95% t] | "
-             "greedy mean reward [95% t] | best fixed rule: success [Wilson] | rule: mean "
-             "reward [95% t] | tile-coded SMDP (docs/learning.md): reward | success |",
+             "| team | seeds learned | greedy success, mean over seeds [95% t, within "
+             "0-100%] | greedy mean reward [95% t, within the reward's range] | best fixed "
+             "rule: success [Wilson] | rule: mean reward [95% t] | tile-coded SMDP "
+             "(docs/learning.md): reward | success |",
              "|---|---|---|---|---|---|---|---|"]
     detail = ["", "| team | seed | success [95% Wilson] | mean reward [95% t] | steps | "
               "training minutes |", "|---|---|---|---|---|---|"]
@@ -143,18 +169,18 @@ def _section(name: str, jobs: list[Job], results: list[dict[str, Any]],
             rule_success, rule_cells = _success(rules[team][best])
             learned = sum(s >= ev.learned_fraction * rule_success for s in succ)
             learned_by_team[team] = (learned, len(rows))
-            rule_reward = _ci(*(float(x) for x in t_interval(np.asarray(rules[team][best]))))
+            rule_reward = _over_episodes(rules[team][best], (-1.0, 1.0))
         else:
             learned = None
         tr, ts = tile.get(team, ("n/a", "n/a"))
         count = "n/a" if learned is None else f"{learned} of {len(rows)}"
-        lines.append(f"| {team} | {count} | {_over_seeds(succ, True)} | "
-                     f"{_over_seeds(mean)} | "
+        lines.append(f"| {team} | {count} | {_over_seeds(succ, True, SHARE)} | "
+                     f"{_over_seeds(mean, within=_reward_range(rows[0][0]))} | "
                      + (f"{best}: {rule_cells} | {rule_reward}" if best else "n/a | n/a")
                      + f" | {tr} | {ts} |")
         for j, r in rows:
             last = r["curve"][-1]
-            reward = _ci(*(float(x) for x in t_interval(np.asarray(r["eval"][team]))))
+            reward = _over_episodes(r["eval"][team], _reward_range(j))
             detail.append(f"| {team} | {j.seed} | {_success(r['eval'][team])[1]} | {reward} | "
                           f"{int(last[0])} | {last[1] / 60:.1f} |")
     return [*lines, "", _unlearned(learned_by_team), *detail, ""]
@@ -204,10 +230,11 @@ def _transfer(job_results: list[tuple[Job, dict[str, Any]]], setting: TransferSe
         f"{len(js)} training seeds (0 to {len(js) - 1}).",
         "", f"![transfer]({figure})", "",
         "| target | seeds | jumpstart [95% t] | total reward gain [95% t] | final gain [95% t] "
-        "| greedy success, fine-tuned | greedy success, anew |",
+        "| greedy success, fine-tuned [95% t, within 0-100%] | greedy success, anew |",
         "|---|---|---|---|---|---|---|",
-        f"| {job.team} | {len(js)} | {_over_seeds(js)} | {_over_seeds(tot)} | "
-        f"{_over_seeds(fin)} | {_over_seeds(fa, True)} | {_over_seeds(aa, True)} |", ""]
+        f"| {job.team} | {len(js)} | {_over_seeds(js)} | {_over_seeds(tot, digits=1)} | "
+        f"{_over_seeds(fin)} | {_over_seeds(fa, True, SHARE)} | "
+        f"{_over_seeds(aa, True, SHARE)} |", ""]
 
 
 def write_page(command: str, code: str, took: str, jobs: list[Job],
