@@ -223,10 +223,10 @@ def _transfer(job_results: list[tuple[Job, dict[str, Any]]], setting: TransferSe
     return [
         "## `transfer`", "",
         f"Sources {', '.join(f'`{t}`' for t in job.teams)} in order "
-        f"({setting.source_steps} decisions each), then the held-out `{job.team}` for "
-        f"{setting.target_episodes} episodes; fine-tuned from the sources' policy (and its "
+        f"({setting.source_steps:,} decisions each), then the held-out `{job.team}` for "
+        f"{setting.target_episodes:,} episodes; fine-tuned from the sources' policy (and its "
         "observation statistics) against learning anew, paired by seed. Jumpstart: first "
-        f"{w} episodes; final: last {w}; total: over the {setting.target_episodes} episodes. "
+        f"{w} episodes; final: last {w}; total: over the {setting.target_episodes:,} episodes. "
         f"{len(js)} training seeds (0 to {len(js) - 1}).",
         "", f"![transfer]({figure})", "",
         "| target | seeds | jumpstart [95% t] | total reward gain [95% t] | final gain [95% t] "
