@@ -4,8 +4,8 @@ Every job's kept record holds its settings (``dataclasses.asdict``), so that a c
 setting is a new job and never takes another's results. This module imports no torch:
 the command's parser and its checks run without it.
 
-Why these values (the holder; the issue this command answers saw SB3's defaults learn in
-2 of 7 seeds and unnormalised features in none):
+Why these values (the holder: in a first trial SB3's defaults learned in 2 of 7 training
+seeds, and unnormalised features in none):
 
 - ``normalize_obs=True``: the holder's features go up to 180 (angles in degrees); SB3's
   ``VecNormalize`` (observations only: the rewards are already in [-1, 1]).
