@@ -1,6 +1,6 @@
 """A shared-policy masked PPO on the batched parallel drill, in one file (CleanRL style).
 
-One actor-critic for every learning agent of ``soccer_drill.vector_agents.ParallelVectorEnv``
+One actor-critic for every learning agent of ``soccer_drill.vector.ParallelVectorEnv``
 (the two attackers against a team, or all four players in self-play, where the last
 feature tells attacker from defender). Read top to bottom: the network, the rollout,
 the advantages, the update, the greedy evaluation.
