@@ -29,7 +29,6 @@ from ilpss.experiments import drill_facts
 from ilpss.experiments.checkpoints import CheckpointStore, is_uri
 from ilpss.experiments.folder import checkpoint_key
 from ilpss.experiments.protocols import Stream, make_env
-from ilpss.experiments.registry import Registry
 from ilpss.lifelong import (
     LifelongConfig,
     LifelongLearner,
@@ -46,6 +45,7 @@ from ilpss.reuse import (
 )
 from ilpss.smdp import EpisodeResult, SmdpLearner
 from soccer_drill.constraints import Constraint, Integer, Real
+from soccer_drill.registry import Registry
 
 __all__ = [
     "METHODS",

@@ -23,7 +23,8 @@ import gymnasium as gym
 import numpy as np
 
 from ilpss.experiments import drill_facts
-from ilpss.experiments.registry import SAMPLERS, Registry
+from ilpss.experiments.registry import SAMPLERS
+from soccer_drill.registry import Registry
 
 __all__ = [
     "PROTOCOLS",
