@@ -57,10 +57,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_env import AecLoop, HolderLoop, PhysicsLoop
-from soccer_drill.vector_agents import ParallelVectorEnv  # old path: --against's checkouts
 
 from soccer_drill.policies import HOLDER_POLICIES
-from soccer_drill.vector import HolderVectorEnv, play_episodes
+from soccer_drill.vector import HolderVectorEnv, ParallelVectorEnv, play_episodes
 
 
 class HolderStep:

@@ -9,11 +9,8 @@
 
 from __future__ import annotations
 
-import sys
-
 import gymnasium
 
-from soccer_drill import _moved
 from soccer_drill.config import DrillConfig
 from soccer_drill.envs.agents import env, parallel_env, raw_env
 from soccer_drill.envs.holder import HolderEnv
@@ -38,8 +35,6 @@ __all__ = [
     "raw_env",
     "register",
 ]
-
-_moved.install(sys.modules[__name__])  # the modules' old paths import as before
 
 HOLDER_ENV_ID = "soccer_drill/Holder-v0"
 if HOLDER_ENV_ID not in gymnasium.registry:

@@ -16,7 +16,6 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from soccer_drill.rules import motion as rules
-from soccer_drill.rules.motion import CONTROL, GUARD_DEPTH, KICK, NO_BALL  # noqa: F401  (re-exported)
 
 if TYPE_CHECKING:
     from soccer_drill.config import DrillConfig

@@ -125,13 +125,13 @@ def test_a_change_the_row_does_not_name_is_found():
 
         def test_metric(monkeypatch):
             monkeypatch.setattr(metrics, "METRICS", ())
-            monkeypatch.setattr(report, "ALPHA", 0.1)
+            monkeypatch.setattr(report, "REPORT_BODIES", {})
         """)
     made = changes(source, "test_metric")
-    assert made == [("metrics.METRICS", "ilpss.metrics"), ("report.ALPHA",
+    assert made == [("metrics.METRICS", "ilpss.metrics"), ("report.REPORT_BODIES",
                                                            "ilpss.experiments.report")]
     touch = "one `Metric` entry of `METRICS` in `ilpss/metrics.py`"
     assert unnamed(touch, made) == [
-        "report.ALPHA is not named",
-        "report.ALPHA lies in ilpss/experiments/report.py, not in ['ilpss/metrics.py']"]
+        "report.REPORT_BODIES is not named",
+        "report.REPORT_BODIES lies in ilpss/experiments/report.py, not in ['ilpss/metrics.py']"]
     assert unnamed(touch, made[:1]) == []

@@ -11,7 +11,7 @@ import pytest
 from ilpss.experiments import demo
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.folder import RunFolder
-from ilpss.experiments.report import label
+from ilpss.experiments.report_text import label
 from ilpss.experiments.run import run_experiment
 
 # The methods docs/discussion.md lists for the recommendation, and earlier rounds' picks.

@@ -143,7 +143,8 @@ def test_cli_bad_set_is_a_usage_error(capsys) -> None:
 def test_compare_pairs_runs_by_seed_and_matches_the_report(tmp_path, capsys):
     from ilpss import metrics
     from ilpss.experiments.compare import main as compare_main
-    from ilpss.experiments.report import collect, interval_text, threshold_for
+    from ilpss.experiments.report_stats import collect, threshold_for
+    from ilpss.experiments.report_text import interval_text
 
     cfg = _tiny(methods=("ilpss", "scratch"))
     results = run_experiment(cfg, tmp_path / "a", progress=False)
@@ -174,7 +175,8 @@ def test_compare_pairs_runs_by_seed_and_matches_the_report(tmp_path, capsys):
 def test_compare_pools_every_stream_as_the_reports_do(tmp_path, capsys):
     from ilpss import metrics
     from ilpss.experiments.compare import main as compare_main
-    from ilpss.experiments.report import collect, interval_text, target_curves
+    from ilpss.experiments.report_stats import collect, target_curves
+    from ilpss.experiments.report_text import interval_text
 
     cfg = _tiny(protocol="B", methods=("finetune", "scratch"), n_shuffles=0,
                 teams=("interceptors_press", "chasers", "goal_guards"))

@@ -7,8 +7,7 @@ runs ``a/__init__.py`` and ``a/b/__init__.py``, so it is an edge to those packag
 except to the importing module's own ancestors (they ran before it). A module also
 imports what it names in a string that code imports: ``"package.module:attribute"``
 (Gymnasium's entry points, the drill code that ``ilpss`` looks up by name) and the literal
-of ``importlib.import_module("package.module")``; an old module path of
-``soccer_drill._moved`` counts as the module it names.
+of ``importlib.import_module("package.module")``.
 
 Entry points declared in ``pyproject.toml`` are not edges: they are the plugin mechanism,
 by which a lower package's registry (teams, samplers, reuses, ...) finds what a higher
@@ -24,8 +23,6 @@ import ast
 import re
 from collections.abc import Mapping
 from pathlib import Path
-
-from soccer_drill._moved import MOVED
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGES = ("soccer_drill", "opponents", "ilpss")
@@ -82,14 +79,13 @@ def _runs(target: str, importer: str) -> list[str]:
 
 
 def graph_and_unresolved(
-    *packages: str, root: Path = ROOT, aliases: Mapping[str, str] = MOVED
+    *packages: str, root: Path = ROOT
 ) -> tuple[dict[str, set[str]], set[str]]:
     """``{module: modules it imports}`` over every module of ``packages`` (all three by
     default), and the names in strings of those packages that are no module of theirs."""
     packages = packages or PACKAGES
 
     def resolve(name: str) -> str | None:
-        name = aliases.get(name, name)
         return name if name.split(".")[0] in packages and _module_path(name, root) else None
 
     edges: dict[str, set[str]] = {}

@@ -6,15 +6,17 @@ import numpy as np
 import pytest
 
 from ilpss import metrics
-from ilpss.experiments.report import (
+from ilpss.experiments.report_stats import (
     compare_to_baseline,
     holm_primary,
     pairwise_estimates,
-    per_target_dips,
     stream_trend,
+    success_rates,
+)
+from ilpss.experiments.report_text import (
+    per_target_dips,
     structure_b,
     success_lines,
-    success_rates,
     verdict,
     verdict_lines,
     worst_target_dips,

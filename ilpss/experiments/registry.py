@@ -48,7 +48,6 @@ from soccer_drill.registry import Registry
 __all__ = [
     "ENV_PACKAGES",
     "SAMPLERS",
-    "Registry",
     "check_env_id",
     "register_environment_package",
     "register_sampler",

@@ -8,8 +8,7 @@ of :data:`ilpss.metrics.METRICS`, each table's tests adjusted within its declare
 featured method (``ExperimentConfig.featured_method``). The statistics, their words, the
 figures and the bodies per protocol are modules of their own
 (:mod:`~ilpss.experiments.report_stats`, :mod:`~ilpss.experiments.report_text`,
-:mod:`~ilpss.experiments.report_figures`, :mod:`~ilpss.experiments.report_bodies`);
-the names they held when they were all here are importable from here too.
+:mod:`~ilpss.experiments.report_figures`, :mod:`~ilpss.experiments.report_bodies`).
 """
 
 from __future__ import annotations
@@ -30,59 +29,9 @@ from ilpss.experiments.report_bodies import (
     protocol_a_sections,
     target_sections,
 )
-from ilpss.experiments.report_stats import (
-    ALPHA,
-    FINAL_EPISODES,
-    JUMPSTART_EPISODES,
-    SMOOTHING,
-    collect,
-    compare_to_baseline,
-    holm_primary,
-    pairwise_estimates,
-    stream_trend,
-    success_rates,
-    target_curves,
-    threshold_for,
-)
-from ilpss.experiments.report_text import (
-    interval_text,
-    label,
-    metrics_note,
-    per_target_dips,
-    structure_b,
-    success_lines,
-    verdict,
-    verdict_lines,
-    worst_target_dips,
-)
+from ilpss.experiments.report_text import metrics_note, success_lines
 
-__all__ = [  # the entry points, and what tests and notebooks import from here
-    "ALPHA",
-    "FINAL_EPISODES",
-    "JUMPSTART_EPISODES",
-    "REPORT_BODIES",
-    "SMOOTHING",
-    "ReportBody",
-    "collect",
-    "compare_to_baseline",
-    "holm_primary",
-    "interval_text",
-    "label",
-    "pairwise_estimates",
-    "per_target_dips",
-    "register_report_body",
-    "report_body",
-    "stream_trend",
-    "structure_b",
-    "success_lines",
-    "success_rates",
-    "target_curves",
-    "threshold_for",
-    "verdict",
-    "verdict_lines",
-    "worst_target_dips",
-    "write_report",
-]
+__all__ = ["REPORT_BODIES", "ReportBody", "register_report_body", "report_body", "write_report"]
 
 
 def write_report(
