@@ -401,7 +401,7 @@ def test_no_timer_longer_than_team_timeout_is_armed_whatever_the_number_of_drill
     """team_timeout times the drills acting overflowed setitimer past about 9.2e9 s:
     team_timeout=86400 (allowed) with 107,000 copies failed every reset with an
     OverflowError blamed on the team. No timer is armed for more than team_timeout."""
-    from soccer_drill import time_bound
+    from soccer_drill.teams import time_bound
 
     recorder = _RecordsTimers(time_bound._sig)
     monkeypatch.setattr(time_bound, "_sig", recorder)

@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 import soccer_drill
-from opponents.calibrate import Cell, criteria, main
+from ilpss.experiments.calibrate import Cell, criteria, main
 from soccer_drill import Command, Skill
 from soccer_drill.teams import TEAMS
 
@@ -85,7 +85,7 @@ def test_out_folder_and_errors(statues, tmp_path, capsys):
 ])
 def test_outputs_are_checked_before_any_episode(statues, tmp_path, capsys, monkeypatch, out,
                                                  said):
-    from opponents import calibrate
+    from ilpss.experiments import calibrate
 
     monkeypatch.setattr(calibrate, "calibrate", lambda *a, **k: pytest.fail("it calibrated"))
     (tmp_path / "a_file").write_text("")

@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import pytest
 
-from opponents import calibrate
-from soccer_drill import Command, Skill, gif
+from ilpss.experiments import calibrate
+from soccer_drill import Command, Skill
+from soccer_drill.rendering import gif
 
 
 class Flaky:

@@ -7,8 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from opponents import PAPER_TEAMS, ParametricTeam, sample_opponents
-from opponents.calibrate import (
+from ilpss.experiments.calibrate import (
     Cell,
     calibrate,
     calibrate_family,
@@ -17,7 +16,8 @@ from opponents.calibrate import (
     write_markdown,
     write_team_gif,
 )
-from opponents.calibrate import main as calibrate_main
+from ilpss.experiments.calibrate import main as calibrate_main
+from opponents import PAPER_TEAMS, ParametricTeam, sample_opponents
 from opponents.cli import main as list_teams
 from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES

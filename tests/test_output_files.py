@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from benchmark_scripts import load_benchmark
 
+from ilpss.experiments.calibrate import Cell, write_markdown
+from ilpss.experiments.region_check import write_page
 from opponents import PAPER_TEAMS
-from opponents.calibrate import Cell, write_markdown
-from opponents.region_check import write_page
 from soccer_drill.files import TEMPORARY, atomic_write_text
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.rendering.gif import save_gif

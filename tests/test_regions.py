@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import soccer_drill
-from opponents import region_check
-from opponents.region_check import CANDIDATES, t_interval
+from ilpss.experiments import region_check
+from ilpss.experiments.region_check import CANDIDATES, t_interval
 from opponents.region_stream import (
     LEFT,
     NEAR,
@@ -276,7 +276,7 @@ def test_the_pre_check_page_names_its_command_and_judges_each_candidate(tmp_path
     out = tmp_path / "regions.md"
     assert region_check.main(["--episodes", "4", "--workers", "1", "--out", str(out)]) == 0
     text = out.read_text()
-    assert f"python -m opponents.region_check --episodes 4 --out {out}" in text
+    assert f"python -m ilpss.experiments.region_check --episodes 4 --out {out}" in text
     assert "### `contain_left_press_right`" in text and "`obs[6] <= 0`" in text
     assert re.search(r"`\w+\\\|lane`", text)  # the composed rule, its "|" escaped in tables
     assert "the others are the same episodes: checked" in text

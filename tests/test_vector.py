@@ -8,7 +8,7 @@ import pytest
 from gymnasium.vector import AutoresetMode, VectorEnv
 
 import soccer_drill
-from opponents.agreement import agreement
+from ilpss.experiments.agreement import agreement
 from opponents.parametric import ParametricTeam, sample_opponents
 from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
@@ -313,6 +313,6 @@ def test_batched_multi_agent_env():
 
 @pytest.mark.slow
 def test_success_rates_agree_with_the_single_environment():
-    """A small version of ``python -m opponents.agreement`` (500 episodes, every rule and team)."""
+    """A small version of ``python -m ilpss.experiments.agreement`` (500 episodes, every rule and team)."""
     cells = agreement(120, ["interceptors_cover", "goal_guards"], ["pass_first", "late_pass"], drills=40)
     assert all(c.agrees for c in cells), cells

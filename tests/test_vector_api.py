@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import soccer_drill
-from opponents.calibrate import evaluate_rules
+from ilpss.experiments.calibrate import evaluate_rules
 from opponents.parametric import ParametricTeam
 from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES

@@ -29,7 +29,18 @@ fact                        used by
 :data:`SHARP_SPLITS`
 :data:`TEAM_COMPOSITION`    the oracles' knowledge of a target: its region and the
                             source played on each side
-:data:`HOLDER_RULES`        ``ilpss-holder-learning``'s fixed rules to beat
+:data:`HOLDER_RULES`        ``ilpss-holder-learning``'s fixed rules to beat, the pages
+                            of the drill (``soccer-drill-calibrate``, the region
+                            pre-check, the batched drill's agreement)
+:data:`PLAY_EPISODES`,      the pages of the drill: fixed rules in the batched drill,
+:data:`EPISODE_GIF`,        GIFs, the teams by id, the parametric family's labels and
+:data:`TEAM_IDS`,           the region teams and rules
+:data:`TEAM_DESCRIPTION`,
+:data:`MAKE_TEAM`,
+:data:`SAMPLE_LABEL`,
+:data:`REGION`,
+:data:`REGION_TEAM`,
+:data:`REGION_RULE`
 :data:`GIF_WRITER`          the GIF of the agent (one GIF writer for the project)
 :data:`TEAM_ERROR`          the commands' one-line error for a team that fails
 :data:`TEAM_CODE`           what identifies a team's code: the key of
@@ -39,8 +50,8 @@ fact                        used by
 :data:`PARALLEL_VEC_ENV`    the batched holder behind SB3 and the batched parallel drill
 ==========================  =========================================================
 
-:data:`HOLDER_RULES`, :data:`GIF_WRITER`, :data:`TEAM_CODE`, :data:`TEAM_COMPOSITION` and
-the two vector environments are drill code that
+:data:`HOLDER_RULES`, :data:`GIF_WRITER`, :data:`TEAM_CODE`, :data:`TEAM_COMPOSITION`,
+the pages' names and the two vector environments are drill code that
 ``ilpss`` uses by name (:func:`drill_object`), imported only when used, and
 :data:`TEAM_ERROR` is caught by name
 (:func:`drill_exception`), so that ``ilpss`` itself never depends on the drill's rules.
@@ -102,6 +113,26 @@ TEAM_COMPOSITION = "opponents.regions:composition"
 a region-composed team's split and the source on each side (``None``: not composed)."""
 HOLDER_RULES = "soccer_drill.policies:HOLDER_POLICIES"
 """Where the drill's fixed holder rules are: a mapping of name to ``rule(obs, rng)``."""
+PLAY_EPISODES = "soccer_drill.vector.holder:play_episodes"
+"""``play_episodes(venv, rules, seeds) -> [(total reward, outcome)]``: fixed holder rules in
+the batched holder drill (``gymnasium.make_vec`` of :data:`ENV_ID`), one episode per seed."""
+EPISODE_GIF = "soccer_drill.rendering.gif:write_episode_gif"
+"""``write_episode_gif(path, team=..., seed=..., policy=..., fps=...) -> info``: one holder
+episode of a fixed rule, written as a GIF."""
+TEAM_IDS = "soccer_drill.teams:team_ids"
+"""``team_ids()``: the id of every installed team."""
+TEAM_DESCRIPTION = "soccer_drill.teams:describe"
+"""``describe(team_id)``: the first line of a team's docstring."""
+MAKE_TEAM = "soccer_drill.teams:make_team"
+"""``make_team(team_id, **params)``: a team, built."""
+SAMPLE_LABEL = "opponents.parametric:spec_label"
+"""``spec_label(params)``: a short label of a member of :data:`SAMPLER`'s family."""
+REGION = "opponents.regions:Region"
+"""``Region(feature name, threshold)``: a split of the field by one of the holder's features."""
+REGION_TEAM = "opponents.regions:RegionTeam"
+"""``RegionTeam(above, below, region)``: one team on each side of a region."""
+REGION_RULE = "opponents.regions:RegionRule"
+"""``RegionRule(above, below, region)``: one fixed holder rule on each side of a region."""
 GIF_WRITER = "soccer_drill.rendering.gif:save_gif"
 """The drill's GIF writer: ``save_gif(frames, path, fps)``, atomic."""
 HOLDER_SB3_VEC_ENV = "soccer_drill.vector.sb3:HolderSB3VecEnv"

@@ -191,7 +191,7 @@ class HolderVectorEnv(VectorEnv):
     the space (rounding). With ``drills_per_space=1`` a drill's episodes follow the single
     environment's decision by decision until the first such contact
     (``tests/test_vector_async.py`` checks the first decisions; ``tests/test_vector.py``
-    whole episodes of one drill); ``python -m opponents.agreement`` (a ``slow`` test runs a
+    whole episodes of one drill); ``python -m ilpss.experiments.agreement`` (a ``slow`` test runs a
     small version) checks that success rates agree within 95% intervals.
 
     ## Copies

@@ -9,17 +9,22 @@ installed ones, e.g. a plugin's beside ours): success rate (95% Wilson interval)
 mean reward (95% t interval) and the outcomes over seeded episodes of each fixed
 holder rule of :mod:`soccer_drill.policies`; the three criteria the drill is tuned
 for, with their measured figures; optionally the same for members of the parametric
-family drawn by :func:`opponents.sample_opponents`; and a small GIF of each team.
+family drawn by protocol C's sampler; and a small GIF of each team.
 Episode ``i`` of every cell uses seed ``i``, so cells are paired and the run is
 reproducible. The episodes of a cell run ``--drills`` at a time in the batched drill
-(:func:`soccer_drill.vector.play_episodes`; ``--drills 1`` plays them one by one in
-``HolderEnv``, the reference the batched drill agrees with in distribution). Every
+(the drill's ``play_episodes``, :data:`~ilpss.experiments.drill_facts.PLAY_EPISODES`;
+``--drills 1`` plays them one by one in the holder environment, the reference the batched
+drill agrees with in distribution). Every
 team's cells, every family member's and each team's GIF (made as soon as that team's
 cells are in) are jobs of one pool of ``--workers`` processes.
 
 The page is written to ``<out>/opponents.md`` and the GIFs to ``<out>/gifs/``; the
 default folder is ``results/calibration``, never ``docs/``. This project's
 ``docs/opponents.md`` is regenerated with ``--episodes 500 --sampled 20 --out docs``.
+
+The drill is reached as the rest of :mod:`ilpss` reaches it: the holder environment through
+Gymnasium, the rest by the names of :mod:`ilpss.experiments.drill_facts`; the intervals are
+:mod:`ilpss.metrics`'.
 """
 
 from __future__ import annotations
@@ -36,17 +41,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import gymnasium
 import numpy as np
-from scipy import stats
 
-from opponents import PAPER_TEAMS
-from opponents.parametric import sample_opponents, spec_label
-from soccer_drill.envs.holder import HolderEnv
+from ilpss.experiments import drill_facts
+from ilpss.experiments.drill_facts import ENV_ID, PAPER_TEAMS, drill_exception, drill_object
+from ilpss.experiments.registry import SAMPLERS
+from ilpss.metrics import t_interval, wilson_interval
 from soccer_drill.files import atomic_write_text, check_output_file
-from soccer_drill.policies import HOLDER_POLICIES
-from soccer_drill.rendering.gif import record_episode, save_gif
-from soccer_drill.teams import TeamError, describe, team_ids
-from soccer_drill.vector import HolderVectorEnv, play_episodes
 
 TEAMS = (*PAPER_TEAMS, "chasers")
 """Teams in the main table by default, in the paper's order, then ``chasers``."""
@@ -85,12 +87,19 @@ class Cell:
         return wilson_interval(self.successes, self.episodes)
 
 
-def wilson_interval(successes: int, n: int) -> tuple[float, float]:
-    """95% Wilson score interval of a binomial proportion (scipy's; (0, 1) when n = 0)."""
-    if n <= 0:
-        return 0.0, 1.0
-    ci = stats.binomtest(int(successes), int(n)).proportion_ci(method="wilson")
-    return float(ci.low), float(ci.high)
+def holder_rules() -> dict[str, Any]:
+    """The drill's fixed holder rules, by name (:data:`~ilpss.experiments.drill_facts.HOLDER_RULES`)."""
+    return drill_object(drill_facts.HOLDER_RULES)
+
+
+def sample_opponents(n: int, seed: int) -> list[dict[str, Any]]:
+    """``n`` members of the parametric family (protocol C's sampler)."""
+    return SAMPLERS.get(drill_facts.SAMPLER)(n, seed)
+
+
+def spec_label(params: Mapping[str, Any]) -> str:
+    """A family member's short label (:data:`~ilpss.experiments.drill_facts.SAMPLE_LABEL`)."""
+    return drill_object(drill_facts.SAMPLE_LABEL)(params)
 
 
 def evaluate(
@@ -118,24 +127,25 @@ def evaluate_rules(
 ) -> list[Cell]:
     """The cells of every rule of ``rules`` against ``team``: seeds ``first_seed`` to
     ``first_seed + episodes - 1`` for each. With ``drills > 1`` every rule's episodes
-    share one batch of ``drills`` drills (:func:`~soccer_drill.vector.play_episodes`,
-    a rule per episode), so the batch stays full until the last few episodes of all
-    the rules, not of each; with 1, one by one in ``HolderEnv``."""
+    share one batch of ``drills`` drills (the drill's ``play_episodes``, a rule per
+    episode), so the batch stays full until the last few episodes of all the rules, not
+    of each; with 1, one by one in the holder environment."""
     seeds = list(range(first_seed, first_seed + episodes))
+    known = holder_rules()
     if drills > 1:
-        venv = HolderVectorEnv(
-            num_envs=min(drills, episodes * len(rules)), opponent=team, opponent_params=params
-        )
-        policies = [HOLDER_POLICIES[r] for r in rules for _ in seeds]
-        played = play_episodes(venv, policies, seeds * len(rules))
+        venv = gymnasium.make_vec(ENV_ID, num_envs=min(drills, episodes * len(rules)),
+                                  vectorization_mode="vector_entry_point", opponent=team,
+                                  opponent_params=params)
+        policies = [known[r] for r in rules for _ in seeds]
+        played = drill_object(drill_facts.PLAY_EPISODES)(venv, policies, seeds * len(rules))
         return [
             _cell(label or team, rule, played[k * episodes:(k + 1) * episodes])
             for k, rule in enumerate(rules)
         ]
-    env = HolderEnv(opponent=team, opponent_params=params)
+    env = gymnasium.make(ENV_ID, opponent=team, opponent_params=params)
     cells = []
     for rule in rules:
-        policy = HOLDER_POLICIES[rule]
+        policy = known[rule]
         rng = np.random.default_rng(first_seed)
         played = []
         for seed in seeds:
@@ -155,13 +165,10 @@ def _cell(team: str, rule: str, played: Sequence[tuple[float, str]]) -> Cell:
     rewards = np.array([total for total, _ in played], dtype=float)
     outcomes = Counter(outcome for _, outcome in played)
     episodes = len(rewards)
-    mean = float(rewards.mean())
-    half = (
-        float(stats.t.ppf(0.975, episodes - 1) * rewards.std(ddof=1) / np.sqrt(episodes))
-        if episodes > 1 else float("nan")
-    )
+    mean, low, high = (float(x) for x in t_interval(rewards)) if episodes > 1 else (
+        float(rewards.mean()), float("nan"), float("nan"))
     return Cell(
-        team, rule, outcomes["success"], episodes, mean, mean - half, mean + half,
+        team, rule, outcomes["success"], episodes, mean, low, high,
         {k: outcomes[k] for k in _OUTCOMES},
     )
 
@@ -178,7 +185,7 @@ def calibrate(
     drills: int = DEFAULT_DRILLS,
 ) -> dict[tuple[str, str], Cell]:
     """Every (team, rule) cell, in ``workers`` processes (1: in this process)."""
-    rules = list(rules or HOLDER_POLICIES)
+    rules = list(rules or holder_rules())
     return _run([(t, rules, episodes, 0, None, None, drills) for t in teams], workers)
 
 
@@ -191,7 +198,7 @@ def calibrate_family(
     drills: int = DEFAULT_DRILLS,
 ) -> tuple[dict[tuple[str, str], Cell], dict[str, dict[str, Any]]]:
     """Cells for ``n`` members of the parametric family, labelled ``p00``, ``p01``, ..."""
-    rules = list(rules or HOLDER_POLICIES)
+    rules = list(rules or holder_rules())
     members = {f"p{i:02d}": params for i, params in enumerate(sample_opponents(n, seed))}
     jobs = [("parametric", rules, episodes, 0, params, label, drills)
             for label, params in members.items()]
@@ -222,7 +229,7 @@ def calibrate_all(
     family's ``(cells, members)`` (or ``None``) and per team ``(best rule, seed,
     outcome)`` of its GIF.
     """
-    rules = list(HOLDER_POLICIES)
+    rules = list(holder_rules())
     members = {f"p{i:02d}": params for i, params in enumerate(sample_opponents(sampled, 0))}
     team_jobs = [(t, rules, episodes, 0, None, None, drills) for t in teams]
     family_jobs = [("parametric", rules, sampled_episodes, 0, params, label, drills)
@@ -464,7 +471,7 @@ def _teams_section(teams: Sequence[str]) -> list[str]:
         "",
         "| id | description |",
         "|---|---|",
-        *[f"| `{t}` | {describe(t)} |" for t in teams],
+        *[f"| `{t}` | {drill_object(drill_facts.TEAM_DESCRIPTION)(t)} |" for t in teams],
     ]
     if "chasers" in teams and "interceptors_press" in teams:
         lines += [
@@ -486,7 +493,7 @@ def _rules_section(rules: Sequence[str]) -> list[str]:
         "",
         "| rule | what it does |",
         "|---|---|",
-        *[f"| `{r}` | {_first_line(HOLDER_POLICIES[r])} |" for r in rules],
+        *[f"| `{r}` | {_first_line(holder_rules()[r])} |" for r in rules],
     ]
 
 
@@ -592,24 +599,24 @@ def write_team_gif(team: str, rule: str, path: str | os.PathLike[str]) -> tuple[
     Returns ``(seed, outcome)``. Frames are kept as rendered; at ``GIF_FPS`` and at
     most ``max_cycles`` frames, a GIF is well under 1 MB.
     """
-    env = HolderEnv(opponent=team, render_mode="rgb_array")
-    policy = HOLDER_POLICIES[rule]
+    env = gymnasium.make(ENV_ID, opponent=team)
+    policy = holder_rules()[rule]
     chosen = 1
-    for seed in range(1, _GIF_SEARCH + 1):
-        obs, info = env.reset(seed=seed)
-        rng = np.random.default_rng(seed)
-        done = False
-        while not done:
-            obs, _, term, trunc, info = env.step(policy(obs, rng))
-            done = term or trunc
-        if info["outcome"] == "success":
-            chosen = seed
-            break
     try:
-        frames, info = record_episode(env, policy, chosen)
+        for seed in range(1, _GIF_SEARCH + 1):
+            obs, info = env.reset(seed=seed)
+            rng = np.random.default_rng(seed)
+            done = False
+            while not done:
+                obs, _, term, trunc, info = env.step(policy(obs, rng))
+                done = term or trunc
+            if info["outcome"] == "success":
+                chosen = seed
+                break
     finally:
         env.close()
-    save_gif(frames, path, GIF_FPS)
+    info = drill_object(drill_facts.EPISODE_GIF)(path, team=team, seed=chosen, policy=policy,
+                                                 fps=GIF_FPS)
     return chosen, info["outcome"]
 
 
@@ -624,7 +631,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             args.episodes, teams, args.sampled, args.sampled_episodes, args.workers, args.drills,
             None if args.no_gifs else out_dir / "gifs",
         )
-    except TeamError as exc:  # a team that fails: its error in one line, not a traceback
+    except drill_exception(drill_facts.TEAM_ERROR) as exc:  # a team that fails: its error in one line, not a traceback
         print(f"soccer-drill-calibrate: error: {exc}", file=sys.stderr)
         return 1
     gifs = {team: (f"gifs/{team}.gif", rule, seed, outcome)
@@ -680,7 +687,7 @@ def _checked(parser: argparse.ArgumentParser, args: argparse.Namespace) -> tuple
         parser.error("--drills must be >= 1")
     if args.workers < 1:
         parser.error(f"--workers must be >= 1 (1: in this process), got {args.workers}")
-    known = team_ids()
+    known = drill_object(drill_facts.TEAM_IDS)()
     unknown = [t for t in args.teams if t not in known]
     if unknown:
         parser.error(f"unknown team(s) {unknown}; installed teams: {known}")
@@ -719,8 +726,8 @@ def _timing(args: argparse.Namespace, seconds: float) -> str:
     if args.drills > 1:
         timing += (
             f" Each team's episodes (every rule's) ran {args.drills} at a time in the batched "
-            "drill (`soccer_drill.vector.play_episodes`), which agrees with `HolderEnv` in "
-            "distribution (`python -m opponents.agreement`)."
+            "drill (`soccer_drill.vector.holder.play_episodes`), which agrees with `HolderEnv` in "
+            "distribution (`python -m ilpss.experiments.agreement`)."
         )
     return timing
 

@@ -1,10 +1,10 @@
 """The batched drill against the single one: success rates of every rule against every team.
 
-    python -m opponents.agreement [--episodes 500] [--teams ID ...] [--rules NAME ...]
+    python -m ilpss.experiments.agreement [--episodes 500] [--teams ID ...] [--rules NAME ...]
 
-For every fixed holder rule of :mod:`soccer_drill.policies` and every registered team,
-``--episodes`` seeded episodes (seeds 0..episodes-1) in ``HolderEnv`` (the reference)
-and in the batched drill (:func:`soccer_drill.vector.play_episodes`), and whether the
+For every fixed holder rule of the drill and every registered team, ``--episodes`` seeded
+episodes (seeds 0..episodes-1) in the holder environment (the reference) and in the
+batched drill (its ``play_episodes``), and whether the
 two success rates agree: Newcombe's 95% interval of their difference holds 0 (and,
 stricter, each rate lies within the other's 95% Wilson interval, which a rate of 0 can
 fail against 1 success in 500). Prints a table and exits non-zero if any cell disagrees.
@@ -19,9 +19,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from opponents.calibrate import evaluate, wilson_interval
-from soccer_drill.policies import HOLDER_POLICIES
-from soccer_drill.teams import team_ids
+from ilpss.experiments import drill_facts
+from ilpss.experiments.calibrate import evaluate, holder_rules
+from ilpss.experiments.drill_facts import drill_object
+from ilpss.metrics import wilson_interval
 
 
 @dataclass(frozen=True)
@@ -75,13 +76,13 @@ def agreement(
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Print the table; 0 if every cell agrees."""
-    parser = argparse.ArgumentParser(prog="python -m opponents.agreement", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m ilpss.experiments.agreement", description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=500)
     parser.add_argument("--teams", nargs="+", default=None, help="default: every registered team")
-    parser.add_argument("--rules", nargs="+", default=list(HOLDER_POLICIES))
+    parser.add_argument("--rules", nargs="+", default=list(holder_rules()))
     parser.add_argument("--drills", type=int, default=64)
     args = parser.parse_args(argv)
-    teams = args.teams or team_ids()
+    teams = args.teams or drill_object(drill_facts.TEAM_IDS)()
     cells = agreement(args.episodes, teams, args.rules, args.drills)
     print("| team | rule | single | batched | difference [95% CI] | agree |")
     print("|---|---|---:|---:|---|---|")

@@ -1,10 +1,10 @@
 """The pre-check of the region stream: fixed holder rules against its sources and compositions.
 
-    python -m opponents.region_check [--episodes 500] [--workers 2] [--out docs/regions.md]
+    python -m ilpss.experiments.region_check [--episodes 500] [--workers 2] [--out docs/regions.md]
 
-For each pure source team, every fixed rule of :mod:`soccer_drill.policies`; for each
-candidate composition (a :class:`~opponents.regions.RegionTeam` of two sources), every
-fixed rule and the hand-composed rules :class:`~opponents.regions.RegionRule`
+For each pure source team, every fixed rule of the drill (``soccer_drill.policies``); for
+each candidate composition (an ``opponents.regions.RegionTeam`` of two sources), every
+fixed rule and the hand-composed rules ``opponents.regions.RegionRule``
 ``i|j`` (``i`` the best rule against the source played above the region's threshold,
 ``j`` the best against the source played below) and ``j|i``. Each cell plays the
 episodes of seeds ``0..episodes-1``: success rate with a 95% Wilson interval, mean
@@ -20,6 +20,10 @@ its seed and the actions alone: so two rules that act alike until the holder fir
 decides below play the same episode until then (the page checks it). The cells are
 shared among ``--workers`` processes. ``docs/regions.md`` is regenerated with
 ``--episodes 500 --out docs/regions.md``.
+
+The drill and its region teams are reached by the names of
+:mod:`ilpss.experiments.drill_facts` (the holder environment through Gymnasium); the
+intervals are :mod:`ilpss.metrics`'.
 """
 
 from __future__ import annotations
@@ -28,21 +32,30 @@ import argparse
 import os
 import time
 from collections import Counter
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
+import gymnasium
 import numpy as np
-from scipy import stats
 
-from opponents.calibrate import wilson_interval
-from opponents.region_stream import LEFT, NEAR, SOURCES
-from opponents.regions import Region, RegionRule, RegionTeam
-from soccer_drill.envs.holder import HolderEnv
+from ilpss.experiments import drill_facts
+from ilpss.experiments.calibrate import holder_rules
+from ilpss.experiments.drill_facts import ENV_ID, drill_object
+from ilpss.metrics import t_interval as _t_interval
+from ilpss.metrics import wilson_interval
 from soccer_drill.files import atomic_write_text, check_output_file
-from soccer_drill.policies import HOLDER_POLICIES, HolderPolicy
-from soccer_drill.teams import make_team
+
+HolderPolicy = Callable[[np.ndarray, np.random.Generator], int]
+Region = drill_object(drill_facts.REGION)
+RegionTeam = drill_object(drill_facts.REGION_TEAM)
+RegionRule = drill_object(drill_facts.REGION_RULE)
+SOURCES = drill_facts.REGION_SOURCES
+NEAR = Region("dist_goal", 12.0)
+"""Below: the holder is within 12 m of the goal line (as ``opponents.region_stream.NEAR``)."""
+LEFT = Region("lateral", 0.0)
+"""Below: the holder is in the left half (as ``opponents.region_stream.LEFT``)."""
 
 OUTCOMES = ("success", "interception", "out", "timeout")
 
@@ -68,7 +81,7 @@ class Candidate:
         built = RegionTeam(self.above, self.below, self.region)
         if not self.registered:
             return built
-        team = make_team(self.label)
+        team = drill_object(drill_facts.MAKE_TEAM)(self.label)
         if not isinstance(team, RegionTeam) or team.params() != built.params():
             raise ValueError(f"team {self.label!r} is not the composition {built!r}")
         return team
@@ -132,13 +145,12 @@ class Play:
 
 
 def t_interval(values: np.ndarray) -> tuple[float, float, float]:
-    """Mean and 95% Student t interval of ``values`` (the per-episode paired differences)."""
-    n = len(values)
-    mean = float(np.mean(values))
-    if n < 2:
-        return mean, float("nan"), float("nan")
-    half = float(stats.t.ppf(0.975, n - 1) * np.std(values, ddof=1) / np.sqrt(n))
-    return mean, mean - half, mean + half
+    """Mean and 95% Student t interval of ``values`` (the per-episode paired differences;
+    the bounds NaN for fewer than two)."""
+    if len(values) < 2:
+        return float(np.mean(values)), float("nan"), float("nan")
+    mean, low, high = _t_interval(values)
+    return float(mean), float(low), float(high)
 
 
 def _mean_text(values: np.ndarray) -> str:
@@ -162,7 +174,7 @@ class EpisodeChoice:
 
     def for_episode(self, first: np.ndarray) -> HolderPolicy:
         """The rule of the episode whose first observation is ``first``."""
-        return HOLDER_POLICIES[self.below if self.region.observed_below(first) else self.above]
+        return holder_rules()[self.below if self.region.observed_below(first) else self.above]
 
 
 def play(
@@ -172,8 +184,8 @@ def play(
     """``rule`` against ``opponent`` in ``HolderEnv`` for seeds ``0..episodes-1``, the rule
     drawing from ``default_rng(seed)``; each episode's decisions are counted above and
     below ``region`` if one is given."""
-    policy = HOLDER_POLICIES[rule] if isinstance(rule, str) else rule
-    env = HolderEnv(opponent=opponent)
+    policy = holder_rules()[rule] if isinstance(rule, str) else rule
+    env = gymnasium.make(ENV_ID, opponent=opponent)
     rewards, outcomes = np.zeros(episodes), []
     counts = np.zeros((episodes, 2), dtype=int)  # decisions above, below
     for seed in range(episodes):
@@ -270,7 +282,7 @@ def judge(
     episodes: int, workers: int = 2,
 ) -> tuple[dict[str, dict[str, Play]], list[Judged]]:
     """Every cell of the page: the sources' and each candidate's."""
-    rules = list(HOLDER_POLICIES)
+    rules = list(holder_rules())
     source_plays = _run([(s, s, r, episodes) for s in CHECK_SOURCES for r in rules], workers)
     sources: dict[str, dict[str, Play]] = {s: {} for s in CHECK_SOURCES}
     for p in source_plays:
@@ -321,7 +333,7 @@ def _source_table(sources: Mapping[str, Mapping[str, Play]]) -> list[str]:
         "|---|" + "---:|---:|" * len(sources),
     ]
     best = {s: best_rule(plays) for s, plays in sources.items()}
-    for rule in HOLDER_POLICIES:
+    for rule in holder_rules():
         row = []
         for s, plays in sources.items():
             p = plays[rule]
@@ -671,7 +683,7 @@ def _summary_section(judged: Sequence[Judged]) -> list[str]:
 def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point: judge every candidate, write the page."""
     parser = argparse.ArgumentParser(
-        prog="python -m opponents.region_check", description=__doc__.splitlines()[0],
+        prog="python -m ilpss.experiments.region_check", description=__doc__.splitlines()[0],
     )
     parser.add_argument("--episodes", type=int, default=500, help="episodes per cell")
     parser.add_argument("--workers", type=int, default=2, help="worker processes")
@@ -688,7 +700,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     start = time.perf_counter()
     sources, judged = judge(args.episodes, args.workers)
     seconds = time.perf_counter() - start
-    command = f"python -m opponents.region_check --episodes {args.episodes} --out {args.out}"
+    command = f"python -m ilpss.experiments.region_check --episodes {args.episodes} --out {args.out}"
     timing = f"It took {seconds / 60:.1f} min with {args.workers} worker process(es)."
     path = write_page(sources, judged, args.episodes, args.out, command, timing)
     for j in judged:
