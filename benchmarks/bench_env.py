@@ -37,8 +37,9 @@ import numpy as np
 import pymunk
 
 import soccer_drill
-from soccer_drill.drill import Drill
-from soccer_drill.teams import check_commands
+from soccer_drill.config import DrillConfig
+from soccer_drill.drill.drills import BatchDrill
+from soccer_drill.drill.spaces import DrillSpace
 
 
 class RandomLegal:
@@ -149,13 +150,14 @@ class PhysicsLoop:
     """The floor: the drill's own pymunk space (4 players, ball, walls), stepped bare."""
 
     def __init__(self, cycles: int = 1 << 16) -> None:
-        drill = Drill()
-        drill.reset(np.random.default_rng(0))
-        # The drill's space (``_space`` in checkouts from before DrillSpace, for --against).
-        physics = getattr(drill, "physics", None)
-        self.space: pymunk.Space = physics.space if physics is not None else drill._space
+        cfg = DrillConfig()
+        physics = DrillSpace(cfg)
+        start = np.zeros((1, 5, 2))
+        start[0, :4] = [*cfg.attacker_starts, *cfg.defender_starts]
+        start[0, 4] = start[0, 0, 0], start[0, 0, 1] - cfg.ball_offset
+        physics.renew(np.zeros(1, dtype=np.int64), start)
+        self.space: pymunk.Space = physics.space
         self.bodies = list(self.space.bodies)  # the 4 players and the ball
-        cfg = drill.config
         self.dt, self.substeps = cfg.cycle_seconds / cfg.substeps, cfg.substeps
         rng = np.random.default_rng(0)
         self.velocities = rng.uniform(-3, 3, size=(cycles, len(self.bodies), 2)).tolist()
@@ -192,13 +194,13 @@ def _fastest_us(call: Callable[[], object], number: int, repeat: int) -> float:
 
 
 def reset_us(rebuild: bool, number: int = 100, repeat: int = 30) -> float:
-    """Microseconds per ``Drill.reset``; ``rebuild=False`` keeps the previous space."""
-    drill = Drill()
-    rng = np.random.default_rng(0)
-    drill.reset(rng)
+    """Microseconds per reset of a single drill; ``rebuild=False`` keeps the previous space."""
+    cfg, rng, one = DrillConfig(), np.random.default_rng(0), np.zeros(1, dtype=np.int64)
+    drill = BatchDrill(1, cfg, physics=DrillSpace(cfg))
+    drill.reset(one, [rng])
     if not rebuild:
         drill.physics.renew = lambda drills, pos: None  # the old reset: same bodies, same space
-    return _fastest_us(lambda: drill.reset(rng), number, repeat)
+    return _fastest_us(lambda: drill.reset(one, [rng]), number, repeat)
 
 
 def env_reset_us(opponent: str = "chasers", number: int = 100, repeat: int = 30) -> float:
@@ -221,23 +223,26 @@ def guard_us(number: int = 20_000, repeat: int = 30) -> float:
 def team_check_costs(number: int = 20_000, repeat: int = 30) -> dict[str, float]:
     """Microseconds per cycle of the team's safety checks, each alone.
 
-    ``bound``: ``TeamDriver.act`` with the time bound against the same driver without it.
-    ``commands``: checking the commands the team returned (the chasers give one object
-    to both players, checked once). ``action``: checking one agent's action
-    (``DrillCore.command_for``).
+    ``bound``: the team driver's ``act`` with the time bound against the same driver
+    without it. ``commands``: checking and writing the commands the team returned (the
+    chasers' one command, in arrays). ``action``: checking one agent's action and setting
+    its command.
     """
+    from soccer_drill.teams.driver import check_commands
+
     env = soccer_drill.env(opponent="chasers")
     env.reset(seed=0)
-    core = env._core
-    driver, view = core._driver, core.view
-    bounded = _fastest_us(lambda: driver.act(view), number, repeat)
+    driver, batch = env._core.team, env._core.batch
+    one = np.zeros(1, dtype=np.int64)
+    bounded = _fastest_us(lambda: driver.act(one), number, repeat)
     timeout, driver.team_timeout = driver.team_timeout, None
-    unbounded = _fastest_us(lambda: driver.act(view), number, repeat)
+    unbounded = _fastest_us(lambda: driver.act(one), number, repeat)
     driver.team_timeout = timeout
-    returned = driver.team.act(view)
-    commands = _fastest_us(lambda: check_commands(returned, driver.players, driver.name, 0),
+    returned = driver.batched.act(driver.view, one)
+    commands = _fastest_us(lambda: check_commands(returned, batch.commands, one, batch.cycle,
+                                                  driver.name, driver.view.players, False),
                            number, repeat)
-    action = _fastest_us(lambda: core.command_for("attacker_0", 0, 3), number, repeat)
+    action = _fastest_us(lambda: env._command("attacker_0", 0, 3), number, repeat)
     return {"bound": bounded - unbounded, "commands": commands, "action": action}
 
 

@@ -25,20 +25,20 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import soccer_drill.drill.drills as drills_module
 import soccer_drill.drill.spaces as physics_module
+import soccer_drill.envs.core as core_module
+import soccer_drill.envs.holder as loop_module
 import soccer_drill.rules.cycle as cycle_module
-import soccer_drill.teams.batch as teams_module
-import soccer_drill.vector as vector_module
+import soccer_drill.teams.driver as teams_module
 import soccer_drill.vector.agents as agents_module
-import soccer_drill.vector.core as core_module
 
 _MODULES = (drills_module, core_module, physics_module, cycle_module, teams_module,
-            vector_module, agents_module)
+            loop_module, agents_module)
 _SPENT: collections.Counter = collections.Counter()
 
 # (label, owner, attribute): a module-level function or a method.
 COMPONENTS = (
     ("whole cycle of the agents (step)", agents_module.ParallelVectorEnv, "step"),
-    ("whole cycle of the holder (_cycle)", vector_module.HolderVectorEnv, "_cycle"),
+    ("whole cycle of the holder (HolderLoop.cycle)", loop_module.HolderLoop, "cycle"),
     ("  physics (pymunk spaces, batched reads/writes)", physics_module.BatchPhysics, "cycle"),
     ("  the drill's rules (BatchDrill.step less the physics)", drills_module.BatchDrill, "step"),
     ("    before the physics (skills, kicks, compiled)", cycle_module, "before_physics_of_drills"),
@@ -46,7 +46,7 @@ COMPONENTS = (
      "after_physics_of_drills"),
     ("    tackles", drills_module.BatchDrill, "_tackle"),
     ("    rewards", drills_module.BatchDrill, "_rewards"),
-    ("  team (batched act, its bound and checks)", teams_module.BatchTeamDriver, "act"),
+    ("  team (batched act, its bound and checks)", teams_module.TeamDriver, "act"),
     ("  support players' commands (holder)", core_module.BatchCore, "support_commands"),
     ("  observations and masks (agents)", agents_module.ParallelVectorEnv, "_observations"),
     ("  action checks (agents)", agents_module.ParallelVectorEnv, "_commands"),

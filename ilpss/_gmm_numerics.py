@@ -16,20 +16,6 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.linalg import lapack
 
-__all__ = [
-    "e_step",
-    "estimate_log_gaussian_prob",
-    "kmeans_plusplus",
-    "lloyd",
-    "log_likelihood",
-    "logsumexp_rows",
-    "m_step",
-    "nearest",
-    "precision_cholesky",
-    "sq_mahalanobis",
-    "stack_components",
-]
-
 Array = NDArray[np.float64]
 
 _LOG_2PI = float(np.log(2.0 * np.pi))

@@ -86,7 +86,7 @@ from ilpss.tiles import TileCoder
 from ilpss.traces import DivergedError, ReplacingTraces, td_update
 from soccer_drill.constraints import NoneOr, Real, check_fields, from_json
 
-__all__ = ["PRQ_CONSTRAINTS", "PrqConfig", "PrqLearner"]
+__all__ = ["PrqConfig", "PrqLearner"]
 
 PRQ_CONSTRAINTS = {
     "psi": Real(0.0, 1.0),

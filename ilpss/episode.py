@@ -37,7 +37,6 @@ __all__ = [
     "EpisodeLog",
     "EpisodeResult",
     "EpisodicLearner",
-    "OptionRun",
     "check_env",
     "observation",
     "options_used",

@@ -44,23 +44,13 @@ from ilpss._schema import BOOL, FLOAT, INTEGER, ArchiveSchema, Field, RowsSumToO
 from soccer_drill.constraints import Bool, Integer, NoneOr, Real, check, check_fields, is_int
 
 __all__ = [
-    "KERNELS_ARCHIVE",
-    "KERNEL_CONSTRAINTS",
-    "REGION_ARCHIVE",
-    "SCHEMA",
-    "UNIFORM_ARCHIVE",
-    "KernelConvergenceWarning",
     "KernelModel",
-    "NotFittedError",
     "RegionKernels",
     "SharedKernelModel",
     "UniformKernel",
-    "bhattacharyya_distance",
     "kernel_distances",
-    "kernel_parameters",
     "match_kernels",
     "select_n_components",
-    "validate_bags",
 ]
 
 #: Schema (name/version) of the files written by :meth:`SharedKernelModel.save`.

@@ -77,11 +77,9 @@ import numpy as np
 
 from ilpss._io import check_inside, load_archive, save_npz_atomic, sha256_file
 from ilpss._schema import FLOAT, INTEGER, ArchiveSchema, Field, MappingOf
-from ilpss.kernels import (  # kernel matching is the kernels' own; named here as before
+from ilpss.kernels import (
     KernelModel,
     SharedKernelModel,
-    bhattacharyya_distance,
-    kernel_distances,
     kernel_parameters,
     match_kernels,
 )
@@ -90,19 +88,9 @@ from ilpss.tiles import TileCoder
 from soccer_drill.constraints import Integer, NoneOr, Real, Text, check_fields, from_json, is_int
 
 __all__ = [
-    "LIBRARY_ARCHIVE",
-    "LIBRARY_SCHEMA",
-    "OPTION_CONSTRAINTS",
-    "KernelModel",
     "LibraryState",
-    "OptionInfo",
     "OptionLibrary",
     "OptionSettings",
-    "RefitReport",
-    "TrialReport",
-    "bhattacharyya_distance",
-    "kernel_distances",
-    "match_kernels",
 ]
 
 LIBRARY_SCHEMA = "ilpss.options/1"

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 from ilpss._io import save_figure
 from ilpss.metrics import mean_curve_band, smooth
 
-__all__ = ["plot_learning_curves", "plot_score_profiles"]
+__all__ = ["plot_learning_curves"]
 
 
 LEGEND_INSIDE_AT_MOST = 5

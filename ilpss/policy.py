@@ -31,8 +31,6 @@ from ilpss.tiles import TileCoder
 from soccer_drill.constraints import Integer, Real, check, is_int
 
 __all__ = [
-    "EPSILON",
-    "POLICY_SCHEMA",
     "FrozenPolicy",
     "LinearPolicy",
     "epsilon_greedy_choice",

@@ -86,7 +86,6 @@ from ilpss.episode import (
     OptionRun,
     check_env,
     observation,
-    options_used,
     step_duration,
 )
 from ilpss.options import OptionLibrary
@@ -106,13 +105,9 @@ from soccer_drill.constraints import (
 
 __all__ = [
     "KEEPAWAY",
-    "LEARNER_CONSTRAINTS",
     "SMDP_CONSTRAINTS",
-    "EpisodeResult",
     "LearnerConfig",
-    "OptionRun",
     "SmdpLearner",
-    "options_used",
 ]
 
 SMDP_CONSTRAINTS = {

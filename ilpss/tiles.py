@@ -26,8 +26,7 @@ import numpy as np
 
 from soccer_drill.constraints import Integer, Real, check
 
-__all__ = ["KEEPAWAY_ALPHA", "KEEPAWAY_N_TILINGS", "MAX_WEIGHTS", "TILE_CONSTRAINTS", "TileCoder",
-           "box_bounds"]
+__all__ = ["TileCoder"]
 
 #: Keepaway's number of one-dimensional tilings per state variable.
 KEEPAWAY_N_TILINGS = 32

@@ -22,7 +22,7 @@ import numpy as np
 
 from ilpss.policy import LinearPolicy
 
-__all__ = ["MIN_TRACE", "DivergedError", "ReplacingTraces", "td_update"]
+__all__ = ["DivergedError"]
 
 
 class DivergedError(FloatingPointError):

@@ -19,8 +19,6 @@
 :func:`sample_opponents` draws distinct members of the family for long streams.
 """
 
-from opponents.chasers import Chasers
-from opponents.paper import GoalGuards, InterceptorGuard, InterceptorsCover, InterceptorsPress
 from opponents.parametric import ParametricTeam, sample_opponents, spec_label
 from opponents.regions import Region, RegionRule, RegionTeam
 
@@ -34,11 +32,6 @@ PAPER_TEAMS: tuple[str, str, str, str] = (
 
 __all__ = [
     "PAPER_TEAMS",
-    "Chasers",
-    "GoalGuards",
-    "InterceptorGuard",
-    "InterceptorsCover",
-    "InterceptorsPress",
     "ParametricTeam",
     "Region",
     "RegionRule",

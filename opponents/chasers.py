@@ -2,17 +2,18 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from soccer_drill import Command, Skill
+from soccer_drill.constraints import Real, checked
+from soccer_drill.teams import SameCommands
 
-import numpy as np
-
-from soccer_drill.skills import Command, Skill
-from soccer_drill.state import DrillView
-from soccer_drill.teams.batch import SameCommands
+SPEED = Real(0.0, 1.0, low_open=True)
+"""What ``speed`` may be: a fraction of the defenders' top speed in (0, 1]."""
 
 
 class Chasers:
     """Both defenders chase the ball (at speed 1, the same as interceptors_press).
+
+    Its batched form is its one command (``SameCommands``), for one drill as for many.
 
     Parameters
     ----------
@@ -21,27 +22,12 @@ class Chasers:
     """
 
     def __init__(self, speed: float = 1.0) -> None:
-        if not 0.0 < speed <= 1.0:
-            raise ValueError(f"speed must be in (0, 1], got {speed!r}")
-        self.speed = speed
-        self._players: tuple[str, ...] = ()
-        self._command = self.command()
+        self.speed = checked("speed", speed, SPEED)
 
     def command(self) -> Command:
         """The command of both defenders: INTERCEPT at :attr:`speed`."""
         return Command(Skill.INTERCEPT, speed=self.speed)
 
-    def reset(self, view: DrillView, rng: np.random.Generator) -> None:
-        """Remember the players to drive and the command for them."""
-        self._players = view.players
-        # Made once per episode (a Command is immutable): making one costs about a
-        # microsecond, over 1% of the drill's cycle.
-        self._command = self.command()
-
-    def act(self, view: DrillView) -> Mapping[str, Command]:
-        """INTERCEPT for both defenders."""
-        return dict.fromkeys(self._players, self._command)
-
     def batch(self, n: int) -> SameCommands:
-        """This team for ``n`` drills at once (``soccer_drill.teams.batch``): its one command."""
+        """This team for ``n`` drills at once: its one command."""
         return SameCommands(self.command)

@@ -13,7 +13,8 @@ import sys
 import warnings
 from collections.abc import Sequence
 
-from soccer_drill.teams import PluginWarning, available_teams, broken_teams, refresh
+from soccer_drill import available_teams
+from soccer_drill.teams import PluginWarning, broken_teams, refresh
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from soccer_drill.config import DrillConfig
+from soccer_drill import DrillConfig, Skill
 from soccer_drill.constraints import (
     AnyOf,
     Bool,
@@ -31,22 +31,21 @@ from soccer_drill.constraints import (
     check_fields,
     is_real,
 )
-from soccer_drill.rules.compiled import compiled, hypot, warms
-from soccer_drill.rules.motion import (
-    CONTROL_RADIUS,
+from soccer_drill.teams import (
     GUARD_DEPTH,
-    GUARD_LINE,
-    INTERCEPT,
-    MARK,
-    MOVE_TO,
-    SPACING,
+    STATE,
+    BatchCommands,
+    BatchRandom,
+    BatchView,
+    compiled,
+    every_drill,
+    hypot,
     interception_point,
     mark_target,
     roll_table,
     rule_parameters,
+    warms,
 )
-from soccer_drill.skills import Command, Skill
-from soccer_drill.state import DrillView
 
 ROLES = ("interceptor", "guard")
 """What a defender does: go for the ball, or protect the goal line."""
@@ -66,10 +65,37 @@ COORDINATIONS = ("press", "cover", "screen")
 _SWITCH_MARGIN = 1.0  # metres: the presser changes only when the other is this much nearer
 _EDGE = 2.0  # guards stay this far inside the touchlines
 _MARK_FRACTION = 0.35  # soccer_drill's MARK skill stands this far from the attacker toward the ball
-# The team's settings as one float64 array, the plan's (see _settings), by index.
-(_GUARD_0, _GUARD_1, _COORDINATION, _SPEED_0, _SPEED_1, _DELAY, _MARK_AT, _CHASE_LOOSE,
- _SCREEN, _DEPTH, _TRACK, _GUARD_SPACING, _REACH, _PRESS, _SORTIE) = range(15)
-_PRESS_MODE, _COVER, _SCREEN_MODE = range(3)  # COORDINATIONS' indices
+_PRESS_MODE, _COVER = COORDINATIONS.index("press"), COORDINATIONS.index("cover")
+
+SETTINGS = np.dtype([
+    ("guard", np.int8, (2,)),
+    ("coordination", np.int64),
+    ("speed", np.float64, (2,)),
+    ("reaction_delay", np.int64),
+    ("mark_fraction", np.float64),
+    ("chase_loose", np.bool_),
+    ("screen_distance", np.float64),
+    ("guard_depth", np.float64),
+    ("guard_track", np.float64),
+    ("guard_spacing", np.float64),
+    ("guard_reach", np.float64),
+    ("press_probability", np.float64),
+    ("sortie_cycles", np.int64),
+])
+"""A team's settings as its compiled plan reads them, by name (``coordination``: an index of
+:data:`COORDINATIONS`; ``guard[k]``: defender ``k`` is a guard)."""
+MEMORY = np.dtype([
+    ("sortie_left", np.int64, (2,)),
+    ("presser", np.int64),
+    ("sorties", np.int64),
+    ("count", np.int64),
+    ("draws", np.float64, (2,)),
+])
+"""What a team remembers of one drill's episode: each guard's sortie cycles left, the
+presser (-1: none yet), the sorties started, the states seen (for the delay), and this
+cycle's two uniforms (the guards' on their line)."""
+PLANS = np.dtype([("skill", np.int64, (2,)), ("target", np.float64, (2, 2))])
+"""The plan of one drill: its two defenders' skills and ``MOVE_TO`` targets."""
 
 
 _SPEED = Real(0.0, 1.0, low_open=True)
@@ -101,7 +127,7 @@ class ParametricTeam:
     line, between its home spot and the ball's abscissa, and leaves the line for
     the ball only on a *sortie*. A sortie starts with probability
     ``press_probability`` **per cycle** (drawn independently for each guard on the
-    line, from the generator handed to :meth:`reset`), or whenever the ball comes
+    line, from the drill's generator of the team), or whenever the ball comes
     within ``guard_reach`` metres of the guard; it lasts ``sortie_cycles`` cycles,
     then the guard returns to the line. With ``press_probability = p`` a guard
     leaves its line at least once in an episode of ``n`` cycles with probability
@@ -174,11 +200,7 @@ class ParametricTeam:
         self.guard_reach = float(guard_reach)
         self.press_probability = float(press_probability)
         self.sortie_cycles = int(sortie_cycles)
-        self._players: tuple[str, ...] = ()
-        self._settings = self._settings_array()
-        self._one: ParametricBatch | None = None  # this team in its one drill
-        self._holder = np.zeros(1, dtype=np.int64)  # its holder, as the plan reads it
-        self._rng: _OneDrill | None = None
+        self._batched: ParametricBatch | None = None
 
     def params(self) -> dict[str, Any]:
         """The keyword parameters that rebuild this team (JSON-ready)."""
@@ -202,16 +224,20 @@ class ParametricTeam:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params().items())
         return f"{type(self).__name__}({args})"
 
-    def _settings_array(self) -> np.ndarray:
-        """The settings as :func:`plan_into` reads them."""
-        settings = np.array([
-            self.roles[0] == "guard", self.roles[1] == "guard",
-            COORDINATIONS.index(self.coordination), *self.speeds, self.reaction_delay,
-            self.mark_fraction, self.chase_loose, self.screen_distance, self.guard_depth,
-            self.guard_track, self.guard_spacing, self.guard_reach, self.press_probability,
-            self.sortie_cycles,
-        ], dtype=np.float64)
-        settings.flags.writeable = False
+    def settings(self) -> np.ndarray:
+        """The settings as :func:`plan_into` reads them: one :data:`SETTINGS` record."""
+        settings = np.zeros(1, dtype=SETTINGS)
+        values = {
+            "guard": [role == "guard" for role in self.roles],
+            "coordination": COORDINATIONS.index(self.coordination),
+            "speed": self.speeds,
+            **{name: getattr(self, name) for name in (
+                "reaction_delay", "mark_fraction", "chase_loose", "screen_distance",
+                "guard_depth", "guard_track", "guard_spacing", "guard_reach",
+                "press_probability", "sortie_cycles")},
+        }
+        for name, value in values.items():
+            settings[0][name] = value
         return settings
 
     def _drawing(self) -> tuple[int, ...]:
@@ -224,157 +250,110 @@ class ParametricTeam:
 
     @property
     def sorties(self) -> int:
-        """Sorties started this episode (for tests and statistics)."""
-        return 0 if self._one is None else int(self._one.sorties[0])
-
-    # ------------------------------------------------------------------ protocol
-    def reset(self, view: DrillView, rng: np.random.Generator) -> None:
-        """Start an episode: sorties and the delay buffer are reset; ``rng`` feeds the sorties."""
-        if self._one is None:
-            self._one = ParametricBatch(self, 1)
-        self._one.reset(view, _FIRST, None)
-        self._players = tuple(view.players)
-        self._rng = _OneDrill(rng)
-        fixed = self._one.fixed  # a plan that never reads the state: its commands made once
-        self._fixed = None if fixed is None else self._commands(fixed[0][0], fixed[1][0])
-
-    def act(self, view: DrillView) -> dict[str, Command]:
-        """One command per defender, from the (possibly delayed) state: the batched plan
-        (:class:`ParametricBatch`) in this team's one drill."""
-        if self._rng is None or self._one is None:
-            raise RuntimeError("reset() first")
-        if self._fixed is not None:
-            return self._fixed
-        state = view.state
-        holder = self._holder
-        holder[0] = state.holder
-        skill, target = self._one.plan(_FIRST, np.array((state.pos,)), np.array((state.vel,)),
-                                       holder, self._rng)
-        return self._commands(skill[0], target[0])
-
-    def _commands(self, skill: np.ndarray, target: np.ndarray) -> dict[str, Command]:
-        targets = target.tolist()
-        return {
-            player: Command(Skill(s), tuple(targets[k]) if s == MOVE_TO else None, self.speeds[k])
-            for k, (player, s) in enumerate(zip(self._players, skill.tolist(), strict=True))
-        }
+        """Sorties started in the episode of the first drill of the last batch made (in the
+        single environment: this episode's; for tests and statistics)."""
+        return 0 if self._batched is None else int(self._batched.memory["sorties"][0])
 
     def batch(self, n: int) -> ParametricBatch:
-        """This team's behaviour for ``n`` drills at once (see :class:`ParametricBatch`)."""
-        return ParametricBatch(self, n)
-
-
-_FIRST = np.zeros(1, dtype=np.int64)  # the single team's drill (the plan reads it only)
-
-
-class _OneDrill:
-    """The single team's generator, drawn from as the batched plan draws from each drill's
-    (``random(drills)``: one uniform per drill, the next ``Generator.random()``)."""
-
-    def __init__(self, rng: np.random.Generator) -> None:
-        self.rng = rng
-
-    def random(self, drills: np.ndarray) -> np.ndarray:
-        return self.rng.random(len(drills))
-
-
-def _drill_numbers(cfg: DrillConfig) -> tuple[float, float, float, np.ndarray, float]:
-    """What :func:`plan_into` reads of the drill's configuration, after the settings."""
-    params = rule_parameters(cfg)
-    return (cfg.field_size, cfg.defender_speed, float(params[CONTROL_RADIUS]), roll_table(cfg),
-            float(params[SPACING]))
+        """This team for ``n`` drills (one in the single environment): :class:`ParametricBatch`."""
+        self._batched = ParametricBatch(self, n)
+        return self._batched
 
 
 @compiled
-def plan_into(skill, target, sortie_left, presser, draws, pos, vel, holder, settings, size,
-              defender_speed, reach, table, spacing):
+def plan_into(skill, target, memory, seen, settings, params, table):
     """The two defenders' commands in one drill, written into ``skill`` and ``target``
-    (a ``MOVE_TO``'s target; other skills' own targets are the drill's).
+    (a ``MOVE_TO``'s target; other skills' own targets are the drill's), on the state it
+    sees (``seen``: a :data:`~soccer_drill.rules.arrays.STATE` record).
 
     Guards on their line start a sortie if the ball comes within reach, or if their
-    uniform in ``draws`` falls below ``press_probability`` (read only for the guards
-    :meth:`ParametricTeam._drawing` names); a guard on a sortie intercepts, else stands at
-    its spot on the line. Two interceptors share the work by ``coordination``: the
-    presser (kept until the other is ``_SWITCH_MARGIN`` nearer the ball) intercepts; the
-    other marks or screens, or chases a loose ball. With a reaction delay every command
-    becomes a ``MOVE_TO`` to where its skill would go in the state seen.
-    ``sortie_left`` is updated in place; returns the presser and the sorties started.
+    uniform in ``memory.draws`` falls below ``press_probability`` (read only for the
+    guards :meth:`ParametricTeam._drawing` names); a guard on a sortie intercepts, else
+    stands at its spot on the line. Two interceptors share the work by ``coordination``:
+    the presser (kept until the other is ``_SWITCH_MARGIN`` nearer the ball) intercepts;
+    the other marks or screens, or chases a loose ball. With a reaction delay every
+    command becomes a ``MOVE_TO`` to where its skill would go in the state seen.
+    ``memory``'s sorties and presser are updated.
     """
+    t, p = settings[0], params[0]
+    pos, vel, holder = seen.pos, seen.vel, seen.holder
+    size = p.field_size
     bx, by = pos[4, 0], pos[4, 1]
-    guards = int(settings[_GUARD_0] + settings[_GUARD_1])
-    skill[0] = skill[1] = INTERCEPT
-    started, n = 0, 0
+    guards = int(t.guard[0]) + int(t.guard[1])
+    skill[0] = skill[1] = Skill.INTERCEPT
+    n = 0
     for k in range(2):
-        if settings[_GUARD_0 + k] == 0.0:
+        if not t.guard[k]:
             continue
-        if sortie_left[k] == 0:
+        if memory.sortie_left[k] == 0:
             gx, gy = pos[2 + k, 0], pos[2 + k, 1]
-            reach_k = settings[_REACH]
+            reach_k = t.guard_reach
             close = reach_k > 0 and hypot(bx - gx, by - gy) <= reach_k
-            drawn = settings[_PRESS] > 0 and draws[k] < settings[_PRESS]
+            drawn = t.press_probability > 0 and memory.draws[k] < t.press_probability
             if drawn or close:
-                sortie_left[k] = int(settings[_SORTIE])
-                started += 1
-        if sortie_left[k] > 0:
-            sortie_left[k] -= 1
+                memory.sortie_left[k] = t.sortie_cycles
+                memory.sorties += 1
+        if memory.sortie_left[k] > 0:
+            memory.sortie_left[k] -= 1
         else:
             _guard_spot_into(skill, target, k, n, guards, bx, size, settings)
         n += 1
-    if guards == 0 and settings[_COORDINATION] != _PRESS_MODE:
+    if guards == 0 and t.coordination != _PRESS_MODE:
         d0 = hypot(pos[2, 0] - bx, pos[2, 1] - by)
         d1 = hypot(pos[3, 0] - bx, pos[3, 1] - by)
+        presser = memory.presser
         if presser < 0 or (d0 if presser == 1 else d1) + _SWITCH_MARGIN < (
             d1 if presser == 1 else d0
         ):
             presser = 0 if d0 <= d1 else 1
+        memory.presser = presser
         other = 1 - presser
-        if not (holder < 0 and settings[_CHASE_LOOSE] != 0.0):
-            if settings[_COORDINATION] == _COVER:
-                fraction = settings[_MARK_AT]
+        if not (holder < 0 and t.chase_loose):
+            if t.coordination == _COVER:
+                fraction = t.mark_fraction
                 if fraction == _MARK_FRACTION:
-                    skill[other] = MARK
+                    skill[other] = Skill.MARK
                 else:
-                    skill[other] = MOVE_TO
+                    skill[other] = Skill.MOVE_TO
                     target[other, 0], target[other, 1] = mark_target(pos, holder, 2 + other,
                                                                      fraction)
             else:  # screen: goal-side of the ball, min(max(...)) as the builtins compare
-                ty = by - settings[_SCREEN]
+                ty = by - t.screen_distance
                 x = 1.0 if 1.0 > bx else bx
-                skill[other] = MOVE_TO
+                skill[other] = Skill.MOVE_TO
                 target[other, 0] = size - 1.0 if size - 1.0 < x else x
                 target[other, 1] = 1.0 if 1.0 > ty else ty
-    if settings[_DELAY] > 0:
+    if t.reaction_delay > 0:
         # React to the old state: go where the skill would have gone back then.
         for k in range(2):
-            if skill[k] == INTERCEPT:
+            if skill[k] == Skill.INTERCEPT:
                 target[k, 0], target[k, 1] = interception_point(
-                    pos, vel, holder, 2 + k, defender_speed * settings[_SPEED_0 + k], reach,
-                    table, spacing)
-            elif skill[k] == MARK:
+                    pos, vel, holder, 2 + k, p.defender_speed * t.speed[k], params, table)
+            elif skill[k] == Skill.MARK:
                 target[k, 0], target[k, 1] = mark_target(pos, holder, 2 + k, _MARK_FRACTION)
-            elif skill[k] == GUARD_LINE:
+            elif skill[k] == Skill.GUARD_LINE:
                 x = 4.0 if 4.0 > bx else bx
                 target[k, 0], target[k, 1] = (size - 4.0 if size - 4.0 < x else x), GUARD_DEPTH
-            skill[k] = MOVE_TO
-    return presser, started
+            skill[k] = Skill.MOVE_TO
 
 
 @compiled
 def _guard_spot_into(skill, target, k, n, guards, bx, size, settings):
     """Guard ``k``, the ``n``-th of ``guards``, on its line: level with the ball as far as
     ``guard_track`` says, from its home spot."""
-    track, depth = settings[_TRACK], settings[_DEPTH]
+    t = settings[0]
+    track, depth = t.guard_track, t.guard_depth
     if guards == 1:
         if track == 1.0 and depth == GUARD_DEPTH:
-            skill[k] = GUARD_LINE  # exactly the skill's own spot
+            skill[k] = Skill.GUARD_LINE  # exactly the skill's own spot
             return
         home, offset = size / 2, 0.0
     else:
         home = size * (n + 1) / 3
-        offset = (n - 0.5) * settings[_GUARD_SPACING]
+        offset = (n - 0.5) * t.guard_spacing
     x = home + track * (bx + offset - home)
     x = _EDGE if _EDGE > x else x  # min(max(x, _EDGE), size - _EDGE), as the builtins compare
-    skill[k] = MOVE_TO
+    skill[k] = Skill.MOVE_TO
     target[k, 0] = size - _EDGE if size - _EDGE < x else x
     target[k, 1] = depth
 
@@ -443,142 +422,94 @@ def spec_label(params: Mapping[str, Any]) -> str:
 
 # ---------------------------------------------------------------------- batched
 class ParametricBatch:
-    """:class:`ParametricTeam`'s behaviour for ``n`` drills at once (``team.batch(n)``), and
-    the single team's in its one drill.
+    """:class:`ParametricTeam`'s behaviour for ``n`` drills at once (``team.batch(n)``; one
+    in the single environment).
 
-    Each drill has its own sorties, presser and reaction-delay buffer, and its sortie
-    draws come from its own generator in the order the single team makes them; the plan
+    Each drill has its own sorties, presser and reaction-delay memory, and its sortie draws
+    come from its own generator in the order a single drill makes them; the plan
     (:func:`plan_into`) runs drill by drill in one compiled loop.
 
-    The delay's buffer holds at most ``max_cycles + 1`` states per drill: an episode
+    The delay's memory holds at most ``max_cycles + 1`` states per drill: an episode
     acts at most ``max_cycles`` times, so a longer delay sees the episode's first state
     throughout and would only cost memory. Two interceptors pressing without delay read
-    no state: their plan (:attr:`fixed`) is made once.
+    no state: their plan is the same every cycle (:attr:`fixed`).
     """
 
     def __init__(self, team: ParametricTeam, n: int) -> None:
         self.team, self.n = team, n
-        self._depth = 0  # the buffer's, set at the first reset (which knows max_cycles)
-        self._pos = np.zeros((n, 0, 5, 2))
-        self._vel = np.zeros((n, 0, 5, 2))
-        self._holder = np.zeros((n, 0), dtype=np.int64)
-        self._count = np.zeros(n, dtype=np.int64)
-        self._sortie_left = np.zeros((n, 2), dtype=np.int64)
-        self._presser = np.full(n, -1, dtype=np.int64)
-        self.sorties = np.zeros(n, dtype=np.int64)
-        """Sorties started in each drill's episode."""
+        self.memory = np.zeros(n, dtype=MEMORY)
+        """What the team remembers of each drill's episode (:data:`MEMORY`)."""
+        self._history = np.zeros((n, 0), dtype=STATE)  # the states seen, a ring per drill
         self._speeds = np.array([team.speeds])
-        self._rng: Any = None
         self._drawing = team._drawing()
-        self.fixed: tuple[np.ndarray, np.ndarray] | None = None
-        """``(skill, target)`` of one drill when the plan never reads the state, else ``None``."""
-        if (team.roles == ("interceptor", "interceptor") and team.coordination == "press"
-                and team.reaction_delay == 0):
-            self.fixed = (np.full((1, 2), INTERCEPT, dtype=np.int64), np.zeros((1, 2, 2)))
+        self._settings = team.settings()
+        self._rng: BatchRandom | None = None
+        self._made: dict[int, BatchCommands] = {}
+        self.fixed = (team.roles == ("interceptor", "interceptor")
+                      and team.coordination == "press" and team.reaction_delay == 0)
+        """Whether the plan never reads the state (its commands made once)."""
 
-    def __setstate__(self, state: dict) -> None:
-        self.__dict__.update(state)
-        if "_numbers" in state:  # a copy's arrays are writable: read-only, as compiled
-            self._settings = self._settings.copy()
-            self._settings.flags.writeable = False
-            self._numbers = _drill_numbers(self._config)
-            self._prebuild()
-
-    def reset(self, view: Any, drills: np.ndarray, rng: Any) -> None:
-        """Start an episode in ``drills``; ``rng`` (a ``BatchRandom``) feeds the sorties."""
+    def reset(self, view: BatchView, drills: np.ndarray, rng: BatchRandom) -> None:
+        """Start an episode in ``drills``; ``rng`` feeds the sorties."""
         if len(view.players) != 2:
             raise ValueError(f"this team drives two defenders, got players {view.players!r}")
         depth = min(self.team.reaction_delay, view.config.max_cycles) + 1
-        if depth != self._depth:
-            self._depth = depth
-            self._pos = np.zeros((self.n, depth, 5, 2))
-            self._vel = np.zeros((self.n, depth, 5, 2))
-            self._holder = np.zeros((self.n, depth), dtype=np.int64)
+        if depth != self._history.shape[1]:
+            self._history = np.zeros((self.n, depth), dtype=STATE)
         self._rng = rng
-        self._config = view.config
-        self._numbers = _drill_numbers(view.config)
-        # Read-only, as compiled before any team's call (a copy of the team's is writable).
-        self._settings = self.team._settings_array()
-        self._prebuild()
-        self._count[drills] = 0
-        self._sortie_left[drills] = 0
-        self._presser[drills] = -1
-        self.sorties[drills] = 0
+        memory = self.memory
+        memory["sortie_left"][drills] = 0
+        memory["presser"][drills] = -1
+        memory["sorties"][drills] = 0
+        memory["count"][drills] = 0
 
-    def _prebuild(self) -> None:
-        """What the plan's loop reads after a cycle's rows, in one tuple."""
-        self._rest = (self._sortie_left, self._presser, self.sorties, self._pos, self._vel,
-                      self._holder, self._count, self._settings, *self._numbers)
-
-    def act(self, view: Any, drills: np.ndarray) -> Any:
-        """The two defenders' commands in each of ``drills`` (:meth:`plan`)."""
-        from soccer_drill.teams.batch import BatchCommands, every_drill
-
+    def act(self, view: BatchView, drills: np.ndarray) -> BatchCommands:
+        """The two defenders' commands in each of ``drills`` (:func:`plan_into`)."""
         m = len(drills)
-        if self.fixed is not None:
-            skill, target = (np.repeat(a, m, axis=0) for a in self.fixed)
-        else:  # the view's fresh copies, the team's own: writable, as the plan is compiled
-            pos, vel, holder = view.pos, view.vel, view.holder
-            if every_drill(drills, view.n):
-                for array in (pos, vel, holder):
-                    array.flags.writeable = True
-            else:
-                pos, vel, holder = pos[drills], vel[drills], holder[drills]
-            skill, target = self.plan(np.array(drills, dtype=np.int64), pos, vel, holder,
-                                      self._rng)
-        return BatchCommands(skill, target, np.repeat(self._speeds, m, axis=0))
+        if self.fixed:
+            made = self._made.get(m)
+            if made is None:
+                made = self._made[m] = BatchCommands(
+                    np.full((m, 2), int(Skill.INTERCEPT)), np.zeros((m, 2, 2)),
+                    np.repeat(self._speeds, m, axis=0))
+            return made
+        self._draw(drills)
+        plans = np.zeros(m, dtype=PLANS)
+        state = view.state if every_drill(drills, view.n) else view.state[drills]
+        _plans_of_drills(plans, drills, state, self.memory, self._history, self._settings,
+                         view.params, view.table)
+        return BatchCommands(plans["skill"], plans["target"], np.repeat(self._speeds, m, axis=0))
 
-    def plan(self, drills: np.ndarray, pos: np.ndarray, vel: np.ndarray, holder: np.ndarray,
-             rng: Any) -> tuple[np.ndarray, np.ndarray]:
-        """The plan (:func:`plan_into`) of each of ``drills`` from its current state (rows
-        of ``pos``, ``vel``, ``holder``; ``drills`` too: writable int64 and float64 arrays,
-        as compiled), on the state it
-        sees ``reaction_delay`` cycles old; ``rng.random(drills)`` gives each drill's next
-        uniform. Returns ``(skill, target)``."""
-        m = len(drills)
-        draws = np.zeros((m, 2))
-        if self._drawing and m == 1:  # the single team's: no arrays of drills to index
-            left = self._sortie_left[drills[0]]
-            for k in self._drawing:
-                if left[k] == 0:
-                    draws[0, k] = rng.random(drills)[0]
-        elif self._drawing:
-            left = self._sortie_left[drills]
-            for k in self._drawing:  # each drill's guard k on its line, in turn
-                on_line = left[:, k] == 0
-                if np.count_nonzero(on_line):
-                    draws[on_line, k] = rng.random(drills[on_line])
-        skill = np.empty((m, 2), dtype=np.int64)
-        target = np.zeros((m, 2, 2))
-        _plans_of_drills(skill, target, drills, draws, pos, vel, holder, *self._rest)
-        return skill, target
+    def _draw(self, drills: np.ndarray) -> None:
+        """This cycle's uniform of each guard on its line that may start a sortie at
+        random, from each drill's generator, defender 0 first."""
+        if not self._drawing:
+            return
+        draws, left = self.memory["draws"], self.memory["sortie_left"][drills]
+        for k in self._drawing:
+            on_line = drills[left[:, k] == 0]
+            if len(on_line):
+                draws[on_line, k] = self._rng.random(on_line)  # type: ignore[union-attr]
 
 
 @compiled
-def _plans_of_drills(skill, target, drills, draws, pos, vel, holder, sortie_left, presser, sorties,
-                     hist_pos, hist_vel, hist_holder, count, settings, size, defender_speed,
-                     reach, table, spacing):
-    """:func:`plan_into` of drill ``drills[r]`` for each row ``r``, on the state it sees:
-    the current one is kept in the drill's ring of the last ``depth`` states, and the
-    oldest there (``reaction_delay`` cycles old, or the episode's first) is planned on."""
-    depth = hist_pos.shape[1]
+def _plans_of_drills(plans, drills, state, memory, history, settings, params, table):
+    """:func:`plan_into` of drill ``drills[r]`` for each row ``r`` (``state[r]``: its state
+    now), on the state it sees: the current one is kept in the drill's ring of the last
+    ``depth`` states, and the oldest there (``reaction_delay`` cycles old, or the
+    episode's first) is planned on."""
+    depth = history.shape[1]
     for r in range(drills.shape[0]):
         i = drills[r]
-        if depth == 1:
-            seen_pos, seen_vel, seen_holder = pos[r], vel[r], holder[r]
-        else:
-            count[i] += 1
-            slot = (count[i] - 1) % depth
-            hist_pos[i, slot] = pos[r]
-            hist_vel[i, slot] = vel[r]
-            hist_holder[i, slot] = holder[r]
-            oldest = 0 if count[i] <= depth else count[i] % depth
-            seen_pos, seen_vel = hist_pos[i, oldest], hist_vel[i, oldest]
-            seen_holder = hist_holder[i, oldest]
-        presser[i], started = plan_into(skill[r], target[r], sortie_left[i], presser[i],
-                                        draws[r], seen_pos, seen_vel, seen_holder, settings,
-                                        size, defender_speed, reach, table, spacing)
-        sorties[i] += started
+        mem = memory[i]
+        seen = state[r]
+        if depth > 1:
+            mem.count += 1
+            slot = (mem.count - 1) % depth
+            history[i, slot] = state[r]
+            oldest = 0 if mem.count <= depth else mem.count % depth
+            seen = history[i, oldest]
+        plan_into(plans[r].skill, plans[r].target, mem, seen, settings, params, table)
 
 
 @warms
@@ -586,16 +517,15 @@ def _compile_plans() -> None:
     """:func:`plan_into` and its batched loop, called once with their callers' types
     (compiled before a team's time-bounded call reaches them)."""
     cfg = DrillConfig()
-    numbers = _drill_numbers(cfg)
-    settings = ParametricTeam(roles=("interceptor", "guard"), press_probability=0.5)._settings
-    pos = np.array([*cfg.attacker_starts, *cfg.defender_starts, (10.0, 10.0)])
-    plan_into(np.zeros(2, dtype=np.int64), np.zeros((2, 2)), np.zeros(2, dtype=np.int64), -1,
-              np.zeros(2), pos, np.zeros((5, 2)), -1, settings, *numbers)
+    team = ParametricTeam(roles=("interceptor", "guard"), press_probability=0.5)
+    state = np.zeros(1, dtype=STATE)
+    state["pos"][0] = [*cfg.attacker_starts, *cfg.defender_starts, (10.0, 10.0)]
+    drills = np.zeros(1, dtype=np.int64)
+    drills.flags.writeable = False  # as the driver hands them
+    shown = state.copy()
+    shown.flags.writeable = False  # as the view hands every drill (some: a writable gather)
     for depth in (1, 2):
-        _plans_of_drills(np.zeros((1, 2), dtype=np.int64), np.zeros((1, 2, 2)),
-                         np.zeros(1, dtype=np.int64), np.zeros((1, 2)), pos[None],
-                         np.zeros((1, 5, 2)), np.full(1, -1, dtype=np.int64),
-                         np.zeros((1, 2), dtype=np.int64), np.full(1, -1, dtype=np.int64),
-                         np.zeros(1, dtype=np.int64), np.zeros((1, depth, 5, 2)),
-                         np.zeros((1, depth, 5, 2)), np.zeros((1, depth), dtype=np.int64),
-                         np.zeros(1, dtype=np.int64), settings, *numbers)
+        for seen in (state, shown):
+            _plans_of_drills(np.zeros(1, dtype=PLANS), drills, seen, np.zeros(1, dtype=MEMORY),
+                             np.zeros((1, depth), dtype=STATE), team.settings(),
+                             rule_parameters(cfg), roll_table(cfg))

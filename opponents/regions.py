@@ -24,12 +24,17 @@ from typing import Any
 
 import numpy as np
 
-from soccer_drill.constraints import OneOf, Real, check, checked
+from soccer_drill import TeamError, make_team
+from soccer_drill.constraints import Name, OneOf, Real, check, checked
 from soccer_drill.policies import HOLDER_POLICIES
-from soccer_drill.rules.features import FEATURE_NAMES
-from soccer_drill.state import BALL, DrillView
-from soccer_drill.teams import make_team, team_ids
-from soccer_drill.teams.batch import BatchCommands, BatchRandom
+from soccer_drill.teams import (
+    BALL,
+    FEATURE_NAMES,
+    BatchCommands,
+    BatchRandom,
+    BatchView,
+    team_ids,
+)
 
 REGION_FEATURES = ("dist_goal", "lateral")
 """The features a :class:`Region` may split on (names of :data:`FEATURE_NAMES`)."""
@@ -109,22 +114,17 @@ class RegionTeam:
     The region is decided each cycle at the ball's carrier (the attacker in possession),
     or at the ball itself while it is loose, by the same test a :class:`RegionRule`
     makes on the holder's features: so whenever the holder decides, the team plays the
-    behaviour of the holder's region. Both teams are reset with the same view and act
-    every cycle (so their own state, such as a reaction delay's memory or a guard's
-    sortie, runs on in either region); the commands of the region's team are played.
+    behaviour of the holder's region. Both teams are reset together and act every cycle
+    (so their own state, such as a reaction delay's memory or a guard's sortie, runs on
+    in either region); the commands of the region's team are played. It is written once,
+    in batched form (:class:`RegionBatch`), for one drill as for many; both teams must
+    have a batched form (``batch(n)``: every team of this package has).
 
     ## Seeding
 
-    At ``reset`` one uniform draw from the generator given derives two independent
+    At each drill's reset one uniform draw from its generator derives two independent
     generators (``numpy.random.SeedSequence(...).spawn(2)``): the first for the team
     above, the second for the team below. So an episode depends on that generator alone.
-
-    ## Batched drill
-
-    When both teams offer ``batch(n)`` (the parametric family, the paper's teams,
-    ``chasers``), so does this one: both batched teams act for every drill, and each
-    drill's row is taken from its region's team. Otherwise the batched drill runs one
-    copy of this team per drill.
 
     ## Arguments
 
@@ -145,17 +145,16 @@ class RegionTeam:
         below_params: Mapping[str, Any] | None = None,
     ) -> None:
         for name, team in (("above", above), ("below", below)):
-            if not isinstance(team, str):
-                raise TypeError(f"RegionTeam {name} must be a team id (str), got {team!r}")
+            check(f"RegionTeam {name} (a team id)", team, Name(dots=False))
         self.region = _region(region)
         self.above_id, self.below_id = above, below
         self.above_params = dict(above_params or {})
         self.below_params = dict(below_params or {})
         self.teams = (make_team(above, **self.above_params), make_team(below, **self.below_params))
-        self._players: tuple[str, ...] = ()
-        if all(callable(getattr(t, "batch", None)) for t in self.teams):
-            # Only then: the batched drill looks for ``batch`` and otherwise runs copies.
-            self.batch = self._batch
+        for team_id, team in zip((above, below), self.teams, strict=True):
+            if not callable(getattr(team, "batch", None)):
+                raise TeamError(f"RegionTeam composes teams with a batched form (batch(n)); "
+                                f"team {team_id!r} has none")
 
     def params(self) -> dict[str, Any]:
         """The keyword parameters that rebuild this team (JSON-ready)."""
@@ -168,25 +167,7 @@ class RegionTeam:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params().items())
         return f"{type(self).__name__}({args})"
 
-    def reset(self, view: DrillView, rng: np.random.Generator) -> None:
-        """Reset both teams with ``view``, each with its own generator derived from ``rng``."""
-        self._players = tuple(view.players)
-        for team, child in zip(self.teams, _children(rng.random()), strict=True):
-            team.reset(view, child)
-
-    def below(self, view: DrillView) -> bool:
-        """Whether the ball's carrier (or the loose ball) is below the region's threshold."""
-        s = view.state
-        x, y = s.pos[s.holder if s.holder >= 0 else BALL]
-        return bool(self.region.below(self.region.value_at(x, y, view.config.field_size)))
-
-    def act(self, view: DrillView) -> dict[str, Any]:
-        """The commands of the region's team (both teams act)."""
-        above, below = (team.act(view) for team in self.teams)
-        chosen = below if self.below(view) else above
-        return {p: chosen[p] for p in self._players}
-
-    def _batch(self, n: int) -> RegionBatch:
+    def batch(self, n: int) -> RegionBatch:
         """This team for ``n`` drills at once (see :class:`RegionBatch`)."""
         return RegionBatch(self, n)
 
@@ -194,8 +175,8 @@ class RegionTeam:
 class RegionBatch:
     """:class:`RegionTeam` for ``n`` drills at once (``team.batch(n)``).
 
-    Each drill's two generators are derived as the single team derives them, from the
-    same draw of the drill's own generator; each batched team draws from its own.
+    Each drill's two generators are derived from one draw of the drill's own generator;
+    each batched team draws from its own.
     """
 
     def __init__(self, team: RegionTeam, n: int) -> None:
@@ -203,20 +184,21 @@ class RegionBatch:
         self.teams = tuple(t.batch(n) for t in team.teams)  # type: ignore[attr-defined]
         self._streams = (BatchRandom(n), BatchRandom(n))
 
-    def reset(self, view: Any, drills: np.ndarray, rng: BatchRandom) -> None:
+    def reset(self, view: BatchView, drills: np.ndarray, rng: BatchRandom) -> None:
         """Start an episode in ``drills``: derive each drill's two streams, reset both teams."""
         children = [_children(u) for u in rng.random(drills).tolist()]
         for k, (team, stream) in enumerate(zip(self.teams, self._streams, strict=True)):
             stream.seed(drills, [pair[k] for pair in children])
             team.reset(view, drills, stream)
 
-    def below(self, view: Any, drills: np.ndarray) -> np.ndarray:
+    def below(self, view: BatchView, drills: np.ndarray) -> np.ndarray:
         """``(len(drills),)`` bool: the carrier (or loose ball) of each drill is below."""
         holder = view.holder[drills]
         where = view.pos[drills, np.where(holder >= 0, holder, BALL)]
-        return self.region.below(self.region.value_at(where[:, 0], where[:, 1], view.config.field_size))
+        return self.region.below(self.region.value_at(where[:, 0], where[:, 1],
+                                                      view.config.field_size))
 
-    def act(self, view: Any, drills: np.ndarray) -> BatchCommands:
+    def act(self, view: BatchView, drills: np.ndarray) -> BatchCommands:
         """Each drill's row from the team of its region (both teams act for every drill)."""
         above, below = (team.act(view, drills) for team in self.teams)
         low = self.below(view, drills)

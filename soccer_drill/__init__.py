@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import gymnasium
 
+from soccer_drill.commands import Command, Skill
 from soccer_drill.config import DrillConfig
 from soccer_drill.envs.agents import env, parallel_env, raw_env
 from soccer_drill.envs.holder import HolderEnv
-from soccer_drill.skills import Command, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillState, DrillView
-from soccer_drill.teams import Team, TeamError, available_teams, make_team, register
+from soccer_drill.teams.registry import Team, TeamError, available_teams, make_team, register
 
 __all__ = [
     "PLAYER_NAMES",

@@ -6,9 +6,10 @@ import math
 from dataclasses import asdict, dataclass, field, fields
 from typing import Any
 
+import numpy as np
 import pymunk
 
-from soccer_drill.constraints import Integer, Real, checked, is_real
+from soccer_drill.constraints import Integer, ListOf, Real, check, checked
 
 Point = tuple[float, float]
 
@@ -165,21 +166,18 @@ class DrillConfig:
             if constraint is not None:
                 value = checked(f"DrillConfig.{f.name}", getattr(self, f.name), constraint)
                 object.__setattr__(self, f.name, value)
-        if self.ball_offset + 0.05 >= self.control_radius:
-            raise ValueError(
-                "DrillConfig.ball_offset must be smaller than control_radius - 0.05 "
-                f"(the holder must keep control), got {self.ball_offset} >= "
-                f"{self.control_radius - 0.05}"
-            )
+        check("DrillConfig.ball_offset", self.ball_offset,
+              Real(0.0, self.control_radius - 0.05, high_open=True),
+              why="smaller than control_radius - 0.05: the holder must keep control")
         self._check_substeps()
         self._check_control_per_cycle()
         for name in ("attacker_starts", "defender_starts"):
-            points = _points(getattr(self, name), self.field_size)
-            if points is None:
-                raise ValueError(
-                    f"DrillConfig.{name} must be two (x, y) points inside "
-                    f"[0, {self.field_size:g}]^2, got {getattr(self, name)!r}"
-                )
+            inside = Real(0.0, self.field_size)
+            point = ListOf(inside, 2, 2, kinds=(list, tuple, np.ndarray))
+            check(f"DrillConfig.{name}", getattr(self, name),
+                  ListOf(point, 2, 2, kinds=(list, tuple, np.ndarray)),
+                  why="two (x, y) points inside the field")
+            points = tuple((float(x), float(y)) for x, y in getattr(self, name))
             object.__setattr__(self, name, points)
         self._check_start_area()
 
@@ -287,17 +285,3 @@ class DrillConfig:
         ) * off_centre
 
 
-def _points(points: object, size: float) -> tuple[Point, Point] | None:
-    """``points`` as two ``(x, y)`` float pairs inside ``[0, size]^2``, or ``None``."""
-    try:
-        pairs = tuple(tuple(p) for p in points)  # type: ignore[union-attr]
-    except TypeError:
-        return None
-    if len(pairs) != 2 or any(len(p) != 2 for p in pairs):
-        return None
-    if not all(is_real(c) for p in pairs for c in p):
-        return None
-    out = tuple((float(x), float(y)) for x, y in pairs)
-    if not all(0.0 <= c <= size for p in out for c in p):  # False for NaN
-        return None
-    return out  # type: ignore[return-value]

@@ -224,6 +224,10 @@ class NoneOr(Constraint):
     def describe(self) -> str:
         return f"None or {self.inner.describe()}"
 
+    def plain(self, value: Any) -> Any:
+        """``None``, or the value as ``inner`` gives it."""
+        return None if value is None else self.inner.plain(value)
+
 
 @dataclass(frozen=True)
 class AnyOf(Constraint):
@@ -273,17 +277,19 @@ class ListOf(Constraint):
         return f"a {kind} {size}, each {self.item.describe()}"
 
 
-def check(field: str, value: object, constraint: Constraint) -> None:
+def check(field: str, value: object, constraint: Constraint, why: str | None = None) -> None:
     """Raise ``ValueError("<field> must be <what is allowed>, got <value>")`` unless
-    ``constraint`` allows ``value``."""
+    ``constraint`` allows ``value``; ``why``, if given, ends the message in parentheses
+    (why the value is limited so)."""
     if not constraint.allows(value):
-        raise ValueError(f"{field} must be {constraint.describe()}, got {_shown(value)}")
+        reason = "" if why is None else f" ({why})"
+        raise ValueError(f"{field} must be {constraint.describe()}, got {_shown(value)}{reason}")
 
 
-def checked(field: str, value: object, constraint: Constraint) -> Any:
+def checked(field: str, value: object, constraint: Constraint, why: str | None = None) -> Any:
     """:func:`check` ``value``, and give it back as the plain Python value it stands for
     (:meth:`Constraint.plain`: a NumPy number as a ``float`` or an ``int``)."""
-    check(field, value, constraint)
+    check(field, value, constraint, why)
     return constraint.plain(value)
 
 

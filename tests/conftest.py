@@ -32,7 +32,7 @@ def team_registry():
     """The team registry, isolated for one test: the installed teams are discovered first
     (so the registry put back afterwards holds them all), then teams the test registers
     are gone after it."""
-    import soccer_drill.teams as teams
+    import soccer_drill.teams.registry as teams
 
     with teams.TEAMS.isolated():
         yield teams

@@ -27,7 +27,7 @@ import pytest
 
 from soccer_drill import Command, Skill
 from soccer_drill.policies import HOLDER_POLICIES
-from soccer_drill.teams.batch import BatchCommands
+from soccer_drill.teams.kit import BatchCommands
 from soccer_drill.vector import HolderVectorEnv, play_episodes
 from soccer_drill.vector.agents import ParallelVectorEnv
 

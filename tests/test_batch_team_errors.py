@@ -13,11 +13,8 @@ import time
 import numpy as np
 import pytest
 
-from soccer_drill import Command, HolderEnv, Skill
-from soccer_drill.teams import TeamError
-from soccer_drill.teams import check_commands as single_check
-from soccer_drill.teams.batch import BatchCommands
-from soccer_drill.teams.batch import check_commands as batched_check
+from soccer_drill import Command, HolderEnv, Skill, TeamError
+from soccer_drill.teams.kit import BatchCommands
 from soccer_drill.vector import HolderVectorEnv
 from soccer_drill.vector.agents import ParallelVectorEnv
 
@@ -152,8 +149,8 @@ def test_after_a_team_error_the_batch_asks_for_a_reset_and_then_plays_on(kind):
                                         r"raised .*; call reset\(\) before stepping again"):
         _step(env)
     env.reset(seed=0)  # the copies are the same objects: make them behave
-    for driver in env._core.team._drivers:
-        driver.team.fail = False
+    for copy in env._core.team.batched.teams:
+        copy.fail = False
     _step(env)
 
 
@@ -271,7 +268,7 @@ def test_a_batched_team_cannot_write_into_the_drills_it_is_shown():
 
 
 def test_batch_random_refuses_indices_that_are_not_distinct_drills():
-    from soccer_drill.teams.batch import BatchRandom
+    from soccer_drill.teams.kit import BatchRandom
 
     rng = BatchRandom(3)
     rng.seed(np.arange(3), [0, 1, 2])
@@ -311,24 +308,56 @@ def test_a_batch_whose_methods_are_not_callable_is_refused_when_made():
         HolderVectorEnv(num_envs=2, opponent=team)
 
 
+class _Says:
+    """A team of one drill whose defender 0 says ``command`` (defender 1 marks)."""
+
+    def __init__(self, command):
+        self.command = command
+
+    def reset(self, view, rng):
+        pass
+
+    def act(self, view):
+        return {"defender_0": self.command, "defender_1": Command(Skill.MARK)}
+
+
+class _SaysBatched:
+    """The same, in batched form."""
+
+    def __init__(self, skill, target, speed):
+        self.row = (skill, target, speed)
+
+    def batch(self, n):
+        return self
+
+    def reset(self, view, drills, rng):
+        pass
+
+    def act(self, view, drills):
+        skill, target, speed = self.row
+        m = len(drills)
+        return BatchCommands(np.tile([int(skill), int(Skill.MARK)], (m, 1)),
+                             np.tile([target or (0.0, 0.0), (0.0, 0.0)], (m, 1, 1)),
+                             np.tile([speed, 1.0], (m, 1)))
+
+
 @pytest.mark.parametrize(("skill", "target", "speed"), [
-    (1, None, 1.0),  # a ball skill, as a bare value
+    (Skill.HOLD, None, 1.0),  # a ball skill
     (Skill.MARK, None, 2.0),
     (Skill.MOVE_TO, (math.nan, 0.0), 1.0),
 ])
-def test_the_single_and_the_batched_drill_refuse_a_bad_command_in_the_same_words(skill, target,
-                                                                                 speed):
-    players = ("defender_0", "defender_1")
-    with pytest.raises(TeamError) as single:
-        single_check({"defender_0": Command(skill, target, speed),
-                      "defender_1": Command(Skill.MARK)}, players, "t", 0)
-    batched_commands = BatchCommands(np.array([[int(skill), int(Skill.MARK)]]),
-                                     np.array([[target or (0.0, 0.0), (0.0, 0.0)]]),
-                                     np.array([[speed, 1.0]]))
-    with pytest.raises(TeamError) as batched:
-        batched_check(batched_commands, np.array([0]), np.zeros(1, dtype=np.int64), "t", players)
-    said = [str(e.value).split("cycle 0: ", 1)[1] for e in (single, batched)]
-    assert said[0] == said[1]
+def test_a_team_of_one_drill_and_a_batched_team_are_refused_in_the_same_words(skill, target,
+                                                                               speed):
+    said = []
+    for team in (_Says(Command(skill, target, speed)), _SaysBatched(skill, target, speed)):
+        env = HolderEnv(opponent=team)
+        env.reset(seed=0)
+        with pytest.raises(TeamError) as raised:
+            env.step(0)
+        said.append(str(raised.value))
+    assert said[0].startswith("team '_Says', player 'defender_0', cycle 0: ")
+    assert said[1].startswith("team '_SaysBatched', player 'defender_0', cycle 0: ")
+    assert said[0].split("cycle 0: ")[1] == said[1].split("cycle 0: ")[1]
 
 
 # ------------------------------------------------ each drill's copy under its own bound
@@ -401,7 +430,7 @@ def test_no_timer_longer_than_team_timeout_is_armed_whatever_the_number_of_drill
     """team_timeout times the drills acting overflowed setitimer past about 9.2e9 s:
     team_timeout=86400 (allowed) with 107,000 copies failed every reset with an
     OverflowError blamed on the team. No timer is armed for more than team_timeout."""
-    from soccer_drill.teams import time_bound
+    from soccer_drill.teams import time_bound  # the module
 
     recorder = _RecordsTimers(time_bound._sig)
     monkeypatch.setattr(time_bound, "_sig", recorder)

@@ -13,7 +13,7 @@ import pytest
 import soccer_drill
 from ilpss.experiments.calibrate import Cell, criteria, main
 from soccer_drill import Command, Skill
-from soccer_drill.teams import TEAMS
+from soccer_drill.teams.registry import TEAMS
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import soccer_drill
+from soccer_drill.commands import Command, Skill
 from soccer_drill.config import COLLISION_BIAS, DrillConfig, fewest_substeps
 from soccer_drill.constraints import Integer, checked
-from soccer_drill.skills import Command, Skill
 
 NUMERIC = [f.name for f in fields(DrillConfig) if f.type in ("float", "int")]
 INTEGERS = [f.name for f in fields(DrillConfig) if f.type == "int"]
@@ -92,8 +92,9 @@ def test_numpy_numbers_are_accepted_and_stored_as_python_numbers():
     ids=repr,
 )
 def test_start_points_must_be_two_finite_points_inside_the_field(starts):
-    with pytest.raises(ValueError, match=r"attacker_starts must be two \(x, y\) points inside "
-                                         r"\[0, 35\]\^2"):
+    with pytest.raises(ValueError, match=r"attacker_starts must be a list of 2 values, each a "
+                                         r"list of 2 values, each a finite number in \[0, 35\], "
+                                         r"got .* \(two \(x, y\) points inside the field\)"):
         DrillConfig(attacker_starts=starts)
 
 
@@ -192,7 +193,7 @@ def test_at_the_bound_a_defender_on_the_line_of_a_pass_takes_the_ball(along):
     control_radius of a defender standing on its line at the end of some cycle, wherever
     he stands. (At 1000 m/s, allowed before, a 25 m/s pass went through a defender
     standing on its line, never closer than 1.01 m at the end of a cycle.)"""
-    from soccer_drill.drill import Drill
+    from one_drill import OneDrill as Drill
 
     ball = (4.0, 30.25)  # below the first attacker, who passes to the second at (31, 31)
     t = (13.5 + along) / math.dist(ball, (31.0, 31.0))

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import soccer_drill
+from soccer_drill import TeamError
+from soccer_drill.commands import Command, Skill
 from soccer_drill.config import DrillConfig
-from soccer_drill.skills import Command, Skill
-from soccer_drill.teams import TeamError
 from soccer_drill.vector import HolderVectorEnv
 
 
@@ -134,8 +134,10 @@ def test_bad_team_parameters():
         ("ball_damping", 1.5, r"ball_damping must be a finite number in \[0, 1\]"),
         ("tackle_probability", -0.1, r"tackle_probability must be a finite number in \[0, 1\]"),
         ("attacker_speed", math.nan, r"attacker_speed must be a finite number in \(0, 100\], got nan"),
-        ("ball_offset", 2.0, "ball_offset must be smaller than control_radius"),
-        ("attacker_starts", ((1.0, 1.0), (50.0, 1.0)), "attacker_starts must be two"),
+        ("ball_offset", 2.0, r"ball_offset must be a finite number in \[0, 0.95\), got 2.0 "
+                             r"\(smaller than control_radius - 0.05"),
+        ("attacker_starts", ((1.0, 1.0), (50.0, 1.0)), r"attacker_starts must be a list of 2 "
+                                                       r"values, each a list of 2 values"),
     ],
 )
 def test_invalid_configuration(field, value, message):
@@ -168,7 +170,7 @@ def test_holder_env_rejects_bad_actions():
     env = soccer_drill.HolderEnv(opponent="chasers")
     env.reset(seed=0)
     for bad in (3, -1, 0.5, None):
-        with pytest.raises(ValueError, match=r"integer in 0..2 \(0=HOLD, 1=PASS, 2=DRIBBLE\)"):
+        with pytest.raises(ValueError, match=r"integer in \[0, 2\] \(0=HOLD, 1=PASS, 2=DRIBBLE\)"):
             env.step(bad)
 
 

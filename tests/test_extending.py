@@ -312,7 +312,7 @@ class _SlowPressersBatched(_SlowPressers):
 
     def batch(self, n: int):
         from soccer_drill import Command, Skill
-        from soccer_drill.teams.batch import SameCommands
+        from soccer_drill.teams.kit import SameCommands
 
         return SameCommands(lambda: Command(Skill.INTERCEPT, speed=0.6))
 
@@ -359,6 +359,39 @@ def test_a_new_team_is_taken_by_name(tmp_path, team_registry) -> None:
         assert len(single) > 1
         assert _holder_episode("test_slow_pressers", seed, batched=True) == single
         assert _holder_episode("test_slow_pressers_batched", seed, batched=True) == single
+
+
+# -------------------------------------------------------------- an observation type
+def _positions(out, state, rows, players, params, low, high) -> None:
+    """An observation type's rule: the player's position, clipped into the bounds."""
+    for r in range(len(rows)):
+        for k in range(2):
+            out[r, k] = min(max(state["pos"][rows[r], players[r], k], low[k]), high[k])
+
+
+def test_a_new_observation_type_is_one_entry(monkeypatch) -> None:
+    """One entry of the table: the single and the batched multi-agent environments take
+    it by name, with its space."""
+    import soccer_drill
+    from soccer_drill.rules import features
+    from soccer_drill.vector import ParallelVectorEnv
+
+    def bounds(cfg):
+        return np.full(2, -cfg.wall_margin, np.float32), np.full(
+            2, cfg.field_size + cfg.wall_margin, np.float32)
+
+    monkeypatch.setitem(features.OBSERVATION_TYPES, "position", features.ObservationType(
+        2, bounds, _positions, "the player's position on the field"))
+    single = soccer_drill.parallel_env(obs_type="position", opponent="chasers")
+    obs, _ = single.reset(seed=5)
+    assert single.observation_space("attacker_0")["observation"].shape == (2,)
+    assert np.array_equal(obs["attacker_1"]["observation"], single.state()[4:6])
+    batched = ParallelVectorEnv(num_envs=3, obs_type="position", opponent="chasers")
+    obs, _ = batched.reset(seed=5)
+    assert obs["attacker_1"]["observation"].shape == (3, 2)
+    assert np.array_equal(obs["attacker_1"]["observation"], batched.state()[:, 4:6])
+    with pytest.raises(ValueError, match=r"obs_type must be one of .*'position'"):
+        soccer_drill.parallel_env(obs_type="velocity")
 
 
 # ------------------------------------------------------------------------ a setting

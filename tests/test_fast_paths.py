@@ -8,17 +8,12 @@ import numpy as np
 import pytest
 
 import soccer_drill
-from soccer_drill import drill as drill_module
 from soccer_drill.config import DrillConfig, fewest_substeps
-from soccer_drill.rules.features import (
-    _clip_into,
-    feature_bounds,
-    features,
-    kinematic_bounds,
-    kinematics,
-)
+from soccer_drill.drill.drills import BatchDrill
+from soccer_drill.drill.spaces import DrillSpace, check_batch_order
+from soccer_drill.rules.arrays import roll_tuples as _roll_table
+from soccer_drill.rules.features import _clip_into
 from soccer_drill.rules.motion import HEADINGS as _HEADINGS
-from soccer_drill.rules.motion import _roll_tuples as _roll_table
 from soccer_drill.rules.motion import unit as _unit
 from soccer_drill.skills import (
     ball_interception_point,
@@ -71,46 +66,31 @@ def test_values_inside_their_bounds_keep_their_bits_and_one_outside_is_clipped()
         np.array(nan, dtype=np.float32), low32, high32).tobytes()
 
 
-def test_observations_are_the_same_with_array_and_float_bounds():
-    cfg = DrillConfig()
-    env = soccer_drill.env(opponent="chasers")
-    env.reset(seed=4)
-    for _ in range(40):
-        if not env.agents:
-            env.reset()
-        obs, _, term, trunc, _ = env.last()
-        env.step(None if term or trunc else int(np.flatnonzero(obs["action_mask"])[-1]))
-        state = env.drill_state
-        for player in range(4):
-            low, high = feature_bounds(cfg)
-            assert (features(state, player, cfg, low, high).tobytes()
-                    == features(state, player, cfg, low.tolist(), high.tolist()).tobytes())
-            low, high = kinematic_bounds(cfg)
-            assert (kinematics(state, player, low, high).tobytes()
-                    == kinematics(state, player, low.tolist(), high.tolist()).tobytes())
-
-
 def test_a_batched_read_in_another_order_is_refused_by_name():
-    physics = drill_module.Drill().physics
-    drill_module.check_batch_order(physics.space, physics._bodies)  # as built
+    physics = DrillSpace(DrillConfig())
+    check_batch_order(physics.space, physics._bodies)  # as built
     with pytest.raises(RuntimeError, match=r"pymunk .*batch API lists the space's bodies in "
                        r"an unexpected order; this pymunk version is not supported"):
-        drill_module.check_batch_order(physics.space, physics._bodies[::-1])
+        check_batch_order(physics.space, physics._bodies[::-1])
 
 
 def test_a_drill_with_its_batch_buffer_pickles_and_continues_identically():
     import pickle
 
-    from soccer_drill.skills import Command, Skill
+    from soccer_drill.commands import Skill
 
-    drill, rng = drill_module.Drill(), np.random.default_rng(0)
-    drill.reset(rng)
+    cfg = DrillConfig()
+    drill, rng = BatchDrill(1, cfg, physics=DrillSpace(cfg)), np.random.default_rng(0)
+    one, active = np.zeros(1, dtype=np.int64), np.ones(1, dtype=bool)
+    drill.reset(one, [rng])
+    drill.skill[0] = [Skill.GET_OPEN, Skill.GET_OPEN, Skill.INTERCEPT, Skill.INTERCEPT]
     copy, copy_rng = pickle.loads(pickle.dumps((drill, rng)))
-    commands = [Command(Skill.GET_OPEN)] * 2 + [Command(Skill.INTERCEPT)] * 2
     for _ in range(30):
-        if drill.outcome is not None:
+        if drill.outcome[0]:
             break
-        assert drill.step(commands, rng) == copy.step(commands, copy_rng)
+        drill.step(active, [rng])
+        copy.step(active, [copy_rng])
+        assert drill.state.tobytes() == copy.state.tobytes()
 
 
 def _scanned_interception_point(state, player, vmax, cfg):
@@ -248,16 +228,18 @@ def test_a_plain_int_action_gets_what_a_numpy_integer_gets(shared_spaces, illega
     """The shortcut for plain ints against the general path NumPy integers take."""
     env = soccer_drill.env(shared_spaces=shared_spaces, illegal_action=illegal_action)
     env.reset(seed=1)
-    core = env._core
+    batch = env._core.batch
     for holder in (-1, 0, 1):
-        core.drill.state = core.drill.state._replace(holder=holder)
+        batch.holder[0] = holder
         for index, agent in enumerate(env.possible_agents):
             for action in range(-1, 7):
                 outcomes = []
                 for given in (action, np.int64(action)):
-                    core.replaced = None
+                    env.replaced = None
+                    batch.skill[0, index] = -1
                     try:
-                        outcomes.append((core.command_for(agent, index, given), core.replaced))
+                        env._command(agent, index, given)
+                        outcomes.append((int(batch.skill[0, index]), env.replaced))
                     except ValueError as exc:
                         outcomes.append(str(exc))
                 assert outcomes[0] == outcomes[1], (holder, agent, action)

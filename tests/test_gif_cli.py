@@ -56,7 +56,8 @@ def test_an_unknown_team_is_refused_with_the_known_ones(capsys, no_episode):
 def test_fps_outside_what_a_gif_plays_is_refused(capsys, no_episode, fps):
     with pytest.raises(SystemExit):
         main(["--fps", fps])
-    assert "fps must be a finite number in [1, 50] frames per second" in _error(capsys)
+    err = _error(capsys)
+    assert "fps must be a finite number in [1, 50], got" in err and "frames per second" in err
 
 
 @pytest.mark.parametrize("seed", ["-1", "1.5", "ten", str(2**63)])
@@ -64,7 +65,7 @@ def test_a_seed_outside_what_reset_takes_is_refused(capsys, no_episode, seed):
     with pytest.raises(SystemExit) as exit_:
         main(["--seed", seed])
     assert exit_.value.code == 2
-    assert f"seed must be an integer in [0, 2**63), got {seed!r}" in _error(capsys)
+    assert "seed must be an integer in [0, 9,223,372,036,854,775,807], got" in _error(capsys)
 
 
 def test_the_gif_plays_at_true_speed_by_default(tmp_path, capsys):
@@ -90,7 +91,7 @@ def test_a_full_disk_names_the_file_and_leaves_nothing(tmp_path, capsys, monkeyp
 
 def test_save_gif_checks_fps_and_path(tmp_path):
     frame = [np.zeros((4, 4, 3), np.uint8)]
-    with pytest.raises(ValueError, match=r"fps must be a finite number in \[1, 50\] frames per second"):
+    with pytest.raises(ValueError, match=r"fps must be a finite number in \[1, 50\], got .* \(frames per second"):
         gif.save_gif(frame, tmp_path / "a.gif", fps=1000)
     with pytest.raises(ValueError, match="the output must name a file"):
         gif.save_gif(frame, tmp_path, fps=10)

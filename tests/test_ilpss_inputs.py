@@ -208,7 +208,7 @@ def test_a_team_that_fails_ends_the_commands_with_one_line(tmp_path, monkeypatch
 
 def test_the_drill_exception_is_caught_without_importing_the_drill():
     from ilpss.experiments.drill_facts import TEAM_ERROR, drill_exception
-    from soccer_drill.teams import TeamError
+    from soccer_drill import TeamError
 
     assert drill_exception(TEAM_ERROR) is TeamError
     never = drill_exception("a_module_nobody_imported:Error")

@@ -165,6 +165,18 @@ def test_ilpss_reaches_the_drill_only_through_its_seam():
     assert reached == set()
 
 
+OPPONENTS_SEAM = {"soccer_drill", "soccer_drill.teams", "soccer_drill.constraints",
+                  "soccer_drill.policies"}
+"""What the teams import of the drill's package: the team kit (``soccer_drill.teams``), the
+vocabulary of constraints, and the fixed holder rules (the region rules compose them)."""
+
+
+def test_opponents_reach_the_drill_only_through_the_team_kit():
+    reached = {f"{a} -> {b}" for a, targets in graph().items() if a.startswith("opponents")
+               for b in targets if b.split(".")[0] == "soccer_drill" and b not in OPPONENTS_SEAM}
+    assert reached == set()
+
+
 def test_the_import_graph_of_ilpss_has_no_circle():
     cycle = _cycle(graph("ilpss"))
     assert cycle is None, " -> ".join(cycle or [])

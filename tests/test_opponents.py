@@ -19,11 +19,13 @@ from ilpss.experiments.calibrate import (
 from ilpss.experiments.calibrate import main as calibrate_main
 from opponents import PAPER_TEAMS, ParametricTeam, sample_opponents
 from opponents.cli import main as list_teams
+from soccer_drill import make_team
+from soccer_drill.commands import Skill
 from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
-from soccer_drill.skills import Command, Skill, ball_interception_point
+from soccer_drill.skills import ball_interception_point
 from soccer_drill.state import BALL
-from soccer_drill.teams import make_team
+from soccer_drill.teams import BatchRandom
 
 
 def _cycles(team: str, action: int, episodes: int = 8, **params):
@@ -192,7 +194,7 @@ def test_goal_guards_are_seeded_and_sortie_at_the_stated_rate():
     env = HolderEnv(opponent="parametric", opponent_params={
         "roles": ["guard", "guard"], "press_probability": 0.1, "sortie_cycles": 1,
         "guard_reach": 0.0})
-    team = env._core.team
+    team = env.loop.core.team.team
     sorties = trials = 0
     for seed in range(10):
         env.reset(seed=seed)
@@ -209,16 +211,19 @@ def test_goal_guards_are_seeded_and_sortie_at_the_stated_rate():
 def test_reaction_delay_acts_on_the_state_of_cycles_ago():
     env = HolderEnv(opponent="chasers", decision_cycles=1)  # one cycle per DRIBBLE step
     env.reset(seed=0)
-    view, cfg = env._core.view, env.config
-    late = ParametricTeam(reaction_delay=3)
-    late.reset(view, np.random.default_rng(0))
+    view, cfg, one = env.loop.core.team.view, env.config, np.zeros(1, dtype=np.int64)
+    late = ParametricTeam(reaction_delay=3).batch(1)
+    rng = BatchRandom(1)
+    rng.seed(one, [0])
+    late.reset(view, one, rng)
     seen = []
     for t in range(25):
-        seen.append(view.state)
-        command = late.act(view)["defender_0"]
-        assert command.skill is Skill.MOVE_TO
+        seen.append(env.drill_state)
+        commands = late.act(view, one)
+        assert commands.skill[0, 0] == Skill.MOVE_TO
         old = seen[max(t - 3, 0)]
-        assert command.target == ball_interception_point(old, 2, cfg.defender_speed, cfg)
+        assert tuple(commands.target[0, 0]) == ball_interception_point(old, 2, cfg.defender_speed,
+                                                                       cfg)
         _, _, term, trunc, info = env.step(2)
         assert info["duration"] == 1 and not (term or trunc)
 
@@ -240,33 +245,20 @@ def test_press_team_matches_the_independent_chasers():
         assert _trajectory("interceptors_press", seed=seed) == _trajectory("chasers", seed=seed)
 
 
-def test_chasers_give_one_command_per_episode_at_the_speed_set_then():
-    from opponents.chasers import Chasers
-
-    team = Chasers(speed=0.5)
-    env = HolderEnv(opponent=team)
-    env.reset(seed=0)
-    first = team.act(env._core.view)
-    assert first["defender_0"] is first["defender_1"] is team.act(env._core.view)["defender_0"]
-    assert first["defender_0"] == Command(Skill.INTERCEPT, speed=0.5)
-    team.speed = 1.0  # taken up at the next episode
-    env.reset(seed=0)
-    assert team.act(env._core.view)["defender_0"] == Command(Skill.INTERCEPT, speed=1.0)
-
-
-def test_batched_chasers_take_up_a_new_speed_at_the_next_episode_as_the_single_team_does():
+@pytest.mark.parametrize("n", [1, 3])
+def test_chasers_give_one_command_per_episode_at_the_speed_set_then(n):
     from opponents.chasers import Chasers
     from soccer_drill.vector import HolderVectorEnv
 
     team = Chasers(speed=0.5)
-    venv = HolderVectorEnv(num_envs=3, opponent=team)
-    venv.reset(seed=0)
-    batched = venv._core.team
-    drills = np.arange(3)
-    skill, target, speed = (np.zeros((3, 4), dtype=np.int64), np.zeros((3, 4, 2)), np.ones((3, 4)))
-    batched.act(drills, skill, target, speed)
-    assert (skill[:, 2:] == int(Skill.INTERCEPT)).all() and (speed[:, 2:] == 0.5).all()
+    env = HolderEnv(opponent=team) if n == 1 else HolderVectorEnv(num_envs=n, opponent=team)
+    env.reset(seed=0)
+    driver, batch = env.loop.core.team, env.loop.core.batch
+    driver.act(np.arange(n))
+    assert (batch.skill[:, 2:] == int(Skill.INTERCEPT)).all() and (batch.speed[:, 2:] == 0.5).all()
     team.speed = 1.0  # the team's own rule, made again at each episode's start
-    venv.reset(seed=0)
-    batched.act(drills, skill, target, speed)
-    assert (speed[:, 2:] == 1.0).all()
+    driver.act(np.arange(n))
+    assert (batch.speed[:, 2:] == 0.5).all()
+    env.reset(seed=0)
+    driver.act(np.arange(n))
+    assert (batch.speed[:, 2:] == 1.0).all()

@@ -15,13 +15,8 @@ from synthetic_smdp import (
     constant_policy,
 )
 
-from ilpss.options import (
-    OptionLibrary,
-    OptionSettings,
-    bhattacharyya_distance,
-    kernel_distances,
-    match_kernels,
-)
+from ilpss.kernels import bhattacharyya_distance, kernel_distances, match_kernels
+from ilpss.options import OptionLibrary, OptionSettings
 from ilpss.tiles import TileCoder
 
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import soccer_drill
+from soccer_drill.commands import Command, Skill
 from soccer_drill.config import DrillConfig
-from soccer_drill.skills import Command, Skill
 from soccer_drill.state import BALL
 
 EPS = 1e-6
@@ -50,7 +50,7 @@ def test_invariants_over_many_random_episodes(opponent):
                 assert env.observation_space(agent).contains(o)
         outcomes.add(env.outcome)
         # Zero-sum rewards, paid once, matching the outcome.
-        paid = env._core.drill.attacker_reward
+        paid = float(env._core.batch.attacker_reward[0])
         for agent, r in rewards.items():
             assert r == (paid if agent.startswith("attacker") else -paid)
             assert term[agent] == (env.outcome != "timeout") != trunc[agent]
@@ -133,7 +133,7 @@ def test_the_ball_moves_on_the_arrays_exactly_as_pymunk_moves_it_in_the_single_d
     """The rules move the ball on arrays (the batched drill has no ball body); the single
     drill keeps it a body of its space as well, and both agree to the bit, the sign of a
     zero included, over passes, dribbles and loose balls."""
-    from soccer_drill.drill import Drill
+    from one_drill import OneDrill as Drill
 
     drill, rng = Drill(), np.random.default_rng(3)
     skills = [Skill.PASS, Skill.DRIBBLE, Skill.HOLD, Skill.GO_TO_BALL]

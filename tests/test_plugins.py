@@ -46,7 +46,7 @@ def foreign_distribution(tmp_path, monkeypatch):
 
 def test_foreign_team_is_discovered_and_plays(foreign_distribution, monkeypatch):
     assert "wall" in teams.team_ids()
-    assert teams.available_teams()["wall"] == "Both defenders stand on the goal line's centre."
+    assert soccer_drill.available_teams()["wall"] == "Both defenders stand on the goal line's centre."
     env = soccer_drill.HolderEnv(opponent="wall")
     env.reset(seed=0)
     for _ in range(5):
@@ -65,7 +65,7 @@ def test_broken_entry_point_is_reported_by_name(tmp_path, monkeypatch):
     monkeypatch.syspath_prepend(str(tmp_path))
     teams.refresh()
     try:
-        with pytest.raises(teams.TeamError, match=r"team 'broken' \(no_such_module:Team\) failed to load"):
+        with pytest.raises(soccer_drill.TeamError, match=r"team 'broken' \(no_such_module:Team\) failed to load"):
             soccer_drill.env(opponent="broken")
     finally:
         monkeypatch.undo()
@@ -132,7 +132,7 @@ def test_misbehaving_plugin_is_named_by_its_id(tmp_path, monkeypatch, behaviour,
     try:
         env = soccer_drill.HolderEnv(opponent="sloppy", opponent_params={"behaviour": behaviour})
         env.reset(seed=0)
-        with pytest.raises(teams.TeamError, match=message):
+        with pytest.raises(soccer_drill.TeamError, match=message):
             env.step(2)
     finally:
         monkeypatch.undo()
@@ -193,7 +193,7 @@ def test_plugins_that_fail_to_import_leave_the_other_teams_listed_and_built(inst
             "raises = plugin_raises:Team\nexits = plugin_exits:Team")
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        listed = teams.available_teams()
+        listed = soccer_drill.available_teams()
     assert {"chasers", "parametric", "wall"} <= set(listed)
     assert not {"raises", "exits"} & set(listed)
     assert {type(w.message).__name__ for w in caught} == {"PluginWarning"}
@@ -208,7 +208,7 @@ def test_plugins_that_fail_to_import_leave_the_other_teams_listed_and_built(inst
     env.reset(seed=0)
     env.step(2)
     soccer_drill.make_team("chasers")
-    with pytest.raises(teams.TeamError, match=r"team 'raises' \(plugin_raises:Team\) failed"):
+    with pytest.raises(soccer_drill.TeamError, match=r"team 'raises' \(plugin_raises:Team\) failed"):
         soccer_drill.env(opponent="raises")
     # The command lists the good teams, reports the broken ones and exits with 1.
     assert opponents_cli.main([]) == 1
@@ -225,7 +225,7 @@ def test_a_team_id_declared_by_two_distributions_warns_naming_both(install):
             r"\(plugin_first:Wall\) and by distribution 'second-teams' \(plugin_second:Wall\); "
             r"using the first \(give the other team an id of its own\)")):
         install("second-teams", {"plugin_second": _GOOD_TEAM}, "wall = plugin_second:Wall")
-    assert teams.make_team("wall").__module__ == "plugin_first"
+    assert soccer_drill.make_team("wall").__module__ == "plugin_first"
 
 
 def test_a_plugin_cannot_replace_one_of_the_project_s_own_teams(install):
@@ -236,7 +236,7 @@ def test_a_plugin_cannot_replace_one_of_the_project_s_own_teams(install):
             r"\(plugin_shadow:Wall\); using this project's own team")):
         install("shadow-teams", {"plugin_shadow": _GOOD_TEAM}, "chasers = plugin_shadow:Wall",
                 first=True)
-    assert teams.make_team("chasers").__module__ == "opponents.chasers"
+    assert soccer_drill.make_team("chasers").__module__ == "opponents.chasers"
 
 
 def test_a_declared_id_that_is_not_valid_is_refused(install, capsys):
@@ -246,7 +246,7 @@ def test_a_declared_id_that_is_not_valid_is_refused(install, capsys):
         install("spaced-teams", {"plugin_spaced": _GOOD_TEAM}, "my team = plugin_spaced:Wall")
     assert "my team" not in teams.team_ids()
     assert "refused" in teams.broken_teams()["my team"]
-    with pytest.raises(teams.TeamError, match=r"'my team' .* is refused: a team id must be"):
+    with pytest.raises(soccer_drill.TeamError, match=r"'my team' .* is refused: a team id must be"):
         soccer_drill.env(opponent="my team")
     assert opponents_cli.main([]) == 1
     assert "error: team 'my team' of distribution 'spaced-teams'" in capsys.readouterr().err
@@ -254,7 +254,7 @@ def test_a_declared_id_that_is_not_valid_is_refused(install, capsys):
 
 def test_an_entry_point_naming_something_not_callable_is_reported_as_such(install):
     install("odd-teams", {"plugin_odd": "TEAM = 5\n"}, "odd = plugin_odd:TEAM")
-    with pytest.raises(teams.TeamError, match=(
+    with pytest.raises(soccer_drill.TeamError, match=(
             r"the entry point of team 'odd' \(plugin_odd:TEAM\) is not callable: it names a "
             r"int \(5\); it must name a team class or factory")):
         soccer_drill.make_team("odd")
@@ -265,7 +265,7 @@ def test_the_installed_teams_list_without_warnings(capsys):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         teams.refresh()
-        assert set(opponents.PAPER_TEAMS) <= set(teams.available_teams())
+        assert set(opponents.PAPER_TEAMS) <= set(soccer_drill.available_teams())
         assert teams.broken_teams() == {}
     assert opponents_cli.main([]) == 0
     assert capsys.readouterr().err == ""

@@ -23,31 +23,53 @@ from opponents.region_stream import (
 )
 from opponents.regions import Region, RegionRule, RegionTeam, composition
 from soccer_drill import teams
+from soccer_drill.commands import Skill
 from soccer_drill.config import DrillConfig
+from soccer_drill.drill.drills import BatchDrill
+from soccer_drill.envs.core import observation
 from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
-from soccer_drill.rules.features import feature_bounds, features
-from soccer_drill.skills import Skill
-from soccer_drill.state import DrillState, DrillView
-from soccer_drill.teams.batch import BatchView
+from soccer_drill.skills import state_record
+from soccer_drill.state import DrillState
+from soccer_drill.teams.kit import BatchRandom, BatchView
 from soccer_drill.vector import HolderVectorEnv, play_episodes
 
 DEFENDERS = ("defender_0", "defender_1")
 GUARDS = {"roles": ["guard", "guard"]}  # no sorties: MOVE_TO their spots on the line
+ONE = np.zeros(1, dtype=np.int64)
 
 
 def _view(holder_xy, ball_xy, holder=0):
-    """A read-only view of a drill standing still: attacker ``holder`` at ``holder_xy``."""
+    """A drill standing still: attacker ``holder`` at ``holder_xy``."""
     pos = [(5.0, 30.0), (30.0, 30.0), (13.0, 9.0), (22.0, 9.0), ball_xy]
     if holder >= 0:
         pos[holder] = holder_xy
-    state = DrillState(tuple(pos), ((0.0, 0.0),) * 5, holder, 0)
-    return DrillView(SimpleNamespace(state=state, config=DrillConfig()), DEFENDERS)
+    return DrillState(tuple(pos), ((0.0, 0.0),) * 5, holder, 0)
 
 
-def _skills(team, view):
-    commands = team.act(view)
-    return tuple(commands[p].skill for p in DEFENDERS)
+class _One:
+    """A team's batched form in one drill, put in given states."""
+
+    def __init__(self, team, state, seed=0):
+        self.batched = team.batch(1)
+        self.drill = BatchDrill(1, DrillConfig())
+        self.view = BatchView(self.drill, DEFENDERS)
+        rng = BatchRandom(1)
+        rng.seed(ONE, [seed])
+        self.drill.set_state(0, state)
+        self.batched.reset(self.view, ONE, rng)
+
+    def act(self, state):
+        self.drill.set_state(0, state)
+        return self.batched.act(self.view, ONE)
+
+    def below(self, state):
+        self.drill.set_state(0, state)
+        return bool(self.batched.below(self.view, ONE)[0])
+
+
+def _skills(team, state):
+    return tuple(Skill(int(s)) for s in team.act(state).skill[0])
 
 
 # ------------------------------------------------------------------ the region test
@@ -72,19 +94,18 @@ def test_the_region_is_the_observed_feature_rounded_to_float32():
     obs[5], obs[6] = 12.0, 0.5
     assert NEAR.observed_below(obs) and not LEFT.observed_below(obs)
     # The holder's feature at a state is exactly the team's test there.
-    cfg = DrillConfig()
-    low, high = feature_bounds(cfg)
+    features = observation("features", DrillConfig())
     for y in (11.9999999, 12.0, 12.0000001, 12.00001):
-        view = _view((20.0, y), (20.0, y - 0.75))
-        team = RegionTeam("chasers", "parametric", NEAR, below_params=GUARDS)
-        obs = features(view.state, 0, cfg, low, high)
-        assert team.below(view) == NEAR.observed_below(obs)
+        state = _view((20.0, y), (20.0, y - 0.75))
+        team = _One(RegionTeam("chasers", "parametric", NEAR, below_params=GUARDS), state)
+        obs = features(state_record(state), ONE, ONE)[0]
+        assert team.below(state) == NEAR.observed_below(obs)
 
 
 # ------------------------------------------------------------------ the team switches
 def test_the_team_plays_the_behaviour_of_the_carriers_region():
-    team = RegionTeam("chasers", "parametric", NEAR, below_params=GUARDS)
-    team.reset(_view((20.0, 20.0), (20.0, 19.25)), np.random.default_rng(0))
+    team = _One(RegionTeam("chasers", "parametric", NEAR, below_params=GUARDS),
+                _view((20.0, 20.0), (20.0, 19.25)))
     intercept, move = (Skill.INTERCEPT,) * 2, (Skill.MOVE_TO,) * 2
     assert _skills(team, _view((20.0, 12.01), (20.0, 11.26))) == intercept  # above
     assert _skills(team, _view((20.0, 12.0), (20.0, 11.25))) == move  # at the threshold: below
@@ -92,45 +113,46 @@ def test_the_team_plays_the_behaviour_of_the_carriers_region():
     assert _skills(team, _view((20.0, 12.5), (20.0, 11.75))) == intercept
     assert _skills(team, _view(None, (20.0, 11.9), holder=-1)) == move
     assert _skills(team, _view(None, (20.0, 12.1), holder=-1)) == intercept
-    # The commands below are those of the guards themselves, reset with the same view.
-    guards = teams.make_team("parametric", **GUARDS)
-    view = _view((9.0, 6.0), (9.0, 5.25), holder=1)
-    guards.reset(view, np.random.default_rng(1))
-    assert team.act(view) == guards.act(view)
+    # The commands below are those of the guards themselves, reset with the same state.
+    state = _view((9.0, 6.0), (9.0, 5.25), holder=1)
+    guards = _One(soccer_drill.make_team("parametric", **GUARDS), state, seed=1)
+    for mine, theirs in zip(team.act(state), guards.act(state), strict=True):
+        np.testing.assert_array_equal(mine, theirs)
 
 
-def test_the_batched_team_decides_the_region_as_the_single_one():
+def test_the_team_decides_each_drills_region_at_its_carrier():
     cases = [((20.0, 12.01), (20.0, 11.26), 0), ((20.0, 12.0), (20.0, 11.25), 1),
              ((20.0, 12.5), (20.0, 11.75), 0), (None, (20.0, 11.9), -1),
              (None, (20.0, 12.1), -1), ((17.5, 11.0), (17.6, 12.5), 1)]
-    views = [_view(*case) for case in cases]
+    states = [_view(*case) for case in cases]
     batch = SimpleNamespace(
-        n=len(views), config=DrillConfig(),
-        pos=np.array([v.state.pos for v in views]), holder=np.array([v.state.holder for v in views]))
+        n=len(states), config=DrillConfig(),
+        pos=np.array([s.pos for s in states]), holder=np.array([s.holder for s in states]))
+    carriers = [s.pos[s.holder if s.holder >= 0 else 4] for s in states]
+    expected = {NEAR: [np.float32(y) <= np.float32(12.0) for _, y in carriers],
+                LEFT: [np.float32(x - 17.5) <= np.float32(0.0) for x, _ in carriers]}
+    assert expected[NEAR] == [False, True, False, True, False, True]
     for region in (NEAR, LEFT):
         team = RegionTeam("chasers", "parametric", region, below_params=GUARDS)
-        expected = [team.below(v) for v in views]
-        batched = team.batch(len(views)).below(BatchView(batch, DEFENDERS), np.arange(len(views)))
-        assert batched.tolist() == expected
-    assert [RegionTeam("chasers", "chasers", NEAR).below(v) for v in views] == [
-        False, True, False, True, False, True]
+        batched = team.batch(len(states)).below(BatchView(batch, DEFENDERS), np.arange(len(states)))
+        assert batched.tolist() == expected[region]
+        assert [_One(team, s).below(s) for s in states] == expected[region]
 
 
 def test_the_lateral_region_splits_left_from_right():
-    team = RegionTeam("chasers", "parametric", LEFT, below_params=GUARDS)
-    team.reset(_view((20.0, 20.0), (20.0, 19.25)), np.random.default_rng(0))
+    team = _One(RegionTeam("chasers", "parametric", LEFT, below_params=GUARDS),
+                _view((20.0, 20.0), (20.0, 19.25)))
     assert _skills(team, _view((17.5, 20.0), (17.6, 19.25))) == (Skill.MOVE_TO,) * 2
     assert _skills(team, _view((17.6, 20.0), (17.4, 19.25))) == (Skill.INTERCEPT,) * 2
 
 
 def test_each_team_gets_its_own_stream_derived_from_the_one_given():
     def sorties(seed):
-        team = RegionTeam("goal_guards", "goal_guards", NEAR)
-        view = _view((20.0, 30.0), (20.0, 29.25))
-        team.reset(view, np.random.default_rng(seed))
+        state = _view((20.0, 30.0), (20.0, 29.25))
+        team = _One(RegionTeam("goal_guards", "goal_guards", NEAR), state, seed=seed)
         for _ in range(200):
-            team.act(view)
-        return tuple(t.sorties for t in team.teams)
+            team.act(state)
+        return tuple(int(t.memory["sorties"][0]) for t in team.batched.teams)
 
     counts = [sorties(seed) for seed in range(6)]
     assert counts == [sorties(seed) for seed in range(6)]  # reproducible
@@ -160,35 +182,28 @@ def test_the_same_seed_gives_the_same_episode_also_after_others():
 
 
 # ------------------------------------------------------------------ the batched drill
-class _NoBatch:
-    """The region team without its batched act: one copy per drill."""
-
-    def __init__(self, **params):
-        self.inner = RegionTeam(**params)
-
-    def reset(self, view, rng):
-        self.inner.reset(view, rng)
-
-    def act(self, view):
-        return self.inner.act(view)
-
-
-def test_the_batched_team_plays_as_one_team_per_drill():
+def test_the_team_is_one_batched_team_whatever_the_number_of_drills():
     params = {"above": "goal_guards", "below": "contain_cover", "region": LEFT}
     rule = RegionRule("early_pass", "lane", LEFT)
-    batched = play_episodes(HolderVectorEnv(num_envs=6, opponent=RegionTeam(**params)), rule,
-                            range(18))
-    copies = play_episodes(HolderVectorEnv(num_envs=6, opponent=_NoBatch(**params)), rule,
-                           range(18))
-    assert batched == copies
-    assert callable(getattr(RegionTeam(**params), "batch", None))
-    assert getattr(RegionTeam("chasers", "press_far_contain_near", NEAR), "batch", None)
+    batched = play_episodes(HolderVectorEnv(num_envs=6, opponent=RegionTeam(**params),
+                                            drills_per_space=1), rule, range(6))
+    singles = []
+    for seed in range(6):
+        env, total = HolderEnv(opponent=RegionTeam(**params)), 0.0
+        obs, _ = env.reset(seed=seed)
+        rng, done = np.random.default_rng(seed), False
+        while not done:
+            obs, reward, term, trunc, info = env.step(rule(obs, rng))
+            total, done = total + reward, term or trunc
+        singles.append((total, info["outcome"]))
+    assert len(batched) == len(singles) == 6
+    assert sum(b == s for b, s in zip(batched, singles, strict=True)) >= 4  # up to contacts
 
 
 @pytest.mark.parametrize("target", TARGETS)
 def test_the_batched_drill_plays_the_single_environments_episodes_step_by_step(target):
     """One drill: every observation, reward and info equals the single environment's."""
-    rule = RegionRule("late_pass", "lane", teams.make_team(target).region)
+    rule = RegionRule("late_pass", "lane", soccer_drill.make_team(target).region)
     venv, env = HolderVectorEnv(num_envs=1, opponent=target), HolderEnv(opponent=target)
     for seed in (2, 9):
         obs, _ = venv.reset(seed=seed)
@@ -206,23 +221,19 @@ def test_the_batched_drill_plays_the_single_environments_episodes_step_by_step(t
         venv.step(np.array([0]))  # NEXT_STEP autoreset
 
 
-def test_a_team_without_a_batched_act_makes_the_region_team_run_per_drill():
+def test_a_team_without_a_batched_form_cannot_be_composed():
     class Plain:
-        def __init__(self):
-            self.inner = teams.make_team("chasers")
-
         def reset(self, view, rng):
-            self.inner.reset(view, rng)
+            pass
 
         def act(self, view):
-            return self.inner.act(view)
+            return dict.fromkeys(view.players, soccer_drill.Command(Skill.INTERCEPT))
 
-    teams.register("plain_for_regions", Plain, overwrite=True)
-    team = RegionTeam("plain_for_regions", "contain_cover", NEAR)
-    assert not hasattr(team, "batch")
-    played = play_episodes(HolderVectorEnv(num_envs=3, opponent=team),
-                           HOLDER_POLICIES["lane"], range(4))
-    assert len(played) == 4
+    soccer_drill.register("plain_for_regions", Plain, overwrite=True)
+    with pytest.raises(soccer_drill.TeamError, match=r"RegionTeam composes teams with a batched form "
+                                              r"\(batch\(n\)\); team 'plain_for_regions' has "
+                                              r"none"):
+        RegionTeam("plain_for_regions", "contain_cover", NEAR)
 
 
 # ------------------------------------------------------------------ the registered teams
@@ -230,20 +241,21 @@ def test_the_stream_teams_are_installed_and_are_what_the_pre_check_judges():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         teams.refresh()
-        listed = teams.available_teams()
+        listed = soccer_drill.available_teams()
         assert teams.broken_teams() == {}
     assert set(SOURCES) | set(TARGETS) <= set(listed)
     for c in CANDIDATES:
         assert c.team().region == c.region  # a registered id is checked to be its composition
     assert {c.label for c in CANDIDATES if c.registered} == set(TARGETS) | set(SHARP_TARGETS)
     assert set(SHARP_SOURCES) | set(SHARP_TARGETS) <= set(listed)
-    press_far = teams.make_team("press_far_contain_near")
+    press_far = soccer_drill.make_team("press_far_contain_near")
     assert (press_far.above_id, press_far.below_id, press_far.region) == (
         "interceptors_press", "contain_cover", NEAR)
-    assert teams.make_team("press_far_contain_near", region={"feature": "dist_goal",
+    assert soccer_drill.make_team("press_far_contain_near", region={"feature": "dist_goal",
                                                              "threshold": 9.0}).region.threshold == 9
-    with pytest.raises(TypeError, match="must be a team id"):
-        RegionTeam(teams.make_team("chasers"), "chasers", NEAR)
+    with pytest.raises(ValueError, match=r"RegionTeam above \(a team id\) must be a non-empty "
+                                         r"identifier"):
+        RegionTeam(soccer_drill.make_team("chasers"), "chasers", NEAR)
 
 
 def test_the_sources_best_rules_differ_as_the_pre_check_says():

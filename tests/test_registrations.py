@@ -11,10 +11,11 @@ import pytest
 
 pytestmark = pytest.mark.slow
 
-# Every registry the three packages' modules expose, as {"module:ATTRIBUTE": names}: one
-# object is listed once, under a module whose __all__ names it (its own).
+# Every registry the three packages' modules define, as {"module:ATTRIBUTE": names}: one
+# object is listed once, under the module whose top level assigns it (its own), whether
+# or not that module's __all__ names it.
 _EVERY_REGISTRY = """
-import importlib, json, pkgutil
+import ast, importlib, json, pkgutil
 import ilpss, opponents, soccer_drill
 found = {}
 for package in (soccer_drill, opponents, ilpss):
@@ -23,7 +24,12 @@ for package in (soccer_drill, opponents, ilpss):
             module = importlib.import_module(info.name)
         except ImportError:  # an optional dependency (torch, stable-baselines3)
             continue
-        for attribute in getattr(module, "__all__", ()):
+        with open(module.__file__, encoding="utf-8") as source:
+            body = ast.parse(source.read()).body
+        assigned = sorted({target.id for node in body if isinstance(node, (ast.Assign, ast.AnnAssign))
+                           for target in (node.targets if isinstance(node, ast.Assign) else [node.target])
+                           if isinstance(target, ast.Name)})
+        for attribute in assigned:
             registry = getattr(module, attribute, None)
             if type(registry).__name__ == "Registry":
                 found.setdefault(id(registry), (f"{info.name}:{attribute}", registry))
@@ -46,7 +52,8 @@ def _run(code: str, *args: str) -> object:
 def test_a_registry_alone_knows_every_name_the_project_registers():
     everything = _run(_EVERY_REGISTRY)
     assert {"ilpss.reuse:REUSES", "ilpss.experiments.methods:METHODS",
-            "ilpss.experiments.protocols:PROTOCOLS"} <= set(everything)
+            "ilpss.experiments.protocols:PROTOCOLS", "soccer_drill.teams.registry:TEAMS"} <= set(
+        everything)
     for spec, names in everything.items():
         assert _run(_ONE_REGISTRY, spec) == names, spec
 

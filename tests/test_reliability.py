@@ -27,8 +27,8 @@ from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.run import run_experiment
 from ilpss.lifelong import LearnerConfig, LifelongConfig
 from ilpss.options import OptionSettings
-from soccer_drill.skills import Command, Skill
-from soccer_drill.teams import TeamError
+from soccer_drill import TeamError
+from soccer_drill.commands import Command, Skill
 
 ROOT = Path(__file__).resolve().parent.parent
 UNIX_TIMER = hasattr(signal, "setitimer") and hasattr(signal, "SIGPROF")
@@ -69,13 +69,14 @@ def test_the_soak_checks_its_output_before_any_episode(tmp_path, monkeypatch, ca
 @pytest.mark.slow
 def test_soak_counts_and_reports_violations(monkeypatch, tmp_path):
     """A drill whose observations turn NaN at cycle 3 must fail the soak (exit status 1)."""
-    features = soccer_drill.envs.core.features
+    observe = soccer_drill.envs.core.Observation.__call__
 
-    def broken(state, index, *args):
-        obs = features(state, index, *args)
-        return np.full_like(obs, np.nan) if state.cycle == 3 else obs
+    def broken(self, state, rows, players):
+        obs = observe(self, state, rows, players)
+        obs[state["cycle"][rows] == 3] = np.nan
+        return obs
 
-    monkeypatch.setattr(soccer_drill.envs.core, "features", broken)
+    monkeypatch.setattr(soccer_drill.envs.core.Observation, "__call__", broken)
     out = tmp_path / "r.md"
     assert soak.main(["--episodes", "30", "--warmup", "20", "--out", str(out)]) == 1
     text = out.read_text()
@@ -251,7 +252,7 @@ def test_a_team_that_waits_is_not_charged_for_the_wait(kind):
 _DESCHEDULED_TEAM = r'''
 import sys, time
 import soccer_drill
-from soccer_drill.skills import Command, Skill
+from soccer_drill.commands import Command, Skill
 
 class Honest:
     """Computes for 0.3 s of wall time in its first act(), and says when it starts."""
@@ -410,13 +411,13 @@ def test_gymnasium_make_passes_team_timeout():
     import gymnasium as gym
 
     env = gym.make("soccer_drill/Holder-v0", opponent="chasers", team_timeout=None)
-    assert env.unwrapped._core._driver.team_timeout is None
+    assert env.unwrapped.loop.core.team.team_timeout is None
 
 
 def test_team_timeout_bounds_and_numpy_numbers_are_accepted():
     for ok in (0.001, 86_400, np.float32(0.5), np.int64(2)):
         env = soccer_drill.HolderEnv(opponent="chasers", team_timeout=ok)
-        assert env._core._driver.team_timeout == float(ok)
+        assert env.loop.core.team.team_timeout == float(ok)
 
 
 class _SigWithFailingTimer:
@@ -596,7 +597,7 @@ def test_a_team_cannot_change_the_drill_through_its_view(write):
                                         r"(AttributeError|ValueError)"):
         env.step(0)
     assert env.drill_state is before and before.cycle == 1 and before.holder in (0, 1)
-    assert env._core.view.players == ("defender_0", "defender_1")
+    assert env.loop.core.team.view.players == ("defender_0", "defender_1")
 
 
 class _Flip:

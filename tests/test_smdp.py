@@ -19,8 +19,9 @@ from synthetic_smdp import (
     optimal_value,
 )
 
+from ilpss.episode import options_used
 from ilpss.options import OptionLibrary, OptionSettings
-from ilpss.smdp import KEEPAWAY, EpisodeResult, LearnerConfig, SmdpLearner, options_used
+from ilpss.smdp import KEEPAWAY, EpisodeResult, LearnerConfig, SmdpLearner
 from ilpss.tiles import TileCoder
 
 GAMMA = 0.9

@@ -15,9 +15,11 @@ import numpy as np
 import pytest
 
 import soccer_drill
-from soccer_drill import teams
-from soccer_drill.skills import Command, Skill
-from soccer_drill.teams import TeamError, check_commands
+from soccer_drill import TeamError
+from soccer_drill.commands import Command, Skill
+from soccer_drill.rules.arrays import CYCLE
+from soccer_drill.teams import BatchCommands
+from soccer_drill.teams.driver import check_commands
 
 UNIX_TIMER = hasattr(signal, "setitimer") and hasattr(signal, "SIGPROF")
 KINDS = ["holder", "aec", "parallel"]
@@ -199,7 +201,7 @@ class _ExitsWhenBuilt:
 ])
 def test_a_failing_factory_is_named_with_what_happened(team_registry, factory, params, error,
                                                        message):
-    teams.register("factory", factory)
+    soccer_drill.register("factory", factory)
     with pytest.raises(error, match=message) as err:
         soccer_drill.HolderEnv(opponent="factory", opponent_params=params)
     if error is TeamError:
@@ -286,19 +288,38 @@ def test_huge_answers_give_short_messages(behave, message):
     assert len(str(err.value)) < 1000
 
 
-def test_check_commands_is_the_public_check():
+def test_check_commands_checks_every_row_then_writes_what_it_checked():
     players = ("defender_0", "defender_1")
-    intercept = Command(Skill.INTERCEPT)
-    assert check_commands(dict.fromkeys(players, intercept), players, "t", 0) == [
-        (2, intercept), (3, intercept)]
-    moved = check_commands({"defender_0": Command(Skill.MOVE_TO, [np.float32(1), 2]),
-                            "defender_1": intercept}, players, "t", 5)
-    assert moved[0][1].target == (1.0, 2.0) and type(moved[0][1].target[0]) is float
-    with pytest.raises(TeamError, match=r"team 't', player 'defender_1', cycle 5: speed"):
-        check_commands({"defender_0": intercept,
-                        "defender_1": Command(Skill.INTERCEPT, None, 2.0)}, players, "t", 5)
-    with pytest.raises(TeamError, match=r"got NoneType at cycle 9"):
-        check_commands(None, players, "t", 9)
+    cycle, drills, cycles = np.zeros(3, CYCLE), np.array([0, 2]), np.array([5, 9, 6])
+    moving = BatchCommands(np.full((2, 2), int(Skill.MOVE_TO), dtype=np.int32),
+                           np.full((2, 2, 2), 1.5, dtype=np.float32), np.ones((2, 2)))
+    check_commands(moving, cycle, drills, cycles, "t", players)
+    assert cycle["skill"][:, 2:].tolist() == [[8, 8], [0, 0], [8, 8]]  # drill 1 not acting
+    assert cycle["target"][2, 3].tolist() == [1.5, 1.5] and cycle["skill"][:, :2].max() == 0
+    too_fast = BatchCommands(np.full((2, 2), int(Skill.MARK)), np.zeros((2, 2, 2)),
+                             np.array([[1.0, 1.0], [1.0, 2.0]]))
+    with pytest.raises(TeamError, match=r"^team 't', drill 2, player 'defender_1', cycle 6: "
+                                        r"speed must be in \(0, 1\], got 2\.0$"):
+        check_commands(too_fast, cycle, drills, cycles, "t", players)
+    assert cycle["skill"][:, 2:].tolist() == [[8, 8], [0, 0], [8, 8]]  # nothing written
+    with pytest.raises(TeamError, match=r"^team 't', player 'defender_1', cycle 6: speed"):
+        check_commands(too_fast, cycle, drills, cycles, "t", players, named=False)
+    with pytest.raises(TeamError, match=r"act\(\) must return BatchCommands\(skill, target, "
+                                        r"speed\), got NoneType"):
+        check_commands(None, cycle, drills, cycles, "t", players)
+
+
+def _returns_none(players):
+    return None
+
+
+def test_a_team_of_one_drill_returning_no_mapping_is_told_so():
+    env = soccer_drill.HolderEnv(opponent=_Acting(_returns_none))
+    env.reset(seed=0)
+    with pytest.raises(TeamError, match=r"^team '_Acting' must return a mapping with exactly the "
+                                        r"players it drives .* got NoneType at cycle 1$"):
+        for _ in range(3):
+            env.step(0)
 
 
 # ------------------------------------------------------------- re-entrancy

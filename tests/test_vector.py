@@ -10,19 +10,17 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 import soccer_drill
 from ilpss.experiments.agreement import agreement
 from opponents.parametric import ParametricTeam, sample_opponents
+from soccer_drill import TeamError
+from soccer_drill.commands import Command, Skill
+from soccer_drill.drill.drills import BatchDrill
+from soccer_drill.envs.core import observation
 from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
-from soccer_drill.rules.features import batch_features, feature_bounds, features
-from soccer_drill.rules.motion import (
-    interception_points,
-    mark_targets,
-    motions_of_drills,
-    roll_table,
-    rule_parameters,
-)
-from soccer_drill.skills import Command, Skill, ball_interception_point, execute
-from soccer_drill.teams import TeamError
-from soccer_drill.teams.batch import BatchCommands
+from soccer_drill.rules.arrays import CYCLE, roll_table, rule_parameters
+from soccer_drill.rules.cycle import before_physics_of_drills
+from soccer_drill.rules.motion import interception_points, mark_targets
+from soccer_drill.skills import ball_interception_point, execute, state_record
+from soccer_drill.teams.kit import BatchCommands, BatchRandom, BatchView
 from soccer_drill.vector import HolderVectorEnv, play_episodes
 from soccer_drill.vector.agents import ParallelVectorEnv
 
@@ -60,8 +58,9 @@ def test_the_batched_loops_give_each_drill_what_the_rules_give_it_alone():
     points = interception_points(pos, vel, holder, vmax, cfg)
     marks = mark_targets(pos, holder, 0.4)
     attacker = np.where(holder >= 0, holder % 2, 0)
-    low, high = feature_bounds(cfg)
-    feats = batch_features(pos, attacker, cfg, low, high)
+    features = observation("features", cfg)
+    records = np.concatenate([state_record(s) for s in states])
+    feats = features(records, np.arange(n), attacker)
     off_ball = [int(s) for s in Skill if s not in (Skill.HOLD, Skill.PASS, Skill.DRIBBLE)]
     skill = rng.choice(off_ball, size=(n, 4))
     has_ball = holder >= 0
@@ -69,9 +68,11 @@ def test_the_batched_loops_give_each_drill_what_the_rules_give_it_alone():
                                                    size=np.count_nonzero(has_ball))
     target = rng.uniform(0.0, cfg.field_size, size=(n, 4, 2))
     speed = rng.uniform(0.5, 1.0, size=(n, 4))
-    motions = np.zeros((n, 4, 5))
-    motions_of_drills(motions, np.ones(n, dtype=bool), pos, vel, holder, skill, target, speed,
-                      np.zeros((n, 2)), rule_parameters(cfg), roll_table(cfg))
+    cycle = np.zeros(n, dtype=CYCLE)
+    cycle["skill"], cycle["target"], cycle["speed"] = skill, target, speed
+    before_physics_of_drills(np.ones(n, dtype=bool), True, records, cycle, rule_parameters(cfg),
+                             roll_table(cfg))
+    motions = cycle["motions"]
     for k, s in enumerate(states):
         for p in range(4):
             assert tuple(points[k, p]) == ball_interception_point(s, p, vmax[k, p], cfg)
@@ -80,7 +81,8 @@ def test_the_batched_loops_give_each_drill_what_the_rules_give_it_alone():
             assert tuple(marks[k, p]) == (fx + 0.4 * (bx - fx), fy + 0.4 * (by - fy))
             command = Command(Skill(int(skill[k, p])), tuple(target[k, p]), float(speed[k, p]))
             assert tuple(motions[k, p]) == tuple(execute(s, p, command, cfg, None))
-        np.testing.assert_array_equal(feats[k], features(s, int(attacker[k]), cfg, low, high))
+        alone = features(state_record(s), np.zeros(1, dtype=np.int64), attacker[k:k + 1])[0]
+        np.testing.assert_array_equal(feats[k], alone)
 
 
 @pytest.mark.parametrize("team", TEAMS)
@@ -181,7 +183,7 @@ def test_a_bad_action_in_drill_17_names_it_and_leaves_every_drill_as_it_was():
     before = (b.pos.copy(), b.vel.copy(), b.holder.copy(), b.cycle.copy())
     actions = np.ones(32, dtype=int)
     actions[17] = 5
-    with pytest.raises(ValueError, match=r"drill 17: action must be an integer in 0\.\.2"):
+    with pytest.raises(ValueError, match=r"drill 17: action must be an integer in \[0, 2\]"):
         venv.step(actions)
     for x, y in zip(before, (b.pos, b.vel, b.holder, b.cycle), strict=True):
         np.testing.assert_array_equal(x, y)
@@ -191,16 +193,28 @@ def test_a_bad_action_in_drill_17_names_it_and_leaves_every_drill_as_it_was():
 
 
 class _NoBatch:
-    """A team without a batched act: the per-drill fallback, checked by TeamDriver."""
+    """The parametric team as a team of one drill (``reset(view, rng)``, ``act(view)``): its
+    batched form run on a drill of its own, put in the state it is shown. The batched
+    drill runs it as one copy per drill, checked by the team driver."""
 
     def __init__(self, **params):
         self.inner = ParametricTeam(**params)
 
     def reset(self, view, rng):
-        self.inner.reset(view, rng)
+        one = np.zeros(1, dtype=np.int64)
+        self.drill = BatchDrill(1, view.config)
+        self.drill.set_state(0, view.state)
+        self.view, self.batched = BatchView(self.drill, view.players), self.inner.batch(1)
+        draws = BatchRandom(1)
+        draws.seed(one, [rng])
+        self.batched.reset(self.view, one, draws)
 
     def act(self, view):
-        return self.inner.act(view)
+        self.drill.set_state(0, view.state)
+        c = self.batched.act(self.view, np.zeros(1, dtype=np.int64))
+        return {p: Command(Skill(int(c.skill[0, k])), tuple(c.target[0, k].tolist())
+                           if c.skill[0, k] == Skill.MOVE_TO else None, float(c.speed[0, k]))
+                for k, p in enumerate(view.players)}
 
 
 @pytest.mark.parametrize("params", [

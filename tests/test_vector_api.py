@@ -11,11 +11,11 @@ import pytest
 
 import soccer_drill
 from ilpss.experiments.calibrate import evaluate_rules
-from opponents.parametric import ParametricTeam
+from soccer_drill import TeamError
+from soccer_drill.commands import Command, Skill
 from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.policies import HOLDER_POLICIES
-from soccer_drill.teams import TeamError
-from soccer_drill.teams.batch import BatchCommands, BatchRandom
+from soccer_drill.teams.kit import BatchCommands, BatchRandom
 from soccer_drill.vector import HolderVectorEnv, play_episodes
 from soccer_drill.vector.agents import ParallelVectorEnv
 
@@ -35,7 +35,7 @@ def test_the_holder_batch_renders_one_frame_per_drill_as_the_single_env_draws_it
     assert not np.array_equal(venv.render()[0], venv.render()[1])
     venv.close()
     assert HolderVectorEnv(num_envs=2).render() is None
-    with pytest.raises(ValueError, match="render_mode must be None or one of \\['rgb_array'\\]"):
+    with pytest.raises(ValueError, match="render_mode must be None or 'rgb_array', got"):
         HolderVectorEnv(num_envs=2, render_mode="human")
 
 
@@ -96,7 +96,7 @@ def test_shared_spaces_mask_a_defenders_last_two_actions_and_replace_them():
     actions["defender_0"] = np.array([0, 0, 3, 0])
     with pytest.raises(ValueError, match=r"drill 2: action 3 \(padding\) is masked for 'defender_0'"):
         strict.step(actions)
-    with pytest.raises(TypeError, match=r"shared_spaces must be None .*, True or False, got 1"):
+    with pytest.raises(ValueError, match=r"shared_spaces must be None or true or false, got 1"):
         ParallelVectorEnv(num_envs=2, shared_spaces=1)
     assert ParallelVectorEnv(num_envs=2).shared_spaces  # no opponent: as parallel_env
     assert not ParallelVectorEnv(num_envs=2, opponent="chasers").shared_spaces
@@ -178,23 +178,39 @@ def test_a_seeded_batch_random_draws_what_the_seeds_generators_would():
         BatchRandom(2).random(np.array([1]))
 
 
+class _Hesitant:
+    """A team of one drill that draws: each cycle, each defender intercepts with
+    probability 0.3, else marks."""
+
+    def reset(self, view, rng):
+        self.rng, self.players = rng, view.players
+
+    def act(self, view):
+        return {p: Command(Skill.INTERCEPT if self.rng.random() < 0.3 else Skill.MARK)
+                for p in self.players}
+
+
+class _HesitantBatch:
+    """The same, written in batched form: each drill's draws from its own stream."""
+
+    def batch(self, n):
+        return self
+
+    def reset(self, view, drills, rng):
+        self.rng = rng
+
+    def act(self, view, drills):
+        draws = np.stack([self.rng.random(drills), self.rng.random(drills)], axis=1)
+        skill = np.where(draws < 0.3, int(Skill.INTERCEPT), int(Skill.MARK))
+        m = len(drills)
+        return BatchCommands(skill, np.zeros((m, 2, 2)), np.ones((m, 2)))
+
+
 def test_teams_that_draw_get_their_streams_from_the_seeds():
-    """A guard team's sorties draw from each drill's team stream: batched and one copy
-    per drill (generators made at once) give the same episodes."""
-    params = {"roles": ("guard", "guard"), "press_probability": 0.2}
-
-    class Copies:
-        def __init__(self):
-            self.inner = ParametricTeam(**params)
-
-        def reset(self, view, rng):
-            self.inner.reset(view, rng)
-
-        def act(self, view):
-            return self.inner.act(view)
-
+    """A team's draws come from each drill's team stream: batched and one copy per drill
+    (generators made at once) give the same episodes."""
     results = []
-    for team in (ParametricTeam(**params), Copies()):
+    for team in (_HesitantBatch(), _Hesitant()):
         venv = HolderVectorEnv(num_envs=5, opponent=team)
         venv.reset(seed=3)
         results.append([venv.step(np.full(5, 2))[0] for _ in range(12)])
@@ -202,7 +218,7 @@ def test_teams_that_draw_get_their_streams_from_the_seeds():
 
 
 @pytest.mark.parametrize(("skill", "speed", "target", "message"), [
-    (1, 1.0, 0.0, r"drill 4, player 'defender_0', cycle 0: skill 1 is not allowed"),
+    (1, 1.0, 0.0, r"drill 4, player 'defender_0', cycle 0: skill PASS=1 is not allowed"),
     (9, 1.0, 0.0, r"drill 4, player 'defender_0', cycle 0: skill 9 is not allowed"),
     (8, 1.0, np.nan, r"drill 4, player 'defender_0', cycle 0: MOVE_TO needs a finite"),
     (8, 0.0, 1.0, r"drill 4, player 'defender_0', cycle 0: speed must be in \(0, 1\]"),
@@ -331,13 +347,12 @@ def test_the_single_and_the_batched_multi_agent_env_refuse_an_action_in_the_same
 def test_the_batched_view_is_read_only_as_the_single_view_is():
     import pickle
 
-    from soccer_drill.state import DrillView
-    from soccer_drill.teams.batch import BatchView
+    from soccer_drill.teams.kit import BatchView
 
     venv = HolderVectorEnv(num_envs=2, opponent="chasers")
     venv.reset(seed=0)
     views = (BatchView(venv._core.batch, ("defender_0", "defender_1")),
-             DrillView(soccer_drill.HolderEnv(opponent="chasers")._core.drill, ("defender_0",)))
+             soccer_drill.HolderEnv(opponent="chasers").loop.core.team.view.drill(0))
     for view in views:
         name = type(view).__name__
         with pytest.raises(AttributeError, match=f"{name} is read-only: cannot set 'players'"):

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from soccer_drill import vector
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.vector import HolderVectorEnv, play_episodes
 from soccer_drill.vector.agents import ParallelVectorEnv
@@ -16,11 +15,12 @@ def test_reset_refuses_unknown_options_and_options_that_are_not_a_dict():
     venv = HolderVectorEnv(num_envs=3, opponent="goal_guards")
     venv.reset(seed=0)
     mask = np.array([True, False, False])
-    with pytest.raises(ValueError, match=r"unknown reset option 'reset_masks'.*'reset_mask'"):
+    with pytest.raises(ValueError, match=r"HolderVectorEnv.reset's options: unknown field\(s\) "
+                                         r"\['reset_masks'\]; allowed: \['reset_mask'\]"):
         venv.reset(options={"reset_masks": mask})
     with pytest.raises(TypeError, match=r"options must be a dict.*got list"):
         venv.reset(options=[1])
-    with pytest.raises(ValueError, match=r"unknown reset option 1\b"):
+    with pytest.raises(ValueError, match=r"unknown field\(s\) \[1\]"):
         venv.reset(options={1: 2})
     venv.reset(options={})  # an empty dict: every drill, as None
     venv.reset(options={"reset_mask": mask})
@@ -34,7 +34,7 @@ def _returning(value):
 def test_play_episodes_refuses_what_a_rule_returns_that_is_not_an_action(value):
     venv = HolderVectorEnv(num_envs=2, opponent="goal_guards")
     with pytest.raises(ValueError, match=r"drill \d+ \(seed \d+\): the rule returned .*action must "
-                                         r"be an integer in 0\.\.2 \(0=HOLD, 1=PASS, 2=DRIBBLE\)"):
+                                         r"be an integer in \[0, 2\] \(0=HOLD, 1=PASS, 2=DRIBBLE\)"):
         play_episodes(venv, _returning(value), [4, 5])
 
 
@@ -42,7 +42,8 @@ def test_play_episodes_takes_numpy_integer_actions_and_refuses_seeds_that_are_no
     venv = HolderVectorEnv(num_envs=2, opponent="goal_guards")
     assert len(play_episodes(venv, _returning(np.int64(0)), [1, np.int32(2)])) == 2
     for seeds in ([1.5], [True], ["3"], [-1]):
-        with pytest.raises((TypeError, ValueError), match=r"seeds\[0\] must be an integer"):
+        with pytest.raises((TypeError, ValueError), match=r"seeds\[0\] \(a seed of HolderEnv\.reset\) "
+                                                           r"must be an integer >= 0"):
             play_episodes(venv, HOLDER_POLICIES["hold"], seeds)
 
 
@@ -56,16 +57,18 @@ def test_a_bad_agent_key_is_named_without_failing_to_sort_the_keys():
 
 
 def test_drill_indices_are_checked_as_sb3_reads_them():
-    assert vector.check_drill_indices(None, 3) == [0, 1, 2]
-    assert vector.check_drill_indices(2, 3) == [2]
-    assert vector.check_drill_indices(np.int64(1), 3) == [1]
-    assert vector.check_drill_indices([0, 2], 3) == [0, 2]
-    assert vector.check_drill_indices(np.array([1]), 3) == [1]
-    assert vector.check_drill_indices([], 3) == []
+    from soccer_drill.vector.holder import check_drill_indices
+
+    assert check_drill_indices(None, 3) == [0, 1, 2]
+    assert check_drill_indices(2, 3) == [2]
+    assert check_drill_indices(np.int64(1), 3) == [1]
+    assert check_drill_indices([0, 2], 3) == [0, 2]
+    assert check_drill_indices(np.array([1]), 3) == [1]
+    assert check_drill_indices([], 3) == []
     for bad in (5, -1, [5], [0, 3], "a", 1.0, True, [True], [0.0], {"a": 1}):
-        with pytest.raises((TypeError, ValueError), match=r"indices must be None \(every drill\), "
-                                                           r"an int in 0\.\.2 or a sequence of them"):
-            vector.check_drill_indices(bad, 3)
+        with pytest.raises(ValueError, match=r"indices must be a list of values, each an integer "
+                                             r"in \[0, 2\], got"):
+            check_drill_indices(bad, 3)
 
 
 def test_num_envs_beyond_the_memory_available_is_refused_with_the_estimate(monkeypatch):
@@ -73,7 +76,7 @@ def test_num_envs_beyond_the_memory_available_is_refused_with_the_estimate(monke
     and under a memory limit 200,000 crashed inside pymunk: the estimate is checked
     against what is available before any drill is built."""
     from soccer_drill.vector import HolderVectorEnv
-    from soccer_drill.vector import core as batch_core
+    from soccer_drill.vector import memory as batch_core
 
     assert batch_core.available_memory() is None or batch_core.available_memory() > 0
     monkeypatch.setattr(batch_core, "available_memory", lambda: 10 * 2**20)  # 10 MiB
@@ -93,7 +96,7 @@ def test_frames_of_every_drill_beyond_the_memory_available_are_refused_with_the_
     3.1 MiB on the largest): with rgb_array, num_envs is checked with its frames, and
     render() checks them against what is available when it is called."""
     from soccer_drill.vector import HolderVectorEnv
-    from soccer_drill.vector import core as batch_core
+    from soccer_drill.vector import memory as batch_core
     from soccer_drill.vector.agents import ParallelVectorEnv
 
     make = HolderVectorEnv if kind == "holder" else ParallelVectorEnv

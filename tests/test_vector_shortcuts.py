@@ -8,7 +8,10 @@ import pytest
 import soccer_drill
 from soccer_drill.drill.drills import BatchDrill
 from soccer_drill.drill.spaces import BatchPhysics
-from soccer_drill.rules.cycle import INTERCEPTION, OUT, RUNNING, SUCCESS, TIMEOUT, outcome, reward
+from soccer_drill.rules.arrays import Outcome
+from soccer_drill.rules.cycle import outcome, reward
+
+RUNNING, SUCCESS, INTERCEPTION, OUT, TIMEOUT = Outcome
 
 
 def test_the_direct_chipmunk_step_moves_the_players_as_space_step_does():

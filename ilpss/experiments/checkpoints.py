@@ -60,16 +60,10 @@ from ilpss.experiments.protocols import Stream
 from ilpss.lifelong import LifelongLearner, TrialRecord, latest_checkpoint, read_state
 
 __all__ = [
-    "OWNER",
-    "CheckpointStore",
     "LocalStore",
-    "StorageError",
     "StorageSettings",
     "UriStore",
     "checkpoint_store",
-    "is_uri",
-    "open_store",
-    "stream_records",
 ]
 
 OWNER = "owner.json"

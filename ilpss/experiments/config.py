@@ -12,7 +12,7 @@ from ilpss.baselines import PrqConfig
 from ilpss.experiments import drill_facts
 from ilpss.experiments.executor import EXECUTOR
 from ilpss.experiments.methods import METHODS, LifelongMethod
-from ilpss.experiments.protocols import PROTOCOLS, Stream, Task
+from ilpss.experiments.protocols import PROTOCOLS, Stream
 from ilpss.experiments.registry import SAMPLERS, check_env_id
 from ilpss.lifelong import LIFELONG_CONSTRAINTS, LearnerConfig, LifelongConfig
 from ilpss.reuse import EmKernels
@@ -27,14 +27,7 @@ from soccer_drill.constraints import (
     from_json,
 )
 
-__all__ = [
-    "EPISODE_REWARDS",
-    "RECORDED_IF_SET",
-    "RUN_ONLY_FIELDS",
-    "ExperimentConfig",
-    "Stream",
-    "Task",
-]
+__all__ = ["ExperimentConfig"]
 
 EPISODE_REWARDS = {drill_facts.ENV_ID: drill_facts.EPISODE_REWARD,
                    drill_facts.ENV_ID.partition(":")[2]: drill_facts.EPISODE_REWARD}

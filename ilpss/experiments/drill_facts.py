@@ -123,7 +123,7 @@ TEAM_IDS = "soccer_drill.teams:team_ids"
 """``team_ids()``: the id of every installed team."""
 TEAM_DESCRIPTION = "soccer_drill.teams:describe"
 """``describe(team_id)``: the first line of a team's docstring."""
-MAKE_TEAM = "soccer_drill.teams:make_team"
+MAKE_TEAM = "soccer_drill:make_team"
 """``make_team(team_id, **params)``: a team, built."""
 SAMPLE_LABEL = "opponents.parametric:spec_label"
 """``spec_label(params)``: a short label of a member of :data:`SAMPLER`'s family."""
@@ -147,7 +147,7 @@ distribution that declares it, the digest of its package's source): results kept
 runs are tied to it, so that a team whose code changed is not taken for the old one."""
 
 
-TEAM_ERROR = "soccer_drill.teams:TeamError"
+TEAM_ERROR = "soccer_drill:TeamError"
 """The drill's error for a team that fails to load, or whose commands break the rules (a
 ``RuntimeError``)."""
 

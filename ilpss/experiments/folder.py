@@ -29,7 +29,7 @@ from ilpss._io import (
 from ilpss.experiments.executor import EXECUTOR
 from soccer_drill.constraints import Integer, Real, check_fields
 
-__all__ = ["WALL_TIME_FIELDS", "WALL_TIME_SCHEMA", "RunFolder", "checkpoint_key"]
+__all__ = ["RunFolder", "checkpoint_key"]
 
 WALL_TIME_SCHEMA = "ilpss.wall_time/1"
 WALL_TIME_FIELDS = {"seconds": Real(0.0), "workers": Integer(1), "executor": EXECUTOR}

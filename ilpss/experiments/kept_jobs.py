@@ -40,7 +40,7 @@ from ilpss._io import (
 from ilpss.experiments.executor import SETTINGS_ERRORS, JobsFailed
 from ilpss.experiments.provenance import check_code_field, check_same_code, code_record
 
-__all__ = ["JOB_SCHEMA", "KeptJobs", "KeptJobsFailed", "ResultCheck", "run_kept"]
+__all__ = ["KeptJobs", "run_kept"]
 
 JOB_SCHEMA = "ilpss.kept_job/2"
 

@@ -38,7 +38,6 @@ from ilpss.reuse import GivenRegions, LatestPast, Reuse
 
 __all__ = [
     "ASSIGNED_REGIONS_FINETUNE",
-    "GIVEN_REGIONS",
     "ORACLE_REGIONS_FINETUNE",
     "TRUE_REGIONS_FINETUNE",
     "TrueRegions",

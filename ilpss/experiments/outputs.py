@@ -14,7 +14,7 @@ from pathlib import Path
 
 from soccer_drill.files import TEMPORARY
 
-__all__ = ["check_out_dir", "check_out_file", "check_utf8", "unwritten_report"]
+__all__ = ["check_out_dir", "check_out_file"]
 
 _JOB_FOLDER = re.compile(r"seed_\d{3,}")
 

@@ -27,16 +27,12 @@ from ilpss.experiments.registry import SAMPLERS
 from soccer_drill.registry import Registry
 
 __all__ = [
-    "PROTOCOLS",
-    "PROTOCOL_FIELDS",
     "Protocol",
     "Stream",
     "StreamSettings",
     "Task",
     "make_env",
-    "refuse_unused",
     "register_protocol",
-    "team_task",
 ]
 
 

@@ -23,17 +23,7 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
-__all__ = [
-    "CODE_PACKAGES",
-    "MixedCodeError",
-    "check_code_field",
-    "check_one_code",
-    "check_same_code",
-    "code_line",
-    "code_record",
-    "describe",
-    "source_digest",
-]
+__all__ = ["check_same_code", "describe"]
 
 CODE_PACKAGES = ("soccer_drill", "opponents", "ilpss")
 """The packages whose source files make a result: the drill, its teams, the learner."""

@@ -36,7 +36,7 @@ from ilpss.experiments.run import read_config
 from ilpss.lifelong import LifelongLearner
 from ilpss.smdp import SmdpLearner
 
-__all__ = ["RegionUse", "main", "region_use", "target_use"]
+__all__ = ["main", "region_use"]
 
 OWN = "own primitives"
 """What acts when no option runs: the target's own primitive actions."""

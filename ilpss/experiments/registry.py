@@ -34,7 +34,7 @@ Methods, protocols and ways of reusing past policies are registries of their own
 :data:`~ilpss.reuse.REUSES`, on the same :class:`Registry`). Other names in the files need
 none: executors and the learner's ``method`` are checked against fixed lists, the kernel
 model named in a checkpoint against the one its configuration's reuse builds, and team ids
-are looked up in the drill's registry of teams (:data:`soccer_drill.teams.TEAMS`, a
+are looked up in the drill's registry of teams (:data:`soccer_drill.teams.registry.TEAMS`, a
 :class:`Registry` too).
 """
 
@@ -48,7 +48,6 @@ from soccer_drill.registry import Registry
 __all__ = [
     "ENV_PACKAGES",
     "SAMPLERS",
-    "check_env_id",
     "register_environment_package",
     "register_sampler",
 ]

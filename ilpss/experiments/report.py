@@ -31,7 +31,7 @@ from ilpss.experiments.report_bodies import (
 )
 from ilpss.experiments.report_text import metrics_note, success_lines
 
-__all__ = ["REPORT_BODIES", "ReportBody", "register_report_body", "report_body", "write_report"]
+__all__ = ["REPORT_BODIES", "register_report_body", "write_report"]
 
 
 def write_report(

@@ -58,17 +58,11 @@ from ilpss.experiments.provenance import check_code_field, check_same_code, code
 from soccer_drill.constraints import ListOf, Real, check_fields, check_keys
 
 __all__ = [
-    "RESULT_SCHEMA",
     "JobDone",
-    "JobError",
     "JobSpec",
     "check_entry",
-    "check_tasks",
     "load_result",
-    "read_config",
-    "read_run_code",
     "run_experiment",
-    "run_stream",
 ]
 
 RESULT_SCHEMA = "ilpss.experiment_result/3"

@@ -58,8 +58,7 @@ from ilpss.experiments.report_text import (
 )
 from ilpss.metrics import format_metrics_markdown
 
-__all__ = ["PAGE_SECTIONS", "page_section", "report_section", "section_a", "section_b",
-           "section_c"]
+__all__ = ["PAGE_SECTIONS"]
 
 
 def _copy_figure(folder: Path, name: str, destination: Path) -> None:

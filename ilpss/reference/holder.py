@@ -26,7 +26,7 @@ from stable_baselines3.common.vec_env import VecEnvWrapper, VecMonitor, VecNorma
 from ilpss.experiments.drill_facts import ENV_ID, HOLDER_SB3_VEC_ENV, drill_object
 from ilpss.reference.settings import HolderSetting, RewardOption, TransferSetting
 
-__all__ = ["Curve", "TimeoutWrapper", "evaluate", "train", "transfer"]
+__all__ = ["evaluate", "train", "transfer"]
 
 """The batched holder as an SB3 ``VecEnv``, looked up by name (``ilpss`` imports no drill
 module directly)."""

@@ -27,7 +27,7 @@ from ilpss.reference.settings import (
 )
 from soccer_drill.constraints import is_real
 
-__all__ = ["KIND", "Job", "check_result", "job_key", "run_job"]
+__all__: list[str] = []
 
 KIND = "reference"
 """The kind of the kept files (``reference-<digest>.json``)."""

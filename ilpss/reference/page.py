@@ -35,7 +35,7 @@ from ilpss.metrics import (
 from ilpss.reference.jobs import SELF_PLAY, Job
 from ilpss.reference.settings import EvalSettings, HolderSetting, TransferSetting
 
-__all__ = ["learning_md_rows", "write_page"]
+__all__: list[str] = []
 
 
 def learning_md_rows(path: Path) -> dict[str, tuple[str, str]]:

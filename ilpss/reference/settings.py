@@ -39,17 +39,7 @@ from soccer_drill.constraints import (
     check_fields,
 )
 
-__all__ = [
-    "ALGOS",
-    "SETTINGS",
-    "EvalSettings",
-    "HolderSetting",
-    "MultiAgentSetting",
-    "PPOConfig",
-    "RewardOption",
-    "SelfPlaySetting",
-    "TransferSetting",
-]
+__all__ = ["SETTINGS", "HolderSetting", "PPOConfig"]
 
 ALGOS = ("ppo", "maskable_ppo")
 """The Stable-Baselines3 learners of the holder: SB3's ``PPO``, sb3-contrib's

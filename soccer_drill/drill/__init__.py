@@ -2,32 +2,6 @@
 
 | module | holds |
 |---|---|
-| :mod:`~soccer_drill.drill.drills` | :class:`BatchDrill` (the cycle, written once, for ``n`` drills on arrays) and :class:`Drill` (one of them in a space of its own) |
-| :mod:`~soccer_drill.drill.spaces` | the pymunk side: :class:`DrillSpace` (one drill, the ball a body too) and :class:`BatchPhysics` (the players of many drills in shared spaces) |
+| :mod:`~soccer_drill.drill.drills` | :class:`~soccer_drill.drill.drills.BatchDrill`: the cycle, written once, for ``n`` drills on their records |
+| :mod:`~soccer_drill.drill.spaces` | the pymunk side: :class:`~soccer_drill.drill.spaces.DrillSpace` (one drill, the ball a body too: the single environments') and :class:`~soccer_drill.drill.spaces.BatchPhysics` (the players of many drills in shared spaces) |
 """
-
-from __future__ import annotations
-
-from soccer_drill.drill.drills import OUTCOME_NAMES, OUTCOMES, BatchDrill, Drill, Outcome
-from soccer_drill.drill.spaces import (
-    DRILLS_PER_SPACE,
-    BatchPhysics,
-    DrillSpace,
-    check_batch_order,
-    check_drills_per_space,
-    space_step,
-)
-
-__all__ = [
-    "DRILLS_PER_SPACE",
-    "OUTCOMES",
-    "OUTCOME_NAMES",
-    "BatchDrill",
-    "BatchPhysics",
-    "Drill",
-    "DrillSpace",
-    "Outcome",
-    "check_batch_order",
-    "check_drills_per_space",
-    "space_step",
-]

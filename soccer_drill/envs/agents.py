@@ -1,4 +1,5 @@
-"""The drill as PettingZoo AEC and parallel environments."""
+"""The drill as PettingZoo AEC and parallel environments: one drill of a
+:class:`~soccer_drill.envs.core.BatchCore`, which the batched environments run too."""
 
 from __future__ import annotations
 
@@ -10,23 +11,42 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import AECEnv, ParallelEnv
 
+from soccer_drill.commands import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.config import DrillConfig
+from soccer_drill.constraints import Integer, OneOf, checked, is_int
 from soccer_drill.envs.core import (
-    DrillCore,
+    ATTACKER_SKILLS,
+    DEFENDER_DEFAULT,
+    DEFENDER_MASK,
+    DEFENDER_SKILLS,
+    HOLDER_DEFAULT,
+    HOLDER_MASK,
+    ILLEGAL_ACTION,
+    OFF_BALL_DEFAULT,
+    OFF_BALL_MASK,
+    SHARED_DEFENDER_MASK,
+    BatchCore,
     IllegalAction,
+    Observation,
     ObsType,
+    action_list,
     concurrent_use,
     make_config,
+    masked_action,
     not_reset,
+    observation,
+    out_of_range,
     resolve_shared_spaces,
 )
+from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.screen import RENDER_MODES, Screen, frames_per_second
-from soccer_drill.rules.features import global_state, state_bounds
-from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
+from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
+from soccer_drill.rules.features import GLOBAL_STATE
 from soccer_drill.state import PLAYER_NAMES
-from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
+from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
 
 ObsFormat = Literal["dict", "flat"]
+OBS_FORMAT = OneOf(("dict", "flat"))
 
 _METADATA = {
     "render_modes": list(RENDER_MODES),
@@ -34,11 +54,31 @@ _METADATA = {
     "is_parallelizable": True,
     "render_fps": 10,  # per instance: 1 / cycle_seconds
 }
+_RUNNING = int(Outcome.RUNNING)  # read once: an enum member's lookup costs about 1 us
 _ROLE_FLAG = (np.zeros(1, dtype=np.float32), np.ones(1, dtype=np.float32))  # defender, attacker
+_ONE = np.zeros(1, dtype=np.int64)  # the single environment's one drill
+_ACTIVE = np.ones(1, dtype=bool)
+_PLAYER = tuple(np.full(1, i, dtype=np.int64) for i in range(4))
+for _array in (_ONE, _ACTIVE, *_PLAYER):
+    _array.flags.writeable = False
+# The same masks as tuples of bools, for checking an action (indexing a tuple is cheaper).
+_HOLDER_LEGAL = tuple(bool(x) for x in HOLDER_MASK)
+_OFF_BALL_LEGAL = tuple(bool(x) for x in OFF_BALL_MASK)
 
 
-class _DrillEnvBase:
-    """Construction, spaces, observations, state and rendering common to both APIs."""
+def _legal_skills(skills: np.ndarray, legal: tuple[bool, ...]) -> tuple[int | None, ...]:
+    """Per action index, its skill value if the mask allows it, else ``None``."""
+    return tuple(int(skills[a]) if ok and a < len(skills) else None for a, ok in enumerate(legal))
+
+
+# command_for's shortcut for a legal action: the skill of each action index, by role.
+_HOLDER_SKILLS = _legal_skills(ATTACKER_SKILLS, _HOLDER_LEGAL)
+_OFF_BALL_SKILLS = _legal_skills(ATTACKER_SKILLS, _OFF_BALL_LEGAL)
+
+
+class _DrillEnvBase(Pickled):
+    """Construction, spaces, observations, action checks, state and rendering common to
+    both APIs: one drill of a :class:`~soccer_drill.envs.core.BatchCore`."""
 
     metadata = _METADATA
 
@@ -58,27 +98,29 @@ class _DrillEnvBase:
         cfg = make_config(config, max_cycles)
         self.metadata = {**_METADATA, "render_fps": frames_per_second(cfg)}  # a frame a cycle
         self._screen = Screen(cfg, render_mode, self.metadata["render_fps"])
-        if obs_format not in ("dict", "flat"):
-            raise ValueError(f"obs_format must be 'dict' or 'flat', got {obs_format!r}")
+        self.obs_format = checked("obs_format", obs_format, OBS_FORMAT)
+        self.illegal_action = checked("illegal_action", illegal_action, ILLEGAL_ACTION)
         shared_spaces = resolve_shared_spaces(shared_spaces, opponent)
-        core = self._core = DrillCore(
-            opponent, opponent_params, cfg, obs_type, illegal_action, team_timeout=team_timeout,
-            shared_spaces=shared_spaces,
-        )
+        self._observe = observation(obs_type, cfg)
+        self._core = BatchCore(1, opponent, opponent_params, cfg, team_timeout, False, None)
+        self._batch = self._core.batch
         self.config = cfg
         self.render_mode = render_mode
-        self.obs_format = obs_format
         self.shared_spaces = shared_spaces
         self._flat = obs_format == "flat"
-        self.possible_agents = [PLAYER_NAMES[i] for i in core.agent_indices]
+        indices = (0, 1) if opponent is not None else (0, 1, 2, 3)
+        self.possible_agents = [PLAYER_NAMES[i] for i in indices]
         self._index = {name: PLAYER_NAMES.index(name) for name in self.possible_agents}
-        box = core.obs_box
+        box = self._observe.box
         if shared_spaces:  # a trailing role flag tells one shared policy which side it plays
             box = spaces.Box(
                 np.append(box.low, 0.0).astype(np.float32),
                 np.append(box.high, 1.0).astype(np.float32),
                 dtype=np.float32,
             )
+        self._defender_mask = SHARED_DEFENDER_MASK if shared_spaces else DEFENDER_MASK
+        self._defender_legal = tuple(bool(x) for x in self._defender_mask)
+        self._defender_skills = _legal_skills(DEFENDER_SKILLS, self._defender_legal)
         self._action_spaces: dict[str, spaces.Discrete] = {}
         self._observation_spaces: dict[str, spaces.Space] = {}
         for name, i in self._index.items():
@@ -94,11 +136,13 @@ class _DrillEnvBase:
                     }
                 )
             )
-        self._features = self._with_role if shared_spaces else core.observe
+        self._features = self._with_role if shared_spaces else self._plain
         self._observation = self._flat_observation if self._flat else self._dict_observation
-        low, high = state_bounds(cfg)
-        self._state_bounds = (low.astype(np.float64), high.astype(np.float64))
-        self.state_space = spaces.Box(low, high, dtype=np.float32)
+        self._state = Observation(GLOBAL_STATE, cfg)
+        self.state_space = self._state.box
+        self.replaced: tuple[int, int] | None = None
+        self._has_reset = False
+        self._busy_init()
 
     def __copy__(self):
         """An independent copy continuing the episode (see Copies in :class:`raw_env`)."""
@@ -112,31 +156,78 @@ class _DrillEnvBase:
         """The agent's ``Discrete`` action space (see the class docstring); the same object."""
         return self._action_spaces[agent]
 
+    # ---------------------------------------------------------- observations
+    def _plain(self, i: int) -> np.ndarray:
+        return self._observe(self._batch.state, _ONE, _PLAYER[i])[0]
+
     def _with_role(self, i: int) -> np.ndarray:
-        return np.concatenate((self._core.observe(i), _ROLE_FLAG[i < 2]))
+        return np.concatenate((self._plain(i), _ROLE_FLAG[i < 2]))
+
+    def _mask(self, i: int) -> np.ndarray:
+        if i >= 2:
+            return self._defender_mask
+        return HOLDER_MASK if self._batch.holder[0] == i else OFF_BALL_MASK
 
     def _dict_observation(self, agent: str) -> dict[str, np.ndarray]:
         i = self._index[agent]
-        return {"observation": self._features(i), "action_mask": self._core.mask(i)}
+        return {"observation": self._features(i), "action_mask": self._mask(i)}
 
     def _flat_observation(self, agent: str) -> np.ndarray:
         return self._features(self._index[agent])
 
     def _begin_episode(self, seed: int | None) -> None:
         """Reseed (``None``: continue the generator) and reset the drill; every agent is live."""
-        self._core.seed(seed)
-        self._core.reset()
+        self._core.seed(None if seed is None else [seed])
+        self._core.reset(_ONE)
         self.agents = self.possible_agents[:]
         self._has_reset = True
 
     def _require_reset(self, method: str) -> None:
-        if not self._core.has_reset:
+        if not self._has_reset:
             raise not_reset(method)
 
     def action_mask(self, agent: str) -> np.ndarray:
         """The current action mask of ``agent`` (int8, 1 = legal; read-only)."""
         self._require_reset("action_mask")
-        return self._core.mask(self._index[agent])
+        return self._mask(self._index[agent])
+
+    # --------------------------------------------------------------- actions
+    def _command(self, agent: str, index: int, action: object) -> None:
+        """Check ``action`` of ``agent`` and set it as player ``index``'s command (a masked
+        action replaced by the role's default, said in :attr:`replaced`, or refused)."""
+        holds = self._batch.holder[0] == index
+        if type(action) is int:  # the common case: a legal plain int (a bool is not one)
+            if index >= 2:
+                legal = self._defender_skills
+            else:
+                legal = _HOLDER_SKILLS if holds else _OFF_BALL_SKILLS
+            if 0 <= action < len(legal) and (skill := legal[action]) is not None:
+                self._batch.skill[0, index] = skill
+                return
+        n = len(ATTACKER_ACTIONS) if self.shared_spaces or index < 2 else len(DEFENDER_ACTIONS)
+        if type(action) is not int:
+            if isinstance(action, np.ndarray) and action.shape == ():
+                action = action.item()
+            if not is_int(action):
+                raise TypeError(
+                    f"action for {agent!r} must be {Integer(0, n - 1).describe()} "
+                    f"({action_list(index, n)}), got {action!r} of type {type(action).__name__}"
+                )
+        a = int(action)  # type: ignore[call-overload]
+        if not 0 <= a < n:
+            raise ValueError(out_of_range(agent, index, n, a))
+        if index >= 2:
+            legal_now = self._defender_legal
+        else:
+            legal_now = _HOLDER_LEGAL if holds else _OFF_BALL_LEGAL
+        if not legal_now[a]:
+            if self.illegal_action == "raise":
+                raise ValueError(masked_action(agent, index, n, a, int(self._batch.cycle[0]),
+                                               self._mask(index)))
+            given = a
+            a = (HOLDER_DEFAULT if holds else OFF_BALL_DEFAULT) if index < 2 else DEFENDER_DEFAULT
+            self.replaced = (given, a)
+        self._batch.skill[0, index] = (ATTACKER_SKILLS if index < 2 else DEFENDER_SKILLS)[a]
 
     def _step_info(self, agent: str, replaced: tuple[int, int] | None) -> dict[str, Any]:
         """An agent's info while the episode runs: the replaced action, the flat mask."""
@@ -144,32 +235,30 @@ class _DrillEnvBase:
         if replaced is not None:
             info["illegal_action"], info["action_taken"] = replaced
         if self._flat:
-            info["action_mask"] = self._core.mask(self._index[agent])
+            info["action_mask"] = self._mask(self._index[agent])
         return info
 
     def _outcome_info(self) -> dict[str, Any]:
-        drill = self._core.drill
-        if drill.outcome is None:
+        code = self._batch.outcome[0]
+        if code == _RUNNING:
             return {}
-        return {"outcome": drill.outcome, "cycles": drill.state.cycle}
+        return {"outcome": OUTCOME_NAMES[code], "cycles": int(self._batch.cycle[0])}
 
     def state(self) -> np.ndarray:
         """The whole drill as a 29-value vector (layout in the class docstring), for critics."""
         self._require_reset("state")
-        return global_state(self._core.drill.state, self.config, *self._state_bounds)
+        return self._state(self._batch.state, _ONE, _ONE)[0]
 
     def render(self) -> np.ndarray | list[np.ndarray] | None:
         """The current frame, the frames since the last call, or ``None`` (see Rendering)."""
         if self.render_mode is None:
             return None
         self._require_reset("render")
-        drill = self._core.drill
-        return self._screen.render(drill.state, drill.outcome)
+        return self._screen.render(self._batch.state_of(0), self.outcome)
 
     def _after_cycle(self) -> None:
         """A cycle has run: what the render mode does with it (a window, a kept frame)."""
-        drill = self._core.drill
-        self._screen.after_cycle(drill.state, drill.outcome)
+        self._screen.after_cycle(self._batch.state_of(0), self.outcome)
 
     def close(self) -> None:
         """Close the window, if any."""
@@ -179,19 +268,19 @@ class _DrillEnvBase:
     def drill_state(self):
         """The current :class:`~soccer_drill.state.DrillState` (positions, holder, cycle)."""
         self._require_reset("drill_state")
-        return self._core.drill.state
+        return self._batch.state_of(0)
 
     @property
     def outcome(self) -> str | None:
         """``None`` while the episode runs, then its outcome."""
-        return self._core.drill.outcome
+        return OUTCOME_NAMES[self._batch.outcome[0]]
 
     @property
     def np_random(self) -> np.random.Generator:
         """The drill's generator (seeded by ``reset(seed=...)``), as PettingZoo's own
         environments expose theirs: wrappers that draw from it (SuperSuit's
         ``frame_skip_v0``) then follow the environment's seed."""
-        return self._core.np_random
+        return self._core.generators[0]
 
 
 class raw_env(_DrillEnvBase, AECEnv):
@@ -274,7 +363,7 @@ class raw_env(_DrillEnvBase, AECEnv):
     ``state()`` returns the whole drill, 29 float32 values in ``state_space``
     (positions and velocities of the four players and the ball in field coordinates,
     holder and passer flags, elapsed fraction of ``max_cycles``; layout in
-    :func:`soccer_drill.rules.features.global_state`), for centralised critics.
+    :func:`soccer_drill.rules.features.global_state_into`), for centralised critics.
 
     ## Rewards
 
@@ -319,7 +408,9 @@ class raw_env(_DrillEnvBase, AECEnv):
     sharing the physics engine would be two environments stepping one drill). A copy
     of an environment never reset is one never reset. Windows and renderers are not
     copied: a copy draws with its own. The scripted team is copied with the rest, so a
-    ``Team`` instance given as ``opponent`` must be picklable for ``pickle``.
+    ``Team`` instance given as ``opponent`` must be picklable for ``pickle``. A pickle is
+    for the code that made it: another version of ``soccer_drill`` refuses it, naming
+    both.
 
     ## Rendering
 
@@ -347,12 +438,12 @@ class raw_env(_DrillEnvBase, AECEnv):
     |----------|---------|---------|
     | ``opponent`` | ``None`` | team id (see ``soccer-drill-teams``), a ``Team`` instance, or ``None`` (defenders are agents) |
     | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
-    | ``obs_type`` | ``"features"`` | ``"features"`` or ``"kinematic"`` |
+    | ``obs_type`` | ``"features"`` | a kind of observation of ``soccer_drill.rules.features.OBSERVATION_TYPES``: ``"features"`` or ``"kinematic"`` |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``render_mode`` | ``None`` | ``"human"``, ``"rgb_array"`` or ``"rgb_array_list"`` (see Rendering) |
     | ``illegal_action`` | ``"default"`` | ``"default"`` (replace a masked action by the role's default, reported in infos) or ``"raise"`` (a masked action is an error) |
-    | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the scripted team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound. See ``soccer_drill.teams.TeamDriver`` |
+    | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the scripted team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound. See ``soccer_drill.teams.driver.TeamDriver`` |
     | ``obs_format`` | ``"dict"`` | ``"dict"`` (observation and mask together) or ``"flat"`` (a ``Box``; the mask in infos and ``action_mask()``) |
     | ``shared_spaces`` | ``None`` | ``None``: identical spaces for every agent (``True`` with no opponent, ``False`` with one, whose attackers' spaces are identical anyway); ``True``: always a role flag and 5 actions; ``False``: per-role spaces (see Spaces shared or per role) |
 
@@ -378,12 +469,11 @@ class raw_env(_DrillEnvBase, AECEnv):
             opponent, opponent_params, obs_type, max_cycles, config, render_mode, illegal_action,
             team_timeout, obs_format, shared_spaces,
         )
-        self._has_reset = False
         self.agents: list[str] = []
 
     def reset(self, seed: int | None = None, options: dict | None = None) -> None:
         """Start an episode; ``seed`` reseeds the drill (see Seeding in the class docstring)."""
-        with self._core.exclusive(self, "reset"):
+        with self._exclusive("reset"):
             self._begin_episode(seed)
             self.rewards = dict.fromkeys(self.agents, 0.0)
             self._cumulative_rewards = dict.fromkeys(self.agents, 0.0)
@@ -391,7 +481,6 @@ class raw_env(_DrillEnvBase, AECEnv):
             self.truncations = dict.fromkeys(self.agents, False)
             self.infos = {agent: self._step_info(agent, None) for agent in self.agents}
             self._reported: set[str] = set()  # agents whose info reports a replaced action
-            self._commands: list = [None] * 4
             # The turn order (PettingZoo's AgentSelector, as a lookup): every live agent
             # in order, the cycle advancing after the last.
             order = self.agents
@@ -399,7 +488,7 @@ class raw_env(_DrillEnvBase, AECEnv):
             self._last_agent = order[-1]
             self.agent_selection = order[0]
         if self._screen.each_cycle:
-            self._screen.start(self._core.drill.state, None)
+            self._screen.start(self._batch.state_of(0), None)
 
     def observe(self, agent: str) -> dict[str, np.ndarray] | np.ndarray:
         """The observation of ``agent`` (see the class docstring)."""
@@ -431,7 +520,7 @@ class raw_env(_DrillEnvBase, AECEnv):
 
     def step(self, action: int | None) -> None:
         """Act for the selected agent; the cycle advances after the last one (see the class docstring)."""
-        busy = self._core.busy
+        busy = self._busy
         if not busy.acquire(False):
             raise concurrent_use(self, "step")
         try:
@@ -453,25 +542,21 @@ class raw_env(_DrillEnvBase, AECEnv):
                 )
             self._was_dead_step(action)
             return
-        core = self._core
-        index = self._index[agent]
-        self._commands[index] = core.command_for(agent, index, action)
-        if core.replaced is not None:
-            self.infos[agent] = self._step_info(agent, core.replaced)
+        self._command(agent, self._index[agent], action)
+        if self.replaced is not None:
+            self.infos[agent] = self._step_info(agent, self.replaced)
             self._reported.add(agent)
-            core.replaced = None
+            self.replaced = None
         elif agent in self._reported:  # its previous action was replaced; this one is not
             self.infos[agent] = self._step_info(agent, None)
             self._reported.discard(agent)
         self._cumulative_rewards[agent] = 0.0
         if agent == self._last_agent:
-            core.advance(self._commands)
-            self._commands = [None] * 4
-            drill = core.drill
-            if drill.outcome is not None:
-                reward = drill.attacker_reward
+            self._core.advance(_ACTIVE, _ONE)
+            if self._batch.outcome[0] != _RUNNING:
+                reward = float(self._batch.attacker_reward[0])
                 info = self._outcome_info()
-                done = drill.outcome != "timeout"
+                done = info["outcome"] != "timeout"
                 for name in self.agents:
                     self.rewards[name] = reward if self._index[name] < 2 else -reward
                     self.terminations[name] = done
@@ -482,7 +567,7 @@ class raw_env(_DrillEnvBase, AECEnv):
                 self._accumulate_rewards()
             elif self._flat:  # masks change with possession
                 for name in self.agents:
-                    self.infos[name]["action_mask"] = core.mask(self._index[name])
+                    self.infos[name]["action_mask"] = self._mask(self._index[name])
             if self._screen.each_cycle:
                 self._after_cycle()
         self.agent_selection = self._next_agent[agent]
@@ -521,25 +606,24 @@ class parallel_env(_DrillEnvBase, ParallelEnv):
             team_timeout, obs_format, shared_spaces,
         )
         self.agents: list[str] = []
-        self._has_reset = False
 
     def reset(
         self, seed: int | None = None, options: dict | None = None
     ) -> tuple[dict[str, Any], dict[str, dict]]:
         """Start an episode; ``seed`` reseeds the drill (see Seeding in :class:`raw_env`)."""
-        with self._core.exclusive(self, "reset"):
+        with self._exclusive("reset"):
             self._begin_episode(seed)
             result = (
                 {a: self._observation(a) for a in self.agents},
                 {a: self._step_info(a, None) for a in self.agents},
             )
         if self._screen.each_cycle:
-            self._screen.start(self._core.drill.state, None)
+            self._screen.start(self._batch.state_of(0), None)
         return result
 
     def step(self, actions: Mapping[str, int]):
         """One cycle with one action per live agent (see the class docstring)."""
-        busy = self._core.busy
+        busy = self._busy
         if not busy.acquire(False):
             raise concurrent_use(self, "step")
         try:
@@ -563,30 +647,26 @@ class parallel_env(_DrillEnvBase, ParallelEnv):
                 f"actions must be a mapping with one action per live agent {self.agents}, "
                 f"got {got}"
             )
-        core = self._core
-        commands: list = [None] * 4
         replaced: dict[str, tuple[int, int]] = {}
         for agent in self.agents:
-            index = self._index[agent]
-            commands[index] = core.command_for(agent, index, actions[agent])
-            if core.replaced is not None:
-                replaced[agent], core.replaced = core.replaced, None
-        core.advance(commands)
-        drill = core.drill
+            self._command(agent, self._index[agent], actions[agent])
+            if self.replaced is not None:
+                replaced[agent], self.replaced = self.replaced, None
+        self._core.advance(_ACTIVE, _ONE)
         agents = self.agents
         obs = {a: self._observation(a) for a in agents}
         if replaced or self._flat:
             infos = {a: self._step_info(a, replaced.get(a)) for a in agents}
         else:
             infos = {a: {} for a in agents}
-        if drill.outcome is None:
+        if self._batch.outcome[0] == _RUNNING:
             zeros = dict.fromkeys(agents, 0.0)
             falses = dict.fromkeys(agents, False)
             return obs, zeros, falses, dict(falses), infos
-        reward = drill.attacker_reward
-        done = drill.outcome != "timeout"
-        rewards = {a: reward if self._index[a] < 2 else -reward for a in agents}
+        reward = float(self._batch.attacker_reward[0])
         info = self._outcome_info()
+        done = info["outcome"] != "timeout"
+        rewards = {a: reward if self._index[a] < 2 else -reward for a in agents}
         for a in agents:
             infos[a].update(info)
         self.agents = []

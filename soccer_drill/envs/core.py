@@ -1,34 +1,41 @@
-"""What the AEC, parallel and holder environments share: setup, spaces, checks, one cycle."""
+"""The episodes of ``n`` drills, under every environment: :class:`BatchCore`.
+
+The single environments (``raw_env``, ``parallel_env``, ``HolderEnv``) are one drill of a
+core, in a pymunk space of its own; the vector environments many, in shared spaces. The
+core holds the drills, each drill's generator, the scripted team and the support players;
+this module also holds what the environments say alike: the observations they offer
+(:data:`~soccer_drill.rules.features.OBSERVATION_TYPES`, as :class:`Observation`), the
+action masks and the words of a refused action, of a call made before ``reset``, or of
+one made while another runs.
+"""
 
 from __future__ import annotations
 
 import sys
 import threading
-from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
-from typing import Any, Literal
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, Literal, TypeVar
 
 import numpy as np
 from gymnasium import spaces
-from gymnasium.utils import seeding
 
+from soccer_drill.commands import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.config import DrillConfig
-from soccer_drill.constraints import is_int
-from soccer_drill.drill import Drill
-from soccer_drill.rules.features import feature_bounds, features, kinematic_bounds, kinematics
-from soccer_drill.rules.support import SupportPlayer
-from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS, Command, Skill
-from soccer_drill.state import PLAYER_NAMES, DrillView
-from soccer_drill.teams import (
-    DEFAULT_TEAM_TIMEOUT,
-    Team,
-    TeamDriver,
-    check_team_timeout,
-    resolve_team,
-)
+from soccer_drill.constraints import Bool, NoneOr, OneOf, checked, is_int
+from soccer_drill.drill.drills import BatchDrill
+from soccer_drill.drill.spaces import DRILLS_PER_SPACE, DrillSpace
+from soccer_drill.rules.arrays import Outcome, rule_parameters
+from soccer_drill.rules.features import OBSERVATION_TYPES, ObservationType
+from soccer_drill.rules.support import SupportDraws
+from soccer_drill.teams.driver import TeamDriver
+from soccer_drill.teams.registry import Team, check_team_timeout
 
-ObsType = Literal["features", "kinematic"]
+_T = TypeVar("_T")
 IllegalAction = Literal["raise", "default"]
+ILLEGAL_ACTION = OneOf(("raise", "default"))
+"""What ``illegal_action`` may be."""
+ObsType = str
+"""A key of :data:`~soccer_drill.rules.features.OBSERVATION_TYPES`."""
 
 # The action masks by role, and the action a masked one is replaced by (illegal_action
 # "default"): the single and the batched multi-agent environments read them here.
@@ -44,23 +51,10 @@ for _mask in (HOLDER_MASK, OFF_BALL_MASK, DEFENDER_MASK, SHARED_DEFENDER_MASK):
     _mask.flags.writeable = False
 HOLDER_DEFAULT, OFF_BALL_DEFAULT, DEFENDER_DEFAULT = 0, 3, 0
 """The default actions by role: HOLD, GET_OPEN, INTERCEPT."""
-# The same masks as tuples of bools, for checking an action (indexing a tuple is cheaper).
-_ATTACKER_HOLDER_LEGAL = tuple(bool(x) for x in HOLDER_MASK)
-_ATTACKER_OFF_BALL_LEGAL = tuple(bool(x) for x in OFF_BALL_MASK)
-
-
-def resolve_shared_spaces(shared_spaces: object, opponent: object) -> bool:
-    """The ``shared_spaces`` argument of the multi-agent environments: ``None`` is ``True``
-    with no opponent (identical spaces whenever the defenders are agents too), else a
-    bool (NumPy's too); anything else ``TypeError``."""
-    if shared_spaces is None:
-        return opponent is None
-    if isinstance(shared_spaces, bool | np.bool_):
-        return bool(shared_spaces)
-    raise TypeError(
-        "shared_spaces must be None (identical spaces when there is no opponent), "
-        f"True or False, got {shared_spaces!r}"
-    )
+ATTACKER_SKILLS = np.array([int(s) for s in ATTACKER_ACTIONS])
+"""An attacker's action, as the skill value the drill reads."""
+DEFENDER_SKILLS = np.array([int(s) for s in DEFENDER_ACTIONS])
+"""A defender's action, as the skill value."""
 
 
 def make_config(config: DrillConfig | Mapping[str, Any] | None, max_cycles: int | None) -> DrillConfig:
@@ -76,215 +70,216 @@ def make_config(config: DrillConfig | Mapping[str, Any] | None, max_cycles: int 
     return config
 
 
-class DrillCore:
-    """One drill, its scripted team and support players, spaces and action checks.
+def resolve_shared_spaces(shared_spaces: object, opponent: object) -> bool:
+    """The ``shared_spaces`` argument of the multi-agent environments: ``None`` is ``True``
+    with no opponent (identical spaces whenever the defenders are agents too), else a
+    bool (NumPy's too)."""
+    shared = checked("shared_spaces", shared_spaces, NoneOr(Bool()))
+    return opponent is None if shared is None else bool(shared)
+
+
+class Observation:
+    """An observation type of :data:`~soccer_drill.rules.features.OBSERVATION_TYPES` for
+    one configuration: its ``Box`` and its values.
+
+    ``observation(state, rows, players)`` is ``(len(rows), size)`` float32: for each row,
+    the observation of player ``players[r]`` in drill ``rows[r]`` of ``state`` (int64
+    arrays; :data:`~soccer_drill.rules.arrays.STATE` records).
+    """
+
+    def __init__(self, kind: ObservationType, config: DrillConfig) -> None:
+        self.kind = kind
+        low, high = kind.bounds(config)
+        self.box = spaces.Box(low, high, dtype=np.float32)
+        self.low, self.high = low.astype(np.float64), high.astype(np.float64)  # as compiled
+        self._params = rule_parameters(config)
+
+    def __call__(self, state: np.ndarray, rows: np.ndarray, players: np.ndarray) -> np.ndarray:
+        out = np.empty((len(rows), self.kind.size), np.float32)
+        self.kind.rule(out, state, rows, players, self._params, self.low, self.high)
+        return out
+
+
+def observation(obs_type: object, config: DrillConfig) -> Observation:
+    """The :class:`Observation` an environment's ``obs_type`` names (a key of
+    :data:`~soccer_drill.rules.features.OBSERVATION_TYPES`)."""
+    name = checked("obs_type", obs_type, OneOf(tuple(OBSERVATION_TYPES)))
+    return Observation(OBSERVATION_TYPES[name], config)
+
+
+class BatchCore:
+    """``n`` drills with their generators, scripted team and support players: the episodes
+    under every environment.
 
     Parameters
     ----------
+    n
+        Number of drills.
     opponent
-        Team id (see :func:`soccer_drill.teams.team_ids`), a :class:`Team`
-        instance, or ``None`` for no scripted team (the defenders are agents).
+        Team id, team instance, or ``None`` (no scripted team).
     opponent_params
-        Keyword parameters for the team factory.
+        Keyword parameters of the team factory.
     config
-        Drill parameters.
-    obs_type
-        ``"features"`` (the 9 features) or ``"kinematic"`` (26 values).
-    illegal_action
-        ``"raise"`` (a masked action is an error) or ``"default"``
-        (it is replaced by the role's default: HOLD, GET_OPEN or INTERCEPT, and
-        :attr:`replaced` says so).
-    scripted_attackers
-        Attackers driven by :class:`SupportPlayer`.
+        The drills' parameters.
     team_timeout
-        Seconds of CPU time each ``reset``/``act`` call of the team may take, or
-        ``None`` for no bound (see :class:`~soccer_drill.teams.TeamDriver`).
-    shared_spaces
-        Defenders get the attackers' ``Discrete(5)`` actions, the last
-        two always masked.
+        CPU-time bound of one call of the team, or of each drill's copy's (``None``: no
+        bound).
+    support
+        The attackers an environment names (:meth:`support_commands`) are driven by the
+        support behaviour (:mod:`soccer_drill.rules.support`).
+    drills_per_space
+        Drills sharing one pymunk space; ``None``: the single environments' one drill, in
+        a space of its own with the ball a body too (:class:`DrillSpace`), whose errors
+        name no drill.
 
-    Attributes
-    ----------
-    replaced
-        ``(given, taken)`` after :meth:`command_for` replaced a masked action,
-        else ``None``; the caller reads it and sets it back to ``None``.
-    busy
-        A lock an environment holds while it steps or resets, so that a second
-        thread using the same environment at the same time gets a clear error
-        (:func:`concurrent_use`) instead of corrupting the physics engine.
+    Seeding: drill ``i`` has its own generator, the stream that a single environment's
+    ``reset(seed=s_i)`` starts (``np.random.default_rng(s_i)``); at each of its episode's
+    starts it draws the start (:meth:`BatchDrill.reset`), then the seeds of its support
+    player's and its team's own generators, so that their draws never shift the physics
+    noise.
     """
 
     def __init__(
         self,
+        n: int,
         opponent: str | Team | None,
         opponent_params: Mapping[str, Any] | None,
         config: DrillConfig,
-        obs_type: ObsType = "features",
-        illegal_action: IllegalAction = "raise",
-        scripted_attackers: tuple[int, ...] = (),
-        team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
-        shared_spaces: bool = False,
+        team_timeout: float | None,
+        support: bool,
+        drills_per_space: int | None = DRILLS_PER_SPACE,
     ) -> None:
-        if obs_type not in ("features", "kinematic"):
-            raise ValueError(f"obs_type must be 'features' or 'kinematic', got {obs_type!r}")
-        if illegal_action not in ("raise", "default"):
-            raise ValueError(
-                f"illegal_action must be 'raise' or 'default', got {illegal_action!r}"
-            )
-        if isinstance(shared_spaces, np.bool_):
-            shared_spaces = bool(shared_spaces)
-        if not isinstance(shared_spaces, bool):
-            raise TypeError(f"shared_spaces must be True or False, got {shared_spaces!r}")
         team_timeout = check_team_timeout(team_timeout)  # checked even without a team
-        self.config = config
-        self.drill = Drill(config)
-        self.obs_type = obs_type
-        self.illegal_action = illegal_action
-        self.shared_spaces = shared_spaces
-        self._defender_mask = SHARED_DEFENDER_MASK if shared_spaces else DEFENDER_MASK
-        self._defender_legal = tuple(bool(x) for x in self._defender_mask)
-        self._defender_commands = _legal_commands(DEFENDER_ACTIONS, self._defender_legal)
-        self.replaced: tuple[int, int] | None = None
-        self.busy = threading.Lock()
-        self.team_name: str | None
+        single = drills_per_space is None
+        self.n, self.config = n, config
+        self.batch = BatchDrill(n, config, drills_per_space or DRILLS_PER_SPACE,
+                                DrillSpace(config) if single else None)
+        self.generators = [np.random.default_rng(s) for s in np.random.SeedSequence().spawn(n)]
         if opponent is None:
             if opponent_params:
                 raise ValueError("opponent_params given but opponent is None")
-            self.team, self.team_name = None, None
+            self.team: TeamDriver | None = None
         else:
-            self.team, self.team_name, _ = resolve_team(opponent, opponent_params, team_timeout)
-        scripted = set(scripted_attackers) | ({2, 3} if self.team is not None else set())
-        self.agent_indices = tuple(i for i in range(4) if i not in scripted)
-        self.scripted_attackers = tuple(sorted(scripted_attackers))
-        self.support = SupportPlayer()
-        self._driver = (
-            TeamDriver(self.team, self.team_name or "", PLAYER_NAMES[2:], team_timeout)
-            if self.team
-            else None
-        )
-        self.view = DrillView(self.drill, PLAYER_NAMES[2:])
-        # The bounds as float64 arrays, as the compiled observation rules read them.
-        if obs_type == "features":
-            low, high = feature_bounds(config)
-            self._observe = features
-            self._obs_args: tuple = (config, low.astype(np.float64), high.astype(np.float64))
-        else:
-            low, high = kinematic_bounds(config)
-            self._observe = kinematics
-            self._obs_args = (low.astype(np.float64), high.astype(np.float64))
-        self.obs_box = spaces.Box(low, high, dtype=np.float32)
-        self.np_random, _ = seeding.np_random()
+            self.team = TeamDriver(opponent, opponent_params, self.batch, team_timeout, single)
+        self.support = SupportDraws(n) if support else None
+        self.every = np.arange(n)
+        self.every.flags.writeable = False
+        self.interrupted: str | None = None
+        """The call of the environment that stopped part-way (see :meth:`changing`), until
+        every drill is reset."""
 
-    @contextmanager
-    def exclusive(self, env: object, method: str) -> Iterator[None]:
-        """Hold :attr:`busy` for ``env.method()``, or raise :func:`concurrent_use` at once.
+    def changing(self, call: str, work: Callable[[], _T], every_drill: bool = False) -> _T:
+        """``work()``, a call of the environment that changes its drills (``call`` names
+        it in errors), made all or nothing as far as the caller can tell.
 
-        For ``reset``; the ``step`` methods take the lock inline, which is cheaper.
+        Every check of the call's arguments comes before it, so that a refused call
+        changes nothing. If ``work`` stops part-way -- a Ctrl-C, a team's error, anything
+        raised -- drills may be part-way through a cycle or a reset (a cycle is not undone:
+        it would mean copying every drill's physics and generators before each one), so
+        :attr:`interrupted` stays set and :meth:`check_usable` refuses every later step
+        until a reset of every drill (``every_drill``) has ended. A reset of some drills
+        keeps an earlier interruption. The flag is set before ``work`` starts and cleared
+        after its result is complete, so an interruption at any point in between is seen.
         """
-        if not self.busy.acquire(False):
-            raise concurrent_use(env, method)
+        before = self.interrupted
+        self.interrupted = call if every_drill or before is None else before
         try:
-            yield
-        finally:
-            self.busy.release()
+            out = work()
+        except BaseException as exc:
+            if every_drill or before is None:
+                self.interrupted = f"{call} (stopped by {type(exc).__name__})"
+            raise
+        self.interrupted = None if every_drill else before
+        return out
 
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        del state["busy"]  # a lock cannot be pickled; a copy gets its own
-        return state
+    def check_usable(self) -> None:
+        """The team's error, or ``RuntimeError`` if a call stopped part-way
+        (:meth:`changing`) and the drills were not all reset since."""
+        if self.team is not None:
+            self.team.check_usable()
+        if self.interrupted is not None:
+            raise RuntimeError(
+                f"{self.interrupted} stopped part-way, which may leave drills part-way "
+                "through a cycle or a reset; call reset() (of every drill: no reset_mask) to "
+                "start every drill again"
+            )
 
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__dict__.update(state)
-        self.busy = threading.Lock()
+    def seed(self, seeds: Sequence[int | None] | None) -> None:
+        """Reseed the drills: one seed (or ``None``: keep) per drill; ``None`` keeps every
+        stream. The run then depends on the seeds alone: the physics is fresh after the
+        reset of every drill that follows (each space built anew)."""
+        if seeds is None:
+            return
+        for i, s in enumerate(seeds):
+            if s is not None:
+                self.generators[i] = np.random.default_rng(s)
+
+    def reset(self, drills: np.ndarray) -> None:
+        """Start a new episode in each of ``drills``."""
+        if not len(drills):
+            return
+        gens = [self.generators[i] for i in drills.tolist()]
+        self.batch.reset(drills, gens)
+        support_seeds, team_seeds = zip(*(g.integers(2**63, size=2).tolist() for g in gens),
+                                        strict=True)
+        if self.support is not None:
+            self.support.seed(drills, list(support_seeds))
+        if self.team is not None:
+            self.team.reset(drills, list(team_seeds))
+
+    def support_commands(self, supporting: np.ndarray) -> None:
+        """The support behaviour's commands for attacker ``k`` in the drills where
+        ``supporting[:, k]`` (``(n, 2)`` bool)."""
+        b = self.batch
+        self.support.commands(b.state, b.commands, supporting,  # type: ignore[union-attr]
+                              self.config.field_size)
+
+    def advance(self, active: np.ndarray, drills: np.ndarray | None = None) -> None:
+        """One cycle of the drills where ``active`` (``drills``: the same as indices, if
+        the caller has them), with the commands set in the drills' arrays (the team's
+        written here)."""
+        if self.team is not None:
+            self.team.act(np.flatnonzero(active) if drills is None else drills)
+        self.batch.step(active, self.generators)
 
     @property
-    def has_reset(self) -> bool:
-        """Whether :meth:`reset` has run (so that there is a state to observe or draw)."""
-        return hasattr(self.drill, "state")
-
-    # -------------------------------------------------------------- episodes
-    def seed(self, seed: int | None) -> None:
-        """Reseed the drill's generator (``None`` keeps the current stream)."""
-        if seed is not None:
-            self.np_random, _ = seeding.np_random(seed)
-
-    def reset(self) -> None:
-        """Start an episode: place the players, seed the support player and the team."""
-        self.drill.reset(self.np_random)
-        # Children draw from their own streams so a team's draws never shift the physics noise.
-        support_seed, team_seed = self.np_random.integers(2**63, size=2)
-        if self.scripted_attackers:  # else nothing draws from it: not made (~15 us)
-            self.support.reset(np.random.default_rng(int(support_seed)))
-        if self._driver is not None:
-            self._driver.reset(self.view, np.random.default_rng(int(team_seed)))
-
-    def advance(self, commands: list[Command | None]) -> None:
-        """One cycle; ``commands`` holds the agents' commands, ``None`` for the others."""
-        state, cfg = self.drill.state, self.config
-        for i in self.scripted_attackers:
-            if commands[i] is None:
-                commands[i] = self.support.command(state, i, cfg)
-        if self._driver is not None:
-            for i, command in self._driver.act(self.view):
-                commands[i] = command
-        self.drill.step(commands, self.np_random)  # type: ignore[arg-type]
-
-    # ---------------------------------------------------------- observations
-    def observe(self, index: int) -> np.ndarray:
-        """Observation (features or kinematic) of player ``index``."""
-        return self._observe(self.drill.state, index, *self._obs_args)
-
-    def mask(self, index: int) -> np.ndarray:
-        """Action mask of player ``index`` (read-only int8)."""
-        if index >= 2:
-            return self._defender_mask
-        return HOLDER_MASK if self.drill.state.holder == index else OFF_BALL_MASK
-
-    # --------------------------------------------------------------- actions
-    def command_for(self, agent: str, index: int, action: object) -> Command:
-        """Check ``action`` of ``agent`` and turn it into a command."""
-        if type(action) is int:  # the common case: a legal plain int (a bool is not one)
-            if index >= 2:
-                legal = self._defender_commands
-            elif self.drill.state.holder == index:
-                legal = _HOLDER_COMMANDS
-            else:
-                legal = _OFF_BALL_COMMANDS
-            if 0 <= action < len(legal) and (command := legal[action]) is not None:
-                return command
-        actions = ATTACKER_ACTIONS if index < 2 else DEFENDER_ACTIONS
-        n = len(ATTACKER_ACTIONS) if self.shared_spaces else len(actions)
-        if type(action) is int:  # the common case: a plain int (a bool is not one)
-            a = action
-        else:
-            if isinstance(action, np.ndarray) and action.shape == ():
-                action = action.item()
-            if not is_int(action):
-                raise TypeError(
-                    f"action for {agent!r} must be an integer in [0, {n - 1}] "
-                    f"({action_list(index, n)}), got {action!r} of type {type(action).__name__}"
-                )
-            a = int(action)
-        if not 0 <= a < n:
-            raise ValueError(out_of_range(agent, index, n, a))
-        if index >= 2:
-            legal = self._defender_legal
-        else:
-            legal = _ATTACKER_HOLDER_LEGAL if self.drill.state.holder == index else (
-                _ATTACKER_OFF_BALL_LEGAL
-            )
-        if not legal[a]:
-            if self.illegal_action == "default":
-                given = a
-                holds = self.drill.state.holder == index
-                a = (HOLDER_DEFAULT if holds else OFF_BALL_DEFAULT) if index < 2 else DEFENDER_DEFAULT
-                self.replaced = (given, a)
-            else:
-                raise ValueError(masked_action(agent, index, n, a, self.drill.state.cycle,
-                                               self.mask(index)))
-        return _COMMANDS[actions[a]]
+    def ended(self) -> np.ndarray:
+        """``(n,)`` bool: the drills whose episode has an outcome."""
+        return self.batch.outcome != Outcome.RUNNING
 
 
+def check_seed(seed: object, n: int) -> list[int | None] | None:
+    """A batched ``reset``'s ``seed`` as one seed (``None``: keep the stream) per drill.
+
+    ``None`` stays ``None``; an integer ``s`` gives drill ``i`` the seed ``s + i``; a
+    sequence must hold exactly ``n`` entries, each ``None`` or an integer. Integers are
+    Python or NumPy ones (not bools), ``>= 0``. Anything else: ``ValueError`` saying what
+    was given and what is allowed, before any drill is touched.
+    """
+    if seed is None:
+        return None
+    allowed = (
+        f"seed must be None, an integer >= 0 (drill i gets seed + i) or a sequence of {n} "
+        "seeds, one per drill, each None or an integer >= 0"
+    )
+    if is_int(seed):
+        if seed < 0:  # type: ignore[operator]
+            raise ValueError(f"{allowed}; got {seed!r}")
+        return [int(seed) + i for i in range(n)]  # type: ignore[call-overload]
+    if isinstance(seed, np.ndarray) and seed.ndim != 1:
+        raise ValueError(f"{allowed}; got an array of shape {seed.shape}")
+    if isinstance(seed, str | bytes) or not isinstance(seed, Sequence | np.ndarray):
+        raise ValueError(f"{allowed}; got {seed!r} of type {type(seed).__name__}")
+    seeds = list(seed)
+    if len(seeds) != n:
+        raise ValueError(f"{allowed}; got a sequence of {len(seeds)}")
+    for i, s in enumerate(seeds):
+        if s is not None and not (is_int(s) and s >= 0):
+            raise ValueError(f"{allowed}; got seed[{i}] = {s!r} of type {type(s).__name__}")
+    return [None if s is None else int(s) for s in seeds]
+
+
+# ------------------------------------------------------------------- the words
 def concurrent_use(env: object, method: str) -> RuntimeError:
     """The error for ``method`` called while the environment is inside a step or reset:
     from that very step or reset (re-entrant: a scripted team's ``act()`` stepping the
@@ -347,19 +342,3 @@ def masked_action(agent: str, index: int, n: int, action: int, cycle: int,
     return (f"action {action} ({names[action]}) is masked for {agent!r} at cycle {cycle}; "
             f"legal actions now: {legal_now}. illegal_action='default' replaces a masked "
             "action by the role's default action instead (and reports it in infos)")
-
-
-_COMMANDS = {skill: Command(skill) for skill in Skill if skill is not Skill.MOVE_TO}
-
-
-def _legal_commands(actions: tuple[Skill, ...], legal: tuple[bool, ...]) -> tuple:
-    """Per action index, its command if the mask allows it, else ``None``."""
-    return tuple(
-        _COMMANDS[actions[a]] if ok and a < len(actions) else None for a, ok in enumerate(legal)
-    )
-
-
-# command_for's shortcut for a legal action: the command of each action index, by role.
-_HOLDER_COMMANDS = _legal_commands(ATTACKER_ACTIONS, _ATTACKER_HOLDER_LEGAL)
-_OFF_BALL_COMMANDS = _legal_commands(ATTACKER_ACTIONS, _ATTACKER_OFF_BALL_LEGAL)
-

@@ -1,4 +1,7 @@
-"""The ball holder's view of the drill as a Gymnasium environment (an SMDP)."""
+"""The ball holder's view of the drill, an SMDP: :class:`HolderLoop`, the one loop of a
+holder's decisions over a core's drills, and :class:`HolderEnv`, one drill of it as a
+Gymnasium environment (``soccer_drill/Holder-v0``).
+"""
 
 from __future__ import annotations
 
@@ -10,53 +13,234 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from soccer_drill.commands import HOLDER_ACTIONS, Skill
 from soccer_drill.config import DrillConfig
-from soccer_drill.constraints import Integer, checked, is_int
-from soccer_drill.envs.core import DrillCore, concurrent_use, make_config, not_reset
+from soccer_drill.constraints import Integer, checked
+from soccer_drill.drill.drills import BatchDrill
+from soccer_drill.drill.spaces import DrillSpace
+from soccer_drill.envs.core import BatchCore, concurrent_use, make_config, not_reset, observation
+from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.screen import RENDER_MODES, Screen, frames_per_second
-from soccer_drill.skills import HOLDER_ACTIONS, Command
+from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
+from soccer_drill.rules.compiled import compiled, warms
+from soccer_drill.rules.support import SupportDraws
 from soccer_drill.state import PLAYER_NAMES
-from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
-
-_HOLDER_COMMANDS = tuple(Command(skill) for skill in HOLDER_ACTIONS)
-
+from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
 
 DECISION_CYCLES_RANGE = (1, 50)
 """The cycles a HOLD or DRIBBLE may last (``decision_cycles``)."""
 DECISION_CYCLES = Integer(*DECISION_CYCLES_RANGE)
 """What ``decision_cycles`` may be: an integer in :data:`DECISION_CYCLES_RANGE`."""
-
-
-def check_decision_cycles(decision_cycles: object) -> int:
-    """``decision_cycles`` as an int (a Python or NumPy integer, not a bool) in
-    :data:`DECISION_CYCLES_RANGE`, else ``ValueError`` saying what is allowed."""
-    return checked("decision_cycles", decision_cycles, DECISION_CYCLES)
-
+HOLDER_ACTION = Integer(0, len(HOLDER_ACTIONS) - 1)
+_ACTION_WORDS = "0=HOLD, 1=PASS, 2=DRIBBLE"
 
 
 def check_holder_action(action: object) -> int:
-    """``action`` as an int in 0..2, as ``HolderEnv.step`` takes it: an int, a NumPy
+    """``action`` as an int in [0, 2], as ``HolderEnv.step`` takes it: an int, a NumPy
     integer or a 0-d integer array; bools, floats and values out of range are refused."""
     if isinstance(action, np.ndarray) and action.shape == ():
         action = action.item()
-    if not is_int(action) or not 0 <= action < len(HOLDER_ACTIONS):  # type: ignore[operator]
-        raise ValueError(
-            f"action must be an integer in 0..{len(HOLDER_ACTIONS) - 1} "
-            f"(0=HOLD, 1=PASS, 2=DRIBBLE), got {action!r}"
-        )
-    return int(action)
+    if not HOLDER_ACTION.allows(action):
+        raise ValueError(holder_action_refused(action))
+    return int(action)  # type: ignore[call-overload]
 
-class HolderEnv(gym.Env):
+
+def holder_action_refused(action: object) -> str:
+    """Why ``action`` is not a holder action, in the vocabulary's words."""
+    return f"action must be {HOLDER_ACTION.describe()} ({_ACTION_WORDS}), got {action!r}"
+
+
+# ------------------------------------------------------------------ the loop
+STEP = np.dtype([
+    ("running", np.bool_),
+    ("in_action", np.bool_),
+    ("decider", np.int64),
+    ("action", np.int64),
+    ("left", np.int64),
+    ("start", np.int64),
+    ("supporting", np.int8, (2,)),
+])
+"""One drill's holder step: whether it runs, whether the holder's action still does (and
+for how many more cycles), who decided and what, the cycle it began at, and which
+attackers the support behaviour drives this cycle."""
+
+
+@compiled
+def _begin(steps, state, drills, actions, decision_cycles):
+    """The holders of ``drills`` take ``actions``: their drills run again."""
+    for r in range(drills.shape[0]):
+        i = drills[r]
+        h, s = steps[i], state[i]
+        h.decider = s.holder
+        h.action = actions[r]
+        h.left = 1 if actions[r] == Skill.PASS else decision_cycles
+        h.start = s.cycle
+        h.in_action = True
+        h.running = True
+
+
+@compiled
+def _holder_commands(steps, cycle):
+    """A cycle's commands as the loop gives them: each drill's holder in action runs its
+    action's skill (the action's value) at full speed; the support behaviour drives the
+    other attacker, or both while the ball is loose in a running drill. Returns the
+    number of drills with an attacker to support."""
+    count = 0
+    for i in range(steps.shape[0]):
+        h = steps[i]
+        acting, d = h.in_action, h.decider
+        if acting:
+            cycle[i].skill[d] = h.action
+            cycle[i].speed[d] = 1.0
+        free = h.running and not acting
+        h.supporting[0] = (acting and d == 1) or free
+        h.supporting[1] = (acting and d == 0) or free
+        if h.supporting[0] or h.supporting[1]:
+            count += 1
+    return count
+
+
+@compiled
+def _after_cycle(steps, state):
+    """After a cycle: a drill's action goes on while its holder keeps the ball, for the
+    cycles left; the drill runs on until an outcome, or until an attacker holds the ball
+    again once the action is over. Returns the number of drills still running."""
+    running = 0
+    for i in range(steps.shape[0]):
+        h, s = steps[i], state[i]
+        if h.in_action:
+            h.left -= 1
+        ended = s.outcome != Outcome.RUNNING
+        h.in_action = h.in_action and not ended and s.holder == h.decider and h.left > 0
+        h.running = h.running and not ended and (
+            h.in_action or (s.holder != 0 and s.holder != 1))
+        if h.running:
+            running += 1
+    return running
+
+
+class HolderLoop:
+    """The ball holder's SMDP over the drills of a :class:`~soccer_drill.envs.core.BatchCore`:
+    the one loop of :class:`HolderEnv` (one drill), :class:`~soccer_drill.vector.holder.HolderVectorEnv`
+    and :func:`~soccer_drill.vector.holder.play_episodes`.
+
+    A drill's step begins when its holder decides (:meth:`begin`): the holder runs its
+    action's skill for ``decision_cycles`` cycles (HOLD, DRIBBLE) or one (PASS) while it
+    keeps the ball, the other attacker driven by the support behaviour; then the drill
+    cycles, both attackers supporting, until an attacker holds the ball again (the next
+    decision) or the episode ends. :meth:`cycle` runs one cycle of every drill whose step
+    runs; the others stand still.
+
+    Attributes
+    ----------
+    core
+        The drills, their generators, team and support players.
+    running
+        ``(n,)`` bool: the drills whose step runs (a view; read it, do not write it).
+    decider
+        ``(n,)`` the attacker whose decision a drill's step runs.
+    start
+        ``(n,)`` the cycle at which a drill's step began (its episode's start after
+        :meth:`start`).
+    handed_to
+        Who played these drills outside the environment that owns them (``None``: nobody
+        since its last reset): that environment then asks for a reset.
+    """
+
+    def __init__(self, core: BatchCore, decision_cycles: int) -> None:
+        self.core = core
+        self.decision_cycles = checked("decision_cycles", decision_cycles, DECISION_CYCLES)
+        self.steps = np.zeros(core.n, dtype=STEP)
+        self.handed_to: str | None = None
+        self.observe = observation("features", core.config)
+        """The holder's observation (the 9 features) of drills (``observe(state, rows, players)``)."""
+        self._views()
+
+    def _views(self) -> None:
+        steps = self.steps
+        self.running, self.decider, self.start = steps["running"], steps["decider"], steps["start"]
+        self._supporting = steps["supporting"]
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        for name in ("running", "decider", "start", "_supporting"):
+            del state[name]
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._views()
+
+    def restart(self, drills: np.ndarray) -> None:
+        """A new episode in each of ``drills`` (each drill's stream goes on); they then
+        wait for their holder's decision, the step counted from their start."""
+        self.core.reset(drills)
+        steps = self.steps
+        steps["running"][drills] = False
+        steps["in_action"][drills] = False
+        steps["start"][drills] = 0
+
+    def begin(self, drills: np.ndarray, actions: np.ndarray) -> None:
+        """The holders of ``drills`` (int64, ascending) take ``actions`` (int64, checked:
+        [0, 2]): their drills' steps run."""
+        _begin(self.steps, self.core.batch.state, drills, actions, self.decision_cycles)
+
+    def cycle(self, drills: np.ndarray | None = None) -> int:
+        """One cycle of every drill whose step runs (``drills``: their indices, if the
+        caller has them); returns how many still run."""
+        core, steps = self.core, self.steps
+        batch = core.batch
+        if _holder_commands(steps, batch.commands):
+            core.support_commands(self._supporting)
+        core.advance(self.running, drills)
+        return _after_cycle(steps, batch.state)
+
+    def deciders(self, rows: np.ndarray) -> np.ndarray:
+        """Whose observation each drill of ``rows`` returns: its holder, or at an end the
+        attacker who decided last, if the holder is not an attacker."""
+        holder = self.core.batch.holder[rows]
+        return np.where((holder == 0) | (holder == 1), holder, self.decider[rows])
+
+
+@warms
+def _compile_loop() -> None:
+    """The loop's compiled bookkeeping and the cycle's rules with the loop's own arrays
+    (its ``running`` and ``supporting`` are fields of its records: strided, for more than
+    one drill), one drill in its own space and two, before a team's bounded call."""
+    cfg = DrillConfig()
+    for n, physics in ((1, DrillSpace(cfg)), (2, None)):
+        steps, drills = np.zeros(n, STEP), np.arange(n, dtype=np.int64)
+        rngs = [np.random.default_rng(k) for k in range(n)]
+        batch = BatchDrill(n, cfg, physics=physics)
+        batch.reset(drills, rngs)
+        support = SupportDraws(n)
+        support.seed(drills, list(range(n)))
+        every = drills.copy()
+        every.flags.writeable = False  # the core's every drill, as the vector env passes it
+        for chosen in (drills, every):
+            _begin(steps, batch.state, chosen, np.zeros(n, dtype=np.int64), 4)
+        _holder_commands(steps, batch.commands)
+        support.commands(batch.state, batch.commands, steps["supporting"], cfg.field_size)
+        batch.step(steps["running"], rngs)
+        _after_cycle(steps, batch.state)
+
+
+# ------------------------------------------------------------------ the environment
+_ONE = np.zeros(1, dtype=np.int64)
+_RUNNING, _TIMEOUT = int(Outcome.RUNNING), int(Outcome.TIMEOUT)  # an enum lookup costs ~1 us
+
+
+class HolderEnv(Pickled, gym.Env):
     """The drill as seen by whichever attacker holds the ball: keepaway's SMDP.
 
     Only the ball holder decides; its teammate runs a fixed stochastic support
-    behaviour (:class:`~soccer_drill.rules.support.SupportPlayer`) and the defenders
-    are a scripted team. One :meth:`step` applies the holder's action -- for
-    ``decision_cycles`` cycles (0.4 s by default) for HOLD and DRIBBLE, for one kick
-    for PASS -- and then runs cycles until an attacker holds the ball again (the
-    next decision) or the episode ends. Basic options of a few cycles, rather than
-    keepaway's one cycle, make the drill learnable in hundreds of episodes rather
-    than thousands (see ``docs/learning.md``).
+    behaviour (:mod:`soccer_drill.rules.support`) and the defenders are a scripted team.
+    One :meth:`step` applies the holder's action -- for ``decision_cycles`` cycles (0.4 s
+    by default) for HOLD and DRIBBLE, for one kick for PASS -- and then runs cycles until
+    an attacker holds the ball again (the next decision) or the episode ends. Basic
+    options of a few cycles, rather than keepaway's one cycle, make the drill learnable
+    in hundreds of episodes rather than thousands (see ``docs/learning.md``). It is one
+    drill of the holder loop (:class:`HolderLoop`) that the batched drill runs too.
 
     ## Action space
 
@@ -118,10 +302,12 @@ class HolderEnv(gym.Env):
     ``copy.deepcopy``, ``copy.copy`` and ``pickle`` all give an independent environment
     continuing the episode, as those of :class:`soccer_drill.raw_env` do: the same
     actions give bit-identical steps in the copy and the original, and stepping one
-    never moves the other. Windows and renderers are not copied. ``gym.make`` puts the
-    environment inside Gymnasium's wrappers, which ``copy.copy`` copies shallowly: that
-    copy shares the environment with the original. There, use ``copy.deepcopy`` or
-    ``pickle`` (the whole stack), or ``copy.copy(env.unwrapped)`` (this environment alone).
+    never moves the other. Windows and renderers are not copied. A pickle is for the
+    code that made it: another version of ``soccer_drill`` refuses it, naming both.
+    ``gym.make`` puts the environment inside Gymnasium's wrappers, which ``copy.copy``
+    copies shallowly: that copy shares the environment with the original. There, use
+    ``copy.deepcopy`` or ``pickle`` (the whole stack), or ``copy.copy(env.unwrapped)``
+    (this environment alone).
 
     ## Threads
 
@@ -133,13 +319,13 @@ class HolderEnv(gym.Env):
 
     | argument | default | meaning |
     |----------|---------|---------|
-    | ``opponent`` | ``"chasers"`` | team id or a ``Team`` instance |
+    | ``opponent`` | ``"chasers"`` | team id or a team instance |
     | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``render_mode`` | ``None`` | ``"human"``, ``"rgb_array"`` or ``"rgb_array_list"`` (see Rendering) |
     | ``decision_cycles`` | ``4`` | cycles a ``HOLD`` or ``DRIBBLE`` lasts (an integer in [1, 50]; fewer if possession changes); ``PASS`` lasts until an attacker controls the ball |
-    | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound (see ``soccer_drill.teams.TeamDriver``) |
+    | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound (see ``soccer_drill.teams.driver.TeamDriver``) |
     """
 
     metadata: ClassVar[dict] = {"render_modes": list(RENDER_MODES), "render_fps": 10}
@@ -154,7 +340,7 @@ class HolderEnv(gym.Env):
         decision_cycles: int = 4,
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
     ) -> None:
-        self.decision_cycles = check_decision_cycles(decision_cycles)
+        decision_cycles = checked("decision_cycles", decision_cycles, DECISION_CYCLES)
         if opponent is None:
             raise ValueError("HolderEnv needs a scripted opponent team (a team id or Team)")
         self.config = make_config(config, max_cycles)
@@ -162,12 +348,13 @@ class HolderEnv(gym.Env):
         self.metadata = {**HolderEnv.metadata, "render_fps": frames_per_second(self.config)}
         self._screen = Screen(self.config, render_mode, self.metadata["render_fps"])
         self.render_mode = render_mode
-        self._core = DrillCore(
-            opponent, opponent_params, self.config, "features", scripted_attackers=(0, 1),
-            team_timeout=team_timeout,
-        )
-        self.observation_space = self._core.obs_box
+        core = BatchCore(1, opponent, opponent_params, self.config, team_timeout, True, None)
+        self.loop = HolderLoop(core, decision_cycles)
+        self.decision_cycles = decision_cycles
+        self.observation_space = self.loop.observe.box
         self.action_space = spaces.Discrete(len(HOLDER_ACTIONS))
+        self._busy_init()
+        self._has_reset = False
 
     def __copy__(self) -> HolderEnv:
         """An independent copy continuing the episode (see Copies)."""
@@ -185,15 +372,17 @@ class HolderEnv(gym.Env):
     @property
     def drill_state(self):
         """The current :class:`~soccer_drill.state.DrillState`."""
-        if not self._core.has_reset:
+        if not self._has_reset:
             raise not_reset("drill_state")
-        return self._core.drill.state
+        return self.loop.core.batch.state_of(0)
+
+    def _outcome(self) -> str | None:
+        return OUTCOME_NAMES[self.loop.core.batch.outcome[0]]
 
     def record_frames(self, frames: list[np.ndarray] | None) -> None:
         """Append an ``rgb_array`` frame to ``frames`` after every cycle (``None`` stops)."""
-        core = self._core
-        state = core.drill.state if core.has_reset else None  # mid-episode: draw now
-        self._screen.record(frames, state, core.drill.outcome)
+        state = self.loop.core.batch.state_of(0) if self._has_reset else None
+        self._screen.record(frames, state, self._outcome() if self._has_reset else None)
 
     def action_masks(self) -> np.ndarray:
         """Which actions are legal now: all three, always (bool; for sb3-contrib's
@@ -204,20 +393,23 @@ class HolderEnv(gym.Env):
         self, *, seed: int | None = None, options: dict | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start an episode; the observation is the 9 features of the attacker given the ball."""
-        core = self._core
-        with core.exclusive(self, "reset"):
+        loop = self.loop
+        with self._exclusive("reset"):
             super().reset(seed=seed)
-            core.seed(seed)
-            core.reset()
-            self._screen.start(core.drill.state, None)
-            holder = core.drill.state.holder
-            return core.observe(holder), {
+            loop.core.seed(None if seed is None else [seed])
+            loop.restart(_ONE)
+            self._has_reset = True
+            batch = loop.core.batch
+            holder = int(batch.holder[0])
+            if self._screen.each_cycle:
+                self._screen.start(batch.state_of(0), None)
+            return loop.observe(batch.state, _ONE, batch.holder)[0], {
                 "duration": 0, "cycles": 0, "outcome": None, "holder": PLAYER_NAMES[holder],
             }
 
     def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply the holder's action and run to its next decision or the end (see the class docstring)."""
-        busy = self._core.busy
+        busy = self._busy
         if not busy.acquire(False):
             raise concurrent_use(self, "step")
         try:
@@ -226,56 +418,40 @@ class HolderEnv(gym.Env):
             busy.release()
 
     def _step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        if not self._core.has_reset:
+        if not self._has_reset:
             raise not_reset("step")
-        drill = self._core.drill
-        if drill.outcome is not None:
+        loop = self.loop
+        batch = loop.core.batch
+        if batch.outcome[0] != _RUNNING:
             raise RuntimeError("step() called after the episode ended; call reset()")
-        action = check_holder_action(action)
-        holder = drill.state.holder
-        command = _HOLDER_COMMANDS[int(action)]
-        start = drill.state.cycle
-        # HOLD and DRIBBLE last up to `decision_cycles` cycles while the holder keeps the ball.
-        repeats = 1 if int(action) == 1 else self.decision_cycles
-        for _ in range(repeats):
-            commands: list = [None] * 4
-            commands[holder] = command
-            self._core.advance(commands)
-            self._after_cycle()
-            if drill.outcome is not None or drill.state.holder != holder:
-                break
-        while drill.outcome is None and drill.state.holder not in (0, 1):
-            self._core.advance([None] * 4)
-            self._after_cycle()
-        s = drill.state
-        info = {
-            "duration": s.cycle - start,
-            "cycles": s.cycle,
-            "outcome": drill.outcome,
-            "holder": PLAYER_NAMES[s.holder] if drill.outcome is None else None,
-        }
-        if drill.outcome is None:
-            return self._core.observe(s.holder), 0.0, False, False, info
-        # At the end, observe from the attacker who last had the ball (or attacker_0).
-        last = holder if s.holder not in (0, 1) else s.holder
-        obs = self._core.observe(last)
-        truncated = drill.outcome == "timeout"
-        return obs, float(drill.attacker_reward), not truncated, truncated, info
-
-    def _after_cycle(self) -> None:
+        loop.begin(_ONE, np.array((check_holder_action(action),)))
         screen = self._screen
-        if screen.each_cycle:
-            drill = self._core.drill
-            screen.after_cycle(drill.state, drill.outcome)
+        while True:
+            running = loop.cycle(_ONE)
+            if screen.each_cycle:
+                screen.after_cycle(batch.state_of(0), self._outcome())
+            if not running:
+                break
+        code, cycle, holder = int(batch.outcome[0]), int(batch.cycle[0]), int(batch.holder[0])
+        obs = loop.observe(batch.state, _ONE, loop.deciders(_ONE))[0]
+        info = {
+            "duration": cycle - int(loop.start[0]),
+            "cycles": cycle,
+            "outcome": OUTCOME_NAMES[code],
+            "holder": PLAYER_NAMES[holder] if code == _RUNNING else None,
+        }
+        if code == _RUNNING:
+            return obs, 0.0, False, False, info
+        truncated = code == _TIMEOUT
+        return obs, float(batch.attacker_reward[0]), not truncated, truncated, info
 
     def render(self) -> np.ndarray | list[np.ndarray] | None:
         """The current frame, the frames since the last call, or ``None`` (see Rendering)."""
         if self.render_mode is None:
             return None
-        if not self._core.has_reset:
+        if not self._has_reset:
             raise not_reset("render")
-        drill = self._core.drill
-        return self._screen.render(drill.state, drill.outcome)
+        return self._screen.render(self.loop.core.batch.state_of(0), self._outcome())
 
     def close(self) -> None:
         """Close any window opened by human rendering."""

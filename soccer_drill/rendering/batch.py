@@ -7,7 +7,8 @@ from collections.abc import Callable
 import numpy as np
 
 from soccer_drill.config import DrillConfig
-from soccer_drill.drill import OUTCOME_NAMES
+from soccer_drill.constraints import NoneOr, OneOf, checked
+from soccer_drill.rules.arrays import OUTCOME_NAMES
 
 RENDER_MODES = ("rgb_array",)
 """What the batched environments draw: one off-screen frame per drill."""
@@ -15,13 +16,9 @@ RENDER_MODES = ("rgb_array",)
 
 def check_render_mode(render_mode: str | None, env: str) -> str | None:
     """``render_mode`` if a batched environment can draw it, else ``ValueError``."""
-    if render_mode is not None and render_mode not in RENDER_MODES:
-        raise ValueError(
-            f"{env} draws one off-screen frame per drill: render_mode must be None or "
-            f"one of {list(RENDER_MODES)}, got {render_mode!r} (a window: render a single "
-            "environment with render_mode='human')"
-        )
-    return render_mode
+    return checked("render_mode", render_mode, NoneOr(OneOf(RENDER_MODES)),
+                   why=f"{env} draws one off-screen frame per drill; a window: render a "
+                   "single environment with render_mode='human'")
 
 
 def frame_bytes(config: DrillConfig) -> tuple[int, tuple[int, int]]:
@@ -34,11 +31,11 @@ def frame_bytes(config: DrillConfig) -> tuple[int, tuple[int, int]]:
 
 
 class BatchRenderer:
-    """Draws every drill of a :class:`~soccer_drill.drill.BatchDrill` off-screen, each
+    """Draws every drill of a :class:`~soccer_drill.drill.drills.BatchDrill` off-screen, each
     time first calling ``check_memory(n, config)``, if given, to refuse ``n`` frames that
     do not fit in the memory available then. The batched environments give
-    :func:`~soccer_drill.vector.core.check_frames_memory`, and check ``num_envs`` with its
-    frames when made (:func:`~soccer_drill.vector.core.check_frames_fit`): memory is
+    :func:`~soccer_drill.vector.memory.check_frames_memory`, and check ``num_envs`` with its
+    frames when made (:func:`~soccer_drill.vector.memory.check_frames_fit`): memory is
     theirs to estimate."""
 
     def __init__(self, config: DrillConfig,

@@ -20,11 +20,11 @@ from pathlib import Path
 
 import numpy as np
 
-from soccer_drill.constraints import Real
+from soccer_drill.constraints import Integer, Real, checked
 from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.files import atomic_write_bytes, check_output_file
 from soccer_drill.policies import HOLDER_POLICIES, HolderPolicy, get_policy
-from soccer_drill.teams import TeamError, team_ids
+from soccer_drill.teams.registry import TeamError, team_ids
 
 FPS_RANGE = (1, 50)
 """Frames per second a GIF can play: its frame delay is counted in hundredths of a second,
@@ -34,12 +34,8 @@ FPS = Real(*FPS_RANGE)
 
 def check_fps(fps: object) -> float:
     """``fps`` as a number in :data:`FPS_RANGE`, else ``ValueError`` saying what is allowed."""
-    if not FPS.allows(fps):
-        raise ValueError(
-            f"fps must be {FPS.describe()} frames per second (a GIF counts its frame delay "
-            f"in hundredths of a second; viewers play delays under 20 ms as 100 ms), got {fps!r}"
-        )
-    return FPS.plain(fps)
+    return checked("fps", fps, FPS, why="frames per second: a GIF counts its frame delay in "
+                   "hundredths of a second; viewers play delays under 20 ms as 100 ms")
 
 
 def palette_images(frames: Sequence[np.ndarray]) -> list | None:
@@ -165,14 +161,15 @@ def _fps(text: str) -> float:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+SEED = Integer(0, 2**63 - 1)
+"""A seed of ``soccer-drill-gif``."""
+
+
 def _seed(text: str) -> int:
     try:
-        seed = int(text)
-    except ValueError:
-        seed = -1
-    if not 0 <= seed < 2**63:
-        raise argparse.ArgumentTypeError(f"seed must be an integer in [0, 2**63), got {text!r}")
-    return seed
+        return checked("seed", int(text) if text.lstrip("-").isdigit() else text, SEED)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def main(argv: Sequence[str] | None = None) -> int:

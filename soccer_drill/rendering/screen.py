@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from soccer_drill.config import DrillConfig
+from soccer_drill.constraints import NoneOr, OneOf, check
 from soccer_drill.state import DrillState
 
 if TYPE_CHECKING:
@@ -51,10 +52,7 @@ class Screen:
     """
 
     def __init__(self, config: DrillConfig, render_mode: str | None, fps: float) -> None:
-        if render_mode is not None and render_mode not in RENDER_MODES:
-            raise ValueError(
-                f"render_mode must be None or one of {list(RENDER_MODES)}, got {render_mode!r}"
-            )
+        check("render_mode", render_mode, NoneOr(OneOf(RENDER_MODES)))
         self.config, self.render_mode, self.fps = config, render_mode, fps
         self.caption: str | None = None
         """Extra text drawn on every frame (e.g. the active option)."""

@@ -21,9 +21,12 @@ functions run as plain Python, slower, with the same results:
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from typing import Any, TypeVar
+
+import numpy as np
 
 try:
     import numba
@@ -38,11 +41,23 @@ COMPILED = numba is not None and not numba.config.DISABLE_JIT
 
 
 def compiled(function: F) -> F:
-    """``function`` compiled by numba (``nopython``, cached on disk), or itself when the
-    rules run as plain Python (:data:`COMPILED` false)."""
+    """``function`` compiled by numba (``nopython``, cached on disk), or, when the rules
+    run as plain Python (:data:`COMPILED` false), itself reading its record arrays as
+    compiled code does: by attribute (``state[i].holder``: :func:`_as_records`)."""
     if not COMPILED:
-        return function
+        return _as_records(function)  # type: ignore[return-value]
     return numba.njit(cache=True)(function)  # type: ignore[union-attr, return-value]
+
+
+def _as_records(function: Callable[..., Any]) -> Callable[..., Any]:
+    """``function`` with every array of records among its arguments viewed as a
+    ``np.recarray`` (the same memory), whose records read and write their fields by
+    attribute as numba's do."""
+    @functools.wraps(function)
+    def plain(*args: Any) -> Any:
+        return function(*(a.view(np.recarray) if isinstance(a, np.ndarray) and a.dtype.names
+                          else a for a in args))
+    return plain
 
 
 _warmers: list[Callable[[], None]] = []

@@ -18,21 +18,25 @@ are the ILPSS state.
 
 Ranges follow from the region (35 m) plus the wall margin (1 m) players cannot
 pass; values are clipped into them so observations always lie in the space.
+
+Every kind of observation is one entry of :data:`OBSERVATION_TYPES`, read by the
+single and the batched environments alike (``obs_type``): its size, its bounds for a
+configuration and its compiled rule over drills. A new kind is a rule of one drill, its
+loop over drills and one entry there.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from soccer_drill.config import DrillConfig
 from soccer_drill.rules.compiled import compiled, hypot
-from soccer_drill.state import BALL, DrillState
-
-Bounds = np.ndarray | Sequence[float]
-"""Observation bounds: a float32 array, or its values as Python floats."""
+from soccer_drill.state import BALL
 
 FEATURE_NAMES: tuple[str, ...] = (
     "dist_mate",
@@ -59,71 +63,17 @@ def feature_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
 
 
 _DEGREES = 180.0 / math.pi
-_FLOAT32 = np.float32
-
-
-def _as_bounds(bounds: Bounds) -> np.ndarray:
-    """Bounds as the float64 array the compiled rules read (the same values)."""
-    if type(bounds) is np.ndarray and bounds.dtype == np.float64:
-        return bounds
-    return np.asarray(bounds, dtype=np.float64)
-
-
-def features(
-    state: DrillState, player: int, cfg: DrillConfig, low: Bounds, high: Bounds
-) -> np.ndarray:
-    """The 9 features of ``player`` (see the module table), clipped to the bounds.
-
-    ``low`` and ``high`` are :func:`feature_bounds` (float64 arrays of them: fastest).
-    """
-    pos = state.pos
-    (sx, sy), (mx, my) = pos[player], pos[player ^ 1]
-    (o1x, o1y), (o2x, o2y) = (pos[2], pos[3]) if player < 2 else (pos[0], pos[1])
-    out = np.empty(9, _FLOAT32)
-    _features_into(out, sx, sy, mx, my, o1x, o1y, o2x, o2y, cfg.field_size / 2,
-                   _as_bounds(low), _as_bounds(high))
-    return out
-
-
-def batch_features(
-    pos: np.ndarray, player: np.ndarray, cfg: DrillConfig, low: Bounds, high: Bounds
-) -> np.ndarray:
-    """The 9 features of ``player[i]`` in drill ``i`` of ``pos`` (``(N, 5, 2)``):
-    ``(N, 9)`` float32, :func:`features` of each drill."""
-    out = np.empty((len(pos), 9), _FLOAT32)
-    _features_of_drills(out, np.ascontiguousarray(pos, dtype=np.float64),
-                        np.ascontiguousarray(player, dtype=np.int64), cfg.field_size / 2,
-                        _as_bounds(low), _as_bounds(high))
-    return out
-
-
-def players_features(
-    pos: np.ndarray, players: tuple[int, ...], cfg: DrillConfig, low: Bounds, high: Bounds
-) -> np.ndarray:
-    """The 9 features of each of ``players`` in every drill: ``(N, len(players), 9)``."""
-    n, k = len(pos), len(players)
-    each = np.broadcast_to(np.asarray(players, dtype=np.int64), (n, k)).reshape(-1)
-    drills = np.repeat(np.ascontiguousarray(pos, dtype=np.float64), k, axis=0)
-    return batch_features(drills, each, cfg, low, high).reshape(n, k, 9)
 
 
 @compiled
-def _features_of_drills(out, pos, players, half_size, low, high):
-    for i in range(pos.shape[0]):
-        p = players[i]
-        m = p ^ 1
-        o = 2 if p < 2 else 0
-        _features_into(out[i], pos[i, p, 0], pos[i, p, 1], pos[i, m, 0], pos[i, m, 1],
-                       pos[i, o, 0], pos[i, o, 1], pos[i, o + 1, 0], pos[i, o + 1, 1],
-                       half_size, low, high)
-
-
-@compiled
-def _features_into(out, sx, sy, mx, my, o1x, o1y, o2x, o2y, half_size, low, high):
-    """The 9 features of a player at ``(sx, sy)``, with its mate at ``(mx, my)`` and its
-    opponents at ``(o1x, o1y)`` and ``(o2x, o2y)``, clipped into ``out`` (float32)."""
-    ax, ay = o1x - sx, o1y - sy  # opponents relative to self
-    bx, by = o2x - sx, o2y - sy
+def features_into(out, pos, player, half_size, low, high):
+    """The 9 features of ``player`` in one drill (``pos``: ``(5, 2)``) into ``out``
+    (float32), each clipped into ``[low, high]``."""
+    sx, sy = pos[player, 0], pos[player, 1]
+    mx, my = pos[player ^ 1, 0], pos[player ^ 1, 1]
+    o = 2 if player < 2 else 0
+    ax, ay = pos[o, 0] - sx, pos[o, 1] - sy  # opponents relative to self
+    bx, by = pos[o + 1, 0] - sx, pos[o + 1, 1] - sy
     ux, uy = mx - sx, my - sy  # mate relative to self
     da, db, dm = hypot(ax, ay), hypot(bx, by), hypot(ux, uy)
     near, far = (da, db) if da <= db else (db, da)
@@ -154,6 +104,13 @@ def _features_into(out, sx, sy, mx, my, o1x, o1y, o2x, o2y, half_size, low, high
 
 
 @compiled
+def _features_of_drills(out, state, rows, players, params, low, high):
+    half_size = params[0].field_size / 2
+    for r in range(rows.shape[0]):
+        features_into(out[r], state[rows[r]].pos, players[r], half_size, low, high)
+
+
+@compiled
 def _angle(cosine):
     """The angle of ``cosine`` (clamped to [-1, 1]) in degrees."""
     return _DEGREES * math.acos(-1.0 if cosine < -1.0 else 1.0 if cosine > 1.0 else cosine)
@@ -171,10 +128,11 @@ def _clip_into(out, k, value, low, high):
 
 
 KINEMATIC_SIZE = 26
+"""Length of the kinematic observation."""
 
 
 def kinematic_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds of the egocentric kinematic observation (see :func:`kinematics`)."""
+    """Bounds of the egocentric kinematic observation (see :func:`kinematics_into`)."""
     span = cfg.field_size + 2 * cfg.wall_margin
     top_speed = max(cfg.attacker_speed, cfg.defender_speed)
     pos_hi, vel_hi = span, max(cfg.ball_max_speed, top_speed)
@@ -188,45 +146,17 @@ def kinematic_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
     return low, high
 
 
-def kinematics(state: DrillState, player: int, low: Bounds, high: Bounds) -> np.ndarray:
-    """Egocentric kinematic observation of ``player`` (26 values).
+@compiled
+def kinematics_into(out, state, player, low, high):
+    """Egocentric kinematic observation of ``player`` in one drill (26 values) into ``out``.
 
     ``[x, y, vx, vy]`` of self, then for mate, opponent 0, opponent 1 and ball
     their position and velocity relative to self (metres, m/s), then six flags:
     self holds, mate holds, an opponent holds, ball loose, self is an attacker,
     the passer lock-out applies to self.
     """
-    out = np.empty(KINEMATIC_SIZE, _FLOAT32)
-    _kinematics_into(out, np.array(state.pos), np.array(state.vel), state.holder,
-                     state.passer if state.cycle < state.lockout_until else -1, player,
-                     _as_bounds(low), _as_bounds(high))
-    return out
-
-
-def batch_kinematics(
-    pos: np.ndarray, vel: np.ndarray, holder: np.ndarray, passer_locked: np.ndarray,
-    player: int, low: Bounds, high: Bounds,
-) -> np.ndarray:
-    """:func:`kinematics` of ``player`` in every drill (``passer_locked``: the passer
-    who cannot regain the ball yet, -1 for none): ``(N, 26)`` float32."""
-    out = np.empty((len(pos), KINEMATIC_SIZE), _FLOAT32)
-    _kinematics_of_drills(out, np.ascontiguousarray(pos, dtype=np.float64),
-                          np.ascontiguousarray(vel, dtype=np.float64),
-                          np.ascontiguousarray(holder, dtype=np.int64),
-                          np.ascontiguousarray(passer_locked, dtype=np.int64), player,
-                          _as_bounds(low), _as_bounds(high))
-    return out
-
-
-@compiled
-def _kinematics_of_drills(out, pos, vel, holder, passer_locked, player, low, high):
-    for i in range(pos.shape[0]):
-        _kinematics_into(out[i], pos[i], vel[i], holder[i], passer_locked[i], player, low, high)
-
-
-@compiled
-def _kinematics_into(out, pos, vel, holder, passer_locked, player, low, high):
-    """:func:`kinematics` of one drill (``pos``, ``vel``: ``(5, 2)``) into ``out``."""
+    pos, vel, holder = state.pos, state.vel, state.holder
+    passer_locked = state.passer if state.cycle < state.lockout_until else -1
     sx, sy = pos[player, 0], pos[player, 1]
     svx, svy = vel[player, 0], vel[player, 1]
     _clip_into(out, 0, sx, low, high)
@@ -249,12 +179,18 @@ def _kinematics_into(out, pos, vel, holder, passer_locked, player, low, high):
         k += 1
 
 
+@compiled
+def _kinematics_of_drills(out, state, rows, players, params, low, high):
+    for r in range(rows.shape[0]):
+        kinematics_into(out[r], state[rows[r]], players[r], low, high)
+
+
 STATE_SIZE = 29
-"""Length of the global state vector (:func:`global_state`)."""
+"""Length of the global state vector (:func:`global_state_into`)."""
 
 
 def state_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds of :func:`global_state` (float32).
+    """Bounds of the global state (float32).
 
     Players are held inside the walls (``wall_margin`` outside the region); the ball
     touches nothing, and one cycle after it leaves the region (which ends the episode)
@@ -275,8 +211,10 @@ def state_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
     return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
 
 
-def global_state(state: DrillState, cfg: DrillConfig, low: Bounds, high: Bounds) -> np.ndarray:
-    """The whole drill in a fixed layout (29 float32 values), for centralised critics.
+@compiled
+def global_state_into(out, state, max_cycles, low, high):
+    """The whole of one drill in a fixed layout (29 values) into ``out``, for centralised
+    critics; values clipped into :func:`state_bounds`.
 
     | index | value |
     |-------|-------|
@@ -288,39 +226,9 @@ def global_state(state: DrillState, cfg: DrillConfig, low: Bounds, high: Bounds)
     | 20-23 | 1 for the player holding the ball (all 0: a loose ball), in player order |
     | 24-27 | 1 for the player who passed and cannot regain the ball yet, in player order |
     | 28 | cycles elapsed / ``max_cycles`` |
-
-    Values are clipped into :func:`state_bounds`.
     """
-    out = np.empty(STATE_SIZE, _FLOAT32)
-    _state_into(out, np.array(state.pos), np.array(state.vel), state.holder,
-                state.passer if state.cycle < state.lockout_until else -1,
-                state.cycle / cfg.max_cycles, _as_bounds(low), _as_bounds(high))
-    return out
-
-
-def batch_global_state(
-    pos: np.ndarray, vel: np.ndarray, holder: np.ndarray, passer_locked: np.ndarray,
-    cycle: np.ndarray, cfg: DrillConfig, low: Bounds, high: Bounds,
-) -> np.ndarray:
-    """:func:`global_state` of every drill: ``(N, 29)`` float32."""
-    out = np.empty((len(pos), STATE_SIZE), _FLOAT32)
-    _states_of_drills(out, np.ascontiguousarray(pos, dtype=np.float64),
-                      np.ascontiguousarray(vel, dtype=np.float64),
-                      np.ascontiguousarray(holder, dtype=np.int64),
-                      np.ascontiguousarray(passer_locked, dtype=np.int64),
-                      cycle / cfg.max_cycles, _as_bounds(low), _as_bounds(high))
-    return out
-
-
-@compiled
-def _states_of_drills(out, pos, vel, holder, passer_locked, progress, low, high):
-    for i in range(pos.shape[0]):
-        _state_into(out[i], pos[i], vel[i], holder[i], passer_locked[i], progress[i], low, high)
-
-
-@compiled
-def _state_into(out, pos, vel, holder, passer_locked, progress, low, high):
-    """:func:`global_state` of one drill into ``out``."""
+    pos, vel, holder = state.pos, state.vel, state.holder
+    passer_locked = state.passer if state.cycle < state.lockout_until else -1
     for body in range(5):
         _clip_into(out, 4 * body, pos[body, 0], low, high)
         _clip_into(out, 4 * body + 1, pos[body, 1], low, high)
@@ -329,4 +237,52 @@ def _state_into(out, pos, vel, holder, passer_locked, progress, low, high):
     for i in range(4):
         _clip_into(out, 20 + i, 1.0 if holder == i else 0.0, low, high)
         _clip_into(out, 24 + i, 1.0 if passer_locked == i else 0.0, low, high)
-    _clip_into(out, 28, progress, low, high)
+    _clip_into(out, 28, state.cycle / max_cycles, low, high)
+
+
+@compiled
+def _global_states_of_drills(out, state, rows, players, params, low, high):
+    for r in range(rows.shape[0]):
+        global_state_into(out[r], state[rows[r]], params[0].max_cycles, low, high)
+
+
+# ------------------------------------------------------------------ the table
+@dataclass(frozen=True)
+class ObservationType:
+    """One kind of observation of a player.
+
+    Attributes
+    ----------
+    size
+        Its length.
+    bounds
+        ``bounds(config) -> (low, high)``, float32 arrays of ``size``.
+    rule
+        Its compiled loop ``rule(out, state, rows, players, params, low, high)``: into
+        ``out[r]`` (float32), the observation of player ``players[r]`` in drill
+        ``rows[r]`` of ``state`` (:data:`~soccer_drill.rules.arrays.STATE` records), with
+        the rule parameters and the bounds as float64.
+    description
+        What it holds, for messages and the environments' documentation.
+    """
+
+    size: int
+    bounds: Callable[[DrillConfig], tuple[np.ndarray, np.ndarray]]
+    rule: Callable[..., Any]
+    description: str
+
+
+OBSERVATION_TYPES: dict[str, ObservationType] = {
+    "features": ObservationType(
+        9, feature_bounds, _features_of_drills,
+        "the paper's 9 features from the player's point of view (the module's table)"),
+    "kinematic": ObservationType(
+        KINEMATIC_SIZE, kinematic_bounds, _kinematics_of_drills,
+        "26 egocentric values: positions and velocities relative to the player, "
+        "possession flags"),
+}
+"""Every kind of observation an environment's ``obs_type`` may name, by name."""
+GLOBAL_STATE = ObservationType(
+    STATE_SIZE, state_bounds, _global_states_of_drills,
+    "the whole drill (29 values; ``players`` is not read), for centralised critics")
+"""The environments' ``state()``: every drill's :func:`global_state_into`."""

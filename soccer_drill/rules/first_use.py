@@ -1,39 +1,29 @@
 """The drill's compiled rules, called once with the types their callers pass.
 
 Registered with :func:`soccer_drill.rules.compiled.warms`, so that :func:`warm_up` (which
-:class:`~soccer_drill.teams.TeamDriver` calls before running a team) compiles them, or
+the team driver imports from here, and calls before running a team) compiles them, or
 loads them from numba's disk cache, before any time-bounded call of a team can reach
 them: a team's ``act`` may call the skills' rules, and the first use of a rule compiles
-it.
+it. Each module with compiled code of its own registers its own (the team driver's
+checks, the holder loop, a team's plan).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from soccer_drill.commands import Command, Skill
 from soccer_drill.config import DrillConfig
-from soccer_drill.drill import BatchDrill, Drill
+from soccer_drill.drill.drills import BatchDrill
+from soccer_drill.drill.spaces import DrillSpace
+from soccer_drill.rules.arrays import rule_parameters
 from soccer_drill.rules.compiled import warm_up, warms
-from soccer_drill.rules.cycle import outcome
-from soccer_drill.rules.features import (
-    batch_features,
-    batch_global_state,
-    batch_kinematics,
-    feature_bounds,
-    features,
-    global_state,
-    kinematic_bounds,
-    kinematics,
-    players_features,
-    state_bounds,
-)
+from soccer_drill.rules.features import GLOBAL_STATE, OBSERVATION_TYPES
 from soccer_drill.rules.motion import interception_points, mark_targets
-from soccer_drill.rules.support import SupportPlayer, support_commands_of_drills
 from soccer_drill.skills import (
-    Command,
-    Skill,
     ball_interception_point,
     dribble_heading,
+    execute,
     pass_velocity,
     shield_direction,
     support_spot,
@@ -42,46 +32,40 @@ from soccer_drill.skills import (
 __all__ = ["warm_up"]
 
 
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array = array.copy()
+    array.flags.writeable = False
+    return array
+
+
 @warms
 def _drill_rules() -> None:
-    """One cycle of a drill and of a batch of two, every observation and every skill."""
+    """A cycle of one drill (in its own space) and of a batch of two, every observation
+    and every skill, with the arrays their callers pass (read-only where they are; the
+    support behaviour's: the holder loop's warmer)."""
     cfg, rng = DrillConfig(), np.random.default_rng(0)
-    drill = Drill(cfg)
-    state = drill.reset(rng)
-    drill.step([Command(Skill.HOLD), Command(Skill.GET_OPEN), Command(Skill.INTERCEPT),
-                Command(Skill.MOVE_TO, (1.0, 1.0))], rng)
+    for n, physics in ((1, DrillSpace(cfg)), (2, None)):
+        batch = BatchDrill(n, cfg, physics=physics)
+        every = np.arange(n)
+        batch.reset(every, [np.random.default_rng(k) for k in range(n)])
+        batch.skill[:] = (int(Skill.HOLD), int(Skill.GET_OPEN), int(Skill.INTERCEPT),
+                          int(Skill.MOVE_TO))
+        for active in (np.ones(n, dtype=bool), _read_only(np.ones(n, dtype=bool))):
+            batch.step(active, [np.random.default_rng(k) for k in range(n)])
+        params = rule_parameters(cfg)
+        for kind in (*OBSERVATION_TYPES.values(), GLOBAL_STATE):
+            low, high = (b.astype(np.float64) for b in kind.bounds(cfg))
+            out = np.empty((n, kind.size), np.float32)
+            fixed = _read_only(every)  # an environment's every drill; the players gathered
+            for rows, players in ((every, every), (fixed, fixed), (fixed, every)):
+                kind.rule(out, batch.state, rows, players, params, low, high)
+        interception_points(batch.pos, batch.vel, batch.holder, np.ones((n, 4)), cfg)
+        mark_targets(batch.pos, batch.holder)
+    state = batch.state_of(0)
     for player in range(4):
         ball_interception_point(state, player, cfg.defender_speed, cfg)
+        execute(state, player, Command(Skill.INTERCEPT), cfg, rng)
     support_spot(state, 0, cfg)
     dribble_heading(state, 0, cfg)
     shield_direction(state, 0)
     pass_velocity(state, 0, cfg, rng)
-    support = SupportPlayer()
-    support.reset(rng)
-    support.command(state, 1, cfg)
-    bounds = {name: tuple(b.astype(np.float64) for b in make(cfg)) for name, make in (
-        ("features", feature_bounds), ("kinematic", kinematic_bounds), ("state", state_bounds))}
-    features(state, 0, cfg, *bounds["features"])
-    kinematics(state, 0, *bounds["kinematic"])
-    global_state(state, cfg, *bounds["state"])
-
-    batch = BatchDrill(2, cfg)
-    drills = np.arange(2)
-    batch.reset(drills, [np.random.default_rng(1), np.random.default_rng(2)])
-    skill = np.full((2, 4), int(Skill.INTERCEPT), dtype=np.int64)
-    target, speed = np.zeros((2, 4, 2)), np.ones((2, 4))
-    supporting = np.ones((2, 2), dtype=bool)
-    support_commands_of_drills(skill, target, speed, supporting, batch.pos, batch.holder,
-                               batch.cycle, batch.passer, batch.lockout_until,
-                               np.zeros((2, 2, 2)), cfg.field_size)
-    batch.step(np.ones(2, dtype=bool), skill, target, speed,
-               [np.random.default_rng(3), np.random.default_rng(4)])
-    outcome(batch.pos[0], 0, batch.cycle[0], cfg.field_size, cfg.max_cycles)  # after a tackle
-    locked = np.where(batch.cycle < batch.lockout_until, batch.passer, -1)
-    batch_features(batch.pos, batch.holder.clip(0, 1), cfg, *bounds["features"])
-    players_features(batch.pos, (0, 1), cfg, *bounds["features"])
-    batch_kinematics(batch.pos, batch.vel, batch.holder, locked, 0, *bounds["kinematic"])
-    batch_global_state(batch.pos, batch.vel, batch.holder, locked, batch.cycle, cfg,
-                       *bounds["state"])
-    interception_points(batch.pos, batch.vel, batch.holder, speed, cfg)
-    mark_targets(batch.pos, batch.holder)

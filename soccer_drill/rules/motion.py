@@ -2,29 +2,39 @@
 for the ball holder, a ball action.
 
 Every function here reads one drill's arrays, ``pos`` and ``vel`` (``(5, 2)`` float64:
-the four players then the ball, as :attr:`~soccer_drill.state.DrillState.pos`), and is
-compiled per drill (:mod:`soccer_drill.rules.compiled`). The single drill calls them for its
-one drill; the batched drill and the batched teams through the loops at the end of the
-module, over many drills; :mod:`soccer_drill.skills` offers them on a
-:class:`~soccer_drill.state.DrillState`. The parameters they need of a
-:class:`~soccer_drill.config.DrillConfig` are one float64 array (:func:`rule_parameters`)
-and the rolling ball's table (:func:`roll_table`).
+the four players then the ball, as :attr:`~soccer_drill.state.DrillState.pos`) or its
+records (:mod:`soccer_drill.rules.arrays`), and is compiled per drill
+(:mod:`soccer_drill.rules.compiled`). The drill's cycle runs them for each of its drills;
+teams call them (:func:`interception_points` and :func:`mark_targets` for many drills at
+once); :mod:`soccer_drill.skills` offers them on a :class:`~soccer_drill.state.DrillState`.
+The numbers they need of a :class:`~soccer_drill.config.DrillConfig` are its rule
+parameters, read by name (:func:`~soccer_drill.rules.arrays.rule_parameters`), and the
+rolling ball's table (:func:`~soccer_drill.rules.arrays.roll_table`).
 """
 
 from __future__ import annotations
 
-import functools
 import math
+from enum import IntEnum
 
 import numpy as np
 
+from soccer_drill.commands import Skill
 from soccer_drill.config import DrillConfig
+from soccer_drill.rules.arrays import roll_table, rule_parameters
 from soccer_drill.rules.compiled import compiled, hypot
 
-NO_BALL, CONTROL, KICK = 0, 1, 2
-"""Ball actions: none, keep the ball at the control point, kick it."""
-# Skill values (soccer_drill.skills.Skill), as plain ints for compiled code.
-HOLD, PASS, DRIBBLE, GET_OPEN, GO_TO_BALL, INTERCEPT, MARK, GUARD_LINE, MOVE_TO = range(9)
+
+class BallAction(IntEnum):
+    """What a player's motion does with the ball: nothing, keep it at the control point,
+    or kick it."""
+
+    NO_BALL = 0
+    CONTROL = 1
+    KICK = 2
+
+
+_NO_BALL, _CONTROL, _KICK = (int(a) for a in BallAction)  # as compiled code stores them
 GUARD_DEPTH = 2.5
 """Distance from the goal line at which ``GUARD_LINE`` stands, in metres."""
 MARK_FRACTION = 0.35
@@ -32,46 +42,6 @@ MARK_FRACTION = 0.35
 _ARRIVE_SECONDS = 0.3  # slow down this long before a target, so players do not orbit it
 _HOLD_EDGE = 3.0  # a shielding holder stops backing away this close to a touchline
 _LEAD_SECONDS = 1.5  # how far ahead a defender aims at a dribbling holder
-
-# Indices of rule_parameters' array.
-SIZE, ATTACKER_SPEED, DEFENDER_SPEED, DRIBBLE_SPEED, HOLD_SPEED, CONTROL_RADIUS = range(6)
-DAMPING_RATE, ARRIVAL_SPEED, BALL_MAX_SPEED, ANGLE_NOISE, SPEED_NOISE, SPACING = range(6, 12)
-
-
-@functools.lru_cache(maxsize=64)
-def rule_parameters(cfg: DrillConfig) -> np.ndarray:
-    """The numbers of ``cfg`` the rules read, as one read-only float64 array."""
-    _, _, _, spacing = _roll_tuples(cfg.ball_damping, cfg.cycle_seconds)
-    values = np.array([
-        cfg.field_size, cfg.attacker_speed, cfg.defender_speed, cfg.dribble_speed,
-        cfg.hold_speed, cfg.control_radius, -math.log(max(cfg.ball_damping, 1e-6)),
-        cfg.pass_arrival_speed, cfg.ball_max_speed, math.radians(cfg.kick_angle_noise),
-        cfg.kick_speed_noise, spacing,
-    ])
-    values.flags.writeable = False
-    return values
-
-
-@functools.lru_cache(maxsize=64)
-def roll_table(cfg: DrillConfig) -> np.ndarray:
-    """The rolling ball every 2 cycles for 3 s (``(3, K)`` float64, read-only): the
-    times; per unit of initial speed, the distance travelled by then; and the speed
-    there times the time to the next point."""
-    times, travels, slowing, _ = _roll_tuples(cfg.ball_damping, cfg.cycle_seconds)
-    table = np.array([times, travels, slowing])
-    table.flags.writeable = False
-    return table
-
-
-def _roll_tuples(
-    damping: float, cycle: float
-) -> tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], float]:
-    k = -math.log(max(damping, 1e-6))
-    times = tuple(step * cycle for step in range(1, round(3.0 / cycle) + 1, 2))
-    travels = tuple((1.0 - math.exp(-k * t)) / k if k > 0 else t for t in times)
-    spacing = 2 * cycle
-    slowing = tuple(math.exp(-k * t) * spacing for t in times)
-    return times, travels, slowing, spacing
 
 
 def _heading(deg: int) -> tuple[float, float, float]:
@@ -100,9 +70,9 @@ def unit(x, y):
 
 
 @compiled
-def interception_point(pos, vel, holder, player, vmax, reach, table, spacing):
+def interception_point(pos, vel, holder, player, vmax, params, table):
     """Earliest point of the rolling ball's path that ``player`` can reach in time (a
-    carried ball: where it will be when ``player`` gets there)."""
+    carried ball: where it will be when ``player`` gets there), running at ``vmax``."""
     bx, by = pos[4, 0], pos[4, 1]
     bvx, bvy = vel[4, 0], vel[4, 1]
     px, py = pos[player, 0], pos[player, 1]
@@ -116,6 +86,7 @@ def interception_point(pos, vel, holder, player, vmax, reach, table, spacing):
     if ball_speed < 1.0 or holder >= 0:
         return bx, by
     last = table.shape[1] - 1
+    reach, spacing = params[0].control_radius, params[0].roll_spacing
     # The first point of the table within reach, as a scan of every point finds it, but
     # skipping points that cannot be: after a point the gap (the distance to the ball's
     # point less the reach) shrinks per second by at most vmax plus the ball's speed
@@ -224,7 +195,8 @@ def pass_velocity(pos, vel, player, angle_normal, speed_normal, params):
     bx, by = pos[4, 0], pos[4, 1]
     mate = player ^ 1
     mx, my = pos[mate, 0], pos[mate, 1]
-    k, arrival, top = params[DAMPING_RATE], params[ARRIVAL_SPEED], params[BALL_MAX_SPEED]
+    p = params[0]
+    k, arrival, top = p.damping_rate, p.arrival_speed, p.ball_max_speed
     dist = hypot(mx - bx, my - by)
     rate = arrival + k * dist
     lead = dist / (rate if rate > 1e-6 else 1e-6)  # rough travel time
@@ -232,8 +204,8 @@ def pass_velocity(pos, vel, player, angle_normal, speed_normal, params):
     dist = hypot(tx - bx, ty - by)
     speed = arrival + k * dist
     speed = top if top < speed else speed
-    angle = math.atan2(ty - by, tx - bx) + params[ANGLE_NOISE] * angle_normal
-    speed = speed * (1.0 + params[SPEED_NOISE] * speed_normal)
+    angle = math.atan2(ty - by, tx - bx) + p.angle_noise * angle_normal
+    speed = speed * (1.0 + p.speed_noise * speed_normal)
     speed = speed if speed > 0.0 else 0.0
     speed = top if top < speed else speed
     return speed * math.cos(angle), speed * math.sin(angle)
@@ -264,29 +236,32 @@ def mark_target(pos, holder, player, fraction):
 
 
 @compiled
-def motion(pos, vel, holder, player, skill, tx, ty, speed, angle_normal, speed_normal,
-           params, table):
-    """One player's command as ``(vx, vy, ball action, bx, by)``: the desired velocity,
-    and for the holder's ball skill the ball action with its vector (the kick's
-    velocity, or the direction the ball is kept in). A ball skill of a player not
-    holding the ball stands still."""
+def motion(state, cycle, player, params, table):
+    """Player ``player``'s command in one drill (``state`` and ``cycle``: its records) as
+    ``(vx, vy, ball action, bx, by)``: the desired velocity, and for the holder's ball
+    skill the ball action with its vector (the kick's velocity, or the direction the ball
+    is kept in). A ball skill of a player not holding the ball stands still."""
+    pos, vel, holder = state.pos, state.vel, state.holder
+    skill, speed = cycle.skill[player], cycle.speed[player]
+    tx, ty = cycle.target[player, 0], cycle.target[player, 1]
+    p = params[0]
     is_attacker = player < 2
-    top = params[ATTACKER_SPEED] if is_attacker else params[DEFENDER_SPEED]
+    top = p.attacker_speed if is_attacker else p.defender_speed
     vmax = top * speed
     px, py = pos[player, 0], pos[player, 1]
-    size = params[SIZE]
-    if skill <= DRIBBLE:  # a ball skill
+    size = p.field_size
+    if skill <= Skill.DRIBBLE:  # a ball skill
         if player != holder:
-            return 0.0, 0.0, NO_BALL, 0.0, 0.0
-        if skill == DRIBBLE:
+            return 0.0, 0.0, _NO_BALL, 0.0, 0.0
+        if skill == Skill.DRIBBLE:
             hx, hy = dribble_heading(pos, player, size)
-            v = params[DRIBBLE_SPEED] * speed
-            return hx * v, hy * v, CONTROL, hx, hy
-        if skill == PASS:
-            kx, ky = pass_velocity(pos, vel, player, angle_normal, speed_normal, params)
-            return 0.0, 0.0, KICK, kx, ky
+            v = p.dribble_speed * speed
+            return hx * v, hy * v, _CONTROL, hx, hy
+        if skill == Skill.PASS:
+            kx, ky = pass_velocity(pos, vel, player, cycle.noise[0], cycle.noise[1], params)
+            return 0.0, 0.0, _KICK, kx, ky
         sx, sy = shield_direction(pos, player)  # HOLD
-        v = params[HOLD_SPEED] * speed
+        v = p.hold_speed * speed
         vx, vy = sx * v, sy * v
         # Shielding backs away from pressure, but never over a touchline.
         lo, hi = _HOLD_EDGE, size - _HOLD_EDGE
@@ -300,15 +275,14 @@ def motion(pos, vel, holder, player, skill, tx, ty, speed, angle_normal, speed_n
             sx, sy = 0.0, (1.0 if sy > 0 else -1.0)
         if py > hi and sy > 0:
             sx, sy = (1.0 if sx > 0 else -1.0), 0.0
-        return vx, vy, CONTROL, sx, sy
-    if skill == GET_OPEN:
+        return vx, vy, _CONTROL, sx, sy
+    if skill == Skill.GET_OPEN:
         tx, ty = support_spot(pos, player, size)
-    elif skill == GO_TO_BALL or skill == INTERCEPT:
-        tx, ty = interception_point(pos, vel, holder, player, vmax, params[CONTROL_RADIUS],
-                                    table, params[SPACING])
-    elif skill == MARK:
+    elif skill == Skill.GO_TO_BALL or skill == Skill.INTERCEPT:
+        tx, ty = interception_point(pos, vel, holder, player, vmax, params, table)
+    elif skill == Skill.MARK:
         tx, ty = mark_target(pos, holder, player, MARK_FRACTION)
-    elif skill == GUARD_LINE:
+    elif skill == Skill.GUARD_LINE:
         x = pos[4, 0]
         x = 4.0 if x < 4.0 else x  # min(max(x, 4.0), size - 4.0), as the builtins compare
         tx, ty = (size - 4.0 if size - 4.0 < x else x), GUARD_DEPTH
@@ -316,69 +290,54 @@ def motion(pos, vel, holder, player, skill, tx, ty, speed, angle_normal, speed_n
     dx, dy = tx - px, ty - py
     dist = hypot(dx, dy)
     if dist < 1e-6:
-        return 0.0, 0.0, NO_BALL, 0.0, 0.0
+        return 0.0, 0.0, _NO_BALL, 0.0, 0.0
     run = dist / _ARRIVE_SECONDS
     if not run < vmax:  # min(vmax, run), as min() compares
         run = vmax
-    return dx / dist * run, dy / dist * run, NO_BALL, 0.0, 0.0
+    return dx / dist * run, dy / dist * run, _NO_BALL, 0.0, 0.0
 
 
 @compiled
-def motions_into(out, pos, vel, holder, skill, target, speed, noise, params, table):
-    """:func:`motion` of the four players of one drill into ``out`` (``(4, 5)``);
-    ``skill``, ``target``, ``speed`` are their commands, ``noise`` the two standard
-    normals of a pass."""
-    for p in range(4):
-        vx, vy, ball, bx, by = motion(pos, vel, holder, p, skill[p], target[p, 0],
-                                      target[p, 1], speed[p], noise[0], noise[1], params,
-                                      table)
-        out[p, 0] = vx
-        out[p, 1] = vy
-        out[p, 2] = ball
-        out[p, 3] = bx
-        out[p, 4] = by
+def motions_into(state, cycle, params, table):
+    """:func:`motion` of the four players of one drill, into ``cycle.motions``."""
+    out = cycle.motions
+    for k in range(4):
+        vx, vy, ball, bx, by = motion(state, cycle, k, params, table)
+        out[k, 0] = vx
+        out[k, 1] = vy
+        out[k, 2] = ball
+        out[k, 3] = bx
+        out[k, 4] = by
 
 
 # ------------------------------------------------------------------ many drills
 @compiled
-def motions_of_drills(out, active, pos, vel, holder, skill, target, speed, noise, params,
-                      table):
-    """:func:`motions_into` of each drill ``i`` where ``active[i]`` (``out``: ``(n, 4, 5)``)."""
+def _interception_points(out, pos, vel, holder, vmax, params, table):
     for i in range(pos.shape[0]):
-        if active[i]:
-            motions_into(out[i], pos[i], vel[i], holder[i], skill[i], target[i], speed[i],
-                         noise[i], params, table)
-
-
-@compiled
-def _interception_points(out, pos, vel, holder, vmax, reach, table, spacing):
-    for i in range(pos.shape[0]):
-        for p in range(4):
-            x, y = interception_point(pos[i], vel[i], holder[i], p, vmax[i, p], reach, table,
-                                      spacing)
-            out[i, p, 0] = x
-            out[i, p, 1] = y
+        for k in range(4):
+            x, y = interception_point(pos[i], vel[i], holder[i], k, vmax[i, k], params, table)
+            out[i, k, 0] = x
+            out[i, k, 1] = y
 
 
 def interception_points(
     pos: np.ndarray, vel: np.ndarray, holder: np.ndarray, vmax: np.ndarray, cfg: DrillConfig
 ) -> np.ndarray:
     """:func:`interception_point` of each of the four players of each drill (``pos``,
-    ``vel``: ``(n, 5, 2)``; ``vmax``: ``(n, 4)``): ``(n, 4, 2)``."""
+    ``vel``: ``(n, 5, 2)``; ``vmax``: ``(n, 4)``, each player's running speed): ``(n, 4, 2)``."""
     out = np.empty((len(pos), 4, 2))
-    params = rule_parameters(cfg)
     _interception_points(out, _floats(pos), _floats(vel), _ints(holder), _floats(vmax),
-                         params[CONTROL_RADIUS], roll_table(cfg), params[SPACING])
+                         rule_parameters(cfg), roll_table(cfg))
     return out
 
 
 @compiled
 def _mark_targets(out, pos, holder, fraction):
     for i in range(pos.shape[0]):
-        for p in range(4):
-            x, y = mark_target(pos[i], holder[i], p, fraction)
-            out[i, p, 0] = x
-            out[i, p, 1] = y
+        for k in range(4):
+            x, y = mark_target(pos[i], holder[i], k, fraction)
+            out[i, k, 0] = x
+            out[i, k, 1] = y
 
 
 def mark_targets(pos: np.ndarray, holder: np.ndarray, fraction: float = MARK_FRACTION) -> np.ndarray:

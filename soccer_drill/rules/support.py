@@ -1,85 +1,129 @@
-"""The fixed stochastic support behaviour of an attacker that is not an agent."""
+"""The fixed stochastic support behaviour of an attacker that is not an agent.
+
+It chases a loose ball it is nearer to (or its mate may not take yet), otherwise gets
+open: it runs to its support spot moved by a random offset (normal, :data:`OFFSET_STD` m
+per axis), redrawn every :data:`RESAMPLE_CYCLES` cycles, so the teammate is not perfectly
+predictable but the episode stays seeded. Each drill draws from its own generator, given
+at the episode's start (:class:`SupportDraws`); both attackers draw from it, attacker 0
+first, and share one offset.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-from soccer_drill.config import DrillConfig
+from soccer_drill.commands import Skill
 from soccer_drill.rules.compiled import compiled, hypot
-from soccer_drill.rules.motion import GO_TO_BALL, MOVE_TO, support_spot
-from soccer_drill.skills import Command, Skill
-from soccer_drill.state import DrillState
+from soccer_drill.rules.motion import support_spot
 
 RESAMPLE_CYCLES = 10
 """How often the support spot's random offset changes."""
 OFFSET_STD = 2.0
 """Standard deviation of the offset per axis, metres."""
-_GO_TO_BALL = Command(Skill.GO_TO_BALL)  # immutable, so one serves every cycle
-_MOVE_TO = Skill.MOVE_TO  # read once: an enum member lookup costs ~0.2 us
+BLOCK = 64
+_GO_TO_BALL, _MOVE_TO = int(Skill.GO_TO_BALL), int(Skill.MOVE_TO)  # as compiled code stores them
+"""Standard normals drawn from a drill's generator at a time."""
 
-
-class SupportPlayer:
-    """Chases a loose ball it is nearer to, otherwise gets open with a random offset.
-
-    The offset (normal, :data:`OFFSET_STD` m per axis) is redrawn every
-    :data:`RESAMPLE_CYCLES` cycles from the generator given at :meth:`reset`, so the
-    teammate is not perfectly predictable but the episode stays seeded.
-    """
-
-    def __init__(self) -> None:
-        self._rng: np.random.Generator | None = None
-        self._offset = (0.0, 0.0)
-
-    def reset(self, rng: np.random.Generator) -> None:
-        """Start an episode, drawing from ``rng`` from now on."""
-        self._rng = rng
-        self._offset = (0.0, 0.0)
-
-    def command(self, state: DrillState, player: int, cfg: DrillConfig) -> Command:
-        """This cycle's command for attacker ``player`` (which does not hold the ball)."""
-        assert self._rng is not None, "reset() first"
-        if state.cycle % RESAMPLE_CYCLES == 0:
-            dx, dy = self._rng.normal(0.0, OFFSET_STD, size=2)
-            self._offset = (float(dx), float(dy))
-        skill, x, y = support_target(
-            np.array(state.pos), state.holder, state.cycle, state.passer, state.lockout_until,
-            player, self._offset[0], self._offset[1], cfg.field_size,
-        )
-        return _GO_TO_BALL if skill == GO_TO_BALL else Command(_MOVE_TO, (x, y))
+SUPPORT = np.dtype([
+    ("offset", np.float64, (2,)),
+    ("normals", np.float64, (BLOCK,)),
+    ("next", np.int64),
+])
+"""One drill's support draws: the offset now, its generator's normals drawn ahead, and the
+next one to use (:data:`BLOCK`: none left)."""
 
 
 @compiled
-def support_target(pos, holder, cycle, passer, lockout_until, player, offset_x, offset_y, size):
+def support_target(state, player, offset_x, offset_y, size):
     """The support behaviour's ``(skill, x, y)`` for attacker ``player`` of one drill:
     ``GO_TO_BALL`` for a loose ball it is no farther from than its mate (or its mate may
     not take yet), else ``MOVE_TO`` its support spot moved by the offset."""
-    if holder < 0:
+    pos = state.pos
+    if state.holder < 0:
         mate = player ^ 1
-        mate_locked = passer == mate and cycle < lockout_until
+        mate_locked = state.passer == mate and state.cycle < state.lockout_until
         bx, by = pos[4, 0], pos[4, 1]
         if mate_locked or hypot(pos[player, 0] - bx, pos[player, 1] - by) <= hypot(
             pos[mate, 0] - bx, pos[mate, 1] - by
         ):
-            return GO_TO_BALL, 0.0, 0.0
+            return _GO_TO_BALL, 0.0, 0.0
     x, y = support_spot(pos, player, size)
     x, y = x + offset_x, y + offset_y
     lo, hi = 1.0, size - 1.0  # each clamp min(max(v, lo), hi), as the builtins compare
-    return MOVE_TO, (lo if x < lo else hi if x > hi else x), (lo if y < lo else hi if y > hi else y)
+    return (_MOVE_TO, (lo if x < lo else hi if x > hi else x),
+            (lo if y < lo else hi if y > hi else y))
 
 
 @compiled
-def support_commands_of_drills(skill, target, speed, supporting, pos, holder, cycle, passer,
-                               lockout_until, offsets, size):
+def support_commands(state, cycle, supporting, support, start, size):
     """The support behaviour's commands for attacker ``k`` of drill ``i`` wherever
-    ``supporting[i, k]``, written into ``skill``, ``target`` and ``speed`` (``offsets``:
-    ``(n, 2, 2)``, each attacker's offset)."""
-    for i in range(pos.shape[0]):
+    ``supporting[i, k]``, into ``cycle[i]``'s command of ``k``, for drills ``start``
+    onwards. At a resample cycle each supported attacker first draws the offset's two
+    normals from ``support[i]``.
+
+    Returns -1 when done, or the first drill whose normals run out before its draws
+    (nothing of it changed): refill it (:meth:`SupportDraws.refill`) and call again from
+    there.
+    """
+    for i in range(start, state.shape[0]):
+        k0, k1 = supporting[i, 0], supporting[i, 1]
+        if not (k0 or k1):
+            continue
+        s, c, d = state[i], cycle[i], support[i]
+        resample = s.cycle % RESAMPLE_CYCLES == 0
+        if resample and d.next + 2 * (int(k0) + int(k1)) > BLOCK:
+            return i
         for k in range(2):
-            if supporting[i, k]:
-                s, x, y = support_target(pos[i], holder[i], cycle[i], passer[i],
-                                         lockout_until[i], k, offsets[i, k, 0],
-                                         offsets[i, k, 1], size)
-                skill[i, k] = s
-                target[i, k, 0] = x
-                target[i, k, 1] = y
-                speed[i, k] = 1.0
+            if not supporting[i, k]:
+                continue
+            if resample:
+                d.offset[0] = OFFSET_STD * d.normals[d.next]
+                d.offset[1] = OFFSET_STD * d.normals[d.next + 1]
+                d.next += 2
+            skill, x, y = support_target(s, k, d.offset[0], d.offset[1], size)
+            c.skill[k] = skill
+            c.target[k, 0] = x
+            c.target[k, 1] = y
+            c.speed[k] = 1.0
+    return -1
+
+
+class SupportDraws:
+    """The support behaviour's draws in ``n`` drills: each drill's generator, made at its
+    first draw from the seed given at the episode's start (most episodes of a drill
+    with agents for attackers never draw, and a generator costs about 15 us to make),
+    its normals drawn :data:`BLOCK` at a time, in order."""
+
+    def __init__(self, n: int) -> None:
+        self.records = np.zeros(n, dtype=SUPPORT)
+        self.records["next"] = BLOCK
+        self._generators: list[np.random.Generator | int | None] = [None] * n
+
+    def seed(self, drills: np.ndarray, seeds: list[int]) -> None:
+        """A new episode in ``drills``: no offset yet, draws from ``default_rng(seed)``."""
+        for i, seed in zip(drills.tolist(), seeds, strict=True):
+            self._generators[i] = seed
+        self.records["offset"][drills] = 0.0
+        self.records["next"][drills] = BLOCK
+
+    def refill(self, i: int) -> None:
+        """Drill ``i``'s unused normals moved to the front, the rest drawn anew."""
+        g = self._generators[i]
+        if g is None:
+            raise RuntimeError(f"drill {i}: no support generator; reset the drill first")
+        if not isinstance(g, np.random.Generator):
+            g = self._generators[i] = np.random.default_rng(g)
+        record = self.records[i]
+        normals, used = record["normals"], int(record["next"])
+        left = BLOCK - used
+        normals[:left] = normals[used:].copy()
+        g.standard_normal(out=normals[left:])
+        record["next"] = 0
+
+    def commands(self, state: np.ndarray, cycle: np.ndarray, supporting: np.ndarray,
+                 size: float) -> None:
+        """:func:`support_commands` of every drill, refilling whose normals run out."""
+        start = support_commands(state, cycle, supporting, self.records, 0, size)
+        while start >= 0:
+            self.refill(start)
+            start = support_commands(state, cycle, supporting, self.records, start, size)

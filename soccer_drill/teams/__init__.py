@@ -1,74 +1,69 @@
-"""Scripted teams and their driver: the protocol, the registry, the checks and time bound.
+"""The kit of a team's author: everything a scripted team needs from the drill, in one place.
 
-| module | holds |
+| need | names |
 |---|---|
-| :mod:`~soccer_drill.teams.registry` | the :class:`Team` protocol, :data:`TEAMS` (a :class:`~soccer_drill.registry.Registry`), :func:`register`, :func:`make_team`, :func:`team_code` |
-| :mod:`~soccer_drill.teams.driver` | :func:`check_commands` (what a team returned, checked; the words of each refusal) and :class:`TeamDriver` (a team within its CPU-time bound) |
-| :mod:`~soccer_drill.teams.batch` | the batched protocol (:class:`~soccer_drill.teams.batch.BatchView`, ``BatchCommands``, ``BatchRandom``, ``SameCommands``) and ``BatchTeamDriver`` (a team's ``batch(n)``, or one copy per drill) |
-| :mod:`~soccer_drill.teams.time_bound` | the CPU-time bound of one call (which exceptions a signal delivered: :mod:`soccer_drill.interruptions`) |
+| the protocol and the registry | ``soccer_drill``'s ``Team`` (one drill: ``reset(view, rng)``, ``act(view)``), ``register``, ``make_team``, ``available_teams`` and ``TeamError``; ``team_ids``, ``describe``; plugins: ``refresh``, ``broken_teams``, ``PluginWarning``, ``team_code`` |
+| what a team is told and says | ``soccer_drill``'s ``Command``, ``Skill``, ``DrillView`` and ``DrillState`` (one drill), ``PLAYER_NAMES`` and ``DrillConfig``; ``BALL``, ``FEATURE_NAMES`` |
+| many drills at once (``batch(n)``, one drill too) | ``BatchView`` (read-only arrays of every drill, the rule parameters by name), ``BatchCommands``, ``BatchRandom`` (each drill's draws), ``BatchTeam``, ``SameCommands``, ``every_drill``, ``STATE`` (a drill's record) |
+| the skills' rules | ``rule_parameters`` and ``roll_table`` (what the rules read of a configuration, by name), ``interception_point`` and ``mark_target`` (one drill, compiled: call them in a loop over ``every_drill``), ``GUARD_DEPTH`` |
+| compiled team code | ``compiled`` (numba, or plain Python with the same floats), ``hypot``, ``warms`` (compile before the team's first time-bounded call) |
 
-The names below are this package's: what plugins and users import from
-``soccer_drill.teams``.
+A team written once in batched form (``batch(n)``) plays one drill (the single
+environments) as it plays many; ``docs/plugins.md`` has a short example, and
+``opponents/parametric.py`` a full one. The modules: :mod:`~soccer_drill.teams.registry`
+(the protocol, :data:`~soccer_drill.teams.registry.TEAMS`), :mod:`~soccer_drill.teams.kit`
+(the batched protocol), :mod:`~soccer_drill.teams.driver` (the one driver: time bound and
+command checks), :mod:`~soccer_drill.teams.time_bound`.
 """
 
-from __future__ import annotations
-
-from soccer_drill.teams.driver import (
-    SCRIPTED_SKILLS,
-    TeamDriver,
-    check_commands,
-    resolve_team,
-    skill_refused,
-    speed_allowed,
-    speed_refused,
-    target_refused,
+from soccer_drill.rules.arrays import STATE, roll_table, rule_parameters
+from soccer_drill.rules.compiled import compiled, hypot, warms
+from soccer_drill.rules.features import FEATURE_NAMES
+from soccer_drill.rules.motion import (
+    GUARD_DEPTH,
+    interception_point,
+    mark_target,
+)
+from soccer_drill.state import BALL
+from soccer_drill.teams.kit import (
+    BatchCommands,
+    BatchRandom,
+    BatchTeam,
+    BatchView,
+    SameCommands,
+    every_drill,
 )
 from soccer_drill.teams.registry import (
-    BUILT_IN_DISTRIBUTION,
-    DEFAULT_TEAM_TIMEOUT,
-    ENTRY_POINT_GROUP,
-    TEAM_TIMEOUT_RANGE,
-    TEAMS,
     PluginWarning,
-    Team,
-    TeamError,
-    available_teams,
     broken_teams,
-    check_team_timeout,
     describe,
-    make_team,
     refresh,
-    register,
     team_code,
     team_ids,
-    team_parameters,
 )
 
 __all__ = [
-    "BUILT_IN_DISTRIBUTION",
-    "DEFAULT_TEAM_TIMEOUT",
-    "ENTRY_POINT_GROUP",
-    "SCRIPTED_SKILLS",
-    "TEAMS",
-    "TEAM_TIMEOUT_RANGE",
+    "BALL",
+    "FEATURE_NAMES",
+    "GUARD_DEPTH",
+    "STATE",
+    "BatchCommands",
+    "BatchRandom",
+    "BatchTeam",
+    "BatchView",
     "PluginWarning",
-    "Team",
-    "TeamDriver",
-    "TeamError",
-    "available_teams",
+    "SameCommands",
     "broken_teams",
-    "check_commands",
-    "check_team_timeout",
+    "compiled",
     "describe",
-    "make_team",
+    "every_drill",
+    "hypot",
+    "interception_point",
+    "mark_target",
     "refresh",
-    "register",
-    "resolve_team",
-    "skill_refused",
-    "speed_allowed",
-    "speed_refused",
-    "target_refused",
+    "roll_table",
+    "rule_parameters",
     "team_code",
     "team_ids",
-    "team_parameters",
+    "warms",
 ]

@@ -1,10 +1,20 @@
-"""What a scripted team returned, checked, and :class:`TeamDriver`, which runs a team within
-its CPU-time bound and reports what it raises; the words of each refusal, which the
-batched check (:mod:`soccer_drill.teams.batch`) says too.
+"""The one team driver: a scripted team in ``n`` drills, within its CPU-time bound, every
+command it returns checked (:func:`check_commands`) before it reaches the drill.
+
+A team with a batched form (``team.batch(n)``, :mod:`soccer_drill.teams.kit`) is called
+once per cycle for every drill acting; one without runs as one copy per drill (the team
+itself in the first drill, ``copy.deepcopy`` of an instance or its factory's new ones in
+the others), each copy's call held to ``team_timeout`` on its own, its commands read once
+into the same arrays. The single environment is a batch of one drill, its errors naming
+no drill; a batch's name the drills of a batched call, or the copy's drill.
+
+After a team's error the drills that acted are part-way through a cycle: the driver
+refuses to act again until every drill is reset.
 """
 
 from __future__ import annotations
 
+import copy
 import itertools
 import math
 import time
@@ -13,391 +23,240 @@ from typing import Any
 
 import numpy as np
 
-from soccer_drill.constraints import is_real
+from soccer_drill.commands import BALL_SKILLS, SCRIPTED_SKILLS, Command, Skill
+from soccer_drill.constraints import is_int, is_real
 from soccer_drill.interruptions import MAX_ITEMS, delivered_by_signal, short_repr
-from soccer_drill.rules.compiled import compiled
+from soccer_drill.rules.compiled import compiled, warms
 from soccer_drill.rules.first_use import warm_up
-from soccer_drill.skills import BALL_SKILLS, Command, Skill
-from soccer_drill.state import PLAYER_NAMES, DrillView
+from soccer_drill.state import PLAYER_NAMES
+from soccer_drill.teams.kit import BatchCommands, BatchRandom, BatchTeam, BatchView
 from soccer_drill.teams.registry import (
     DEFAULT_TEAM_TIMEOUT,
     Team,
     TeamError,
     _what_happened,
     check_team_timeout,
+    is_team,
     make_team,
     team_parameters,
 )
-from soccer_drill.teams.time_bound import Overrun, call_within
+from soccer_drill.teams.time_bound import Overrun, call_within, counted_cpu, restart_count
 
-_MOVE_TO = Skill.MOVE_TO  # read once: an enum member lookup costs ~0.2 us
-_UNSET = object()  # no command seen yet (``None`` is a command to refuse)
-
-
-SCRIPTED_SKILLS: tuple[Skill, ...] = tuple(s for s in Skill if s not in BALL_SKILLS)
-"""The skills a scripted team may command: any but the holder's ball skills."""
+_ALLOWED = np.zeros(len(Skill), dtype=bool)  # by skill value: may a scripted defender use it
+_ALLOWED[[int(s) for s in SCRIPTED_SKILLS]] = True
+_ALLOWED.flags.writeable = False
+_SKILL, _SPEED, _TARGET = 1, 2, 3  # what was refused first
 
 
 def skill_refused(skill: object) -> str:
-    """Why a scripted team's command of ``skill`` is refused (the checks of a team's
-    commands in the single and the batched drill alike)."""
+    """Why a scripted team's command of ``skill`` is refused."""
     allowed = [f"{s.name}={int(s)}" for s in SCRIPTED_SKILLS]
     shown = f"{skill.name}={int(skill)}" if isinstance(skill, Skill) else short_repr(skill)
     return f"skill {shown} is not allowed for a scripted defender; allowed: {allowed}"
 
 
-def speed_allowed(speed: Any) -> bool:
-    """Whether a command's ``speed`` lies in (0, 1] (NaN does not); the batched check runs
-    it compiled (:data:`speed_allowed_compiled`)."""
-    return speed > 0.0 and speed <= 1.0
-
-
-speed_allowed_compiled = compiled(speed_allowed)
-
-
-def speed_refused(speed: object) -> str:
-    """Why a command of ``speed`` is refused."""
+def _speed_refused(speed: object) -> str:
     return f"speed must be in (0, 1], got {short_repr(speed)}"
 
 
-def target_refused(target: object) -> str:
-    """Why a ``MOVE_TO`` to ``target`` is refused."""
+def _target_refused(target: object) -> str:
     return f"MOVE_TO needs a finite (x, y) target, got {short_repr(target)}"
 
 
-class _PlayerSet:
-    """The players a team drives, as :func:`check_commands` compares and indexes them."""
-
-    __slots__ = ("indices", "names", "set")
-
-    def __init__(self, players: tuple[str, ...]) -> None:
-        for player in players:
-            if player not in PLAYER_NAMES:
-                raise ValueError(f"unknown player {player!r}; players are {list(PLAYER_NAMES)}")
-        self.names, self.set = players, frozenset(players)
-        self.indices = tuple(PLAYER_NAMES.index(p) for p in players)
+# Each array of BatchCommands: its name, shape for m drills, dtype kinds, their words, and
+# the dtype the drill keeps.
+_COMMAND_ARRAYS = (
+    ("skill", lambda m: (m, 2), "iu", "integers (Skill values)", np.int64),
+    ("target", lambda m: (m, 2, 2), "iuf", "numbers", np.float64),
+    ("speed", lambda m: (m, 2), "iuf", "numbers", np.float64),
+)
 
 
-_player_sets: dict[tuple[str, ...], _PlayerSet] = {}
+class _Calling:
+    """The drills of one call of a team, described only if an error names them.
 
-
-def check_commands(
-    commands: object, players: tuple[str, ...], team: str, cycle: int, drill: int | None = None
-) -> list[tuple[int, Command]]:
-    """What a team's ``act()`` returned, checked: ``(player index, Command)`` pairs of
-    plain values (a ``Command`` of a ``Skill``, a ``float`` speed in (0, 1], a tuple of
-    two finite floats as a ``MOVE_TO`` target), one per player in ``players``.
-
-    Anything else raises :class:`TeamError` naming ``team``, the player and ``cycle`` (and
-    ``drill``, for a copy of the team in one drill of a batch):
-    not a mapping with exactly those players (its size is read before its keys, so a
-    huge mapping is refused at once), not a ``Command``, a ball skill, a speed outside
-    (0, 1], a target that is not a finite ``(x, y)`` pair, or a mapping or value that
-    raises when read. Each value is read once, and what is returned is what was checked.
-    Messages are short whatever the team gave (:func:`~soccer_drill.interruptions.short_repr`).
-
-    This runs the team's own objects (a ``Mapping``'s ``__len__``, ``__iter__`` and
-    ``__getitem__``, a speed's ``__float__``, ``__repr__`` in a message): call it inside
-    the team's time bound, as :class:`TeamDriver` does, so that none of it escapes the
-    bound.
+    Parameters
+    ----------
+    drills
+        The drills the call is for (``None``: the single environment's one drill,
+        never named).
+    cycles
+        The batch's cycle counters (``None``: a reset, before any cycle).
     """
-    known = _player_sets.get(players)
-    if known is None:
-        known = _player_sets[players] = _PlayerSet(tuple(players))
-    try:
-        return _checked(commands, known, team, cycle, drill)
-    except (TeamError, Overrun):
-        raise
-    except BaseException as exc:  # the team's own Mapping or Command type misbehaved
-        if delivered_by_signal(exc):
-            raise
+
+    def __init__(self, drills: np.ndarray | None, cycles: np.ndarray | None) -> None:
+        self.drills, self.cycles = drills, cycles
+        self.running: int | None = None
+        """The drill whose copy was running when the call ended (copies only)."""
+
+    def __format__(self, spec: str) -> str:
+        text = ""
+        if self.drills is not None:
+            drills = [int(d) for d in self.drills[:6]]
+            if len(self.drills) == 1:
+                text = f" of drill {drills[0]}"
+            else:
+                listed = ", ".join(map(str, drills[:5])) + (", ..." if len(self.drills) > 5
+                                                            else "")
+                text = f" of drills {listed} ({len(self.drills)} in one call)"
+        if self.cycles is not None:
+            shown = self.cycles if self.drills is None else self.cycles[self.drills]
+            low, high = int(shown.min()), int(shown.max())
+            text = f" at cycle {low}" + (f"-{high}" if high > low else "") + text
+        return text
+
+
+def check_commands(commands: object, cycle: np.ndarray, drills: np.ndarray, cycles: np.ndarray,
+                   team: str, players: tuple[str, ...], named: bool = True) -> None:
+    """``commands``, one row per drill of ``drills``, checked, then written into those
+    drills' :data:`~soccer_drill.rules.arrays.CYCLE` records (``cycle``) as the commands of
+    players 2 and 3; else :class:`TeamError`, nothing written.
+
+    Valid: a :class:`~soccer_drill.teams.kit.BatchCommands` of numeric arrays of the
+    right shapes, each skill one a scripted defender may use (any but the ball skills),
+    each speed in (0, 1], each ``MOVE_TO``'s target finite. The error names ``team``, the
+    first bad drill (unless ``named`` is false: the single environment's one drill), its
+    player and cycle, what was wrong and what is allowed. What is written is what was
+    checked, in one pass (no code of the team's runs in between).
+    """
+    if not isinstance(commands, BatchCommands):
         raise TeamError(
-            f"{_named(team, drill)} returned commands that could not be checked at cycle "
-            f"{cycle}: {_what_happened(exc)}"
-        ) from exc
-
-
-def resolve_team(
-    opponent: object, opponent_params: object, team_timeout: float | None = DEFAULT_TEAM_TIMEOUT
-) -> tuple[Team, str, dict[str, Any]]:
-    """The team an environment's ``opponent`` and ``opponent_params`` name, its name in
-    errors, and the parameters it was built with.
-
-    ``opponent`` is a registered team id (built by :func:`make_team` with
-    ``opponent_params``) or a :class:`Team` instance (then ``opponent_params`` must be
-    empty: the instance is already built). A class is refused: its methods would be
-    called without an instance. Whether an instance is a team is read from its ``reset``
-    and ``act`` (a property there is the team's code), within ``team_timeout`` and
-    :class:`TeamDriver`'s error wrapping.
-    """
-    if isinstance(opponent, str):
-        params = team_parameters(opponent_params)
-        return make_team(opponent, **params), opponent, params
-    if isinstance(opponent, type):
-        raise TypeError(
-            f"opponent must be a team id or a Team instance, got the class {opponent.__name__}: "
-            f"pass an instance ({opponent.__name__}(...)), or register it "
-            "(soccer_drill.teams.register) and pass its id"
+            f"team {team!r}: act() must return BatchCommands(skill, target, speed), "
+            f"got {type(commands).__name__}"
         )
-    name = type(opponent).__name__
-    driver = TeamDriver(opponent, name, (), team_timeout)  # type: ignore[arg-type]
-    if driver.call("reading its reset and act", "", isinstance, opponent, Team):
-        if opponent_params:
-            raise ValueError(
-                f"opponent_params given with a Team instance ({type(opponent).__name__}): an "
-                "instance is already built, so give its parameters to its constructor, or pass "
-                "a registered team id with opponent_params"
+    m = len(drills)
+    arrays = []
+    for (name, shape, kinds, what, dtype), given in zip(_COMMAND_ARRAYS, commands, strict=True):
+        if (type(given) is np.ndarray and given.dtype == dtype and given.flags.c_contiguous
+                and given.flags.writeable):
+            array = given  # as the drill keeps them: read as they are
+        else:
+            try:
+                array = np.asarray(given)
+            except (TypeError, ValueError, OverflowError) as exc:
+                raise TeamError(f"team {team!r}: commands' {name} is not a numeric array: "
+                                f"{exc}") from exc
+            if array.dtype.kind not in kinds:  # no strings, bools or objects
+                raise TeamError(f"team {team!r}: commands' {name} must be an array of {what}, "
+                                f"got dtype {array.dtype}")
+            # As int64, a value out of the int64 range wraps to a negative one, refused
+            # all the same.
+            array = np.array(array, dtype=dtype)
+        if array.shape != shape(m):
+            raise TeamError(
+                f"team {team!r}: commands' {name} must have shape {shape(m)} (one row per "
+                f"drill acting, one column per player), got {array.shape}"
+                f"{_Calling(drills if named else None, cycles):}"
             )
-        return opponent, type(opponent).__name__, {}
-    raise TypeError(f"opponent must be a team id or a Team instance, got {short_repr(opponent)}")
+        arrays.append(array)
+    skill, target, speed = arrays
+    what, r, k = _checked_into(cycle, drills, skill, target, speed, _ALLOWED)
+    if what == 0:
+        return
+    where = (f"team {team!r}, " + (f"drill {int(drills[r])}, " if named else "")
+             + f"player {players[k]!r}, cycle {int(cycles[drills[r]])}: ")
+    if what == _SKILL:
+        given = np.asarray(commands.skill)[r, k].item()
+        named_skill = Skill(given) if is_int(given) and 0 <= given < len(Skill) else given
+        raise TeamError(where + skill_refused(named_skill))
+    if what == _SPEED:
+        raise TeamError(where + _speed_refused(float(speed[r, k])))
+    raise TeamError(where + _target_refused(tuple(target[r, k].tolist())))
 
 
-def _named(team: str, drill: int | None) -> str:
-    """How the errors of the command checks name the team (and the drill of a copy)."""
-    return f"team {team!r}" if drill is None else f"team {team!r}, drill {drill}"
+@compiled
+def _checked_into(cycle, drills, skill, target, speed, allowed):
+    """The first command refused, as ``(what, row, player)``: every skill checked first
+    (one a scripted defender may use), then every speed (in (0, 1], not NaN), then every
+    ``MOVE_TO``'s target (finite), rows in order. If none is (``(0, -1, -1)``), each row
+    is written into drill ``drills[r]``'s record as the commands of players 2 and 3."""
+    for what in range(_SKILL, _TARGET + 1):
+        for r in range(skill.shape[0]):
+            for k in range(2):
+                s = skill[r, k]
+                if what == _SKILL:
+                    bad = s < 0 or s >= allowed.shape[0] or not allowed[s]
+                elif what == _SPEED:
+                    bad = not (speed[r, k] > 0.0 and speed[r, k] <= 1.0)
+                else:
+                    bad = s == Skill.MOVE_TO and not (math.isfinite(target[r, k, 0])
+                                                      and math.isfinite(target[r, k, 1]))
+                if bad:
+                    return what, r, k
+    for r in range(drills.shape[0]):
+        c = cycle[drills[r]]
+        for k in range(2):
+            c.skill[2 + k] = skill[r, k]
+            c.target[2 + k, 0] = target[r, k, 0]
+            c.target[2 + k, 1] = target[r, k, 1]
+            c.speed[2 + k] = speed[r, k]
+    return 0, -1, -1
 
 
-def _checked(commands: object, known: _PlayerSet, team: str, cycle: int,
-             drill: int | None) -> list:
-    # The common case first (a dict; its keys compared as a set, without copying; a set
-    # comparison looks at the sizes first).
-    if not (
-        (type(commands) is dict and commands.keys() == known.set)
-        or (
-            isinstance(commands, Mapping)
-            and len(commands) == len(known.set)
-            and set(commands) == known.set
-        )
-    ):
+@warms
+def _compile_checks() -> None:
+    """The check, with its callers' types, before a team's bounded call."""
+    from soccer_drill.rules.arrays import CYCLE
+
+    skill, target, speed = np.zeros((1, 2), np.int64), np.zeros((1, 2, 2)), np.ones((1, 2))
+    shown = np.zeros(1, dtype=np.int64)
+    shown.flags.writeable = False  # as a batch of one drill, or every drill, passes them
+    for drills in (np.zeros(1, dtype=np.int64), shown):
+        _checked_into(np.zeros(1, CYCLE), drills, skill, target, speed, _ALLOWED)
+
+
+# ---------------------------------------------------------------- one drill's teams
+def _read(commands: object, players: tuple[str, ...]) -> BatchCommands:
+    """What one drill's team returned (``act(view)``), read once into one row: the
+    :class:`Command` of each of ``players``, its target a ``(float, float)`` pair, its
+    speed a float; ``TeamError`` (naming the team, and ``(player)`` where it is one
+    player's) for anything else. Values are checked afterwards, by :func:`check_commands`.
+    """
+    known = frozenset(players)
+    if not ((type(commands) is dict and commands.keys() == known) or (
+            isinstance(commands, Mapping) and len(commands) == len(known)
+            and set(commands) == known)):
         if isinstance(commands, Mapping):
             size = len(commands)
             keys = sorted(short_repr(k) for k in itertools.islice(commands, MAX_ITEMS))
             got = f"[{', '.join(keys)}]" if size <= MAX_ITEMS else (
-                f"{size:,} keys, the first {len(keys)} [{', '.join(keys)}, ...]"
-            )
+                f"{size:,} keys, the first {len(keys)} [{', '.join(keys)}, ...]")
         else:
             got = type(commands).__name__
-        raise TeamError(
-            f"{_named(team, drill)} must return a mapping with exactly the players it drives "
-            f"{sorted(known.names)}, got {got} at cycle {cycle}"
-        )
-    out = []
-    given = checked = _UNSET
-    for player, index in zip(known.names, known.indices, strict=True):
+        raise _Refused(f"must return a mapping with exactly the players it drives "
+                       f"{sorted(players)}, got {got}")
+    skill = np.empty((1, 2), dtype=np.int64)
+    target = np.zeros((1, 2, 2))
+    speed = np.empty((1, 2))
+    previous = None
+    for k, player in enumerate(players):
         command = commands[player]
-        if command is not given:  # one object for several players is checked once
-            given, checked = command, _check(team, player, command, cycle, drill)
-        out.append((index, checked))
-    return out
+        if command is previous:  # one object for both players: read once, as it was
+            skill[0, k], target[0, k], speed[0, k] = skill[0, k - 1], target[0, k - 1], speed[0, k - 1]
+            continue
+        previous = command
+        if not isinstance(command, Command):
+            raise _Refused(f"expected a Command, got {short_repr(command)}", player)
+        skill_k, target_k, speed_k = command.skill, command.target, command.speed
+        if not isinstance(skill_k, Skill) or skill_k in BALL_SKILLS:
+            raise _Refused(skill_refused(skill_k), player)
+        if not is_real(speed_k):
+            raise _Refused(_speed_refused(speed_k), player)
+        skill[0, k], speed[0, k] = skill_k, float(speed_k)  # type: ignore[arg-type]
+        if skill_k is Skill.MOVE_TO:
+            point = _point(target_k)
+            if point is None:
+                raise _Refused(_target_refused(target_k), player)
+            target[0, k] = point
+    return BatchCommands(skill, target, speed)
 
 
-def _check(team: str, player: str, command: object, cycle: int, drill: int | None) -> Command:
-    """``command`` if it is valid and plain, else a plain copy of it.
+class _Refused(Exception):
+    """What one drill's team returned is not commands: why, and for which player."""
 
-    Each field is read once and the copy holds what was checked: a ``MOVE_TO``
-    target becomes a ``(float, float)`` tuple, so an object that yields other
-    numbers when read again (or a ``Command`` subclass computing its fields)
-    cannot slip a NaN past the check.
-    """
-    if not isinstance(command, Command):
-        raise _invalid(team, drill, player, cycle, f"expected a Command, got {short_repr(command)}")
-    skill, target, speed = command.skill, command.target, command.speed
-    if not isinstance(skill, Skill) or skill in BALL_SKILLS:
-        raise _invalid(team, drill, player, cycle, skill_refused(skill))
-    plain = type(command) is Command and (type(speed) is float or type(speed) is int)
-    if not (plain and speed_allowed(speed)):  # else the general check, and a copy
-        checked = float(speed) if not plain and is_real(speed) else speed  # type: ignore[arg-type]
-        if not (is_real(checked) and speed_allowed(checked)):
-            raise _invalid(team, drill, player, cycle, speed_refused(speed))
-        speed = checked
-    if skill is not _MOVE_TO:
-        return command if plain else Command(skill, None, speed)  # type: ignore[arg-type]
-    if not (  # the common case, already immutable and plain: no copy needed
-        type(target) is tuple
-        and len(target) == 2
-        and type(target[0]) is float
-        and type(target[1]) is float
-        and math.isfinite(target[0])
-        and math.isfinite(target[1])
-    ):
-        point = _point(target)
-        if point is None:
-            raise _invalid(team, drill, player, cycle, target_refused(target))
-        target, plain = point, False
-    return command if plain else Command(skill, target, speed)  # type: ignore[arg-type]
-
-
-def _invalid(team: str, drill: int | None, player: str, cycle: int, what: str) -> TeamError:
-    return TeamError(f"{_named(team, drill)}, player {player!r}, cycle {cycle}: {what}")
-
-
-class TeamDriver:
-    """Runs a team inside the drill, bounds the CPU time of each call, checks every command.
-
-    Parameters
-    ----------
-    team
-        The team.
-    name
-        Its id, named in every error.
-    players
-        The players it drives.
-    team_timeout
-        Seconds of CPU time each ``reset`` or ``act`` call may take, in
-        :data:`TEAM_TIMEOUT_RANGE` (1 ms to one day), or ``None`` for no bound. A
-        call that exceeds it raises :class:`TeamError`.
-    drill
-        The drill of a batch this copy of the team plays in (named in its errors),
-        or ``None``.
-
-    What the bound counts is the CPU time of the thread running the team during the call
-    (``time.thread_time``), less garbage collections (see
-    :mod:`soccer_drill.teams.time_bound`):
-
-    | the team's call | counted | stopped |
-    |---|---|---|
-    | computing (Python code, NumPy, any C code) | yes | on the main thread of a Unix process: interrupted inside the call once past the bound, also in a pure-Python infinite loop and after swallowing the first interruption (the timer re-fires); elsewhere: when the call returns |
-    | checking what ``act()`` returned (:func:`check_commands`: the team's ``Mapping`` methods, a speed's ``__float__``, the ``__repr__`` of anything named in an error) and describing an exception it raised | yes: inside the same bound | as computing |
-    | stuck inside one C call that never returns | yes | no (Python cannot interrupt C code) |
-    | waiting: descheduled on a loaded machine, ``time.sleep``, I/O, a lock, a debugger's pause | no | no: a call blocked forever hangs the drill |
-    | garbage collections it triggers (and the finalisers they run) | no | - |
-    | threads it starts | no (their own CPU time) | - |
-
-    A loaded machine therefore never turns an honest team into a :class:`TeamError`.
-    Interruption uses ``setitimer(ITIMER_PROF)``/``SIGPROF``; the previous ``SIGPROF``
-    handler is restored after every call, also when the call or the arming of the
-    timer fails. Off the main thread, on platforms without ``setitimer`` (Windows), or
-    when another ``ITIMER_PROF`` timer is already armed (a profiler's; it is put back
-    at once), the call's CPU time is measured and the error raised *after* it returns.
-    Pass ``team_timeout=None`` for no bound at all.
-
-    Whatever the team raises is reported as a :class:`TeamError` naming it, the call and
-    the cycle: any exception, ``SystemExit`` (``sys.exit()``) and a ``KeyboardInterrupt``
-    its code raises included. A Ctrl-C (``SIGINT``) arriving during the call, and an
-    exception that a signal handler of the program raises then, pass through unchanged,
-    so Ctrl-C still stops the program (how the two are told apart:
-    :mod:`soccer_drill.interruptions`).
-
-    After the error the environment stays usable: its next ``reset()`` resets the team.
-    """
-
-    def __init__(
-        self,
-        team: Team,
-        name: str,
-        players: tuple[str, ...],
-        team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
-        drill: int | None = None,
-    ) -> None:
-        self.team, self.name, self.players = team, name, tuple(players)
-        self.team_timeout = check_team_timeout(team_timeout)
-        warm_up()  # the rules a team may call, compiled before any bounded call
-        self.drill = drill
-        # How its errors name the team: with the drill of a batch it plays in, if any.
-        self._who = f"team {name!r}" if drill is None else f"team {name!r} (drill {drill})"
-
-    def reset(self, view: DrillView, rng: np.random.Generator) -> None:
-        """Reset the team, naming it in any error it raises."""
-        start = time.perf_counter()
-        try:
-            self._call(self._bounded_reset, view, rng)
-        except Overrun as exc:
-            raise self._past_bound("reset()", "", exc, start) from None
-        except TeamError:
-            raise
-        except Exception as exc:  # the bound itself failed (arming its timer)
-            raise self._unbounded("reset()", "", exc) from exc
-
-    def act(self, view: DrillView) -> list[tuple[int, Command]]:
-        """Commands as ``(player index, command)`` pairs, checked (within the bound)."""
-        start = time.perf_counter()
-        try:
-            return self._call(self._bounded_act, view)
-        except Overrun as exc:
-            raise self._past_bound("act()", f" at cycle {view.cycle}", exc, start) from None
-        except TeamError:
-            raise
-        except Exception as exc:  # the bound itself failed (arming its timer)
-            raise self._unbounded("act()", f" at cycle {view.cycle}", exc) from exc
-
-    def _bounded_reset(self, view: DrillView, rng: np.random.Generator) -> None:
-        try:
-            self.team.reset(view, rng)
-        except Overrun:
-            raise
-        except BaseException as exc:
-            if delivered_by_signal(exc):
-                raise
-            raise self._raised("reset()", "", exc) from exc
-
-    def _bounded_act(self, view: DrillView) -> list[tuple[int, Command]]:
-        try:
-            commands = self.team.act(view)
-        except Overrun:
-            raise
-        except BaseException as exc:
-            if delivered_by_signal(exc):
-                raise
-            raise self._raised("act()", f" at cycle {view.cycle}", exc) from exc
-        return check_commands(commands, self.players, self.name, view.cycle, self.drill)
-
-    def call(self, call: str, when: object, method: Callable[..., Any], *args: Any) -> Any:
-        """``method(*args)`` within this driver's time bound; any failure a :class:`TeamError`.
-
-        For drivers that run a team another way than :meth:`act` (the batched drill's
-        batched ``act``, whose commands are checked inside ``method``, so the bound covers
-        the check). ``call`` and ``when`` name the call in the error (``"act()"``,
-        ``" at cycle 3"``).
-        """
-        start = time.perf_counter()
-
-        def bounded(*inner: Any) -> Any:
-            try:
-                return method(*inner)
-            except (Overrun, TeamError):
-                raise
-            except BaseException as exc:
-                if delivered_by_signal(exc):
-                    raise
-                raise self._raised(call, when, exc) from exc
-
-        try:
-            return self._call(bounded, *args)
-        except Overrun as exc:
-            raise self._past_bound(call, when, exc, start) from None
-        except TeamError:
-            raise
-        except Exception as exc:  # the bound itself failed (arming its timer)
-            raise self._unbounded(call, when, exc) from exc
-
-    def _call(self, method: Callable[..., Any], *args: Any) -> Any:
-        """``method(*args)`` within the CPU-time bound; raises :class:`Overrun` past it."""
-        timeout = self.team_timeout
-        if timeout is None:
-            return method(*args)
-        return call_within(timeout, method, *args)
-
-    def _raised(self, call: str, when: object, exc: BaseException) -> TeamError:
-        return TeamError(f"{self._who} raised in {call}{when}: {_what_happened(exc)}")
-
-    def _unbounded(self, call: str, when: object, exc: Exception) -> TeamError:
-        return TeamError(
-            f"{self._who}: its time bound could not be set for {call}{when}: "
-            f"{short_repr(exc)}"
-        )
-
-    def _past_bound(self, call: str, when: object, exc: Overrun, start: float) -> BaseException:
-        """The error of a call stopped by a time bound: this driver's, or, if it has none,
-        ``exc`` unchanged, for the outer bound that stopped it (the batched drill runs
-        one copy of a team per drill under one bound for all of them)."""
-        if self.team_timeout is None:
-            return exc
-        return TeamError(
-            f"{self._who} exceeded its time bound of {self.team_timeout:g} s of "
-            f"CPU time in {call}{when} (stopped after {exc.cpu:.2f} s of CPU time, "
-            f"{time.perf_counter() - start:.2f} s in all); fix the team or pass a larger "
-            "team_timeout"
-        )
+    def __init__(self, why: str, player: str | None = None) -> None:
+        super().__init__(why)
+        self.why, self.player = why, player
 
 
 def _point(target: object) -> tuple[float, float] | None:
@@ -410,3 +269,361 @@ def _point(target: object) -> tuple[float, float] | None:
         return None
     point = (float(x), float(y))
     return point if math.isfinite(point[0]) and math.isfinite(point[1]) else None
+
+
+class _Copies:
+    """A team of one drill (``reset(view, rng)``, ``act(view)``) run in ``n`` drills as the
+    batched protocol asks: one copy per drill, called in turn, each copy's CPU time
+    counted afresh (:func:`~soccer_drill.teams.time_bound.restart_count`) so that each is
+    held to the bound on its own, with one timer armed for all of them."""
+
+    def __init__(self, teams: list[Team], driver: TeamDriver) -> None:
+        self.teams, self.driver = teams, driver
+        self.running: int | None = None
+        """The drill whose copy is (or was last) being called."""
+
+    def reset(self, view: BatchView, drills: np.ndarray, rng: BatchRandom) -> None:
+        for i in drills.tolist():
+            self._each(i, "reset()", "", self.teams[i].reset, view.drill(i), rng.generator(i))
+
+    def act(self, view: BatchView, drills: np.ndarray) -> BatchCommands:
+        players = self.driver.view.players
+        rows = []
+        for i in drills.tolist():
+            one = view.drill(i)
+            when = f" at cycle {one.cycle}"
+            got = self._each(i, "act()", when, self.teams[i].act, one)
+            try:
+                rows.append(_read(got, players))
+            except _Refused as refused:
+                raise self.driver.copy_refused(i, refused, one.cycle) from None
+            except (Overrun, TeamError):
+                raise
+            except BaseException as exc:  # the team's own Mapping or Command misbehaved
+                if delivered_by_signal(exc):
+                    raise
+                raise self.driver.copy_unreadable(i, one.cycle, exc) from exc
+        if len(rows) == 1:
+            return rows[0]
+        return BatchCommands(*(np.concatenate(parts) for parts in zip(*rows, strict=True)))
+
+    def _each(self, i: int, call: str, when: str, method: Callable[..., Any], *args: Any) -> Any:
+        """``method(*args)`` of drill ``i``'s copy: its exceptions its error, its CPU time
+        its own."""
+        self.running = i
+        start = restart_count()
+        try:
+            out = method(*args)
+        except (Overrun, TeamError):
+            raise
+        except BaseException as exc:
+            if delivered_by_signal(exc):
+                raise
+            raise self.driver.copy_raised(i, call, when, exc) from exc
+        timeout = self.driver.team_timeout
+        spent = counted_cpu() - start
+        if timeout is not None and spent > timeout:  # where the timer cannot interrupt
+            raise Overrun(spent)
+        return out
+
+
+class TeamDriver:
+    """The scripted team of ``n`` drills: batched if the team offers it, else one copy per
+    drill (see the module docstring).
+
+    Parameters
+    ----------
+    opponent
+        A team id or a team instance (copied with ``copy.deepcopy`` for each further
+        drill when it has no batched form).
+    opponent_params
+        Keyword parameters of the team factory (with an id).
+    batch
+        The drills (a :class:`~soccer_drill.drill.drills.BatchDrill`).
+    team_timeout
+        Seconds of CPU time each call of the team may take (a copy's: each drill's), in
+        ``TEAM_TIMEOUT_RANGE`` (1 ms to one day), or ``None`` for no bound.
+    single
+        The single environment's one drill: errors name no drill.
+
+    What the bound counts is the CPU time of the thread running the team during the call
+    (``time.thread_time``), less garbage collections (see
+    :mod:`soccer_drill.teams.time_bound`):
+
+    | the team's call | counted | stopped |
+    |---|---|---|
+    | computing (Python code, NumPy, any C code) | yes | on the main thread of a Unix process: interrupted inside the call once past the bound, also in a pure-Python infinite loop and after swallowing the first interruption (the timer re-fires); elsewhere: when the call returns |
+    | checking what ``act()`` returned (the team's ``Mapping`` methods, a speed's ``__float__``, the ``__repr__`` of anything named in an error) and describing an exception it raised | yes: inside the same bound | as computing |
+    | stuck inside one C call that never returns | yes | no (Python cannot interrupt C code) |
+    | waiting: descheduled on a loaded machine, ``time.sleep``, I/O, a lock, a debugger's pause | no | no: a call blocked forever hangs the drill |
+    | garbage collections it triggers (and the finalisers they run) | no | - |
+    | threads it starts | no (their own CPU time) | - |
+
+    A loaded machine therefore never turns an honest team into a :class:`TeamError`.
+    Interruption uses ``setitimer(ITIMER_PROF)``/``SIGPROF``; the previous ``SIGPROF``
+    handler is restored after every call, also when the call or the arming of the timer
+    fails. Off the main thread, on platforms without ``setitimer`` (Windows), or when
+    another ``ITIMER_PROF`` timer is already armed (a profiler's; it is put back at once),
+    the call's CPU time is measured and the error raised *after* it returns.
+
+    Whatever the team raises is reported as a :class:`TeamError` naming it, the call and
+    the cycle: any exception, ``SystemExit`` (``sys.exit()``) and a ``KeyboardInterrupt``
+    its code raises included. A Ctrl-C (``SIGINT``) arriving during the call, and an
+    exception that a signal handler of the program raises then, pass through unchanged,
+    so Ctrl-C still stops the program (how the two are told apart:
+    :mod:`soccer_drill.interruptions`). After the error the environment stays usable: its
+    next ``reset()`` of every drill resets the team.
+    """
+
+    def __init__(
+        self,
+        opponent: str | Team,
+        opponent_params: Mapping[str, Any] | None,
+        batch: Any,
+        team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
+        single: bool = False,
+    ) -> None:
+        self.team_timeout = check_team_timeout(team_timeout)
+        warm_up()  # the rules a team may call, compiled before any bounded call
+        self.single = single
+        self._batch = batch
+        self.view = BatchView(batch, PLAYER_NAMES[2:])
+        team, self.name, params = resolve_team(opponent, opponent_params, self.team_timeout)
+        warm_up()  # and those the team's own module registered when it was imported
+        self.team = team
+        # Every attribute of the team is read inside its bound and error wrapping (a
+        # property runs the team's code), as its methods are called.
+        batched = self.call("batch()", "", self._batched)
+        self.batched: BatchTeam | _Copies = batched if batched is not None else _Copies(
+            [team] + [self._copy(opponent, params, i) for i in range(1, batch.n)], self)
+        self.rng = BatchRandom(batch.n)
+        self.failure: str | None = None
+        """The error of the team's last failed call, until every drill is reset."""
+        self._every = np.arange(batch.n)
+        self._every.flags.writeable = False
+
+    def _batched(self) -> BatchTeam | None:
+        """The team's batched form (``team.batch(n)``, checked), or ``None`` if it has none."""
+        team, n = self.team, self._batch.n
+        make_batch = getattr(team, "batch", None)
+        if not callable(make_batch):
+            return None
+        batched = make_batch(n)
+        if not isinstance(batched, BatchTeam) or not (
+            callable(batched.reset) and callable(batched.act)
+        ):
+            raise TeamError(
+                f"team {self.name!r}: batch({n}) returned {type(batched).__name__}, "
+                "which lacks reset(view, drills, rng) and act(view, drills)"
+            )
+        return batched
+
+    def _copy(self, opponent: str | Team, params: dict[str, Any], drill: int) -> Team:
+        """One more copy of the team, for drill ``drill``: its factory's for an id, else
+        ``copy.deepcopy``, the team's code, inside its bound."""
+        if isinstance(opponent, str):
+            return make_team(opponent, **params)
+        return self.call("copy.deepcopy()", f" for drill {drill}", self._deepcopy)
+
+    def _deepcopy(self) -> Team:
+        try:
+            return copy.deepcopy(self.team)
+        except Exception as exc:  # not copyable: said, with what to do
+            text = str(exc)  # the team's code too (an exception of its own)
+            text = text if len(text) <= 400 else text[:400] + "..."
+            raise _NotCopied(
+                f"team {self.name!r}: the batched drill runs a team without batch(n) as one "
+                f"copy per drill, made by copy.deepcopy, and copying it failed "
+                f"({type(exc).__name__}: {text}); make it copyable, give it a batch(n) "
+                "method, or register its factory and pass its id"
+            ) from exc
+
+    # -------------------------------------------------------------- the calls
+    def reset(self, drills: np.ndarray, seeds: list[int]) -> None:
+        """Start an episode in each of ``drills``; ``seeds`` seed their teams' streams
+        (``np.random.default_rng(seed)``, made when the team first draws)."""
+        self.rng.seed(drills, seeds)
+        try:
+            self.call("reset()", _Calling(None if self.single else drills, None), self._reset,
+                      drills)
+        except TeamError as exc:
+            self.failure = str(exc)
+            raise
+        if len(drills) == self._batch.n:
+            self.failure = None
+
+    def _reset(self, drills: np.ndarray) -> None:
+        self.batched.reset(self.view, self._shown(drills), self.rng)  # its attribute read here
+
+    def act(self, drills: np.ndarray) -> None:
+        """The team's commands for ``drills`` (ascending), checked, into the drills'
+        commands of players 2 and 3."""
+        if self.failure is not None:
+            self.check_usable()
+        if not len(drills):
+            return
+        try:
+            self.call("act()", drills, self._act, drills)
+        except TeamError as exc:
+            self.failure = str(exc)
+            raise
+
+    def _act(self, drills: np.ndarray) -> None:
+        batch = self._batch
+        out = self.batched.act(self.view, self._shown(drills))
+        check_commands(out, batch.commands, drills, batch.cycle, self.name, self.view.players,
+                       not self.single)
+
+    def _shown(self, drills: np.ndarray) -> np.ndarray:
+        """``drills`` as the team is handed them: read-only, its own copy (a view could be
+        made writeable again)."""
+        if len(drills) == self._batch.n:
+            return self._every
+        shown = drills.copy()
+        shown.flags.writeable = False
+        return shown
+
+    def check_usable(self) -> None:
+        """:class:`TeamError` if the team failed and not every drill was reset since."""
+        if self.failure is not None:
+            raise TeamError(
+                f"the team failed earlier ({self.failure}), leaving the drills that acted "
+                "part-way through that cycle; call reset() before stepping again"
+            )
+
+    def call(self, call: str, when: object, method: Callable[..., Any], *args: Any) -> Any:
+        """``method(*args)`` within the team's time bound; any failure a :class:`TeamError`
+        naming the call (``call``, and ``when``: ``" at cycle 3"``, or the drills acting,
+        said with their cycles)."""
+        start = time.perf_counter()
+        try:
+            if self.team_timeout is None:
+                return self._guarded(call, when, method, args)
+            return call_within(self.team_timeout, self._guarded, call, when, method, args)
+        except Overrun as exc:
+            raise self._past_bound(call, self._when(when), exc, start) from None
+        except _NotCopied as exc:
+            raise TypeError(str(exc)) from exc.__cause__
+        except (TeamError, TypeError):
+            raise
+        except Exception as exc:  # the bound itself failed (arming its timer)
+            raise TeamError(f"{self._who()}: its time bound could not be set for "
+                            f"{call}{self._when(when)}: {short_repr(exc)}") from exc
+
+    def _guarded(self, call: str, when: object, method: Callable[..., Any],
+                 args: tuple) -> Any:
+        """``method(*args)``, whatever it raises a :class:`TeamError` (a Ctrl-C apart)."""
+        try:
+            return method(*args)
+        except (Overrun, TeamError, _NotCopied):
+            raise
+        except BaseException as exc:
+            if delivered_by_signal(exc):
+                raise
+            raise TeamError(f"{self._who()} raised in {call}{self._when(when)}: "
+                            f"{_what_happened(exc)}") from exc
+
+    def _when(self, when: object) -> object:
+        """``when`` as words: the drills of an ``act()`` (an array) with their cycles."""
+        if isinstance(when, np.ndarray):
+            return _Calling(None if self.single else when, self._batch.cycle)
+        return when
+
+    # ------------------------------------------------------------- the words
+    def _who(self, drill: int | None = None) -> str:
+        """How errors name the team (and the drill of its copy in a batch)."""
+        return f"team {self.name!r}" + ("" if drill is None or self.single else
+                                        f" (drill {drill})")
+
+    def _past_bound(self, call: str, when: object, exc: Overrun, start: float) -> TeamError:
+        """The error of a call stopped by the time bound (a copy's: naming its drill)."""
+        batched = getattr(self, "batched", None)  # None while the copies are being made
+        copy_drill = batched.running if isinstance(batched, _Copies) else None
+        if copy_drill is not None and not self.single:
+            when = f" at cycle {int(self._batch.cycle[copy_drill])}" if call == "act()" else ""
+            return TeamError(
+                f"{self._who(copy_drill)} exceeded its time bound of {self.team_timeout:g} s "
+                f"of CPU time in {call}{when} (stopped after {exc.cpu:.2f} s of CPU time); "
+                "fix the team or pass a larger team_timeout")
+        return TeamError(
+            f"{self._who()} exceeded its time bound of {self.team_timeout:g} s of "
+            f"CPU time in {call}{when} (stopped after {exc.cpu:.2f} s of CPU time, "
+            f"{time.perf_counter() - start:.2f} s in all); fix the team or pass a larger "
+            "team_timeout"
+        )
+
+    def copy_raised(self, drill: int, call: str, when: str, exc: BaseException) -> TeamError:
+        """The error of drill ``drill``'s copy raising ``exc``."""
+        return TeamError(f"{self._who(drill)} raised in {call}{when}: {_what_happened(exc)}")
+
+    def _named(self, drill: int) -> str:
+        """How the errors of a copy's commands name the team (and the drill)."""
+        return f"team {self.name!r}" + ("" if self.single else f", drill {drill}")
+
+    def copy_unreadable(self, drill: int, cycle: int, exc: BaseException) -> TeamError:
+        """The error of drill ``drill``'s copy returning what raises when read."""
+        return TeamError(f"{self._named(drill)} returned commands that could not be checked "
+                         f"at cycle {cycle}: {_what_happened(exc)}")
+
+    def copy_refused(self, drill: int, refused: _Refused, cycle: int) -> TeamError:
+        """The error of drill ``drill``'s copy returning what is not commands."""
+        named = self._named(drill)
+        if refused.player is None:
+            return TeamError(f"{named} {refused.why} at cycle {cycle}")
+        return TeamError(f"{named}, player {refused.player!r}, cycle {cycle}: {refused.why}")
+
+
+class _NotCopied(Exception):
+    """A team without a batched form that ``copy.deepcopy`` cannot copy (a ``TypeError``
+    to the caller, which made it)."""
+
+
+def resolve_team(
+    opponent: object, opponent_params: object, team_timeout: float | None = DEFAULT_TEAM_TIMEOUT
+) -> tuple[Team, str, dict[str, Any]]:
+    """The team an environment's ``opponent`` and ``opponent_params`` name, its name in
+    errors, and the parameters it was built with.
+
+    ``opponent`` is a registered team id (built by ``make_team`` with ``opponent_params``)
+    or a team instance (then ``opponent_params`` must be empty: the instance is already
+    built). A class is refused: its methods would be called without an instance. Whether
+    an instance is a team is read from its ``batch``, or its ``reset`` and ``act`` (a
+    property there is the team's code), within ``team_timeout``.
+    """
+    if isinstance(opponent, str):
+        params = team_parameters(opponent_params)
+        return make_team(opponent, **params), opponent, params
+    if isinstance(opponent, type):
+        raise TypeError(
+            f"opponent must be a team id or a Team instance, got the class {opponent.__name__}: "
+            f"pass an instance ({opponent.__name__}(...)), or register it "
+            "(soccer_drill.teams.register) and pass its id"
+        )
+    name = type(opponent).__name__
+    if _read_within(opponent, name, team_timeout):
+        if opponent_params:
+            raise ValueError(
+                f"opponent_params given with a Team instance ({name}): an instance is "
+                "already built, so give its parameters to its constructor, or pass a "
+                "registered team id with opponent_params"
+            )
+        return opponent, name, {}  # type: ignore[return-value]
+    raise TypeError(f"opponent must be a team id or a Team instance, got {short_repr(opponent)}")
+
+
+def _read_within(opponent: object, name: str, team_timeout: float | None) -> bool:
+    """:func:`~soccer_drill.teams.registry.is_team` of ``opponent``, read inside its bound
+    and error wrapping."""
+    try:
+        if team_timeout is None:
+            return is_team(opponent)
+        return call_within(team_timeout, is_team, opponent)
+    except Overrun as exc:
+        raise TeamError(f"team {name!r} exceeded its time bound of {team_timeout:g} s of CPU "
+                        f"time in reading its reset and act (stopped after {exc.cpu:.2f} s of "
+                        "CPU time); fix the team or pass a larger team_timeout") from None
+    except BaseException as exc:
+        if delivered_by_signal(exc):
+            raise
+        raise TeamError(f"team {name!r} raised in reading its reset and act: "
+                        f"{_what_happened(exc)}") from exc

@@ -3,7 +3,8 @@
 A team drives some players (today: the two defenders). It is reset with a
 read-only :class:`~soccer_drill.state.DrillView` and a random generator it must
 draw all its randomness from, and each cycle returns one
-:class:`~soccer_drill.skills.Command` per player it drives.
+:class:`~soccer_drill.commands.Command` per player it drives; or it offers its batched form,
+``batch(n)``, which plays one drill or many (:mod:`soccer_drill.teams.kit`).
 
 Teams are found by id in :data:`TEAMS`, a :class:`~soccer_drill.registry.Registry`:
 first among in-process registrations (:func:`register`), then among the entry points
@@ -36,10 +37,10 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from soccer_drill.commands import Command
 from soccer_drill.constraints import Name, NoneOr, Real, checked
 from soccer_drill.interruptions import delivered_by_signal, short_repr
 from soccer_drill.registry import PROJECT_DISTRIBUTION, PluginWarning, Registry
-from soccer_drill.skills import Command
 from soccer_drill.state import DrillView
 
 ENTRY_POINT_GROUP = "soccer_drill.opponents"
@@ -64,6 +65,14 @@ class Team(Protocol):
 
     def act(self, view: DrillView) -> Mapping[str, Command]:
         """One command per driven player for the coming cycle."""
+
+
+def is_team(obj: object) -> bool:
+    """Whether ``obj`` is a team instance: it offers ``batch(n)``, or ``reset`` and ``act``
+    (reading them runs the team's code, when they are properties)."""
+    if isinstance(obj, type):
+        return False
+    return isinstance(obj, Team) or callable(getattr(obj, "batch", None))
 
 
 class TeamError(RuntimeError):
@@ -219,11 +228,11 @@ def make_team(team_id: str, **params: Any) -> Team:
             f"team {team_id!r} failed while being built with parameters "
             f"{short_repr(params)}: {_what_happened(exc)}"
         ) from exc
-    if isinstance(team, type) or not isinstance(team, Team):
+    if not is_team(team):
         what = f"the class {team.__name__}" if isinstance(team, type) else type(team).__name__
         raise TeamError(
             f"team {team_id!r}: factory returned {what}, not a team instance with "
-            "reset(view, rng) and act(view)"
+            "reset(view, rng) and act(view), or batch(n)"
         )
     return team
 

@@ -1,32 +1,16 @@
 """The vector environments: many drills stepped together, behind Gymnasium's and PettingZoo's
-conventions with a leading batch axis.
+conventions with a leading batch axis, over the episodes of the single environments
+(:class:`~soccer_drill.envs.core.BatchCore`).
 
 | module | holds |
 |---|---|
 | :mod:`~soccer_drill.vector.holder` | :class:`HolderVectorEnv`, the vector entry point of ``soccer_drill/Holder-v0`` (``gym.make_vec``), and :func:`play_episodes` |
 | :mod:`~soccer_drill.vector.agents` | :class:`ParallelVectorEnv`: the parallel environment with a leading batch axis |
-| :mod:`~soccer_drill.vector.core` | :class:`~soccer_drill.vector.core.BatchCore`: what both share (drills, seed streams, team, support players) |
+| :mod:`~soccer_drill.vector.memory` | how many drills, and frames of them, fit in the memory available |
 | :mod:`~soccer_drill.vector.sb3` | ``HolderSB3VecEnv``: the batched holder behind Stable-Baselines3's ``VecEnv`` (needs SB3; not imported here) |
 """
 
-from __future__ import annotations
-
 from soccer_drill.vector.agents import ParallelVectorEnv
-from soccer_drill.vector.holder import (
-    RESET_OPTIONS,
-    HolderVectorEnv,
-    check_drill_indices,
-    check_reset_options,
-    first_non_integer,
-    play_episodes,
-)
+from soccer_drill.vector.holder import HolderVectorEnv, play_episodes
 
-__all__ = [
-    "RESET_OPTIONS",
-    "HolderVectorEnv",
-    "ParallelVectorEnv",
-    "check_drill_indices",
-    "check_reset_options",
-    "first_non_integer",
-    "play_episodes",
-]
+__all__ = ["HolderVectorEnv", "ParallelVectorEnv", "play_episodes"]

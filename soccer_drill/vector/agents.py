@@ -1,4 +1,5 @@
-"""Many drills as one batched multi-agent environment: ``parallel_env`` with a leading batch axis."""
+"""Many drills as one batched multi-agent environment: ``parallel_env`` with a leading batch
+axis, over the :class:`~soccer_drill.envs.core.BatchCore` of the single environments."""
 
 from __future__ import annotations
 
@@ -9,59 +10,52 @@ from typing import Any, ClassVar
 import numpy as np
 from gymnasium import spaces
 
+from soccer_drill.commands import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.config import DrillConfig
-from soccer_drill.drill import DRILLS_PER_SPACE, OUTCOME_NAMES, check_drills_per_space
+from soccer_drill.constraints import Integer, checked, is_int
+from soccer_drill.drill.spaces import DRILLS_PER_SPACE
 from soccer_drill.envs.core import (
+    ATTACKER_SKILLS,
     DEFENDER_DEFAULT,
     DEFENDER_MASK,
+    DEFENDER_SKILLS,
     HOLDER_DEFAULT,
     HOLDER_MASK,
+    ILLEGAL_ACTION,
     OFF_BALL_DEFAULT,
     OFF_BALL_MASK,
     SHARED_DEFENDER_MASK,
+    BatchCore,
     IllegalAction,
+    Observation,
     ObsType,
     action_list,
+    check_seed,
     make_config,
     masked_action,
+    observation,
     out_of_range,
     resolve_shared_spaces,
 )
+from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
-from soccer_drill.rules.cycle import RUNNING
-from soccer_drill.rules.features import (
-    batch_global_state,
-    batch_kinematics,
-    feature_bounds,
-    kinematic_bounds,
-    players_features,
-    state_bounds,
-)
-from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
+from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
+from soccer_drill.rules.features import GLOBAL_STATE
 from soccer_drill.state import PLAYER_NAMES
-from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
-from soccer_drill.vector.core import (
-    BatchCore,
-    check_frames_fit,
-    check_frames_memory,
-    check_num_envs,
-    check_seed,
-)
-from soccer_drill.vector.holder import first_non_integer
+from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
+from soccer_drill.vector.memory import check_frames_fit, check_frames_memory, check_num_envs
 
-_ATTACKER_SKILLS = np.array([int(s) for s in ATTACKER_ACTIONS])
-_DEFENDER_SKILLS = np.array([int(s) for s in DEFENDER_ACTIONS])
 _OUTCOMES = np.array(OUTCOME_NAMES, dtype=object)
 
 
-class ParallelVectorEnv:
+class ParallelVectorEnv(Pickled):
     """``num_envs`` drills as one multi-agent environment, every array with a leading batch axis.
 
     The drill of :func:`soccer_drill.parallel_env` (its docstring is the reference of the
     game), batched: the same agents, actions, masks, observations, rewards and episode
     end, each a ``(num_envs, ...)`` array per agent. With ``opponent`` a team id the
     agents are the two attackers and the team drives the defenders (batched when it has
-    a batched ``act``: :mod:`soccer_drill.teams.batch`); with ``opponent=None`` all four
+    a batched ``act``: :mod:`soccer_drill.teams.kit`); with ``opponent=None`` all four
     players are agents.
 
     ## Spaces (per agent; batched values add a leading ``num_envs`` axis)
@@ -76,7 +70,7 @@ class ParallelVectorEnv:
     as ``parallel_env``'s) and ``action_space(agent)`` are one drill's spaces. With
     shared spaces (as ``parallel_env``'s, the default with no opponent) every agent has the same spaces, and
     one more value ends every observation: 1 for an attacker, 0 for a defender.
-    ``state()`` is every drill's :func:`~soccer_drill.rules.features.global_state` (29 values,
+    ``state()`` is every drill's :func:`~soccer_drill.rules.features.global_state_into` (29 values,
     the layout of ``parallel_env``'s ``state()``): ``(num_envs, 29)`` float32 in
     ``state_space`` batched (``state_space`` is one drill's ``Box``).
 
@@ -122,13 +116,13 @@ class ParallelVectorEnv:
 
     ## Interruptions
 
-    As :class:`~soccer_drill.vector.HolderVectorEnv`'s: a ``reset`` or ``step`` stopped
+    As :class:`~soccer_drill.vector.holder.HolderVectorEnv`'s: a ``reset`` or ``step`` stopped
     part-way (a Ctrl-C, a team's error) makes every later ``step`` raise ``RuntimeError``
     saying to call ``reset()``, which brings every drill back as in a new environment.
 
     ## Seeding
 
-    As :class:`~soccer_drill.vector.HolderVectorEnv`: ``reset(seed=s)`` starts drill
+    As :class:`~soccer_drill.vector.holder.HolderVectorEnv`: ``reset(seed=s)`` starts drill
     ``i`` from the generator of a single environment's ``reset(seed=s + i)`` and
     rebuilds the physics, so the batch's episodes are a function of ``s`` and the
     actions; a list gives one seed per drill (exactly ``num_envs``, each ``None``: keep
@@ -145,7 +139,7 @@ class ParallelVectorEnv:
     | ``num_envs`` | ``1`` | number of drills |
     | ``opponent`` | ``None`` | team id, ``Team`` instance, or ``None`` (the defenders are agents) |
     | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
-    | ``obs_type`` | ``"features"`` | ``"features"`` or ``"kinematic"`` |
+    | ``obs_type`` | ``"features"`` | as ``parallel_env``'s: ``"features"`` or ``"kinematic"`` |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``illegal_action`` | ``"default"`` | ``"default"`` or ``"raise"`` |
@@ -172,15 +166,13 @@ class ParallelVectorEnv:
         render_mode: str | None = None,
     ) -> None:
         n = check_num_envs(num_envs)
-        drills_per_space = check_drills_per_space(drills_per_space)
+        drills_per_space = checked("drills_per_space", drills_per_space, Integer(1))
         shared_spaces = resolve_shared_spaces(shared_spaces, opponent)
         self.render_mode = check_render_mode(render_mode, type(self).__name__)
-        if obs_type not in ("features", "kinematic"):
-            raise ValueError(f"obs_type must be 'features' or 'kinematic', got {obs_type!r}")
-        if illegal_action not in ("raise", "default"):
-            raise ValueError(f"illegal_action must be 'raise' or 'default', got {illegal_action!r}")
-        self.num_envs, self.obs_type, self.illegal_action = n, obs_type, illegal_action
+        self.illegal_action = checked("illegal_action", illegal_action, ILLEGAL_ACTION)
         self.config = make_config(config, max_cycles)
+        self._observe = observation(obs_type, self.config)
+        self.num_envs, self.obs_type = n, obs_type
         if self.render_mode is not None:  # before any drill is built
             check_frames_fit(n, self.config)
         self._core = BatchCore(
@@ -191,8 +183,11 @@ class ParallelVectorEnv:
         self.agents = list(self.possible_agents)
         self._index = {a: PLAYER_NAMES.index(a) for a in self.possible_agents}
         self._indices = tuple(self._index.values())
-        bounds = feature_bounds(self.config) if obs_type == "features" else kinematic_bounds(self.config)
-        self._low, self._high = (x.astype(np.float64) for x in bounds)
+        k = len(indices)  # every agent of every drill in one pass
+        self._rows = np.repeat(np.arange(n), k)
+        self._players = np.tile(np.array(indices, dtype=np.int64), n)
+        box = self._observe.box
+        bounds = (box.low, box.high)
         self.shared_spaces = shared_spaces
         if shared_spaces:  # a trailing role flag tells one shared policy which side it plays
             bounds = (np.append(bounds[0], 0.0).astype(np.float32),
@@ -210,13 +205,13 @@ class ParallelVectorEnv:
                             "action_mask": spaces.Box(0, 1, shape=(space.n,), dtype=np.int8)})
             for a, space in self._spaces.items()
         }
-        low, high = state_bounds(self.config)
-        self._state_bounds = (low.astype(np.float64), high.astype(np.float64))
-        self.state_space = spaces.Box(low, high, dtype=np.float32)
+        self._state = Observation(GLOBAL_STATE, self.config)
+        self.state_space = self._state.box
         self._renderer = (BatchRenderer(self.config, check_frames_memory) if self.render_mode
                           else None)
         self._autoreset = np.zeros(n, dtype=bool)
         self._has_reset = False
+        self._busy_init()
 
     def __copy__(self) -> ParallelVectorEnv:
         """An independent copy continuing every drill's episode, as ``copy.deepcopy``
@@ -254,7 +249,7 @@ class ParallelVectorEnv:
 
         def reset() -> tuple[dict[str, Any], dict[str, Any]]:
             core.seed(seeds)
-            core.reset(np.arange(self.num_envs))
+            core.reset(core.every)
             self._autoreset[:] = False
             self._has_reset = True
             return self._observations(), self._infos({a: none() for a in self.agents},
@@ -274,24 +269,14 @@ class ParallelVectorEnv:
         return out
 
     def _observations(self) -> dict[str, Any]:
-        b = self._core.batch
         masks = self.action_masks()
-        out = {}
-        if self.obs_type == "features":  # every agent's in one pass
-            every = players_features(b.pos, self._indices, self.config, self._low, self._high)
-            if self.shared_spaces:
-                every = np.concatenate(
-                    (every, np.broadcast_to(self._role[:, None], (*every.shape[:2], 1))), axis=2)
-            for k, agent in enumerate(self._index):
-                out[agent] = {"observation": every[:, k], "action_mask": masks[agent]}
-            return out
-        locked = np.where(b.cycle < b.lockout_until, b.passer, -1)
-        for k, (agent, i) in enumerate(self._index.items()):
-            obs = batch_kinematics(b.pos, b.vel, b.holder, locked, i, self._low, self._high)
-            if self.shared_spaces:
-                obs = np.concatenate((obs, np.full((self.num_envs, 1), self._role[k])), axis=1)
-            out[agent] = {"observation": obs, "action_mask": masks[agent]}
-        return out
+        n, k = self.num_envs, len(self._indices)
+        every = self._observe(self._core.batch.state, self._rows, self._players).reshape(n, k, -1)
+        if self.shared_spaces:
+            every = np.concatenate(
+                (every, np.broadcast_to(self._role[:, None], (n, k, 1))), axis=2)
+        return {agent: {"observation": every[:, j], "action_mask": masks[agent]}
+                for j, agent in enumerate(self._index)}
 
     def _infos(self, illegal: dict, taken: dict) -> dict[str, Any]:
         b = self._core.batch
@@ -307,8 +292,8 @@ class ParallelVectorEnv:
                    else type(actions).__name__)
             raise ValueError(f"actions must be a mapping of every agent {self.agents} (and no "
                              f"other key) to ({self.num_envs},) integers, got {got}")
-        b, core = self._core.batch, self._core
-        checked, illegal, taken = {}, {}, {}
+        b = self._core.batch
+        checked_actions, illegal, taken = {}, {}, {}
         for agent, i in self._index.items():
             a = np.asarray(actions[agent])
             n_actions = self._spaces[agent].n
@@ -318,11 +303,11 @@ class ParallelVectorEnv:
                     f"got {a.dtype} of shape {a.shape}"
                 )
             if a.dtype.kind not in "iu":  # TypeError, as parallel_env's step for 2.0 or True
-                d = first_non_integer(a)
+                d = next((j for j, x in enumerate(a.tolist()) if not is_int(x)), 0)
                 raise TypeError(
-                    f"drill {d}: action for {agent!r} must be an integer in [0, {n_actions - 1}] "
-                    f"({action_list(i, n_actions)}), got {a[d]!r} (actions of dtype {a.dtype}; an "
-                    "integer dtype is needed)"
+                    f"drill {d}: action for {agent!r} must be "
+                    f"{Integer(0, n_actions - 1).describe()} ({action_list(i, n_actions)}), got "
+                    f"{a[d]!r} (actions of dtype {a.dtype}; an integer dtype is needed)"
                 )
             # One test of the range (a negative action is a large unsigned one).
             if np.count_nonzero(stepping & (a.astype(np.uint64, copy=False) >= n_actions)):
@@ -348,11 +333,11 @@ class ParallelVectorEnv:
                 done[masked] = a[masked]
             if not stepping.all():  # a drill being reset ignores its action, whatever it is
                 a = np.where(stepping, a, 0)
-            checked[agent], illegal[agent], taken[agent] = a, given, done
+            checked_actions[agent], illegal[agent], taken[agent] = a, given, done
         for agent, i in self._index.items():
-            table = _ATTACKER_SKILLS if i < 2 else _DEFENDER_SKILLS
-            core.skill[:, i] = table[checked[agent]]
-            core.speed[:, i] = 1.0
+            table = ATTACKER_SKILLS if i < 2 else DEFENDER_SKILLS
+            b.skill[:, i] = table[checked_actions[agent]]
+            b.speed[:, i] = 1.0
         return illegal, taken
 
     def step(self, actions: Mapping[str, Any]):
@@ -369,9 +354,9 @@ class ParallelVectorEnv:
             if len(resetting):
                 core.reset(resetting)
             core.advance(stepping)
-            ended = stepping & (b.outcome != RUNNING)
+            ended = stepping & (b.outcome != Outcome.RUNNING)
             reward = np.where(ended, b.attacker_reward, 0.0)
-            truncated = ended & (b.outcome == 4)
+            truncated = ended & (b.outcome == Outcome.TIMEOUT)
             terminated = ended & ~truncated
             self._autoreset = ended
             rewards = {a: (reward.copy() if i < 2 else -reward) for a, i in self._index.items()}
@@ -388,10 +373,7 @@ class ParallelVectorEnv:
         """Every drill's global state: ``(num_envs, 29)`` float32 (see the class docstring)."""
         if not self._has_reset:
             raise RuntimeError("state() called before reset(); call reset() first")
-        b = self._core.batch
-        locked = np.where(b.cycle < b.lockout_until, b.passer, -1)
-        return batch_global_state(b.pos, b.vel, b.holder, locked, b.cycle, self.config,
-                                  *self._state_bounds)
+        return self._state(self._core.batch.state, self._core.every, self._core.every)
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """One frame per drill with ``render_mode="rgb_array"`` (else ``None``)."""

@@ -1,4 +1,6 @@
-"""Many ball-holder drills as one Gymnasium ``VectorEnv``: ``soccer_drill/Holder-v0`` batched."""
+"""Many ball-holder drills as one Gymnasium ``VectorEnv``: ``soccer_drill/Holder-v0`` batched,
+over the holder loop of :class:`~soccer_drill.envs.holder.HolderEnv`; and
+:func:`play_episodes`, fixed holder rules with no drill waiting."""
 
 from __future__ import annotations
 
@@ -11,32 +13,36 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from soccer_drill.commands import HOLDER_ACTIONS
 from soccer_drill.config import DrillConfig
-from soccer_drill.constraints import Integer, NoneOr, checked, is_int
-from soccer_drill.drill import DRILLS_PER_SPACE, OUTCOME_NAMES, check_drills_per_space
-from soccer_drill.envs.core import make_config
-from soccer_drill.envs.holder import check_decision_cycles, check_holder_action
-from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
-from soccer_drill.rules.compiled import compiled
-from soccer_drill.rules.features import batch_features, feature_bounds
-from soccer_drill.skills import HOLDER_ACTIONS
-from soccer_drill.state import PLAYER_NAMES
-from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
-from soccer_drill.vector.core import (
-    BatchCore,
-    check_frames_fit,
-    check_frames_memory,
-    check_num_envs,
-    check_seed,
+from soccer_drill.constraints import (
+    Integer,
+    ListOf,
+    NoneOr,
+    OneOf,
+    check,
+    check_keys,
+    checked,
+    is_int,
 )
+from soccer_drill.drill.spaces import DRILLS_PER_SPACE
+from soccer_drill.envs.core import BatchCore, check_seed, make_config
+from soccer_drill.envs.holder import (
+    DECISION_CYCLES,
+    HolderLoop,
+    check_holder_action,
+    holder_action_refused,
+)
+from soccer_drill.envs.pickling import Pickled
+from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
+from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
+from soccer_drill.state import PLAYER_NAMES
+from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
+from soccer_drill.vector.memory import check_frames_fit, check_frames_memory, check_num_envs
 
-_HOLDER_SKILLS = np.array([int(s) for s in HOLDER_ACTIONS])
-_PASS = 1
 _NAMES = np.array([*PLAYER_NAMES, None], dtype=object)  # index -1: None
 _OUTCOMES = np.array(OUTCOME_NAMES, dtype=object)
-_TIMEOUT = 4  # the outcome code of a timeout (truncation)
-
-
+_AUTORESET_MODES = OneOf((AutoresetMode.NEXT_STEP.value, AutoresetMode.SAME_STEP.value))
 RESET_OPTIONS = ("reset_mask",)
 """The keys ``HolderVectorEnv.reset``'s ``options`` may hold."""
 
@@ -49,12 +55,7 @@ def check_reset_options(options: object) -> Mapping[str, Any]:
             f"options must be a dict (keys: {', '.join(map(repr, RESET_OPTIONS))}) or None, "
             f"got {type(options).__name__}"
         )
-    unknown = [key for key in options if key not in RESET_OPTIONS]
-    if unknown:
-        raise ValueError(
-            f"unknown reset option {unknown[0]!r}; the options HolderVectorEnv.reset takes: "
-            f"{', '.join(map(repr, RESET_OPTIONS))}"
-        )
+    check_keys("HolderVectorEnv.reset's options", options, RESET_OPTIONS, required=())
     return options
 
 
@@ -62,32 +63,20 @@ def check_drill_indices(indices: object, n: int) -> list[int]:
     """Drill indices as SB3's ``VecEnv._get_indices`` reads them, checked: ``None`` (every
     drill), an int or a sequence of ints (Python or NumPy, not bools), each in ``0..n-1``.
     Returns them as a list of ints; anything else is refused, saying what is allowed."""
-    allowed = f"indices must be None (every drill), an int in 0..{n - 1} or a sequence of them"
     if indices is None:
         return list(range(n))
-    if is_int(indices):
-        chosen = [indices]
-    elif (isinstance(indices, np.ndarray) and indices.ndim == 1) or (
-        isinstance(indices, Sequence) and not isinstance(indices, str | bytes)
-    ):
-        chosen = list(indices)
-    else:
-        raise TypeError(f"{allowed}; got {indices!r} of type {type(indices).__name__}")
-    for i in chosen:
-        if not is_int(i):
-            raise TypeError(f"{allowed}; got {i!r} of type {type(i).__name__} in {indices!r}")
-        if not 0 <= i < n:
-            raise ValueError(f"{allowed}; got {i!r} (there are {n} drills)")
-    return [int(i) for i in chosen]
+    chosen = [indices] if is_int(indices) else indices
+    check("indices", chosen, ListOf(Integer(0, n - 1), kinds=(list, tuple, range, np.ndarray)))
+    return [int(i) for i in chosen]  # type: ignore[union-attr]
 
 
-def first_non_integer(actions: np.ndarray) -> int:
+def _first_non_integer(actions: np.ndarray) -> int:
     """The index of the first entry of ``actions`` that is not an integer (0 if every entry
     is one: then the dtype itself is wrong, e.g. an object array of ints)."""
     return next((i for i, x in enumerate(actions.tolist()) if not is_int(x)), 0)
 
 
-class HolderVectorEnv(VectorEnv):
+class HolderVectorEnv(Pickled, VectorEnv):
     """``num_envs`` ball-holder drills stepped together: :class:`~soccer_drill.envs.holder.HolderEnv` batched.
 
     Made by ``gymnasium.make_vec("soccer_drill/Holder-v0", num_envs=N,
@@ -198,7 +187,8 @@ class HolderVectorEnv(VectorEnv):
 
     ``copy.deepcopy``, ``copy.copy`` and ``pickle`` give an independent environment
     continuing every drill's episode: the same actions give bit-identical steps in the
-    copy and the original (pymunk's spaces are copied with their contacts). So does
+    copy and the original (pymunk's spaces are copied with their contacts). A pickle is
+    for the code that made it: another version of ``soccer_drill`` refuses it, naming both. So does
     ``copy.copy`` of ``HolderSB3VecEnv``. Gymnasium's vector wrappers
     (``RecordEpisodeStatistics``, ...) are copied shallowly by ``copy.copy``, as its
     single-environment wrappers are (``HolderEnv``'s Copies): that copy shares this
@@ -208,7 +198,7 @@ class HolderVectorEnv(VectorEnv):
 
     An action out of range, or actions not of an integer dtype (floats, bools,
     objects: as ``HolderEnv.step`` and ``MultiDiscrete`` take integers only), raise
-    ``ValueError`` naming the drill (``drill 17: action must be an integer in 0..2
+    ``ValueError`` naming the drill (``drill 17: action must be an integer in [0, 2]
     ...``) before any drill moves, so the others are not changed. A team's failure
     raises ``TeamError`` naming the team; then call ``reset()``.
 
@@ -258,52 +248,41 @@ class HolderVectorEnv(VectorEnv):
         n = check_num_envs(num_envs)
         # None: every drill at once; the number of drills is only known here.
         batch_size = checked("batch_size", batch_size, NoneOr(Integer(1, n))) or n
-        drills_per_space = check_drills_per_space(drills_per_space)
-        decision_cycles = check_decision_cycles(decision_cycles)
+        drills_per_space = checked("drills_per_space", drills_per_space, Integer(1))
+        decision_cycles = checked("decision_cycles", decision_cycles, DECISION_CYCLES)
         if opponent is None:
             raise ValueError("HolderVectorEnv needs a scripted opponent team (a team id or Team)")
         self.render_mode = check_render_mode(render_mode, type(self).__name__)
-        try:
-            mode = AutoresetMode(autoreset_mode)
-        except ValueError:
-            raise ValueError(
-                f"autoreset_mode must be one of {[m.value for m in AutoresetMode if m != AutoresetMode.DISABLED]}, "
-                f"got {autoreset_mode!r}"
-            ) from None
-        if mode == AutoresetMode.DISABLED:
-            raise ValueError("autoreset_mode DISABLED is not supported: use NEXT_STEP or SAME_STEP")
+        mode = autoreset_mode.value if isinstance(autoreset_mode, AutoresetMode) else autoreset_mode
+        self.autoreset_mode = AutoresetMode(checked("autoreset_mode", mode, _AUTORESET_MODES))
         self.num_envs = n
         self.batch_size = int(batch_size)
-        self.autoreset_mode = mode
-        self.metadata = {**self.metadata, "autoreset_mode": mode}
+        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         self.decision_cycles = decision_cycles
         self.config = make_config(config, max_cycles)
         if self.render_mode is not None:  # before any drill is built
             check_frames_fit(n, self.config)
-        self._core = BatchCore(
-            n, opponent, opponent_params, self.config, team_timeout, True, drills_per_space
-        )
-        low, high = feature_bounds(self.config)
-        self._low, self._high = low.astype(np.float64), high.astype(np.float64)
-        self.single_observation_space = spaces.Box(low, high, dtype=np.float32)
+        core = BatchCore(n, opponent, opponent_params, self.config, team_timeout, True,
+                         drills_per_space)
+        self.loop = HolderLoop(core, decision_cycles)
+        """The holder loop of these drills (:class:`~soccer_drill.envs.holder.HolderLoop`)."""
+        self.single_observation_space = self.loop.observe.box
         self.single_action_space = spaces.Discrete(len(HOLDER_ACTIONS))
         self.observation_space = batch_space(self.single_observation_space, n)
         self.action_space = batch_space(self.single_action_space, n)
-        self._all = np.arange(n)
+        self._all = core.every
         self._has_reset = False
         self._autoreset = np.zeros(n, dtype=bool)
-        self._running = np.zeros(n, dtype=bool)
-        self._in_action = np.zeros(n, dtype=bool)
-        self._decider = np.zeros(n, dtype=np.int64)
-        self._action = np.zeros(n, dtype=np.int64)
-        self._left = np.zeros(n, dtype=np.int64)
-        self._supporting = np.zeros((n, 2), dtype=bool)  # the attackers the support drives
-        self._start = np.zeros(n, dtype=np.int64)  # the cycle at which a drill's step began
         self._ready = np.zeros(n, dtype=bool)  # its step is over, its result not yet received
         self._ready_at = np.zeros(n, dtype=np.int64)  # since when (recv's cycles)
         self._recv_cycles = 0
         self._renderer = (BatchRenderer(self.config, check_frames_memory) if self.render_mode
                           else None)
+        self._busy_init()
+
+    @property
+    def _core(self) -> BatchCore:
+        return self.loop.core
 
     def __copy__(self) -> HolderVectorEnv:
         """An independent copy continuing every drill's episode, as ``copy.deepcopy``
@@ -341,7 +320,7 @@ class HolderVectorEnv(VectorEnv):
                 f"options['reset_mask'] must be a bool array of shape ({self.num_envs},) "
                 "with at least one True"
             )
-        if not self._has_reset:
+        if not self._has_reset or self.loop.handed_to is not None:
             raise RuntimeError("reset() with a reset_mask before the first full reset()")
         return seeds, np.flatnonzero(mask)
 
@@ -349,23 +328,19 @@ class HolderVectorEnv(VectorEnv):
         """Reset ``drills`` (every drill if they are ``self._all``) with ``seeds`` (one per
         drill of the batch, those of other drills ignored); they then wait for an action."""
         core = self._core
-        if drills is not self._all:
-            if seeds is not None:  # one entry per drill: those of drills not reset are ignored
-                for i in drills.tolist():
-                    if seeds[i] is not None:
-                        core.generators[i] = np.random.default_rng(seeds[i])
-        else:
-            core.seed(seeds)
+        if seeds is not None:  # one entry per drill: those of drills not reset are ignored
+            chosen = np.zeros(self.num_envs, dtype=bool)
+            chosen[drills] = True
+            core.seed([s if chosen[i] else None for i, s in enumerate(seeds)])
         self._restart(drills)
-        self._running[drills] = False
-        self._in_action[drills] = False
+        if drills is self._all:
+            self.loop.handed_to = None
         self._has_reset = True
 
     def _restart(self, drills: np.ndarray) -> None:
         """A new episode in each of ``drills``, its step counted from there."""
-        self._core.reset(drills)
+        self.loop.restart(drills)
         self._autoreset[drills] = False
-        self._start[drills] = self._core.batch.cycle[drills]
 
     # ------------------------------------------------------------------- step
     def _check_actions(self, actions: object, drills: np.ndarray) -> np.ndarray:
@@ -378,21 +353,27 @@ class HolderVectorEnv(VectorEnv):
                 f"{'' if k == self.num_envs else ' of env_id'}, got shape {a.shape}"
             )
         if a.dtype.kind not in "iu":  # as HolderEnv.step, which refuses 2.0 and True
-            bad = first_non_integer(a)
+            bad = _first_non_integer(a)
             raise ValueError(
-                f"drill {int(drills[bad])}: action must be an integer in 0..2 (0=HOLD, 1=PASS, "
-                f"2=DRIBBLE), got {a[bad]!r} (actions of dtype {a.dtype}; an integer dtype is needed)"
+                f"drill {int(drills[bad])}: {holder_action_refused(a[bad])} (actions of dtype "
+                f"{a.dtype}; an integer dtype is needed)"
             )
         bad_rows = np.flatnonzero((a < 0) | (a >= len(HOLDER_ACTIONS)))
         bad_rows = bad_rows[~self._autoreset[drills[bad_rows]]]  # ignored for drills being reset
         if len(bad_rows):
             i = int(bad_rows[0])
             raise ValueError(
-                f"drill {int(drills[i])}: action must be an integer in 0..2 (0=HOLD, 1=PASS, "
-                f"2=DRIBBLE), got {a[i]!r}"
+                f"drill {int(drills[i])}: {holder_action_refused(a[i])}"
                 + (f" ({len(bad_rows)} drills had bad actions)" if len(bad_rows) > 1 else "")
             )
         return a.astype(np.int64)
+
+    def _check_usable(self, call: str) -> None:
+        """The drills' errors, or ``RuntimeError`` before a reset (or after
+        :func:`play_episodes` took the drills)."""
+        if not self._has_reset or self.loop.handed_to is not None:
+            raise RuntimeError(f"{call}() called before reset(); call reset() first")
+        self._core.check_usable()
 
     def step(
         self, actions: Any
@@ -403,9 +384,7 @@ class HolderVectorEnv(VectorEnv):
                 f"step() needs every drill's result, but batch_size is {self.batch_size} of "
                 f"{self.num_envs} drills: use send(actions, env_id) and recv() (see Asynchronous use)"
             )
-        if not self._has_reset:
-            raise RuntimeError("step() called before reset(); call reset() first")
-        self._core.check_usable()
+        self._check_usable("step")
         self._check_waiting(self._all, "step()")  # not after a send() without its recv()
         a = self._check_actions(actions, self._all)
 
@@ -447,7 +426,7 @@ class HolderVectorEnv(VectorEnv):
         """
         if not self._has_reset:
             raise RuntimeError("send() called before reset() or async_reset(); call one first")
-        self._core.check_usable()
+        self._check_usable("send")
         drills = self._check_env_id(env_id)
         a = self._check_actions(actions, drills)
         order = np.argsort(drills, kind="stable")
@@ -463,7 +442,7 @@ class HolderVectorEnv(VectorEnv):
         """
         if not self._has_reset:
             raise RuntimeError("recv() called before reset() or async_reset(); call one first")
-        self._core.check_usable()
+        self._check_usable("recv")
         self._check_recv()
 
         def recv() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
@@ -500,10 +479,11 @@ class HolderVectorEnv(VectorEnv):
 
     def _check_waiting(self, drills: np.ndarray, what: str) -> None:
         """Every drill of ``drills`` waits for an action; else ``ValueError`` naming one."""
-        busy = drills[self._running[drills] | self._ready[drills]]
+        running = self.loop.running
+        busy = drills[running[drills] | self._ready[drills]]
         if len(busy):
             i = int(busy[0])
-            state = "running its step" if self._running[i] else "done, its result not yet received by recv()"
+            state = "running its step" if running[i] else "done, its result not yet received by recv()"
             raise ValueError(f"{what}: drill {i} is not waiting for an action ({state})")
 
     def _send(self, actions: np.ndarray, drills: np.ndarray) -> None:
@@ -513,12 +493,9 @@ class HolderVectorEnv(VectorEnv):
         if len(resetting):
             self._restart(resetting)
             self._make_ready(resetting)
-        stepping = ~np.isin(drills, resetting) if len(resetting) else slice(None)
-        begin = drills[stepping]
-        self._start[begin] = self._core.batch.cycle[begin]
-        chosen = np.zeros(self.num_envs, dtype=np.int64)
-        chosen[begin] = actions[stepping]
-        self._begin(begin, chosen)
+            stepping = ~np.isin(drills, resetting)
+            drills, actions = drills[stepping], actions[stepping]
+        self.loop.begin(drills, actions)
 
     def _make_ready(self, drills: np.ndarray) -> None:
         self._ready[drills] = True
@@ -527,7 +504,7 @@ class HolderVectorEnv(VectorEnv):
     def _check_recv(self) -> None:
         """``RuntimeError`` if fewer than ``batch_size`` drills have or will have results
         (those running now are all that will): before anything runs."""
-        done, running = np.count_nonzero(self._ready), np.count_nonzero(self._running)
+        done, running = np.count_nonzero(self._ready), np.count_nonzero(self.loop.running)
         if done + running < self.batch_size:
             raise RuntimeError(
                 f"recv(): {done} drills have results and "
@@ -539,17 +516,14 @@ class HolderVectorEnv(VectorEnv):
     def _recv(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Cycle until ``batch_size`` drills are done; their results (rows ascending,
         ``infos["_rows"]``), after the autoreset mode's handling of ended episodes."""
-        b, want = self._core.batch, self.batch_size
-        running, ready = self._running, self._ready
+        loop, b, want = self.loop, self._core.batch, self.batch_size
+        running, ready = loop.running, self._ready
         while np.count_nonzero(ready) < want:
-            if not np.count_nonzero(running):
-                raise RuntimeError(
-                    f"recv(): {np.count_nonzero(ready)} drills have results and none is running, "
-                    f"so {want} (batch_size) never will: send() actions to the drills of the "
-                    "last recv() first"
-                )
+            if not np.count_nonzero(running):  # the checks before prevent it: never forever
+                raise RuntimeError(f"recv(): {np.count_nonzero(ready)} drills have results and "
+                                   f"none is running, so {want} (batch_size) never will")
             was_running = running.copy()
-            self._cycle()
+            loop.cycle()
             self._recv_cycles += 1
             self._make_ready(np.flatnonzero(was_running & ~running))
         waiting = np.flatnonzero(ready)
@@ -557,12 +531,12 @@ class HolderVectorEnv(VectorEnv):
             waiting = np.sort(waiting[np.argsort(self._ready_at[waiting], kind="stable")[:want]])
         rows = waiting
         ready[rows] = False
-        obs = self._observe(rows, self._decider[rows])
-        ended = b.outcome[rows] != 0
+        obs = self._observe(rows, loop.deciders(rows))
+        ended = b.outcome[rows] != Outcome.RUNNING
         rewards = np.where(ended, b.attacker_reward[rows], 0.0)
-        truncated = ended & (b.outcome[rows] == _TIMEOUT)
+        truncated = ended & (b.outcome[rows] == Outcome.TIMEOUT)
         terminated = ended & ~truncated
-        infos = self._infos(rows, b.cycle[rows] - self._start[rows])
+        infos = self._infos(rows, b.cycle[rows] - loop.start[rows])
         if self.autoreset_mode == AutoresetMode.SAME_STEP and ended.any():
             done = np.flatnonzero(ended)
             final_obs = np.full(len(rows), None, dtype=object)
@@ -584,44 +558,16 @@ class HolderVectorEnv(VectorEnv):
         infos["_rows"] = rows
         return obs, rewards, terminated, truncated, infos
 
-    def _begin(self, drills: np.ndarray, actions: np.ndarray) -> None:
-        """The holders of ``drills`` take ``actions[drills]``: their drills run again."""
-        b = self._core.batch
-        self._decider[drills] = b.holder[drills]
-        self._action[drills] = actions[drills]
-        self._left[drills] = np.where(actions[drills] == _PASS, 1, self.decision_cycles)
-        self._in_action[drills] = True
-        self._running[drills] = True
-
-    def _cycle(self) -> None:
-        """One cycle of the running drills, as ``HolderEnv.step``'s loops run it.
-
-        A drill runs its holder's command for its cycles (HOLD and DRIBBLE
-        ``decision_cycles``, PASS one) while the holder keeps the ball, then cycles until
-        an attacker holds it again; then (or at an outcome) it stops running.
-        """
-        core, b = self._core, self._core.batch
-        running, in_action, decider = self._running, self._in_action, self._decider
-        supporting = self._supporting
-        if _holders_and_supporters(core.skill, core.speed, supporting, running, in_action,
-                                   decider, self._action, _HOLDER_SKILLS):
-            core.support_commands(supporting)
-        core.advance(running)
-        _after_cycle(running, in_action, self._left, decider, b.outcome, b.holder)
-
     # ------------------------------------------------------------- results
-    def _observe(self, rows: np.ndarray, decider: np.ndarray | None = None) -> np.ndarray:
-        """The 9 features of the holders of drills ``rows`` (at an end, of the last
-        attacker holding it, ``decider``)."""
+    def _observe(self, rows: np.ndarray, players: np.ndarray | None = None) -> np.ndarray:
+        """The 9 features of ``players`` (by default the holders) of drills ``rows``."""
         b = self._core.batch
-        holder = b.holder[rows]
-        who = holder if decider is None else np.where((holder == 0) | (holder == 1), holder, decider)
-        return batch_features(b.pos[rows], who, self.config, self._low, self._high)
+        return self.loop.observe(b.state, rows, b.holder[rows] if players is None else players)
 
     def _infos(self, rows: np.ndarray, duration: np.ndarray) -> dict[str, Any]:
         b = self._core.batch
         outcome = b.outcome[rows]
-        holder = np.where(outcome == 0, b.holder[rows], -1)
+        holder = np.where(outcome == Outcome.RUNNING, b.holder[rows], -1)
         everyone = np.ones(len(rows), dtype=bool)
         return {
             "duration": duration.astype(np.int64), "_duration": everyone,
@@ -647,46 +593,11 @@ class HolderVectorEnv(VectorEnv):
             self._renderer.close()
 
 
-@compiled
-def _holders_and_supporters(skill, speed, supporting, running, in_action, decider, action,
-                            holder_skills):
-    """A cycle's commands as ``HolderEnv.step``'s loops give them: each drill's holder in
-    action runs its action's skill at full speed; the support behaviour drives the other
-    attacker (``supporting[i, k]`` for attacker ``k``), or both while the ball is loose in a
-    running drill. Returns the number of drills with an attacker to support."""
-    count = 0
-    for i in range(running.shape[0]):
-        acting, d = in_action[i], decider[i]
-        if acting:
-            skill[i, d] = holder_skills[action[i]]
-            speed[i, d] = 1.0
-        free = running[i] and not acting
-        supporting[i, 0] = (acting and d == 1) or free
-        supporting[i, 1] = (acting and d == 0) or free
-        if supporting[i, 0] or supporting[i, 1]:
-            count += 1
-    return count
-
-
-@compiled
-def _after_cycle(running, in_action, left, decider, outcome, holder):
-    """After a cycle: a drill's action goes on while its holder keeps the ball, for the
-    cycles left; the drill runs on until an outcome, or until an attacker holds the ball
-    again once the action is over."""
-    for i in range(running.shape[0]):
-        if in_action[i]:
-            left[i] -= 1
-        ended = outcome[i] != 0
-        in_action[i] = in_action[i] and not ended and holder[i] == decider[i] and left[i] > 0
-        running[i] = running[i] and not ended and (
-            in_action[i] or (holder[i] != 0 and holder[i] != 1))
+HolderRule = Callable[[np.ndarray, np.random.Generator], int]
 
 
 def play_episodes(
-    env: HolderVectorEnv,
-    policy: Callable[[np.ndarray, np.random.Generator], int]
-    | Sequence[Callable[[np.ndarray, np.random.Generator], int]],
-    seeds: Sequence[int],
+    env: HolderVectorEnv, policy: HolderRule | Sequence[HolderRule], seeds: Sequence[int],
 ) -> list[tuple[float, str]]:
     """Play one episode per seed with a fixed holder ``policy``, no drill ever waiting.
 
@@ -702,62 +613,60 @@ def play_episodes(
     at once). Returns ``(total reward, outcome)`` per seed, in the order of ``seeds``.
     A rule's action is checked as ``HolderEnv.step`` checks it, and the seeds as
     ``HolderEnv.reset`` takes them (integers >= 0): anything else is a ``ValueError``
-    naming the drill and the seed. The environment must then be ``reset()`` before it is
-    stepped.
+    naming the drill and the seed. It plays the environment's holder loop
+    (:attr:`HolderVectorEnv.loop`), which the environment then asks to ``reset()``
+    before its next step.
     """
-    core, b, n = env._core, env._core.batch, env.num_envs
     seeds = list(seeds)
     for k, s in enumerate(seeds):
-        if not is_int(s) or s < 0:
-            raise ValueError(
-                f"seeds[{k}] must be an integer >= 0 (a seed of HolderEnv.reset), got {s!r} "
-                f"of type {type(s).__name__}"
-            )
+        check(f"seeds[{k}] (a seed of HolderEnv.reset)", s, Integer(0))
     seeds = [int(s) for s in seeds]
     policies = [policy] * len(seeds) if callable(policy) else list(policy)
     if len(policies) != len(seeds) or not all(callable(p) for p in policies):
         raise ValueError(
             f"policy must be a holder rule or a sequence of {len(seeds)} rules (one per seed)"
         )
+    loop = env.loop
+    loop.handed_to = "play_episodes()"
+    core, b, n = loop.core, loop.core.batch, env.num_envs
     results: list[tuple[float, str] | None] = [None] * len(seeds)
     episode = np.full(n, -1)  # the seed index each drill plays, -1: none left
     rngs: list[np.random.Generator | None] = [None] * n
     following = 0
-    env._has_reset = False  # from here on, whatever stops it, a step needs a reset first
-    env._running[:] = False
-    env._in_action[:] = False
 
     def start(drills: np.ndarray) -> None:
         nonlocal following
         take = drills[: max(0, len(seeds) - following)]
+        chosen: list[int | None] = [None] * n
         for i in take.tolist():
-            core.generators[i] = np.random.default_rng(seeds[following])
+            chosen[i] = seeds[following]
             rngs[i] = np.random.default_rng(seeds[following])
             episode[i] = following
             following += 1
         episode[drills[len(take):]] = -1
-        core.reset(take)
+        core.seed(chosen)
+        loop.restart(take)
 
     start(np.arange(n))
     while np.count_nonzero(episode >= 0):
-        deciding = np.nonzero((episode >= 0) & ~env._running)[0]
+        deciding = np.flatnonzero((episode >= 0) & ~loop.running)
         if len(deciding):  # the features of the deciding holders only
-            obs = batch_features(b.pos[deciding], b.holder[deciding], env.config, env._low, env._high)
-            actions = np.zeros(n, dtype=np.int64)
-            for k, (i, e) in enumerate(zip(deciding.tolist(), episode[deciding].tolist(), strict=True)):
+            obs = loop.observe(b.state, deciding, b.holder[deciding])
+            actions = np.zeros(len(deciding), dtype=np.int64)
+            for k, (i, e) in enumerate(zip(deciding.tolist(), episode[deciding].tolist(),
+                                           strict=True)):
                 action = policies[e](obs[k], rngs[i])  # type: ignore[arg-type]
                 try:
-                    actions[i] = check_holder_action(action)
+                    actions[k] = check_holder_action(action)
                 except ValueError as error:
                     raise ValueError(
                         f"drill {i} (seed {seeds[e]}): the rule returned {action!r}; {error}"
                     ) from None
-            env._begin(deciding, actions)
-        env._cycle()
-        ended = np.nonzero((episode >= 0) & (b.outcome != 0))[0]
+            loop.begin(deciding, actions)
+        loop.cycle()
+        ended = np.flatnonzero((episode >= 0) & (b.outcome != Outcome.RUNNING))
         if len(ended):
             for i in ended.tolist():
                 results[episode[i]] = (float(b.attacker_reward[i]), OUTCOME_NAMES[b.outcome[i]])
-            env._running[ended] = False
             start(ended)
     return results  # type: ignore[return-value]
