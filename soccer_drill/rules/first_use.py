@@ -18,6 +18,7 @@ from soccer_drill.drill.drills import BatchDrill
 from soccer_drill.drill.spaces import DrillSpace
 from soccer_drill.rules.arrays import rule_parameters
 from soccer_drill.rules.compiled import warm_up, warms
+from soccer_drill.rules.cycle import outcome
 from soccer_drill.rules.features import GLOBAL_STATE, OBSERVATION_TYPES
 from soccer_drill.rules.motion import interception_points, mark_targets
 from soccer_drill.skills import (
@@ -38,11 +39,23 @@ def _read_only(array: np.ndarray) -> np.ndarray:
     return array
 
 
+def _observed_with(every: np.ndarray, fixed: np.ndarray) -> list:
+    """Each observation type with the ``(rows, players)`` its callers pass: the single
+    environments (and every core's global state) read-only arrays, the vector
+    environments writable ones, and the single holder its read-only drill with the
+    players it gathers (the features only)."""
+    single, vector, holder = (fixed, fixed), (every, every), (fixed, every)
+    uses = []
+    for name, kind in OBSERVATION_TYPES.items():
+        uses.append((kind, (single, vector, holder) if name == "features" else (single, vector)))
+    return [*uses, (GLOBAL_STATE, (single,))]
+
+
 @warms
 def _drill_rules() -> None:
     """A cycle of one drill (in its own space) and of a batch of two, every observation
-    and every skill, with the arrays their callers pass (read-only where they are; the
-    support behaviour's: the holder loop's warmer)."""
+    and every skill, with the arrays their callers pass (the holder loop's are its
+    warmer's; the support behaviour's too)."""
     cfg, rng = DrillConfig(), np.random.default_rng(0)
     for n, physics in ((1, DrillSpace(cfg)), (2, None)):
         batch = BatchDrill(n, cfg, physics=physics)
@@ -50,17 +63,21 @@ def _drill_rules() -> None:
         batch.reset(every, [np.random.default_rng(k) for k in range(n)])
         batch.skill[:] = (int(Skill.HOLD), int(Skill.GET_OPEN), int(Skill.INTERCEPT),
                           int(Skill.MOVE_TO))
-        for active in (np.ones(n, dtype=bool), _read_only(np.ones(n, dtype=bool))):
+        # The drills that step: the single environments' fixed (read-only) one, the vector
+        # environment's (writable) choice.
+        for active in (_read_only(np.ones(n, dtype=bool)), np.ones(n, dtype=bool)):
             batch.step(active, [np.random.default_rng(k) for k in range(n)])
         params = rule_parameters(cfg)
-        for kind in (*OBSERVATION_TYPES.values(), GLOBAL_STATE):
+        fixed = _read_only(every)  # the single environments' drill, a core's every drill
+        for kind, uses in _observed_with(every, fixed):
             low, high = (b.astype(np.float64) for b in kind.bounds(cfg))
             out = np.empty((n, kind.size), np.float32)
-            fixed = _read_only(every)  # an environment's every drill; the players gathered
-            for rows, players in ((every, every), (fixed, fixed), (fixed, every)):
+            for rows, players in uses:
                 kind.rule(out, batch.state, rows, players, params, low, high)
         interception_points(batch.pos, batch.vel, batch.holder, np.ones((n, 4)), cfg)
         mark_targets(batch.pos, batch.holder)
+        # A tackle's outcome, found outside the compiled cycle (BatchDrill's tackles).
+        outcome(batch.pos[0], 0, batch.cycle[0], cfg.field_size, cfg.max_cycles)
     state = batch.state_of(0)
     for player in range(4):
         ball_interception_point(state, player, cfg.defender_speed, cfg)

@@ -1,0 +1,91 @@
+"""warm_up() compiles every rule with the types the environments pass: after it, episodes
+through every environment compile nothing new (a compile there would fall inside a team's
+time-bounded call, or in the middle of a timed run).
+
+Run in a fresh interpreter: in the test process, earlier tests have already compiled
+whatever they ran.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from soccer_drill.rules.compiled import COMPILED
+
+_EPISODES = r"""
+import json, sys
+import gymnasium as gym
+import numpy as np
+from numba.core.registry import CPUDispatcher
+
+import soccer_drill
+from soccer_drill import policies
+from soccer_drill.rules.first_use import warm_up
+from soccer_drill.vector import ParallelVectorEnv, play_episodes
+
+
+def signatures():
+    return {f"{name}.{key}": sorted(map(str, value.signatures))
+            for name, module in list(sys.modules.items())
+            if name.startswith(("soccer_drill", "opponents")) and module is not None
+            for key, value in vars(module).items() if isinstance(value, CPUDispatcher)}
+
+
+def pick(rng, mask):
+    return int(rng.choice(np.flatnonzero(mask)))
+
+
+TEAMS = ("chasers", "goal_guards", "parametric")
+for team in TEAMS:  # a team's module, imported, registers its own warmer
+    soccer_drill.make_team(team)
+warm_up()
+before = signatures()
+rng = np.random.default_rng(0)
+for team in TEAMS:
+    for obs_type in ("features", "kinematic"):
+        aec = soccer_drill.env(opponent=team, obs_type=obs_type)
+        aec.reset(seed=1)
+        for agent in aec.agent_iter(600):
+            obs, _, term, trunc, info = aec.last()
+            aec.step(None if term or trunc else pick(rng, obs["action_mask"]))
+            aec.state()
+        vec = ParallelVectorEnv(num_envs=3, opponent=team, obs_type=obs_type)
+        obs, _ = vec.reset(seed=2)
+        for _ in range(150):
+            obs, *_ = vec.step({a: np.array([pick(rng, m) for m in o["action_mask"]])
+                                for a, o in obs.items()})
+            vec.state()
+    par = soccer_drill.parallel_env(opponent=team)
+    obs, _ = par.reset(seed=3)
+    while par.agents:
+        obs, *_ = par.step({a: pick(rng, o["action_mask"]) for a, o in obs.items()})
+    holder = gym.make("soccer_drill/Holder-v0", opponent=team)
+    for seed in range(4, 8):
+        holder.reset(seed=seed)
+        done = False
+        while not done:
+            _, _, term, trunc, _ = holder.step(int(rng.integers(3)))
+            done = term or trunc
+    for n in (1, 3):
+        holders = gym.make_vec("soccer_drill/Holder-v0", num_envs=n, opponent=team)
+        holders.reset(seed=8)
+        for _ in range(100):
+            holders.step(rng.integers(3, size=n))
+        play_episodes(holders, policies.random_policy, range(10, 16))
+        holders.close()
+after = signatures()
+print(json.dumps({k: sorted(set(v) - set(before.get(k, ()))) for k, v in after.items()
+                  if set(v) - set(before.get(k, ()))}))
+"""
+
+
+@pytest.mark.skipif(not COMPILED, reason="the rules run as plain Python")
+def test_episodes_after_warm_up_compile_nothing_new():
+    done = subprocess.run([sys.executable, "-c", _EPISODES], capture_output=True, text=True,
+                          timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout.strip().splitlines()[-1]) == {}
