@@ -414,6 +414,9 @@ for _method in (
     # traces' rule, kept or cut before an option, is moot without options).
     FineTuneMethod("finetune_bounded", "fine-tuning from the latest source, values bounded",
                    LatestPast(), value_bounds=drill_facts.EPISODE_REWARD),
+    FineTuneMethod("finetune_best_bounded",
+                   "fine-tuning from the best source (10 episodes each), values bounded",
+                   BestOfPast(), value_bounds=drill_facts.EPISODE_REWARD),
     # Fine-tuning that builds on itself: each task starts from the policy this method
     # learnt on the task before (the sources too), as the ILPSS-FT family's starts chain.
     LifelongMethod("finetune_chained", "fine-tuning chained (from its own latest policy)",
@@ -450,6 +453,14 @@ for _method in (
                    "whole past policies, ILPSS-FT's settings, values bounded, traces cut "
                    "before an option",
                    lambda base: _bounded_cut(base, "whole_policies_finetune")),
+    # The kernel-free method with the oracles' and the kernel method's base learner: steps
+    # inside an option bootstrapped from the primitives, so that regions against no regions
+    # is a comparison of one base learner.
+    LifelongMethod("whole_policies_ft_bounded_cut_primitives",
+                   "whole past policies, ILPSS-FT's settings, values bounded, traces cut "
+                   "before an option, steps inside options bootstrapped from the primitives",
+                   lambda base: _bounded_cut(base, "whole_policies_finetune",
+                                             "primitive_choices")),
     LifelongMethod("ilpss_ft_bounded_cut_available",
                    "ILPSS-FT, values bounded, traces cut before an option, steps inside "
                    "options bootstrapped from the available choices",
