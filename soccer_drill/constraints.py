@@ -183,13 +183,21 @@ class OneOf(Constraint):
 
 @dataclass(frozen=True)
 class Text(Constraint):
-    """A string that is not blank."""
+    """A string that is not blank; with ``one_line``, without a line break (a title that
+    must not forge a line of the page it heads); at most ``max_len`` characters."""
+
+    one_line: bool = False
+    max_len: int | None = None
 
     def allows(self, value: object) -> bool:
-        return isinstance(value, str) and bool(value.strip())
+        return (isinstance(value, str) and bool(value.strip())
+                and not (self.one_line and any(c in value for c in "\r\n\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"))
+                and (self.max_len is None or len(value) <= self.max_len))
 
     def describe(self) -> str:
-        return "a non-empty string"
+        line = " on one line" if self.one_line else ""
+        most = f" of at most {self.max_len:,} characters" if self.max_len is not None else ""
+        return f"a non-empty string{line}{most}"
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ One module per concern; every public name is importable from ``ilpss.metrics``:
   (:func:`threshold_times`), as survival data: :func:`kaplan_meier`, :func:`km_median`,
   :func:`median_interval`, :func:`restricted_mean_time`.
 * :mod:`~ilpss.metrics.inference` -- intervals and tests over seeds: :func:`t_interval`,
-  :func:`t_test_pvalue`, :func:`fieller_interval`, :func:`wilson_interval`,
+  :func:`t_test_pvalue`, :func:`sign_flip_pvalue`, :func:`fieller_interval`, :func:`wilson_interval`,
   :func:`percentile_bootstrap_interval`, :func:`holm`, :func:`improvement_test`,
   :func:`trend_slopes`.
 * :mod:`~ilpss.metrics.bands` -- :func:`mean_curve_band`, pointwise bootstrap bands for
@@ -44,12 +44,14 @@ from ilpss.metrics.curves import (
 )
 from ilpss.metrics.dips import BELOW_MARGIN, episodes_below, largest_dip
 from ilpss.metrics.inference import (
+    ALTERNATIVES,
     INTERVALS,
     ImprovementTest,
     fieller_interval,
     holm,
     improvement_test,
     percentile_bootstrap_interval,
+    sign_flip_pvalue,
     t_interval,
     t_test_pvalue,
     trend_slopes,
@@ -77,6 +79,7 @@ from ilpss.metrics.survival import (
 from ilpss.metrics.tables import format_metrics_markdown
 
 __all__ = [
+    "ALTERNATIVES",
     "BELOW_MARGIN",
     "GAINS",
     "INTERVALS",
@@ -108,6 +111,7 @@ __all__ = [
     "per_seed_gains",
     "percentile_bootstrap_interval",
     "restricted_mean_time",
+    "sign_flip_pvalue",
     "smooth",
     "t_interval",
     "t_test_pvalue",
