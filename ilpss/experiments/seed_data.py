@@ -29,7 +29,7 @@ import hashlib
 import io
 import os
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -42,11 +42,11 @@ from ilpss._io import (
     read_regular,
 )
 from ilpss.experiments.config import ExperimentConfig
-from ilpss.experiments.folder import RunFolder
+from ilpss.experiments.folder import WALL_TIME_FIELDS, RunFolder
 from ilpss.experiments.methods import METHODS
 from ilpss.experiments.provenance import check_code_field
 from ilpss.experiments.run import load_result, read_config
-from soccer_drill.constraints import Integer
+from soccer_drill.constraints import Integer, NoneOr, check_fields, check_keys
 
 __all__ = ["DECIMALS", "SCHEMA", "SeedData", "seed_ranges"]
 
@@ -68,6 +68,9 @@ class SeedData:
     """Per protocol, every job's result in the form of ``result.json`` (``seed``,
     ``stream``, ``stream_index``, ``tasks``, ``first_target``, ``code`` and ``methods``:
     per method its ``curves`` by target and its series)."""
+    wall_times: Mapping[str, Mapping[str, Any] | None] = field(default_factory=dict)
+    """Per protocol, the run folder's timing record (``seconds``, ``workers``,
+    ``executor``), where it has one."""
 
     # ------------------------------------------------------------------ from run folders
     @classmethod
@@ -76,7 +79,7 @@ class SeedData:
         checked against its configuration and job. With ``require_all`` every job of
         each configuration must be finished (``ValueError`` naming the missing seeds);
         otherwise the seeds whose every stream is finished are kept."""
-        configs, jobs = {}, {}
+        configs, jobs, times = {}, {}, {}
         for protocol, folder in folders.items():
             run = RunFolder(folder)
             if not run.config.is_file():
@@ -98,7 +101,8 @@ class SeedData:
                 raise ValueError(f"{folder}: seeds {seed_ranges(missing)} of its {cfg.n_seeds} are "
                                  "not finished")
             configs[protocol], jobs[protocol] = cfg, kept
-        return cls(configs, jobs)
+            times[protocol] = run.wall_time()
+        return cls(configs, jobs, times)
 
     # ------------------------------------------------------------------ views
     def results(self, protocol: str) -> list[dict[str, Any]]:
@@ -142,6 +146,7 @@ class SeedData:
             "schema": SCHEMA, "decimals": DECIMALS,
             "table_sha256": hashlib.sha256(payload).hexdigest(),
             "protocols": {p: {"config": self.configs[p].results_record(),
+                              "wall_time": self.wall_times.get(p),
                               "jobs": [{k: job[k] for k in _JOB_FIELDS}
                                        for job in self.jobs[p]]}
                           for p in self.configs},
@@ -162,16 +167,19 @@ class SeedData:
         protocols = record.get("protocols")
         if not isinstance(protocols, dict) or not protocols:
             raise ValueError(f"{manifest}: 'protocols' must map protocol names to runs")
-        configs, jobs = {}, {}
+        configs, jobs, times = {}, {}, {}
         for protocol, run in protocols.items():
             try:
+                check_keys(f"{manifest}: protocols.{protocol}", run,
+                           ("config", "wall_time", "jobs"))
+                times[protocol] = _wall_time(run["wall_time"], f"{manifest}: {protocol}")
                 configs[protocol] = ExperimentConfig.from_dict(run["config"])
                 jobs[protocol] = [_job(job, f"{manifest}: protocols.{protocol}")
                                   for job in run["jobs"]]
             except (KeyError, TypeError) as exc:
                 raise ValueError(f"{manifest}: protocols.{protocol} is malformed ({exc})") from exc
         _fill(jobs, _rows(_gunzip(payload, table), table), table)
-        return cls(configs, jobs)
+        return cls(configs, jobs, times)
 
     def _csv(self) -> str:
         out = io.StringIO()
@@ -190,6 +198,8 @@ class SeedData:
         return out.getvalue()
 
 
+TIMING = {**WALL_TIME_FIELDS, "executor": NoneOr(WALL_TIME_FIELDS["executor"])}
+"""A run's timing record; executor ``None``: a span read from the files' times."""
 _JOB_FIELDS = ("seed", "stream", "stream_index", "tasks", "first_target", "code")
 
 
@@ -223,6 +233,16 @@ def _gunzip(payload: bytes, where: Path) -> str:
     if len(text) > MAX_CSV_BYTES:
         raise ValueError(f"{where}: decompresses to more than {MAX_CSV_BYTES} bytes")
     return text.decode()
+
+
+def _wall_time(record: Any, where: str) -> dict[str, Any] | None:
+    if record is None:
+        return None
+    if not isinstance(record, dict):
+        raise ValueError(f"{where}: wall_time must be an object or null")
+    check_keys(f"{where}: wall_time", record, TIMING)
+    check_fields(f"{where}: wall_time", record, TIMING, get=dict.get)
+    return record
 
 
 def _job(job: Any, where: str) -> dict[str, Any]:
