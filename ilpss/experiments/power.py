@@ -41,6 +41,7 @@ from ilpss import metrics
 from ilpss._io import atomic_write_bytes, read_json
 from ilpss.experiments.plan import Pilot, Plan, Qualify, TestSpec
 from ilpss.experiments.seed_data import SeedData
+from soccer_drill.constraints import check_keys
 
 __all__ = ["PowerReport", "main", "pilot_figures", "plan_power", "power_lines", "seeds_needed"]
 
@@ -179,9 +180,11 @@ def power_lines(plan: Plan, report: PowerReport, pilots: Mapping[str, Pilot] | N
              "| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for t in plan.family:
         pilot = pilots[t.name]
-        need = seeds_needed(t, pilot, plan.alpha / len(plan.groups()[t.group]))
+        sides = 2 if t.alternative == "two-sided" else 1
+        need = seeds_needed(t, pilot, plan.alpha / sides / len(plan.groups()[t.group]))
+        null = "gain = 0" if sides == 2 else f"gain <= {t.margin:g}"
         lines.append(
-            f"| {t.name} | {t.protocol} | gain <= {t.margin:g} | {pilot.effect:+.1f} "
+            f"| {t.name} | {t.protocol} | {null} | {pilot.effect:+.1f} "
             f"({pilot.sd:.1f}, {pilot.seeds}) | {report.seeds[t.protocol]} | "
             f"{report.shown[t.name]:.0%} | {'never' if math.isinf(need) else int(need)} |")
     lines += ["", "| candidate | P(its requirements are met) | P(the rule picks it) |",
@@ -189,7 +192,8 @@ def power_lines(plan: Plan, report: PowerReport, pilots: Mapping[str, Pilot] | N
     lines += [f"| `{m}` | {p:.0%} | {report.picks.get(m, 0.0):.0%} |"
               for m, p in report.qualifies.items()]
     others = [m for m in report.picks if m not in report.qualifies]
-    lines += [f"| `{m}` (the rule's fallback) | - | {report.picks[m]:.0%} |" for m in others]
+    lines += [f"| `{m}` ({'the rule' + chr(39) + 's fallback' if m == plan.fallback else 'a control'})"
+              f" | - | {report.picks[m]:.0%} |" for m in others]
     return lines
 
 
@@ -213,6 +217,24 @@ def pilot_figures(plan: Plan, data: SeedData) -> dict[str, Pilot]:
     return out
 
 
+def read_pilots(path: Path) -> dict[str, Pilot]:
+    """Pilot figures from a JSON file (see ``--pilot``), each checked."""
+    values = read_json(path)
+    try:
+        if not isinstance(values, dict) or not isinstance(values.get("pilots"), dict):
+            raise ValueError("expected an object with a 'pilots' object")
+        check_keys("the pilot file", values, ("source", "pilots"), required=("pilots",))
+        out = {}
+        for name, figures in values["pilots"].items():
+            if not isinstance(figures, dict):
+                raise ValueError(f"pilots[{name!r}] must be an object")
+            check_keys(f"pilots[{name!r}]", figures, ("effect", "sd", "seeds"))
+            out[name] = Pilot(**figures)
+        return out
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"{path}: {exc}") from exc
+
+
 def _with_pilots(values: dict[str, Any], pilots: Mapping[str, Pilot]) -> dict[str, Any]:
     tests = [{**t, "pilot": {"effect": pilots[t["name"]].effect, "sd": pilots[t["name"]].sd,
                              "seeds": pilots[t["name"]].seeds}} for t in values["tests"]]
@@ -227,6 +249,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     p.add_argument("plan", help="the plan (JSON)")
     p.add_argument("--pilot-runs", nargs="+", default=[], metavar="PROTOCOL=FOLDER",
                    help="development run folders to compute the pilot figures from")
+    p.add_argument("--pilot", metavar="FILE",
+                   help="pilot figures as JSON: {\"source\": \"where they come from\", "
+                        "\"pilots\": {TEST: {\"effect\": E, \"sd\": S, \"seeds\": N}}} "
+                        "(a first-form plan names its tests \"P: METHOD - AGAINST\")")
     p.add_argument("--seeds", nargs="+", default=[], metavar="PROTOCOL=N",
                    help="simulate N seeds in PROTOCOL instead of the plan's")
     p.add_argument("--write", action="store_true",
@@ -236,7 +262,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = p.parse_args(argv)
     try:
         plan = Plan.read(Path(args.plan))
-        pilots = None
+        pilots = read_pilots(Path(args.pilot)) if args.pilot else None
         if args.pilot_runs:
             folders = dict(_pairs(args.pilot_runs, "--pilot-runs"))
             data = SeedData.from_runs({k: Path(v) for k, v in folders.items()},
