@@ -60,8 +60,8 @@ PAGE = {
 }
 """The protocols of the page, in its order, and the fields of each configuration that the
 page sets: from the named argument, or to the given value. Protocol C also runs ILPSS+
-without option discounting, to measure what discounting costs; protocol R (a stream where
-regions matter) also the oracle arm whose kernels are the true regions. Everything else
+without option discounting, to measure what discounting costs; protocol R (targets
+composed by region) also the oracle arm whose kernels are the true regions. Everything else
 is ``ExperimentConfig``'s default."""
 PROTOCOLS = tuple(PAGE)
 DEFAULT_RUNS, DEFAULT_DOCS = "results", "docs"
