@@ -44,6 +44,7 @@ from ilpss.reuse import (
     learn_with,
 )
 from ilpss.smdp import EpisodeResult, SmdpLearner
+from ilpss.statewise import StatewiseStart
 from soccer_drill.constraints import Constraint, Integer, Real
 from soccer_drill.registry import Registry
 
@@ -339,7 +340,7 @@ class FineTuneMethod(Method):
                               seed=learner_seed)
         results = learn_with(self.start, learner, scratch.policies[:before], env,
                              cfg.lifelong.train_episodes, seed=env_seed,
-                             choice_seed=choice_seed(seed, before))
+                             choice_seed=choice_seed(seed, before), bags=scratch.bags[:before])
         return learner, results
 
 
@@ -414,6 +415,11 @@ for _method in (
     # traces' rule, kept or cut before an option, is moot without options).
     FineTuneMethod("finetune_bounded", "fine-tuning from the latest source, values bounded",
                    LatestPast(), value_bounds=drill_facts.EPISODE_REWARD),
+    # The start chooses its source per state, gated by ILPSS's kernels (ilpss.statewise).
+    FineTuneMethod("finetune_statewise_bounded",
+                   "fine-tuning from a start that chooses its source per state (ILPSS's "
+                   "kernels as the gate), values bounded", StatewiseStart(),
+                   value_bounds=drill_facts.EPISODE_REWARD),
     FineTuneMethod("finetune_best_bounded",
                    "fine-tuning from the best source (10 episodes each), values bounded",
                    BestOfPast(), value_bounds=drill_facts.EPISODE_REWARD),
