@@ -197,24 +197,31 @@ def power_lines(plan: Plan, report: PowerReport, pilots: Mapping[str, Pilot] | N
     return lines
 
 
-def pilot_figures(plan: Plan, data: SeedData) -> dict[str, Pilot]:
-    """Each family test's pilot figures from development runs ``data``: the mean and
-    standard deviation of the per-seed total-reward differences over the seeds both
-    methods finished."""
+def pilot_figures(plan: Plan, runs: Sequence[SeedData]) -> dict[str, Pilot]:
+    """Each family test's pilot figures from development runs ``runs`` (several may hold
+    one protocol's seeds, each some of the methods: runs with the same seeds meet the same
+    opponents): the mean and standard deviation of the per-seed total-reward differences
+    over the seeds both methods finished."""
     out = {}
     for t in plan.family:
-        if t.protocol not in data.configs:
-            raise ValueError(f"test {t.name!r}: no pilot run of protocol {t.protocol}")
-        ours = data.seed_curves(t.protocol, t.method)
-        base = data.seed_curves(t.protocol, t.against)
+        ours, base = _seed_totals(runs, t.protocol, t.method), _seed_totals(runs, t.protocol,
+                                                                              t.against)
         common = sorted(set(ours) & set(base))
         if len(common) < 2:
-            raise ValueError(f"test {t.name!r}: the pilot has {len(common)} seeds with both "
-                             "methods, at least 2 are needed")
-        d = np.array([ours[s].sum() - base[s].sum() for s in common])
+            raise ValueError(f"test {t.name!r}: the pilot runs have {len(common)} seeds with "
+                             "both methods, at least 2 are needed")
+        d = np.array([ours[s] - base[s] for s in common])
         out[t.name] = Pilot(round(float(d.mean()), 1), round(float(d.std(ddof=1)), 1),
                             len(common))
     return out
+
+
+def _seed_totals(runs: Sequence[SeedData], protocol: str, method: str) -> dict[int, float]:
+    """``{seed: total reward}`` of ``method`` in the first run of ``protocol`` that has it."""
+    for run in runs:
+        if protocol in run.configs and method in run.configs[protocol].methods:
+            return {s: float(c.sum()) for s, c in run.seed_curves(protocol, method).items()}
+    raise ValueError(f"no pilot run of protocol {protocol} has method {method!r}")
 
 
 def read_pilots(path: Path) -> dict[str, Pilot]:
@@ -248,7 +255,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                                 epilog=__doc__)
     p.add_argument("plan", help="the plan (JSON)")
     p.add_argument("--pilot-runs", nargs="+", default=[], metavar="PROTOCOL=FOLDER",
-                   help="development run folders to compute the pilot figures from")
+                   help="development run folders to compute the pilot figures from (a "
+                        "protocol may be named more than once: runs of other methods on the "
+                        "same seeds)")
     p.add_argument("--pilot", metavar="FILE",
                    help="pilot figures as JSON: {\"source\": \"where they come from\", "
                         "\"pilots\": {TEST: {\"effect\": E, \"sd\": S, \"seeds\": N}}} "
@@ -264,10 +273,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         plan = Plan.read(Path(args.plan))
         pilots = read_pilots(Path(args.pilot)) if args.pilot else None
         if args.pilot_runs:
-            folders = dict(_pairs(args.pilot_runs, "--pilot-runs"))
-            data = SeedData.from_runs({k: Path(v) for k, v in folders.items()},
-                                      require_all=False)
-            pilots = pilot_figures(plan, data)
+            runs = [SeedData.from_runs({protocol: Path(folder)}, require_all=False)
+                    for protocol, folder in _pairs(args.pilot_runs, "--pilot-runs")]
+            pilots = pilot_figures(plan, runs)
         seeds = {k: int(v) for k, v in _pairs(args.seeds, "--seeds")}
         report = plan_power(plan, pilots, seeds, sims=args.sims)
         print("\n".join(power_lines(plan, report, pilots)))
