@@ -235,3 +235,17 @@ def test_the_committed_decisive_plan_is_powered_and_fresh():
     assert 5 <= len(plan.groups()[group]) <= 8
     report = plan_power(plan, sims=5000)
     assert not report.below(plan.required_power)
+
+
+def test_every_headline_difference_carries_its_sign_flip_p_beside_the_t_p():
+    rng = np.random.default_rng(0)
+    base = rng.uniform(-1, 1, size=(12, 40))
+    transfer = np.clip(base + rng.normal(0.2, 0.3, size=(12, 40)), -1, 1)
+    est = metrics.compare(transfer, base, first=5, last=10, threshold=None, window=5)
+    gains = transfer.sum(axis=1) - base.sum(axis=1)
+    assert est["total_reward_gain"].p_sign_flip == pytest.approx(
+        metrics.sign_flip_pvalue(gains))
+    assert math.isnan(est["total_reward_transfer"].p_sign_flip)  # not a difference
+    from ilpss.experiments.report_text import verdict
+
+    assert "sign-flip p = " in verdict(est)
