@@ -916,9 +916,13 @@ def test_kernel_numerics_that_give_infinite_or_zero_memberships_are_refused(
 
 def test_kernels_whose_covariances_overflow_in_the_features_units_are_refused(
         kernels_file) -> None:
+    from synthetic_smdp import read_archive
+
     from ilpss.kernels import SharedKernelModel
 
-    _tamper(kernels_file, feature_scale=np.array([1e150, 1.0]))  # allowed alone
+    covariances = read_archive(kernels_file)[0]["std_covariances"] * 1e10
+    # Each allowed alone: 1e150**2 * 1e10 overflows.
+    _tamper(kernels_file, feature_scale=np.array([1e150, 1.0]), std_covariances=covariances)
     with pytest.raises(ValueError, match=rf"{kernels_file}: invalid kernel model: its "
                                          r"covariances in the features' units are not finite"):
         SharedKernelModel.load(kernels_file)
