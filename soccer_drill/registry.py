@@ -8,17 +8,21 @@ An entry point is imported on first use, once. One that fails to import (or name
 something that is not callable, or not of the registry's class, or of another name) only
 breaks its own entry: asking for it raises the registry's error naming it, its
 distribution and group, and what went wrong, every time, without importing it again, and
-:meth:`Registry.broken` lists it. A declared name that is not valid, or that looks like
-another (:meth:`Registry.register`), is refused the same way, with a
-:class:`PluginWarning`; a name declared by two distributions warns, naming both, and the
-first found on ``sys.path`` is used, unless one of them is this project's own
-distribution, which always wins. A distribution whose entry points cannot be read (an
+:meth:`Registry.broken` lists it. A declared name that is not valid (the registry's
+``names`` constraint: by default :class:`~soccer_drill.constraints.Name`, at most 64 ASCII
+characters), or that looks like another (the same but for case, or ``-`` against ``_``),
+is refused the same way, with a :class:`PluginWarning` (this project's own entries are
+read first, so they keep their names); a name declared by two distributions warns, naming
+both, and the first found on ``sys.path`` is used, unless one of them is this project's
+own distribution, which always wins. A distribution whose entry points cannot be read (an
 ``entry_points.txt`` that is not UTF-8, a line without ``=``) is left out with a
 :class:`PluginWarning` naming it; the others are read.
 
 A registry may be used from several threads: its first reading of the entry points and
-each entry point's import happen once, under a lock, and a name is listed, or an entry
-given, only once that work is done. An exception that a signal delivers meanwhile (a
+each entry point's import happen once, under the registry's lock (re-entrant: a plugin may
+use its registry while it is imported; a plugin whose import hangs keeps the other
+threads asking that registry waiting), and a name is listed, or an entry given, only once
+that work is done. An exception that a signal delivers meanwhile (a
 Ctrl-C, or one a program's signal handler raises: see :mod:`soccer_drill.interruptions`)
 is not an entry's failure: it passes on unchanged, and the next use reads or imports
 again.
