@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+import re
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -32,6 +33,7 @@ from typing import Any
 import numpy as np
 
 __all__ = [
+    "NAME_LENGTH",
     "AnyOf",
     "Bool",
     "Constraint",
@@ -200,24 +202,36 @@ class Text(Constraint):
         return f"a non-empty string{line}{most}"
 
 
+NAME_LENGTH = 64
+"""The longest name (of a team, a method, a protocol...): room for a descriptive one, and a
+bound on every message that shows a name."""
+_NAME_PART = "[A-Za-z_-][A-Za-z0-9_-]*"
+
+
 @dataclass(frozen=True)
 class Name(Constraint):
-    """A name: letters, digits, ``_``, ``-`` and (if ``dots``) ``.``, each part between
-    dots starting with a letter or ``_``."""
+    """A name: at most :data:`NAME_LENGTH` ASCII letters, digits, ``_``, ``-`` and (if
+    ``dots``) ``.``, each part between dots not starting with a digit.
+
+    ASCII only: names are compared character by character, and letters of other scripts
+    that look like ASCII ones (a Cyrillic "а" in "chаsers") would make two names that read
+    the same.
+    """
 
     dots: bool = True
 
     def allows(self, value: object) -> bool:
-        if not isinstance(value, str) or not value:
+        if not isinstance(value, str) or len(value) > NAME_LENGTH:
             return False
-        parts = value.split(".") if self.dots else [value]
-        return all(part.replace("-", "_").isidentifier() for part in parts)
+        pattern = rf"{_NAME_PART}(\.{_NAME_PART})*" if self.dots else _NAME_PART
+        return re.fullmatch(pattern, value) is not None
 
     def describe(self) -> str:
         if self.dots:
-            return "a name (letters, digits, '_', '-' or '.')"
-        return ("a non-empty identifier (letters, digits, '_' or '-', not starting with a "
-                "digit)")
+            return (f"a name of 1 to {NAME_LENGTH} ASCII characters (letters, digits, '_', "
+                    "'-' or '.', each part between dots not starting with a digit)")
+        return (f"a non-empty identifier of at most {NAME_LENGTH} ASCII characters (letters, "
+                "digits, '_' or '-', not starting with a digit)")
 
 
 @dataclass(frozen=True)

@@ -18,6 +18,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PACKAGES = ("soccer_drill", "opponents", "ilpss")
 VOCABULARY = Path("soccer_drill/constraints.py")
 REGISTRY = Path("soccer_drill/registry.py")
+INTERRUPTIONS = Path("soccer_drill/interruptions.py")
 
 # What a second vocabulary would define: a number test of its own, or a class of limits.
 NUMBER_TESTS = {"is_real", "is_int", "is_integer", "is_number", "is_finite_number"}
@@ -130,7 +131,8 @@ def test_a_registry_s_rules_are_declared_not_subclassed():
 
 
 def test_the_vocabulary_and_the_registry_sit_below_everything():
-    allowed = {VOCABULARY: set(), REGISTRY: {"soccer_drill.constraints"}}
+    allowed = {VOCABULARY: set(), INTERRUPTIONS: set(),
+               REGISTRY: {"soccer_drill.constraints", "soccer_drill.interruptions"}}
     for path, tree in _modules():
         if path not in allowed:
             continue
