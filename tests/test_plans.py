@@ -18,7 +18,7 @@ from scipy import stats
 from ilpss import metrics
 from ilpss.experiments.confirm import analyse, main
 from ilpss.experiments.plan import Pilot, Plan, TestSpec
-from ilpss.experiments.power import plan_power, seeds_needed
+from ilpss.experiments.power import pilot_figures, plan_power, seeds_needed
 from ilpss.experiments.seed_data import SeedData
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -235,6 +235,21 @@ def test_the_committed_decisive_plan_is_powered_and_fresh():
     assert 5 <= len(plan.groups()[group]) <= 8
     report = plan_power(plan, sims=5000)
     assert not report.below(plan.required_power)
+    # the pilot figures are those of the committed development runs (the spread never
+    # below the pilot's: the plan takes the larger of it and an earlier fresh run's)
+    stems = sorted(p.with_suffix("") for p in (ROOT / "docs" / "data").glob("decisive_pilot*.json"))
+    pilots = pilot_figures(plan, [SeedData.read(stem) for stem in stems])
+    for t in plan.family:
+        assert (t.pilot.effect, t.pilot.seeds) == (pilots[t.name].effect, pilots[t.name].seeds)
+        assert t.pilot.sd >= pilots[t.name].sd
+
+
+def test_a_candidate_its_pilot_does_not_support_is_reported_not_required():
+    unsupported = _changed(tests=[PLAN["tests"][0], {**PLAN["tests"][1], "pilot": {
+        "effect": -60.0, "sd": 20.0, "seeds": 10}}])
+    report = plan_power(Plan.from_json(unsupported), sims=2000)
+    assert report.qualifies[FB] < 0.01 and not report.supported[FB]
+    assert f"`{FB}`" not in " ".join(report.below(0.8))
 
 
 def test_every_headline_difference_carries_its_sign_flip_p_beside_the_t_p():

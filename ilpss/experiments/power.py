@@ -20,8 +20,9 @@ where they share seeds (the same control in one protocol), and for such tests th
 probability that all are shown is at least the product of their probabilities, so the
 power given here errs low.
 
-``--pilot-runs`` computes the pilot figures from development runs (any seeds they hold
-that every method of a test finished) and ``--write`` writes them into the plan.
+``--pilot-runs`` (run folders) or ``--pilot-data`` (their kept per-seed numbers) computes
+the pilot figures from development runs (any seeds they hold that both methods of a test
+finished) and ``--write`` writes them into the plan.
 """
 
 from __future__ import annotations
@@ -62,11 +63,17 @@ class PowerReport:
     picks: Mapping[str, float]
     """Per method the rule can pick (the fallback included), the probability it does."""
     sims: int
+    supported: Mapping[str, bool]
+    """Per candidate, whether its pilot effects meet its requirements (each required
+    test's pilot effect above its margin): the candidates the development seeds support,
+    whose power the plan must have. A candidate they do not support is one the rule should
+    not pick if they are right; its power is reported, not required."""
 
     def below(self, required: float) -> list[str]:
-        """The candidates whose requirements are met with less than ``required``
-        probability, in words."""
-        return [f"`{m}` {p:.0%}" for m, p in self.qualifies.items() if p < required]
+        """The supported candidates whose requirements are met with less than
+        ``required`` probability, in words."""
+        return [f"`{m}` {p:.0%}" for m, p in self.qualifies.items()
+                if p < required and self.supported.get(m, True)]
 
 
 def seeds_needed(spec: TestSpec, pilot: Pilot, level: float, power: float = TARGET) -> float:
@@ -113,13 +120,17 @@ def plan_power(plan: Plan, pilots: Mapping[str, Pilot] | None = None,
     shown = adjusted < plan.alpha
     if isinstance(plan.rule, Qualify):
         qualifies, picks = _qualify_outcomes(plan, family, gains, adjusted)
+        supported = dict.fromkeys(qualifies, True)
     else:
+        specs = {t.name: t for t in family}
         qualifies = {m: float(np.mean(np.all(shown[:, [names.index(r) for r in req]], axis=1)))
                      for m, req in plan.rule.candidates}
         chosen = [plan.rule.pick_from(dict(zip(names, row, strict=True))) for row in shown]
         picks = _shares(chosen, [*(m for m, _ in plan.rule.candidates), plan.rule.fallback])
+        supported = {m: all(pilots[r].effect > specs[r].margin for r in req)
+                     for m, req in plan.rule.candidates}
     return PowerReport(n_seeds, dict(zip(names, shown.mean(axis=0).tolist(), strict=True)),
-                       qualifies, picks, sims)
+                       qualifies, picks, sims, supported)
 
 
 def holm_rows(p: np.ndarray) -> np.ndarray:
@@ -189,7 +200,8 @@ def power_lines(plan: Plan, report: PowerReport, pilots: Mapping[str, Pilot] | N
             f"{report.shown[t.name]:.0%} | {'never' if math.isinf(need) else int(need)} |")
     lines += ["", "| candidate | P(its requirements are met) | P(the rule picks it) |",
               "|---|---|---|"]
-    lines += [f"| `{m}` | {p:.0%} | {report.picks.get(m, 0.0):.0%} |"
+    lines += [f"| `{m}`{'' if report.supported[m] else ' (not supported by its pilot effects)'}"
+              f" | {p:.0%} | {report.picks.get(m, 0.0):.0%} |"
               for m, p in report.qualifies.items()]
     others = [m for m in report.picks if m not in report.qualifies]
     lines += [f"| `{m}` ({'the rule' + chr(39) + 's fallback' if m == plan.fallback else 'a control'})"
@@ -217,11 +229,15 @@ def pilot_figures(plan: Plan, runs: Sequence[SeedData]) -> dict[str, Pilot]:
 
 
 def _seed_totals(runs: Sequence[SeedData], protocol: str, method: str) -> dict[int, float]:
-    """``{seed: total reward}`` of ``method`` in the first run of ``protocol`` that has it."""
-    for run in runs:
+    """``{seed: total reward}`` of ``method`` over every run of ``protocol`` that has it (the
+    first run's where two hold the same seed)."""
+    out: dict[int, float] = {}
+    for run in reversed(runs):
         if protocol in run.configs and method in run.configs[protocol].methods:
-            return {s: float(c.sum()) for s, c in run.seed_curves(protocol, method).items()}
-    raise ValueError(f"no pilot run of protocol {protocol} has method {method!r}")
+            out.update({s: float(c.sum()) for s, c in run.seed_curves(protocol, method).items()})
+    if not out:
+        raise ValueError(f"no pilot run of protocol {protocol} has method {method!r}")
+    return out
 
 
 def read_pilots(path: Path) -> dict[str, Pilot]:
@@ -258,6 +274,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                    help="development run folders to compute the pilot figures from (a "
                         "protocol may be named more than once: runs of other methods on the "
                         "same seeds)")
+    p.add_argument("--pilot-data", nargs="+", default=[], metavar="STEM",
+                   help="per-seed numbers of development runs (STEM.csv.gz and STEM.json, "
+                        "as ilpss-confirm and seed_data keep them) to compute the pilot "
+                        "figures from")
     p.add_argument("--pilot", metavar="FILE",
                    help="pilot figures as JSON: {\"source\": \"where they come from\", "
                         "\"pilots\": {TEST: {\"effect\": E, \"sd\": S, \"seeds\": N}}} "
@@ -272,16 +292,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         plan = Plan.read(Path(args.plan))
         pilots = read_pilots(Path(args.pilot)) if args.pilot else None
-        if args.pilot_runs:
+        if args.pilot_runs or args.pilot_data:
             runs = [SeedData.from_runs({protocol: Path(folder)}, require_all=False)
                     for protocol, folder in _pairs(args.pilot_runs, "--pilot-runs")]
+            runs += [SeedData.read(stem) for stem in args.pilot_data]
             pilots = pilot_figures(plan, runs)
         seeds = {k: int(v) for k, v in _pairs(args.seeds, "--seeds")}
         report = plan_power(plan, pilots, seeds, sims=args.sims)
         print("\n".join(power_lines(plan, report, pilots)))
         if args.write:
             if pilots is None or plan.form < 2:
-                p.error("--write needs --pilot-runs and a plan of the current form")
+                p.error("--write needs --pilot-runs or --pilot-data and a plan of the "
+                        "current form")
             values = read_json(Path(args.plan))
             text = json.dumps(_with_pilots(values, pilots), indent=2) + "\n"
             atomic_write_bytes(Path(args.plan), text.encode())
