@@ -338,9 +338,11 @@ class FineTuneMethod(Method):
             config = replace(config, value_bounds=self.value_bounds)
         learner = SmdpLearner(scratch.n_primitive, scratch.tile_coder, None, config,
                               seed=learner_seed)
+        # Only a start that reads the sources' bags of states is handed them.
+        bags = scratch.bags[:before] if getattr(self.start, "uses_bags", False) else None
         results = learn_with(self.start, learner, scratch.policies[:before], env,
                              cfg.lifelong.train_episodes, seed=env_seed,
-                             choice_seed=choice_seed(seed, before), bags=scratch.bags[:before])
+                             choice_seed=choice_seed(seed, before), bags=bags)
         return learner, results
 
 

@@ -45,7 +45,7 @@ from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.folder import WALL_TIME_FIELDS, RunFolder
 from ilpss.experiments.methods import METHODS
 from ilpss.experiments.provenance import check_code_field
-from ilpss.experiments.run import load_result, read_config
+from ilpss.experiments.run import load_result, read_config, run_order
 from soccer_drill.constraints import Integer, NoneOr, check_fields, check_keys
 
 __all__ = ["DECIMALS", "SCHEMA", "SeedData", "seed_ranges"]
@@ -108,7 +108,11 @@ class SeedData:
     def results(self, protocol: str) -> list[dict[str, Any]]:
         """The jobs of ``protocol`` as the reports read them (``result.json``'s fields)."""
         cfg = self.configs[protocol]
-        return [{**job, "config": cfg.results_record()} for job in self.jobs[protocol]]
+        # In the order a run gives them (the table is sorted by name).
+        order = run_order(cfg.methods)
+        return [{**job, "config": cfg.results_record(),
+                 "methods": {name: job["methods"][name] for name in order}}
+                for job in self.jobs[protocol]]
 
     def seeds(self, protocol: str) -> list[int]:
         """The seeds of ``protocol`` held here, in order."""
