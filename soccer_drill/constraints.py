@@ -37,6 +37,7 @@ __all__ = [
     "Bool",
     "Constraint",
     "Integer",
+    "JsonObject",
     "ListOf",
     "Name",
     "NoneOr",
@@ -231,6 +232,22 @@ class Name(Constraint):
                     "'-' or '.', each part between dots not starting with a digit)")
         return (f"a non-empty identifier of at most {NAME_LENGTH} ASCII characters (letters, "
                 "digits, '_' or '-', not starting with a digit)")
+
+
+@dataclass(frozen=True)
+class JsonObject(Constraint):
+    """A JSON object (a ``dict``) with at least ``min_len`` entries; ``of`` says what its
+    entries are, for messages."""
+
+    of: str = ""
+    min_len: int = 0
+
+    def allows(self, value: object) -> bool:
+        return isinstance(value, dict) and len(value) >= self.min_len
+
+    def describe(self) -> str:
+        size = f" of at least {self.min_len:,} entries" if self.min_len else ""
+        return f"an object{size}" + (f" ({self.of})" if self.of else "")
 
 
 @dataclass(frozen=True)

@@ -112,7 +112,7 @@ SNAPSHOT: dict[str, list[str]] = {
         "raw_env", "register"
     ],
     "soccer_drill.constraints": [
-        "AnyOf", "Bool", "Constraint", "Integer", "ListOf", "Name", "NoneOr", "OneOf", "Real",
+        "AnyOf", "Bool", "Constraint", "Integer", "JsonObject", "ListOf", "Name", "NoneOr", "OneOf", "Real",
         "Text", "check", "check_fields", "check_keys", "checked", "from_json", "is_int",
         "is_real"
     ],

@@ -39,6 +39,7 @@ from ilpss.experiments.protocols import PROTOCOLS
 from ilpss.metrics.inference import ALTERNATIVES
 from soccer_drill.constraints import (
     Integer,
+    JsonObject,
     ListOf,
     Name,
     OneOf,
@@ -330,8 +331,7 @@ class Plan:
     @classmethod
     def from_json(cls, values: Any) -> Plan:
         """The plan that the JSON value ``values`` writes down, checked whole."""
-        if not isinstance(values, dict):
-            raise ValueError("the plan must be a JSON object")
+        check("the plan", values, JsonObject())
         if "schema" in values:
             if values["schema"] != SCHEMA:
                 raise ValueError(f"schema {values['schema']!r} is not {SCHEMA!r}")
@@ -348,13 +348,11 @@ class Plan:
         runs = _runs(values["protocols"], None, baseline)
         family = tuple(_test(i, t) for i, t in enumerate(_list(values["tests"], "tests")))
         rule_values = values["rule"]
-        if not isinstance(rule_values, dict):
-            raise ValueError("rule must be an object with candidates and fallback")
+        check("rule", rule_values, JsonObject("candidates and fallback"))
         check_keys("rule", rule_values, ("candidates", "fallback"))
         candidates = []
         for i, c in enumerate(_list(rule_values["candidates"], "rule.candidates")):
-            if not isinstance(c, dict):
-                raise ValueError(f"rule.candidates[{i}] must be an object")
+            check(f"rule.candidates[{i}]", c, JsonObject())
             check_keys(f"rule.candidates[{i}]", c, ("method", "requires"))
             check(f"rule.candidates[{i}].requires", c["requires"],
                   ListOf(Text(one_line=True), min_len=1, unique=True, kinds=(list,)))
@@ -449,14 +447,12 @@ def _pair(value: Any, where: str) -> tuple[str, str]:
 def _runs(protocols: Any, methods: tuple[str, ...] | None,
           baseline: str) -> dict[str, ProtocolRun]:
     """Every protocol's run, its configuration built (so checked) here."""
-    if not isinstance(protocols, dict) or not protocols:
-        raise ValueError("protocols must be an object naming at least one protocol")
+    check("protocols", protocols, JsonObject("protocols by name", min_len=1))
     runs = {}
     for name, settings in protocols.items():
         PROTOCOLS.get(name)  # unknown: KeyError naming the known ones
         where = f"protocols.{name}"
-        if not isinstance(settings, dict):
-            raise ValueError(f"{where} must be an object of ExperimentConfig fields")
+        check(where, settings, JsonObject("ExperimentConfig fields"))
         settings = dict(settings)
         if settings.pop("protocol", name) != name:
             raise ValueError(f"{where}: holds protocol {protocols[name]['protocol']!r}; a "
@@ -488,14 +484,12 @@ def _runs(protocols: Any, methods: tuple[str, ...] | None,
 
 def _test(i: int, values: Any) -> TestSpec:
     where = f"tests[{i}]"
-    if not isinstance(values, dict):
-        raise ValueError(f"{where} must be an object")
+    check(where, values, JsonObject())
     check_keys(where, values, ("name", "family", "protocol", "method", "against", "margin",
                                "pilot"),
                required=("name", "protocol", "method", "against", "pilot"))
     pilot = values["pilot"]
-    if not isinstance(pilot, dict):
-        raise ValueError(f"{where}.pilot must be an object with effect, sd and seeds")
+    check(f"{where}.pilot", pilot, JsonObject("effect, sd and seeds"))
     check_keys(f"{where}.pilot", pilot, ("effect", "sd", "seeds"))
     try:
         return TestSpec(values["name"], values["protocol"], values["method"],

@@ -42,7 +42,7 @@ from ilpss import metrics
 from ilpss._io import atomic_write_bytes, read_json
 from ilpss.experiments.plan import Pilot, Plan, Qualify, TestSpec
 from ilpss.experiments.seed_data import SeedData
-from soccer_drill.constraints import check_keys
+from soccer_drill.constraints import JsonObject, check, check_keys
 
 __all__ = ["main"]
 
@@ -249,8 +249,7 @@ def read_pilots(path: Path) -> dict[str, Pilot]:
         check_keys("the pilot file", values, ("source", "pilots"), required=("pilots",))
         out = {}
         for name, figures in values["pilots"].items():
-            if not isinstance(figures, dict):
-                raise ValueError(f"pilots[{name!r}] must be an object")
+            check(f"pilots[{name!r}]", figures, JsonObject("effect, sd and seeds"))
             check_keys(f"pilots[{name!r}]", figures, ("effect", "sd", "seeds"))
             out[name] = Pilot(**figures)
         return out

@@ -46,7 +46,7 @@ from ilpss.experiments.folder import WALL_TIME_FIELDS, RunFolder
 from ilpss.experiments.methods import METHODS
 from ilpss.experiments.provenance import check_code_field
 from ilpss.experiments.run import load_result, read_config, run_order
-from soccer_drill.constraints import Integer, NoneOr, check_fields, check_keys
+from soccer_drill.constraints import Integer, JsonObject, NoneOr, check, check_fields, check_keys
 
 __all__ = ["SeedData"]
 
@@ -242,8 +242,7 @@ def _gunzip(payload: bytes, where: Path) -> str:
 def _wall_time(record: Any, where: str) -> dict[str, Any] | None:
     if record is None:
         return None
-    if not isinstance(record, dict):
-        raise ValueError(f"{where}: wall_time must be an object or null")
+    check(f"{where}: wall_time", record, JsonObject("timings"))
     check_keys(f"{where}: wall_time", record, TIMING)
     check_fields(f"{where}: wall_time", record, TIMING, get=dict.get)
     return record
