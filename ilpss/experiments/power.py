@@ -44,7 +44,7 @@ from ilpss.experiments.plan import Pilot, Plan, Qualify, TestSpec
 from ilpss.experiments.seed_data import SeedData
 from soccer_drill.constraints import JsonObject, check, check_keys
 
-__all__ = ["main"]
+__all__: list[str] = []  # a command (ilpss-power); its entry point names main
 
 SIMULATIONS = 20_000
 TARGET = 0.8
