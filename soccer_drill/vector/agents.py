@@ -47,6 +47,7 @@ from soccer_drill.vector.core import (
     check_num_envs,
     check_seed,
 )
+from soccer_drill.vector.attack import HolderRuleAttack, make_attack
 from soccer_drill.vector.holder import first_non_integer
 
 _ATTACKER_SKILLS = np.array([int(s) for s in ATTACKER_ACTIONS])
@@ -61,7 +62,9 @@ class ParallelVectorEnv:
     game), batched: the same agents, actions, masks, observations, rewards and episode
     end, each a ``(num_envs, ...)`` array per agent. With ``opponent`` a team id the
     agents are the two attackers and the team drives the defenders (batched when it has
-    a batched ``act``: :mod:`soccer_drill.teams.batch`); with ``opponent=None`` all four
+    a batched ``act``: :mod:`soccer_drill.teams.batch`); with ``attack`` an attack id
+    the attackers are scripted (:mod:`soccer_drill.vector.attack`: the fixed holder rules
+    playing both attackers) and the agents are the two defenders; with neither all four
     players are agents.
 
     ## Spaces (per agent; batched values add a leading ``num_envs`` axis)
@@ -153,6 +156,7 @@ class ParallelVectorEnv:
     | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
     | ``shared_spaces`` | ``None`` | as ``parallel_env``'s: ``None`` is ``True`` with no opponent (every agent has the same action and observation spaces), ``False`` with one; ``False``: per-role spaces |
     | ``render_mode`` | ``None`` | ``None`` or ``"rgb_array"`` (see Calls) |
+    | ``attack`` | ``None`` | an attack id of :data:`~soccer_drill.vector.attack.ATTACKS` (or an attack object): scripted attackers, the defenders as agents; not with ``opponent`` |
     """
 
     metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "name": "soccer_drill_vector_v0"}
@@ -170,10 +174,16 @@ class ParallelVectorEnv:
         drills_per_space: int = DRILLS_PER_SPACE,
         shared_spaces: bool | None = None,
         render_mode: str | None = None,
+        attack: str | HolderRuleAttack | None = None,
     ) -> None:
         n = check_num_envs(num_envs)
         drills_per_space = check_drills_per_space(drills_per_space)
-        shared_spaces = resolve_shared_spaces(shared_spaces, opponent)
+        if attack is not None and opponent is not None:
+            raise ValueError("give a scripted attack or a scripted opponent team, not both: "
+                             f"got attack={attack!r} and opponent={opponent!r}")
+        attack = None if attack is None else make_attack(attack)
+        shared_spaces = resolve_shared_spaces(
+            shared_spaces, opponent if attack is None else attack)
         self.render_mode = check_render_mode(render_mode, type(self).__name__)
         if obs_type not in ("features", "kinematic"):
             raise ValueError(f"obs_type must be 'features' or 'kinematic', got {obs_type!r}")
@@ -184,9 +194,13 @@ class ParallelVectorEnv:
         if self.render_mode is not None:  # before any drill is built
             check_frames_fit(n, self.config)
         self._core = BatchCore(
-            n, opponent, opponent_params, self.config, team_timeout, False, drills_per_space
+            n, opponent, opponent_params, self.config, team_timeout, attack is not None,
+            drills_per_space,
         )
-        indices = (0, 1) if opponent is not None else (0, 1, 2, 3)
+        if attack is not None:
+            attack.bind(n, self.config)
+            self._core.attack = attack
+        indices = (0, 1) if opponent is not None else (2, 3) if attack is not None else (0, 1, 2, 3)
         self.possible_agents = [PLAYER_NAMES[i] for i in indices]
         self.agents = list(self.possible_agents)
         self._index = {a: PLAYER_NAMES.index(a) for a in self.possible_agents}

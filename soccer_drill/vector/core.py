@@ -187,6 +187,9 @@ class BatchCore:
         self.interrupted: str | None = None
         """The call of the environment that stopped part-way (see :meth:`changing`), until
         every drill is reset."""
+        self.attack: Any = None
+        """A scripted attack driving both attackers (:mod:`soccer_drill.vector.attack`),
+        set by the environment that plays one; seeded with the team's seeds (no team then)."""
 
     def changing(self, call: str, work: Callable[[], _T], every_drill: bool = False) -> _T:
         """``work()``, a call of the environment that changes its drills (``call`` names
@@ -247,6 +250,8 @@ class BatchCore:
             self.support_offset[drills] = 0.0
         if self.team is not None:
             self.team.reset(drills, list(team_seeds))
+        if self.attack is not None:
+            self.attack.reset(drills, list(team_seeds))
 
     def support_commands(self, supporting: np.ndarray) -> None:
         """The support behaviour's commands for attacker ``k`` in the drills where
@@ -281,7 +286,14 @@ class BatchCore:
         drills = np.nonzero(active)[0]
         if self.team is not None:
             self.team.act(drills, self.skill, self.target, self.speed)
+        b, attack = self.batch, self.attack
+        if attack is not None:
+            supporting = np.zeros((self.n, 2), dtype=bool)
+            attack.before_cycle(b.pos, b.holder, active, self.skill, self.speed, supporting)
+            self.support_commands(supporting)
         self.batch.step(active, self.skill, self.target, self.speed, self.generators)
+        if attack is not None:
+            attack.after_cycle(b.holder, b.outcome != RUNNING, active)
 
     @property
     def ended(self) -> np.ndarray:
