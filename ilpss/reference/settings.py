@@ -33,6 +33,7 @@ from soccer_drill.constraints import (
     Bool,
     Integer,
     ListOf,
+    Name,
     NoneOr,
     OneOf,
     Real,
@@ -44,7 +45,7 @@ __all__ = [
     "SETTINGS",
     "EvalSettings",
     "HolderSetting",
-    "MultiAgentSetting",
+    "MarlSetting",
     "PPOConfig",
     "RewardOption",
     "SelfPlaySetting",
@@ -126,10 +127,11 @@ class EvalSettings:
     """The greedy evaluation: ``episodes`` held-out episode seeds from 10,000 on (those of
     ``ilpss-holder-learning``; training episodes start from 1,000,000 (seed + 1)), and
     what counts as a seed that learned: a greedy success of at least
-    ``learned_fraction`` of the best fixed rule's on the same episodes."""
+    ``learned_fraction`` of the best fixed rule's on the same episodes (0.9: close to
+    the rule, not a fraction of it)."""
 
     episodes: int = 200
-    learned_fraction: float = 0.5
+    learned_fraction: float = 0.9
 
     def __post_init__(self) -> None:
         check_fields("EvalSettings", self,
@@ -160,26 +162,73 @@ class HolderSetting:
         })
 
 
-@dataclass(frozen=True)
-class MultiAgentSetting:
-    """One shared masked policy for the two attackers of the parallel drill
-    (``ParallelVectorEnv``), against a team. Observations are scaled to [-1, 1] by the
-    space's bounds; masked actions get no probability."""
+SIDES = ("attackers", "defenders")
+"""Which side of the parallel drill learns against a scripted one."""
+CRITICS = ("state", "own")
+"""What the critic sees: ``state()`` (MAPPO) or the player's own observation (IPPO)."""
+OBS_TYPES = ("features", "kinematic")
+"""The parallel drill's observation types."""
 
-    ppo: PPOConfig = field(default_factory=lambda: PPOConfig(
-        steps=3_000_000, n_envs=64, n_steps=128, batch_size=2048, n_epochs=4,
-        learning_rate=2.5e-4, gamma=1.0, ent_coef=0.01))
+
+def _marl_ppo() -> PPOConfig:
+    return PPOConfig(steps=3_000_000, n_envs=64, n_steps=128, batch_size=2048, n_epochs=4,
+                     learning_rate=2.5e-4, gamma=1.0, ent_coef=0.01)
+
+
+@dataclass(frozen=True)
+class MarlSetting:
+    """MAPPO or IPPO for one side of the parallel drill (``ilpss/reference/marl_ppo.py``).
+
+    ``side``: the attackers (against a scripted defending team) or the defenders
+    (against the scripted ``attack``, an id of ``soccer_drill.vector.attack.ATTACKS``).
+    ``critic``: ``"state"`` (MAPPO: the critic sees ``state()``) or ``"own"`` (IPPO: the
+    player's observation). ``obs_type``: the players' observation. ``mask_input``: the
+    action mask is an input of the actor too. ``value_norm``: the critic's targets
+    normalised by running statistics. ``shaping`` (the reward option, 0 = off): a
+    potential-based term, ``shaping`` times the ball's progress toward the goal line in
+    fields, the end's potential 0, so that an episode's total is the drill's reward minus
+    a constant of its start (the drill's best policies stay the best; ``marl_ppo``).
+    """
+
+    side: str = "attackers"
+    critic: str = "state"
+    obs_type: str = "kinematic"
+    mask_input: bool = True
+    value_norm: bool = True
+    shaping: float = 0.0
+    attack: str = "mixed_rules"
+    ppo: PPOConfig = field(default_factory=_marl_ppo)
+
+    def __post_init__(self) -> None:
+        check_fields("MarlSetting", self, {
+            "side": OneOf(SIDES), "critic": OneOf(CRITICS), "obs_type": OneOf(OBS_TYPES),
+            "mask_input": Bool(), "value_norm": Bool(), "shaping": Real(0.0, 10.0),
+            "attack": Name(dots=False),
+        })
 
 
 @dataclass(frozen=True)
 class SelfPlaySetting:
-    """One shared masked policy for all four players (shared spaces: the last feature
-    tells attacker from defender), the defenders paid the negative of the attackers'
-    reward; its attackers are then evaluated against each team."""
+    """Self-play of both sides against a pool of their past checkpoints (fictitious
+    self-play; ``marl_ppo.train_self_play``): the attackers' and the defenders' networks
+    (``marl``'s critic, observation and options; its ``side`` and ``attack`` unused)
+    learn together, each half of the drills training one side against a checkpoint of
+    the other drawn from the pool. ``snapshots`` checkpoints are kept, evenly over
+    training (the untrained networks first, the trained last), and played against each
+    other on ``crossplay_episodes`` held-out episodes (the cross-play table)."""
 
-    ppo: PPOConfig = field(default_factory=lambda: PPOConfig(
-        steps=3_000_000, n_envs=64, n_steps=128, batch_size=4096, n_epochs=4,
-        learning_rate=2.5e-4, gamma=1.0, ent_coef=0.01))
+    marl: MarlSetting = field(default_factory=MarlSetting)
+    snapshots: int = 6
+    crossplay_episodes: int = 100
+
+    def __post_init__(self) -> None:
+        check_fields("SelfPlaySetting", self, {"snapshots": Integer(2, 50),
+                                               "crossplay_episodes": Integer(1)})
+
+    @property
+    def ppo(self) -> PPOConfig:
+        """The learners' PPO configuration (``marl.ppo``)."""
+        return self.marl.ppo
 
 
 @dataclass(frozen=True)
@@ -203,10 +252,12 @@ class TransferSetting:
                              f"target_episodes ({self.target_episodes})")
 
 
-SETTINGS: dict[str, HolderSetting | MultiAgentSetting | SelfPlaySetting | TransferSetting] = {
+SETTINGS: dict[str, HolderSetting | MarlSetting | SelfPlaySetting | TransferSetting] = {
     "ppo": HolderSetting(algo="ppo"),
     "maskable_ppo": HolderSetting(algo="maskable_ppo"),
-    "shared_ppo": MultiAgentSetting(),
+    "mappo": MarlSetting(critic="state"),
+    "ippo": MarlSetting(critic="own"),
+    "defenders": MarlSetting(side="defenders", critic="state"),
     "self_play": SelfPlaySetting(),
     "transfer": TransferSetting(),
 }

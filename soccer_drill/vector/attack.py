@@ -29,6 +29,8 @@ reset, so an episode is a function of the drill's seed and the defenders' action
 
 from __future__ import annotations
 
+import hashlib
+import inspect
 from collections.abc import Sequence
 from typing import Any
 
@@ -40,7 +42,8 @@ from soccer_drill.registry import Registry
 from soccer_drill.rules.features import batch_features, feature_bounds
 from soccer_drill.skills import HOLDER_ACTIONS
 
-__all__ = ["ATTACKS", "ATTACK_GROUP", "SCORING_RULES", "HolderRuleAttack", "make_attack"]
+__all__ = ["ATTACKS", "ATTACK_GROUP", "SCORING_RULES", "HolderRuleAttack", "attack_code",
+           "make_attack"]
 
 ATTACK_GROUP = "soccer_drill.attacks"
 """The entry-point group of the scripted attacks."""
@@ -163,3 +166,18 @@ def make_attack(attack: str | HolderRuleAttack) -> HolderRuleAttack:
             raise TypeError(f"attack must be an attack id {ATTACKS.names()} or an object with "
                             f"bind, reset, before_cycle and after_cycle, got {attack!r}")
     return attack
+
+
+def attack_code(attack: str) -> dict[str, str]:
+    """What identifies the code of attack ``attack`` (as ``team_code`` does a team's):
+    its factory's module and name, and the SHA-256 of that module's source file (left
+    out where it cannot be read)."""
+    factory = ATTACKS.get(attack)
+    out = {"factory": f"{getattr(factory, '__module__', '?')}:{getattr(factory, '__qualname__', '?')}"}
+    try:
+        path = inspect.getsourcefile(inspect.getmodule(factory))  # type: ignore[arg-type]
+        with open(path, "rb") as source:  # type: ignore[arg-type]
+            out["source_sha256"] = hashlib.sha256(source.read()).hexdigest()
+    except (TypeError, OSError):
+        pass
+    return out
