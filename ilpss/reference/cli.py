@@ -152,7 +152,8 @@ def build_settings(args: argparse.Namespace) -> dict[str, Any]:
                                     or s.source_steps, target_episodes=args.target_episodes
                                     or s.target_episodes, window=args.window or s.window)
         elif isinstance(s, SelfPlaySetting):
-            s = dataclasses.replace(s, marl=multi(s.marl))
+            s = dataclasses.replace(s, marl=multi(s.marl), crossplay_episodes=(
+                args.crossplay_episodes or s.crossplay_episodes))
         else:
             s = multi(s)
         out[name] = s
@@ -253,6 +254,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--window", type=int, default=None,
                    help="transfer: episodes of the jumpstart and of the final (default: the "
                         "setting's)")
+    p.add_argument("--crossplay-episodes", type=int, default=None,
+                   help="self-play: held-out episodes of each pair of checkpoints in the "
+                        "cross-play table (default: the setting's)")
     p.add_argument("--executor", choices=list(EXECUTOR.values), default="local",
                    help="where jobs run: local processes, or a Ray cluster")
     p.add_argument("--ray-address", metavar="HOST:PORT", default=None,
@@ -300,7 +304,7 @@ def _check_flags(args: argparse.Namespace) -> dict[str, int]:
                         ("--eval", args.eval), ("--workers", args.workers)):
         if value < 1:
             raise ValueError(f"{flag} must be at least 1, got {value}")
-    for flag in ("source_steps", "target_episodes", "window"):
+    for flag in ("source_steps", "target_episodes", "window", "crossplay_episodes"):
         value = getattr(args, flag)
         if value is not None and value < 1:
             raise ValueError(f"--{flag.replace('_', '-')} must be at least 1, got {value}")
