@@ -59,7 +59,7 @@ def test_attacks_are_registered_like_teams_and_bad_ones_refused():
     assert {*HOLDER_POLICIES, "mixed_rules"} <= set(ATTACKS.names())
     assert attack_code("early_pass")["factory"] == "soccer_drill.vector.attack:early_pass"
     assert len(attack_code("early_pass")["source_sha256"]) == 64
-    with pytest.raises(ValueError, match="registered: .*early_pass"):
+    with pytest.raises(ValueError, match=r"registered: .*early_pass"):
         ParallelVectorEnv(2, attack="no_such_attack")
     with pytest.raises(ValueError, match="not both"):
         ParallelVectorEnv(2, attack="early_pass", opponent="chasers")

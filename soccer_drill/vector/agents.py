@@ -40,6 +40,7 @@ from soccer_drill.rules.features import (
 from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams import DEFAULT_TEAM_TIMEOUT, Team
+from soccer_drill.vector.attack import HolderRuleAttack, make_attack
 from soccer_drill.vector.core import (
     BatchCore,
     check_frames_fit,
@@ -47,7 +48,6 @@ from soccer_drill.vector.core import (
     check_num_envs,
     check_seed,
 )
-from soccer_drill.vector.attack import HolderRuleAttack, make_attack
 from soccer_drill.vector.holder import first_non_integer
 
 _ATTACKER_SKILLS = np.array([int(s) for s in ATTACKER_ACTIONS])
