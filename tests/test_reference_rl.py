@@ -226,3 +226,20 @@ def test_the_timeout_wrapper_changes_only_a_timeout(reward, terminal):
     assert rewards.tolist() == [-1.0 if reward is None else reward, -1.0, 0.0]
     assert [i["TimeLimit.truncated"] for i in infos] == [not terminal, False, False]
     assert dones.tolist() == [True, True, False]
+
+
+@pytest.mark.integrations
+def test_the_ray_executor_gives_the_local_processes_numbers(tmp_path, capsys):
+    for module in ("torch", "stable_baselines3", "sb3_contrib"):
+        pytest.importorskip(module)
+    ray = pytest.importorskip("ray")
+    small = ["--settings", "mappo", "defenders", "--seeds", "1"]
+    assert _run(capsys, tmp_path, "local", *small) == (2, 0)
+    try:
+        assert _run(capsys, tmp_path, "ray", *small, "--executor", "ray") == (2, 0)
+    finally:
+        ray.shutdown()
+    local, remote = _records(tmp_path / "local"), _records(tmp_path / "ray")
+    assert set(local) == set(remote)
+    for name in local:
+        assert _no_times(remote[name]["result"]) == _no_times(local[name]["result"]), name

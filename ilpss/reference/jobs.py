@@ -141,42 +141,48 @@ def _parallel(n: int, obs_type: str, opponent: str | None = None, attack: str | 
                                           obs_type=obs_type, shared_spaces=False)
 
 
+def _evaluate(s: MarlSetting) -> Callable[..., list[float]]:
+    """``marl_ppo.evaluate`` at the pace the setting's players learnt."""
+    from ilpss.reference import marl_ppo
+    return functools.partial(marl_ppo.evaluate, decision_cycles=s.decision_cycles)
+
+
 def _run_marl(job: Job, s: MarlSetting) -> dict[str, Any]:
     from ilpss.reference import marl_ppo
-    n, o = job.evaluation.episodes, s.obs_type
+    n, o, evaluate = job.evaluation.episodes, s.obs_type, _evaluate(s)
     if s.side == "attackers":
         env = _parallel(s.ppo.n_envs, o, opponent=job.team)
         side, curve = marl_ppo.train(env, s, job.seed, _progress(job, s.ppo.steps))
         evaluation = _parallel(n, o, opponent=job.team)
         return {"curve": curve,
-                "eval": {job.team: marl_ppo.evaluate([side], evaluation, EVAL_SEED)},
-                "stochastic": {job.team: marl_ppo.evaluate([side], evaluation, EVAL_SEED,
-                                                           greedy=False, sample_seed=job.seed)}}
+                "eval": {job.team: evaluate([side], evaluation, EVAL_SEED)},
+                "stochastic": {job.team: evaluate([side], evaluation, EVAL_SEED, greedy=False,
+                                                  sample_seed=job.seed)}}
     side, curve = marl_ppo.train(_parallel(s.ppo.n_envs, o, attack=s.attack), s, job.seed,
                                  _progress(job, s.ppo.steps))
     greedy, sampled = {}, {}
     for attack in job.attacks:
         evaluation = _parallel(n, o, attack=attack)
-        greedy[attack] = marl_ppo.evaluate([side], evaluation, EVAL_SEED)
-        sampled[attack] = marl_ppo.evaluate([side], evaluation, EVAL_SEED, greedy=False,
-                                            sample_seed=job.seed)
+        greedy[attack] = evaluate([side], evaluation, EVAL_SEED)
+        sampled[attack] = evaluate([side], evaluation, EVAL_SEED, greedy=False,
+                                   sample_seed=job.seed)
     return {"curve": curve, "eval": greedy, "stochastic": sampled}
 
 
 def _run_self_play(job: Job, s: SelfPlaySetting) -> dict[str, Any]:
     from ilpss.reference import marl_ppo
-    n, o = job.evaluation.episodes, s.marl.obs_type
+    n, o, evaluate = job.evaluation.episodes, s.marl.obs_type, _evaluate(s.marl)
     pool_a, pool_d, curve = marl_ppo.train_self_play(
         _parallel(s.ppo.n_envs, o), s.marl, job.seed, s.snapshots, _progress(job, s.ppo.steps))
     out: dict[str, Any] = {"curve": curve}
     for prefix, a, d in (("", pool_a[-1], pool_d[-1]), ("untrained_", pool_a[0], pool_d[0])):
-        out[f"{prefix}eval"] = {t: marl_ppo.evaluate([a], _parallel(n, o, opponent=t), EVAL_SEED)
+        out[f"{prefix}eval"] = {t: evaluate([a], _parallel(n, o, opponent=t), EVAL_SEED)
                                 for t in job.teams}
-        out[f"{prefix}eval"][SELF_PLAY] = marl_ppo.evaluate([a, d], _parallel(n, o), EVAL_SEED)
-        out[f"{prefix}defence"] = {x: marl_ppo.evaluate([d], _parallel(n, o, attack=x), EVAL_SEED)
+        out[f"{prefix}eval"][SELF_PLAY] = evaluate([a, d], _parallel(n, o), EVAL_SEED)
+        out[f"{prefix}defence"] = {x: evaluate([d], _parallel(n, o, attack=x), EVAL_SEED)
                                    for x in job.attacks}
     m = s.crossplay_episodes
-    out["crossplay"] = [[sum(r > 0 for r in marl_ppo.evaluate([a, d], _parallel(m, o), EVAL_SEED))
+    out["crossplay"] = [[sum(r > 0 for r in evaluate([a, d], _parallel(m, o), EVAL_SEED))
                          for d in pool_d] for a in pool_a]
     return out
 

@@ -55,6 +55,8 @@ ATTACKERS = ("attacker_0", "attacker_1")
 DEFENDERS = ("defender_0", "defender_1")
 BALL_Y = 17
 """The ball's distance to the goal line in ``state()`` (its ``y``)."""
+HOLDER_FLAGS = slice(20, 24)
+"""Who holds the ball in ``state()``: a flag per player."""
 Progress = Callable[[int, int], None]
 """``progress(steps done, steps of the budget)``, called after each update."""
 
@@ -196,6 +198,12 @@ def _act(actor: Actor, obs: np.ndarray, mask: np.ndarray, greedy: bool,
         return action.numpy(), dist.log_prob(action).numpy()
 
 
+def holders(state: np.ndarray) -> np.ndarray:
+    """The player holding the ball in each drill of ``state()`` (-1: a loose ball)."""
+    flags = state[:, HOLDER_FLAGS]
+    return np.where(flags.max(axis=1) > 0.5, flags.argmax(axis=1), -1)
+
+
 def potential(state: np.ndarray, shaping: float, field: float) -> np.ndarray:
     """The reward option's potential of each drill (attackers' side): ``-shaping`` times
     the ball's distance to the goal line in fields (0 at the line)."""
@@ -203,6 +211,27 @@ def potential(state: np.ndarray, shaping: float, field: float) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- rollout
+class Decisions:
+    """When the players of each drill decide (``decision_cycles`` k): at an episode's first
+    cycle, every k cycles, and whenever the ball changes hands (a holder's actions are not
+    an off-ball player's); in between each keeps its last action, as a holder's option
+    of ``HolderEnv`` runs for several cycles. k = 1: every cycle, the drill's own pace."""
+
+    def __init__(self, n: int, cycles: int) -> None:
+        self.cycles = cycles
+        self.since = np.zeros(n, np.int64)
+        self.holder = np.full(n, -2, np.int64)  # -2: no decision yet
+
+    def deciding(self, holder: np.ndarray, resetting: np.ndarray) -> np.ndarray:
+        """Which drills decide now (``resetting``: their step only resets them, after
+        which they decide)."""
+        due = (self.since >= self.cycles) | (holder != self.holder) | resetting
+        self.since = np.where(due, 1, self.since + 1)
+        self.holder = np.where(resetting, -2, holder)
+        return due
+
+
+
 @dataclass
 class _Rollout:
     """One rollout of a side's rows, ``(n_steps, rows, ...)`` each; ``valid`` marks the
@@ -254,6 +283,8 @@ class _Drills:
         self.state = env.state()
         self.resetting = np.zeros(env.num_envs, bool)
         self.field = float(env.config.field_size)
+        self.schedule = Decisions(env.num_envs, setting.decision_cycles)
+        self.actions: dict[str, np.ndarray] = {}
 
     def collect(self, learners: list[_Learner], others: dict[str, Callable], n_steps: int
                 ) -> list[float]:
@@ -262,18 +293,24 @@ class _Drills:
         the attackers' rewards of the episodes that ended."""
         env, ended, shaping = self.env, [], self.setting.shaping
         for t in range(n_steps):
-            actions = {a: act(self.observations) for a, act in others.items()}
+            deciding = self.schedule.deciding(holders(self.state), self.resetting)
+            actions = self.actions
+            for a, act in others.items():
+                actions[a] = np.where(deciding, act(self.observations), actions.get(a, 0))
             for ln in learners:
                 obs, mask = _rows(self.observations, ln.side.agents, ln.drills)
                 critic_in = ln.critic_in(obs, self.state)
                 action, logp = _act(ln.side.actor, obs, mask, greedy=False)
+                k = len(ln.side.agents)
                 b = ln.buf
                 b.obs[t], b.mask[t], b.critic_in[t] = obs, mask, critic_in
                 b.act[t], b.logp[t], b.val[t] = action, logp, ln.side.values(critic_in)
-                b.valid[t] = np.repeat(~self.resetting[ln.drills], len(ln.side.agents))
-                per = action.reshape(len(ln.drills), len(ln.side.agents))
+                b.valid[t] = np.repeat(deciding[ln.drills] & ~self.resetting[ln.drills], k)
+                per = action.reshape(len(ln.drills), k)
                 for j, agent in enumerate(ln.side.agents):
-                    actions.setdefault(agent, np.zeros(env.num_envs, np.int64))[ln.drills] = per[:, j]
+                    held = actions.setdefault(agent, np.zeros(env.num_envs, np.int64))
+                    held[ln.drills] = np.where(deciding[ln.drills], per[:, j], held[ln.drills])
+                b.act[t] = np.stack([actions[a][ln.drills] for a in ln.side.agents], 1).reshape(-1)
             before = self.state
             self.observations, rewards, term, trunc, _ = env.step(actions)
             agent = env.agents[0]
@@ -300,16 +337,25 @@ class _Drills:
 
 def _advantages(buf: _Rollout, next_value: np.ndarray, cfg: PPOConfig
                 ) -> tuple[np.ndarray, np.ndarray]:
-    """GAE advantages and returns (an episode's last step is terminal)."""
+    """GAE advantages and returns of the decisions (``valid``), each paid the rewards of
+    its cycles until the next decision (an episode's last step is terminal: no
+    bootstrap). With a decision every cycle this is CleanRL's GAE."""
     adv = np.zeros_like(buf.rew)
-    last = np.zeros(buf.rew.shape[1], np.float32)
-    n_steps = len(buf.rew)
-    for t in reversed(range(n_steps)):
-        following = next_value if t == n_steps - 1 else buf.val[t + 1]
-        going_on = 1.0 - buf.done[t]
-        delta = buf.rew[t] + cfg.gamma * following * going_on - buf.val[t]
-        last = delta + cfg.gamma * cfg.gae_lambda * going_on * last
-        adv[t] = last
+    n_rows = buf.rew.shape[1]
+    following, following_adv = next_value.astype(np.float32), np.zeros(n_rows, np.float32)
+    paid, going_on = np.zeros(n_rows, np.float32), np.ones(n_rows, np.float32)
+    for t in reversed(range(len(buf.rew))):
+        ends = buf.done[t] > 0
+        paid = np.where(ends, buf.rew[t], paid + buf.rew[t])
+        going_on = np.where(ends, 0.0, going_on)
+        here = buf.valid[t]
+        delta = paid + cfg.gamma * following * going_on - buf.val[t]
+        a = delta + cfg.gamma * cfg.gae_lambda * going_on * following_adv
+        adv[t] = np.where(here, a, 0.0)
+        following = np.where(here, buf.val[t], following)
+        following_adv = np.where(here, a, following_adv)
+        paid = np.where(here, 0.0, paid)
+        going_on = np.where(here, 1.0, going_on)
     return adv, adv + buf.val
 
 
@@ -469,21 +515,25 @@ def _scripted(side: Side, drills: np.ndarray, n: int) -> dict[str, Callable]:
 
 # ----------------------------------------------------------------------------- evaluation
 def evaluate(sides: Sequence[Side], env: Any, first_seed: int, greedy: bool = True,
-             sample_seed: int = 0) -> list[float]:
+             sample_seed: int = 0, decision_cycles: int = 1) -> list[float]:
     """The attackers' reward in each drill of ``env``, one episode per drill, drill ``i``
     seeded ``first_seed + i``, ``sides`` playing their players (``env``'s other players
-    are scripted); greedy, or sampled from a generator seeded ``sample_seed``."""
+    are scripted) at the pace they learnt (``decision_cycles``); greedy, or sampled
+    from a generator seeded ``sample_seed``."""
     generator = torch.Generator().manual_seed(sample_seed)
     observations, _ = env.reset(seed=[first_seed + i for i in range(env.num_envs)])
     every = np.arange(env.num_envs)
     result = np.full(env.num_envs, np.nan)
+    schedule = Decisions(env.num_envs, decision_cycles)
+    actions: dict[str, np.ndarray] = {}
     while np.isnan(result).any():
-        actions = {}
+        deciding = schedule.deciding(holders(env.state()), np.zeros(env.num_envs, bool))
         for side in sides:
             obs, mask = _rows(observations, side.agents, every)
             action, _ = _act(side.actor, obs, mask, greedy, generator)
             per = action.reshape(env.num_envs, len(side.agents))
-            actions.update({a: per[:, j] for j, a in enumerate(side.agents)})
+            for j, a in enumerate(side.agents):
+                actions[a] = np.where(deciding, per[:, j], actions.get(a, per[:, j]))
         observations, rewards, term, trunc, _ = env.step(actions)
         agent = env.agents[0]
         reward = rewards[agent] if agent.startswith("attacker") else -rewards[agent]

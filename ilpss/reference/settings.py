@@ -188,6 +188,9 @@ class MarlSetting:
     potential-based term, ``shaping`` times the ball's progress toward the goal line in
     fields, the end's potential 0, so that an episode's total is the drill's reward minus
     a constant of its start (the drill's best policies stay the best; ``marl_ppo``).
+    ``decision_cycles``: the players decide every that many cycles and whenever the ball
+    changes hands, keeping their action in between (1: every cycle, the drill's pace;
+    ``marl_ppo.Decisions``).
     """
 
     side: str = "attackers"
@@ -196,6 +199,7 @@ class MarlSetting:
     mask_input: bool = True
     value_norm: bool = True
     shaping: float = 0.0
+    decision_cycles: int = 1
     attack: str = "mixed_rules"
     ppo: PPOConfig = field(default_factory=_marl_ppo)
 
@@ -203,7 +207,7 @@ class MarlSetting:
         check_fields("MarlSetting", self, {
             "side": OneOf(SIDES), "critic": OneOf(CRITICS), "obs_type": OneOf(OBS_TYPES),
             "mask_input": Bool(), "value_norm": Bool(), "shaping": Real(0.0, 10.0),
-            "attack": Name(dots=False),
+            "decision_cycles": Integer(1, 50), "attack": Name(dots=False),
         })
 
 
