@@ -166,7 +166,7 @@ SIDES = ("attackers", "defenders")
 """Which side of the parallel drill learns against a scripted one."""
 CRITICS = ("state", "own")
 """What the critic sees: ``state()`` (MAPPO) or the player's own observation (IPPO)."""
-OBS_TYPES = ("features", "kinematic")
+OBS_TYPES = ("features", "kinematic", "full")
 """The parallel drill's observation types."""
 
 

@@ -15,7 +15,14 @@ from gymnasium.utils import seeding
 from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import is_int
 from soccer_drill.drill import Drill
-from soccer_drill.rules.features import feature_bounds, features, kinematic_bounds, kinematics
+from soccer_drill.rules.features import (
+    feature_bounds,
+    features,
+    full_bounds,
+    full_observation,
+    kinematic_bounds,
+    kinematics,
+)
 from soccer_drill.rules.support import SupportPlayer
 from soccer_drill.skills import ATTACKER_ACTIONS, DEFENDER_ACTIONS, Command, Skill
 from soccer_drill.state import PLAYER_NAMES, DrillView
@@ -27,7 +34,9 @@ from soccer_drill.teams import (
     resolve_team,
 )
 
-ObsType = Literal["features", "kinematic"]
+ObsType = Literal["features", "kinematic", "full"]
+OBS_TYPES = ("features", "kinematic", "full")
+"""The observation types of the multi-agent environments (``obs_type``)."""
 IllegalAction = Literal["raise", "default"]
 
 # The action masks by role, and the action a masked one is replaced by (illegal_action
@@ -89,7 +98,8 @@ class DrillCore:
     config
         Drill parameters.
     obs_type
-        ``"features"`` (the 9 features) or ``"kinematic"`` (26 values).
+        ``"features"`` (the 9 features), ``"kinematic"`` (26 values) or ``"full"``
+        (both and the time left, 36 values).
     illegal_action
         ``"raise"`` (a masked action is an error) or ``"default"``
         (it is replaced by the role's default: HOLD, GET_OPEN or INTERCEPT, and
@@ -125,8 +135,8 @@ class DrillCore:
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
         shared_spaces: bool = False,
     ) -> None:
-        if obs_type not in ("features", "kinematic"):
-            raise ValueError(f"obs_type must be 'features' or 'kinematic', got {obs_type!r}")
+        if obs_type not in OBS_TYPES:
+            raise ValueError(f"obs_type must be one of {OBS_TYPES}, got {obs_type!r}")
         if illegal_action not in ("raise", "default"):
             raise ValueError(
                 f"illegal_action must be 'raise' or 'default', got {illegal_action!r}"
@@ -164,9 +174,9 @@ class DrillCore:
         )
         self.view = DrillView(self.drill, PLAYER_NAMES[2:])
         # The bounds as float64 arrays, as the compiled observation rules read them.
-        if obs_type == "features":
-            low, high = feature_bounds(config)
-            self._observe = features
+        if obs_type in ("features", "full"):
+            low, high = (feature_bounds if obs_type == "features" else full_bounds)(config)
+            self._observe = features if obs_type == "features" else full_observation
             self._obs_args: tuple = (config, low.astype(np.float64), high.astype(np.float64))
         else:
             low, high = kinematic_bounds(config)

@@ -1,4 +1,5 @@
-"""Observations: the paper's 9 features and a richer egocentric kinematic vector.
+"""Observations: the paper's 9 features, a richer egocentric kinematic vector, and the
+full observation (both, and the time left) for multi-agent learners.
 
 The 9 features are keepaway-style distances and angles seen from one player
 ("self"), its teammate ("mate") and its two opponents. For the ball holder they
@@ -247,6 +248,67 @@ def _kinematics_into(out, pos, vel, holder, passer_locked, player, low, high):
     for flag in flags:
         _clip_into(out, k, 1.0 if flag else 0.0, low, high)
         k += 1
+
+
+FULL_SIZE = KINEMATIC_SIZE + 9 + 1
+"""Length of the full observation (:func:`full_observation`)."""
+
+
+def full_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of :func:`full_observation`: the kinematic bounds, the 9 features', then [0, 1]."""
+    (klo, khi), (flo, fhi) = kinematic_bounds(cfg), feature_bounds(cfg)
+    low = np.concatenate((klo, flo, [0.0])).astype(np.float32)
+    high = np.concatenate((khi, fhi, [1.0])).astype(np.float32)
+    return low, high
+
+
+def full_observation(state: DrillState, player: int, cfg: DrillConfig, low: Bounds,
+                     high: Bounds) -> np.ndarray:
+    """The full observation of ``player`` (36 values): :func:`kinematics` (26: self,
+    mate, opponents and ball, possession flags, role), the paper's 9 :func:`features`
+    (passing and dribbling lanes), then the time left, ``1 - cycle / max_cycles``."""
+    out = np.empty(FULL_SIZE, _FLOAT32)
+    _full_into(out, np.array(state.pos), np.array(state.vel), state.holder,
+               state.passer if state.cycle < state.lockout_until else -1, player,
+               1.0 - state.cycle / cfg.max_cycles, cfg.field_size / 2, _as_bounds(low),
+               _as_bounds(high))
+    return out
+
+
+def batch_full(
+    pos: np.ndarray, vel: np.ndarray, holder: np.ndarray, passer_locked: np.ndarray,
+    cycle: np.ndarray, player: int, cfg: DrillConfig, low: Bounds, high: Bounds,
+) -> np.ndarray:
+    """:func:`full_observation` of ``player`` in every drill: ``(N, 36)`` float32."""
+    out = np.empty((len(pos), FULL_SIZE), _FLOAT32)
+    _full_of_drills(out, np.ascontiguousarray(pos, dtype=np.float64),
+                    np.ascontiguousarray(vel, dtype=np.float64),
+                    np.ascontiguousarray(holder, dtype=np.int64),
+                    np.ascontiguousarray(passer_locked, dtype=np.int64), player,
+                    1.0 - np.asarray(cycle, dtype=np.float64) / cfg.max_cycles,
+                    cfg.field_size / 2, _as_bounds(low), _as_bounds(high))
+    return out
+
+
+@compiled
+def _full_of_drills(out, pos, vel, holder, passer_locked, player, time_left, half_size, low,
+                    high):
+    for i in range(pos.shape[0]):
+        _full_into(out[i], pos[i], vel[i], holder[i], passer_locked[i], player, time_left[i],
+                   half_size, low, high)
+
+
+@compiled
+def _full_into(out, pos, vel, holder, passer_locked, player, time_left, half_size, low, high):
+    """:func:`full_observation` of one drill into ``out``."""
+    k = KINEMATIC_SIZE
+    _kinematics_into(out[:k], pos, vel, holder, passer_locked, player, low[:k], high[:k])
+    m = player ^ 1
+    o = 2 if player < 2 else 0
+    _features_into(out[k:k + 9], pos[player, 0], pos[player, 1], pos[m, 0], pos[m, 1],
+                   pos[o, 0], pos[o, 1], pos[o + 1, 0], pos[o + 1, 1], half_size,
+                   low[k:k + 9], high[k:k + 9])
+    _clip_into(out, k + 9, time_left, low, high)
 
 
 STATE_SIZE = 29

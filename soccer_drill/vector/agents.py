@@ -16,6 +16,7 @@ from soccer_drill.envs.core import (
     DEFENDER_MASK,
     HOLDER_DEFAULT,
     HOLDER_MASK,
+    OBS_TYPES,
     OFF_BALL_DEFAULT,
     OFF_BALL_MASK,
     SHARED_DEFENDER_MASK,
@@ -30,9 +31,11 @@ from soccer_drill.envs.core import (
 from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
 from soccer_drill.rules.cycle import RUNNING
 from soccer_drill.rules.features import (
+    batch_full,
     batch_global_state,
     batch_kinematics,
     feature_bounds,
+    full_bounds,
     kinematic_bounds,
     players_features,
     state_bounds,
@@ -71,7 +74,7 @@ class ParallelVectorEnv:
 
     | agent | action space | actions | observation |
     |---|---|---|---|
-    | attacker | ``Discrete(5)`` | 0 HOLD, 1 PASS, 2 DRIBBLE (holder only), 3 GET_OPEN, 4 GO_TO_BALL (off the ball only) | ``Box(9,)`` features, or ``Box(26,)`` with ``obs_type="kinematic"`` |
+    | attacker | ``Discrete(5)`` | 0 HOLD, 1 PASS, 2 DRIBBLE (holder only), 3 GET_OPEN, 4 GO_TO_BALL (off the ball only) | ``Box(9,)`` features, ``Box(26,)`` with ``obs_type="kinematic"``, ``Box(36,)`` with ``"full"`` |
     | defender | ``Discrete(3)`` | 0 INTERCEPT, 1 MARK, 2 GUARD_LINE (always legal) | the same, from the defender's side |
     | defender, ``shared_spaces=True`` | ``Discrete(5)`` | 0-2 as above; 3 and 4 always masked | the same |
 
@@ -148,7 +151,7 @@ class ParallelVectorEnv:
     | ``num_envs`` | ``1`` | number of drills |
     | ``opponent`` | ``None`` | team id, ``Team`` instance, or ``None`` (the defenders are agents) |
     | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
-    | ``obs_type`` | ``"features"`` | ``"features"`` or ``"kinematic"`` |
+    | ``obs_type`` | ``"features"`` | ``"features"``, ``"kinematic"`` or ``"full"`` (see ``parallel_env``) |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``illegal_action`` | ``"default"`` | ``"default"`` or ``"raise"`` |
@@ -185,8 +188,8 @@ class ParallelVectorEnv:
         shared_spaces = resolve_shared_spaces(
             shared_spaces, opponent if attack is None else attack)
         self.render_mode = check_render_mode(render_mode, type(self).__name__)
-        if obs_type not in ("features", "kinematic"):
-            raise ValueError(f"obs_type must be 'features' or 'kinematic', got {obs_type!r}")
+        if obs_type not in OBS_TYPES:
+            raise ValueError(f"obs_type must be one of {OBS_TYPES}, got {obs_type!r}")
         if illegal_action not in ("raise", "default"):
             raise ValueError(f"illegal_action must be 'raise' or 'default', got {illegal_action!r}")
         self.num_envs, self.obs_type, self.illegal_action = n, obs_type, illegal_action
@@ -205,7 +208,8 @@ class ParallelVectorEnv:
         self.agents = list(self.possible_agents)
         self._index = {a: PLAYER_NAMES.index(a) for a in self.possible_agents}
         self._indices = tuple(self._index.values())
-        bounds = feature_bounds(self.config) if obs_type == "features" else kinematic_bounds(self.config)
+        bounds = {"features": feature_bounds, "kinematic": kinematic_bounds,
+                  "full": full_bounds}[obs_type](self.config)
         self._low, self._high = (x.astype(np.float64) for x in bounds)
         self.shared_spaces = shared_spaces
         if shared_spaces:  # a trailing role flag tells one shared policy which side it plays
@@ -301,7 +305,11 @@ class ParallelVectorEnv:
             return out
         locked = np.where(b.cycle < b.lockout_until, b.passer, -1)
         for k, (agent, i) in enumerate(self._index.items()):
-            obs = batch_kinematics(b.pos, b.vel, b.holder, locked, i, self._low, self._high)
+            if self.obs_type == "full":
+                obs = batch_full(b.pos, b.vel, b.holder, locked, b.cycle, i, self.config,
+                                 self._low, self._high)
+            else:
+                obs = batch_kinematics(b.pos, b.vel, b.holder, locked, i, self._low, self._high)
             if self.shared_spaces:
                 obs = np.concatenate((obs, np.full((self.num_envs, 1), self._role[k])), axis=1)
             out[agent] = {"observation": obs, "action_mask": masks[agent]}
