@@ -360,8 +360,12 @@ def _advantages(buf: _Rollout, next_value: np.ndarray, cfg: PPOConfig
 
 
 def _update(ln: _Learner, adv: np.ndarray, ret: np.ndarray, cfg: PPOConfig,
-            rng: np.random.Generator) -> None:
-    """PPO's clipped update on the decisions, the critic on normalised targets."""
+            rng: np.random.Generator, left: float) -> None:
+    """PPO's clipped update on the decisions, the critic on normalised targets; ``left``
+    (the share of the budget still to come, with ``anneal``) scales the step size and
+    the entropy bonus."""
+    for group in ln.optimizer.param_groups:
+        group["lr"] = cfg.learning_rate * left
     side, buf = ln.side, ln.buf
     keep = buf.valid.reshape(-1)
     side.value_norm.update(ret.reshape(-1)[keep])
@@ -386,7 +390,8 @@ def _update(ln: _Learner, adv: np.ndarray, ret: np.ndarray, cfg: PPOConfig,
             policy_loss = torch.max(-a * ratio, -a * torch.clamp(
                 ratio, 1 - cfg.clip_range, 1 + cfg.clip_range)).mean()
             value_loss = 0.5 * ((side.critic(b_crit[i]) - b_ret[i]) ** 2).mean()
-            loss = policy_loss - cfg.ent_coef * dist.entropy().mean() + cfg.vf_coef * value_loss
+            entropy = cfg.ent_coef * left * dist.entropy().mean()
+            loss = policy_loss - entropy + cfg.vf_coef * value_loss
             ln.optimizer.zero_grad()
             loss.backward()
             nn.utils.clip_grad_norm_(side.parameters(), cfg.max_grad_norm)
@@ -402,11 +407,17 @@ def _learner(side: Side, drills: np.ndarray, env: Any, cfg: PPOConfig, sign: flo
     return _Learner(side, drills, optimizer, buf, sign)
 
 
-def _learn(ln: _Learner, drills: _Drills, cfg: PPOConfig, rng: np.random.Generator) -> None:
+def _learn(ln: _Learner, drills: _Drills, cfg: PPOConfig, rng: np.random.Generator,
+           left: float) -> None:
     obs, _ = _rows(drills.observations, ln.side.agents, ln.drills)
     next_value = ln.side.values(ln.critic_in(obs, drills.state))
     adv, ret = _advantages(ln.buf, next_value, cfg)
-    _update(ln, adv, ret, cfg, rng)
+    _update(ln, adv, ret, cfg, rng, left)
+
+
+def _left(setting: MarlSetting, update: int, n_updates: int) -> float:
+    """The share of the budget still to come before this update (1 without ``anneal``)."""
+    return 1.0 - update / n_updates if setting.anneal else 1.0
 
 
 def _curve_row(steps: int, start: float, ended: list[float]) -> list[float | None]:
@@ -436,10 +447,10 @@ def train(env: Any, setting: MarlSetting, seed: int, progress: Progress | None =
     drills = _Drills(env, 1_000_000 * (seed + 1), setting)
     n_updates = -(-cfg.steps // (env.num_envs * cfg.n_steps))
     start, steps, curve = time.perf_counter(), 0, []
-    for _ in range(n_updates):
+    for update in range(n_updates):
         ended = drills.collect([ln], {}, cfg.n_steps)
         steps += env.num_envs * cfg.n_steps
-        _learn(ln, drills, cfg, rng)
+        _learn(ln, drills, cfg, rng, _left(setting, update, n_updates))
         curve.append(_curve_row(steps, start, ended))
         if progress is not None:
             progress(steps, cfg.steps)
@@ -486,7 +497,7 @@ def train_self_play(env: Any, setting: MarlSetting, seed: int, snapshots: int,
         ended = drills.collect(learners, others, cfg.n_steps)
         steps += n * cfg.n_steps
         for ln in learners:
-            _learn(ln, drills, cfg, rng)
+            _learn(ln, drills, cfg, rng, _left(setting, update, n_updates))
         curve.append(_curve_row(steps, start, ended))
         if (update + 1) % every == 0 and len(pool_a) < snapshots - 1:
             pool_a.append(_frozen(attack))
