@@ -17,10 +17,13 @@ from soccer_drill.rules.compiled import warm_up, warms
 from soccer_drill.rules.cycle import outcome
 from soccer_drill.rules.features import (
     batch_features,
+    batch_full,
     batch_global_state,
     batch_kinematics,
     feature_bounds,
     features,
+    full_bounds,
+    full_observation,
     global_state,
     kinematic_bounds,
     kinematics,
@@ -60,9 +63,11 @@ def _drill_rules() -> None:
     support.reset(rng)
     support.command(state, 1, cfg)
     bounds = {name: tuple(b.astype(np.float64) for b in make(cfg)) for name, make in (
-        ("features", feature_bounds), ("kinematic", kinematic_bounds), ("state", state_bounds))}
+        ("features", feature_bounds), ("kinematic", kinematic_bounds), ("full", full_bounds),
+        ("state", state_bounds))}
     features(state, 0, cfg, *bounds["features"])
     kinematics(state, 0, *bounds["kinematic"])
+    full_observation(state, 0, cfg, *bounds["full"])
     global_state(state, cfg, *bounds["state"])
 
     batch = BatchDrill(2, cfg)
@@ -81,6 +86,7 @@ def _drill_rules() -> None:
     batch_features(batch.pos, batch.holder.clip(0, 1), cfg, *bounds["features"])
     players_features(batch.pos, (0, 1), cfg, *bounds["features"])
     batch_kinematics(batch.pos, batch.vel, batch.holder, locked, 0, *bounds["kinematic"])
+    batch_full(batch.pos, batch.vel, batch.holder, locked, batch.cycle, 0, cfg, *bounds["full"])
     batch_global_state(batch.pos, batch.vel, batch.holder, locked, batch.cycle, cfg,
                        *bounds["state"])
     interception_points(batch.pos, batch.vel, batch.holder, speed, cfg)
