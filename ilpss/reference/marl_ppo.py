@@ -488,7 +488,9 @@ def train_self_play(env: Any, setting: MarlSetting, seed: int, snapshots: int,
     pool_a, pool_d = [_frozen(attack)], [_frozen(defend)]
     drills = _Drills(env, 1_000_000 * (seed + 1), setting)
     n_updates = -(-cfg.steps // (n * cfg.n_steps))
-    every = max(1, n_updates // max(1, snapshots - 1))
+    # checkpoint k (1 .. snapshots - 2) after update ceil(k n_updates / (snapshots - 1)):
+    # evenly spaced, and exactly `snapshots` of them however short the budget
+    due = [-(-k * n_updates // (snapshots - 1)) for k in range(1, snapshots - 1)]
     start, steps, curve = time.perf_counter(), 0, []
     for update in range(n_updates):
         opp_d = pool_d[rng.integers(len(pool_d))] if rng.random() < 0.5 else defend
@@ -499,7 +501,7 @@ def train_self_play(env: Any, setting: MarlSetting, seed: int, snapshots: int,
         for ln in learners:
             _learn(ln, drills, cfg, rng, _left(setting, update, n_updates))
         curve.append(_curve_row(steps, start, ended))
-        if (update + 1) % every == 0 and len(pool_a) < snapshots - 1:
+        while len(pool_a) - 1 < len(due) and update + 1 >= due[len(pool_a) - 1]:
             pool_a.append(_frozen(attack))
             pool_d.append(_frozen(defend))
         if progress is not None:
