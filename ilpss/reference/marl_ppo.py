@@ -47,7 +47,7 @@ from torch.distributions import Categorical
 
 from ilpss.reference.settings import MarlSetting, PPOConfig
 
-__all__ = ["train", "train_self_play"]
+__all__ = ["train"]
 
 MASKED = -1e8
 """The logit of a masked action."""
