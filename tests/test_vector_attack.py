@@ -3,7 +3,9 @@ attackers as the holder environment plays them, so that the defenders are the ag
 
 from __future__ import annotations
 
+import copy
 import hashlib
+import pickle
 
 import gymnasium as gym
 import numpy as np
@@ -113,3 +115,23 @@ def test_the_full_observation_and_the_attacks_give_the_recorded_episodes(side, n
             h.update(np.ascontiguousarray(rewards[a]).tobytes())
         h.update(env.state().tobytes())
     assert h.hexdigest()[:16] == _RECORDED[side, name]
+
+
+def test_a_pickled_or_copied_environment_with_an_attack_plays_on_alike():
+    env = ParallelVectorEnv(4, attack="mixed_rules", obs_type="full")
+    env.reset(seed=1)
+
+    def intercept():
+        return {a: np.zeros(4, dtype=np.int64) for a in env.agents}
+
+    for _ in range(20):
+        env.step(intercept())
+    twins = [pickle.loads(pickle.dumps(env)), copy.copy(env)]
+    for _ in range(80):
+        obs, rewards, *_ = env.step(intercept())
+        for twin in twins:
+            other, other_rewards, *_ = twin.step(intercept())
+            for agent in obs:
+                np.testing.assert_array_equal(other[agent]["observation"],
+                                              obs[agent]["observation"])
+                np.testing.assert_array_equal(other_rewards[agent], rewards[agent])
