@@ -45,8 +45,9 @@ def _vector_digest(opponent: str) -> str:
     return h.hexdigest()
 
 
-def _parallel_vector_digest() -> str:
-    env = ParallelVectorEnv(num_envs=4, opponent="goal_guards", obs_type="kinematic")
+def _parallel_vector_digest(obs_type: str = "kinematic", attack: str | None = None) -> str:
+    env = (ParallelVectorEnv(num_envs=4, opponent="goal_guards", obs_type=obs_type)
+           if attack is None else ParallelVectorEnv(num_envs=4, attack=attack, obs_type=obs_type))
     rng = np.random.default_rng(6)
     h = hashlib.sha256()
     obs, _ = env.reset(seed=3)
@@ -65,6 +66,8 @@ def digests() -> dict[str, str]:
     out["vector/parametric"] = _vector_digest("parametric")
     out["vector/chasers"] = _vector_digest("chasers")
     out["parallel_vector/goal_guards"] = _parallel_vector_digest()
+    out["parallel_vector/goal_guards/full"] = _parallel_vector_digest("full")
+    out["parallel_vector/attack/mixed_rules"] = _parallel_vector_digest("full", "mixed_rules")
     return out
 
 

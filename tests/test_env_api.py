@@ -25,7 +25,7 @@ from pettingzoo.test import test_save_obs as save_obs_test  # not collected as a
 import soccer_drill
 
 OPPONENTS = [None, "chasers"]
-CONFIGURATIONS = [(o, t) for o in OPPONENTS for t in ("features", "kinematic")]
+CONFIGURATIONS = [(o, t) for o in OPPONENTS for t in ("features", "kinematic", "full")]
 
 
 def _module(**kwargs):

@@ -155,7 +155,7 @@ def test_unknown_configuration_key_and_keyword():
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"obs_type": "pixels"}, "obs_type must be 'features' or 'kinematic'"),
+        ({"obs_type": "pixels"}, "obs_type must be one of 'features', 'kinematic' or 'full'"),
         ({"render_mode": "ansi"}, "render_mode must be None or one of"),
         ({"illegal_action": "ignore"}, "illegal_action must be 'raise' or 'default'"),
         ({"max_cycles": 0}, r"max_cycles must be an integer in \[1, 1,000,000\]"),

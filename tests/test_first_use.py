@@ -46,7 +46,7 @@ warm_up()
 before = signatures()
 rng = np.random.default_rng(0)
 for team in TEAMS:
-    for obs_type in ("features", "kinematic"):
+    for obs_type in ("features", "kinematic", "full"):
         aec = soccer_drill.env(opponent=team, obs_type=obs_type)
         aec.reset(seed=1)
         for agent in aec.agent_iter(600):
@@ -77,6 +77,12 @@ for team in TEAMS:
             holders.step(rng.integers(3, size=n))
         play_episodes(holders, policies.random_policy, range(10, 16))
         holders.close()
+for n in (1, 3):  # scripted attacks: the holder loop in the multi-agent drill
+    vec = ParallelVectorEnv(num_envs=n, attack="mixed_rules", obs_type="full")
+    obs, _ = vec.reset(seed=9)
+    for _ in range(150):
+        obs, *_ = vec.step({a: np.array([pick(rng, m) for m in o["action_mask"]])
+                            for a, o in obs.items()})
 after = signatures()
 print(json.dumps({k: sorted(set(v) - set(before.get(k, ()))) for k, v in after.items()
                   if set(v) - set(before.get(k, ()))}))

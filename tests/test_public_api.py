@@ -90,7 +90,7 @@ SNAPSHOT: dict[str, list[str]] = {
     "ilpss.policy": ["FrozenPolicy", "LinearPolicy", "epsilon_greedy_choice", "greedy_choice"],
     "ilpss.reference.holder": ["evaluate", "train", "transfer"],
     "ilpss.reference.jobs": [],
-    "ilpss.reference.masked_ppo": ["Agent", "evaluate", "train"],
+    "ilpss.reference.marl_ppo": ["train"],
     "ilpss.reference.page": [],
     "ilpss.reference.settings": ["HolderSetting", "PPOConfig", "SETTINGS"],
     "ilpss.reuse": [
@@ -128,6 +128,7 @@ SNAPSHOT: dict[str, list[str]] = {
         "roll_table", "rule_parameters", "team_code", "team_ids", "warms"
     ],
     "soccer_drill.vector": ["HolderVectorEnv", "ParallelVectorEnv", "play_episodes"],
+    "soccer_drill.vector.attack": ["ATTACKS", "HolderRuleAttack"],
     "soccer_drill.vector.sb3": ["HolderSB3VecEnv"],
 }
 

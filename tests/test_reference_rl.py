@@ -22,7 +22,8 @@ from ilpss.reference import cli
 
 TINY = ["--teams", "chasers", "--seeds", "2", "--eval", "10", "--workers", "2",
         "--ppo", "steps=256", "n_envs=4", "n_steps=64", "batch_size=128", "n_epochs=2",
-        "--source-steps", "256", "--target-episodes", "40", "--window", "10"]
+        "--source-steps", "256", "--target-episodes", "40", "--window", "10",
+        "--attacks", "early_pass", "dribble", "--crossplay-episodes", "4"]
 
 
 def _run(capsys, tmp_path: Path, keep: str, *extra: str) -> tuple[int, int]:
@@ -57,42 +58,50 @@ def test_tiny_run_writes_resumes_is_deterministic_and_recomputes_a_changed_setti
         tmp_path, capsys):
     for module in ("torch", "stable_baselines3", "sb3_contrib"):
         pytest.importorskip(module)
-    # every setting: 2 seeds x (ppo, maskable_ppo, shared_ppo on chasers; self_play; transfer)
-    assert _run(capsys, tmp_path, "a") == (10, 0)
+    # every setting: 2 seeds x (ppo, maskable_ppo, mappo, ippo on chasers; defenders;
+    # self_play; transfer)
+    assert _run(capsys, tmp_path, "a") == (14, 0)
     page = (tmp_path / "a.md").read_text(encoding="utf-8")
     for name in cli.SETTINGS:
         assert f"## `{name}`" in page
-    for name in ("ppo", "maskable_ppo", "shared_ppo", "self_play", "transfer"):
         assert (tmp_path / "figures" / f"reference_{name}.png").stat().st_size > 1000
     assert "Budget: 256 decisions per training seed; 2 training seeds" in page
     assert "Budget: 256 environment steps per training seed" in page
-    # 256 decisions learn nothing: the page says so, team by team
-    assert "Not learned in the budget: `chasers` in 2 of 2 seeds" in page
+    # 256 steps learn nothing: the page counts it, team by team
+    assert "| chasers | 0 of 2 |" in page
+    assert "Cross-play" in page and "| early_pass |" in page
     first = _records(tmp_path / "a")
-    assert len(first) == 10
-    assert len(list((tmp_path / "a").glob("rule-*.json"))) == 2 * 9  # chasers, goal_guards
+    assert len(first) == 14
+    # the rules against chasers, goal_guards (the transfer row's target) and, for the
+    # defenders' bar, the paper's teams
+    assert len(list((tmp_path / "a").glob("rule-*.json"))) == 5 * 9
     for record in first.values():
         assert record["code"]["source_digest"] and record["key"]["seed"] in (0, 1)
-        assert len(next(iter(record["result"].get("eval", {"x": [0] * 10}).values()))) == 10
+        assert record["code"]["libraries"] == record["key"]["libraries"]
+    # the page's tables come from the summary beside it, alone
+    from ilpss.reference.page import check_summary_tables, load_summary
+    summary = load_summary(tmp_path / "a_seeds.json.gz")
+    assert not check_summary_tables(summary, page)
 
     # a rerun computes nothing and leaves every record as it was
-    assert _run(capsys, tmp_path, "a") == (0, 10)
+    assert _run(capsys, tmp_path, "a") == (0, 14)
     assert _records(tmp_path / "a") == first
 
     # the same seeds in another folder: the same numbers (wall times aside)
-    assert _run(capsys, tmp_path, "b", "--settings", "ppo", "shared_ppo", "transfer") == (6, 0)
+    assert _run(capsys, tmp_path, "b", "--settings", "ppo", "mappo", "self_play",
+                "transfer") == (8, 0)
     again = _records(tmp_path / "b")
     assert set(again) <= set(first)
     for name, record in again.items():
         assert _no_times(record["result"]) == _no_times(first[name]["result"]), name
     seeds = [r["result"]["eval"]["chasers"] for r in again.values()
-             if r["key"]["name"] == "shared_ppo"]
+             if r["key"]["name"] == "mappo"]
     assert len(seeds) == 2
 
     # a changed setting is computed again, and the old results stay as they were
     assert _run(capsys, tmp_path, "a", "--settings", "ppo", "--timeout-reward", "-1.5") == (2, 0)
     now = _records(tmp_path / "a")
-    assert len(now) == 12 and all(now[name] == first[name] for name in first)
+    assert len(now) == 16 and all(now[name] == first[name] for name in first)
     changed = [r for name, r in now.items() if name not in first]
     assert all(r["key"]["setting"]["reward"]["timeout_reward"] == -1.5 for r in changed)
     assert "--timeout-reward -1.5" in (tmp_path / "a.md").read_text(encoding="utf-8")
@@ -103,12 +112,18 @@ def test_tiny_run_writes_resumes_is_deterministic_and_recomputes_a_changed_setti
     (["--ppo", "gamma=high"], "gamma takes a number"),
     (["--ppo", "gamma=2"], "PPOConfig.gamma must be a finite number in [0, 1]"),
     (["--ppo", "batch_size=100"], "must divide n_envs * n_steps"),
-    (["--seeds", "1"], "--seeds must be at least 2"),
-    (["--seeds", "5", "ppo=1"], "--seeds ppo=N must be at least 2, got 1"),
+    (["--seeds", "0"], "--seeds must be at least 1"),
+    (["--seeds", "5", "ppo=0"], "--seeds ppo=N must be at least 1, got 0"),
+    (["--marl", "critic=both"], "MarlSetting.critic must be"),
+    (["--marl", "shaping=-1"], "MarlSetting.shaping must be"),
+    (["--marl", "mask_input=maybe"], "mask_input takes true or false"),
+    (["--attacks", "no_such_attack"], "registered: "),
+    (["--ray-address", "10.0.0.1:6379"], "--ray-address needs --executor ray"),
+    (["--learning-page", "no/such/page.md"], "no such file"),
     (["--seeds", "5", "ppx=10"], "give SETTING=N with SETTING one of"),
     (["--seeds", "many"], "--seeds must start with a number of seeds"),
-    (["--settings", "ppo", "--seeds", "5", "shared_ppo=10"],
-     "--seeds names ['shared_ppo'], which --settings does not select"),
+    (["--settings", "ppo", "--seeds", "5", "mappo=10"],
+     "--seeds names ['mappo'], which --settings does not select"),
     (["--teams", "chasers", "chasers"], "--teams must not repeat"),
     (["--timeout-reward", "5"], "timeout_reward must be None or a finite number in [-10, 1]"),
     (["--window", "3000"], "window (3000) must be at most half"),
@@ -124,12 +139,12 @@ def test_bad_flags_are_refused_naming_what_is_allowed(argv, message, tmp_path, c
 
 def test_seeds_per_setting_add_jobs_to_those_settings_only():
     ev = cli.EvalSettings(episodes=10)
-    settings = {name: cli.SETTINGS[name] for name in ("ppo", "shared_ppo", "transfer")}
+    settings = {name: cli.SETTINGS[name] for name in ("ppo", "mappo", "transfer")}
     every, per = cli.parse_seeds(["2", "ppo=4"])
     jobs = cli.make_jobs(settings, ["chasers", "goal_guards"], {**dict.fromkeys(settings, every),
                                                                **per}, ev)
     counts = {name: sorted({j.seed for j in jobs if j.name == name}) for name in settings}
-    assert counts == {"ppo": [0, 1, 2, 3], "shared_ppo": [0, 1], "transfer": [0, 1]}
+    assert counts == {"ppo": [0, 1, 2, 3], "mappo": [0, 1], "transfer": [0, 1]}
     assert len(jobs) == 4 * 2 + 2 * 2 + 2
     assert [j.seed for j in jobs] == sorted(j.seed for j in jobs)  # seed by seed
 
@@ -154,8 +169,8 @@ except SystemExit as exc:
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["--seeds", "1"], "--seeds must be at least 2"),
-    (["--teams", "chasers"], "pip install -e '.[integrations]'"),
+    (["--seeds", "0"], "--seeds must be at least 1"),
+    (["--teams", "chasers", "--seeds", "1"], "pip install -e '.[integrations]'"),
 ])
 def test_without_torch_the_flags_are_checked_and_the_missing_extra_named(argv, message,
                                                                           tmp_path):
@@ -211,3 +226,20 @@ def test_the_timeout_wrapper_changes_only_a_timeout(reward, terminal):
     assert rewards.tolist() == [-1.0 if reward is None else reward, -1.0, 0.0]
     assert [i["TimeLimit.truncated"] for i in infos] == [not terminal, False, False]
     assert dones.tolist() == [True, True, False]
+
+
+@pytest.mark.integrations
+def test_the_ray_executor_gives_the_local_processes_numbers(tmp_path, capsys):
+    for module in ("torch", "stable_baselines3", "sb3_contrib"):
+        pytest.importorskip(module)
+    ray = pytest.importorskip("ray")
+    small = ["--settings", "mappo", "defenders", "--seeds", "1"]
+    assert _run(capsys, tmp_path, "local", *small) == (2, 0)
+    try:
+        assert _run(capsys, tmp_path, "ray", *small, "--executor", "ray") == (2, 0)
+    finally:
+        ray.shutdown()
+    local, remote = _records(tmp_path / "local"), _records(tmp_path / "ray")
+    assert set(local) == set(remote)
+    for name in local:
+        assert _no_times(remote[name]["result"]) == _no_times(local[name]["result"]), name

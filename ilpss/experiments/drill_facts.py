@@ -47,7 +47,11 @@ fact                        used by
                             ``ilpss-holder-learning``'s kept jobs, a run folder's
                             ``team_code.json``
 :data:`HOLDER_SB3_VEC_ENV`, the reference deep-RL runs (``soccer-drill-reference``):
-:data:`PARALLEL_VEC_ENV`    the batched holder behind SB3 and the batched parallel drill
+:data:`PARALLEL_VEC_ENV`,   the batched holder behind SB3, the batched parallel drill,
+:data:`ATTACKS`,            the scripted attacks and their code, the rewards the drill
+:data:`ATTACK_CODE`,        pays (to check kept results)
+:data:`FAILURE_REWARD`,
+:data:`SUCCESS_REWARDS`
 ==========================  =========================================================
 
 :data:`HOLDER_RULES`, :data:`GIF_WRITER`, :data:`TEAM_CODE`, :data:`TEAM_COMPOSITION`,
@@ -79,6 +83,10 @@ SAMPLER_TEAM = "parametric"
 """The team id that takes the sampled parameters."""
 EPISODE_REWARD = (-1.0, 1.0)
 """Range of an episode's total reward: the drill pays one reward, in [-1, 1], at its end."""
+FAILURE_REWARD = -1.0
+"""What the drill pays for an interception, the ball out or the timeout."""
+SUCCESS_REWARDS = (0.5, 1.0)
+"""What the drill pays for a success: 1 at the goal line's centre, 0.5 at its ends."""
 ACTION_NAMES = ("HOLD", "PASS", "DRIBBLE")
 """The holder's primitive actions, by index."""
 LATERAL, GOAL_DISTANCE = 6, 5
@@ -139,6 +147,11 @@ HOLDER_SB3_VEC_ENV = "soccer_drill.vector.sb3:HolderSB3VecEnv"
 """The batched holder behind Stable-Baselines3's ``VecEnv`` (needs SB3)."""
 PARALLEL_VEC_ENV = "soccer_drill.vector.agents:ParallelVectorEnv"
 """The batched parallel drill, PettingZoo's parallel API with a leading batch axis."""
+ATTACKS = "soccer_drill.vector.attack:ATTACKS"
+"""The drill's scripted attacks (the fixed holder rules playing both attackers), by id."""
+ATTACK_CODE = "soccer_drill.vector.attack:attack_code"
+"""What identifies an attack's code, ``attack_code(attack_id) -> dict``, as
+:data:`TEAM_CODE` a team's."""
 
 
 TEAM_CODE = "soccer_drill.teams:team_code"

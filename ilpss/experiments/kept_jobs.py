@@ -38,7 +38,12 @@ from ilpss._io import (
     remove_stale_temporaries,
 )
 from ilpss.experiments.executor import SETTINGS_ERRORS, JobsFailed
-from ilpss.experiments.provenance import check_code_field, check_same_code, code_record
+from ilpss.experiments.provenance import (
+    check_code_field,
+    check_same_code,
+    code_record,
+    with_libraries,
+)
 
 __all__ = ["KeptJobs", "run_kept"]
 
@@ -62,19 +67,24 @@ class KeptJobs:
         An existing folder (the caller checks and locks it).
     allow_mixed_code : bool, default False
         Load results that other code computed (refused otherwise).
+    libraries : dict of str to str, optional
+        ``{distribution: version}`` of the libraries the results also depend on: recorded
+        with this code in every result kept, and a result of other versions is other
+        code (:func:`~ilpss.experiments.provenance.with_libraries`).
 
     Attributes
     ----------
     codes : dict
-        By its digest, every code that made what a page of these results shows: this
+        By its record (as canonical JSON), every code that made what a page of these results shows: this
         process's, and that of every result loaded.
     """
 
-    def __init__(self, folder: str | os.PathLike[str], *, allow_mixed_code: bool = False) -> None:
+    def __init__(self, folder: str | os.PathLike[str], *, allow_mixed_code: bool = False,
+                 libraries: Mapping[str, str] | None = None) -> None:
         self.folder = Path(folder)
         self.allow_mixed_code = allow_mixed_code
-        current = code_record()
-        self.codes: dict[str, dict[str, Any]] = {current["source_digest"]: current}
+        self.current = with_libraries(code_record(), libraries)
+        self.codes: dict[str, dict[str, Any]] = {canonical_json(self.current): self.current}
 
     def path(self, kind: str, key: Mapping[str, Any]) -> Path:
         """Where the result of the job ``key`` of ``kind`` is kept."""
@@ -115,14 +125,14 @@ class KeptJobs:
                 check(f"{path}: result", key, record.get("result"))
         except ValueError as exc:
             raise ValueError(f"{exc}; delete it to compute that job again") from None
-        check_same_code(code, str(path), allow=self.allow_mixed_code)
-        self.codes.setdefault(code["source_digest"], code)
+        check_same_code(code, str(path), allow=self.allow_mixed_code, current=self.current)
+        self.codes.setdefault(canonical_json(code), code)
         return record["result"]
 
     def save(self, kind: str, key: Mapping[str, Any], result: Any) -> None:
         """Keep ``result`` (JSON-ready) of the job ``key``, atomically, with this code."""
         record = {"schema": JOB_SCHEMA, "kind": kind, "key": dict(key), "result": result,
-                  "code": code_record()}
+                  "code": self.current}
         atomic_write_bytes(self.path(kind, key), json_record_bytes(record))
 
 

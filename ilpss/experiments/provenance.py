@@ -30,6 +30,10 @@ CODE_PACKAGES = ("soccer_drill", "opponents", "ilpss")
 DISTRIBUTION = "soccer-drill-ilpss"
 CODE_FIELDS = ("version", "source_digest", "git_commit")
 """The fields of a code record; each a string, or ``None`` where it is not known."""
+LIBRARIES = "libraries"
+"""An optional field of a code record: ``{distribution: version}`` of the libraries a
+result also depends on (the learners of ``soccer-drill-reference``: torch, SB3), so that
+an upgrade of one is other code, never mixed silently."""
 ALLOW_FLAG = "--allow-mixed-code"
 
 
@@ -94,25 +98,47 @@ def code_record() -> dict[str, str | None]:
             "git_commit": _git_commit(dirs[-1].parent)}
 
 
+def with_libraries(code: Mapping[str, Any], libraries: Mapping[str, str] | None
+                   ) -> dict[str, Any]:
+    """``code`` with the :data:`LIBRARIES` field when ``libraries`` are given."""
+    return {**code, LIBRARIES: dict(sorted(libraries.items()))} if libraries else dict(code)
+
+
 def describe(code: Mapping[str, Any] | None) -> str:
-    """A code record as a reader names it: version, sources' digest, commit."""
+    """A code record as a reader names it: version, sources' digest, commit (and the
+    libraries it records)."""
     if code is None:
         return "no record of its code (made before results recorded it)"
     commit = code.get("git_commit")
+    libraries = "".join(f", {name} {version}" for name, version in
+                        (code.get(LIBRARIES) or {}).items())
     return (f"version {code.get('version') or '?'}, sources {str(code.get('source_digest'))[:12]}"
-            + (f", commit {commit[:10]}" if commit else ""))
+            + (f", commit {commit[:10]}" if commit else "") + libraries)
 
 
-def check_code_field(where: str, value: Any) -> dict[str, str | None]:
+def check_code_field(where: str, value: Any) -> dict[str, Any]:
     """A code record read from a file: an object of :data:`CODE_FIELDS`, each a string
-    or null (the digest a string), else ``ValueError`` naming ``where``."""
-    if not isinstance(value, dict) or set(value) != set(CODE_FIELDS):
+    or null (the digest a string), and optionally :data:`LIBRARIES` (an object of
+    strings), else ``ValueError`` naming ``where``."""
+    if not isinstance(value, dict) or set(value) - {LIBRARIES} != set(CODE_FIELDS):
         raise ValueError(f"{where}: 'code' must be an object with the fields "
-                         f"{list(CODE_FIELDS)}, got {value!r}")
+                         f"{list(CODE_FIELDS)} (and optionally {LIBRARIES!r}), got {value!r}")
     for name, item in value.items():
-        if not (isinstance(item, str) or (item is None and name != "source_digest")):
+        if name == LIBRARIES:
+            if not (isinstance(item, dict) and all(isinstance(k, str) and isinstance(v, str)
+                                                   for k, v in item.items())):
+                raise ValueError(f"{where}: code.{LIBRARIES} must be an object of versions "
+                                 f"(strings), got {item!r}")
+        elif not (isinstance(item, str) or (item is None and name != "source_digest")):
             raise ValueError(f"{where}: code.{name} must be a string, got {item!r}")
     return value
+
+
+def same_code(one: Mapping[str, Any] | None, other: Mapping[str, Any] | None) -> bool:
+    """Whether two code records name the same code: the same sources and libraries."""
+    return (one is not None and other is not None
+            and one.get("source_digest") == other.get("source_digest")
+            and one.get(LIBRARIES) == other.get(LIBRARIES))
 
 
 def check_same_code(
@@ -124,7 +150,7 @@ def check_same_code(
     Different code raises :class:`MixedCodeError` naming both, unless ``allow``; then
     ``False`` is returned."""
     current = code_record() if current is None else current
-    if found is not None and found.get("source_digest") == current.get("source_digest"):
+    if same_code(found, current):
         return True
     if allow:
         return False
@@ -149,10 +175,11 @@ def check_one_code(codes: Mapping[str, tuple[Mapping[str, Any], str]], *,
 def code_line(results: Iterable[Mapping[str, Any]]) -> str:
     """The line a report gives to the code of its ``results`` (each with ``"code"``): the
     one code that made them, or every code when they were mixed knowingly."""
-    codes: dict[str | None, Mapping[str, Any] | None] = {}
+    codes: dict[Any, Mapping[str, Any] | None] = {}
     for result in results:
         code = result.get("code")
-        codes.setdefault(None if code is None else code.get("source_digest"), code)
+        codes.setdefault(None if code is None else
+                         (code.get("source_digest"), str(code.get(LIBRARIES))), code)
     if len(codes) == 1:
         return f"Code: {describe(next(iter(codes.values())))}."
     named = "; ".join(describe(code) for code in codes.values())

@@ -9,7 +9,7 @@ module                      concern
 ==========================  =========================================================
 :mod:`.settings`            the settings of every run, frozen dataclasses (no torch)
 :mod:`.holder`              SB3 PPO and MaskablePPO on the holder, the transfer row
-:mod:`.masked_ppo`          a shared-policy masked PPO on ``ParallelVectorEnv``
+:mod:`.marl_ppo`            MAPPO and IPPO on ``ParallelVectorEnv``, self-play with a pool
 :mod:`.jobs`                the jobs, their keys and checks (kept, resumable)
 :mod:`.page`                the results page and its figures
 :mod:`.cli`                 the command line

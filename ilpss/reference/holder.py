@@ -65,9 +65,11 @@ class Curve(BaseCallback):
     where none ended), and every episode's reward in order when ``keep_episodes``.
     Stops learning after ``max_episodes`` episodes, if given."""
 
-    def __init__(self, max_episodes: int | None = None, keep_episodes: bool = False) -> None:
+    def __init__(self, max_episodes: int | None = None, keep_episodes: bool = False,
+                 progress: Any = None) -> None:
         super().__init__()
         self.max_episodes, self.keep_episodes = max_episodes, keep_episodes
+        self.progress = progress  # progress(steps done), after each rollout
         self.rows: list[list[float]] = []
         self.episodes: list[float] = []
         self._ended: list[float] = []
@@ -85,6 +87,8 @@ class Curve(BaseCallback):
 
     def _on_rollout_end(self) -> None:
         self._flush()
+        if self.progress is not None:
+            self.progress(self.num_timesteps)
 
     def _on_training_end(self) -> None:
         self._flush()
@@ -132,13 +136,16 @@ def _train_seed(seed: int, stage: int = 0) -> int:
     return 1_000_000 * (seed + 1) + 10_000 * stage
 
 
-def train(team: str, setting: HolderSetting, seed: int) -> tuple[Any, Any, list[list[float]]]:
+def train(team: str, setting: HolderSetting, seed: int, progress: Any = None
+          ) -> tuple[Any, Any, list[list[float]]]:
     """Learn against ``team`` for ``setting.ppo.steps`` decisions. Returns the model, its
-    training stack (for the observation statistics) and the learning curve."""
+    training stack (for the observation statistics) and the learning curve;
+    ``progress(steps done, budget)`` is called after each rollout."""
     torch.set_num_threads(1)
     venv = _venv(team, setting, _train_seed(seed))
     model = _model(setting, venv, seed)
-    curve = Curve()
+    curve = Curve(progress=None if progress is None else
+                  (lambda done: progress(done, setting.ppo.steps)))
     model.learn(total_timesteps=setting.ppo.steps, callback=curve)
     return model, venv, curve.rows
 

@@ -1,20 +1,35 @@
-"""The results page of the reference command: one table and one figure per setting.
+"""The results page of the reference command, and the per-seed numbers it is made from.
 
-Every figure comes from the kept results; nothing is typed in. Beside each team: the best
-fixed holder rule on the same held-out episodes (evaluated by the command) and the
-tile-coded SMDP learner's final row of ``docs/learning.md`` (its own budget and
-episodes, quoted as that page gives it).
+The command turns its kept results into a *summary* (:func:`summarise`): every training
+seed's rewards on the held-out episodes, the best fixed rule's on the same episodes,
+budgets and wall times, as plain JSON. The page's tables are a function of that summary
+alone (:func:`tables`), so that the summary, saved compressed beside the page
+(:func:`save_summary`), recomputes them (:func:`load_summary`; the test
+``tests/test_reference_page.py`` checks the shipped page against it). The figures are
+drawn from the learning curves, which the summary does not hold.
 
-Statistics: per training seed, the greedy success over the evaluation episodes with a
-Wilson interval and the mean reward with a t interval over the episodes; per team, the
-mean over seeds of each with a t interval over seeds (the seed is the unit), and how many
-seeds learned (:class:`~ilpss.reference.settings.EvalSettings`). The transfer row takes
-``ilpss.metrics``' jumpstart, total reward and final performance per seed, paired by
-seed, with t intervals over seeds.
+Statistics (``ilpss.metrics``):
+
+- *learned*: a seed whose greedy success is at least ``learned_fraction`` (0.9) times
+  the best fixed rule's on the same episodes; outcomes are bimodal (a seed learns or it
+  does not), so the counts are the summary, with the seeds' median and range.
+- against the rule, **paired by episode**: on each of the evaluation episodes, the
+  seeds' mean success (and reward) minus the rule's, with a 95% t interval over the
+  episodes (the episode is the unit: the same starts for the learner and the rule).
+- the defenders: the best scripted attack's success against them (the highest over the
+  attacks, per seed), beside what the best fixed rule scores against the paper's teams.
+- self-play: its attackers against the teams and its defenders against the attacks,
+  beside the same networks untrained, seed by seed; and the cross-play table of its
+  checkpoints (the attackers' success, mean over seeds).
+- the transfer row: ``ilpss.metrics``' jumpstart, total reward and final performance per
+  seed, paired by seed, with t intervals over seeds.
 """
 
 from __future__ import annotations
 
+import gzip
+import hashlib
+import json
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -24,7 +39,13 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from ilpss._io import save_figure
+from ilpss._io import (
+    atomic_write_bytes,
+    canonical_json,
+    json_record_bytes,
+    read_regular,
+    save_figure,
+)
 from ilpss.metrics import (
     asymptotic_performance,
     jumpstart,
@@ -33,18 +54,30 @@ from ilpss.metrics import (
     wilson_interval,
 )
 from ilpss.reference.jobs import SELF_PLAY, Job
-from ilpss.reference.settings import EvalSettings, HolderSetting, TransferSetting
+from ilpss.reference.settings import (
+    EvalSettings,
+    HolderSetting,
+    MarlSetting,
+    SelfPlaySetting,
+    TransferSetting,
+)
 
 __all__: list[str] = []
 
+SUMMARY_SCHEMA = "ilpss.reference_summary/1"
+MAX_SUMMARY_BYTES = 64 * 2**20
+"""The largest summary file read (compressed)."""
+DIGITS = 4
+"""Rewards are kept to this many decimals in the summary (the drill pays -1, or 0.5 to 1
+along the goal line)."""
 
-def learning_md_rows(path: Path) -> dict[str, tuple[str, str]]:
+
+def learning_md_rows(path: Path | None) -> dict[str, tuple[str, str]]:
     """The tile-coded learner's ``(mean reward, success)`` cells by team, read from the
-    table of ``docs/learning.md`` (empty if the page is missing or has no such table)."""
-    try:
-        lines = path.read_text(encoding="utf-8").splitlines()
-    except OSError:
+    table of ``docs/learning.md`` (empty without a page)."""
+    if path is None:
         return {}
+    lines = path.read_text(encoding="utf-8").splitlines()
     out = {}
     for line in lines:
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
@@ -53,50 +86,335 @@ def learning_md_rows(path: Path) -> dict[str, tuple[str, str]]:
     return out
 
 
+# ----------------------------------------------------------------------------- summary
+def _r(rewards: Sequence[float]) -> list[float]:
+    return [round(float(x), DIGITS) for x in rewards]
+
+
+def _section_type(setting: Any) -> str:
+    if isinstance(setting, HolderSetting):
+        return "holder"
+    if isinstance(setting, TransferSetting):
+        return "transfer"
+    if isinstance(setting, SelfPlaySetting):
+        return "self_play"
+    return "defenders" if setting.side == "defenders" else "attackers"
+
+
+def _minutes(curve: list[list[Any]]) -> float:
+    return round(float(curve[-1][1]) / 60, 2)
+
+
+def _run(job: Job, result: dict[str, Any], kind: str) -> dict[str, Any]:
+    """One seed's numbers for the summary."""
+    if kind == "transfer":
+        w = job.setting.window
+        ft, an = result["fine_tuned"]["curve"], result["anew"]["curve"]
+        return {"seed": job.seed, "jumpstart": jumpstart(ft, an, w),
+                "total": total_reward(ft) - total_reward(an),
+                "final": asymptotic_performance(ft, w) - asymptotic_performance(an, w),
+                "fine_tuned": _r(result["fine_tuned"]["eval"]), "anew": _r(result["anew"]["eval"]),
+                "minutes": round(float(result["source_seconds"]) / 60, 2)}
+    run = {"seed": job.seed, "team": job.team, "steps": int(result["curve"][-1][0]),
+           "minutes": _minutes(result["curve"])}
+    for part in ("eval", "stochastic", "untrained_eval", "defence", "untrained_defence"):
+        if part in result:
+            run[part] = {k: _r(v) for k, v in result[part].items()}
+    if "crossplay" in result:
+        run["crossplay"] = result["crossplay"]
+    return run
+
+
+def summarise(jobs: Sequence[Job], results: Sequence[dict[str, Any]],
+              rules: Mapping[str, Mapping[str, list[float]]],
+              tile: Mapping[str, tuple[str, str]], ev: EvalSettings, paper_teams: Sequence[str],
+              ) -> dict[str, Any]:
+    """Every number the page's tables need, as plain JSON: per setting its budget and
+    every seed's evaluation rewards; per team the best fixed rule (by mean reward) and
+    its rewards on the same episodes; the tile-coded learner's cells."""
+    best = {}
+    for team, by_rule in rules.items():
+        name = max(by_rule, key=lambda n: (np.mean(by_rule[n]), n))
+        best[team] = {"rule": name, "rewards": _r(by_rule[name])}
+    sections = []
+    for name in dict.fromkeys(j.name for j in jobs):
+        mine = [(j, r) for j, r in zip(jobs, results, strict=True) if j.name == name]
+        setting = mine[0][0].setting
+        kind = _section_type(setting)
+        section = {"name": name, "type": kind, "runs": [_run(j, r, kind) for j, r in mine]}
+        if kind == "transfer":
+            section.update(sources=list(mine[0][0].teams), target=mine[0][0].team,
+                           source_steps=setting.source_steps,
+                           target_episodes=setting.target_episodes, window=setting.window)
+        else:
+            section["budget"] = setting.ppo.steps
+        if kind in ("defenders", "self_play"):
+            section["attacks"] = list(mine[0][0].attacks)
+        if kind == "self_play":
+            section["crossplay_episodes"] = setting.crossplay_episodes
+        sections.append(section)
+    return {"evaluation": {"episodes": ev.episodes, "learned_fraction": ev.learned_fraction},
+            "paper_teams": list(paper_teams), "rules": best,
+            "tile": {t: list(v) for t, v in tile.items()}, "sections": sections}
+
+
+def save_summary(summary: dict[str, Any], path: Path) -> None:
+    """Write ``summary`` as a gzip-compressed JSON record (schema, SHA-256), atomically."""
+    record = json_record_bytes({"schema": SUMMARY_SCHEMA, "summary": summary})
+    atomic_write_bytes(path, gzip.compress(record, mtime=0))
+
+
+def load_summary(path: Path) -> dict[str, Any]:
+    """The summary saved by :func:`save_summary`; ``ValueError`` naming the file if it is
+    not one (not gzip, not JSON, another schema, or changed after it was saved)."""
+    where = str(path)
+    try:
+        record = json.loads(gzip.decompress(read_regular(path, MAX_SUMMARY_BYTES, "a summary")))
+    except (OSError, EOFError, ValueError) as exc:
+        raise ValueError(f"{where}: not a gzip-compressed JSON summary ({exc})") from None
+    if not isinstance(record, dict) or record.get("schema") != SUMMARY_SCHEMA:
+        raise ValueError(f"{where}: not a summary of schema {SUMMARY_SCHEMA!r}")
+    digest = record.pop("sha256", None)
+    if digest != hashlib.sha256(canonical_json(record).encode()).hexdigest():
+        raise ValueError(f"{where}: content checksum mismatch (sha256); the summary was "
+                         "modified after saving")
+    return record["summary"]
+
+
+# ----------------------------------------------------------------------------- statistics
+def _pct(x: float) -> str:
+    return f"{x:.1%}"
+
+
 def _ci(m: float, lo: float, hi: float, pct: bool = False, digits: int = 3) -> str:
-    if any(math.isnan(x) for x in (m, lo, hi)):
-        return f"{m:.1%}" if pct else f"{m:+.{digits}f}"
     if pct:
-        return f"{m:.1%} [{lo:.1%}, {hi:.1%}]"
+        return f"{m:+.1%} [{lo:+.1%}, {hi:+.1%}]" if m < 0 or lo < 0 else \
+            f"{m:.1%} [{lo:.1%}, {hi:.1%}]"
     return f"{m:+.{digits}f} [{lo:+.{digits}f}, {hi:+.{digits}f}]"
 
 
-def _over_seeds(values: Sequence[float], pct: bool = False,
-                within: tuple[float, float] = (-math.inf, math.inf), digits: int = 3) -> str:
-    """The mean over seeds with its 95% t interval, the interval cut to ``within`` (what
-    the values can be: a seed that learned and one that did not make a wide interval)."""
+def _signed_pct(m: float, lo: float, hi: float) -> str:
+    return f"{100 * m:+.1f} [{100 * lo:+.1f}, {100 * hi:+.1f}] points"
+
+
+def _over(values: Sequence[float], pct: bool = False, digits: int = 3) -> str:
+    """The mean of ``values`` with its 95% t interval (the mean alone for one value)."""
     v = np.asarray(values, float)
-    if v.size < 2:
-        return _ci(float(v.mean()), math.nan, math.nan, pct, digits)
+    if v.size < 2 or np.ptp(v) == 0:
+        return _pct(float(v.mean())) if pct else f"{float(v.mean()):+.{digits}f}"
     m, lo, hi = (float(x) for x in t_interval(v))
-    return _ci(m, max(lo, within[0]), min(hi, within[1]), pct, digits)
+    return _ci(m, lo, hi, pct, digits)
 
 
-def _over_episodes(rewards: Sequence[float], within: tuple[float, float]) -> str:
-    """The mean reward over episodes with its 95% t interval, cut to ``within``."""
-    m, lo, hi = (float(x) for x in t_interval(np.asarray(rewards, float)))
-    return _ci(m, max(lo, within[0]), min(hi, within[1]))
+def _success(rewards: Sequence[float]) -> float:
+    return float((np.asarray(rewards) > 0).mean())
 
 
-SHARE = (0.0, 1.0)
-"""The range of a success rate."""
-
-
-def _reward_range(job: Job) -> tuple[float, float]:
-    """The range of an episode's reward in ``job``: the drill's [-1, 1], lower where the
-    holder's reward option makes a timeout cost more."""
-    holder = getattr(job.setting, "holder", job.setting)
-    option = getattr(holder, "reward", None)
-    low = min(-1.0, option.timeout_reward) if option is not None and option.active else -1.0
-    return low, 1.0
-
-
-def _success(rewards: Sequence[float]) -> tuple[float, str]:
+def _wilson(rewards: Sequence[float]) -> str:
     wins = int((np.asarray(rewards) > 0).sum())
     lo, hi = wilson_interval(wins, len(rewards))
-    return wins / len(rewards), _ci(wins / len(rewards), lo, hi, pct=True)
+    return f"{wins / len(rewards):.1%} [{lo:.1%}, {hi:.1%}]"
 
 
+def _median_range(values: Sequence[float]) -> str:
+    v = np.asarray(values, float)
+    return f"{np.median(v):.1%} [{v.min():.1%}, {v.max():.1%}]"
+
+
+def _paired(learnt: np.ndarray, rule: np.ndarray, success: bool) -> tuple[float, float, float]:
+    """The seeds' mean minus the rule on each episode (success or reward), its mean and
+    95% t interval over the episodes."""
+    if success:
+        learnt, rule = (learnt > 0).astype(float), (rule > 0).astype(float)
+    diff = learnt.mean(axis=0) - rule
+    if np.ptp(diff) == 0:
+        return float(diff.mean()), float(diff.mean()), float(diff.mean())
+    m, lo, hi = (float(x) for x in t_interval(diff))
+    return m, lo, hi
+
+
+def _counted(k: int, n: int) -> str:
+    return f"**{k} of {n}**" if k == n else f"{k} of {n}"
+
+
+# ----------------------------------------------------------------------------- tables
+def _attackers_table(section: dict[str, Any], summary: dict[str, Any]) -> list[str]:
+    """Learned counts, greedy and stochastic success, and the paired differences against
+    the best fixed rule, team by team."""
+    frac = summary["evaluation"]["learned_fraction"]
+    rules, tile = summary["rules"], summary["tile"]
+    lines = [f"| team | seeds learned (greedy >= {frac:g} x rule) | greedy success, median "
+             "[min, max] over seeds | greedy success, mean [95% t over seeds] | stochastic "
+             "success, mean | best fixed rule: success [Wilson] | success minus the rule, "
+             "paired by episode [95% t] | reward minus the rule, paired by episode [95% t] "
+             "| tile-coded SMDP: success |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    teams = list(dict.fromkeys(r["team"] for r in section["runs"]))
+    for team in teams:
+        runs = [r for r in section["runs"] if r["team"] == team]
+        greedy = np.array([r["eval"][team] for r in runs], float)
+        succ = [_success(g) for g in greedy]
+        stoch = ([_success(r["stochastic"][team]) for r in runs]
+                 if all("stochastic" in r for r in runs) else None)
+        rule = rules.get(team)
+        if rule is None:
+            count = paired_s = paired_r = rule_cell = "n/a"
+        else:
+            rr = np.asarray(rule["rewards"], float)
+            target = frac * _success(rr)
+            count = _counted(sum(s >= target for s in succ), len(runs))
+            rule_cell = f"{rule['rule']}: {_wilson(rr)}"
+            paired_s = _signed_pct(*_paired(greedy, rr, True))
+            paired_r = _ci(*_paired(greedy, rr, False))
+        lines.append(f"| {team} | {count} | {_median_range(succ)} | {_over(succ, True)} | "
+                     f"{_over(stoch, True) if stoch else 'n/a'} | {rule_cell} | {paired_s} | "
+                     f"{paired_r} | {tile.get(team, ['n/a', 'n/a'])[1]} |")
+    return lines
+
+
+def _seed_table(section: dict[str, Any]) -> list[str]:
+    lines = ["| team | seed | greedy success [Wilson] | greedy mean reward | stochastic success "
+             "| steps | training minutes |", "|---|---|---|---|---|---|---|"]
+    for r in section["runs"]:
+        g = r["eval"][r["team"]]
+        st = _wilson(r["stochastic"][r["team"]]) if "stochastic" in r else "n/a"
+        lines.append(f"| {r['team']} | {r['seed']} | {_wilson(g)} | {np.mean(g):+.3f} | {st} | "
+                     f"{r['steps']} | {r['minutes']:.1f} |")
+    return lines
+
+
+def _allowed(summary: dict[str, Any]) -> tuple[float, str]:
+    """The least that the best fixed rule scores against a paper team, and that team."""
+    found = [(_success(summary["rules"][t]["rewards"]), t) for t in summary["paper_teams"]
+             if t in summary["rules"]]
+    return min(found) if found else (math.nan, "n/a")
+
+
+def _best_attack(defence: Mapping[str, list[float]]) -> tuple[float, str]:
+    return max((_success(v), a) for a, v in defence.items())
+
+
+def _defenders_table(section: dict[str, Any], summary: dict[str, Any], part: str = "eval",
+                     untrained: str | None = None) -> list[str]:
+    """Per seed: the best scripted attack's success against the learnt defenders (and
+    against the same networks untrained, for self-play), and how many seeds hold it below
+    what the paper's teams allow."""
+    allowed, team = _allowed(summary)
+    runs = section["runs"]
+    best = [_best_attack(r[part]) for r in runs]
+    held = sum(s < allowed for s, _ in best)
+    attacks = section["attacks"]
+    lines = [f"The paper's teams allow the best fixed rule at least {_pct(allowed)} success "
+             f"(against `{team}`); a seed *holds* when the best of the {len(attacks)} "
+             f"scripted attacks scores less against its greedy defenders: "
+             f"{_counted(held, len(runs))} seeds hold.", "",
+             "| attack | success against the defenders, mean [95% t over seeds] | median [min, "
+             "max] | stochastic defenders |" if part == "eval" and "stochastic" in runs[0] else
+             "| attack | success against the defenders, mean [95% t over seeds] | median [min, "
+             "max] | untrained |",
+             "|---|---|---|---|"]
+    for attack in attacks:
+        succ = [_success(r[part][attack]) for r in runs]
+        if untrained is not None:
+            other = _over([_success(r[untrained][attack]) for r in runs], True)
+        elif "stochastic" in runs[0]:
+            other = _over([_success(r["stochastic"][attack]) for r in runs], True)
+        else:
+            other = "n/a"
+        lines.append(f"| {attack} | {_over(succ, True)} | {_median_range(succ)} | {other} |")
+    lines += ["", "| seed | best attack against the defenders | its success | "
+              + ("untrained: best attack's success | " if untrained else "")
+              + "held |", "|---|---|---|" + ("---|" if untrained else "") + "---|"]
+    for r, (s, a) in zip(runs, best, strict=True):
+        cells = f"| {r['seed']} | {a} | {_pct(s)} | "
+        if untrained:
+            cells += f"{_pct(_best_attack(r[untrained])[0])} | "
+        lines.append(cells + ("yes" if s < allowed else "no") + " |")
+    return lines
+
+
+def _self_play_tables(section: dict[str, Any], summary: dict[str, Any]) -> list[str]:
+    runs = section["runs"]
+    teams = [t for t in runs[0]["eval"] if t != SELF_PLAY]
+    lines = ["Its attackers against the scripted teams (greedy), beside the same networks "
+             "untrained; *better* counts the seeds whose trained attackers score more than "
+             "their untrained ones.", "",
+             "| team | trained: success, mean [95% t] | untrained | better in | best fixed rule |",
+             "|---|---|---|---|---|"]
+    for team in [*teams, SELF_PLAY]:
+        trained = [_success(r["eval"][team]) for r in runs]
+        before = [_success(r["untrained_eval"][team]) for r in runs]
+        better = sum(a > b for a, b in zip(trained, before, strict=True))
+        rule = summary["rules"].get(team)
+        label = "its own defenders" if team == SELF_PLAY else team
+        lines.append(f"| {label} | {_over(trained, True)} | {_over(before, True)} | "
+                     f"{_counted(better, len(runs))} seeds | "
+                     f"{rule['rule'] + ': ' + _wilson(rule['rewards']) if rule else 'n/a'} |")
+    lines += ["", "Its defenders against the scripted attacks (greedy), beside the same "
+              "networks untrained:", ""]
+    lines += _defenders_table(section, summary, "defence", "untrained_defence")
+    k = len(runs[0]["crossplay"])
+    m = np.mean([np.asarray(r["crossplay"], float) for r in runs], axis=0)
+    lines += ["", f"Cross-play: the attackers' success (mean over seeds) with the attackers "
+              f"of checkpoint *i* (rows) against the defenders of checkpoint *j* (columns); "
+              f"checkpoint 0 is untrained, {k - 1} the trained networks.", "",
+              "| attackers \\ defenders | " + " | ".join(str(j) for j in range(k)) + " |",
+              "|---|" + "---|" * k]
+    n = section["crossplay_episodes"]
+    for i in range(k):
+        lines.append(f"| {i} | " + " | ".join(_pct(m[i, j] / n) for j in range(k)) + " |")
+    return lines
+
+
+def _transfer_table(section: dict[str, Any]) -> list[str]:
+    runs = section["runs"]
+    w = section["window"]
+    return [
+        f"Sources {', '.join(f'`{t}`' for t in section['sources'])} in order "
+        f"({section['source_steps']:,} decisions each), then the held-out `{section['target']}` "
+        f"for {section['target_episodes']:,} episodes; fine-tuned from the sources' policy (and "
+        "its observation statistics) against learning anew, paired by seed. Jumpstart: first "
+        f"{w} episodes; final: last {w}; total: over the {section['target_episodes']:,} "
+        f"episodes. {len(runs)} training seeds.", "",
+        "| target | seeds | jumpstart [95% t] | total reward gain [95% t] | final gain [95% t] "
+        "| greedy success, fine-tuned [95% t] | greedy success, anew |",
+        "|---|---|---|---|---|---|---|",
+        f"| {section['target']} | {len(runs)} | {_over([r['jumpstart'] for r in runs])} | "
+        f"{_over([r['total'] for r in runs], digits=1)} | {_over([r['final'] for r in runs])} | "
+        f"{_over([_success(r['fine_tuned']) for r in runs], True)} | "
+        f"{_over([_success(r['anew']) for r in runs], True)} |"]
+
+
+def _budget_line(section: dict[str, Any]) -> str:
+    runs = section["runs"]
+    seeds = sorted({r["seed"] for r in runs})
+    minutes = [r["minutes"] for r in runs]
+    unit = "decisions" if section["type"] == "holder" else "environment steps"
+    return (f"Budget: {section['budget']:,} {unit} per training seed; {len(seeds)} training "
+            f"seeds ({seeds[0]} to {seeds[-1]}); training minutes per seed, median "
+            f"{np.median(minutes):.1f} [{min(minutes):.1f}, {max(minutes):.1f}] on one core.")
+
+
+def tables(summary: dict[str, Any]) -> dict[str, list[str]]:
+    """Each section's tables, by setting name: a function of the summary alone."""
+    out = {}
+    for section in summary["sections"]:
+        kind = section["type"]
+        if kind == "transfer":
+            out[section["name"]] = _transfer_table(section)
+            continue
+        lines = [_budget_line(section), ""]
+        if kind in ("holder", "attackers"):
+            lines += [*_attackers_table(section, summary), "", *_seed_table(section)]
+        elif kind == "defenders":
+            lines += _defenders_table(section, summary)
+        else:
+            lines += _self_play_tables(section, summary)
+        out[section["name"]] = lines
+    return out
+
+
+# ----------------------------------------------------------------------------- figures
 def _figure(name: str, by_team: Mapping[str, list[list[list[float]]]], path: Path) -> None:
     """Success rate per rollout against environment steps and wall time, a thin line per
     seed and the mean over seeds in bold, one colour per team."""
@@ -104,86 +422,25 @@ def _figure(name: str, by_team: Mapping[str, list[list[list[float]]]], path: Pat
     FigureCanvasAgg(fig)
     axes = fig.subplots(1, 2, sharey=True)
     for k, (team, curves) in enumerate(by_team.items()):
-        colour = f"C{k}"
+        colour = f"C{k % 10}"
         for curve in curves:
             c = np.asarray(curve, float)
             axes[0].plot(c[:, 0], c[:, 3], color=colour, lw=0.5, alpha=0.4)
             axes[1].plot(c[:, 1] / 60, c[:, 3], color=colour, lw=0.5, alpha=0.4)
         n = min(len(c) for c in curves)
         rates = np.array([np.asarray(c, float)[:n, 3] for c in curves])
-        seen = np.isfinite(rates).sum(axis=0)  # the seeds with an episode in that rollout
+        seen = np.isfinite(rates).sum(axis=0)
         mean = np.where(seen > 0, np.nansum(rates, axis=0) / np.maximum(seen, 1), np.nan)
         steps = np.asarray(curves[0], float)[:n, 0]
         minutes = np.mean([np.asarray(c, float)[:n, 1] for c in curves], axis=0) / 60
         axes[0].plot(steps, mean, color=colour, lw=2, label=team)
         axes[1].plot(minutes, mean, color=colour, lw=2)
-    axes[0].set(xlabel="environment steps", ylabel="training success rate", ylim=(-0.02, 1.02),
-                title=f"{name}: against steps")
+    axes[0].set(xlabel="environment steps", ylabel="training success rate (attackers)",
+                ylim=(-0.02, 1.02), title=f"{name}: against steps")
     axes[1].set(xlabel="wall time (minutes, one core per seed)", title=f"{name}: against time")
     axes[0].legend(fontsize=8)
     fig.tight_layout()
     save_figure(fig, path, dpi=110)
-
-
-def _budget(job: Job, seeds: int) -> str:
-    """The section's budget and seeds, as its settings record them."""
-    s = job.setting
-    unit = "decisions" if isinstance(s, HolderSetting) else "environment steps"
-    return (f"Budget: {s.ppo.steps:,} {unit} per training seed; {seeds} training seeds "
-            f"(0 to {seeds - 1}); evaluation on the held-out episode seeds.")
-
-
-def _unlearned(learned: Mapping[str, tuple[int, int]]) -> str:
-    """Where a seed failed to learn in the budget, said with the counts."""
-    failed = {t: (k, n) for t, (k, n) in learned.items() if k < n}
-    if not learned:
-        return "No fixed rule on these teams: no seed is counted as learned or not."
-    if not failed:
-        return "Every training seed learned against every team in the budget."
-    return ("Not learned in the budget: " + "; ".join(
-        f"`{t}` in {n - k} of {n} seeds" for t, (k, n) in failed.items())
-        + " (the thin lines of the figure are the seeds' curves).")
-
-
-def _section(name: str, jobs: list[Job], results: list[dict[str, Any]],
-             rules: Mapping[str, Mapping[str, list[float]]], tile: Mapping[str, tuple[str, str]],
-             ev: EvalSettings, figure: str) -> list[str]:
-    teams = list(dict.fromkeys(t for r in results for t in r["eval"]))
-    seeds = len({j.seed for j in jobs})
-    learned_by_team: dict[str, tuple[int, int]] = {}
-    lines = [f"## `{name}`", "", _budget(jobs[0], seeds), "", f"![{name}]({figure})", "",
-             "| team | seeds learned | greedy success, mean over seeds [95% t, within "
-             "0-100%] | greedy mean reward [95% t, within the reward's range] | best fixed "
-             "rule: success [Wilson] | rule: mean reward [95% t] | tile-coded SMDP "
-             "(docs/learning.md): reward | success |",
-             "|---|---|---|---|---|---|---|---|"]
-    detail = ["", "| team | seed | success [95% Wilson] | mean reward [95% t] | steps | "
-              "training minutes |", "|---|---|---|---|---|---|"]
-    for team in teams:
-        rows = [(j, r) for j, r in zip(jobs, results, strict=True) if team in r["eval"]]
-        succ = [_success(r["eval"][team])[0] for _, r in rows]
-        mean = [float(np.mean(r["eval"][team])) for _, r in rows]
-        best = rule_cells = None
-        if rules.get(team):
-            best = max(rules[team], key=lambda n: np.mean(rules[team][n]))
-            rule_success, rule_cells = _success(rules[team][best])
-            learned = sum(s >= ev.learned_fraction * rule_success for s in succ)
-            learned_by_team[team] = (learned, len(rows))
-            rule_reward = _over_episodes(rules[team][best], (-1.0, 1.0))
-        else:
-            learned = None
-        tr, ts = tile.get(team, ("n/a", "n/a"))
-        count = "n/a" if learned is None else f"{learned} of {len(rows)}"
-        lines.append(f"| {team} | {count} | {_over_seeds(succ, True, SHARE)} | "
-                     f"{_over_seeds(mean, within=_reward_range(rows[0][0]))} | "
-                     + (f"{best}: {rule_cells} | {rule_reward}" if best else "n/a | n/a")
-                     + f" | {tr} | {ts} |")
-        for j, r in rows:
-            last = r["curve"][-1]
-            reward = _over_episodes(r["eval"][team], _reward_range(j))
-            detail.append(f"| {team} | {j.seed} | {_success(r['eval'][team])[1]} | {reward} | "
-                          f"{int(last[0])} | {last[1] / 60:.1f} |")
-    return [*lines, "", _unlearned(learned_by_team), *detail, ""]
 
 
 def _transfer_figure(job_results: list[tuple[Job, dict[str, Any]]], window: int,
@@ -208,53 +465,39 @@ def _transfer_figure(job_results: list[tuple[Job, dict[str, Any]]], window: int,
     save_figure(fig, path, dpi=110)
 
 
-def _transfer(job_results: list[tuple[Job, dict[str, Any]]], setting: TransferSetting,
-              figure: str) -> list[str]:
-    w = setting.window
-    js, tot, fin, fa, aa = [], [], [], [], []
-    for _, r in job_results:
-        ft, an = r["fine_tuned"]["curve"], r["anew"]["curve"]
-        js.append(jumpstart(ft, an, w))
-        tot.append(total_reward(ft) - total_reward(an))
-        fin.append(asymptotic_performance(ft, w) - asymptotic_performance(an, w))
-        fa.append(_success(r["fine_tuned"]["eval"])[0])
-        aa.append(_success(r["anew"]["eval"])[0])
-    job = job_results[0][0]
-    return [
-        "## `transfer`", "",
-        f"Sources {', '.join(f'`{t}`' for t in job.teams)} in order "
-        f"({setting.source_steps:,} decisions each), then the held-out `{job.team}` for "
-        f"{setting.target_episodes:,} episodes; fine-tuned from the sources' policy (and its "
-        "observation statistics) against learning anew, paired by seed. Jumpstart: first "
-        f"{w} episodes; final: last {w}; total: over the {setting.target_episodes:,} episodes. "
-        f"{len(js)} training seeds (0 to {len(js) - 1}).",
-        "", f"![transfer]({figure})", "",
-        "| target | seeds | jumpstart [95% t] | total reward gain [95% t] | final gain [95% t] "
-        "| greedy success, fine-tuned [95% t, within 0-100%] | greedy success, anew |",
-        "|---|---|---|---|---|---|---|",
-        f"| {job.team} | {len(js)} | {_over_seeds(js)} | {_over_seeds(tot, digits=1)} | "
-        f"{_over_seeds(fin)} | {_over_seeds(fa, True, SHARE)} | "
-        f"{_over_seeds(aa, True, SHARE)} |", ""]
+# ----------------------------------------------------------------------------- page
+_INTROS = {
+    "holder": "The holder (SB3's learner on `soccer_drill/Holder-v0`, one decision per "
+              "holder option) against each team.",
+    "attackers": "The two attackers of the parallel drill, one shared policy, against each "
+                 "scripted team; greedy and stochastic (sampled) evaluation.",
+    "defenders": "The two defenders of the parallel drill, one shared policy, trained against "
+                 "scripted attacks (the fixed holder rules playing both attackers).",
+    "self_play": "Both sides learn together against a pool of their past checkpoints "
+                 "(fictitious self-play).",
+    "transfer": "",
+}
 
 
 def write_page(command: str, code: str, took: str, jobs: list[Job],
-               results: list[dict[str, Any]], rules: Mapping[str, Mapping[str, list[float]]],
-               tile: Mapping[str, tuple[str, str]], ev: EvalSettings, figures: Path,
+               results: list[dict[str, Any]], summary: dict[str, Any], figures: Path,
                page: Path) -> str:
-    """The page's markdown, its figures saved into ``figures`` (linked relative to
-    ``page``)."""
+    """The page's markdown (its tables from ``summary``), its figures saved into
+    ``figures`` (linked relative to ``page``)."""
+    ev = summary["evaluation"]
     lines = [
         "# Reference deep-RL results for the drill", "",
         f"Command: `{command}` ({took}).", "", code, "",
-        f"Evaluation: the greedy policy of each training seed on {ev.episodes} held-out "
-        "episode seeds (the same for every seed, setting and fixed rule). A seed *learned* "
-        f"when its greedy success is at least {ev.learned_fraction:g} times the best fixed "
-        f"rule's on the same episodes. Self-play's `{SELF_PLAY}` row: its attackers against "
-        "its own defenders. Curves: training success per rollout (the drill's reward, "
-        "before any reward option). Settings: `ilpss/reference/settings.py`, recorded whole "
-        "in every kept result.", ""]
-    names = list(dict.fromkeys(j.name for j in jobs))
-    for name in names:
+        f"Evaluation: each training seed's policy on {ev['episodes']} held-out episode seeds "
+        "(the same for every seed, setting and fixed rule), greedy unless said. A seed "
+        f"*learned* when its greedy success is at least {ev['learned_fraction']:g} times the "
+        "best fixed rule's on the same episodes (the best rule by mean reward). Differences "
+        "against the rule are paired by episode. Curves: training success per rollout (the "
+        "drill's reward, before any reward option). Settings: `ilpss/reference/settings.py`, "
+        "recorded whole in every kept result. The per-seed numbers behind every table are in "
+        "the summary file beside this page (`load_summary`, `tables`).", ""]
+    by_name = tables(summary)
+    for name in dict.fromkeys(j.name for j in jobs):
         mine = [(j, r) for j, r in zip(jobs, results, strict=True) if j.name == name]
         path = figures / f"reference_{name}.png"
         try:
@@ -262,13 +505,36 @@ def write_page(command: str, code: str, took: str, jobs: list[Job],
         except ValueError:
             link = path.resolve().as_posix()
         setting = mine[0][0].setting
+        kind = _section_type(setting)
         if isinstance(setting, TransferSetting):
             _transfer_figure(mine, setting.window, path)
-            lines += _transfer(mine, setting, link)
-            continue
-        by_team: dict[str, list] = {}
-        for j, r in mine:
-            by_team.setdefault(j.team or SELF_PLAY, []).append(r["curve"])
-        _figure(name, by_team, path)
-        lines += _section(name, [j for j, _ in mine], [r for _, r in mine], rules, tile, ev, link)
+        else:
+            by_team: dict[str, list] = {}
+            for j, r in mine:
+                by_team.setdefault(j.team or SELF_PLAY, []).append(r["curve"])
+            _figure(name, by_team, path)
+        lines += [f"## `{name}`", "", _INTROS[kind] + _described(setting), "",
+                  f"![{name}]({link})", "", *by_name[name], ""]
     return "\n".join(lines) + "\n"
+
+
+def _described(setting: Any) -> str:
+    if isinstance(setting, SelfPlaySetting):
+        setting = setting.marl
+    if not isinstance(setting, MarlSetting):
+        return ""
+    critic = "MAPPO (critic on `state()`)" if setting.critic == "state" else \
+        "IPPO (critic on the player's observation)"
+    option = (f", reward option `shaping={setting.shaping:g}`" if setting.shaping
+              else ", the drill's reward")
+    return (f" {critic}, `obs_type={setting.obs_type!r}`, mask as input: "
+            f"{setting.mask_input}, value normalisation: {setting.value_norm}{option}.")
+
+
+def check_summary_tables(summary: dict[str, Any], page_text: str) -> list[str]:
+    """The lines of ``tables(summary)`` missing from ``page_text`` (none: the page's tables
+    are the summary's)."""
+    have = set(page_text.splitlines())
+    return [line for lines in tables(summary).values() for line in lines
+            if line and line not in have]
+

@@ -131,12 +131,15 @@ class BatchCore:
         Drills sharing one pymunk space; ``None``: the single environments' one drill, in
         a space of its own with the ball a body too (:class:`DrillSpace`), whose errors
         name no drill.
+    attack
+        A scripted attack (:mod:`soccer_drill.vector.attack`), seeded at each reset with
+        the seeds a team would get (there is no team then); ``None``: none.
 
     Seeding: drill ``i`` has its own generator, the stream that a single environment's
     ``reset(seed=s_i)`` starts (``np.random.default_rng(s_i)``); at each of its episode's
     starts it draws the start (:meth:`BatchDrill.reset`), then the seeds of its support
-    player's and its team's own generators, so that their draws never shift the physics
-    noise.
+    player's and its team's (or attack's) own generators, so that their draws never shift
+    the physics noise.
     """
 
     def __init__(
@@ -148,6 +151,7 @@ class BatchCore:
         team_timeout: float | None,
         support: bool,
         drills_per_space: int | None = DRILLS_PER_SPACE,
+        attack: Any = None,
     ) -> None:
         team_timeout = check_team_timeout(team_timeout)  # checked even without a team
         single = drills_per_space is None
@@ -162,6 +166,7 @@ class BatchCore:
         else:
             self.team = TeamDriver(opponent, opponent_params, self.batch, team_timeout, single)
         self.support = SupportDraws(n) if support else None
+        self.attack = attack
         self.every = np.arange(n)
         self.every.flags.writeable = False
         self.interrupted: str | None = None
@@ -226,6 +231,8 @@ class BatchCore:
             self.support.seed(drills, list(support_seeds))
         if self.team is not None:
             self.team.reset(drills, list(team_seeds))
+        if self.attack is not None:
+            self.attack.reset(drills, list(team_seeds))
 
     def support_commands(self, supporting: np.ndarray) -> None:
         """The support behaviour's commands for attacker ``k`` in the drills where

@@ -1,4 +1,5 @@
-"""Observations: the paper's 9 features and a richer egocentric kinematic vector.
+"""Observations: the paper's 9 features, a richer egocentric kinematic vector, and the
+full observation (both, and the time left) for multi-agent learners.
 
 The 9 features are keepaway-style distances and angles seen from one player
 ("self"), its teammate ("mate") and its two opponents. For the ball holder they
@@ -185,6 +186,37 @@ def _kinematics_of_drills(out, state, rows, players, params, low, high):
         kinematics_into(out[r], state[rows[r]], players[r], low, high)
 
 
+FULL_SIZE = KINEMATIC_SIZE + 9 + 1
+"""Length of the full observation (:func:`full_into`)."""
+
+
+def full_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of the full observation: the kinematic bounds, the 9 features', then [0, 1]."""
+    (klo, khi), (flo, fhi) = kinematic_bounds(cfg), feature_bounds(cfg)
+    low = np.concatenate((klo, flo, [0.0])).astype(np.float32)
+    high = np.concatenate((khi, fhi, [1.0])).astype(np.float32)
+    return low, high
+
+
+@compiled
+def full_into(out, state, player, half_size, max_cycles, low, high):
+    """The full observation of ``player`` in one drill (36 values) into ``out``: the
+    kinematic observation (26: self, mate, opponents and ball, possession flags, role,
+    :func:`kinematics_into`), the paper's 9 features (passing and dribbling lanes,
+    :func:`features_into`), then the time left, ``1 - cycle / max_cycles``."""
+    k = KINEMATIC_SIZE
+    kinematics_into(out[:k], state, player, low[:k], high[:k])
+    features_into(out[k:k + 9], state.pos, player, half_size, low[k:k + 9], high[k:k + 9])
+    _clip_into(out, k + 9, 1.0 - state.cycle / max_cycles, low, high)
+
+
+@compiled
+def _full_of_drills(out, state, rows, players, params, low, high):
+    half_size, max_cycles = params[0].field_size / 2, params[0].max_cycles
+    for r in range(rows.shape[0]):
+        full_into(out[r], state[rows[r]], players[r], half_size, max_cycles, low, high)
+
+
 STATE_SIZE = 29
 """Length of the global state vector (:func:`global_state_into`)."""
 
@@ -280,6 +312,10 @@ OBSERVATION_TYPES: dict[str, ObservationType] = {
         KINEMATIC_SIZE, kinematic_bounds, _kinematics_of_drills,
         "26 egocentric values: positions and velocities relative to the player, "
         "possession flags"),
+    "full": ObservationType(
+        FULL_SIZE, full_bounds, _full_of_drills,
+        "36 values: the kinematic observation, the paper's 9 features, then the time left "
+        "(1 - cycle / max_cycles), for multi-agent learners"),
 }
 """Every kind of observation an environment's ``obs_type`` may name, by name."""
 GLOBAL_STATE = ObservationType(

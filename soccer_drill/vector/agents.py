@@ -43,6 +43,7 @@ from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.rules.features import GLOBAL_STATE
 from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
+from soccer_drill.vector.attack import HolderRuleAttack, ScriptedAttack, make_attack
 from soccer_drill.vector.memory import check_frames_fit, check_frames_memory, check_num_envs
 
 _OUTCOMES = np.array(OUTCOME_NAMES, dtype=object)
@@ -55,14 +56,16 @@ class ParallelVectorEnv(Pickled):
     game), batched: the same agents, actions, masks, observations, rewards and episode
     end, each a ``(num_envs, ...)`` array per agent. With ``opponent`` a team id the
     agents are the two attackers and the team drives the defenders (batched when it has
-    a batched ``act``: :mod:`soccer_drill.teams.kit`); with ``opponent=None`` all four
-    players are agents.
+    a batched ``act``: :mod:`soccer_drill.teams.kit`); with ``attack`` an attack id the
+    attackers are scripted (:mod:`soccer_drill.vector.attack`: the fixed holder rules
+    playing both attackers, as the holder environment plays them) and the agents are the
+    two defenders; with neither all four players are agents.
 
     ## Spaces (per agent; batched values add a leading ``num_envs`` axis)
 
     | agent | action space | actions | observation |
     |---|---|---|---|
-    | attacker | ``Discrete(5)`` | 0 HOLD, 1 PASS, 2 DRIBBLE (holder only), 3 GET_OPEN, 4 GO_TO_BALL (off the ball only) | ``Box(9,)`` features, or ``Box(26,)`` with ``obs_type="kinematic"`` |
+    | attacker | ``Discrete(5)`` | 0 HOLD, 1 PASS, 2 DRIBBLE (holder only), 3 GET_OPEN, 4 GO_TO_BALL (off the ball only) | ``Box(9,)`` features, ``Box(26,)`` with ``obs_type="kinematic"``, ``Box(36,)`` with ``"full"`` |
     | defender | ``Discrete(3)`` | 0 INTERCEPT, 1 MARK, 2 GUARD_LINE (always legal) | the same, from the defender's side |
     | defender, ``shared_spaces=True`` | ``Discrete(5)`` | 0-2 as above; 3 and 4 always masked | the same |
 
@@ -139,7 +142,7 @@ class ParallelVectorEnv(Pickled):
     | ``num_envs`` | ``1`` | number of drills |
     | ``opponent`` | ``None`` | team id, ``Team`` instance, or ``None`` (the defenders are agents) |
     | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
-    | ``obs_type`` | ``"features"`` | as ``parallel_env``'s: ``"features"`` or ``"kinematic"`` |
+    | ``obs_type`` | ``"features"`` | as ``parallel_env``'s: ``"features"``, ``"kinematic"`` or ``"full"`` |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``illegal_action`` | ``"default"`` | ``"default"`` or ``"raise"`` |
@@ -147,6 +150,7 @@ class ParallelVectorEnv(Pickled):
     | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
     | ``shared_spaces`` | ``None`` | as ``parallel_env``'s: ``None`` is ``True`` with no opponent (every agent has the same action and observation spaces), ``False`` with one; ``False``: per-role spaces |
     | ``render_mode`` | ``None`` | ``None`` or ``"rgb_array"`` (see Calls) |
+    | ``attack`` | ``None`` | an attack id of :data:`~soccer_drill.vector.attack.ATTACKS` (or an attack object): scripted attackers, the defenders as agents; not with ``opponent`` |
     """
 
     metadata: ClassVar[dict] = {"render_modes": ["rgb_array"], "name": "soccer_drill_vector_v0"}
@@ -164,10 +168,16 @@ class ParallelVectorEnv(Pickled):
         drills_per_space: int = DRILLS_PER_SPACE,
         shared_spaces: bool | None = None,
         render_mode: str | None = None,
+        attack: str | HolderRuleAttack | None = None,
     ) -> None:
         n = check_num_envs(num_envs)
         drills_per_space = checked("drills_per_space", drills_per_space, Integer(1))
-        shared_spaces = resolve_shared_spaces(shared_spaces, opponent)
+        if attack is not None and opponent is not None:
+            raise ValueError("give a scripted attack or a scripted opponent team, not both: "
+                             f"got attack={attack!r} and opponent={opponent!r}")
+        attack = None if attack is None else make_attack(attack)
+        shared_spaces = resolve_shared_spaces(
+            shared_spaces, opponent if attack is None else attack)
         self.render_mode = check_render_mode(render_mode, type(self).__name__)
         self.illegal_action = checked("illegal_action", illegal_action, ILLEGAL_ACTION)
         self.config = make_config(config, max_cycles)
@@ -176,9 +186,11 @@ class ParallelVectorEnv(Pickled):
         if self.render_mode is not None:  # before any drill is built
             check_frames_fit(n, self.config)
         self._core = BatchCore(
-            n, opponent, opponent_params, self.config, team_timeout, False, drills_per_space
+            n, opponent, opponent_params, self.config, team_timeout, attack is not None,
+            drills_per_space, attack,
         )
-        indices = (0, 1) if opponent is not None else (0, 1, 2, 3)
+        self._attack = None if attack is None else ScriptedAttack(attack, self._core)
+        indices = (0, 1) if opponent is not None else (2, 3) if attack is not None else (0, 1, 2, 3)
         self.possible_agents = [PLAYER_NAMES[i] for i in indices]
         self.agents = list(self.possible_agents)
         self._index = {a: PLAYER_NAMES.index(a) for a in self.possible_agents}
@@ -249,7 +261,7 @@ class ParallelVectorEnv(Pickled):
 
         def reset() -> tuple[dict[str, Any], dict[str, Any]]:
             core.seed(seeds)
-            core.reset(core.every)
+            self._restart(core.every)
             self._autoreset[:] = False
             self._has_reset = True
             return self._observations(), self._infos({a: none() for a in self.agents},
@@ -352,8 +364,11 @@ class ParallelVectorEnv(Pickled):
         def step():
             resetting = np.nonzero(self._autoreset)[0]
             if len(resetting):
-                core.reset(resetting)
-            core.advance(stepping)
+                self._restart(resetting)
+            if self._attack is None:
+                core.advance(stepping)
+            else:
+                self._attack.cycle(stepping)
             ended = stepping & (b.outcome != Outcome.RUNNING)
             reward = np.where(ended, b.attacker_reward, 0.0)
             truncated = ended & (b.outcome == Outcome.TIMEOUT)
@@ -368,6 +383,13 @@ class ParallelVectorEnv(Pickled):
             )
 
         return core.changing("ParallelVectorEnv.step()", step)
+
+    def _restart(self, drills: np.ndarray) -> None:
+        """A new episode in ``drills`` (through the scripted attack's loop, if any)."""
+        if self._attack is None:
+            self._core.reset(drills)
+        else:
+            self._attack.restart(drills)
 
     def state(self) -> np.ndarray:
         """Every drill's global state: ``(num_envs, 29)`` float32 (see the class docstring)."""

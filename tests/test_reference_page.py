@@ -1,0 +1,71 @@
+"""The reference page's tables are a function of its per-seed summary: the shipped page is
+recomputed from the shipped summary alone, and the statistics say what was measured (the
+strict criterion, counts, differences paired by episode). No torch needed."""
+
+from __future__ import annotations
+
+import gzip
+from pathlib import Path
+
+import pytest
+
+from ilpss.reference.page import (
+    check_summary_tables,
+    load_summary,
+    save_summary,
+    tables,
+)
+
+DOCS = Path(__file__).resolve().parent.parent / "docs"
+PAGE = DOCS / "reference_rl_results.md"
+SUMMARY = DOCS / "reference_rl_results_seeds.json.gz"
+
+
+def test_the_shipped_page_is_recomputed_from_its_summary_alone():
+    summary = load_summary(SUMMARY)
+    missing = check_summary_tables(summary, PAGE.read_text(encoding="utf-8"))
+    assert not missing, missing[:5]
+    assert any(s["type"] == "attackers" for s in summary["sections"])
+
+
+def _summary(greedy: list[list[float]], rule: list[float]) -> dict:
+    runs = [{"seed": k, "team": "t", "steps": 100, "minutes": 1.0, "eval": {"t": g},
+             "stochastic": {"t": g}} for k, g in enumerate(greedy)]
+    return {"evaluation": {"episodes": len(rule), "learned_fraction": 0.9},
+            "paper_teams": ["t"], "rules": {"t": {"rule": "r", "rewards": rule}},
+            "tile": {}, "sections": [{"name": "mappo", "type": "attackers", "budget": 100,
+                                      "runs": runs}]}
+
+
+def test_learned_is_at_least_nine_tenths_of_the_rule_on_the_same_episodes():
+    rule = [1.0] * 8 + [-1.0] * 2  # 80%
+    at = [1.0] * 8 + [-1.0] * 2  # 80%: learned
+    edge = [1.0] * 7 + [-1.0] * 3  # 70% < 72%: not learned (half the rule's was enough before)
+    row = next(line for line in tables(_summary([at, edge], rule))["mappo"] if line.startswith("| t |"))
+    assert "| 1 of 2 |" in row
+
+
+def test_differences_are_paired_by_episode():
+    rule = [1.0, -1.0] * 10
+    better = [1.0] * 20  # wins every episode the rule wins, and the others
+    row = next(line for line in tables(_summary([better, better], rule))["mappo"]
+               if line.startswith("| t |"))
+    assert "+50.0 [+26.0, +74.0] points" in row  # 0 or 1 per episode, t over 20 episodes
+    swapped = [-1.0, 1.0] * 10  # the same success rate, on the other episodes
+    row = next(line for line in tables(_summary([swapped, swapped], rule))["mappo"]
+               if line.startswith("| t |"))
+    assert "+0.0 [-48.0, +48.0] points" in row  # unpaired, the rates would look equal
+
+
+def test_the_summary_is_saved_with_a_digest_and_refused_when_changed(tmp_path):
+    summary = _summary([[1.0, -1.0]], [1.0, 1.0])
+    save_summary(summary, tmp_path / "s.json.gz")
+    assert load_summary(tmp_path / "s.json.gz") == summary
+    raw = gzip.decompress((tmp_path / "s.json.gz").read_bytes()).replace(b'"minutes": 1.0',
+                                                                          b'"minutes": 2.0')
+    (tmp_path / "bad.json.gz").write_bytes(gzip.compress(raw))
+    with pytest.raises(ValueError, match="checksum"):
+        load_summary(tmp_path / "bad.json.gz")
+    (tmp_path / "plain.json.gz").write_bytes(raw)
+    with pytest.raises(ValueError, match="not a gzip-compressed JSON summary"):
+        load_summary(tmp_path / "plain.json.gz")

@@ -1,0 +1,137 @@
+"""Scripted attacks (``ParallelVectorEnv(attack=...)``): the fixed holder rules playing both
+attackers as the holder environment plays them, so that the defenders are the agents."""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import pickle
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+from soccer_drill.policies import HOLDER_POLICIES
+from soccer_drill.vector import ParallelVectorEnv
+from soccer_drill.vector.attack import ATTACKS, SCORING_RULES, HolderRuleAttack, attack_code
+
+
+def _batched(attack: str, n: int, seed: int, action: int = 0) -> np.ndarray:
+    """The attackers' reward in each drill, one episode each, the defenders always taking
+    ``action``."""
+    env = ParallelVectorEnv(n, attack=attack)
+    assert env.possible_agents == ["defender_0", "defender_1"]
+    env.reset(seed=seed)
+    out = np.full(n, np.nan)
+    while np.isnan(out).any():
+        _, rewards, term, trunc, _ = env.step({a: np.full(n, action) for a in env.agents})
+        done = (term["defender_0"] | trunc["defender_0"]) & np.isnan(out)
+        assert np.array_equal(rewards["defender_0"], rewards["defender_1"])
+        out[done] = -rewards["defender_0"][done]
+    return out
+
+
+@pytest.mark.parametrize("rule", ["late_pass", "shield_pass"])
+def test_a_scripted_attack_plays_the_holder_environment_episode_for_episode(rule):
+    # defenders that always INTERCEPT at full speed are the team `chasers`
+    n, seed = 30, 500
+    batched = _batched(rule, n, seed)
+    env = gym.make("soccer_drill/Holder-v0", opponent="chasers", disable_env_checker=True)
+    single = []
+    for i in range(n):
+        obs, _ = env.reset(seed=seed + i)
+        done = False
+        while not done:
+            obs, reward, term, trunc, _ = env.step(HOLDER_POLICIES[rule](obs, None))
+            done = term or trunc
+        single.append(reward)
+    np.testing.assert_allclose(batched, single, atol=1e-6)
+    assert 10 < (batched > 0).sum() < n  # the rule scores, but not always
+
+
+def test_mixed_rules_draws_a_rule_per_episode_from_the_drill_seed():
+    a, b = _batched("mixed_rules", 24, 7), _batched("mixed_rules", 24, 7)
+    np.testing.assert_array_equal(a, b)
+    attack = ATTACKS.get("mixed_rules")()
+    assert attack.rules == SCORING_RULES
+    attack.reset(np.arange(64), list(range(64)))
+    assert len(set(attack.rule.values())) > 3  # several rules are drawn
+
+
+def test_attacks_are_registered_like_teams_and_bad_ones_refused():
+    assert {*HOLDER_POLICIES, "mixed_rules"} <= set(ATTACKS.names())
+    assert attack_code("early_pass")["factory"] == "soccer_drill.vector.attack:early_pass"
+    assert len(attack_code("early_pass")["source_sha256"]) == 64
+    with pytest.raises(ValueError, match=r"registered: .*early_pass"):
+        ParallelVectorEnv(2, attack="no_such_attack")
+    with pytest.raises(ValueError, match="not both"):
+        ParallelVectorEnv(2, attack="early_pass", opponent="chasers")
+    with pytest.raises(ValueError, match="fixed holder rules"):
+        HolderRuleAttack(["no_such_rule"])
+    with pytest.raises(ValueError, match=r"reset\(drills, seeds\) and decide"):
+        ParallelVectorEnv(2, attack=object())
+
+
+class _Wrong:
+    """An attack whose holder decides an action the holder does not have."""
+
+    def reset(self, drills, seeds):
+        pass
+
+    def decide(self, drills, features):
+        return np.full(len(drills), 3)
+
+
+def test_an_attack_deciding_an_action_out_of_range_is_refused_naming_the_drill():
+    env = ParallelVectorEnv(2, attack=_Wrong())
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"drill 0: attack .* decided 3; action must be"):
+        env.step({a: np.zeros(2, dtype=np.int64) for a in env.agents})
+
+
+# SHA-256 (first 16 hex digits) of 300 steps of 8 drills, recorded when the full
+# observation and the scripted attacks were first written: the reference results were
+# trained and evaluated on these episodes, so a change that moves one fails here.
+_RECORDED = {
+    ("opponent", "goal_guards"): "645e062bce3b4659",
+    ("opponent", "interceptors_press"): "e2dc714a1ed6008e",
+    ("attack", "mixed_rules"): "548089de0faf812d",
+    ("attack", "shield_pass"): "9b348e40d2b97e11",
+}
+
+
+@pytest.mark.parametrize(("side", "name"), sorted(_RECORDED))
+def test_the_full_observation_and_the_attacks_give_the_recorded_episodes(side, name):
+    env = ParallelVectorEnv(num_envs=8, obs_type="full", **{side: name})
+    rng = np.random.default_rng(6)
+    h = hashlib.sha256()
+    obs, _ = env.reset(seed=3)
+    for _ in range(300):
+        actions = {a: np.array([rng.choice(np.flatnonzero(r)) for r in o["action_mask"]])
+                   for a, o in obs.items()}
+        obs, rewards, _, _, _ = env.step(actions)
+        for a in sorted(obs):
+            h.update(np.ascontiguousarray(obs[a]["observation"]).tobytes())
+            h.update(np.ascontiguousarray(rewards[a]).tobytes())
+        h.update(env.state().tobytes())
+    assert h.hexdigest()[:16] == _RECORDED[side, name]
+
+
+def test_a_pickled_or_copied_environment_with_an_attack_plays_on_alike():
+    env = ParallelVectorEnv(4, attack="mixed_rules", obs_type="full")
+    env.reset(seed=1)
+
+    def intercept():
+        return {a: np.zeros(4, dtype=np.int64) for a in env.agents}
+
+    for _ in range(20):
+        env.step(intercept())
+    twins = [pickle.loads(pickle.dumps(env)), copy.copy(env)]
+    for _ in range(80):
+        obs, rewards, *_ = env.step(intercept())
+        for twin in twins:
+            other, other_rewards, *_ = twin.step(intercept())
+            for agent in obs:
+                np.testing.assert_array_equal(other[agent]["observation"],
+                                              obs[agent]["observation"])
+                np.testing.assert_array_equal(other_rewards[agent], rewards[agent])
