@@ -141,6 +141,7 @@ def write_episode_gif(
     check_output_file(path)
     holder_policy = get_policy(policy) if isinstance(policy, str) else policy
     env = HolderEnv(opponent=team, **env_kwargs)
+    env.policy_name = policy_label(policy)
     try:
         fps = check_fps(env.metadata["render_fps"] if fps is None else fps)
         frames, info = record_episode(env, holder_policy, seed)
@@ -148,6 +149,14 @@ def write_episode_gif(
         env.close()
     save_gif(frames, path, fps)
     return info
+
+
+def policy_label(policy: object) -> str:
+    """How a frame's header names a holder policy: its registered name, else its
+    ``__name__`` or its class's name."""
+    if isinstance(policy, str):
+        return policy
+    return getattr(policy, "__name__", type(policy).__name__)
 
 
 def _fps(text: str) -> float:
