@@ -391,6 +391,15 @@ class HolderEnv(Pickled, gym.Env):
         self._screen.policy = text
 
     @property
+    def score_text(self) -> str | None:
+        """A running score, in rendered frames' header (``soccer-drill-play`` keeps one)."""
+        return self._screen.score
+
+    @score_text.setter
+    def score_text(self, text: str | None) -> None:
+        self._screen.score = text
+
+    @property
     def scene(self) -> Scene:
         """What a frame shows besides the bodies: the team, the policy, the decision the
         step carries out or last carried out (and whose), the outcome and the reward once the episode ends."""

@@ -79,6 +79,7 @@ class Screen:
         self.style, self.players, self._scene = check_style(style), tuple(players), scene
         self._caption: str | None = None
         self._policy: str | None = None
+        self._score: str | None = None
         self._draws_cycles = render_mode in ("human", "rgb_array_list")
         self.each_cycle = self._draws_cycles
         """Whether :meth:`after_cycle` has anything to do (the mode draws every cycle, or
@@ -106,9 +107,19 @@ class Screen:
     def policy(self, text: str | None) -> None:
         self._policy = checked("policy", text, _LABEL)
 
+    @property
+    def score(self) -> str | None:
+        """A running score, in the header (e.g. over the episodes of a played session)."""
+        return self._score
+
+    @score.setter
+    def score(self, text: str | None) -> None:
+        self._score = checked("score", text, _LABEL)
+
     def scene(self) -> Scene:
-        """The render state now: the environment's, with the caption and the policy."""
-        return self._scene()._replace(caption=self._caption, policy=self._policy)
+        """The render state now: the environment's, with the caption, policy and score."""
+        return self._scene()._replace(caption=self._caption, policy=self._policy,
+                                      score=self._score)
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
