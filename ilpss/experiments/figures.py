@@ -202,9 +202,10 @@ def write_episode_gif(
     captioned = []
     for d, label in enumerate(labels):
         for frame in frames[0 if d == 0 else starts[d]:starts[d + 1]]:
-            image = Image.fromarray(frame)
+            # A strip under the frame (its own legend stays in view).
+            image = Image.new("RGB", (frame.shape[1], frame.shape[0] + 18), (20, 20, 20))
+            image.paste(Image.fromarray(frame), (0, 0))
             draw = ImageDraw.Draw(image)
-            draw.rectangle((0, image.height - 18, image.width, image.height), fill=(20, 20, 20))
             draw.text((6, image.height - 15), f"{ACTION_NAMES[actions[d]]} <- {label}",
                       fill=(255, 255, 255))
             captioned.append(np.asarray(image))

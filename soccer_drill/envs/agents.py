@@ -271,7 +271,7 @@ class _DrillEnvBase(Pickled):
     def scene(self):
         """What a frame shows besides the bodies (a
         :class:`~soccer_drill.rendering.scene.Scene`): the team, the holder's ball skill
-        this cycle, the outcome and the reward once the episode ends."""
+        this cycle (PASS over the passer while the ball travels), the outcome and the reward once the episode ends."""
         self._require_reset("scene")
         return self._screen.scene()
 
@@ -279,8 +279,11 @@ class _DrillEnvBase(Pickled):
         batch, team = self._batch, self._core.team
         code, holder = int(batch.outcome[0]), int(batch.holder[0])
         chooser, choice = -1, None
+        passer = int(batch.passer[0])
         if holder >= 0 and batch.cycle[0] > 0 and int(batch.skill[0, holder]) in BALL_SKILLS:
             chooser, choice = holder, Skill(int(batch.skill[0, holder])).name
+        elif holder < 0 and passer >= 0:  # a pass on its way: over its passer
+            chooser, choice = passer, Skill.PASS.name
         return Scene(team=None if team is None else team.name, chooser=chooser, choice=choice,
                      outcome=OUTCOME_NAMES[code],
                      reward=None if code == _RUNNING else float(batch.attacker_reward[0]))

@@ -40,8 +40,8 @@ SIDE_COLOURS = {"attacker": (40, 90, 220), "defender": (215, 50, 50)}
 """A side's colour, by the prefix of its players' names (``attacker_0``: ``attacker``);
 a side not listed is drawn grey."""
 _OTHER_SIDE = (150, 150, 150)
-_OUTCOME_COLOURS = {"success": (30, 140, 60), "timeout": (150, 110, 30)}
-_FAILED = (170, 40, 40)
+_OUTCOME_COLOURS = {"success": (120, 235, 120), "timeout": (255, 190, 80)}
+_FAILED = (255, 120, 110)  # an interception, the ball out
 
 
 def side_of(player: str) -> str:
@@ -267,9 +267,10 @@ class Renderer:
         w, h = self._big.size(text)
         x, y = self.size[0] // 2, self.top + self.size[0] // 2
         box = pygame.Rect(x - w // 2 - 14, y - h // 2 - 8, w + 28, h + 16)
-        pygame.draw.rect(self._surface, _OUTCOME_COLOURS.get(outcome, _FAILED), box)
-        pygame.draw.rect(self._surface, _TEXT, box, 2)
-        self._text(text, (x, y), self._big, centre=True)
+        colour = _OUTCOME_COLOURS.get(outcome, _FAILED)
+        pygame.draw.rect(self._surface, _DARK, box)
+        pygame.draw.rect(self._surface, colour, box, 3)
+        self._text(text, (x, y), self._big, colour, centre=True)
 
     def _show(self) -> np.ndarray | None:
         if self.mode == "human":
