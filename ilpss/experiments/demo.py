@@ -194,7 +194,8 @@ def agent_lines(cfg: ExperimentConfig, folder: RunFolder) -> list[str]:
     shown = (wins or episodes)[0]
     gif = write_episode_gif(recommended(shown["seed"]), env(render=True),
                             folder.figure("recommended.gif"), seed=shown["seed"],
-                            task_names=list(recommended.task_names))
+                            task_names=list(recommended.task_names),
+                            label=f"{label(RECOMMENDED)}, greedy")
     which = (f"the first success among environment seeds 0-{GIF_EPISODES - 1} (seed "
              f"{shown['seed']}; {len(wins)} of {GIF_EPISODES} succeed)" if wins else
              f"no episode of environment seeds 0-{GIF_EPISODES - 1} succeeds: seed 0")
@@ -207,7 +208,7 @@ def agent_lines(cfg: ExperimentConfig, folder: RunFolder) -> list[str]:
     anew = SmdpLearner(int(first.action_space.n), scratch.learner.tile_coder(space), None,
                        scratch.learner, seed=learner_seed)
     fresh = write_episode_gif(anew, first, folder.figure("learning_anew_first.gif"),
-                              seed=env_seed, learn=True)
+                              seed=env_seed, learn=True, label="learning anew, 1st episode")
     name = label(RECOMMENDED)
     # Side by side on the recommended agent's episode seed: it, and learning anew's first
     # learning episode (a learner seeded as in the run, on that seed).

@@ -157,13 +157,15 @@ def write_episode_gif(
     fps: int = 10,
     learn: bool = False,
     task_names: list[str] | None = None,
+    label: str | None = None,
 ) -> dict[str, Any]:
     """One episode of ``agent`` on ``env`` (made with ``render_mode="rgb_array_list"``),
     greedy or, with ``learn``, a learning episode (as it happens in training: exploring
     and updating), written as a GIF of every cycle captioned with the action and the
     option running, if any, with the drill's GIF writer
-    (:data:`~ilpss.experiments.drill_facts.GIF_WRITER`). Returns the outcome, reward, options
-    run and the number of frames."""
+    (:data:`~ilpss.experiments.drill_facts.GIF_WRITER`); ``label`` names the agent in the
+    frames' header (an environment with a ``policy_name``). Returns the outcome, reward,
+    options run and the number of frames."""
     import gymnasium as gym
     from PIL import Image, ImageDraw
 
@@ -172,6 +174,8 @@ def write_episode_gif(
             f"write_episode_gif needs an environment made with render_mode='rgb_array_list', "
             f"got {getattr(env, 'render_mode', None)!r}"
         )
+    if label is not None and hasattr(env.unwrapped, "policy_name"):
+        env.unwrapped.policy_name = label
     frames: list[np.ndarray] = []
     starts: list[int] = []
     actions: list[int] = []

@@ -52,6 +52,15 @@ def write_gallery(docs: Path) -> dict[str, str]:
     return written
 
 
+def without_warnings(notebook) -> None:
+    """Drop the cells' ``stderr`` streams: the warnings of the machine that ran them (its
+    paths, its packages' versions), not what the notebook shows."""
+    for cell in notebook.cells:
+        if cell.cell_type == "code":
+            cell.outputs = [o for o in cell.outputs
+                            if not (o.output_type == "stream" and o.get("name") == "stderr")]
+
+
 def run_notebooks(folder: Path, timeout: float = 900) -> list[Path]:
     """Execute each notebook of :data:`NOTEBOOKS` in ``folder`` top to bottom in a fresh
     kernel and write it back with its outputs (atomically)."""
@@ -66,6 +75,7 @@ def run_notebooks(folder: Path, timeout: float = 900) -> list[Path]:
         notebook = nbformat.read(path, as_version=4)
         NotebookClient(notebook, timeout=timeout, kernel_name="python3",
                        resources={"metadata": {"path": str(folder)}}).execute()
+        without_warnings(notebook)
         atomic_write_bytes(path, (nbformat.writes(notebook) + "\n").encode("utf-8"))
         done.append(path)
     return done
