@@ -56,7 +56,7 @@ class FrameStyle:
     | ``width`` | 640 | the frame's width in pixels (at least :data:`MIN_WIDTH`); the field is scaled to it |
     | ``roles`` | ``True`` | each player's role (A1, A2, D1, D2, ...) on its disc |
     | ``legend`` | ``True`` | a strip under the field naming the sides, the holder's ring, the ball and the goal line's pay |
-    | ``trails`` | 6 | the last cycles' positions as fading lines (0: none) |
+    | ``trails`` | 6 | the positions of the last frames drawn, as fading lines (0: none): the last cycles' where every cycle is drawn (``rgb_array_list``, ``human``, GIFs); positions are only kept when drawing, so stepping stays as cheap |
     | ``goal_shading`` | ``True`` | the goal line shaded by what crossing it pays (brightest at the centre), its ends' and centre's reward written |
     | ``holder`` | ``True`` | a ring around the ball's holder |
     | ``choice`` | ``True`` | the holder's current decision over its disc |
