@@ -47,3 +47,10 @@ def test_far_walls_are_inside_the_frame():
     for corner in ((-50.0, -50.0), (85.0, 85.0)):  # the walls' corners, 50 m out
         x, y = renderer._px(*corner)
         assert 0 <= x < frame.shape[1] and HEADER <= y < frame.shape[0] - LEGEND
+
+
+@pytest.mark.parametrize("style", [{"width": 700}, "wide", 640])
+def test_a_render_style_that_is_not_a_frame_style_is_refused(style):
+    with pytest.raises(ValueError, match=r"render_style must be None or a "
+                                         r"soccer_drill\.rendering\.scene\.FrameStyle"):
+        soccer_drill.HolderEnv(render_mode="rgb_array", render_style=style)

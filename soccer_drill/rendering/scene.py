@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from soccer_drill.constraints import Bool, Integer, check_fields
+from soccer_drill.constraints import Bool, Constraint, Integer, NoneOr, check_fields, checked
 
 MIN_WIDTH = 600
 """Pixels: the narrowest frame :class:`FrameStyle` allows, where the roles and the header
@@ -83,3 +83,22 @@ class FrameStyle:
 
 
 DEFAULT_STYLE = FrameStyle()
+
+
+class _IsStyle(Constraint):
+    def allows(self, value: object) -> bool:
+        return isinstance(value, FrameStyle)
+
+    def describe(self) -> str:
+        return "a soccer_drill.rendering.scene.FrameStyle"
+
+
+RENDER_STYLE = NoneOr(_IsStyle())
+"""What an environment's ``render_style`` may be: ``None`` (:data:`DEFAULT_STYLE`) or a
+:class:`FrameStyle`."""
+
+
+def check_style(style: object) -> FrameStyle:
+    """``style`` as a :class:`FrameStyle` (``None``: :data:`DEFAULT_STYLE`), else
+    ``ValueError`` saying what is allowed."""
+    return checked("render_style", style, RENDER_STYLE) or DEFAULT_STYLE

@@ -14,7 +14,7 @@ import numpy as np
 
 from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import NoneOr, OneOf, Text, check, checked
-from soccer_drill.rendering.scene import DEFAULT_STYLE, FrameStyle, Scene
+from soccer_drill.rendering.scene import DEFAULT_STYLE, FrameStyle, Scene, check_style
 from soccer_drill.state import PLAYER_NAMES, DrillState
 
 if TYPE_CHECKING:
@@ -28,16 +28,6 @@ def frames_per_second(config: DrillConfig) -> float | int:
     """One frame per cycle at true speed: ``1 / cycle_seconds`` (an int when it is one)."""
     fps = 1.0 / config.cycle_seconds
     return round(fps) if abs(fps - round(fps)) < 1e-9 else fps
-
-
-def check_style(style: object) -> FrameStyle:
-    """``style`` if it is a :class:`FrameStyle`, ``None`` for the default, else ``TypeError``."""
-    if style is None:
-        return DEFAULT_STYLE
-    if not isinstance(style, FrameStyle):
-        raise TypeError("render_style must be a soccer_drill.rendering.scene.FrameStyle or None, "
-                        f"got {type(style).__name__}")
-    return style
 
 
 class Screen:
