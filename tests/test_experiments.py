@@ -206,6 +206,10 @@ def test_the_demo_shows_the_recommended_method_succeeding_and_learning_anew_s_fi
     assert "(from Python)" not in text
     assert (tmp_path / "recommended.gif").stat().st_size > 0
     assert (tmp_path / "learning_anew_first.gif").stat().st_size > 0
+    from PIL import Image
+
+    with Image.open(tmp_path / "side_by_side.gif") as both:  # two panels of 600+ pixels
+        assert both.size[0] > 2 * 600
     (left,) = [line for line in text.splitlines() if line.startswith("- Left:")]
     assert json.loads((tmp_path / "config.json").read_text())["methods"] == list(
         demo.demo_methods())

@@ -92,8 +92,8 @@ def test_num_envs_beyond_the_memory_available_is_refused_with_the_estimate(monke
 def test_frames_of_every_drill_beyond_the_memory_available_are_refused_with_the_estimate(
     kind, monkeypatch
 ):
-    """render() returns a frame of every drill at once (0.66 MiB each on the default field,
-    3.1 MiB on the largest): with rgb_array, num_envs is checked with its frames, and
+    """render() returns a frame of every drill at once (1.31 MiB each, 640 pixels wide
+    whatever the field): with rgb_array, num_envs is checked with its frames, and
     render() checks them against what is available when it is called."""
     from soccer_drill.vector import HolderVectorEnv
     from soccer_drill.vector import memory as batch_core
@@ -102,10 +102,10 @@ def test_frames_of_every_drill_beyond_the_memory_available_are_refused_with_the_
     make = HolderVectorEnv if kind == "holder" else ParallelVectorEnv
     monkeypatch.setattr(batch_core, "available_memory", lambda: 100 * 2**20)  # 100 MiB
     with pytest.raises(ValueError, match=r"num_envs=200 with render_mode='rgb_array' needs about "
-                                         r"139 MiB: 200 drills \(up to 32 KiB each\) and their "
-                                         r"frames \(201 of 468 x 492 pixels, 0\.66 MiB each, "
+                                         r"269 MiB: 200 drills \(up to 32 KiB each\) and their "
+                                         r"frames \(201 of 640 x 714 pixels, 1\.31 MiB each, "
                                          r"render\(\) returns them together\), more than the "
-                                         r"100 MiB of memory available; at most 143 drills fit "
+                                         r"100 MiB of memory available; at most 73 drills fit "
                                          r"now with their frames"):
         make(200, opponent="chasers", render_mode="rgb_array")
     make(200, opponent="chasers").close()  # without frames: 6 MiB
@@ -113,10 +113,10 @@ def test_frames_of_every_drill_beyond_the_memory_available_are_refused_with_the_
     env.reset(seed=0)
     assert len(env.render()) == 8
     monkeypatch.setattr(batch_core, "available_memory", lambda: 2 * 2**20)  # less, since
-    with pytest.raises(RuntimeError, match=r"render\(\) of 8 drills needs about 5\.9 MiB for "
-                                           r"their frames \(9 of 468 x 492 pixels, 0\.66 MiB "
+    with pytest.raises(RuntimeError, match=r"render\(\) of 8 drills needs about 11\.8 MiB for "
+                                           r"their frames \(9 of 640 x 714 pixels, 1\.31 MiB "
                                            r"each\), more than the 2\.0 MiB of memory available "
-                                           r"now; at most 2 frames fit"):
+                                           r"now; at most 0 frames fit"):
         env.render()
     monkeypatch.setattr(batch_core, "available_memory", lambda: None)  # unknown: not checked
     assert len(env.render()) == 8

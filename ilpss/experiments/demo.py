@@ -27,7 +27,13 @@ import gymnasium as gym
 from ilpss._io import FolderInUseError, atomic_write_bytes
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
-from ilpss.experiments.drill_facts import TEAM_ERROR, drill_exception
+from ilpss.experiments.drill_facts import (
+    PANEL,
+    SIDE_BY_SIDE,
+    TEAM_ERROR,
+    drill_exception,
+    drill_object,
+)
 from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.figures import (
     greedy_agent,
@@ -55,9 +61,10 @@ method (:func:`check_showable`). The README's paragraph on ``make demo`` names i
 SHOWN_METHODS = ("scratch", "ilpss", "finetune")
 """The methods the demo runs beside the recommended one: learning anew (the baseline and
 the right GIF), the paper's ILPSS (its kernels are drawn) and fine-tuning."""
-OUTPUTS = ("report.md", "kernels.png", "recommended.gif", "learning_anew_first.gif")
-"""What the demo writes beside its run's folders: the report, the kernels picture and the
-two GIFs (:func:`agent_lines`)."""
+OUTPUTS = ("report.md", "kernels.png", "side_by_side.gif", "recommended.gif",
+           "learning_anew_first.gif")
+"""What the demo writes beside its run's folders: the report, the kernels picture, the
+two agents side by side on one episode seed and their own GIFs (:func:`agent_lines`)."""
 GIF_EPISODES = 20
 """The environment seeds ``0 .. GIF_EPISODES - 1`` among which the shown episode is the
 first success."""
@@ -187,7 +194,8 @@ def agent_lines(cfg: ExperimentConfig, folder: RunFolder) -> list[str]:
     shown = (wins or episodes)[0]
     gif = write_episode_gif(recommended(shown["seed"]), env(render=True),
                             folder.figure("recommended.gif"), seed=shown["seed"],
-                            task_names=list(recommended.task_names))
+                            task_names=list(recommended.task_names),
+                            label=f"{label(RECOMMENDED)}, greedy")
     which = (f"the first success among environment seeds 0-{GIF_EPISODES - 1} (seed "
              f"{shown['seed']}; {len(wins)} of {GIF_EPISODES} succeed)" if wins else
              f"no episode of environment seeds 0-{GIF_EPISODES - 1} succeeds: seed 0")
@@ -200,11 +208,25 @@ def agent_lines(cfg: ExperimentConfig, folder: RunFolder) -> list[str]:
     anew = SmdpLearner(int(first.action_space.n), scratch.learner.tile_coder(space), None,
                        scratch.learner, seed=learner_seed)
     fresh = write_episode_gif(anew, first, folder.figure("learning_anew_first.gif"),
-                              seed=env_seed, learn=True)
+                              seed=env_seed, learn=True, label="learning anew, 1st episode")
     name = label(RECOMMENDED)
+    # Side by side on the recommended agent's episode seed: it, and learning anew's first
+    # learning episode (a learner seeded as in the run, on that seed).
+    novice = SmdpLearner(int(first.action_space.n), scratch.learner.tile_coder(space), None,
+                         scratch.learner, seed=learner_seed)
+    panel = drill_object(PANEL)
+    drill_object(SIDE_BY_SIDE)(
+        folder.figure("side_by_side.gif"),
+        [panel(f"{name}, greedy", lambda e, s: recommended(s).run_episode(e, learn=False, seed=s)),
+         panel("learning anew, 1st episode",
+               lambda e, s: novice.run_episode(e, learn=True, seed=s))],
+        lambda: env(render=True), [shown["seed"]])
     learnt = ("policy it learnt" if recommended.library is None else
               "policy and options it learnt")
     return [*lines,
+            f"![{name} beside learning anew against {held_out}](side_by_side.gif)", "",
+            f"Left, {name} greedy; right, learning anew's first learning episode: both on "
+            f"environment seed {shown['seed']} against `{held_out}`.", "",
             f"![{name} against {held_out}](recommended.gif) "
             f"![learning anew's first episode](learning_anew_first.gif)", "",
             f"- Left: seed {seed}'s {name} agent against `{held_out}`, greedy with the "

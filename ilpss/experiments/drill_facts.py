@@ -42,6 +42,8 @@ fact                        used by
 :data:`REGION_TEAM`,
 :data:`REGION_RULE`
 :data:`GIF_WRITER`          the GIF of the agent (one GIF writer for the project)
+:data:`SIDE_BY_SIDE`,       the demo's agents side by side on the same episode seed
+:data:`PANEL`
 :data:`TEAM_ERROR`          the commands' one-line error for a team that fails
 :data:`TEAM_CODE`           what identifies a team's code: the key of
                             ``ilpss-holder-learning``'s kept jobs, a run folder's
@@ -54,7 +56,7 @@ fact                        used by
 :data:`SUCCESS_REWARDS`
 ==========================  =========================================================
 
-:data:`HOLDER_RULES`, :data:`GIF_WRITER`, :data:`TEAM_CODE`, :data:`TEAM_COMPOSITION`,
+:data:`HOLDER_RULES`, :data:`GIF_WRITER`, :data:`SIDE_BY_SIDE`, :data:`PANEL`, :data:`TEAM_CODE`, :data:`TEAM_COMPOSITION`,
 the pages' names and the two vector environments are drill code that
 ``ilpss`` uses by name (:func:`drill_object`), imported only when used, and
 :data:`TEAM_ERROR` is caught by name
@@ -143,6 +145,10 @@ REGION_RULE = "opponents.regions:RegionRule"
 """``RegionRule(above, below, region)``: one fixed holder rule on each side of a region."""
 GIF_WRITER = "soccer_drill.rendering.gif:save_gif"
 """The drill's GIF writer: ``save_gif(frames, path, fps)``, atomic."""
+SIDE_BY_SIDE = "soccer_drill.rendering.side_by_side:write_side_by_side"
+"""``write_side_by_side(path, panels, make_env, seeds)``: panels on the same seeds, one GIF."""
+PANEL = "soccer_drill.rendering.side_by_side:Panel"
+"""``Panel(label, play)``: one panel of :data:`SIDE_BY_SIDE`, ``play(env, seed)`` one episode."""
 HOLDER_SB3_VEC_ENV = "soccer_drill.vector.sb3:HolderSB3VecEnv"
 """The batched holder behind Stable-Baselines3's ``VecEnv`` (needs SB3)."""
 PARALLEL_VEC_ENV = "soccer_drill.vector.agents:ParallelVectorEnv"

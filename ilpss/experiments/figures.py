@@ -157,13 +157,15 @@ def write_episode_gif(
     fps: int = 10,
     learn: bool = False,
     task_names: list[str] | None = None,
+    label: str | None = None,
 ) -> dict[str, Any]:
     """One episode of ``agent`` on ``env`` (made with ``render_mode="rgb_array_list"``),
     greedy or, with ``learn``, a learning episode (as it happens in training: exploring
     and updating), written as a GIF of every cycle captioned with the action and the
     option running, if any, with the drill's GIF writer
-    (:data:`~ilpss.experiments.drill_facts.GIF_WRITER`). Returns the outcome, reward, options
-    run and the number of frames."""
+    (:data:`~ilpss.experiments.drill_facts.GIF_WRITER`); ``label`` names the agent in the
+    frames' header (an environment with a ``policy_name``). Returns the outcome, reward,
+    options run and the number of frames."""
     import gymnasium as gym
     from PIL import Image, ImageDraw
 
@@ -172,6 +174,8 @@ def write_episode_gif(
             f"write_episode_gif needs an environment made with render_mode='rgb_array_list', "
             f"got {getattr(env, 'render_mode', None)!r}"
         )
+    if label is not None and hasattr(env.unwrapped, "policy_name"):
+        env.unwrapped.policy_name = label
     frames: list[np.ndarray] = []
     starts: list[int] = []
     actions: list[int] = []
@@ -202,9 +206,10 @@ def write_episode_gif(
     captioned = []
     for d, label in enumerate(labels):
         for frame in frames[0 if d == 0 else starts[d]:starts[d + 1]]:
-            image = Image.fromarray(frame)
+            # A strip under the frame (its own legend stays in view).
+            image = Image.new("RGB", (frame.shape[1], frame.shape[0] + 18), (20, 20, 20))
+            image.paste(Image.fromarray(frame), (0, 0))
             draw = ImageDraw.Draw(image)
-            draw.rectangle((0, image.height - 18, image.width, image.height), fill=(20, 20, 20))
             draw.text((6, image.height - 15), f"{ACTION_NAMES[actions[d]]} <- {label}",
                       fill=(255, 255, 255))
             captioned.append(np.asarray(image))

@@ -11,7 +11,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import AECEnv, ParallelEnv
 
-from soccer_drill.commands import ATTACKER_ACTIONS, DEFENDER_ACTIONS
+from soccer_drill.commands import ATTACKER_ACTIONS, BALL_SKILLS, DEFENDER_ACTIONS, Skill
 from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import Integer, OneOf, checked, is_int
 from soccer_drill.envs.core import (
@@ -39,6 +39,7 @@ from soccer_drill.envs.core import (
     resolve_shared_spaces,
 )
 from soccer_drill.envs.pickling import Pickled
+from soccer_drill.rendering.scene import FrameStyle, Scene
 from soccer_drill.rendering.screen import RENDER_MODES, Screen, frames_per_second
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.rules.features import GLOBAL_STATE
@@ -94,10 +95,12 @@ class _DrillEnvBase(Pickled):
         team_timeout: float | None,
         obs_format: ObsFormat,
         shared_spaces: bool | None,
+        render_style: FrameStyle | None,
     ) -> None:
         cfg = make_config(config, max_cycles)
         self.metadata = {**_METADATA, "render_fps": frames_per_second(cfg)}  # a frame a cycle
-        self._screen = Screen(cfg, render_mode, self.metadata["render_fps"])
+        self._screen = Screen(cfg, render_mode, self.metadata["render_fps"], self._scene,
+                              render_style, PLAYER_NAMES)
         self.obs_format = checked("obs_format", obs_format, OBS_FORMAT)
         self.illegal_action = checked("illegal_action", illegal_action, ILLEGAL_ACTION)
         shared_spaces = resolve_shared_spaces(shared_spaces, opponent)
@@ -254,15 +257,36 @@ class _DrillEnvBase(Pickled):
         if self.render_mode is None:
             return None
         self._require_reset("render")
-        return self._screen.render(self._batch.state_of(0), self.outcome)
+        return self._screen.render(self._batch.state_of(0))
 
     def _after_cycle(self) -> None:
         """A cycle has run: what the render mode does with it (a window, a kept frame)."""
-        self._screen.after_cycle(self._batch.state_of(0), self.outcome)
+        self._screen.after_cycle(self._batch.state_of(0))
 
     def close(self) -> None:
         """Close the window, if any."""
         self._screen.close()
+
+    @property
+    def scene(self):
+        """What a frame shows besides the bodies (a
+        :class:`~soccer_drill.rendering.scene.Scene`): the team, the holder's ball skill
+        this cycle (PASS over the passer while the ball travels), the outcome and the reward once the episode ends."""
+        self._require_reset("scene")
+        return self._screen.scene()
+
+    def _scene(self) -> Scene:
+        batch, team = self._batch, self._core.team
+        code, holder = int(batch.outcome[0]), int(batch.holder[0])
+        chooser, choice = -1, None
+        passer = int(batch.passer[0])
+        if holder >= 0 and batch.cycle[0] > 0 and int(batch.skill[0, holder]) in BALL_SKILLS:
+            chooser, choice = holder, Skill(int(batch.skill[0, holder])).name
+        elif holder < 0 and passer >= 0:  # a pass on its way: over its passer
+            chooser, choice = passer, Skill.PASS.name
+        return Scene(team=None if team is None else team.name, chooser=chooser, choice=choice,
+                     outcome=OUTCOME_NAMES[code],
+                     reward=None if code == _RUNNING else float(batch.attacker_reward[0]))
 
     @property
     def drill_state(self):
@@ -435,7 +459,11 @@ class raw_env(_DrillEnvBase, AECEnv):
     | ``"rgb_array_list"`` | every frame since the last ``render()`` (or ``reset``): one per cycle, so a video written at ``metadata["render_fps"]`` plays at true speed |
     | ``"human"`` | ``None``; a window shows every cycle at ``metadata["render_fps"]`` frames per second |
 
-    ``metadata["render_fps"]`` is ``1 / cycle_seconds`` (10 by default): one frame per
+    A frame shows the team, the cycle and the time left, each player's role, the holder
+    and the ball skill it was given, short trails, the goal line shaded by its reward, a
+    legend and, at the end, the outcome and the reward (:attr:`scene` holds these facts;
+    ``render_style``, a :class:`~soccer_drill.rendering.scene.FrameStyle`, turns each part
+    off). ``metadata["render_fps"]`` is ``1 / cycle_seconds`` (10 by default): one frame per
     cycle is true speed. Calling ``render()`` in ``"rgb_array"`` mode after every AEC
     turn gives one frame per agent and cycle; ``"rgb_array_list"`` gives one per cycle
     whichever API and however often ``render()`` is called.
@@ -457,6 +485,7 @@ class raw_env(_DrillEnvBase, AECEnv):
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``render_mode`` | ``None`` | ``"human"``, ``"rgb_array"`` or ``"rgb_array_list"`` (see Rendering) |
+    | ``render_style`` | ``None`` | what a frame draws, a ``FrameStyle`` (``None``: everything, 640 pixels wide) |
     | ``illegal_action`` | ``"default"`` | ``"default"`` (replace a masked action by the role's default, reported in infos) or ``"raise"`` (a masked action is an error) |
     | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the scripted team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound. See ``soccer_drill.teams.driver.TeamDriver`` |
     | ``obs_format`` | ``"dict"`` | ``"dict"`` (observation and mask together) or ``"flat"`` (a ``Box``; the mask in infos and ``action_mask()``) |
@@ -478,11 +507,12 @@ class raw_env(_DrillEnvBase, AECEnv):
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
         obs_format: ObsFormat = "dict",
         shared_spaces: bool | None = None,
+        render_style: FrameStyle | None = None,
     ) -> None:
         AECEnv.__init__(self)
         self._setup(
             opponent, opponent_params, obs_type, max_cycles, config, render_mode, illegal_action,
-            team_timeout, obs_format, shared_spaces,
+            team_timeout, obs_format, shared_spaces, render_style,
         )
         self.agents: list[str] = []
 
@@ -503,7 +533,7 @@ class raw_env(_DrillEnvBase, AECEnv):
             self._last_agent = order[-1]
             self.agent_selection = order[0]
         if self._screen.each_cycle:
-            self._screen.start(self._batch.state_of(0), None)
+            self._screen.start(self._batch.state_of(0))
 
     def observe(self, agent: str) -> dict[str, np.ndarray] | np.ndarray:
         """The observation of ``agent`` (see the class docstring)."""
@@ -615,10 +645,11 @@ class parallel_env(_DrillEnvBase, ParallelEnv):
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
         obs_format: ObsFormat = "dict",
         shared_spaces: bool | None = None,
+        render_style: FrameStyle | None = None,
     ) -> None:
         self._setup(
             opponent, opponent_params, obs_type, max_cycles, config, render_mode, illegal_action,
-            team_timeout, obs_format, shared_spaces,
+            team_timeout, obs_format, shared_spaces, render_style,
         )
         self.agents: list[str] = []
 
@@ -633,7 +664,7 @@ class parallel_env(_DrillEnvBase, ParallelEnv):
                 {a: self._step_info(a, None) for a in self.agents},
             )
         if self._screen.each_cycle:
-            self._screen.start(self._batch.state_of(0), None)
+            self._screen.start(self._batch.state_of(0))
         return result
 
     def step(self, actions: Mapping[str, int]):

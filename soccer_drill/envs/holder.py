@@ -20,6 +20,7 @@ from soccer_drill.drill.drills import BatchDrill
 from soccer_drill.drill.spaces import DrillSpace
 from soccer_drill.envs.core import BatchCore, concurrent_use, make_config, not_reset, observation
 from soccer_drill.envs.pickling import Pickled
+from soccer_drill.rendering.scene import FrameStyle, Scene
 from soccer_drill.rendering.screen import RENDER_MODES, Screen, frames_per_second
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.rules.compiled import compiled, warms
@@ -139,6 +140,8 @@ class HolderLoop:
         ``(n,)`` bool: the drills whose step runs (a view; read it, do not write it).
     decider
         ``(n,)`` the attacker whose decision a drill's step runs.
+    action
+        ``(n,)`` that decision (a holder action, 0-2).
     start
         ``(n,)`` the cycle at which a drill's step began (its episode's start after
         :meth:`start`).
@@ -159,11 +162,12 @@ class HolderLoop:
     def _views(self) -> None:
         steps = self.steps
         self.running, self.decider, self.start = steps["running"], steps["decider"], steps["start"]
+        self.action = steps["action"]
         self._supporting = steps["supporting"]
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        for name in ("running", "decider", "start", "_supporting"):
+        for name in ("running", "decider", "start", "action", "_supporting"):
             del state[name]
         return state
 
@@ -280,6 +284,11 @@ class HolderEnv(Pickled, gym.Env):
     | ``"rgb_array_list"`` | every frame since the last ``render()`` (or ``reset``): one per cycle, so a video written at ``metadata["render_fps"]`` plays at true speed |
     | ``"human"`` | ``None``; a window shows every cycle at ``metadata["render_fps"]`` frames per second |
 
+    A frame shows the team, :attr:`policy_name` and :attr:`caption` if set, the cycle and
+    the time left, each player's role, the holder and the decision its step carries out,
+    short trails, the goal line shaded by its reward, a legend and, at the end, the
+    outcome and the reward (:attr:`scene` holds these facts; ``render_style``, a
+    :class:`~soccer_drill.rendering.scene.FrameStyle`, turns each part off).
     ``metadata["render_fps"]`` is ``1 / cycle_seconds`` (10 by default): one frame per
     cycle is true speed. A step lasts several cycles, so Gymnasium's ``RecordVideo``,
     which keeps one frame per step (the last of a list), plays fast:
@@ -324,6 +333,7 @@ class HolderEnv(Pickled, gym.Env):
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
     | ``render_mode`` | ``None`` | ``"human"``, ``"rgb_array"`` or ``"rgb_array_list"`` (see Rendering) |
+    | ``render_style`` | ``None`` | what a frame draws, a ``FrameStyle`` (``None``: everything, 640 pixels wide) |
     | ``decision_cycles`` | ``4`` | cycles a ``HOLD`` or ``DRIBBLE`` lasts (an integer in [1, 50]; fewer if possession changes); ``PASS`` lasts until an attacker controls the ball |
     | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound (see ``soccer_drill.teams.driver.TeamDriver``) |
     """
@@ -339,6 +349,7 @@ class HolderEnv(Pickled, gym.Env):
         render_mode: str | None = None,
         decision_cycles: int = 4,
         team_timeout: float | None = DEFAULT_TEAM_TIMEOUT,
+        render_style: FrameStyle | None = None,
     ) -> None:
         decision_cycles = checked("decision_cycles", decision_cycles, DECISION_CYCLES)
         if opponent is None:
@@ -346,7 +357,8 @@ class HolderEnv(Pickled, gym.Env):
         self.config = make_config(config, max_cycles)
         # One frame per cycle: true speed at 1 / cycle_seconds frames per second.
         self.metadata = {**HolderEnv.metadata, "render_fps": frames_per_second(self.config)}
-        self._screen = Screen(self.config, render_mode, self.metadata["render_fps"])
+        self._screen = Screen(self.config, render_mode, self.metadata["render_fps"],
+                              self._scene, render_style, PLAYER_NAMES)
         self.render_mode = render_mode
         core = BatchCore(1, opponent, opponent_params, self.config, team_timeout, True, None)
         self.loop = HolderLoop(core, decision_cycles)
@@ -370,19 +382,53 @@ class HolderEnv(Pickled, gym.Env):
         self._screen.caption = text
 
     @property
+    def policy_name(self) -> str | None:
+        """The name of what decides for the holder, in rendered frames' header."""
+        return self._screen.policy
+
+    @policy_name.setter
+    def policy_name(self, text: str | None) -> None:
+        self._screen.policy = text
+
+    @property
+    def score_text(self) -> str | None:
+        """A running score, in rendered frames' header (``soccer-drill-play`` keeps one)."""
+        return self._screen.score
+
+    @score_text.setter
+    def score_text(self, text: str | None) -> None:
+        self._screen.score = text
+
+    @property
+    def scene(self) -> Scene:
+        """What a frame shows besides the bodies: the team, the policy, the decision the
+        step carries out or last carried out (and whose), the outcome and the reward once the episode ends."""
+        if not self._has_reset:
+            raise not_reset("scene")
+        return self._screen.scene()
+
+    def _scene(self) -> Scene:
+        loop = self.loop
+        batch = loop.core.batch
+        code = int(batch.outcome[0])
+        chooser, choice = -1, None
+        if batch.cycle[0] > 0:  # the last decision, until the next one
+            chooser, choice = int(loop.decider[0]), HOLDER_ACTIONS[int(loop.action[0])].name
+        return Scene(team=loop.core.team.name, chooser=chooser, choice=choice,
+                     outcome=OUTCOME_NAMES[code],
+                     reward=None if code == _RUNNING else float(batch.attacker_reward[0]))
+
+    @property
     def drill_state(self):
         """The current :class:`~soccer_drill.state.DrillState`."""
         if not self._has_reset:
             raise not_reset("drill_state")
         return self.loop.core.batch.state_of(0)
 
-    def _outcome(self) -> str | None:
-        return OUTCOME_NAMES[self.loop.core.batch.outcome[0]]
-
     def record_frames(self, frames: list[np.ndarray] | None) -> None:
         """Append an ``rgb_array`` frame to ``frames`` after every cycle (``None`` stops)."""
         state = self.loop.core.batch.state_of(0) if self._has_reset else None
-        self._screen.record(frames, state, self._outcome() if self._has_reset else None)
+        self._screen.record(frames, state)
 
     def action_masks(self) -> np.ndarray:
         """Which actions are legal now: all three, always (bool; for sb3-contrib's
@@ -402,7 +448,7 @@ class HolderEnv(Pickled, gym.Env):
             batch = loop.core.batch
             holder = int(batch.holder[0])
             if self._screen.each_cycle:
-                self._screen.start(batch.state_of(0), None)
+                self._screen.start(batch.state_of(0))
             return loop.observe(batch.state, _ONE, batch.holder)[0], {
                 "duration": 0, "cycles": 0, "outcome": None, "holder": PLAYER_NAMES[holder],
             }
@@ -429,7 +475,7 @@ class HolderEnv(Pickled, gym.Env):
         while True:
             running = loop.cycle(_ONE)
             if screen.each_cycle:
-                screen.after_cycle(batch.state_of(0), self._outcome())
+                screen.after_cycle(batch.state_of(0))
             if not running:
                 break
         code, cycle, holder = int(batch.outcome[0]), int(batch.cycle[0]), int(batch.holder[0])
@@ -451,7 +497,7 @@ class HolderEnv(Pickled, gym.Env):
             return None
         if not self._has_reset:
             raise not_reset("render")
-        return self._screen.render(self.loop.core.batch.state_of(0), self._outcome())
+        return self._screen.render(self.loop.core.batch.state_of(0))
 
     def close(self) -> None:
         """Close any window opened by human rendering."""

@@ -8,7 +8,8 @@ import numpy as np
 
 from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import NoneOr, OneOf, checked
-from soccer_drill.rules.arrays import OUTCOME_NAMES
+from soccer_drill.rendering.scene import Scene
+from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 
 RENDER_MODES = ("rgb_array",)
 """What the batched environments draw: one off-screen frame per drill."""
@@ -36,13 +37,16 @@ class BatchRenderer:
     do not fit in the memory available then. The batched environments give
     :func:`~soccer_drill.vector.memory.check_frames_memory`, and check ``num_envs`` with its
     frames when made (:func:`~soccer_drill.vector.memory.check_frames_fit`): memory is
-    theirs to estimate."""
+    theirs to estimate. A frame shows ``team`` (the defending team's name) in its header,
+    and the outcome and the reward once its drill's episode ends."""
 
     def __init__(self, config: DrillConfig,
-                 check_memory: Callable[[int, DrillConfig], None] | None = None) -> None:
-        self.config = config
+                 check_memory: Callable[[int, DrillConfig], None] | None = None,
+                 team: str | None = None) -> None:
+        self.config, self.team = config, team
         self._check_memory = check_memory
         self._renderer = None
+        self._trails: list = []
 
     def frames(self, batch: object, has_reset: bool) -> tuple[np.ndarray, ...]:
         """One ``(H, W, 3)`` uint8 frame per drill, in drill order (``has_reset``: the
@@ -56,11 +60,18 @@ class BatchRenderer:
             from soccer_drill.rendering.draw import Renderer
 
             self._renderer = Renderer(self.config, "rgb_array")
-        outcome = batch.outcome  # type: ignore[attr-defined]
-        return tuple(
-            self._renderer.draw(batch.state_of(i), OUTCOME_NAMES[outcome[i]])  # type: ignore[attr-defined]
-            for i in range(n)
-        )
+        if len(self._trails) != n:
+            from soccer_drill.rendering.draw import Trail
+
+            self._trails = [Trail(self._renderer.style.trails) for _ in range(n)]
+        outcome, reward = batch.outcome, batch.attacker_reward  # type: ignore[attr-defined]
+        frames = []
+        for i in range(n):
+            code = int(outcome[i])
+            scene = Scene(team=self.team, outcome=OUTCOME_NAMES[code],
+                          reward=None if code == Outcome.RUNNING else float(reward[i]))
+            frames.append(self._renderer.draw(batch.state_of(i), scene, self._trails[i]))  # type: ignore[attr-defined]
+        return tuple(frames)
 
     def close(self) -> None:
         """Let go of pygame's surface."""

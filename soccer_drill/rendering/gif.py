@@ -141,6 +141,7 @@ def write_episode_gif(
     check_output_file(path)
     holder_policy = get_policy(policy) if isinstance(policy, str) else policy
     env = HolderEnv(opponent=team, **env_kwargs)
+    env.policy_name = policy_label(policy)
     try:
         fps = check_fps(env.metadata["render_fps"] if fps is None else fps)
         frames, info = record_episode(env, holder_policy, seed)
@@ -150,7 +151,16 @@ def write_episode_gif(
     return info
 
 
-def _fps(text: str) -> float:
+def policy_label(policy: object) -> str:
+    """How a frame's header names a holder policy: its registered name, else its
+    ``__name__`` or its class's name."""
+    if isinstance(policy, str):
+        return policy
+    return getattr(policy, "__name__", type(policy).__name__)
+
+
+def fps_argument(text: str) -> float:
+    """A command line's ``--fps``, checked (an ``argparse`` type)."""
     try:
         value: object = float(text)
     except ValueError:
@@ -165,7 +175,8 @@ SEED = Integer(0, 2**63 - 1)
 """A seed of ``soccer-drill-gif``."""
 
 
-def _seed(text: str) -> int:
+def seed_argument(text: str) -> int:
+    """A command line's seed, checked (an ``argparse`` type)."""
     try:
         return checked("seed", int(text) if text.lstrip("-").isdigit() else text, SEED)
     except ValueError as exc:
@@ -177,9 +188,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="soccer-drill-gif", description=__doc__.splitlines()[0])
     parser.add_argument("--team", default="chasers", choices=team_ids(), metavar="TEAM",
                         help="opponent team id (soccer-drill-teams lists them)")
-    parser.add_argument("--seed", type=_seed, default=0)
+    parser.add_argument("--seed", type=seed_argument, default=0)
     parser.add_argument("--policy", default="pass_first", choices=sorted(HOLDER_POLICIES))
-    parser.add_argument("--fps", type=_fps, default=None,
+    parser.add_argument("--fps", type=fps_argument, default=None,
                         help=f"frames per second in [{FPS_RANGE[0]}, {FPS_RANGE[1]}] "
                         "(default: true speed, one frame per 0.1 s cycle)")
     parser.add_argument("-o", "--output", default="episode.gif", help="the GIF file to write")

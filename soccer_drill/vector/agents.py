@@ -219,8 +219,10 @@ class ParallelVectorEnv(Pickled):
         }
         self._state = Observation(GLOBAL_STATE, self.config)
         self.state_space = self._state.box
-        self._renderer = (BatchRenderer(self.config, check_frames_memory) if self.render_mode
-                          else None)
+        team = self._core.team
+        self._renderer = (BatchRenderer(self.config, check_frames_memory,
+                                        None if team is None else team.name)
+                          if self.render_mode else None)
         self._autoreset = np.zeros(n, dtype=bool)
         self._has_reset = False
         self._busy_init()

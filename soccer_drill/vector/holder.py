@@ -276,8 +276,10 @@ class HolderVectorEnv(Pickled, VectorEnv):
         self._ready = np.zeros(n, dtype=bool)  # its step is over, its result not yet received
         self._ready_at = np.zeros(n, dtype=np.int64)  # since when (recv's cycles)
         self._recv_cycles = 0
-        self._renderer = (BatchRenderer(self.config, check_frames_memory) if self.render_mode
-                          else None)
+        team = self._core.team
+        self._renderer = (BatchRenderer(self.config, check_frames_memory,
+                                        None if team is None else team.name)
+                          if self.render_mode else None)
         self._busy_init()
 
     @property
