@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from soccer_drill import Command, HolderEnv, Skill, TeamError
+from soccer_drill.rules.first_use import warm_up
 from soccer_drill.teams.kit import BatchCommands
 from soccer_drill.vector import HolderVectorEnv
 from soccer_drill.vector.agents import ParallelVectorEnv
@@ -387,7 +388,8 @@ class SpinsInSixthCopy(Plain):
 def test_a_spinning_copy_is_stopped_after_its_own_bound_whatever_the_number_of_drills(kind):
     """One bound of team_timeout times the drills acting let a copy spin for 1.6 s of CPU
     time in 16 drills under a 0.1 s bound (6.4 s in 64): each copy is held to
-    team_timeout, as the single environment holds its team."""
+    team_timeout, as the single environment holds its team (where the copies shared one
+    bound, it stops after 1.6 s; under load the timer's signal lands a little late)."""
     SpinsInSixthCopy.resets = 0
     n = 16
     env = (HolderVectorEnv if kind == "holder" else ParallelVectorEnv)(
@@ -396,7 +398,7 @@ def test_a_spinning_copy_is_stopped_after_its_own_bound_whatever_the_number_of_d
     start = time.process_time()
     with pytest.raises(TeamError, match=r"^team 'SpinsInSixthCopy' \(drill 5\) exceeded its time "
                                         r"bound of 0.1 s of CPU time in act\(\) at cycle 0 "
-                                        r"\(stopped after 0\.1\d s of CPU time"):
+                                        r"\(stopped after 0\.[1-4]\d s of CPU time"):
         _step_n(env, n)
     assert time.process_time() - start < 0.6
 
@@ -522,6 +524,7 @@ def test_a_teams_attributes_are_read_inside_its_bound_and_its_errors(kind, hosti
     if hostile == "spins" and not UNIX_TIMER:
         pytest.skip("setitimer (Unix)")
     behave, said = HOSTILE[hostile]
+    warm_up()  # the compiled rules loaded first: only the team's time is measured below
     start = time.process_time()
     with pytest.raises(TeamError, match=rf"^team '{team.__name__}' .*{where}.*{said}|"
                                         rf"^team '{team.__name__}' {said} in {where}"):
