@@ -10,7 +10,7 @@ exception occurs (nothing is added to a call that succeeds):
 | the exception | delivered by a signal when |
 |---|---|
 | ``KeyboardInterrupt`` | its innermost frame did not stop at a ``raise`` statement nor at a generator's ``yield`` (where ``generator.throw()`` raises it): Python's own ``SIGINT`` handler (C code) raises it wherever the interpreter checks for signals, never at either |
-| any | one of its frames runs a Python signal handler installed now (e.g. a ``SIGTERM`` handler calling ``sys.exit()``) |
+| any | one of its frames runs a Python signal handler installed now (e.g. a ``SIGTERM`` handler calling ``sys.exit()``, a ``SIGALRM`` handler raising a wall-clock bound's exception): a function, a method, a ``functools.partial`` or an object with ``__call__`` |
 
 A team that catches the user's Ctrl-C and re-raises it (``raise`` alone) keeps the
 original traceback, so that is still the user's; a team that raises a new
@@ -24,6 +24,7 @@ delivers them when the block ends.
 from __future__ import annotations
 
 import dis
+import functools
 import reprlib
 import signal
 import threading
@@ -77,10 +78,29 @@ def _handler_codes() -> set:
             handler = signal.getsignal(signum)
         except (ValueError, OSError):  # pragma: no cover - signals Python cannot read
             continue
-        code = getattr(handler, "__code__", None)
+        code = _code_of(handler)
         if code is not None:
             codes.add(code)
     return codes
+
+
+def _code_of(handler: object) -> object:
+    """The code a Python signal handler runs first: a function's, a bound method's, a
+    ``functools.partial``'s function's, or a callable object's ``__call__``'s."""
+    for _ in range(8):  # partials of partials, methods, objects: a few layers at most
+        code = getattr(handler, "__code__", None)
+        if code is not None:
+            return code
+        if isinstance(handler, functools.partial):
+            handler = handler.func
+        elif hasattr(handler, "__func__"):
+            handler = handler.__func__
+        else:
+            call = getattr(type(handler), "__call__", None)
+            if call is None or call is handler:
+                return None
+            handler = call
+    return None
 
 
 def delivered_by_signal(exc: BaseException) -> bool:
