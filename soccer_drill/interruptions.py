@@ -96,7 +96,7 @@ def _code_of(handler: object) -> object:
         elif hasattr(handler, "__func__"):
             handler = handler.__func__
         else:
-            call = getattr(type(handler), "__call__", None)
+            call = type(handler).__dict__.get("__call__")  # a class's own, not type's
             if call is None or call is handler:
                 return None
             handler = call

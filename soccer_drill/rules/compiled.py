@@ -29,7 +29,7 @@ import sys
 import warnings
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 
@@ -114,7 +114,7 @@ def rule_sources_digest(function: Callable[..., Any]) -> str:
     top = sys.modules.get(function.__module__.partition(".")[0])
     own = inspect.getfile(function)
     if top is not None and getattr(top, "__path__", None):  # a package
-        own = list(top.__path__)[0]
+        own = next(iter(top.__path__))
     return _package_digest(str(Path(__file__).resolve().parent.parent)) + _package_digest(
         str(Path(own).resolve()))
 
@@ -131,7 +131,7 @@ if COMPILED:
             return (super().get_source_stamp(), self._rules_digest)  # type: ignore[misc]
 
     class _StampedImpl(CompileResultCacheImpl):
-        _locator_classes = [type(f"Stamped{c.__name__}", (_StampedLocators, c), {})
+        _locator_classes: ClassVar[list] = [type(f"Stamped{c.__name__}", (_StampedLocators, c), {})
                             for c in CompileResultCacheImpl._locator_classes]
 
         def __init__(self, py_func: Callable[..., Any]) -> None:
