@@ -537,7 +537,7 @@ def _read_archive(
         _check_container(fh, os.fstat(fd).st_size, where)
         try:
             archive = zipfile.ZipFile(fh)
-        except (zipfile.BadZipFile, OSError, EOFError, ValueError) as exc:
+        except _READ_ERRORS as exc:
             raise _unreadable(where, exc) from exc
         with archive:
             headers = _array_headers(archive, where)
@@ -614,7 +614,10 @@ def _read_record(
     return meta, record["sha256"]
 
 
-_READ_ERRORS = (OSError, EOFError, ValueError, KeyError, zipfile.BadZipFile)
+# What zipfile and numpy raise for a damaged file. RuntimeError too: zipfile raises it for
+# a member flagged as encrypted, and NotImplementedError (a RuntimeError) for other flag
+# bits or a version it does not read, all read from the zip directory's bytes.
+_READ_ERRORS = (OSError, EOFError, ValueError, KeyError, RuntimeError, zipfile.BadZipFile)
 #: Largest ``.npy`` header read (numpy's own default bound).
 _MAX_HEADER = 10_000
 

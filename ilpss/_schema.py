@@ -58,6 +58,12 @@ FLOAT, INTEGER, BOOL, TEXT = "f", "iu", "b", "U"
 _KIND_NAMES = {"f": "float", "i": "signed integer", "u": "unsigned integer", "b": "bool",
                "U": "string"}
 
+SAVED_INTEGERS = Integer(-(2**63), 2**63 - 1)
+"""The range of every integer an archive holds (int64, as every ``ilpss`` saver writes
+them): an array of another integer dtype is refused beyond it, since read as int64 its
+values would wrap around (a uint64 ``2**64 - 1`` would be ``-1``) or fail to be saved
+again. Record fields that become array values are declared within it too."""
+
 Shape = tuple[int | str | None, ...]
 #: ``{array name: (shape, dtype)}``, as read from the ``.npy`` headers or the arrays.
 Headers = Mapping[str, tuple[tuple[int, ...], np.dtype]]
@@ -341,8 +347,16 @@ def _record_value(meta: Mapping[str, Any], path: str, where: str) -> Any:
 
 
 def _check_values(name: str, spec: Field, array: np.ndarray, where: str) -> None:
-    """Refuse the first value of ``array`` that ``spec.each`` refuses, then the array if
-    one of ``spec.whole`` refuses it."""
+    """Refuse the first integer of ``array`` outside :data:`SAVED_INTEGERS`, then the
+    first value that ``spec.each`` refuses, then the array if one of ``spec.whole``
+    refuses it."""
+    if array.dtype.kind == "u" and array.size and array.max() > SAVED_INTEGERS.high:
+        index = tuple(int(i) for i in np.argwhere(array > SAVED_INTEGERS.high)[0])
+        raise ValueError(
+            f"{where}: array {name!r} holds the value {array[index].item()} at index {index}, "
+            f"outside the int64 range every saved integer lies in "
+            f"({SAVED_INTEGERS.describe()}): read as int64 it would wrap around"
+        )
     if spec.each is not None and array.size:
         bad = ~_allowed_each(spec.each, array)
         if bad.any():

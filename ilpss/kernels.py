@@ -181,15 +181,26 @@ configuration's kernel settings are checked with these too)."""
 
 _HYPERPARAMETERS = (*KERNEL_CONSTRAINTS, "random_state")
 
+FEATURE_SCALE = Real(1e-150, 1e150)
+"""What a feature's scale (the spread of its values in the bags) may be: its square, in
+the covariances in the features' units, must be a normal float64 number (a scale of
+5e-324 standardises every state but the mean to infinity, where each membership is 0).
+Fits refuse bags beyond it, loads refuse a model beyond it."""
+STANDARDISED_MEAN = Real(-1e150, 1e150)
+"""What a kernel's mean may be in standardised units: far inside float64, so that the
+distance of a state to it cannot overflow (a mean at 1e308 gives every state a membership
+of 0). A fitted mean lies within the standardised states, at most ``sqrt(n)`` for n
+states; fits refuse starting means beyond it, loads refuse a model beyond it."""
+
 KERNELS_ARCHIVE = ArchiveSchema(
     SCHEMA,
     {
         "weights": Field(("I", "K"), FLOAT, each=Real(0.0), whole=(RowsSumToOne(1e-9),)),
-        "std_means": Field(("K", "d"), FLOAT, each=Real()),
+        "std_means": Field(("K", "d"), FLOAT, each=STANDARDISED_MEAN),
         "std_covariances": Field(("K", "d", "d"), FLOAT, each=Real(),
                                  whole=(Symmetric(1e-10),)),
         "feature_mean": Field(("d",), FLOAT, each=Real()),
-        "feature_scale": Field(("d",), FLOAT, each=Real(0.0, low_open=True)),
+        "feature_scale": Field(("d",), FLOAT, each=FEATURE_SCALE),
         "n_states_per_instance": Field(("I",), INTEGER, each=Integer(0)),
         "log_likelihood_trace": Field((None,), FLOAT, each=Real()),
     },
@@ -444,17 +455,27 @@ class SharedKernelModel:
         offset = self._log_jacobian()
         self.log_likelihood_trace_ = [float(v + offset) for v in best.trace]
         self.lower_bound_ = self.log_likelihood_trace_[-1]
-        fitted = (self.weights_, self.means_, self.covariances_, self.std_precisions_cholesky_,
+        fitted = (self.weights_, self.std_precisions_cholesky_,
                   np.asarray(self.log_likelihood_trace_))
-        if not all(np.isfinite(a).all() for a in fitted):
+        if not all(np.isfinite(a).all() for a in fitted) or self._units_problem() is not None \
+                or not (np.abs(self.std_means_) <= STANDARDISED_MEAN.high).all():
             del self.std_precisions_cholesky_  # not fitted: a failed fit leaves no model
             raise ValueError(
                 "the fit gave non-finite parameters: the states' scales are beyond float64 "
-                "arithmetic for this model (e.g. covariances in original units overflow); "
-                "rescale the features"
+                "arithmetic for this model (e.g. covariances in original units overflow, or "
+                "starting means far outside the states); rescale the features"
             )
         self.n_iter_ = best.n_iter
         self.converged_ = best.converged
+
+    def _units_problem(self) -> str | None:
+        """What is not finite among the parameters in the features' units (the
+        standardised ones times the feature scales), or ``None``."""
+        for what, values in (("means", self.means_), ("covariances", self.covariances_)):
+            if not np.isfinite(values).all():
+                return (f"its {what} in the features' units are not finite (the standardised "
+                        f"{what} times feature_scale overflow float64)")
+        return None
 
     def _start_kmeans(
         self, Z: Array, slices: list[slice], rng: np.random.Generator
@@ -839,15 +860,19 @@ class SharedKernelModel:
             prec_chol = num.precision_cholesky(cov)
         except ValueError as exc:
             raise ValueError(f"{where}: invalid kernel model: {exc}") from exc
-        model._set_state(
-            weights=arrays["weights"].astype(np.float64),
-            std_means=arrays["std_means"].astype(np.float64),
-            std_covariances=cov,
-            feature_mean=arrays["feature_mean"].astype(np.float64),
-            feature_scale=arrays["feature_scale"].astype(np.float64),
-            n_states_per_instance=counts,
-            prec_chol=prec_chol,
-        )
+        with np.errstate(over="ignore"):  # an overflow is refused just below
+            model._set_state(
+                weights=arrays["weights"].astype(np.float64),
+                std_means=arrays["std_means"].astype(np.float64),
+                std_covariances=cov,
+                feature_mean=arrays["feature_mean"].astype(np.float64),
+                feature_scale=arrays["feature_scale"].astype(np.float64),
+                n_states_per_instance=counts,
+                prec_chol=prec_chol,
+            )
+        problem = model._units_problem()
+        if problem is not None:
+            raise ValueError(f"{where}: invalid kernel model: {problem}")
         model.converged_ = bool(meta["fit"]["converged"])
         model.n_iter_ = n_iter
         model.lower_bound_ = float(meta["fit"]["lower_bound"])
@@ -878,16 +903,19 @@ def _check_standardised(Z: Array, scale: Array) -> None:
     Standardised by the population standard deviation, no value can exceed ``sqrt(n)``
     in magnitude, and a constant feature is only centred (its values are then ~0). Values
     beyond that come from an overflow (features near 1e300) or from a constant feature so
-    large (an offset of 1e200) that centring it leaves rounding errors of ~1e184.
+    large (an offset of 1e200) that centring it leaves rounding errors of ~1e184. A scale
+    outside :data:`FEATURE_SCALE` is refused too: a spread below 1e-150 (but not within
+    rounding of constant) gives covariances that underflow in the features' units.
     """
     bound = math.sqrt(Z.shape[0]) + 1.0
     extent = np.max(np.abs(Z), axis=0, initial=0.0)
-    bad = ~(np.isfinite(scale) & np.isfinite(extent) & (extent <= bound))
+    bad = ~((scale >= FEATURE_SCALE.low) & (scale <= FEATURE_SCALE.high)
+            & np.isfinite(extent) & (extent <= bound))
     if bad.any():
         raise ValueError(
             f"feature(s) {np.flatnonzero(bad).tolist()} of the bags cannot be standardised "
-            "in float64 (a spread beyond about 1e150, or an offset so large that the values "
-            "no longer differ); rescale or recentre the features"
+            "in float64 (a spread beyond about 1e150 or below 1e-150, or an offset so large "
+            "that the values no longer differ); rescale or recentre the features"
         )
 
 
@@ -1010,10 +1038,14 @@ class UniformKernel:
 
 
 REGION_SCHEMA = "ilpss.region_kernels/1"
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+REGION_THRESHOLD = Real(-_FLOAT32_MAX, _FLOAT32_MAX)
+"""What a region's threshold may be: states are compared with it in float32, where a
+threshold beyond float32's range would be infinite (every state inside, or none)."""
 REGION_ARCHIVE = ArchiveSchema(
     REGION_SCHEMA,
     {"features": Field(("K",), INTEGER, each=Integer(0)),
-     "thresholds": Field(("K",), FLOAT, each=Real()),
+     "thresholds": Field(("K",), FLOAT, each=REGION_THRESHOLD),
      "below": Field(("K",), BOOL)},
     record={"n_features": N_FEATURES},
     dims={"K": Integer(1, 1000)},
@@ -1055,9 +1087,10 @@ class RegionKernels:
             raise ValueError("RegionKernels: features, thresholds and below must be 1-D "
                              f"sequences of one equal length in [1, 1000], got {k}")
         if ((self.features < 0) | (self.features >= n_features)).any() or \
-                not np.isfinite(self.thresholds).all():
+                not all(REGION_THRESHOLD.allows(t) for t in self.thresholds):
             raise ValueError(f"RegionKernels: feature indices must lie in [0, {n_features}) "
-                             "and thresholds be finite")
+                             f"and thresholds be {REGION_THRESHOLD.describe()} (states are "
+                             "compared with them in float32)")
         self.n_components = k
         # Pseudo-parameters for the library's matching: one distinct point per region.
         self.means_ = np.zeros((k, n_features))

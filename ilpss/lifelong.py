@@ -342,7 +342,7 @@ class LifelongLearner:
         start = self.config.reuse.start if with_options else Fresh()
         results = learn_with(start, learner, self.policies, env, self.config.train_episodes,
                              seed=env_seed, choice_seed=choice_seed(self.seed, index),
-                             callback=callback)
+                             callback=callback, bags=self.bags)
         return learner, results
 
     def run_trial(

@@ -76,7 +76,7 @@ from typing import Any
 import numpy as np
 
 from ilpss._io import check_inside, load_archive, save_npz_atomic, sha256_file
-from ilpss._schema import FLOAT, INTEGER, ArchiveSchema, Field, MappingOf
+from ilpss._schema import FLOAT, INTEGER, SAVED_INTEGERS, ArchiveSchema, Field, MappingOf
 from ilpss.kernels import (
     KernelModel,
     SharedKernelModel,
@@ -272,7 +272,7 @@ class LibraryState:
             raise ValueError("next_kernel_id must exceed every kernel id")
 
 
-_ID = Integer(0)
+_ID = Integer(0, SAVED_INTEGERS.high)  # ids become int64 array values
 LIBRARY_ARCHIVE = ArchiveSchema(
     LIBRARY_SCHEMA,
     {

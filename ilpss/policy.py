@@ -348,6 +348,16 @@ class _LinearQ:
             coder = TileCoder.from_arrays(arrays)
         except (ValueError, TypeError) as exc:
             raise ValueError(f"{where}: invalid tile coder: {exc}") from exc
+        # A value sums n_active weights: a saved policy's must not overflow (weights of
+        # 1e308 give infinite values). Sums beyond 1e300, far past any return, only come
+        # from a learner that diverged.
+        bound = float(np.abs(arrays["weights"]).max(initial=0.0))
+        if np.isfinite(bound) and _sum_gap(coder.n_active, bound) is None:
+            raise ValueError(
+                f"{where}: weights up to {bound:g} in magnitude: a value sums "
+                f"{coder.n_active} of them, which float64 cannot hold (the values would be "
+                "infinite)"
+            )
         return coder, n_primitive, arrays["option_ids"], arrays["weights"]
 
     def __repr__(self) -> str:

@@ -256,10 +256,12 @@ def learn_with(
     start: StartRule, learner: SmdpLearner, policies: Sequence[FrozenPolicy], env: Any,
     episodes: int, *, seed: int | None, choice_seed: int,
     callback: Callable[[int, EpisodeResult], None] | None = None,
+    bags: Sequence[np.ndarray] | None = None,
 ) -> list[EpisodeResult]:
     """``episodes`` episodes on ``env``: first those ``start`` spends choosing the
     learner's initial values among ``policies`` (greedy, seeded by ``choice_seed``, at
-    most ``episodes``: the rule is given the budget), then learning for the rest of the
+    most ``episodes``: the rule is given the budget, and ``bags``, the past policies'
+    bags of states, if it declares ``uses_bags``), then learning for the rest of the
     budget (the first reset seeded by ``seed``, so the learning episodes are the same
     ones with or without a choice before them).
 
@@ -270,7 +272,9 @@ def learn_with(
         task without being charged).
     """
     check("learn_with episodes (the budget)", episodes, Integer(0))
-    if _takes_budget(start):
+    if getattr(start, "uses_bags", False):  # a rule that reads the sources' bags of states
+        spent = start.start(learner, policies, env, choice_seed, budget=episodes, bags=bags)
+    elif _takes_budget(start):
         spent = start.start(learner, policies, env, choice_seed, budget=episodes)
     else:  # a rule written before start rules were given their budget
         spent = start.start(learner, policies, env, choice_seed)

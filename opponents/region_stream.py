@@ -1,4 +1,4 @@
-"""The teams of a stream where regions matter: two pure behaviours and their compositions.
+"""The teams of targets composed by region: two pure behaviours and their compositions.
 
 Two behaviours whose best fixed holder rules are far apart (``docs/regions.md`` measures
 it), and teams that play one of them on one side of a :class:`~opponents.regions.Region`

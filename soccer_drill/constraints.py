@@ -25,6 +25,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+import re
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -183,33 +184,53 @@ class OneOf(Constraint):
 
 @dataclass(frozen=True)
 class Text(Constraint):
-    """A string that is not blank."""
+    """A string that is not blank; with ``one_line``, without a line break (a title that
+    must not forge a line of the page it heads); at most ``max_len`` characters."""
+
+    one_line: bool = False
+    max_len: int | None = None
 
     def allows(self, value: object) -> bool:
-        return isinstance(value, str) and bool(value.strip())
+        return (isinstance(value, str) and bool(value.strip())
+                and not (self.one_line and any(c in value for c in "\r\n\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"))
+                and (self.max_len is None or len(value) <= self.max_len))
 
     def describe(self) -> str:
-        return "a non-empty string"
+        line = " on one line" if self.one_line else ""
+        most = f" of at most {self.max_len:,} characters" if self.max_len is not None else ""
+        return f"a non-empty string{line}{most}"
+
+
+NAME_LENGTH = 64
+"""The longest name (of a team, a method, a protocol...): room for a descriptive one, and a
+bound on every message that shows a name."""
+_NAME_PART = "[A-Za-z_-][A-Za-z0-9_-]*"
 
 
 @dataclass(frozen=True)
 class Name(Constraint):
-    """A name: letters, digits, ``_``, ``-`` and (if ``dots``) ``.``, each part between
-    dots starting with a letter or ``_``."""
+    """A name: at most :data:`NAME_LENGTH` ASCII letters, digits, ``_``, ``-`` and (if
+    ``dots``) ``.``, each part between dots not starting with a digit.
+
+    ASCII only: names are compared character by character, and letters of other scripts
+    that look like ASCII ones (a Cyrillic "а" in "chаsers") would make two names that read
+    the same.
+    """
 
     dots: bool = True
 
     def allows(self, value: object) -> bool:
-        if not isinstance(value, str) or not value:
+        if not isinstance(value, str) or len(value) > NAME_LENGTH:
             return False
-        parts = value.split(".") if self.dots else [value]
-        return all(part.replace("-", "_").isidentifier() for part in parts)
+        pattern = rf"{_NAME_PART}(\.{_NAME_PART})*" if self.dots else _NAME_PART
+        return re.fullmatch(pattern, value) is not None
 
     def describe(self) -> str:
         if self.dots:
-            return "a name (letters, digits, '_', '-' or '.')"
-        return ("a non-empty identifier (letters, digits, '_' or '-', not starting with a "
-                "digit)")
+            return (f"a name of 1 to {NAME_LENGTH} ASCII characters (letters, digits, '_', "
+                    "'-' or '.', each part between dots not starting with a digit)")
+        return (f"a non-empty identifier of at most {NAME_LENGTH} ASCII characters (letters, "
+                "digits, '_' or '-', not starting with a digit)")
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,8 @@ import math
 
 import pytest
 
-from ilpss.experiments.confirm import PRIMARY, Comparison, Plan, main, pick
+from ilpss.experiments.confirm import Comparison, main, pick
+from ilpss.experiments.plan import PRIMARY, Plan
 from ilpss.metrics import MetricEstimate
 
 PLAN = {
@@ -30,9 +31,7 @@ W, K, FB = "whole_policies_ft_bounded_cut", "ilpss_ft_bounded_cut_available", "f
 
 
 def _plan() -> Plan:
-    return Plan(**{**PLAN, **{k: tuple(PLAN[k]) for k in ("methods", "candidates",
-                                                          "controls")},
-                   "comparisons": tuple(tuple(c) for c in PLAN["comparisons"])})
+    return Plan.from_json(PLAN)
 
 
 def _test(protocol: str, method: str, against: str, gain: float, low: float,

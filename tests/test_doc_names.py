@@ -29,9 +29,27 @@ FILE_KINDS = {"md", "py", "json", "gif", "npz", "toml", "txt", "tmp", "csv", "pn
 """A dotted name ending in one of these is a file's name (``opponents.md``)."""
 
 
+NOT_KEPT = {
+    "docs/data/confirmatory", "docs/data/confirmatory.csv.gz", "docs/data/results",
+    "docs/data/results.csv.gz", "docs/data/sharp_test", "docs/data/sharp_test.csv.gz",
+    "docs/data/decisive_test",
+}
+"""Per-seed numbers a page names but the repository does not hold: the pages made before
+runs kept theirs say so, and the decisive test's are written by its run. The set may
+only shrink."""
+
+
 def _groups() -> set[str]:
+    """The entry-point groups: those this project declares, and those its registries read."""
+    from ilpss.experiments.methods import METHODS
+    from ilpss.experiments.protocols import PROTOCOLS
+    from ilpss.experiments.registry import ENV_PACKAGES, SAMPLERS
+    from ilpss.reuse import REUSES
+    from soccer_drill.teams.registry import TEAMS
+
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
-    return set(project.get("entry-points", {}))
+    registries = (TEAMS, METHODS, PROTOCOLS, REUSES, SAMPLERS, ENV_PACKAGES)
+    return set(project.get("entry-points", {})) | {r.group for r in registries}
 
 
 def exists(name: str) -> bool:
@@ -60,7 +78,8 @@ def missing(text: str) -> list[str]:
              and not exists(name)]
     for path in sorted(set(PATH.findall(text))):
         file = path.split("::")[0]
-        if file not in gymnasium.registry and not (ROOT / file).exists():
+        if (file not in gymnasium.registry and file not in NOT_KEPT
+                and not (ROOT / file).exists()):
             wrong.append(path)
     return wrong
 

@@ -774,3 +774,184 @@ def test_a_valid_archive_reads_each_array_once(tmp_path, monkeypatch) -> None:
                         lambda fp, *a, **k: read.append(fp.name) or real(fp, *a, **k))
     load_npz(path, SCHEMA, REQUIRED)
     assert sorted(read) == ["__meta__.npy", "c.npy", "t.npy", "w.npy"]
+
+
+# ------------------------------------------------------- damaged zip structures
+def _central_entries(data: bytes) -> list[int]:
+    """Where each central directory entry of a zip file starts."""
+    starts, at = [], data.find(b"PK\x01\x02")
+    while at != -1:
+        starts.append(at)
+        at = data.find(b"PK\x01\x02", at + 4)
+    return starts
+
+
+# (offset in a central directory entry, a byte there): the flag bits of an encrypted
+# member (0), of "compressed patched data" (5) and strong encryption (6); a version
+# needed to extract that zipfile does not read.
+@pytest.mark.parametrize(("offset", "value"), [(8, 0x01), (8, 0x20), (8, 0x40), (6, 0x6D),
+                                               (6, 0xFF)])
+def test_a_damaged_zip_directory_entry_is_a_value_error_naming_the_file(
+        tmp_path, offset, value) -> None:
+    good = tmp_path / "good.npz"
+    save_npz_atomic(good, _arrays(), {"schema": SCHEMA})
+    data = bytearray(good.read_bytes())
+    for start in _central_entries(data):
+        damaged = bytearray(data)
+        damaged[start + offset] = value
+        path = tmp_path / "damaged.npz"
+        path.write_bytes(bytes(damaged))
+        with pytest.raises(ValueError, match=r"not a readable \.npz archive") as err:
+            load_npz(path, SCHEMA, REQUIRED)
+        assert str(path) in str(err.value)
+
+
+def test_a_damaged_byte_of_the_zip_structures_is_a_value_error_or_loads_the_same(
+        tmp_path) -> None:
+    good = tmp_path / "good.npz"
+    save_npz_atomic(good, _arrays(), {"schema": SCHEMA})
+    data = good.read_bytes()
+    expected, _ = load_npz(good, SCHEMA, REQUIRED)
+    with zipfile.ZipFile(good) as archive:
+        headers = {p for info in archive.infolist()
+                   for p in range(info.header_offset, info.header_offset + 30)}
+    structures = sorted(headers | set(range(_central_entries(data)[0], len(data))))
+    path = tmp_path / "damaged.npz"
+    for position in structures:
+        for flip in (0x01, 0x20, 0x40, 0xFF):  # the flag bits zipfile reads, and all
+            damaged = bytearray(data)
+            damaged[position] ^= flip
+            path.write_bytes(bytes(damaged))
+            try:
+                arrays, _ = load_npz(path, SCHEMA, REQUIRED)
+            except ValueError as exc:
+                assert str(path) in str(exc)
+            else:  # a byte the reader does not use (a time stamp, a version made by)
+                assert all(np.array_equal(arrays[k], expected[k]) for k in expected)
+
+
+# ------------------------------------------------------- values that pass the kinds
+def _tamper(path: Path, **changes) -> None:
+    """Save ``path`` back with some arrays (or record fields, ``meta=``) changed and a
+    valid digest."""
+    from synthetic_smdp import read_archive
+
+    arrays, meta = read_archive(path)
+    meta.update(changes.pop("meta", {}))
+    arrays.update(changes)
+    save_npz_atomic(path, arrays, meta)
+
+
+@pytest.fixture
+def kernels_file(tmp_path):
+    from ilpss.kernels import SharedKernelModel
+
+    rng = np.random.default_rng(0)
+    model = SharedKernelModel(n_components=2, random_state=0).fit(
+        [rng.normal(size=(30, 2)) for _ in range(3)])
+    path = tmp_path / "kernels.npz"
+    model.save(path)
+    return path
+
+
+def _policy_file(tmp_path):
+    from synthetic_smdp import constant_policy
+
+    path = tmp_path / "policy.npz"
+    constant_policy(0, option_ids=(0, 1), prefer=2).save(path)
+    return path
+
+
+BEYOND_INT64 = np.array([2**64 - 1], dtype=np.uint64)
+
+
+def test_integers_that_would_wrap_around_or_not_save_again_are_refused_naming_the_field(
+        tmp_path, kernels_file) -> None:
+    from synthetic_smdp import IntervalKernels, constant_policy
+
+    from ilpss.kernels import SharedKernelModel
+    from ilpss.options import OptionLibrary
+    from ilpss.policy import FrozenPolicy
+
+    beyond = r"holds the value 18446744073709551615 at index \((0|1),\), outside the int64 range"
+    policy = _policy_file(tmp_path)
+    _tamper(policy, option_ids=np.array([0, 2**64 - 1], dtype=np.uint64))
+    with pytest.raises(ValueError, match=rf"{policy}: array 'option_ids' {beyond}"):
+        FrozenPolicy.load(policy)
+    counts = np.array([2**64 - 1, 30, 30], dtype=np.uint64)  # read as -1 before
+    _tamper(kernels_file, n_states_per_instance=counts)
+    with pytest.raises(ValueError, match=rf"{kernels_file}: array 'n_states_per_instance' "
+                                         rf"{beyond}"):
+        SharedKernelModel.load(kernels_file)
+    library = tmp_path / "library"
+    OptionLibrary(IntervalKernels([(0, 3), (3, 6)]), [constant_policy(2)]).save(library)
+    _tamper(library / "library.npz", meta={"next_option_id": 2**64})
+    with pytest.raises(ValueError, match=r"library.npz: field next_option_id must be an integer "
+                                         r"in \[0, 9,223,372,036,854,775,807\], got 2\*\*64|"
+                                         r"library.npz: field next_option_id must be an integer "
+                                         r"in \[0, 9,223,372,036,854,775,807\], got "
+                                         r"18446744073709551616"):
+        OptionLibrary.load(library, kernel_loader=IntervalKernels.load)
+
+
+@pytest.mark.parametrize(("array", "value", "match"), [
+    # Every state but the mean standardised to infinity: memberships of 0.
+    ("feature_scale", np.array([5e-324, 1.0]),
+     r"array 'feature_scale' holds the value 5e-324 at index \(0,\); each value must be a "
+     r"finite number in \[1e-150, 1e\+150\]"),
+    ("std_means", np.array([[1e308, 0.0], [0.0, 0.0]]),
+     r"array 'std_means' holds the value 1e\+308 at index \(0, 0\); each value must be a "
+     r"finite number in \[-1e\+150, 1e\+150\]"),
+    ("std_means", np.array([[-1e308, 0.0], [0.0, 0.0]]), r"array 'std_means' holds the value"),
+])
+def test_kernel_numerics_that_give_infinite_or_zero_memberships_are_refused(
+        kernels_file, array, value, match) -> None:
+    from ilpss.kernels import SharedKernelModel
+
+    _tamper(kernels_file, **{array: value})
+    with pytest.raises(ValueError, match=match) as err:
+        SharedKernelModel.load(kernels_file)
+    assert str(kernels_file) in str(err.value)
+
+
+def test_kernels_whose_covariances_overflow_in_the_features_units_are_refused(
+        kernels_file) -> None:
+    from synthetic_smdp import read_archive
+
+    from ilpss.kernels import SharedKernelModel
+
+    covariances = read_archive(kernels_file)[0]["std_covariances"] * 1e10
+    # Each allowed alone: 1e150**2 * 1e10 overflows.
+    _tamper(kernels_file, feature_scale=np.array([1e150, 1.0]), std_covariances=covariances)
+    with pytest.raises(ValueError, match=rf"{kernels_file}: invalid kernel model: its "
+                                         r"covariances in the features' units are not finite"):
+        SharedKernelModel.load(kernels_file)
+
+
+@pytest.mark.parametrize("value", [1e308, -1e308])
+def test_policy_weights_whose_values_are_infinite_are_refused(tmp_path, value) -> None:
+    from synthetic_smdp import read_archive
+
+    from ilpss.policy import FrozenPolicy
+
+    path = _policy_file(tmp_path)
+    weights = read_archive(path)[0]["weights"]
+    _tamper(path, weights=np.full_like(weights, value))
+    with pytest.raises(ValueError, match=(
+            rf"{path}: weights up to 1e\+308 in magnitude: a value sums 4 of them, which "
+            r"float64 cannot hold \(the values would be infinite\)")):
+        FrozenPolicy.load(path)
+
+
+@pytest.mark.parametrize("value", [1e308, -1e308, 3.5e38])
+def test_region_thresholds_beyond_float32_are_refused(tmp_path, value) -> None:
+    from ilpss.kernels import RegionKernels
+
+    path = tmp_path / "regions.npz"
+    RegionKernels(2, [0, 1], [1.0, 2.0], [True, False]).save(path)
+    _tamper(path, thresholds=np.array([value, 2.0]))
+    with pytest.raises(ValueError, match=(
+            rf"{path}: array 'thresholds' holds the value {value:g}".replace("+", r"\+")
+            + r" at index \(0,\); each value must be a finite number in "
+              r"\[-3\.40282e\+38, 3\.40282e\+38\]")):
+        RegionKernels.load(path)

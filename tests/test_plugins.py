@@ -2,17 +2,25 @@
 
 from __future__ import annotations
 
+import contextlib
 import importlib
+import importlib.metadata
+import signal
 import sys
 import textwrap
+import threading
 import warnings
+from pathlib import Path
 
 import pytest
 
 import opponents
 import soccer_drill
+from ilpss.experiments.registry import check_env_id
 from opponents import cli as opponents_cli
 from soccer_drill import teams
+from soccer_drill.registry import PluginWarning
+from soccer_drill.teams.registry import TEAMS
 
 
 @pytest.fixture
@@ -159,25 +167,37 @@ def install(tmp_path, monkeypatch):
     """``install(dist, {module: source}, entry_points_lines)``: a fake installed distribution.
 
     Each distribution gets its own folder on ``sys.path``, in installation order (the
-    first installed is found first; ``first=True``: before every other distribution). Everything is undone after the test.
+    first installed is found first; ``first=True``: before every other distribution).
+    A module named with ``/`` is written in its folders (``"ns/mod"``: ``ns/mod.py``, with
+    no ``__init__.py`` in ``ns``: a namespace package). ``entry_points`` replaces the
+    whole ``entry_points.txt`` (bytes are written as they are). Everything is undone after
+    the test.
     """
     count = 0
 
-    def _install(dist: str, modules: dict[str, str], lines: str, first: bool = False) -> None:
+    def _install(dist: str, modules: dict[str, str], lines: str = "", first: bool = False,
+                 entry_points: str | bytes | None = None) -> Path:
         nonlocal count
         count += 1
         root = tmp_path / f"site{count}"
         root.mkdir()
         for module, source in modules.items():
-            (root / f"{module}.py").write_text(textwrap.dedent(source))
+            path = root / f"{module}.py"
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(textwrap.dedent(source))
         info = root / f"{dist.replace('-', '_')}-0.1.dist-info"
         info.mkdir()
         (info / "METADATA").write_text(f"Metadata-Version: 2.1\nName: {dist}\nVersion: 0.1\n")
-        (info / "entry_points.txt").write_text(f"[soccer_drill.opponents]\n{lines}\n")
+        if entry_points is None:
+            entry_points = f"[soccer_drill.opponents]\n{lines}\n"
+        if isinstance(entry_points, str):
+            entry_points = entry_points.encode()
+        (info / "entry_points.txt").write_bytes(entry_points)
         path = [str(root), *sys.path] if first else [*sys.path, str(root)]
         monkeypatch.setattr(sys, "path", path)
         importlib.invalidate_caches()
         teams.refresh()
+        return root
 
     yield _install
     for module in [m for m in sys.modules if m.startswith("plugin_")]:
@@ -255,8 +275,9 @@ def test_a_declared_id_that_is_not_valid_is_refused(install, capsys):
 def test_an_entry_point_naming_something_not_callable_is_reported_as_such(install):
     install("odd-teams", {"plugin_odd": "TEAM = 5\n"}, "odd = plugin_odd:TEAM")
     with pytest.raises(soccer_drill.TeamError, match=(
-            r"the entry point of team 'odd' \(plugin_odd:TEAM\) is not callable: it names a "
-            r"int \(5\); it must name a team class or factory")):
+            r"the entry point of team 'odd' \(plugin_odd:TEAM\) is not callable: it names an "
+            r"int \(5\); it must name a team class or factory \(distribution 'odd-teams', "
+            r"entry-point group 'soccer_drill.opponents'\)")):
         soccer_drill.make_team("odd")
     assert "is not callable" in teams.broken_teams()["odd"]
 
@@ -280,3 +301,295 @@ def test_a_team_s_code_is_identified_by_its_package_s_source(install, tmp_path):
     source.write_text(source.read_text() + "\n# changed\n")
     assert teams.team_code("walled")["source_sha256"] != before["source_sha256"]
     assert teams.team_code("chasers")["factory"] == "opponents.chasers:Chasers"
+
+
+# ------------------------------------------------- every registry, first use
+def _project_registries():
+    """Every registry of the project, by name."""
+    from ilpss.experiments.methods import METHODS
+    from ilpss.experiments.protocols import PROTOCOLS
+    from ilpss.experiments.registry import ENV_PACKAGES, SAMPLERS
+    from ilpss.reuse import REUSES
+
+    return {"teams": TEAMS, "methods": METHODS, "protocols": PROTOCOLS,
+            "reuses": REUSES, "samplers": SAMPLERS, "environment packages": ENV_PACKAGES}
+
+
+def _first_use(registry):
+    """A registry like ``registry`` (its group and rules) that was never used."""
+    return type(registry)(registry.group, registry.kind, registry.of, label=registry.label,
+                          names=registry.names_allowed, calls=registry.calls,
+                          error=registry.error)
+
+
+def _alarm_handler(signum, frame):
+    raise TimeoutError("the program's wall-clock bound")
+
+
+def _sigterm_handler(signum, frame):
+    sys.exit(143)
+
+
+# What a signal delivers: the user's Ctrl-C (Python's own handler), a program's SIGALRM
+# handler that raises (a wall-clock bound), a program's SIGTERM handler that exits.
+SIGNALS = {
+    "ctrl_c": (signal.SIGINT, signal.default_int_handler, KeyboardInterrupt),
+    "alarm_handler_raising": (signal.SIGALRM, _alarm_handler, TimeoutError),
+    "sigterm_handler_exiting": (signal.SIGTERM, _sigterm_handler, SystemExit),
+}
+
+
+@contextlib.contextmanager
+def _handler(signum, handler):
+    previous = signal.signal(signum, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signum, previous)
+
+
+def _on_reading(monkeypatch, marker: str, action) -> None:
+    """Call ``action()`` while the ``entry_points.txt`` holding ``marker`` is read, once."""
+    original = importlib.metadata.PathDistribution.read_text
+    armed = [True]
+
+    def read_text(self, filename):
+        text = original(self, filename)
+        if armed[0] and filename == "entry_points.txt" and text and marker in text:
+            armed[0] = False
+            action()
+        return text
+
+    monkeypatch.setattr(importlib.metadata.PathDistribution, "read_text", read_text)
+
+
+_EVERY_GROUP = "".join(f"[{r.group}]\nsig_entry = plugin_sig:THING\n"
+                       for r in _project_registries().values())
+
+
+@pytest.mark.parametrize("kind", sorted(SIGNALS))
+@pytest.mark.parametrize("name", sorted(_project_registries()))
+def test_a_signal_during_a_registrys_first_read_propagates_and_the_next_use_reads_again(
+        install, monkeypatch, name, kind):
+    signum, handler, expected = SIGNALS[kind]
+    install("signal-plugins", {}, entry_points=_EVERY_GROUP)
+    registry = _first_use(_project_registries()[name])
+    with _handler(signum, handler):
+        _on_reading(monkeypatch, "sig_entry", lambda: signal.raise_signal(signum))
+        with pytest.raises(expected):
+            registry.names()
+        # Not "known teams: []" for the rest of the process, nor a warning that the entry
+        # points could not be read: the next use reads them.
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            names = registry.names()
+    assert "sig_entry" in names
+    assert names == _first_use(registry).names()
+
+
+_INTERRUPTED_TEAM = '''
+import signal
+import plugin_sig_control
+
+if plugin_sig_control.ARMED is not None:
+    signum, plugin_sig_control.ARMED = plugin_sig_control.ARMED, None
+    signal.raise_signal(signum)
+''' + _GOOD_TEAM
+
+
+@pytest.mark.parametrize("kind", sorted(SIGNALS))
+def test_a_signal_while_a_plugin_is_first_imported_propagates_and_the_next_use_imports_it(
+        install, kind):
+    signum, handler, expected = SIGNALS[kind]
+    install("signal-teams", {"plugin_sig_control": "ARMED = None\n",
+                             "plugin_sig_team": _INTERRUPTED_TEAM},
+            "sigwall = plugin_sig_team:Wall")
+    import plugin_sig_control
+
+    plugin_sig_control.ARMED = signum
+    with _handler(signum, handler), pytest.raises(expected):
+        soccer_drill.make_team("sigwall")
+    assert plugin_sig_control.ARMED is None  # delivered, once
+    # Not "loaded" holding None, nor a broken plugin: the next use imports it.
+    assert "sigwall" not in teams.broken_teams()
+    assert soccer_drill.available_teams()["sigwall"] == "Both defenders stand on the goal line."
+    assert type(soccer_drill.make_team("sigwall")).__name__ == "Wall"
+
+
+def test_a_thread_waits_while_another_reads_the_entry_points_or_imports_a_plugin(
+        install, monkeypatch):
+    gate = "import threading\nENTERED = threading.Event()\nGO = threading.Event()\n"
+    slow = "import plugin_slow_gate\nplugin_slow_gate.ENTERED.set()\nplugin_slow_gate.GO.wait(60)\n"
+    install("slow-teams", {"plugin_slow_gate": gate, "plugin_slow": slow + _GOOD_TEAM},
+            "slowwall = plugin_slow:Wall")
+    import plugin_slow_gate
+
+    registry = _first_use(TEAMS)
+    reading, go = threading.Event(), threading.Event()
+    _on_reading(monkeypatch, "slowwall", lambda: (reading.set(), go.wait(60)))
+    got: dict[str, object] = {}
+
+    def run(key: str, call) -> threading.Thread:
+        def target():
+            try:
+                got[key] = call()
+            except BaseException as exc:  # reported by the asserts below
+                got[key] = exc
+        thread = threading.Thread(target=target)
+        thread.start()
+        return thread
+
+    # The first read of the entry points: a second thread waits for it to end.
+    first = run("first", registry.names)
+    assert reading.wait(60)
+    second = run("second", registry.names)
+    second.join(0.5)  # time for it to answer without waiting, if it would
+    go.set()
+    first.join(60)
+    second.join(60)
+    assert "slowwall" in got["first"]
+    assert got["second"] == got["first"]
+    # The first import of a plugin: a second thread waits for it to end.
+    first = run("first", lambda: registry.get("slowwall"))
+    assert plugin_slow_gate.ENTERED.wait(60)
+    second = run("second", lambda: registry.get("slowwall"))
+    second.join(0.5)
+    plugin_slow_gate.GO.set()
+    first.join(60)
+    second.join(60)
+    assert getattr(got["first"], "__name__", got["first"]) == "Wall"
+    assert got["second"] is got["first"]
+
+
+# ------------------------------------------------- broken neighbours
+def test_an_unreadable_unrelated_distribution_empties_no_registry_and_is_named(install):
+    registries = _project_registries()
+    before = {name: _first_use(r).names() for name, r in registries.items()}
+    assert before["environment packages"] == ["soccer_drill"] and "chasers" in before["teams"]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        install("latin-scripts", {},
+                entry_points="[console_scripts]\ncafé = latin_scripts:main\n".encode("latin-1"))
+        install("no-equals-scripts", {}, entry_points="[console_scripts]\njust_a_name\n")
+        root = install("latin-metadata-teams", {"plugin_latin": _GOOD_TEAM},
+                       "latin_wall = plugin_latin:Wall")
+        (root / "latin_metadata_teams-0.1.dist-info" / "METADATA").write_bytes(
+            "Metadata-Version: 2.1\nName: latin-metadata-teams\nVersion: 0.1\n"
+            "Author: José\n".encode("latin-1"))
+        after = {name: _first_use(r).names() for name, r in registries.items()}
+        for registry in registries.values():
+            registry.refresh()
+        assert "chasers" in teams.team_ids()
+        check_env_id("ExperimentConfig.env_id", "soccer_drill:soccer_drill/Holder-v0")
+    assert after == before
+    messages = [str(w.message) for w in caught if issubclass(w.category, PluginWarning)]
+    assert any("distribution 'latin-scripts'" in m and "UnicodeDecodeError" in m
+               for m in messages), messages
+    assert any("distribution 'no-equals-scripts'" in m for m in messages), messages
+    assert "latin_wall" not in after["teams"]  # named by its folder: its name is unreadable
+    assert any("distribution 'latin_metadata_teams'" in m and "UnicodeDecodeError" in m
+               for m in messages), messages
+    assert all(len(m) < 1000 for m in messages)
+
+
+# ------------------------------------------------- plugins of the wrong kind
+def test_a_plugin_of_the_wrong_type_is_refused_naming_its_entry_point_group_and_distribution(
+        install, monkeypatch):
+    registries = _project_registries()
+    install("wrong-plugins",
+            {"plugin_wrong": "FIVE = 5\nfrom ilpss.experiments.methods import METHODS\n"
+                             "SCRATCH = METHODS.get('scratch')\n"},
+            entry_points="[ilpss.methods]\nodd = plugin_wrong:FIVE\n"
+                         "renamed = plugin_wrong:SCRATCH\n"
+                         "[ilpss.protocols]\nodd = plugin_wrong:FIVE\n"
+                         "[ilpss.reuses]\nodd = plugin_wrong:FIVE\n"
+                         "[ilpss.samplers]\nodd = plugin_wrong:FIVE\n")
+    try:
+        for name, cls in (("methods", "Method"), ("protocols", "Protocol"), ("reuses", "Reuse")):
+            registry = registries[name]
+            registry.refresh()
+            with pytest.raises(ValueError, match=(
+                    rf"^the entry point of {registry.kind} 'odd' \(plugin_wrong:FIVE\) names an "
+                    rf"int \(5\), not a {cls} \(distribution 'wrong-plugins', entry-point group "
+                    rf"'{registry.group}'\)$")):
+                registry.get("odd")
+            assert "odd" in registry.broken()
+        with pytest.raises(ValueError, match=(
+                r"the entry point of method 'renamed' \(plugin_wrong:SCRATCH\) names the "
+                r"method 'scratch': a method's entry point must have its name \(distribution "
+                r"'wrong-plugins', entry-point group 'ilpss.methods'\)")):
+            registries["methods"].get("renamed")
+        registries["samplers"].refresh()
+        with pytest.raises(ValueError, match=(
+                r"the entry point of sampler 'odd' \(plugin_wrong:FIVE\) is not callable: it "
+                r"names an int \(5\); it must name a function sampler\(n, seed\) "
+                r"\(distribution 'wrong-plugins', entry-point group 'ilpss.samplers'\)")):
+            registries["samplers"].get("odd")
+    finally:
+        monkeypatch.undo()
+        for registry in registries.values():
+            registry.refresh()
+    assert "odd" not in registries["methods"]
+
+
+# ------------------------------------------------- ids
+class _Idle:
+    """Stands still."""
+
+    def reset(self, view, rng):
+        self.players = view.players
+
+    def act(self, view):
+        return {p: soccer_drill.Command(soccer_drill.Skill.MOVE_TO, (17.5, 5.0))
+                for p in self.players}
+
+
+def test_ids_are_bounded_ascii_names_and_look_alikes_are_refused(team_registry, install):
+    huge = "x" * 100_000
+    with pytest.raises(ValueError, match=r"at most 64 ASCII characters") as caught:
+        soccer_drill.register(huge, _Idle)
+    assert len(str(caught.value)) < 1000
+    with pytest.raises(ValueError, match=r"unknown team 'xxx") as caught:
+        soccer_drill.make_team(huge)
+    assert len(str(caught.value)) < 2000
+    cyrillic = "ch\u0430sers"  # a Cyrillic "a"
+    with pytest.raises(ValueError, match=r"ASCII"):
+        soccer_drill.register(cyrillic, _Idle)
+    with pytest.raises(ValueError, match=r"unknown team 'ch.sers' \(not a valid team id: a "
+                                         r"team id must be .*ASCII"):
+        soccer_drill.make_team(cyrillic)
+    for look_alike, of in (("Chasers", "chasers"), ("goal-guards", "goal_guards")):
+        with pytest.raises(ValueError, match=(
+                rf"team id '{look_alike}' looks like the team '{of}' \(ids that differ only "
+                r"in case or in '-' against '_' are taken for each other\); give it an id of "
+                r"its own")):
+            soccer_drill.register(look_alike, _Idle)
+    soccer_drill.register("chasers_ii", _Idle)  # a name of its own is fine
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        install("look-alike-teams", {"plugin_look": _GOOD_TEAM},
+                f"{cyrillic} = plugin_look:Wall\nGoal_Guards = plugin_look:Wall\n"
+                f"{'y' * 100_000} = plugin_look:Wall\n")
+    messages = [str(w.message) for w in caught]
+    assert len(messages) == 3 and all(len(m) < 1000 for m in messages), messages
+    ids = teams.team_ids()
+    assert cyrillic not in ids and "Goal_Guards" not in ids and max(map(len, ids)) <= 64
+    broken = teams.broken_teams()
+    assert "ASCII" in broken[cyrillic]
+    assert ("team 'Goal_Guards' of distribution 'look-alike-teams' (plugin_look:Wall) is "
+            "refused: it looks like the team 'goal_guards'") in broken["Goal_Guards"]
+    assert "at most 64 ASCII characters" in broken["y" * 100_000]
+
+
+# ------------------------------------------------- source digests
+def test_a_team_in_a_namespace_package_is_identified_by_its_source(install):
+    root = install("namespace-teams",
+                   {"plugin_ns/walls": _GOOD_TEAM, "plugin_ns/deep/__init__": "",
+                    "plugin_ns/deep/teams": _GOOD_TEAM},
+                   "ns_wall = plugin_ns.walls:Wall\nns_deep = plugin_ns.deep.teams:Wall\n")
+    for team_id, source in (("ns_wall", root / "plugin_ns" / "walls.py"),
+                            ("ns_deep", root / "plugin_ns" / "deep" / "__init__.py")):
+        before = teams.team_code(team_id)
+        assert "source_sha256" in before, before
+        source.write_text(source.read_text() + "\n# changed\n")
+        assert teams.team_code(team_id)["source_sha256"] != before["source_sha256"]

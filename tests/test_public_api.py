@@ -41,7 +41,7 @@ SNAPSHOT: dict[str, list[str]] = {
         "LocalStore", "StorageSettings", "UriStore", "checkpoint_store"
     ],
     "ilpss.experiments.config": ["ExperimentConfig"],
-    "ilpss.experiments.confirm": ["Plan", "analyse", "main", "pick"],
+    "ilpss.experiments.confirm": ["analyse", "main", "pick"],
     "ilpss.experiments.folder": ["RunFolder", "checkpoint_key"],
     "ilpss.experiments.kept_jobs": ["KeptJobs", "run_kept"],
     "ilpss.experiments.methods": [
@@ -53,6 +53,8 @@ SNAPSHOT: dict[str, list[str]] = {
         "TrueRegions"
     ],
     "ilpss.experiments.outputs": ["check_out_dir", "check_out_file"],
+    "ilpss.experiments.plan": ["Plan"],
+    "ilpss.experiments.power": ["main"],
     "ilpss.experiments.protocols": [
         "Protocol", "Stream", "StreamSettings", "Task", "make_env", "register_protocol"
     ],
@@ -63,22 +65,23 @@ SNAPSHOT: dict[str, list[str]] = {
     ],
     "ilpss.experiments.report": ["REPORT_BODIES", "register_report_body", "write_report"],
     "ilpss.experiments.run": [
-        "JobDone", "JobSpec", "check_entry", "load_result", "run_experiment"
+        "JobDone", "JobSpec", "load_result", "run_experiment"
     ],
     "ilpss.experiments.sections": ["PAGE_SECTIONS"],
+    "ilpss.experiments.seed_data": ["SeedData"],
     "ilpss.kernels": [
         "KernelModel", "RegionKernels", "SharedKernelModel", "UniformKernel",
         "kernel_distances", "match_kernels", "select_n_components"
     ],
     "ilpss.metrics": [
-        "BELOW_MARGIN", "FloatArray", "GAINS", "INTERVALS", "ImprovementTest", "METRIC",
-        "METRICS", "Metric", "MetricEstimate", "Paired", "THRESHOLD_ATOL", "area_above_floor",
-        "asymptotic_gain", "asymptotic_performance", "compare", "episodes_below",
-        "fieller_interval", "format_metrics_markdown", "headline_metrics", "holm",
-        "improvement_test", "jumpstart", "kaplan_meier", "km_median", "largest_dip",
-        "mean_curve_band", "median_interval", "pairwise_metrics", "per_seed_gains",
-        "percentile_bootstrap_interval", "restricted_mean_time", "smooth", "t_interval",
-        "t_test_pvalue", "threshold_times", "time_to_threshold", "time_to_threshold_ratio",
+        "BELOW_MARGIN", "GAINS", "INTERVALS", "ImprovementTest", "METRIC", "METRICS",
+        "Metric", "MetricEstimate", "Paired", "area_above_floor", "asymptotic_gain",
+        "asymptotic_performance", "compare", "episodes_below", "fieller_interval",
+        "format_metrics_markdown", "headline_metrics", "holm", "improvement_test",
+        "jumpstart", "kaplan_meier", "km_median", "largest_dip", "mean_curve_band",
+        "median_interval", "pairwise_metrics", "per_seed_gains",
+        "percentile_bootstrap_interval", "restricted_mean_time", "sign_flip_pvalue",
+        "smooth", "t_interval", "t_test_pvalue", "threshold_times", "time_to_threshold", "time_to_threshold_ratio",
         "total_reward", "total_reward_gain", "transfer_ratio", "trend_slopes",
         "wilson_interval"
     ],
@@ -96,6 +99,7 @@ SNAPSHOT: dict[str, list[str]] = {
         "register_reuse"
     ],
     "ilpss.smdp": ["KEEPAWAY", "LearnerConfig", "SMDP_CONSTRAINTS", "SmdpLearner"],
+    "ilpss.statewise": ["StatewiseStart"],
     "ilpss.tiles": ["TileCoder"],
     "ilpss.traces": ["DivergedError"],
     "opponents": [

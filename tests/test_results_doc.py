@@ -69,6 +69,16 @@ def test_results_doc_runs_every_protocol_and_resumes(tmp_path):
     assert [f.stat().st_mtime_ns for f in results] == mtimes
     again = (docs / "results.md").read_text()
     assert _without_wall_times(again) == _without_wall_times(text)
+    # the page's tables recomputed from the per-seed numbers kept in docs/data alone
+    elsewhere = tmp_path / "from_data"
+    assert main(["--from-data", str(docs / "data" / "results"), "--docs", str(elsewhere),
+                 "--quiet"]) == 0
+    recomputed = (elsewhere / "results.md").read_text()
+    assert _tables(recomputed) == _tables(text) and len(_tables(text)) > 50
+
+
+def _tables(text: str) -> list[str]:
+    return [line for line in text.splitlines() if line.startswith("|")]
 
 
 def test_commands_are_written_only_when_they_reproduce_the_configuration():

@@ -74,6 +74,12 @@ def test_a_new_archive_kind_round_trips_with_its_dimensions(tmp_path: Path) -> N
         (_arrays(counts=np.array([4, -1, 2])), _meta(),
          r"array 'counts' holds the value -1 at index \(1,\); each value must be an "
          r"integer >= 0"),
+        # an integer that int64 (what every saver writes) cannot hold: it would wrap around
+        (_arrays(counts=np.array([4, 2**64 - 1, 2], dtype=np.uint64)), _meta(),
+         r"array 'counts' holds the value 18446744073709551615 at index \(1,\), outside the "
+         r"int64 range every saved integer lies in \(an integer in "
+         r"\[-9,223,372,036,854,775,808, 9,223,372,036,854,775,807\]\): read as int64 it "
+         r"would wrap around"),
         (_arrays(centres=np.array([[0.0, 0.0], [np.inf, 0.0], [0.0, 0.0]])), _meta(),
          r"array 'centres' holds a non-finite value inf at index \(1, 0\); each value must "
          r"be a finite number"),

@@ -19,6 +19,7 @@ from ilpss.experiments.results_doc import main as results_main
 from ilpss.experiments.results_doc import parser as results_parser
 from ilpss.experiments.results_doc import protocol_config
 from ilpss.experiments.run import JobError, run_experiment
+from ilpss.experiments.seed_data import SeedData
 from ilpss.lifelong import LifelongLearner
 
 SOURCES = ("interceptors_press", "interceptor_guard")
@@ -170,11 +171,18 @@ def test_the_report_and_the_results_page_are_per_target_and_pooled(tmp_path):
     mtimes = [f.stat().st_mtime_ns for f in results]
     assert results_main([*shlex.split(command)[1:], "--workers", "1", "--quiet"]) == 0
     assert [f.stat().st_mtime_ns for f in results] == mtimes
-    # And write_report of the same results gives the same report.
+    # The report is computed from the numbers kept beside the page: the finished jobs read
+    # back, rounded as the data keeps them, and written again give the same report.
     cfg = _several()
     again = run_experiment(cfg, runs / "protocol_a", progress=False)
+    kept = SeedData.read(docs / "data" / "results")
+    for job, read in zip(kept.results("A"), again, strict=True):
+        assert list(job["methods"]) == list(read["methods"])  # in the run's order
+        for name, entry in read["methods"].items():
+            for target, curve in entry["curves"].items():
+                assert job["methods"][name]["curves"][target] == pytest.approx(curve, abs=1e-4)
     (tmp_path / "report").mkdir()
-    write_report(cfg, again, tmp_path / "report", command="x")
+    write_report(cfg, kept.results("A"), tmp_path / "report", command="x")
     assert (tmp_path / "report" / "report.md").read_text().split("## Pooled")[1] == \
         report.split("## Pooled")[1]
 

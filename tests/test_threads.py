@@ -148,3 +148,39 @@ def test_an_environment_can_move_to_another_thread():
     worker.join()
     assert len(out) == 1
     env.step({a: 3 for a in env.agents})  # back on the main thread
+
+
+# Each thread builds its first team at once, in a fresh interpreter: the registry's first
+# reading of the entry points and the team's first import happen in both threads together.
+_TWO_THREADS_FIRST_TEAM = textwrap.dedent(
+    """
+    import sys, threading
+    sys.setswitchinterval(1e-6)
+    import soccer_drill
+
+    start = threading.Barrier(2)
+    built, errors = [], []
+
+    def run():
+        start.wait()
+        try:
+            built.append(type(soccer_drill.make_team("chasers")).__name__)
+        except BaseException as exc:
+            errors.append(repr(exc)[:300])
+
+    threads = [threading.Thread(target=run) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    print(built, errors)
+    """
+)
+
+
+@pytest.mark.parametrize("run", range(3))
+def test_two_threads_building_their_first_team_at_once_both_get_it(run):
+    done = subprocess.run([sys.executable, "-c", _TWO_THREADS_FIRST_TEAM],
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip() == "['Chasers', 'Chasers'] []"

@@ -1,134 +1,58 @@
-"""A pre-registered confirmatory run: its family of comparisons, Holm across all of them,
-and the pick rule applied as written.
+"""A pre-registered confirmatory run: its family of tests, Holm across all of them, and the
+pick rule applied as written.
 
-    ilpss-confirm docs/confirmatory.json --runs results/confirm --out results/confirm/confirm.md
+    ilpss-confirm docs/decisive_test.json --runs results/decisive     # run (or resume), analyse
+    ilpss-confirm docs/decisive_test.json --from-data docs/data/decisive_test --out page.md
 
-The plan (a JSON file, :class:`Plan`) is committed before the run. It names the methods,
-each protocol's configuration (seeds never used before), the comparisons (a method
-against another, paired by seed, on the primary endpoint, in every protocol), the
-secondary endpoints, the margin and the pick rule's candidates. The command runs (or
-resumes) each protocol's experiment into ``<runs>/protocol_<p>``, then writes one page:
+The plan (:class:`~ilpss.experiments.plan.Plan`, a JSON file committed before the run) is
+checked whole before anything runs, and its power is computed from its pilot figures
+(:mod:`~ilpss.experiments.power`): a plan whose rule would pick a candidate with less
+than its required probability, were the pilot effects true, is refused unless
+``--force``. The command then runs (or resumes) each protocol's experiment into
+``<runs>/protocol_<p>``, keeps the per-seed numbers of every run finished as the plan
+says (``<runs>/seed_data``, or ``--data``: :class:`~ilpss.experiments.seed_data.SeedData`;
+the committed copy is what the page in ``docs/`` is recomputed from) and writes one page:
 
-* every comparison in every protocol, on the primary endpoint (the total-reward gain,
-  95% t interval over the paired seeds, p-value Holm-adjusted across the *whole* family:
-  every comparison in every protocol), and the secondary endpoints as plain intervals;
-* the pick, by :func:`pick`: a candidate *qualifies* against a set of methods when, in
-  every protocol, its gain over each of them has a lower bound above the margin, and in
-  at least one protocol its gain over all of them is above zero after Holm's adjustment.
-  The first qualifying candidate (in the plan's order, simplest first) against the
-  controls is picked, and a later candidate replaces it only if it qualifies against it
-  too; with none, the first control that qualifies against the fallback, else the
-  fallback.
+* every test of the family on the primary endpoint (the total-reward gain, paired by
+  seed): the estimate with its 95% interval, the t-test's p-value and the sign-flip
+  permutation test's beside it, and the p-value Holm-adjusted across the *whole* family;
+* the secondary endpoints and the plan's reported comparisons with plain, *unadjusted*
+  intervals (marked so);
+* the pick, by the plan's rule.
 
-The results must come from one code (:mod:`~ilpss.experiments.provenance`).
+``--analyse-only`` runs nothing; like every analysis it refuses run folders whose
+configuration is not the plan's or whose planned seeds are not all finished, and the page
+says which seeds it used. The results must come from one code
+(:mod:`~ilpss.experiments.provenance`).
 """
 
 from __future__ import annotations
 
 import argparse
-import dataclasses
-from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+import math
+import zlib
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from ilpss import metrics
-from ilpss._io import atomic_write_bytes, read_json
-from ilpss.experiments.compare import target_curves
-from ilpss.experiments.config import ExperimentConfig
-from ilpss.experiments.methods import METHODS
-from ilpss.experiments.protocols import PROTOCOLS
+from ilpss._io import atomic_write_bytes, json_differences
+from ilpss.experiments.plan import PRIMARY, Plan, Qualify, TestSpec
+from ilpss.experiments.power import PowerReport, plan_power, power_lines
 from ilpss.experiments.provenance import check_one_code, code_line
 from ilpss.experiments.report_stats import threshold_for, windows
 from ilpss.experiments.report_text import interval_text
 from ilpss.experiments.run import run_experiment
-from soccer_drill.constraints import ListOf, Name, OneOf, Real, Text, check_fields, check_keys
+from ilpss.experiments.seed_data import SeedData, seed_ranges
 
-__all__ = ["Plan", "analyse", "main", "pick"]
-
-PRIMARY = "total_reward_gain"
-
-
-@dataclass(frozen=True)
-class Plan:
-    """A confirmatory run, as written down before it (the fields of the plan's JSON)."""
-
-    methods: tuple[str, ...]
-    """Every method the run learns (registered names)."""
-    protocols: Mapping[str, Mapping[str, Any]]
-    """Per protocol, the ``ExperimentConfig`` fields of its run (seeds, streams); the
-    methods are :attr:`methods`, the baseline learning anew."""
-    comparisons: tuple[tuple[str, str], ...]
-    """``(method, against)`` pairs, each tested on the primary endpoint in every protocol:
-    together, the family Holm's adjustment is taken over."""
-    candidates: tuple[str, ...]
-    """Methods that can be picked, simplest first."""
-    controls: tuple[str, ...]
-    """What a candidate must qualify against."""
-    fallback: str
-    """The pick when nothing qualifies."""
-    margin: float = -15.0
-    """The lowest lower bound of a gain that counts as no loss."""
-    secondary: tuple[str, ...] = ("jumpstart", "final_gain", "largest_dip_gain",
-                                  "time_to_threshold_ratio")
-    """Metrics reported for every comparison, with plain intervals; not in the rule."""
-    alpha: float = 0.05
-    title: str = "The confirmatory run"
-    """The page's heading."""
-
-    def __post_init__(self) -> None:
-        names = ListOf(Name(), min_len=1, unique=True)
-        check_fields("Plan", self, {"methods": names, "candidates": names, "controls": names,
-                                    "margin": Real(-1e6, 0.0), "alpha": Real(0.0, 0.5),
-                                    "secondary": ListOf(OneOf(tuple(metrics.METRIC))),
-                                    "title": Text()})
-        for name in self.methods:
-            METHODS.get(name)  # an unknown method: KeyError naming the known ones
-        for field in ("candidates", "controls"):
-            unknown = [m for m in getattr(self, field) if m not in self.methods]
-            if unknown:
-                raise ValueError(f"Plan.{field}: {unknown} are not among Plan.methods")
-        if self.fallback not in self.controls:
-            raise ValueError(f"Plan.fallback {self.fallback!r} must be one of Plan.controls")
-        for method, against in self.comparisons:
-            if method not in self.methods or against not in self.methods or method == against:
-                raise ValueError(f"Plan.comparisons: ({method!r}, {against!r}) must pair two "
-                                 "different methods of Plan.methods")
-        for protocol in self.protocols:
-            PROTOCOLS.get(protocol)
-
-    @classmethod
-    def read(cls, path: Path) -> Plan:
-        """The plan in ``path`` (errors name the file)."""
-        values = read_json(path)
-        fields = ("methods", "protocols", "comparisons", "candidates", "controls", "fallback",
-                  "margin", "secondary", "alpha", "title")
-        try:
-            if not isinstance(values, dict):
-                raise ValueError("the plan must be a JSON object")
-            check_keys("the plan", values, fields,
-                       required=("methods", "protocols", "comparisons", "candidates",
-                                 "controls", "fallback"))
-            lists = {k: tuple(values[k]) for k in ("methods", "candidates", "controls",
-                                                   "secondary") if k in values}
-            pairs = tuple(tuple(pair) for pair in values["comparisons"])
-            if any(len(pair) != 2 for pair in pairs):
-                raise ValueError("comparisons must be [method, against] pairs")
-            return cls(**{**values, **lists, "comparisons": pairs})
-        except (ValueError, TypeError, KeyError) as exc:
-            raise ValueError(f"{path}: {exc}") from exc
-
-    def config(self, protocol: str) -> ExperimentConfig:
-        """The configuration of one protocol's run."""
-        return ExperimentConfig(protocol=protocol).with_overrides(
-            **{**self.protocols[protocol], "methods": self.methods, "baseline": "scratch"})
+__all__ = ["analyse", "main", "pick"]
 
 
 @dataclass(frozen=True)
 class Comparison:
-    """One comparison in one protocol."""
+    """One comparison in one protocol: a test of the family, or a reported comparison."""
 
     protocol: str
     method: str
@@ -136,140 +60,235 @@ class Comparison:
     estimates: dict[str, metrics.MetricEstimate]
     adjusted: float = float("nan")
     """The primary endpoint's p-value, Holm-adjusted across the whole family."""
+    name: str = ""
+    margin: float = 0.0
+    alternative: str = "two-sided"
+    p: float = float("nan")
+    """The t-test's p-value of the test (one-sided against the margin, or two-sided)."""
+    p_flip: float = float("nan")
+    """The sign-flip permutation test's p-value of the same hypothesis."""
+    in_family: bool = True
+    alpha: float = 0.05
 
     @property
     def gain(self) -> metrics.MetricEstimate:
         return self.estimates[PRIMARY]
 
-    def mirrored(self) -> Comparison:
-        """The same comparison the other way round (``against`` less ``method``): the
-        primary gain negated with its interval, the same adjusted p-value."""
-        g = self.gain
-        gain = dataclasses.replace(g, value=-g.value, low=-g.high, high=-g.low)
-        return Comparison(self.protocol, self.against, self.method, {PRIMARY: gain},
-                          self.adjusted)
-
-
-def analyse(plan: Plan, folders: Mapping[str, Path], *,
-            allow_mixed_code: bool = False) -> tuple[list[Comparison], list[dict]]:
-    """Every comparison of ``plan`` in every protocol (run folders ``folders``), the
-    primary p-values Holm-adjusted together; and the code of each result read."""
-    tests, codes = [], {}
-    for protocol, folder in folders.items():
-        found: dict[str, tuple[dict, str]] = {}
-        by_method = {m: target_curves(folder, m, found) for m in plan.methods}
-        codes.update(found)
-        seeds = sorted(set.intersection(*(set(c) for c in by_method.values())))
-        if len(seeds) < 2:
-            raise ValueError(f"{folder}: need at least 2 seeds finished by every method, "
-                             f"got {seeds}")
-        curves = {m: np.array([c[s][0] for s in seeds]) for m, c in by_method.items()}
-        for method, against in plan.comparisons:
-            base = curves[against]
-            first, last, window = windows(base.shape[1])
-            estimates = metrics.compare(curves[method], base, first=first, last=last,
-                                        threshold=threshold_for(base), window=window)
-            tests.append(Comparison(protocol, method, against, estimates))
-    check_one_code(codes, allow=allow_mixed_code)
-    adjusted = metrics.holm([t.gain.p_value for t in tests])
-    tests = [Comparison(t.protocol, t.method, t.against, t.estimates, float(p))
-             for t, p in zip(tests, adjusted, strict=True)]
-    return tests, [code for code, _ in codes.values()]
-
-
-def qualifies(tests: Sequence[Comparison], method: str, against: Sequence[str], margin: float,
-              alpha: float) -> bool:
-    """Whether ``method`` gains over every one of ``against`` with a lower bound above
-    ``margin`` in every protocol, and above zero after Holm's adjustment over all of
-    them in at least one protocol (the comparisons must be in the family, either way
-    round)."""
-    protocols = sorted({t.protocol for t in tests})
-    # A comparison written the other way round is the same paired test, mirrored.
-    mine = {(t.protocol, t.method): t.mirrored() for t in tests if t.against == method}
-    mine.update({(t.protocol, t.against): t for t in tests if t.method == method})
-    missing = [(p, a) for p in protocols for a in against if (p, a) not in mine]
-    if missing:
-        raise ValueError(f"the plan's comparisons lack {method} against {missing}")
-    no_loss = all(mine[p, a].gain.low > margin for p in protocols for a in against)
-    shown = any(all(mine[p, a].gain.value > 0 and mine[p, a].adjusted < alpha for a in against)
-                for p in protocols)
-    return no_loss and shown
+    @property
+    def shown(self) -> bool:
+        """Whether the test is shown after Holm's adjustment (a one-sided test: the gain
+        is above the margin)."""
+        return self.in_family and self.adjusted < self.alpha
 
 
 def pick(plan: Plan, tests: Sequence[Comparison]) -> tuple[str, list[str]]:
-    """The method the rule picks, and the lines that say why."""
-    said = []
-    others = [c for c in plan.controls if c != plan.fallback]
-    chosen = None
-    for candidate in plan.candidates:
-        ok = qualifies(tests, candidate, plan.controls, plan.margin, plan.alpha)
-        said.append(f"- `{candidate}` against {', '.join(f'`{c}`' for c in plan.controls)}: "
-                    f"{'qualifies' if ok else 'does not qualify'}.")
-        if ok and chosen is None:
-            chosen = candidate
-        elif ok and qualifies(tests, candidate, [chosen], plan.margin, plan.alpha):
-            said.append(f"- `{candidate}` qualifies against `{chosen}` too, and replaces it.")
-            chosen = candidate
-    if chosen is None:
-        for control in others:
-            ok = qualifies(tests, control, [plan.fallback], plan.margin, plan.alpha)
-            said.append(f"- `{control}` against `{plan.fallback}`: "
-                        f"{'qualifies' if ok else 'does not qualify'}.")
-            if ok:
-                chosen = control
-                break
-    return (plan.fallback if chosen is None else chosen), said
+    """The method the plan's rule picks, and the lines that say why."""
+    return plan.rule.pick(plan, [t for t in tests if t.in_family])
 
 
-def page(plan: Plan, tests: Sequence[Comparison], codes: Sequence[dict]) -> list[str]:
-    """The confirmatory page: the family's table, the secondary endpoints, the pick."""
-    head = ["protocol", "method", "against", f"{metrics.METRIC[PRIMARY].label} [95% CI]",
-            "p (Holm, whole family)",
-            *(metrics.METRIC[e].label for e in plan.secondary)]
-    lines = [
-        f"# {plan.title}", "",
-        code_line({"code": c} for c in codes), "",
-        f"{len(tests)} tests in the family ({len(plan.comparisons)} comparisons x "
-        f"{len(plan.protocols)} protocols), Holm-adjusted together; margin "
-        f"{plan.margin:g}, alpha {plan.alpha:g}. Secondary endpoints: plain 95% intervals, "
-        "not in the rule.", "",
-        "| " + " | ".join(head) + " |", "|" + "---|" * len(head),
-    ]
-    for t in tests:
-        cells = [t.protocol, f"`{t.method}`", f"`{t.against}`",
-                 interval_text(t.gain, metrics.METRIC[PRIMARY].fmt), f"{t.adjusted:.2g}",
-                 *(interval_text(t.estimates[e], metrics.METRIC[e].fmt)
-                   for e in plan.secondary)]
-        lines.append("| " + " | ".join(cells) + " |")
-    chosen, said = pick(plan, tests)
+# ---------------------------------------------------------------------- analysis
+def check_data(plan: Plan, data: SeedData) -> None:
+    """Refuse per-seed numbers that are not the plan's runs: another configuration, or a
+    planned seed missing (``ValueError`` naming the protocol and what differs)."""
+    for protocol in plan.protocols:
+        if protocol not in data.configs:
+            raise ValueError(f"protocol {protocol}: no results (the data hold "
+                             f"{sorted(data.configs)})")
+        diffs = json_differences(data.configs[protocol].results_record(),
+                                 plan.config(protocol).results_record(), "config")
+        if diffs:
+            raise ValueError(f"protocol {protocol}: the results come from another "
+                             f"configuration than the plan's ({'; '.join(diffs)})")
+        missing = sorted(set(plan.config(protocol).seeds) - set(data.seeds(protocol)))
+        if missing:
+            raise ValueError(f"protocol {protocol}: planned seeds {seed_ranges(missing)} are "
+                             "not finished")
+
+
+def analyse(plan: Plan, data: SeedData, *, allow_mixed_code: bool = False) -> list[Comparison]:
+    """Every test of the family (p-values Holm-adjusted together) and every reported
+    comparison, from the per-seed numbers ``data`` (checked with :func:`check_data`)."""
+    check_data(plan, data)
+    codes = {c["source_digest"]: (c, "the per-seed data") for c in data.codes()}
+    check_one_code(codes, allow=allow_mixed_code)
+    curves = {p: {m: _matrix(data, p, m) for m in plan.runs[p].methods} for p in plan.protocols}
+    reads_flip = plan.p_value == "sign_flip"
+    out = []
+    for specs in plan.groups().values():  # Holm within each family of tests
+        tests = [_compare(curves, spec, plan) for spec in specs]
+        adjusted = metrics.holm([t.p_flip if reads_flip else t.p for t in tests])
+        out += [_replace(t, adjusted=float(a)) for t, a in zip(tests, adjusted, strict=True)]
+    for method, against in plan.reported:
+        for protocol in plan.protocols:
+            if {method, against} <= set(plan.runs[protocol].methods):
+                spec = TestSpec(f"{protocol}: {method} - {against}", protocol, method,
+                                against, alternative="two-sided")
+                out.append(_replace(_compare(curves, spec, plan), in_family=False))
+    return out
+
+
+def _matrix(data: SeedData, protocol: str, method: str) -> np.ndarray:
+    by_seed = data.seed_curves(protocol, method)
+    return np.array([by_seed[s] for s in sorted(by_seed)])
+
+
+def _compare(curves: dict, spec: TestSpec, plan: Plan) -> Comparison:
+    ours, base = curves[spec.protocol][spec.method], curves[spec.protocol][spec.against]
+    first, last, window = windows(base.shape[1])
+    estimates = metrics.compare(ours, base, first=first, last=last,
+                                threshold=threshold_for(base), window=window)
+    diffs = ours.sum(axis=1) - base.sum(axis=1)
+    # A resampling seed of the test's own: the same page from the same numbers.
+    flip_seed = zlib.crc32(spec.name.encode())
+    return Comparison(
+        spec.protocol, spec.method, spec.against, estimates, name=spec.name,
+        margin=spec.margin, alternative=spec.alternative,
+        p=float(metrics.t_test_pvalue(diffs, spec.margin, spec.alternative)),
+        p_flip=metrics.sign_flip_pvalue(diffs, spec.margin, spec.alternative, seed=flip_seed),
+        alpha=plan.alpha)
+
+
+def _replace(c: Comparison, **changes: object) -> Comparison:
+    return replace(c, **changes)
+
+
+# ---------------------------------------------------------------------- the page
+def page(plan: Plan, tests: Sequence[Comparison], data: SeedData,
+         power: PowerReport | None = None) -> list[str]:
+    """The confirmatory page: the seeds, the family's table, the secondary endpoints and
+    reported comparisons (unadjusted), the pick."""
+    family = [t for t in tests if t.in_family]
+    seeds = "; ".join(f"{p}: {len(data.seeds(p))} seeds ({seed_ranges(data.seeds(p))})"
+                      for p in plan.protocols)
+    lines = [f"# {plan.title}", "", code_line({"code": c} for c in data.codes()), "",
+             f"Seeds used (every planned seed finished): {seeds}.", ""]
+    lines += _family_lines(plan, family)
+    if plan.secondary and not isinstance(plan.rule, Qualify):  # the first form: columns
+        lines += ["", "Secondary endpoints of the family's comparisons (plain 95% intervals, "
+                  "**unadjusted**, not in the rule):", ""]
+        head = ["protocol", "method", "against", *(metrics.METRIC[e].label
+                                                  for e in plan.secondary)]
+        lines += _table(head, [[t.protocol, f"`{t.method}`", f"`{t.against}`",
+                                *(interval_text(t.estimates[e], metrics.METRIC[e].fmt)
+                                  for e in plan.secondary)] for t in family])
+    reported = [t for t in tests if not t.in_family]
+    if reported:
+        lines += ["", "Reported comparisons, outside the family (95% intervals and two-sided "
+                  "p-values **unadjusted**):", ""]
+        head = ["protocol", "method", "against", f"{metrics.METRIC[PRIMARY].label} [95% CI]",
+                "p (t)", "p (sign-flip)", *(metrics.METRIC[e].label for e in plan.secondary)]
+        lines += _table(head, [[t.protocol, f"`{t.method}`", f"`{t.against}`",
+                                interval_text(t.gain, metrics.METRIC[PRIMARY].fmt),
+                                _p(t.p), _p(t.p_flip),
+                                *(interval_text(t.estimates[e], metrics.METRIC[e].fmt)
+                                  for e in plan.secondary)] for t in reported])
+    if power is not None:
+        lines += ["", *power_lines(plan, power)]
+    chosen, said = pick(plan, family)
     return [*lines, "", f"**The rule picks `{chosen}`.**", "", *said]
 
 
+def _family_lines(plan: Plan, family: Sequence[Comparison]) -> list[str]:
+    if isinstance(plan.rule, Qualify):
+        lines = [f"{len(family)} tests in the family ({len(plan.comparisons)} comparisons x "
+                 f"{len(plan.protocols)} protocols), two-sided, Holm-adjusted together; margin "
+                 f"{plan.rule.margin:g}, alpha {plan.alpha:g}. Secondary endpoints: plain 95% "
+                 "intervals, **unadjusted**, not in the rule.", ""]
+        head = ["protocol", "method", "against", f"{metrics.METRIC[PRIMARY].label} [95% CI]",
+                "p (Holm, whole family)", "p (t)", "p (sign-flip)",
+                *(metrics.METRIC[e].label for e in plan.secondary)]
+        return lines + _table(head, [[t.protocol, f"`{t.method}`", f"`{t.against}`",
+                                      interval_text(t.gain, metrics.METRIC[PRIMARY].fmt),
+                                      f"{t.adjusted:.2g}", _p(t.p), _p(t.p_flip),
+                                      *(interval_text(t.estimates[e], metrics.METRIC[e].fmt)
+                                        for e in plan.secondary)]
+                                     for t in family])
+    reads = "Student t" if plan.p_value == "t" else "sign-flip permutation"
+    sizes = ", ".join(f"`{g}` {len(ts)}" for g, ts in plan.groups().items())
+    lines = [f"{len(family)} one-sided tests in {len(plan.groups())} famil"
+             f"{'y' if len(plan.groups()) == 1 else 'ies'} ({sizes}), each family "
+             f"Holm-adjusted on its own on the {reads} p-values; a test is *shown* when its "
+             f"adjusted p is below {plan.alpha:g} (for a gain: the simultaneous lower bound "
+             "above 0; for no loss: above the margin).", ""]
+    head = ["test", "family", "protocol", "method", "against", "null hypothesis",
+            f"{metrics.METRIC[PRIMARY].label} [95% CI]", "p (t)", "p (sign-flip)",
+            "p (Holm)", "shown", "pilot effect (sd)"]
+    specs = {s.name: s for s in plan.family}
+    rows = []
+    for t in family:
+        pilot = specs[t.name].pilot
+        rows.append([t.name, f"`{specs[t.name].group}`", t.protocol, f"`{t.method}`",
+                     f"`{t.against}`",
+                     f"gain <= {t.margin:g}",
+                     interval_text(t.gain, metrics.METRIC[PRIMARY].fmt), _p(t.p),
+                     _p(t.p_flip), _p(t.adjusted), "**yes**" if t.shown else "no",
+                     "-" if pilot is None else f"{pilot.effect:+.1f} ({pilot.sd:.1f})"])
+    return lines + _table(head, rows)
+
+
+def _table(head: Sequence[str], rows: Sequence[Sequence[str]]) -> list[str]:
+    return ["| " + " | ".join(head) + " |", "|" + "---|" * len(head),
+            *("| " + " | ".join(row) + " |" for row in rows)]
+
+
+def _p(p: float) -> str:
+    return "n/a" if math.isnan(p) else f"{p:.2g}"
+
+
+# ---------------------------------------------------------------------- command
 def main(argv: Sequence[str] | None = None) -> int:
     """Run (or resume) the plan's protocols and write the confirmatory page."""
     p = argparse.ArgumentParser(prog="ilpss-confirm", description=__doc__.splitlines()[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter,
                                 epilog=__doc__)
     p.add_argument("plan", help="the plan (JSON), committed before the run")
-    p.add_argument("--runs", required=True, help="folder of the protocols' run folders")
-    p.add_argument("--out", help="the page to write (default: <runs>/confirm.md)")
+    p.add_argument("--runs", help="folder of the protocols' run folders (run or resumed "
+                                  "unless --analyse-only)")
+    p.add_argument("--from-data", metavar="STEM",
+                   help="analyse the committed per-seed numbers STEM.csv.gz and STEM.json "
+                        "instead of run folders (nothing is run)")
+    p.add_argument("--data", metavar="STEM",
+                   help="where to keep the per-seed numbers of the runs (default: "
+                        "<runs>/seed_data)")
+    p.add_argument("--out", help="the page to write (default: <runs>/confirm.md, or "
+                                 "STEM.md with --from-data)")
     p.add_argument("--analyse-only", action="store_true",
                    help="run nothing: analyse the finished runs")
+    p.add_argument("--force", action="store_true",
+                   help="run a plan whose power is below its required_power")
     p.add_argument("--allow-mixed-code", action="store_true",
                    help="analyse results made by different code (the page names each)")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
     args = p.parse_args(argv)
+    if (args.runs is None) == (args.from_data is None):
+        p.error("give exactly one of --runs and --from-data")
     try:
         plan = Plan.read(Path(args.plan))
-        folders = {protocol: Path(args.runs) / f"protocol_{protocol.lower()}"
-                   for protocol in plan.protocols}
-        if not args.analyse_only:
-            for protocol, folder in folders.items():
-                run_experiment(plan.config(protocol), folder, progress=not args.quiet,
-                               allow_mixed_code=args.allow_mixed_code)
-        tests, codes = analyse(plan, folders, allow_mixed_code=args.allow_mixed_code)
-        out = Path(args.out) if args.out else Path(args.runs) / "confirm.md"
-        atomic_write_bytes(out, ("\n".join(page(plan, tests, codes)) + "\n").encode())
+        power = None
+        if plan.form >= 2:
+            power = plan_power(plan)
+            weak = power.below(plan.required_power)
+            if weak and not args.force and args.from_data is None and not args.analyse_only:
+                p.exit(1, f"{p.prog}: error: the plan's power is below its required "
+                          f"{plan.required_power:.0%}: " + "; ".join(weak) +
+                          " (--force runs it anyway)\n")
+        if args.from_data is not None:
+            data = SeedData.read(args.from_data)
+            out = Path(args.out) if args.out else Path(args.from_data + ".md")
+        else:
+            runs = Path(args.runs)
+            folders = {protocol: runs / f"protocol_{protocol.lower()}"
+                       for protocol in plan.protocols}
+            if not args.analyse_only:
+                for protocol, folder in folders.items():
+                    run_experiment(plan.config(protocol), folder, progress=not args.quiet,
+                                   allow_mixed_code=args.allow_mixed_code)
+            data = SeedData.from_runs(folders)
+            check_data(plan, data)
+            data.write(args.data if args.data else runs / "seed_data")
+            out = Path(args.out) if args.out else runs / "confirm.md"
+        tests = analyse(plan, data, allow_mixed_code=args.allow_mixed_code)
+        atomic_write_bytes(out, ("\n".join(page(plan, tests, data, power)) + "\n").encode())
     except (ValueError, KeyError, OSError) as exc:
         p.exit(1, f"{p.prog}: error: {exc}\n")
     print(f"confirmatory page: {out}")

@@ -21,7 +21,7 @@ fact                        used by
 :data:`LATERAL`,            the kernels drawn on the field
 :data:`GOAL_DISTANCE`,
 :data:`FIELD`
-:data:`REGION_SOURCES`,     protocol R (a stream where regions matter) and its oracle
+:data:`REGION_SOURCES`,     protocol R (targets composed by region) and its oracle
 :data:`REGION_TARGETS`,     arm's regions
 :data:`REGION_SPLITS`
 :data:`SHARP_SOURCES`,      protocols S and L (the sharp test of regions: behaviour

@@ -44,6 +44,7 @@ from ilpss.reuse import (
     learn_with,
 )
 from ilpss.smdp import EpisodeResult, SmdpLearner
+from ilpss.statewise import StatewiseStart
 from soccer_drill.constraints import Constraint, Integer, Real
 from soccer_drill.registry import Registry
 
@@ -337,9 +338,11 @@ class FineTuneMethod(Method):
             config = replace(config, value_bounds=self.value_bounds)
         learner = SmdpLearner(scratch.n_primitive, scratch.tile_coder, None, config,
                               seed=learner_seed)
+        # Only a start that reads the sources' bags of states is handed them.
+        bags = scratch.bags[:before] if getattr(self.start, "uses_bags", False) else None
         results = learn_with(self.start, learner, scratch.policies[:before], env,
                              cfg.lifelong.train_episodes, seed=env_seed,
-                             choice_seed=choice_seed(seed, before))
+                             choice_seed=choice_seed(seed, before), bags=bags)
         return learner, results
 
 
@@ -414,6 +417,14 @@ for _method in (
     # traces' rule, kept or cut before an option, is moot without options).
     FineTuneMethod("finetune_bounded", "fine-tuning from the latest source, values bounded",
                    LatestPast(), value_bounds=drill_facts.EPISODE_REWARD),
+    # The start chooses its source per state, gated by ILPSS's kernels (ilpss.statewise).
+    FineTuneMethod("finetune_statewise_bounded",
+                   "fine-tuning from a start that chooses its source per state (ILPSS's "
+                   "kernels as the gate), values bounded", StatewiseStart(),
+                   value_bounds=drill_facts.EPISODE_REWARD),
+    FineTuneMethod("finetune_best_bounded",
+                   "fine-tuning from the best source (10 episodes each), values bounded",
+                   BestOfPast(), value_bounds=drill_facts.EPISODE_REWARD),
     # Fine-tuning that builds on itself: each task starts from the policy this method
     # learnt on the task before (the sources too), as the ILPSS-FT family's starts chain.
     LifelongMethod("finetune_chained", "fine-tuning chained (from its own latest policy)",
@@ -450,6 +461,14 @@ for _method in (
                    "whole past policies, ILPSS-FT's settings, values bounded, traces cut "
                    "before an option",
                    lambda base: _bounded_cut(base, "whole_policies_finetune")),
+    # The kernel-free method with the oracles' and the kernel method's base learner: steps
+    # inside an option bootstrapped from the primitives, so that regions against no regions
+    # is a comparison of one base learner.
+    LifelongMethod("whole_policies_ft_bounded_cut_primitives",
+                   "whole past policies, ILPSS-FT's settings, values bounded, traces cut "
+                   "before an option, steps inside options bootstrapped from the primitives",
+                   lambda base: _bounded_cut(base, "whole_policies_finetune",
+                                             "primitive_choices")),
     LifelongMethod("ilpss_ft_bounded_cut_available",
                    "ILPSS-FT, values bounded, traces cut before an option, steps inside "
                    "options bootstrapped from the available choices",

@@ -109,9 +109,11 @@ def verdict(estimates: dict[str, metrics.MetricEstimate],
                        estimates["final_gain"])
 
     def p_text(key: str) -> str:
+        flip = estimates[key].p_sign_flip
+        beside = "" if math.isnan(flip) else f"; sign-flip p = {flip:.2g}, unadjusted"
         if adjusted is None:
-            return f"p = {estimates[key].p_value:.2g}"
-        return f"Holm-adjusted p = {adjusted[key]:.2g}"
+            return f"p = {estimates[key].p_value:.2g}{beside}"
+        return f"Holm-adjusted p = {adjusted[key]:.2g}{beside}"
 
     over = f" over {episodes} episodes" if episodes else ""
     parts = [

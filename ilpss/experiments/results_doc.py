@@ -20,7 +20,9 @@ protocol the command that regenerates it (:func:`command_for`), its saved config
 from __future__ import annotations
 
 import argparse
+import json
 import shlex
+import tempfile
 import time
 from collections.abc import Sequence
 from dataclasses import replace
@@ -46,6 +48,7 @@ from ilpss.experiments.report import write_report
 from ilpss.experiments.report_text import doc_reference, label, metrics_note
 from ilpss.experiments.run import JobError, load_result, read_config, run_experiment
 from ilpss.experiments.sections import page_section
+from ilpss.experiments.seed_data import SeedData
 
 PAGE = {
     "A": {"teams": "teams", "targets": "targets"},
@@ -57,8 +60,8 @@ PAGE = {
 }
 """The protocols of the page, in its order, and the fields of each configuration that the
 page sets: from the named argument, or to the given value. Protocol C also runs ILPSS+
-without option discounting, to measure what discounting costs; protocol R (a stream where
-regions matter) also the oracle arm whose kernels are the true regions. Everything else
+without option discounting, to measure what discounting costs; protocol R (targets
+composed by region) also the oracle arm whose kernels are the true regions. Everything else
 is ``ExperimentConfig``'s default."""
 PROTOCOLS = tuple(PAGE)
 DEFAULT_RUNS, DEFAULT_DOCS = "results", "docs"
@@ -100,6 +103,10 @@ def parser() -> argparse.ArgumentParser:
                    help="use or resume runs whose results were made by other code (refused "
                    "otherwise); the page names every version of the code it mixes")
     p.add_argument("--quiet", action="store_true", help="no progress bars")
+    p.add_argument("--from-data", metavar="STEM",
+                   help="run nothing: regenerate the page from the per-seed numbers "
+                        "STEM.csv.gz and STEM.json (what <docs>/data/results holds); the "
+                        "kernels and GIFs, which need the runs' checkpoints, are left out")
     return p
 
 
@@ -116,15 +123,36 @@ def _main(argv: Sequence[str] | None) -> int:
         check_utf8(args)
         runs = check_out_dir(args.runs, "--runs", run_folder=False)
         docs = check_out_dir(args.docs, "--docs", run_folder=False)
-        for sub in ("figures", "results"):
+        for sub in ("figures", "results", "data"):
             check_out_dir(docs / sub, "--docs", run_folder=False)
         chosen = {protocol: protocol_config(protocol, args) for protocol in args.protocols}
+        kept = SeedData.read(args.from_data) if args.from_data else None
     except ValueError as exc:
         p.error(str(exc))
+    if kept is not None:
+        with tempfile.TemporaryDirectory() as scratch:  # the reports' figures, discarded
+            folders = {protocol: Path(scratch) / protocol for protocol in kept.configs}
+            for folder in folders.values():
+                folder.mkdir()
+            return _write_page(p, args, kept, folders, docs, runs)
     stop_on_sigterm()
+    data = _run(p, args, chosen, runs)
+    stem = docs / "data" / "results"
+    try:  # the page is computed from the numbers kept, as --from-data computes it
+        data.write(stem)
+        data = SeedData.read(stem)
+    except (ValueError, OSError) as exc:
+        p.exit(1, f"{p.prog}: error: {exc}\n")
+    folders = {protocol: runs / f"protocol_{protocol.lower()}" for protocol in data.configs}
+    return _write_page(p, args, data, folders, docs, runs)
+
+
+def _run(p: argparse.ArgumentParser, args: argparse.Namespace,
+         chosen: dict[str, ExperimentConfig], runs: Path) -> SeedData:
+    """Run or resume the chosen protocols; keep the finished runs of the others."""
     configs: dict[str, ExperimentConfig] = {}
-    sections: list[str] = []
-    every_result: list[dict[str, Any]] = []
+    jobs: dict[str, list[dict[str, Any]]] = {}
+    times: dict[str, dict[str, Any] | None] = {}
     for protocol in PROTOCOLS:
         folder = RunFolder(runs / f"protocol_{protocol.lower()}")
         if protocol in chosen:
@@ -146,18 +174,37 @@ def _main(argv: Sequence[str] | None) -> int:
             if results is None:
                 print(f"protocol {protocol}: {folder.root} is unfinished; its section is left out")
                 continue
-        configs[protocol] = cfg
-        every_result += results
+        configs[protocol], jobs[protocol] = cfg, results
+        times[protocol] = folder.wall_time() or _span(cfg, folder)
+    return SeedData(configs, jobs, times)
+
+
+def _write_page(p: argparse.ArgumentParser, args: argparse.Namespace, data: SeedData,
+                folders: dict[str, Path], docs: Path, runs: Path) -> int:
+    """Each protocol's report (into its folder) and section, and the page, all from
+    ``data``."""
+    configs = {protocol: data.configs[protocol] for protocol in PROTOCOLS
+               if protocol in data.configs}
+    sections: list[str] = []
+    for protocol, cfg in configs.items():
+        results, folder = data.results(protocol), folders[protocol]
         command = command_for({protocol: cfg}, args.runs, args.docs)
         config_copy = docs / "results" / f"protocol_{protocol.lower()}_config.json"
         try:
-            write_report(cfg, results, folder.root, command=command or "(see config.json)")
-            atomic_write_bytes(config_copy, read_regular(folder.config, MAX_JSON_BYTES))
-            sections += [*header(cfg, folder, command, config_copy.name),
-                         *page_section(cfg, results, folder.root, docs)]
+            write_report(cfg, results, folder, command=command or "(see config.json)")
+            run_config = RunFolder(folder).config
+            if run_config.is_file():  # as the run wrote it, run-only fields included
+                saved = read_regular(run_config, MAX_JSON_BYTES)
+            else:  # from the numbers kept: the fields that decide the results
+                saved = json.dumps({**cfg.to_dict(), "code": results[0]["code"]},
+                                   indent=2).encode()
+            atomic_write_bytes(config_copy, saved)
+            sections += [*header(cfg, data.wall_times.get(protocol), command, config_copy.name),
+                         *page_section(cfg, results, folder, docs)]
         except OSError as exc:  # a full disk: the results stay, a rerun writes the pages
             p.exit(1, f"{p.prog}: error: protocol {protocol}: "
-                      f"{unwritten_report(folder.root, exc)}\n")
+                      f"{unwritten_report(folder, exc)}\n")
+    every_result = [r for protocol in configs for r in data.results(protocol)]
     text = [*intro(configs, args.runs, args.docs), code_line(every_result), "", *sections]
     path = docs / "results.md"
     try:
@@ -256,17 +303,23 @@ def run_timed(cfg: ExperimentConfig, folder: RunFolder, progress: bool,
             folder.add_wall_time(time.perf_counter() - start, cfg.workers, cfg.executor)
 
 
-def wall_time(cfg: ExperimentConfig, folder: RunFolder) -> str:
-    """The recorded wall time of a run, in words; for a run made without
-    ``ilpss-results``, the span from its ``config.json`` to its last ``result.json``."""
-    record = folder.wall_time()
-    if record is not None:
-        return (f"{_duration(record['seconds'])} with {record['workers']} {record['executor']} "
-                "worker(s), summed over the `ilpss-results` invocations that finished jobs")
+def _span(cfg: ExperimentConfig, folder: RunFolder) -> dict[str, Any]:
+    """For a run made without ``ilpss-results``: the span from its ``config.json`` to its
+    last ``result.json`` (pauses included), as a timing record with executor ``None``."""
     last = max(f.stat().st_mtime for f in job_files(cfg, folder))
-    span = last - folder.config.stat().st_mtime
-    return (f"not recorded (run without `ilpss-results`); {_duration(span)} from its "
-            "`config.json` to its last `result.json`, pauses included")
+    return {"seconds": max(0.0, last - folder.config.stat().st_mtime),
+            "workers": cfg.workers, "executor": None}
+
+
+def wall_time(record: dict[str, Any] | None) -> str:
+    """A run's wall time in words, from its timing record."""
+    if record is None:
+        return "not recorded"
+    if record["executor"] is None:
+        return (f"not recorded (run without `ilpss-results`); {_duration(record['seconds'])} "
+                "from its `config.json` to its last `result.json`, pauses included")
+    return (f"{_duration(record['seconds'])} with {record['workers']} {record['executor']} "
+            "worker(s), summed over the `ilpss-results` invocations that finished jobs")
 
 
 def _duration(seconds: float) -> str:
@@ -296,7 +349,7 @@ def _episodes(configs: dict[str, ExperimentConfig]) -> int | None:
     return episodes.pop() if len(episodes) == 1 else None
 
 
-def header(cfg: ExperimentConfig, folder: RunFolder, command: str | None,
+def header(cfg: ExperimentConfig, timing: dict[str, Any] | None, command: str | None,
            config_name: str) -> list[str]:
     """A protocol's title, what it does, its command, configuration and wall time."""
     protocol = PROTOCOLS_REGISTRY.get(cfg.protocol)
@@ -311,7 +364,7 @@ def header(cfg: ExperimentConfig, folder: RunFolder, command: str | None,
         f"{label(cfg.baseline)}, and with every other.", budget, "",
         f"- Command: {shown}",
         f"- Configuration: [`results/{config_name}`](results/{config_name})",
-        f"- Wall time: {wall_time(cfg, folder)}", "",
+        f"- Wall time: {wall_time(timing)}", "",
     ]
 
 

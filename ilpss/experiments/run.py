@@ -18,7 +18,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -60,7 +60,6 @@ from soccer_drill.constraints import ListOf, Real, check_fields, check_keys
 __all__ = [
     "JobDone",
     "JobSpec",
-    "check_entry",
     "load_result",
     "run_experiment",
 ]
@@ -91,6 +90,12 @@ class JobDone:
     """Per lifelong method, the trials that were found done in its checkpoints."""
 
 
+def run_order(methods: Sequence[str]) -> list[str]:
+    """The order in which a job runs ``methods``, and so the order of its result: methods
+    that reuse other methods' learners run after them."""
+    return sorted(methods, key=lambda m: bool(METHODS.get(m).reuses))
+
+
 def run_stream(spec: JobSpec) -> JobDone:
     """One (seed, stream) job: every method on the stream; returns its result."""
     cfg, seed, stream_index = spec.cfg, spec.seed, spec.stream_index
@@ -100,9 +105,7 @@ def run_stream(spec: JobSpec) -> JobDone:
         if spec.token is not None:
             store.check(spec.token)
         context = Job(cfg, seed, stream_index, stream, store, spec.token)
-        # Methods that reuse other methods' learners run after them.
-        order = sorted(cfg.methods, key=lambda m: bool(METHODS.get(m).reuses))
-        methods = {name: METHODS.get(name).run(context) for name in order}
+        methods = {name: METHODS.get(name).run(context) for name in run_order(cfg.methods)}
     finally:
         store.close()
     # Checked as a resume will read it: an entry its method does not declare fails this

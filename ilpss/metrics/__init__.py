@@ -9,7 +9,7 @@ One module per concern; every public name is importable from ``ilpss.metrics``:
   (:func:`threshold_times`), as survival data: :func:`kaplan_meier`, :func:`km_median`,
   :func:`median_interval`, :func:`restricted_mean_time`.
 * :mod:`~ilpss.metrics.inference` -- intervals and tests over seeds: :func:`t_interval`,
-  :func:`t_test_pvalue`, :func:`fieller_interval`, :func:`wilson_interval`,
+  :func:`t_test_pvalue`, :func:`sign_flip_pvalue`, :func:`fieller_interval`, :func:`wilson_interval`,
   :func:`percentile_bootstrap_interval`, :func:`holm`, :func:`improvement_test`,
   :func:`trend_slopes`.
 * :mod:`~ilpss.metrics.bands` -- :func:`mean_curve_band`, pointwise bootstrap bands for
@@ -27,10 +27,8 @@ curves shorter than a requested window raise :class:`ValueError`.
 
 from __future__ import annotations
 
-from ilpss.metrics._validation import FloatArray
 from ilpss.metrics.bands import mean_curve_band
 from ilpss.metrics.curves import (
-    THRESHOLD_ATOL,
     area_above_floor,
     asymptotic_gain,
     asymptotic_performance,
@@ -50,6 +48,7 @@ from ilpss.metrics.inference import (
     holm,
     improvement_test,
     percentile_bootstrap_interval,
+    sign_flip_pvalue,
     t_interval,
     t_test_pvalue,
     trend_slopes,
@@ -82,8 +81,6 @@ __all__ = [
     "INTERVALS",
     "METRIC",
     "METRICS",
-    "THRESHOLD_ATOL",
-    "FloatArray",
     "ImprovementTest",
     "Metric",
     "MetricEstimate",
@@ -108,6 +105,7 @@ __all__ = [
     "per_seed_gains",
     "percentile_bootstrap_interval",
     "restricted_mean_time",
+    "sign_flip_pvalue",
     "smooth",
     "t_interval",
     "t_test_pvalue",

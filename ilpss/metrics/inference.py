@@ -1,7 +1,7 @@
 """Intervals and tests on per-seed values, the seed being the unit.
 
 :func:`t_interval` and :func:`t_test_pvalue` (Student t; on paired differences, the paired
-t), :func:`fieller_interval` (ratio of two paired means), :func:`wilson_interval` (a
+t), :func:`sign_flip_pvalue` (the sign-flip permutation test beside it), :func:`fieller_interval` (ratio of two paired means), :func:`wilson_interval` (a
 share), :func:`percentile_bootstrap_interval` (kept for comparison: it covers too rarely at
 10 seeds), :func:`holm` (family-wise adjustment), :func:`improvement_test` (paired
 probability of improvement, sign and Wilcoxon tests) and :func:`trend_slopes` (a trend
@@ -25,7 +25,7 @@ from ilpss.metrics._validation import (
     _check_confidence,
     _check_real,
 )
-from soccer_drill.constraints import is_int
+from soccer_drill.constraints import Integer, OneOf, check, is_int
 
 
 @dataclass(frozen=True)
@@ -181,12 +181,19 @@ def t_interval(
     return _scalar_or_array(mean), _scalar_or_array(mean - half), _scalar_or_array(mean + half)
 
 
-def t_test_pvalue(values: ArrayLike, null: float = 0.0) -> float | FloatArray:
-    """Two-sided p-value of the one-sample t-test that the mean of ``values`` is ``null``.
+ALTERNATIVES = ("two-sided", "greater")
+"""The alternatives of the tests: the mean differs from ``null``, or exceeds it (the one-sided
+test of a gain, or of no loss beyond a margin: ``null`` is then the margin)."""
+
+
+def t_test_pvalue(values: ArrayLike, null: float = 0.0,
+                  alternative: str = "two-sided") -> float | FloatArray:
+    """p-value of the one-sample t-test that the mean of ``values`` is ``null``.
 
     The test that matches :func:`t_interval`: ``p < 1 - confidence`` exactly when the
     interval at ``confidence`` excludes ``null``. On per-seed differences it is the paired
-    t-test. With zero spread the p-value is 1 if every value equals ``null``, else 0.
+    t-test. With zero spread the p-value is 1 if every value is at most ``null`` (two-sided:
+    equals it), else 0.
 
     Parameters
     ----------
@@ -194,6 +201,10 @@ def t_test_pvalue(values: ArrayLike, null: float = 0.0) -> float | FloatArray:
         Per-seed values along the last axis, ``n >= 2``, finite.
     null : float
         Mean under the null hypothesis (default 0).
+    alternative : {"two-sided", "greater"}
+        ``"greater"``: the one-sided test of "the mean exceeds ``null``", whose p is below
+        ``(1 - confidence) / 2`` exactly when the lower bound of :func:`t_interval` at
+        ``confidence`` lies above ``null``.
 
     Returns
     -------
@@ -201,17 +212,79 @@ def t_test_pvalue(values: ArrayLike, null: float = 0.0) -> float | FloatArray:
     """
     x = _as_samples(values, "values")
     null = _check_real(null, "null")
+    check("alternative", alternative, OneOf(ALTERNATIVES))
     n = x.shape[-1]
     diff = x.mean(axis=-1) - null
     se = x.std(axis=-1, ddof=1) / math.sqrt(n)
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.abs(diff) / se
-    p = np.where(se > 0, 2.0 * stats.t.sf(t, n - 1), np.where(diff == 0, 1.0, 0.0))
+        t = diff / se
+    if alternative == "greater":
+        p = np.where(se > 0, stats.t.sf(t, n - 1), np.where(diff > 0, 0.0, 1.0))
+    else:
+        p = np.where(se > 0, 2.0 * stats.t.sf(np.abs(t), n - 1),
+                     np.where(diff == 0, 1.0, 0.0))
     # Zero spread is read from the values themselves: equal values can have a computed
     # spread of ~1e-17 and a mean off null by as much.
     equal = np.all(x == x[..., :1], axis=-1)
-    p = np.where(equal, np.where(x[..., 0] == null, 1.0, 0.0), p)
+    at_null = (x[..., 0] <= null) if alternative == "greater" else (x[..., 0] == null)
+    p = np.where(equal, np.where(at_null, 1.0, 0.0), p)
     return _scalar_or_array(p)
+
+
+#: Up to this many seeds :func:`sign_flip_pvalue` enumerates every sign vector (2**16).
+EXACT_SIGN_FLIPS = 16
+
+
+def sign_flip_pvalue(values: ArrayLike, null: float = 0.0, alternative: str = "two-sided",
+                     n_resamples: int = 200_000, seed: int = 0) -> float:
+    """p-value of the sign-flip permutation test of "the per-seed values are symmetric
+    around ``null``", on their mean.
+
+    The distribution-free companion of :func:`t_test_pvalue` for paired differences: under
+    the null each seed's ``values[i] - null`` is as likely to have either sign, so the
+    observed mean is compared with the means of every assignment of signs. Up to
+    :data:`EXACT_SIGN_FLIPS` seeds every one of the ``2**n`` assignments is used (exact);
+    beyond, ``n_resamples`` random ones (seeded by ``seed``) and the observed one, so the
+    p-value is ``(1 + count) / (1 + n_resamples)`` and never 0. With 10 seeds the smallest
+    p is ``2 / 1024`` (two-sided), whatever the effect.
+
+    Parameters
+    ----------
+    values : array_like, shape (n,)
+        Per-seed values (differences), ``n >= 2``, finite.
+    null : float
+        The centre under the null hypothesis (a margin for a test of no loss beyond it).
+    alternative : {"two-sided", "greater"}
+        ``"greater"``: the mean exceeds ``null``.
+    n_resamples : int
+        Random sign assignments when ``n > EXACT_SIGN_FLIPS``.
+    seed : int
+        Seed of those draws.
+    """
+    x = _as_samples(values, "values")
+    if x.ndim != 1:
+        raise ValueError(f"values must be one-dimensional (the seeds), got shape {x.shape}")
+    null = _check_real(null, "null")
+    check("alternative", alternative, OneOf(ALTERNATIVES))
+    check("n_resamples", n_resamples, Integer(1))
+    d = x - null
+    n = d.size
+    observed = d.mean()
+    if n <= EXACT_SIGN_FLIPS:
+        signs = 1.0 - 2.0 * ((np.arange(2**n)[:, None] >> np.arange(n)) & 1)
+        extra = 0
+    else:
+        rng = np.random.default_rng(seed)
+        signs = rng.choice((-1.0, 1.0), size=(n_resamples, n))
+        extra = 1  # the observed assignment itself
+    means = signs @ d / n
+    # A tolerance of rounding: a resampled mean equal to the observed one counts as it.
+    tol = 1e-12 * max(1.0, float(np.abs(d).max()))
+    if alternative == "greater":
+        count = int(np.sum(means >= observed - tol))
+    else:
+        count = int(np.sum(np.abs(means) >= abs(observed) - tol))
+    return float((count + extra) / (len(means) + extra))
 
 
 def fieller_interval(

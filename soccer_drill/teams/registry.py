@@ -17,9 +17,12 @@ value a factory taking keyword parameters::
 An entry point is imported on first use. One that fails to import (or is not
 callable) only breaks its own team: building it raises :class:`TeamError` naming it
 and the error, :func:`available_teams` leaves it out with a :class:`PluginWarning`,
-and :func:`broken_teams` lists it. A declared id that is not valid is refused the
+and :func:`broken_teams` lists it. A declared id that is not valid (an id is at most 64
+ASCII letters, digits, ``_`` or ``-``: :class:`~soccer_drill.constraints.Name`), or that
+looks like another team's (the same but for case, or ``-`` against ``_``), is refused the
 same way; an id declared by two distributions warns, naming both, and the first one
-found on ``sys.path`` is used (this project's own team, if it is one of them).
+found on ``sys.path`` is used (this project's own team, if it is one of them). Teams may
+be looked up and built from several threads at once.
 
 Every call of a team's ``reset`` and ``act`` is bounded in CPU time (``team_timeout``,
 1 s by default; see :class:`~soccer_drill.teams.driver.TeamDriver`).
@@ -117,8 +120,9 @@ def register(team_id: str, factory: Callable[..., Team], *, overwrite: bool = Fa
     Raises
     ------
     ValueError
-        ``team_id`` is not a non-empty identifier-like string, or is taken and
-        ``overwrite`` is false.
+        ``team_id`` is not a valid id (at most 64 ASCII letters, digits, ``_`` or ``-``,
+        not starting with a digit), looks like the id of another team (the same but for
+        case, or ``-`` against ``_``), or is taken and ``overwrite`` is false.
     TypeError
         ``factory`` is not callable.
     """
@@ -167,7 +171,9 @@ def team_code(team_id: str) -> dict[str, str]:
     ``factory``: the factory's module and name; ``distribution``: the name and version of
     the distribution that declares it (an entry point's); ``source_sha256``: the SHA-256
     of the source of the package the factory is in (every ``.py`` file under its
-    top-level package, by relative path; the file alone for a single-module plugin).
+    top-level package, by relative path, or below a namespace package under the first
+    regular package; the file alone for a single-module plugin or a module directly in a
+    namespace package).
     A key is left out when it cannot be known (a factory made at run time).
     """
     factory = TEAMS.get(team_id)
@@ -183,10 +189,16 @@ def team_code(team_id: str) -> dict[str, str]:
 
 
 def _package_digest(module_name: str | None) -> str | None:
-    """SHA-256 of the ``.py`` files of ``module_name``'s top-level package (or module)."""
-    top = sys.modules.get((module_name or "").partition(".")[0])
-    origin = getattr(top, "__file__", None)
-    if origin is None:
+    """SHA-256 of the ``.py`` files of the outermost regular package that holds
+    ``module_name`` (its top-level package or, below a namespace package, the first
+    regular one), or of the module's file alone when no regular package holds it (a
+    single-module plugin, or a module directly in a namespace package)."""
+    parts = (module_name or "").split(".")
+    for depth in range(1, len(parts) + 1):
+        origin = getattr(sys.modules.get(".".join(parts[:depth])), "__file__", None)
+        if origin is not None:  # a namespace package has none: look further in
+            break
+    else:
         return None
     path = Path(origin)
     files = sorted(path.parent.rglob("*.py")) if path.name == "__init__.py" else [path]

@@ -1,0 +1,64 @@
+"""Every results page in docs/ is recomputed from the per-seed numbers committed beside it
+(docs/data) and gives the page that is committed; a page made before the numbers were kept
+says so at its top, naming the file it lacks."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from ilpss.experiments import confirm, results_doc
+
+ROOT = Path(__file__).resolve().parents[1]
+DOCS = ROOT / "docs"
+
+CONFIRMATORY_PAGES = [
+    ("decisive_test.md", "decisive_test.json", "decisive_test"),
+    ("confirmatory.md", "confirmatory.json", "confirmatory"),
+    ("sharp_test.md", "sharp_test.json", "sharp_test"),
+]
+NOT_KEPT = "**Per-seed numbers not kept.**"
+
+
+def _kept(stem: str) -> bool:
+    return (DOCS / "data" / f"{stem}.json").is_file()
+
+
+@pytest.mark.parametrize("page, stem", [(page, stem) for page, _, stem in CONFIRMATORY_PAGES]
+                         + [("results.md", "results")])
+def test_a_page_has_its_numbers_or_says_it_has_not(page, stem):
+    if not (DOCS / page).exists():  # a plan not yet run has no page
+        assert not _kept(stem)
+        return
+    text = (DOCS / page).read_text()
+    if _kept(stem):
+        assert NOT_KEPT not in text
+    else:
+        assert NOT_KEPT in text.split("\n\n")[1] and f"docs/data/{stem}.csv.gz" in text
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("page, plan, stem", CONFIRMATORY_PAGES)
+def test_a_confirmatory_page_is_what_its_committed_numbers_give(tmp_path, page, plan, stem):
+    if not _kept(stem):
+        pytest.skip(f"docs/data/{stem} is not kept (the page says so)")
+    out = tmp_path / page
+    assert confirm.main([str(DOCS / plan), "--from-data", str(DOCS / "data" / stem),
+                         "--out", str(out)]) == 0
+    assert out.read_text() == (DOCS / page).read_text()
+
+
+def _tables(text: str) -> list[str]:
+    return [line for line in text.splitlines() if line.startswith("|")]
+
+
+@pytest.mark.slow
+def test_the_results_pages_tables_are_what_its_committed_numbers_give(tmp_path):
+    if not _kept("results"):
+        pytest.skip("docs/data/results is not kept (the page says so)")
+    assert results_doc.main(["--from-data", str(DOCS / "data" / "results"), "--docs",
+                             str(tmp_path), "--quiet"]) == 0
+    committed = _tables((DOCS / "results.md").read_text())
+    assert len(committed) > 100
+    assert _tables((tmp_path / "results.md").read_text()) == committed
