@@ -117,6 +117,8 @@ class Worker:
     def run(self) -> dict:
         import numpy as np
 
+        import soccer_drill.vector  # imported before any signal: imports are not soaked
+
         self.np = np
         self.install()
         sender = threading.Thread(target=self.send, daemon=True)
