@@ -43,6 +43,7 @@ import subprocess
 import sys
 import threading
 import time
+import traceback
 from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
@@ -77,11 +78,13 @@ class Worker:
         self.handled = threading.Event()  # the main loop caught (or gave up on) a delivery
         self.done = False
         self.envs: list[Slot] = []
+        self.last_ran, self.last_frame, self.trace = "", None, None
 
     # the handlers
-    def _ran(self, signum: int, frame: object) -> None:
+    def _ran(self, signum: int, frame: Any) -> None:
         self.ran += 1
         self.at[self.operation] += 1
+        self.last_ran, self.last_frame = self.operation, frame
         if signum == signal.SIGALRM:
             raise Alarm
         if signum == signal.SIGTERM:
@@ -108,16 +111,17 @@ class Worker:
                                          f"handler did not run in {self.patience:g} s")
                 else:
                     self.problems.append(f"swallowed: {name}'s handler ran during "
-                                         f"{self.operation}, its exception never reached "
+                                         f"{self.last_ran}, its exception never reached "
                                          "the loop")
-                self.handled.wait()  # the loop acknowledges the next one it catches
+                    if self.trace is None:
+                        self.trace = "".join(traceback.format_stack(self.last_frame))
         self.done = True
 
     # the main loop
     def run(self) -> dict:
         import numpy as np
 
-        import soccer_drill.vector  # imported before any signal: imports are not soaked
+        import soccer_drill.vector  # noqa: F401  (imported before any signal: imports are not soaked)
 
         self.np = np
         self.install()
@@ -134,7 +138,7 @@ class Worker:
         for slot in self.envs:
             slot.env.close()
         return {"sent": self.sent, "ran": self.ran, "caught": self.caught,
-                "problems": self.problems, "at": dict(self.at), "kinds": dict(self.kinds)}
+                "problems": self.problems, "trace": self.trace, "at": dict(self.at), "kinds": dict(self.kinds)}
 
     def make(self) -> Slot:
         import soccer_drill
@@ -243,6 +247,8 @@ def run_worker(seed: int, deliveries: int, args: argparse.Namespace) -> dict:
         return {"crash": f"worker {seed} did not end within {args.timeout:g} s"}
     lines = [line for line in done.stdout.splitlines() if line.startswith("{")]
     if done.returncode != 0 or not lines:
+        if args.verbose:
+            print(f"worker {seed}'s standard error:\n{done.stderr[-6000:]}", flush=True)
         tail = done.stderr.strip().splitlines()[-3:]
         return {"crash": f"worker {seed} ended with status {done.returncode}: {' | '.join(tail)}"}
     report = json.loads(lines[-1])
@@ -267,6 +273,9 @@ def soak(args: argparse.Namespace) -> dict:
         for key in ("sent", "ran", "caught"):
             totals[key] += report[key]
         totals["problems"] += report["problems"]
+        if report.get("trace") and args.verbose:
+            print(f"worker {seed - 1}: where a swallowed handler ran:\n{report['trace']}",
+                  flush=True)
         totals["at"].update(report["at"])
         totals["kinds"].update(report["kinds"])
         if args.verbose:

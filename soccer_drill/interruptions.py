@@ -24,6 +24,7 @@ delivers them when the block ends.
 from __future__ import annotations
 
 import dis
+import enum
 import functools
 import reprlib
 import signal
@@ -52,6 +53,25 @@ _short.maxlevel, _short.maxstring, _short.maxother, _short.maxlong = 2, 400, 400
 _short.maxdict = _short.maxlist = _short.maxtuple = _short.maxset = 6
 MAX_ITEMS = 6
 """How many keys or items an error message lists at most."""
+
+
+class _NoPythonOnMisses(enum.EnumType):
+    """``EnumType`` whose class-attribute misses run no Python code (Python 3.11's
+    ``EnumType.__getattr__`` does; a miss falls through to ``type``'s own lookup)."""
+
+    __getattr__ = type.__getattribute__
+
+
+class QuietIntEnum(enum.IntEnum, metaclass=_NoPythonOnMisses):
+    """An ``IntEnum`` whose members numpy can meet without losing a signal.
+
+    numpy probes the type of every object it is handed (``__array_priority__``,
+    ``__array_function__``, ...) and clears any exception from the probe. On an
+    ``IntEnum`` class each probe misses and runs ``EnumType.__getattr__``, Python code
+    where a signal handler can run; what it raises (a Ctrl-C, a wall-clock bound's
+    exception) was then lost in ``array == Outcome.RUNNING``. Here a miss is
+    ``type``'s plain lookup, C code that never runs a handler.
+    """
 
 
 def short_repr(value: object) -> str:
