@@ -76,6 +76,7 @@ class Worker:
         self.kinds: Counter[str] = Counter()
         self.operation = "start"
         self.handled = threading.Event()  # the main loop caught (or gave up on) a delivery
+        self.go = threading.Event()
         self.done = False
         self.envs: list[Slot] = []
         self.last_ran, self.last_frame, self.trace = "", None, None
@@ -97,6 +98,7 @@ class Worker:
 
     # the sender thread
     def send(self) -> None:
+        self.go.wait()  # the main loop is ready to catch
         for _ in range(self.deliveries):
             time.sleep(self.sender_rng.expovariate(1 / self.mean))
             name = self.sender_rng.choice(SIGNALS)
@@ -128,6 +130,7 @@ class Worker:
         sender = threading.Thread(target=self.send, daemon=True)
         sender.start()
         self.first = True
+        self.go.set()
         while not self.done:
             try:
                 self.operate()

@@ -22,6 +22,7 @@ Each runs in a fresh interpreter where a process's first use matters.
 
 from __future__ import annotations
 
+import enum
 import functools
 import os
 import shutil
@@ -30,11 +31,14 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import soccer_drill
 from soccer_drill import Command, Skill
+from soccer_drill.rules.arrays import Outcome
 from soccer_drill.rules.compiled import COMPILED
+from soccer_drill.rules.motion import BallAction
 from soccer_drill.teams.registry import TeamError
 
 pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
@@ -312,3 +316,24 @@ def test_a_read_only_install_with_a_read_only_home_imports(tmp_path):
     assert lines[1] == "1", done.stdout
     assert "NUMBA_CACHE_DIR" in lines[2]
 
+
+
+# ---------------------------------------------------------------- numpy and enums
+@pytest.mark.parametrize("member", [Skill.PASS, Outcome.RUNNING, BallAction.KICK],
+                         ids=["Skill", "Outcome", "BallAction"])
+def test_numpy_meets_the_drills_enums_without_running_python_code(member):
+    """numpy probes the type of what it is handed and clears any exception of the probe;
+    on Python 3.11's ``IntEnum`` each probe ran ``EnumType.__getattr__``, where a signal
+    handler's exception was lost (the signal soak found a Ctrl-C lost in
+    ``outcome == Outcome.RUNNING``)."""
+    calls = []
+    array = np.arange(4)
+    sys.setprofile(lambda frame, event, arg: calls.append(frame.f_code.co_name)
+                   if event == "call" and frame.f_code.co_filename == enum.__file__ else None)
+    try:
+        np.where(array == member, array, -1)
+        array[0] = member
+        np.asarray(member)
+    finally:
+        sys.setprofile(None)
+    assert calls == []
