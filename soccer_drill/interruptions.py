@@ -143,7 +143,16 @@ def delivered_by_signal(exc: BaseException) -> bool:
     return False
 
 
-_SIGNALS = tuple(sorted(int(s) for s in signal.valid_signals()))
+def _readable(signum: int) -> bool:
+    try:
+        _sig.getsignal(signum)
+    except (ValueError, OSError):  # pragma: no cover - signals Python cannot read
+        return False
+    return True
+
+
+_SIGNALS = tuple(sorted(s for s in map(int, signal.valid_signals()) if _readable(s)))
+_getsignal = _sig.getsignal
 _mask = getattr(signal, "pthread_sigmask", None)
 
 
@@ -176,15 +185,13 @@ class SignalsDeferred:
         self._deferring = True
         if threading.get_ident() != _MAIN_THREAD:
             return self
+        note, previous, getsignal, setsignal = self._note, self._previous, _getsignal, _sig.signal
         try:
             for signum in _SIGNALS:
-                try:
-                    handler = _sig.getsignal(signum)
-                except (ValueError, OSError):  # pragma: no cover - signals Python cannot read
-                    continue
-                if callable(handler) and handler != self._note:
-                    self._previous[signum] = handler
-                    _sig.signal(signum, self._note)
+                handler = getsignal(signum)
+                if handler is not None and type(handler) is not int and handler != note:
+                    previous[signum] = handler
+                    setsignal(signum, note)
         except BaseException:  # a handler not yet replaced raised: nothing is held back
             self.__exit__()
             raise

@@ -13,7 +13,7 @@ So the drill's spaces are held here, each under its owner (a
 :class:`~soccer_drill.drill.spaces.BatchPhysics`) and a slot, until the owner replaces
 it (:func:`keep`) or is gone. They are freed only inside
 :class:`~soccer_drill.interruptions.SignalsDeferred`, by the owner's next replacement or
-by the next :func:`keep` of any owner (a space whose owner is gone waits for it): the
+by the next :func:`keep` of any owner (called where a space is built, inside it) (a space whose owner is gone waits for it): the
 space first (it lets go of its bodies and shapes), then each body and shape, their
 self-handles dropped so that reference counting frees them there and then rather than a
 later garbage collection.
@@ -25,24 +25,23 @@ import weakref
 
 import pymunk
 
-from soccer_drill.interruptions import SignalsDeferred
-
 _kept: dict[tuple[int, int], tuple[weakref.ref, pymunk.Space]] = {}
 _SELF_HANDLES = ("_data_handle", "_h")  # pymunk's Body and Shape: handles to themselves
 
 
 def keep(owner: object, slot: int, space: pymunk.Space) -> None:
     """Hold ``space`` as ``owner``'s ``slot``, freeing the space held there before and
-    every space whose owner is gone, with signals held back. The owner keeps no other
-    reference to a space it replaces (its step function included)."""
-    with SignalsDeferred():
-        key = (id(owner), slot)
-        doomed = [key] if key in _kept else []
-        doomed += [k for k, (ref, _) in _kept.items() if ref() is None and k != key]
-        spaces = [_kept.pop(k)[1] for k in doomed]
-        _kept[key] = (weakref.ref(owner), space)
-        del space
-        _free(spaces)
+    every space whose owner is gone. Called inside
+    :class:`~soccer_drill.interruptions.SignalsDeferred` (where the owner builds the
+    space). The owner keeps no other reference to a space it replaces (its step function
+    included)."""
+    key = (id(owner), slot)
+    doomed = [key] if key in _kept else []
+    doomed += [k for k, (ref, _) in _kept.items() if ref() is None and k != key]
+    spaces = [_kept.pop(k)[1] for k in doomed]
+    _kept[key] = (weakref.ref(owner), space)
+    del space
+    _free(spaces)
 
 
 def kept_spaces() -> int:

@@ -130,7 +130,8 @@ class DrillSpace:
         self.__dict__.update(state)
         self._buffer = pmb.Buffer()
         self._step = space_step(self.space)
-        keep(self, 0, self.space)
+        with SignalsDeferred():
+            keep(self, 0, self.space)
 
     def renew(self, drills: np.ndarray, pos: np.ndarray) -> None:
         """A new space with the bodies at rest at ``pos[0]`` (the drill's start); a Ctrl-C
@@ -303,9 +304,10 @@ class BatchPhysics:
         self._set_buffers, self._bodies, self._steps = [None] * k, [None] * k, [None] * k
         self._get_buffer = pmb.Buffer()
         self._offsets = self.offsets[:, None, :]
-        for space in range(k):
-            self._attach(space)
-            keep(self, space, self.spaces[space])
+        with SignalsDeferred():
+            for space in range(k):
+                self._attach(space)
+                keep(self, space, self.spaces[space])
 
     def cycle(self, pos: np.ndarray, vel: np.ndarray, active: np.ndarray | None) -> np.ndarray:
         """One cycle of the players from ``pos``/``vel`` (``(n, 5, 2)``, field coordinates;
