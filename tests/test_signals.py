@@ -25,6 +25,7 @@ from __future__ import annotations
 import enum
 import functools
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -337,3 +338,75 @@ def test_numpy_meets_the_drills_enums_without_running_python_code(member):
     finally:
         sys.setprofile(None)
     assert calls == []
+
+
+# ------------------------------------------------------- the single environments' lock
+class _Alarm(Exception):
+    pass
+
+
+class _AtEvent:
+    """A ``SIGALRM`` at the k-th point of one environment call where the interpreter runs
+    signal handlers: a Python function's entry, and the return of a C function (checked
+    right after the call); a profile function's exception lands there as a handler's."""
+
+    def __init__(self, k: int) -> None:
+        self.k, self.seen = k, 0
+
+    def __call__(self, frame, event, arg) -> None:
+        if event in ("call", "c_return"):
+            self.seen += 1
+            if self.seen == self.k:
+                signal.raise_signal(signal.SIGALRM)
+
+
+def _single_envs():
+    def holder():
+        env = soccer_drill.HolderEnv(opponent="chasers")
+        return env, lambda: env.step(0)
+
+    def parallel():
+        env = soccer_drill.parallel_env(opponent="chasers")
+        env.reset(seed=0)
+        return env, lambda: env.step({a: 0 for a in env.agents})
+
+    def aec():
+        env = soccer_drill.env(opponent="chasers")
+        return env, lambda: env.step(0)
+
+    return {"holder": holder, "parallel": parallel, "aec": aec}
+
+
+@pytest.mark.parametrize("kind", ["holder", "parallel", "aec"])
+def test_a_signal_at_any_point_of_a_single_step_leaves_the_environment_usable(kind):
+    """A handler raising at every call and return of one step (and of one reset): the
+    environment then steps, or says to call reset(), and resets. Before: a signal just
+    after the environment's lock was taken (``acquire()``, then ``try``) left it held,
+    and every later call was refused as if another thread were stepping."""
+    previous = signal.signal(signal.SIGALRM, functools.partial(_raise_timeout, what="alarm"))
+    try:
+        env, step = _single_envs()[kind]()
+        for call in ("step", "reset"):
+            env.reset(seed=0)
+            count = _AtEvent(10**9)
+            sys.setprofile(count)
+            step() if call == "step" else env.reset(seed=1)
+            sys.setprofile(None)
+            for k in range(1, count.seen + 1):
+                env.reset(seed=0)
+                hook = _AtEvent(k)
+                sys.setprofile(hook)
+                try:
+                    step() if call == "step" else env.reset(seed=1)
+                except _Timeout:
+                    pass
+                finally:
+                    sys.setprofile(None)
+                try:
+                    step()
+                except RuntimeError as exc:
+                    assert re.search(r"call reset\(\)|before reset\(\)", str(exc)), (k, exc)
+                env.reset(seed=2)
+                step()
+    finally:
+        signal.signal(signal.SIGALRM, previous)
