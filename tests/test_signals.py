@@ -444,3 +444,34 @@ def test_a_signal_while_a_registry_reads_its_entry_points_reaches_the_program():
         signal.signal(signal.SIGALRM, previous)
     assert hook.sent == 1
     assert "chasers" in registry.names()  # read again, whole, at the next use
+
+
+def test_a_signal_at_any_point_of_a_bounded_call_leaves_the_bound_working():
+    """Before: a handler raising just after the CPU-time timer was armed left it armed,
+    so every later call of a team was only measured, never interrupted (and with
+    ``SIGPROF``'s default action a later tick would end the process)."""
+    from soccer_drill.teams.time_bound import Overrun, call_within
+
+    def spin():
+        while True:
+            pass
+
+    previous = signal.signal(signal.SIGALRM, _raise_timeout)
+    try:
+        count = _AtEvent(10**9)
+        sys.setprofile(count)
+        call_within(1.0, int)
+        sys.setprofile(None)
+        for k in range(1, count.seen + 1):
+            sys.setprofile(_AtEvent(k))
+            try:
+                call_within(1.0, int)
+            except _Timeout:
+                pass
+            finally:
+                sys.setprofile(None)
+            assert signal.getitimer(signal.ITIMER_PROF) == (0.0, 0.0), k
+        with pytest.raises(Overrun):
+            call_within(0.05, spin)
+    finally:
+        signal.signal(signal.SIGALRM, previous)
