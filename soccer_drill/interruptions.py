@@ -174,7 +174,8 @@ class SignalsDeferred:
     the program's own frame, so :func:`delivered_by_signal` knows it. A handler left in
     place because an exception arrived while they were being put back passes its signal
     on to the program's handler. Only on the main thread, where Python runs signal
-    handlers; ``SIG_DFL`` and ``SIG_IGN`` are left alone. Costs about 4 us.
+    handlers; ``SIG_DFL`` and ``SIG_IGN`` are left alone. Costs about 14 us on a loaded
+    2-core machine (it reads each of the 62 signals' handlers).
     """
 
     __slots__ = ("_came", "_deferring", "_previous")
