@@ -10,10 +10,11 @@ command into a desired velocity and, for the ball holder, a ball action
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import IntEnum
+
+from soccer_drill.interruptions import QuietIntEnum
 
 
-class Skill(IntEnum):
+class Skill(QuietIntEnum):
     """Every skill a player can be commanded to execute for one cycle."""
 
     HOLD = 0

@@ -42,7 +42,7 @@ from importlib import metadata
 from typing import Any
 
 from soccer_drill.constraints import NAME_LENGTH, Constraint, Name
-from soccer_drill.interruptions import delivered_by_signal, short_repr
+from soccer_drill.interruptions import SignalsDeferred, delivered_by_signal, short_repr
 
 __all__ = ["PROJECT_DISTRIBUTION", "PluginWarning", "Registry"]
 
@@ -233,7 +233,10 @@ class Registry:
         """
         if self._discovered:
             return
-        found, unreadable = _declared(self.group)
+        # Signals held back: importlib.metadata suppresses any Exception while it lists
+        # a path entry, a signal handler's too (the signal soak lost a SIGALRM there).
+        with SignalsDeferred():
+            found, unreadable = _declared(self.group)
         notes = []
         for dist, note in unreadable:
             if dist not in _UNREADABLE_WARNED:

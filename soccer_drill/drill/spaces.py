@@ -30,7 +30,8 @@ import pymunk.batch as pmb
 
 from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import Integer, checked
-from soccer_drill.interruptions import CtrlCDeferred
+from soccer_drill.drill.keeper import keep
+from soccer_drill.interruptions import SignalsDeferred
 
 PLAYER_MASS = 75.0
 _BALL_MASS, _BALL_RADIUS = 0.45, 0.11
@@ -129,12 +130,14 @@ class DrillSpace:
         self.__dict__.update(state)
         self._buffer = pmb.Buffer()
         self._step = space_step(self.space)
+        with SignalsDeferred():
+            keep(self, 0, self.space)
 
     def renew(self, drills: np.ndarray, pos: np.ndarray) -> None:
         """A new space with the bodies at rest at ``pos[0]`` (the drill's start); a Ctrl-C
         meanwhile waits for its end (the old space is freed there:
-        :class:`~soccer_drill.interruptions.CtrlCDeferred`)."""
-        with CtrlCDeferred():
+        :class:`~soccer_drill.interruptions.SignalsDeferred`)."""
+        with SignalsDeferred():
             self._renew_now(pos)
 
     def _renew_now(self, pos: np.ndarray) -> None:
@@ -157,6 +160,7 @@ class DrillSpace:
             _set_position(body, p)
         self.space = space
         self._step = space_step(space)
+        keep(self, 0, space)  # the space replaced is freed here
 
     def cycle(self, pos: np.ndarray, vel: np.ndarray, active: np.ndarray | None) -> np.ndarray:
         """One cycle with the bodies' velocities ``vel[0]`` (``(1, 5, 2)``; the ball's too,
@@ -242,9 +246,9 @@ class BatchPhysics:
 
     def _build_space(self, k: int) -> None:
         """Space ``k``: its drills' players and walls, each drill in its own region (a
-        Ctrl-C meanwhile waits for the end: :class:`~soccer_drill.interruptions.CtrlCDeferred`)."""
+        Ctrl-C meanwhile waits for the end: :class:`~soccer_drill.interruptions.SignalsDeferred`)."""
         self._fresh[k] = False  # until built: a build cut short is built again
-        with CtrlCDeferred():
+        with SignalsDeferred():
             self._build_space_now(k)
 
     def _build_space_now(self, k: int) -> None:
@@ -273,6 +277,7 @@ class BatchPhysics:
         self.spaces[k] = space
         self._arrays[k] = array
         self._attach(k)
+        keep(self, k, space)  # the space replaced is freed here
         self._fresh[k] = True
 
     def _attach(self, k: int) -> None:
@@ -299,8 +304,10 @@ class BatchPhysics:
         self._set_buffers, self._bodies, self._steps = [None] * k, [None] * k, [None] * k
         self._get_buffer = pmb.Buffer()
         self._offsets = self.offsets[:, None, :]
-        for space in range(k):
-            self._attach(space)
+        with SignalsDeferred():
+            for space in range(k):
+                self._attach(space)
+                keep(self, space, self.spaces[space])
 
     def cycle(self, pos: np.ndarray, vel: np.ndarray, active: np.ndarray | None) -> np.ndarray:
         """One cycle of the players from ``pos``/``vel`` (``(n, 5, 2)``, field coordinates;

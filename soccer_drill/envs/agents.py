@@ -30,7 +30,6 @@ from soccer_drill.envs.core import (
     Observation,
     ObsType,
     action_list,
-    concurrent_use,
     make_config,
     masked_action,
     not_reset,
@@ -518,7 +517,7 @@ class raw_env(_DrillEnvBase, AECEnv):
 
     def reset(self, seed: int | None = None, options: dict | None = None) -> None:
         """Start an episode; ``seed`` reseeds the drill (see Seeding in the class docstring)."""
-        with self._exclusive("reset"):
+        with self._claim("reset"):
             self._begin_episode(seed)
             self.rewards = dict.fromkeys(self.agents, 0.0)
             self._cumulative_rewards = dict.fromkeys(self.agents, 0.0)
@@ -565,13 +564,8 @@ class raw_env(_DrillEnvBase, AECEnv):
 
     def step(self, action: int | None) -> None:
         """Act for the selected agent; the cycle advances after the last one (see the class docstring)."""
-        busy = self._busy
-        if not busy.acquire(False):
-            raise concurrent_use(self, "step")
-        try:
+        with self._claim("step"):
             self._step(action)
-        finally:
-            busy.release()
 
     def _step(self, action: int | None) -> None:
         if not self._has_reset:
@@ -657,7 +651,7 @@ class parallel_env(_DrillEnvBase, ParallelEnv):
         self, seed: int | None = None, options: dict | None = None
     ) -> tuple[dict[str, Any], dict[str, dict]]:
         """Start an episode; ``seed`` reseeds the drill (see Seeding in :class:`raw_env`)."""
-        with self._exclusive("reset"):
+        with self._claim("reset"):
             self._begin_episode(seed)
             result = (
                 {a: self._observation(a) for a in self.agents},
@@ -669,13 +663,8 @@ class parallel_env(_DrillEnvBase, ParallelEnv):
 
     def step(self, actions: Mapping[str, int]):
         """One cycle with one action per live agent (see the class docstring)."""
-        busy = self._busy
-        if not busy.acquire(False):
-            raise concurrent_use(self, "step")
-        try:
+        with self._claim("step"):
             result = self._step(actions)
-        finally:
-            busy.release()
         if self._screen.each_cycle:
             self._after_cycle()
         return result

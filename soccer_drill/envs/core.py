@@ -26,6 +26,7 @@ from soccer_drill.drill.drills import BatchDrill
 from soccer_drill.drill.spaces import DRILLS_PER_SPACE, DrillSpace
 from soccer_drill.rules.arrays import Outcome, rule_parameters
 from soccer_drill.rules.features import OBSERVATION_TYPES, ObservationType
+from soccer_drill.rules.first_use import warm_up
 from soccer_drill.rules.support import SupportDraws
 from soccer_drill.teams.driver import TeamDriver
 from soccer_drill.teams.registry import Team, check_team_timeout
@@ -154,6 +155,7 @@ class BatchCore:
         attack: Any = None,
     ) -> None:
         team_timeout = check_team_timeout(team_timeout)  # checked even without a team
+        warm_up()  # the rules compiled (or loaded) whole, with signals held back, before any step
         single = drills_per_space is None
         self.n, self.config = n, config
         self.batch = BatchDrill(n, config, drills_per_space or DRILLS_PER_SPACE,

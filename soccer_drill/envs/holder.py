@@ -18,7 +18,7 @@ from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import Integer, checked
 from soccer_drill.drill.drills import BatchDrill
 from soccer_drill.drill.spaces import DrillSpace
-from soccer_drill.envs.core import BatchCore, concurrent_use, make_config, not_reset, observation
+from soccer_drill.envs.core import BatchCore, make_config, not_reset, observation
 from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.scene import FrameStyle, Scene
 from soccer_drill.rendering.screen import RENDER_MODES, Screen, frames_per_second
@@ -440,7 +440,7 @@ class HolderEnv(Pickled, gym.Env):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start an episode; the observation is the 9 features of the attacker given the ball."""
         loop = self.loop
-        with self._exclusive("reset"):
+        with self._claim("reset"):
             super().reset(seed=seed)
             loop.core.seed(None if seed is None else [seed])
             loop.restart(_ONE)
@@ -455,13 +455,8 @@ class HolderEnv(Pickled, gym.Env):
 
     def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply the holder's action and run to its next decision or the end (see the class docstring)."""
-        busy = self._busy
-        if not busy.acquire(False):
-            raise concurrent_use(self, "step")
-        try:
+        with self._claim("step"):
             return self._step(action)
-        finally:
-            busy.release()
 
     def _step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if not self._has_reset:

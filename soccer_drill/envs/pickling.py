@@ -17,8 +17,6 @@ from __future__ import annotations
 import functools
 import hashlib
 import threading
-from collections.abc import Iterator
-from contextlib import contextmanager
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -69,17 +67,21 @@ class Pickled:
     def _busy_init(self) -> None:
         self._busy = threading.Lock()
 
-    @contextmanager
-    def _exclusive(self, method: str) -> Iterator[None]:
-        """Hold the environment's lock for ``method()`` (a ``reset``), or raise at once."""
-        from soccer_drill.envs.core import concurrent_use
+    def _claim(self, method: str) -> threading.Lock:
+        """The environment's lock, for ``with self._claim("step"):`` around ``method()``;
+        raises at once if it is held (a re-entrant call, or another thread's).
 
-        if not self._busy.acquire(False):
+        The ``with`` statement acquires it: between a lock's ``acquire()`` and the ``try``
+        guarding its release, a signal handler that raises would leave it held, and the
+        environment refusing every later call as if another thread were in it; the
+        ``with`` statement's acquiring and guarding leave no point for a handler to run.
+        """
+        busy = self._busy
+        if busy.locked():
+            from soccer_drill.envs.core import concurrent_use
+
             raise concurrent_use(self, method)
-        try:
-            yield
-        finally:
-            self._busy.release()
+        return busy
 
     def __reduce_ex__(self, protocol: Any) -> tuple:
         state = self.__dict__.copy()

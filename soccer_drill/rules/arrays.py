@@ -20,11 +20,11 @@ from __future__ import annotations
 
 import functools
 import math
-from enum import IntEnum
 
 import numpy as np
 
 from soccer_drill.config import DrillConfig
+from soccer_drill.interruptions import QuietIntEnum
 
 STATE = np.dtype([
     ("pos", np.float64, (5, 2)),
@@ -90,7 +90,7 @@ kept per cycle, the sub-step's length, the sub-steps, a pass's lock-out and the 
 length (cycles)."""
 
 
-class Outcome(IntEnum):
+class Outcome(QuietIntEnum):
     """An episode's outcome code in :data:`STATE`: ``RUNNING`` while it runs."""
 
     RUNNING = 0

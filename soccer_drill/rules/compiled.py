@@ -22,11 +22,18 @@ functions run as plain Python, slower, with the same results:
 from __future__ import annotations
 
 import functools
+import hashlib
+import inspect
 import math
+import sys
+import warnings
 from collections.abc import Callable
-from typing import Any, TypeVar
+from pathlib import Path
+from typing import Any, ClassVar, TypeVar
 
 import numpy as np
+
+from soccer_drill.interruptions import SignalsDeferred
 
 try:
     import numba
@@ -41,12 +48,98 @@ COMPILED = numba is not None and not numba.config.DISABLE_JIT
 
 
 def compiled(function: F) -> F:
-    """``function`` compiled by numba (``nopython``, cached on disk), or, when the rules
-    run as plain Python (:data:`COMPILED` false), itself reading its record arrays as
-    compiled code does: by attribute (``state[i].holder``: :func:`_as_records`)."""
+    """``function`` compiled by numba (``nopython``, cached on disk: :func:`_disk_cache`),
+    or, when the rules run as plain Python (:data:`COMPILED` false), itself reading its
+    record arrays as compiled code does: by attribute (``state[i].holder``:
+    :func:`_as_records`)."""
     if not COMPILED:
         return _as_records(function)  # type: ignore[return-value]
-    return numba.njit(cache=True)(function)  # type: ignore[union-attr, return-value]
+    dispatcher = numba.njit(function)  # type: ignore[union-attr]
+    cache = _disk_cache(function)
+    if cache is not None:
+        dispatcher._cache = cache  # what Dispatcher.enable_caching sets, with our stamp
+    return dispatcher  # type: ignore[return-value]
+
+
+class NoDiskCacheWarning(UserWarning):
+    """No directory numba can write its cache in: the rules are compiled in memory, at
+    every process's first use."""
+
+
+_warned_no_cache = False
+
+
+def _disk_cache(function: Callable[..., Any]) -> Any:
+    """numba's disk cache of ``function``, stamped with every source it may depend on
+    (:func:`rule_sources_digest`), or ``None`` (one :class:`NoDiskCacheWarning` per
+    process) when no directory for it is writable.
+
+    numba checks a cached function against its own file only, and a compiled function
+    inlines the constants, and calls the compiled functions, of other modules: a cache
+    stamped with its own file would run old rules after another module changed. numba
+    looks for a directory in ``NUMBA_CACHE_DIR``, then the package's ``__pycache__``,
+    then the user's cache directory (``~/.cache/numba``); a read-only install with a
+    read-only home has none, and compiles every rule anew in each process.
+    """
+    global _warned_no_cache
+    try:
+        return _StampedCache(function)
+    except RuntimeError as exc:  # numba: "cannot cache function ...: no locator available"
+        if not _warned_no_cache:
+            _warned_no_cache = True
+            warnings.warn(
+                f"numba cannot cache the drill's compiled rules ({exc}): they are compiled "
+                "in memory at each process's first use, which takes about a minute; set "
+                "NUMBA_CACHE_DIR to a writable directory to keep them between processes",
+                NoDiskCacheWarning, stacklevel=3)
+        return None
+
+
+@functools.cache
+def _package_digest(root: str) -> str:
+    """SHA-256 of every ``.py`` file under ``root`` (their paths and contents, sorted)."""
+    digest = hashlib.sha256()
+    base = Path(root)
+    files = sorted(base.rglob("*.py")) if base.is_dir() else [base]
+    for path in files:
+        digest.update(str(path.relative_to(base.parent)).encode() + b"\0")
+        digest.update(path.read_bytes() + b"\0")
+    return digest.hexdigest()
+
+
+def rule_sources_digest(function: Callable[..., Any]) -> str:
+    """A digest of the sources a compiled ``function`` may depend on: every module of
+    ``soccer_drill`` (the rules, and the constants they read) and of the top-level
+    package ``function`` belongs to (or its own file, outside a package)."""
+    top = sys.modules.get(function.__module__.partition(".")[0])
+    own = inspect.getfile(function)
+    if top is not None and getattr(top, "__path__", None):  # a package
+        own = next(iter(top.__path__))
+    return _package_digest(str(Path(__file__).resolve().parent.parent)) + _package_digest(
+        str(Path(own).resolve()))
+
+
+if COMPILED:
+    from numba.core.caching import CompileResultCacheImpl, FunctionCache
+
+    class _StampedLocators:
+        """Stamps a numba cache locator's source stamp with :func:`rule_sources_digest`."""
+
+        _rules_digest = ""
+
+        def get_source_stamp(self) -> Any:
+            return (super().get_source_stamp(), self._rules_digest)  # type: ignore[misc]
+
+    class _StampedImpl(CompileResultCacheImpl):
+        _locator_classes: ClassVar[list] = [type(f"Stamped{c.__name__}", (_StampedLocators, c), {})
+                            for c in CompileResultCacheImpl._locator_classes]
+
+        def __init__(self, py_func: Callable[..., Any]) -> None:
+            super().__init__(py_func)
+            self._locator._rules_digest = rule_sources_digest(py_func)
+
+    class _StampedCache(FunctionCache):
+        _impl_class = _StampedImpl
 
 
 def _as_records(function: Callable[..., Any]) -> Callable[..., Any]:
@@ -74,13 +167,19 @@ def warms(warmer: W) -> W:
 def warm_up() -> None:
     """Compile every registered rule now (or load it from the disk cache), once per
     process: a rule's first use compiles it, which can take seconds, and must not fall
-    inside a scripted team's time-bounded call (``TeamDriver`` calls this first)."""
+    inside a scripted team's time-bounded call (``TeamDriver`` calls this first), nor be
+    cut: numba's registries, left part-way through a compilation, fail every later call
+    of the process. So signals with a Python handler (a Ctrl-C, a ``SIGALRM`` or
+    ``SIGTERM`` handler that raises) wait for it to end
+    (:class:`~soccer_drill.interruptions.SignalsDeferred`): a Ctrl-C during a first
+    compilation stops the program when it ends."""
     if not COMPILED:
         return
     for warmer in list(_warmers):
         if warmer not in _warmed:
-            _warmed.add(warmer)
-            warmer()
+            with SignalsDeferred():
+                warmer()
+                _warmed.add(warmer)
 
 
 _SPLIT = 134217729.0  # 2**27 + 1: Dekker's split of a double into two halves

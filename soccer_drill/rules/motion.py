@@ -15,17 +15,17 @@ rolling ball's table (:func:`~soccer_drill.rules.arrays.roll_table`).
 from __future__ import annotations
 
 import math
-from enum import IntEnum
 
 import numpy as np
 
 from soccer_drill.commands import Skill
 from soccer_drill.config import DrillConfig
+from soccer_drill.interruptions import QuietIntEnum
 from soccer_drill.rules.arrays import roll_table, rule_parameters
 from soccer_drill.rules.compiled import compiled, hypot
 
 
-class BallAction(IntEnum):
+class BallAction(QuietIntEnum):
     """What a player's motion does with the ball: nothing, keep it at the control point,
     or kick it."""
 

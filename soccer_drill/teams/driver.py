@@ -134,6 +134,8 @@ def check_commands(commands: object, cycle: np.ndarray, drills: np.ndarray, cycl
             try:
                 array = np.asarray(given)
             except (TypeError, ValueError, OverflowError) as exc:
+                if delivered_by_signal(exc):
+                    raise
                 raise TeamError(f"team {team!r}: commands' {name} is not a numeric array: "
                                 f"{exc}") from exc
             if array.dtype.kind not in kinds:  # no strings, bools or objects
@@ -429,6 +431,8 @@ class TeamDriver:
         try:
             return copy.deepcopy(self.team)
         except Exception as exc:  # not copyable: said, with what to do
+            if delivered_by_signal(exc):
+                raise
             text = str(exc)  # the team's code too (an exception of its own)
             text = text if len(text) <= 400 else text[:400] + "..."
             raise _NotCopied(
@@ -507,6 +511,8 @@ class TeamDriver:
         except (TeamError, TypeError):
             raise
         except Exception as exc:  # the bound itself failed (arming its timer)
+            if delivered_by_signal(exc):  # the program's own, landing while the bound is set
+                raise
             raise TeamError(f"{self._who()}: its time bound could not be set for "
                             f"{call}{self._when(when)}: {short_repr(exc)}") from exc
 

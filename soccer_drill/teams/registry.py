@@ -230,6 +230,8 @@ def make_team(team_id: str, **params: Any) -> Team:
     try:
         team = factory(**params)
     except ValueError as exc:  # the usual way to refuse a parameter's value
+        if delivered_by_signal(exc):
+            raise
         raise ValueError(
             f"team {team_id!r} refused its parameters {short_repr(params)}: {short_repr(exc)}"
         ) from exc

@@ -141,6 +141,10 @@ def call_within(timeout: float, method: Callable[..., Any], *args: Any) -> Any:
     :func:`restart_count` for a call of parts, each bounded on its own)."""
     global _active
     callbacks = gc.callbacks
+    # No collection is running as a call starts: a signal handler that raised inside the
+    # callback's "stop" (the exception ignored, as in any gc callback) left it marked as
+    # running, which would have kept the timer from ever interrupting a call again.
+    _gc_time.started = None
     callbacks.append(_count_gc)
     innermost = _innermost
     enclosing = innermost.call
@@ -153,6 +157,7 @@ def call_within(timeout: float, method: Callable[..., Any], *args: Any) -> Any:
         ):
             outer = _active
             previous = _sig.signal(signal.SIGPROF, _on_cpu_timer)
+            disarm = True
             try:
                 # An interval, not a one-shot: a call that swallows the first interruption
                 # (a bare ``except:``) is interrupted again. Armed inside the ``try``, so
@@ -172,8 +177,15 @@ def call_within(timeout: float, method: Callable[..., Any], *args: Any) -> Any:
                     if call.overrun:
                         raise Overrun(call.cpu())
                     return result
+                disarm = False  # someone else's timer: put back as it was
                 _sig.setitimer(signal.ITIMER_PROF, *replaced)
             finally:
+                # Ours disarmed whatever happened, also when a signal handler raised just
+                # after arming (an interval left armed made every later call only
+                # measured, and with SIGPROF's default action would end the process).
+                if disarm:
+                    _sig.setitimer(signal.ITIMER_PROF, 0.0)
+                _active = outer
                 _sig.signal(signal.SIGPROF, previous)
         result = method(*args)
         if call.cpu() > timeout:
