@@ -203,6 +203,19 @@ def test_per_seed_numbers_that_were_changed_are_refused(tiny_run, tmp_path):
         SeedData.read(stem)
 
 
+def test_per_seed_numbers_missing_a_method_of_one_job_are_refused_by_name(tiny_run, tmp_path):
+    _, root = tiny_run
+    data = SeedData.read(root / "runs" / "seed_data")
+    jobs = {p: [dict(job) for job in js] for p, js in data.jobs.items()}
+    first = jobs["A"][0]
+    first["methods"] = {k: v for k, v in first["methods"].items() if k != FT}
+    stem = tmp_path / "short"
+    SeedData(data.configs, jobs, data.wall_times).write(stem)
+    with pytest.raises(ValueError, match=rf"protocol A, seed {first['seed']}, stream 0 holds "
+                                         rf"the methods .*; its run has"):
+        SeedData.read(stem)
+
+
 def test_an_analysis_refuses_runs_that_are_not_the_plans(tiny_run, tmp_path):
     path, root = tiny_run
     data = SeedData.read(root / "runs" / "seed_data")

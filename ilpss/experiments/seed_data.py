@@ -183,6 +183,14 @@ class SeedData:
             except (KeyError, TypeError) as exc:
                 raise ValueError(f"{manifest}: protocols.{protocol} is malformed ({exc})") from exc
         _fill(jobs, _rows(_gunzip(payload, table), table), table)
+        for protocol, js in jobs.items():  # every job holds exactly its run's methods
+            wanted = set(configs[protocol].methods)
+            for job in js:
+                if set(job["methods"]) != wanted:
+                    raise ValueError(
+                        f"{table}: protocol {protocol}, seed {job['seed']}, stream "
+                        f"{job['stream_index']} holds the methods {sorted(job['methods'])}; "
+                        f"its run has {sorted(wanted)}")
         return cls(configs, jobs, times)
 
     def _csv(self) -> str:
@@ -264,7 +272,7 @@ def _rows(text: str, where: Path) -> list[list[str]]:
 
 def _fill(jobs: dict[str, list[dict[str, Any]]], rows: list[list[str]], where: Path) -> None:
     """Put each row's numbers into its job (every row must name a job of the manifest,
-    and every job must have every method's rows)."""
+    and every job must have rows)."""
     index = {(p, job["seed"], job["stream_index"]): job for p, js in jobs.items() for job in js}
     for n, row in enumerate(rows, start=2):
         try:
