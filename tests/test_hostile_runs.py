@@ -786,3 +786,25 @@ def test_the_report_names_the_windows_its_curves_have(tmp_path):
     text = write_report(cfg, results, tmp_path, command="x").read_text()
     assert "jumpstart over the first 3 episodes" in text
     assert "the mean of the last 3" in text and "first 20" not in text
+
+
+def _top_level(i):
+    return i
+
+
+def test_an_interrupted_pool_leaves_no_thread_behind():
+    """After a map is interrupted, the pool's manager thread has ended: left running, it
+    raced the interpreter's exit hook, and a stopped command could end in a traceback
+    ("Bad file descriptor") after its one line."""
+    import threading
+
+    from ilpss.experiments.executor import LocalExecutor
+
+    def done(i, result):
+        raise KeyboardInterrupt  # as Ctrl-C does while the driver records a result
+
+    with pytest.raises(KeyboardInterrupt):
+        LocalExecutor(2, progress=False).map(_top_level, list(range(6)), done=done)
+    managers = [t for t in threading.enumerate()
+                if type(t).__name__ == "_ExecutorManagerThread" and t.is_alive()]
+    assert managers == []

@@ -194,9 +194,12 @@ class LocalExecutor:
         except BaseException:
             # Interrupted (Ctrl-C, a SIGTERM handler, an error in ``done``): the running
             # jobs stop now rather than after they end (they resume from their
-            # checkpoints next time).
+            # checkpoints next time). The pool's manager thread is then waited for (it
+            # ends at once, its workers gone): left running, it can close its wake-up
+            # pipe while the interpreter's exit hook writes to it, and the command then
+            # ends in a traceback ("Bad file descriptor") instead of its one line.
             context.terminate()
-            pool.shutdown(wait=False, cancel_futures=True)
+            pool.shutdown(wait=True, cancel_futures=True)
             raise
         pool.shutdown()
 
