@@ -316,7 +316,7 @@ def plan_into(skill, target, memory, seen, settings, params, table):
                 else:
                     skill[other] = Skill.MOVE_TO
                     target[other, 0], target[other, 1] = mark_target(pos, holder, 2 + other,
-                                                                     fraction)
+                                                                     fraction, 2)
             else:  # screen: goal-side of the ball, min(max(...)) as the builtins compare
                 ty = by - t.screen_distance
                 x = 1.0 if 1.0 > bx else bx
@@ -330,7 +330,7 @@ def plan_into(skill, target, memory, seen, settings, params, table):
                 target[k, 0], target[k, 1] = interception_point(
                     pos, vel, holder, 2 + k, p.defender_speed * t.speed[k], params, table)
             elif skill[k] == Skill.MARK:
-                target[k, 0], target[k, 1] = mark_target(pos, holder, 2 + k, _MARK_FRACTION)
+                target[k, 0], target[k, 1] = mark_target(pos, holder, 2 + k, _MARK_FRACTION, 2)
             elif skill[k] == Skill.GUARD_LINE:
                 x = 4.0 if 4.0 > bx else bx
                 target[k, 0], target[k, 1] = (size - 4.0 if size - 4.0 < x else x), GUARD_DEPTH
@@ -513,10 +513,12 @@ def _plans_of_drills(plans, drills, state, memory, history, settings, params, ta
 
 
 @warms
-def _compile_plans() -> None:
+def _compile_plans(config: DrillConfig | None) -> None:
     """:func:`plan_into` and its batched loop, called once with their callers' types
     (compiled before a team's time-bounded call reaches them)."""
-    cfg = DrillConfig()
+    cfg = config or DrillConfig()
+    if cfg.size != (2, 2):
+        return  # the family plays the 2v2 drill only
     team = ParametricTeam(roles=("interceptor", "guard"), press_probability=0.5)
     state = np.zeros(1, dtype=STATE)
     state["pos"][0] = [*cfg.attacker_starts, *cfg.defender_starts, (10.0, 10.0)]

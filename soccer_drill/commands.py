@@ -54,6 +54,36 @@ of value ``a`` (so a fixed holder rule may return ``Skill.PASS`` for action 1)."
 assert all(int(skill) == a for a, skill in enumerate(HOLDER_ACTIONS))
 
 
+def pass_names(attackers: int) -> tuple[str, ...]:
+    """The names of the passes of a drill with ``attackers`` attackers, one per teammate,
+    nearest first: ``("PASS",)`` with one teammate, ``("PASS_1", "PASS_2", ...)`` with
+    more, none with none."""
+    if attackers == 2:
+        return ("PASS",)
+    return tuple(f"PASS_{k}" for k in range(1, attackers))
+
+
+def holder_action_names(attackers: int) -> tuple[str, ...]:
+    """The ball holder's actions in a drill with ``attackers`` attackers, in index order:
+    ``HOLD``, one pass per teammate (nearest first), ``DRIBBLE`` (the paper's three,
+    :data:`HOLDER_ACTIONS`, with two attackers; ``HOLD, DRIBBLE`` with one)."""
+    return ("HOLD", *pass_names(attackers), "DRIBBLE")
+
+
+def attacker_action_names(attackers: int) -> tuple[str, ...]:
+    """An attacker agent's actions in a drill with ``attackers`` attackers: the holder's
+    (:func:`holder_action_names`), then ``GET_OPEN`` and ``GO_TO_BALL``
+    (:data:`ATTACKER_ACTIONS` with two attackers)."""
+    return (*holder_action_names(attackers), "GET_OPEN", "GO_TO_BALL")
+
+
+def attacker_action_skills(attackers: int) -> tuple[Skill, ...]:
+    """The skill of each of an attacker agent's actions (:func:`attacker_action_names`):
+    every pass is ``PASS``, to the teammate of its rank."""
+    return (Skill.HOLD, *(Skill.PASS,) * (attackers - 1), Skill.DRIBBLE, Skill.GET_OPEN,
+            Skill.GO_TO_BALL)
+
+
 @dataclass(frozen=True, slots=True)
 class Command:
     """What one player does for one cycle.

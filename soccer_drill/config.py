@@ -21,6 +21,8 @@ def _limited(default: float, constraint: Real | Integer) -> Any:
     return field(default=default, metadata={"constraint": constraint})
 
 
+PLAYERS_PER_TEAM = Integer(1, 4)
+"""What ``DrillConfig.attackers`` and ``defenders`` allow."""
 SUBSTEPS = Integer(1, 1000)
 """What ``DrillConfig.substeps`` allows, before :func:`step_bound`."""
 _SPACE = pymunk.Space()  # pymunk's defaults, which the drill's spaces keep
@@ -80,6 +82,39 @@ def fewest_substeps(top_speed: float, cycle_seconds: float, player_radius: float
     while top_speed * cycle_seconds / need > bound:  # the rounding of the division
         need += 1
     return need
+
+
+_COUNTS = ("no", "one", "two", "three", "four")
+PAPER_STARTS: dict[str, tuple[Point, ...]] = {
+    "attacker_starts": ((4.0, 31.0), (31.0, 31.0)),
+    "defender_starts": ((13.0, 9.0), (22.0, 9.0)),
+}
+"""The nominal starts of the paper's drill: two attackers in the top corners, two
+defenders near the goal line."""
+
+
+def default_starts(name: str, count: int, field_size: float) -> tuple[Point, ...]:
+    """The nominal starts of ``count`` attackers (``name`` ``"attacker_starts"``) or
+    defenders (``"defender_starts"``) in a region of ``field_size``: the attackers spread
+    evenly along a line ``4 / 35`` of the size below the top, from ``4 / 35`` of it in
+    from each touchline (one: the centre); the defenders ``9 / 35`` of the size apart,
+    centred, on a line ``9 / 35`` of it above the goal line. In the 35 m region two
+    attackers start at ``(4, 31)`` and ``(31, 31)``, two defenders at ``(13, 9)`` and
+    ``(22, 9)`` (the paper's drill, :data:`PAPER_STARTS`). Two attackers or two defenders keep these points
+    in a region of any size, as they always have (a configuration written before the
+    drill had other sizes starts where it did)."""
+    if count == 2:
+        return PAPER_STARTS[name]
+    centre = field_size / 2
+    if name == "attacker_starts":
+        edge = field_size * 4.0 / 35.0
+        top = field_size - edge
+        if count == 1:
+            return ((centre, top),)
+        step = (top - edge) / (count - 1)
+        return tuple((edge + k * step if k < count - 1 else top, top) for k in range(count))
+    gap = field_size * 9.0 / 35.0
+    return tuple((centre + (k - (count - 1) / 2) * gap, gap) for k in range(count))
 
 
 @dataclass(frozen=True)
@@ -146,10 +181,18 @@ class DrillConfig:
     """Half-width of the uniform jitter added to each starting coordinate; every jittered
     start must lie inside the walls, and the ball (``ball_offset`` below an attacker) in
     the field, above the goal line."""
-    attacker_starts: tuple[Point, Point] = ((4.0, 31.0), (31.0, 31.0))
-    """Nominal starting points of the two attackers (top corners)."""
-    defender_starts: tuple[Point, Point] = ((13.0, 9.0), (22.0, 9.0))
-    """Nominal starting points of the two defenders (near the goal line)."""
+    attackers: int = _limited(2, PLAYERS_PER_TEAM)
+    """Number of attackers (1 to 4)."""
+    defenders: int = _limited(2, PLAYERS_PER_TEAM)
+    """Number of defenders (1 to 4)."""
+    attacker_starts: tuple[Point, ...] | None = None
+    """Nominal starting points of the attackers, one per attacker; ``None``:
+    :func:`default_starts` (for two attackers in the 35 m region: the top corners,
+    ``(4, 31)`` and ``(31, 31)``)."""
+    defender_starts: tuple[Point, ...] | None = None
+    """Nominal starting points of the defenders, one per defender; ``None``:
+    :func:`default_starts` (for two defenders in the 35 m region: ``(13, 9)`` and
+    ``(22, 9)``, near the goal line)."""
     reward_success_centre: float = _limited(1.0, Real(-1000.0, 1000.0))
     """Attackers' reward for crossing the goal line at its centre."""
     reward_success_edge: float = _limited(0.5, Real(-1000.0, 1000.0))
@@ -171,12 +214,16 @@ class DrillConfig:
               why="smaller than control_radius - 0.05: the holder must keep control")
         self._check_substeps()
         self._check_control_per_cycle()
-        for name in ("attacker_starts", "defender_starts"):
+        for name, count in (("attacker_starts", self.attackers),
+                            ("defender_starts", self.defenders)):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, default_starts(name, count, self.field_size))
             inside = Real(0.0, self.field_size)
             point = ListOf(inside, 2, 2, kinds=(list, tuple, np.ndarray))
             check(f"DrillConfig.{name}", getattr(self, name),
-                  ListOf(point, 2, 2, kinds=(list, tuple, np.ndarray)),
-                  why="two (x, y) points inside the field")
+                  ListOf(point, count, count, kinds=(list, tuple, np.ndarray)),
+                  why=f"{_COUNTS[count]} (x, y) point{'s' * (count > 1)} inside the field, "
+                      f"one per {name.split('_')[0]}")
             points = tuple((float(x), float(y)) for x, y in getattr(self, name))
             object.__setattr__(self, name, points)
         self._check_start_area()
@@ -275,6 +322,22 @@ class DrillConfig:
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict of every field."""
         return asdict(self)
+
+    @property
+    def players(self) -> int:
+        """Number of players, attackers then defenders (the ball is body ``players``)."""
+        return self.attackers + self.defenders
+
+    @property
+    def player_names(self) -> tuple[str, ...]:
+        """The players' names in index order: ``attacker_0``, ... then ``defender_0``, ..."""
+        return (*(f"attacker_{k}" for k in range(self.attackers)),
+                *(f"defender_{k}" for k in range(self.defenders)))
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """``(attackers, defenders)``."""
+        return self.attackers, self.defenders
 
     def success_reward(self, x: float) -> float:
         """Attackers' reward for crossing the goal line at abscissa ``x``."""

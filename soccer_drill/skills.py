@@ -13,8 +13,9 @@ from typing import TYPE_CHECKING, NamedTuple
 import numpy as np
 
 from soccer_drill.commands import Command, Skill
+from soccer_drill.rules import arrays
 from soccer_drill.rules import motion as rules
-from soccer_drill.rules.arrays import CYCLE, STATE, roll_table, rule_parameters
+from soccer_drill.rules.arrays import roll_table, rule_parameters
 
 if TYPE_CHECKING:
     from soccer_drill.config import DrillConfig
@@ -34,8 +35,9 @@ class Motion(NamedTuple):
 
 
 def state_record(state: DrillState) -> np.ndarray:
-    """``state`` as one :data:`~soccer_drill.rules.arrays.STATE` record (a ``(1,)`` array)."""
-    record = np.zeros(1, dtype=STATE)
+    """``state`` as one :data:`~soccer_drill.rules.arrays.STATE` record (a ``(1,)`` array;
+    of as many players as ``state`` holds)."""
+    record = np.zeros(1, dtype=arrays.state_record(len(state.pos) - 1))
     record["pos"][0], record["vel"][0] = state.pos, state.vel
     record["holder"], record["cycle"] = state.holder, state.cycle
     record["passer"], record["lockout_until"] = state.passer, state.lockout_until
@@ -52,26 +54,33 @@ def ball_interception_point(
 
 def support_spot(state: DrillState, player: int, cfg: DrillConfig) -> tuple[float, float]:
     """Where an off-ball attacker gets open: wide of the ball and a little ahead of it."""
-    return rules.support_spot(np.array(state.pos), player, cfg.field_size)
+    return rules.support_spot(np.array(state.pos), player, cfg.field_size, cfg.attackers)
 
 
 def dribble_heading(state: DrillState, player: int, cfg: DrillConfig) -> tuple[float, float]:
     """Unit heading toward the goal line that keeps clear of defenders and touchlines."""
-    return rules.dribble_heading(np.array(state.pos), player, cfg.field_size)
+    return rules.dribble_heading(np.array(state.pos), player, cfg.field_size, cfg.attackers)
 
 
-def shield_direction(state: DrillState, player: int) -> tuple[float, float]:
-    """Unit direction away from the nearest opponent: where a shielded ball is kept."""
-    return rules.shield_direction(np.array(state.pos), player)
+def shield_direction(state: DrillState, player: int,
+                     cfg: DrillConfig | None = None) -> tuple[float, float]:
+    """Unit direction away from the nearest opponent: where a shielded ball is kept
+    (``cfg``: the drill's, for its number of attackers; ``None``: two)."""
+    return rules.shield_direction(np.array(state.pos), player, 2 if cfg is None else cfg.attackers)
 
 
 def pass_velocity(
-    state: DrillState, player: int, cfg: DrillConfig, rng: np.random.Generator
+    state: DrillState, player: int, cfg: DrillConfig, rng: np.random.Generator,
+    mate: int | None = None,
 ) -> tuple[float, float]:
-    """Noisy kick velocity that brings the ball to the teammate at about arrival speed
-    (two standard normals drawn from ``rng``: the direction's, then the speed's)."""
+    """Noisy kick velocity that brings the ball to teammate ``mate`` (``None``: the
+    nearest) at about arrival speed (two standard normals drawn from ``rng``: the
+    direction's, then the speed's)."""
+    pos = np.array(state.pos)
+    if mate is None:
+        mate = rules.nearest_teammate(pos, player, cfg.attackers)
     angle_normal, speed_normal = rng.normal(size=2).tolist()
-    return rules.pass_velocity(np.array(state.pos), np.array(state.vel), player, angle_normal,
+    return rules.pass_velocity(pos, np.array(state.vel), player, mate, angle_normal,
                                speed_normal, rule_parameters(cfg))
 
 
@@ -84,7 +93,8 @@ def execute(
 ) -> Motion:
     """Turn ``command`` for ``player`` into a :class:`Motion` for this cycle (a pass of
     the holder draws its two normals from ``rng``)."""
-    cycle = np.zeros(1, dtype=CYCLE)
+    cycle = np.zeros(1, dtype=arrays.cycle_record(cfg.players))
+    cycle["receiver"] = -1
     if command.skill is Skill.PASS and player == state.holder:
         cycle["noise"][0] = rng.normal(size=2)
     cycle["skill"][0, player] = int(command.skill)

@@ -11,7 +11,8 @@ if TYPE_CHECKING:
     from soccer_drill.config import DrillConfig
 
 PLAYER_NAMES: tuple[str, str, str, str] = ("attacker_0", "attacker_1", "defender_0", "defender_1")
-"""Player names in index order; index 4 is the ball in :attr:`DrillState.pos`."""
+"""Player names in index order in the paper's 2v2 drill; index 4 is the ball in
+:attr:`DrillState.pos` (``DrillConfig.player_names`` for any size: the ball is last)."""
 ATTACKERS: tuple[int, int] = (0, 1)
 DEFENDERS: tuple[int, int] = (2, 3)
 BALL = 4
@@ -28,7 +29,7 @@ class DrillState(NamedTuple):
     Attributes
     ----------
     pos
-        ``(x, y)`` of the four players then the ball, metres.
+        ``(x, y)`` of the players (attackers, then defenders) then the ball, metres.
     vel
         Their velocities, m/s.
     holder
@@ -50,16 +51,17 @@ class DrillState(NamedTuple):
 
     @staticmethod
     def opponents_of(player: int) -> tuple[int, int]:
-        """Indices of ``player``'s two opponents."""
+        """Indices of ``player``'s two opponents (in the 2v2 drill)."""
         return DEFENDERS if player < 2 else ATTACKERS
 
     @staticmethod
     def teammate_of(player: int) -> int:
-        """Index of ``player``'s teammate."""
+        """Index of ``player``'s teammate (in the 2v2 drill)."""
         return player ^ 1
 
     def free_opponent_of(self, player: int) -> int:
-        """The opponent without the ball (or, for a loose ball, the one farther from it)."""
+        """The opponent without the ball (or, for a loose ball, the one farther from it),
+        in the 2v2 drill."""
         a, b = self.opponents_of(player)
         if self.holder == a:
             return b
@@ -71,7 +73,8 @@ class DrillState(NamedTuple):
         return a if da > db else b
 
     def distance(self, i: int, j: int) -> float:
-        """Distance between bodies ``i`` and ``j`` (4 is the ball), metres."""
+        """Distance between bodies ``i`` and ``j`` (the last, ``len(pos) - 1``, is the
+        ball), metres."""
         return math.hypot(self.pos[i][0] - self.pos[j][0], self.pos[i][1] - self.pos[j][1])
 
 
@@ -137,26 +140,27 @@ class DrillView(ReadOnlyView):
 
     @property
     def positions(self) -> np.ndarray:
-        """``(4, 2)`` player positions in :data:`PLAYER_NAMES` order, metres (read-only)."""
-        return _frozen(self.state.pos[:4])
+        """``(players, 2)`` player positions in ``config.player_names`` order, metres
+        (read-only)."""
+        return _frozen(self.state.pos[:-1])
 
     @property
     def velocities(self) -> np.ndarray:
-        """``(4, 2)`` player velocities, m/s (read-only)."""
-        return _frozen(self.state.vel[:4])
+        """``(players, 2)`` player velocities, m/s (read-only)."""
+        return _frozen(self.state.vel[:-1])
 
     @property
     def ball_position(self) -> np.ndarray:
         """``(2,)`` ball position, metres (read-only)."""
-        return _frozen(self.state.pos[BALL])
+        return _frozen(self.state.pos[-1])
 
     @property
     def ball_velocity(self) -> np.ndarray:
         """``(2,)`` ball velocity, m/s (read-only)."""
-        return _frozen(self.state.vel[BALL])
+        return _frozen(self.state.vel[-1])
 
     @property
     def holder(self) -> str | None:
         """Name of the player in possession, or ``None`` for a loose ball."""
         h = self.state.holder
-        return PLAYER_NAMES[h] if h >= 0 else None
+        return self.config.player_names[h] if h >= 0 else None

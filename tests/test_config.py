@@ -94,7 +94,8 @@ def test_numpy_numbers_are_accepted_and_stored_as_python_numbers():
 def test_start_points_must_be_two_finite_points_inside_the_field(starts):
     with pytest.raises(ValueError, match=r"attacker_starts must be a list of 2 values, each a "
                                          r"list of 2 values, each a finite number in \[0, 35\], "
-                                         r"got .* \(two \(x, y\) points inside the field\)"):
+                                         r"got .* \(two \(x, y\) points inside the field, one per "
+                                         r"attacker\)"):
         DrillConfig(attacker_starts=starts)
 
 

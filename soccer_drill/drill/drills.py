@@ -23,7 +23,13 @@ import numpy as np
 from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import Integer, checked
 from soccer_drill.drill.spaces import DRILLS_PER_SPACE, BatchPhysics, DrillSpace
-from soccer_drill.rules.arrays import CYCLE, STATE, Outcome, roll_table, rule_parameters
+from soccer_drill.rules.arrays import (
+    Outcome,
+    cycle_record,
+    roll_table,
+    rule_parameters,
+    state_record,
+)
 from soccer_drill.rules.cycle import (
     after_physics_of_drills,
     before_physics_of_drills,
@@ -52,13 +58,15 @@ class BatchDrill:
     Attributes
     ----------
     state
-        ``(n,)`` :data:`~soccer_drill.rules.arrays.STATE` records; ``pos``, ``vel``
-        (``(n, 5, 2)``: the four players then the ball), ``holder`` (-1: a loose ball),
+        ``(n,)`` :data:`~soccer_drill.rules.arrays.STATE` records (of
+        ``config.players`` players: :func:`~soccer_drill.rules.arrays.state_record`);
+        ``pos``, ``vel`` (``(n, players + 1, 2)``: the players then the ball), ``holder`` (-1: a loose ball),
         ``cycle``, ``passer``, ``lockout_until`` and ``outcome`` (an
         :class:`~soccer_drill.rules.arrays.Outcome` code) are views of its fields.
     commands
-        ``(n,)`` :data:`~soccer_drill.rules.arrays.CYCLE` records; ``skill`` (``(n, 4)``),
-        ``target`` (``(n, 4, 2)``) and ``speed`` (``(n, 4)``), views of their fields, are
+        ``(n,)`` :data:`~soccer_drill.rules.arrays.CYCLE` records; ``skill`` (``(n,
+        players)``), ``target`` (``(n, players, 2)``), ``speed`` and ``receiver`` (``(n,
+        players)``; -1: a pass goes to the nearest teammate), views of their fields, are
         every player's command for the next cycle (rows of inactive drills ignored).
     attacker_reward
         ``(n,)`` the attackers' reward once a drill's episode has ended.
@@ -81,11 +89,13 @@ class BatchDrill:
         self.n = n = checked("the number of drills", n, Integer(1))
         self.config = cfg = config or DrillConfig()
         self.physics = physics if physics is not None else BatchPhysics(n, cfg, drills_per_space)
-        self.state = np.zeros(n, dtype=STATE)
+        self.players = cfg.players
+        self.state = np.zeros(n, dtype=state_record(cfg.players))
         self.state["holder"] = -1
         self.state["passer"] = -1
-        self.commands = np.zeros(n, dtype=CYCLE)
+        self.commands = np.zeros(n, dtype=cycle_record(cfg.players))
         self.commands["speed"] = 1.0
+        self.commands["receiver"] = -1
         self.attacker_reward = np.zeros(n)
         self.cycles_run = 0
         """Drill-cycles advanced since construction (for benchmarks)."""
@@ -97,15 +107,15 @@ class BatchDrill:
     def _views(self) -> None:
         """The fields as arrays (views, which a copy takes anew) and the configuration's
         read-only arrays the rules are compiled for."""
-        for name in STATE.names:
+        for name in self.state.dtype.names:
             setattr(self, name, self.state[name])
-        for name in ("skill", "target", "speed"):
+        for name in _COMMANDS:
             setattr(self, name, self.commands[name])
         self.params, self.table = rule_parameters(self.config), roll_table(self.config)
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        for name in (*STATE.names, "skill", "target", "speed", "params", "table"):
+        for name in (*self.state.dtype.names, *_COMMANDS, "params", "table"):
             del state[name]
         return state
 
@@ -165,11 +175,11 @@ class BatchDrill:
             if taken >= 0:
                 self.holder[i] = taken
                 self.outcome[i] = outcome(self.pos[i], taken, self.cycle[i], cfg.field_size,
-                                          cfg.max_cycles)
+                                          cfg.max_cycles, cfg.attackers)
 
     def _rewards(self, active: np.ndarray) -> None:
         """The attackers' reward in the active drills whose episode has ended."""
-        cfg, bx = self.config, self.pos[:, 4, 0]
+        cfg, bx = self.config, self.pos[:, -1, 0]
         for i in np.flatnonzero(active & (self.outcome != Outcome.RUNNING)).tolist():
             self.attacker_reward[i] = reward(int(self.outcome[i]), float(bx[i]), cfg)
 
@@ -200,6 +210,7 @@ class BatchDrill:
         self.steps += 1
 
 
+_COMMANDS = ("skill", "target", "speed", "receiver")  # the commands' fields, as arrays
 _rows_cache: dict[int, np.ndarray] = {}
 
 

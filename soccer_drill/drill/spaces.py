@@ -1,7 +1,7 @@
 """The pymunk side of the drill: the players (and walls) of one drill or of many.
 
 One cycle of the physics takes every body's velocity set by the rules and runs
-``substeps`` steps; the players come back as one ``(n, 4, 4)`` array (``x, y, vx, vy``
+``substeps`` steps; the players come back as one ``(n, players, 4)`` array (``x, y, vx, vy``
 per player, field coordinates). The ball touches nothing, so the rules move it on arrays
 (:func:`~soccer_drill.rules.cycle.after_physics`) exactly as pymunk moves a free body.
 
@@ -95,7 +95,7 @@ def _walls(space: pymunk.Space, cfg: DrillConfig, ox: float = 0.0, oy: float = 0
 
 
 class DrillSpace:
-    """One drill's pymunk space: its four players, the ball and the walls.
+    """One drill's pymunk space: its players, the ball and the walls.
 
     Parameters
     ----------
@@ -118,7 +118,7 @@ class DrillSpace:
         self.config = config
         self._sub_dt, self._substeps = config.cycle_seconds / config.substeps, config.substeps
         self._buffer = pmb.Buffer()  # reused: one batched read per cycle
-        self.renew(np.zeros(1, dtype=np.int64), np.zeros((1, 5, 2)))
+        self.renew(np.zeros(1, dtype=np.int64), np.zeros((1, config.players + 1, 2)))
         check_batch_order(self.space, self._bodies)
 
     def __getstate__(self) -> dict:
@@ -143,7 +143,7 @@ class DrillSpace:
     def _renew_now(self, pos: np.ndarray) -> None:
         cfg = self.config
         space = pymunk.Space()
-        players = [pymunk.Body(PLAYER_MASS, math.inf) for _ in range(4)]  # no spin
+        players = [pymunk.Body(PLAYER_MASS, math.inf) for _ in range(cfg.players)]  # no spin
         ball = pymunk.Body(_BALL_MASS, _BALL_MOMENT)
         # Players and walls keep pymunk's default filter (every shape meets every other),
         # which gives the drill's collisions: player with player, player with wall (two
@@ -163,9 +163,10 @@ class DrillSpace:
         keep(self, 0, space)  # the space replaced is freed here
 
     def cycle(self, pos: np.ndarray, vel: np.ndarray, active: np.ndarray | None) -> np.ndarray:
-        """One cycle with the bodies' velocities ``vel[0]`` (``(1, 5, 2)``; the ball's too,
-        so that it moves in the space as on the arrays). The players start where the last
-        cycle left them (``pos`` is not read). Returns the players, ``(1, 4, 4)``."""
+        """One cycle with the bodies' velocities ``vel[0]`` (``(1, players + 1, 2)``; the
+        ball's too, so that it moves in the space as on the arrays). The players start where
+        the last cycle left them (``pos`` is not read). Returns the players, ``(1,
+        players, 4)``."""
         for body, (vx, vy) in zip(self._bodies, vel[0].tolist(), strict=True):
             _set_velocity(body, (vx, vy))
         step, sub_dt = self._step, self._sub_dt
@@ -176,7 +177,9 @@ class DrillSpace:
         buffer = self._buffer
         buffer.clear()
         _get_space_bodies(self.space, _FIELDS, buffer)
-        return _frombuffer(buffer.float_buf(), dtype=np.float64)[:16].reshape(1, 4, 4)
+        players = len(self._bodies) - 1
+        return _frombuffer(buffer.float_buf(), dtype=np.float64)[:4 * players].reshape(
+            1, players, 4)
 
 
 class BatchPhysics:
@@ -191,7 +194,7 @@ class BatchPhysics:
     drills_per_space
         Drills sharing one space (the last space may hold fewer).
 
-    Each drill's four players and its four walls sit in a region of their own, the
+    Each drill's players and its four walls sit in a region of their own, the
     regions :attr:`spacing` metres apart so that no two drills' shapes ever meet
     (``benchmarks/bench_vector.py`` measures the layouts: one space per 64 drills costs
     least per drill at every batch size tried). The ball is not a body here.
@@ -222,7 +225,7 @@ class BatchPhysics:
         self.spaces: list[pymunk.Space] = [None] * k  # type: ignore[list-item]
         self._arrays: list[np.ndarray] = [None] * k  # type: ignore[list-item]
         self._set_buffers: list[pmb.Buffer] = [None] * k  # type: ignore[list-item]
-        self._bodies: list[np.ndarray] = [None] * k  # type: ignore[list-item]  # (count, 4, 4) views
+        self._bodies: list[np.ndarray] = [None] * k  # type: ignore[list-item]  # (count, players, 4) views
         self._steps: list = [None] * k
         self._fresh = np.ones(k, dtype=bool)  # built and not stepped since: nothing to forget
         self._get_buffer = pmb.Buffer()
@@ -230,7 +233,7 @@ class BatchPhysics:
         self._offsets = self.offsets[:, None, :]
         for space in range(k):
             self._build_space(space)
-        self._out = np.zeros((self.n, 4, 4))
+        self._out = np.zeros((self.n, self.config.players, 4))
 
     def renew(self, drills: np.ndarray, pos: np.ndarray | None = None) -> None:
         """New spaces and bodies for the spaces all of whose drills are in ``drills``
@@ -261,7 +264,7 @@ class BatchPhysics:
         for j in range(count):
             ox, oy = (j % cols) * self.spacing, (j // cols) * self.spacing
             self.offsets[sl.start + j] = (ox, oy)
-            for _ in range(4):
+            for _ in range(cfg.players):
                 body = pymunk.Body(PLAYER_MASS, math.inf)
                 body.position = (ox, oy)
                 bodies.append(body)
@@ -270,7 +273,7 @@ class BatchPhysics:
         space.add(*objects)
         space.step(0.0)  # Space.step's checks of the new bodies, once; nothing moves
         check_batch_order(space, bodies)
-        array = np.zeros((4 * count + 1, 4))  # x, y, vx, vy per body, then the static body
+        array = np.zeros((cfg.players * count + 1, 4))  # x, y, vx, vy per body, then the static body
         self._get_buffer.clear()
         pmb.get_space_bodies(space, _FIELDS, self._get_buffer)
         array[:] = np.frombuffer(self._get_buffer.float_buf(), dtype=np.float64).reshape(-1, 4)
@@ -287,7 +290,7 @@ class BatchPhysics:
         buffer = pmb.Buffer()
         buffer.set_float_buf(array)
         self._set_buffers[k] = buffer
-        self._bodies[k] = array[:-1].reshape(-1, 4, 4)
+        self._bodies[k] = array[:-1].reshape(-1, self.config.players, 4)
         self._steps[k] = space_step(space)
 
     def __getstate__(self) -> dict:
@@ -310,15 +313,15 @@ class BatchPhysics:
                 keep(self, space, self.spaces[space])
 
     def cycle(self, pos: np.ndarray, vel: np.ndarray, active: np.ndarray | None) -> np.ndarray:
-        """One cycle of the players from ``pos``/``vel`` (``(n, 5, 2)``, field coordinates;
-        the ball's row is not read).
+        """One cycle of the players from ``pos``/``vel`` (``(n, players + 1, 2)``, field
+        coordinates; the ball's row is not read).
 
         ``active`` (``(n,)`` bool, ``None``: every drill) names the drills that move; a
         space none of whose drills moves is not stepped, so its contacts are kept as they
         were rather than solved again for players standing still (with one drill per
         space, a drill that waits then moves on exactly as if it had not waited).
 
-        Returns the players after the sub-steps, ``(n, 4, 4)`` (an array of this object,
+        Returns the players after the sub-steps, ``(n, players, 4)`` (an array of this object,
         overwritten by the next cycle; the rows of drills in spaces not stepped are stale).
         """
         offsets, out = self._offsets, self._out
@@ -330,8 +333,8 @@ class BatchPhysics:
             if active is not None and not np.count_nonzero(active[sl]):
                 continue
             self._fresh[k] = False
-            np.add(pos[sl, :4], offsets[sl], out=bodies[..., 0:2])
-            bodies[..., 2:4] = vel[sl, :4]
+            np.add(pos[sl, :-1], offsets[sl], out=bodies[..., 0:2])
+            bodies[..., 2:4] = vel[sl, :-1]
             pmb.set_space_bodies(space, _FIELDS, buffer)
             stepped.append((sl, space, step))
         for _, _, step in stepped:
@@ -341,7 +344,8 @@ class BatchPhysics:
         for sl, space, _ in stepped:
             buffer.clear()
             get(space, _FIELDS, buffer)
-            rows = np.frombuffer(buffer.float_buf(), dtype=np.float64)[:-4].reshape(-1, 4, 4)
+            rows = np.frombuffer(buffer.float_buf(), dtype=np.float64)[:-4].reshape(
+                -1, self.config.players, 4)
             np.subtract(rows[..., 0:2], offsets[sl], out=out[sl, :, 0:2])
             out[sl, :, 2:4] = rows[..., 2:4]
         return out

@@ -91,12 +91,13 @@ class Observation:
     def __init__(self, kind: ObservationType, config: DrillConfig) -> None:
         self.kind = kind
         low, high = kind.bounds(config)
+        self.size = len(low)
         self.box = spaces.Box(low, high, dtype=np.float32)
         self.low, self.high = low.astype(np.float64), high.astype(np.float64)  # as compiled
         self._params = rule_parameters(config)
 
     def __call__(self, state: np.ndarray, rows: np.ndarray, players: np.ndarray) -> np.ndarray:
-        out = np.empty((len(rows), self.kind.size), np.float32)
+        out = np.empty((len(rows), self.size), np.float32)
         self.kind.rule(out, state, rows, players, self._params, self.low, self.high)
         return out
 
@@ -155,7 +156,7 @@ class BatchCore:
         attack: Any = None,
     ) -> None:
         team_timeout = check_team_timeout(team_timeout)  # checked even without a team
-        warm_up()  # the rules compiled (or loaded) whole, with signals held back, before any step
+        warm_up(config)  # the rules compiled (or loaded) whole, with signals held back, before any step
         single = drills_per_space is None
         self.n, self.config = n, config
         self.batch = BatchDrill(n, config, drills_per_space or DRILLS_PER_SPACE,

@@ -13,19 +13,20 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from soccer_drill.commands import HOLDER_ACTIONS, Skill
+from soccer_drill.commands import HOLDER_ACTIONS, Skill, holder_action_names
 from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import Integer, checked
 from soccer_drill.drill.drills import BatchDrill
 from soccer_drill.drill.spaces import DrillSpace
-from soccer_drill.envs.core import BatchCore, make_config, not_reset, observation
+from soccer_drill.envs.core import BatchCore, Observation, make_config, not_reset
 from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.scene import FrameStyle, Scene
 from soccer_drill.rendering.screen import RENDER_MODES, Screen, frames_per_second
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.rules.compiled import compiled, warms
+from soccer_drill.rules.features import HOLDER_FEATURES
+from soccer_drill.rules.motion import ranked_teammate
 from soccer_drill.rules.support import SupportDraws
-from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
 
 DECISION_CYCLES_RANGE = (1, 50)
@@ -33,48 +34,77 @@ DECISION_CYCLES_RANGE = (1, 50)
 DECISION_CYCLES = Integer(*DECISION_CYCLES_RANGE)
 """What ``decision_cycles`` may be: an integer in :data:`DECISION_CYCLES_RANGE`."""
 HOLDER_ACTION = Integer(0, len(HOLDER_ACTIONS) - 1)
-_ACTION_WORDS = "0=HOLD, 1=PASS, 2=DRIBBLE"
+"""The holder's actions in the 2v2 drill (``holder_action(attackers)`` for any size)."""
 
 
-def check_holder_action(action: object) -> int:
-    """``action`` as an int in [0, 2], as ``HolderEnv.step`` takes it: an int, a NumPy
+def holder_action(attackers: int) -> Integer:
+    """What a holder's action may be with ``attackers`` attackers: an index of
+    :func:`~soccer_drill.commands.holder_action_names`."""
+    return Integer(0, len(holder_action_names(attackers)) - 1)
+
+
+def check_holder_action(action: object, attackers: int = 2) -> int:
+    """``action`` as an int in [0, n - 1] (``n`` the holder's actions with ``attackers``
+    attackers: 3 in the 2v2 drill), as ``HolderEnv.step`` takes it: an int, a NumPy
     integer or a 0-d integer array; bools, floats and values out of range are refused."""
     if isinstance(action, np.ndarray) and action.shape == ():
         action = action.item()
-    if not HOLDER_ACTION.allows(action):
-        raise ValueError(holder_action_refused(action))
+    if not holder_action(attackers).allows(action):
+        raise ValueError(holder_action_refused(action, attackers))
     return int(action)  # type: ignore[call-overload]
 
 
-def holder_action_refused(action: object) -> str:
+def holder_action_refused(action: object, attackers: int = 2) -> str:
     """Why ``action`` is not a holder action, in the vocabulary's words."""
-    return f"action must be {HOLDER_ACTION.describe()} ({_ACTION_WORDS}), got {action!r}"
+    words = ", ".join(f"{k}={name}" for k, name in enumerate(holder_action_names(attackers)))
+    return f"action must be {holder_action(attackers).describe()} ({words}), got {action!r}"
 
 
 # ------------------------------------------------------------------ the loop
-STEP = np.dtype([
-    ("running", np.bool_),
-    ("in_action", np.bool_),
-    ("decider", np.int64),
-    ("action", np.int64),
-    ("left", np.int64),
-    ("start", np.int64),
-    ("supporting", np.int8, (2,)),
-])
-"""One drill's holder step: whether it runs, whether the holder's action still does (and
-for how many more cycles), who decided and what, the cycle it began at, and which
-attackers the support behaviour drives this cycle."""
+def step_record(attackers: int) -> np.dtype:
+    """One drill's holder step with ``attackers`` attackers: whether it runs, whether the
+    holder's action still does (and for how many more cycles), who decided and what (the
+    action, its skill and a pass's receiver), the cycle it began at, and which attackers
+    the support behaviour drives this cycle."""
+    return np.dtype([
+        ("running", np.bool_),
+        ("in_action", np.bool_),
+        ("decider", np.int64),
+        ("action", np.int64),
+        ("left", np.int64),
+        ("start", np.int64),
+        ("supporting", np.int8, (attackers,)),
+        ("skill", np.int64),
+        ("receiver", np.int64),
+    ])
+
+
+_HOLD, _PASS, _DRIBBLE = int(Skill.HOLD), int(Skill.PASS), int(Skill.DRIBBLE)  # as stored
+STEP = step_record(2)
+"""One drill's holder step in the 2v2 drill (:func:`step_record`)."""
 
 
 @compiled
 def _begin(steps, state, drills, actions, decision_cycles):
-    """The holders of ``drills`` take ``actions``: their drills run again."""
+    """The holders of ``drills`` take ``actions``: their drills run again. Action 0 is
+    ``HOLD``, the last ``DRIBBLE``, each between a ``PASS`` to the teammate of its rank
+    by distance now (1: the nearest)."""
+    attackers = steps[0].supporting.shape[0]
     for r in range(drills.shape[0]):
         i = drills[r]
         h, s = steps[i], state[i]
+        a = actions[r]
         h.decider = s.holder
-        h.action = actions[r]
-        h.left = 1 if actions[r] == Skill.PASS else decision_cycles
+        h.action = a
+        h.receiver = -1
+        if a == 0:
+            h.skill = _HOLD
+        elif a < attackers:
+            h.skill = _PASS
+            h.receiver = ranked_teammate(s.pos, s.holder, attackers, a - 1)
+        else:
+            h.skill = _DRIBBLE
+        h.left = 1 if h.skill == _PASS else decision_cycles
         h.start = s.cycle
         h.in_action = True
         h.running = True
@@ -83,20 +113,24 @@ def _begin(steps, state, drills, actions, decision_cycles):
 @compiled
 def _holder_commands(steps, cycle):
     """A cycle's commands as the loop gives them: each drill's holder in action runs its
-    action's skill (the action's value) at full speed; the support behaviour drives the
-    other attacker, or both while the ball is loose in a running drill. Returns the
-    number of drills with an attacker to support."""
+    action's skill at full speed (a pass to its receiver); the support behaviour drives
+    the other attackers, or every attacker while the ball is loose in a running drill.
+    Returns the number of drills with an attacker to support."""
     count = 0
     for i in range(steps.shape[0]):
         h = steps[i]
         acting, d = h.in_action, h.decider
         if acting:
-            cycle[i].skill[d] = h.action
+            cycle[i].skill[d] = h.skill
             cycle[i].speed[d] = 1.0
+            cycle[i].receiver[d] = h.receiver
         free = h.running and not acting
-        h.supporting[0] = (acting and d == 1) or free
-        h.supporting[1] = (acting and d == 0) or free
-        if h.supporting[0] or h.supporting[1]:
+        any_supported = False
+        for k in range(h.supporting.shape[0]):
+            h.supporting[k] = (acting and d != k) or free
+            if h.supporting[k]:
+                any_supported = True
+        if any_supported:
             count += 1
     return count
 
@@ -107,6 +141,7 @@ def _after_cycle(steps, state):
     cycles left; the drill runs on until an outcome, or until an attacker holds the ball
     again once the action is over. Returns the number of drills still running."""
     running = 0
+    attackers = steps[0].supporting.shape[0]
     for i in range(steps.shape[0]):
         h, s = steps[i], state[i]
         if h.in_action:
@@ -114,7 +149,7 @@ def _after_cycle(steps, state):
         ended = s.outcome != Outcome.RUNNING
         h.in_action = h.in_action and not ended and s.holder == h.decider and h.left > 0
         h.running = h.running and not ended and (
-            h.in_action or (s.holder != 0 and s.holder != 1))
+            h.in_action or not (0 <= s.holder < attackers))
         if h.running:
             running += 1
     return running
@@ -141,7 +176,7 @@ class HolderLoop:
     decider
         ``(n,)`` the attacker whose decision a drill's step runs.
     action
-        ``(n,)`` that decision (a holder action, 0-2).
+        ``(n,)`` that decision (a holder action: an index of :attr:`action_names`).
     start
         ``(n,)`` the cycle at which a drill's step began (its episode's start after
         :meth:`start`).
@@ -153,10 +188,15 @@ class HolderLoop:
     def __init__(self, core: BatchCore, decision_cycles: int) -> None:
         self.core = core
         self.decision_cycles = checked("decision_cycles", decision_cycles, DECISION_CYCLES)
-        self.steps = np.zeros(core.n, dtype=STEP)
+        cfg = core.config
+        self.attackers = cfg.attackers
+        self.action_names = holder_action_names(cfg.attackers)
+        """The holder's actions, in index order (``HOLD, PASS, DRIBBLE`` in the 2v2 drill)."""
+        self.steps = np.zeros(core.n, dtype=step_record(cfg.attackers))
         self.handed_to: str | None = None
-        self.observe = observation("features", core.config)
-        """The holder's observation (the 9 features) of drills (``observe(state, rows, players)``)."""
+        self.observe = Observation(HOLDER_FEATURES, cfg)
+        """The holder's observation (its features: the 9 in the 2v2 drill) of drills
+        (``observe(state, rows, players)``)."""
         self._views()
 
     def _views(self) -> None:
@@ -186,7 +226,7 @@ class HolderLoop:
 
     def begin(self, drills: np.ndarray, actions: np.ndarray) -> None:
         """The holders of ``drills`` (int64, ascending) take ``actions`` (int64, checked:
-        [0, 2]): their drills' steps run."""
+        indices of :attr:`action_names`): their drills' steps run."""
         _begin(self.steps, self.core.batch.state, drills, actions, self.decision_cycles)
 
     def cycle(self, drills: np.ndarray | None = None) -> int:
@@ -203,17 +243,18 @@ class HolderLoop:
         """Whose observation each drill of ``rows`` returns: its holder, or at an end the
         attacker who decided last, if the holder is not an attacker."""
         holder = self.core.batch.holder[rows]
-        return np.where((holder == 0) | (holder == 1), holder, self.decider[rows])
+        return np.where((holder >= 0) & (holder < self.attackers), holder, self.decider[rows])
 
 
 @warms
-def _compile_loop() -> None:
+def _compile_loop(config: DrillConfig | None) -> None:
     """The loop's compiled bookkeeping and the cycle's rules with the loop's own arrays
     (its ``running`` and ``supporting`` are fields of its records: strided, for more than
     one drill), one drill in its own space and two, before a team's bounded call."""
-    cfg = DrillConfig()
+    cfg = config or DrillConfig()
     for n, physics in ((1, DrillSpace(cfg)), (2, None)):
-        steps, drills = np.zeros(n, STEP), np.arange(n, dtype=np.int64)
+        steps = np.zeros(n, step_record(cfg.attackers))
+        drills = np.arange(n, dtype=np.int64)
         rngs = [np.random.default_rng(k) for k in range(n)]
         batch = BatchDrill(n, cfg, physics=physics)
         batch.reset(drills, rngs)
@@ -251,10 +292,17 @@ class HolderEnv(Pickled, gym.Env):
     ``Discrete(3)``: 0 ``HOLD`` (shield the ball), 1 ``PASS`` (to the teammate),
     2 ``DRIBBLE`` (toward the goal line) -- the paper's three basic options.
 
+    With ``A`` attackers (``DrillConfig.attackers``): ``Discrete(A + 1)``, 0 ``HOLD``,
+    ``1 .. A - 1`` a ``PASS`` to each teammate, nearest first at the decision
+    (``PASS_1``, ``PASS_2``, ...), ``A`` ``DRIBBLE`` (keepaway's one pass per teammate;
+    a lone attacker has ``HOLD`` and ``DRIBBLE``). :attr:`action_names` names them.
+
     ## Observation space
 
     ``Box(9,)`` float32: the 9 features of the holder (units and bounds in
-    :mod:`soccer_drill.rules.features`).
+    :mod:`soccer_drill.rules.features`). With ``A`` attackers and ``D`` defenders,
+    ``Box(4 (A - 1) + D + 3,)``: keepaway's features (teammates and opponents ordered by
+    distance, a passing-lane angle per teammate) and the goal line's (the module's table).
 
     ## Rewards
 
@@ -358,13 +406,15 @@ class HolderEnv(Pickled, gym.Env):
         # One frame per cycle: true speed at 1 / cycle_seconds frames per second.
         self.metadata = {**HolderEnv.metadata, "render_fps": frames_per_second(self.config)}
         self._screen = Screen(self.config, render_mode, self.metadata["render_fps"],
-                              self._scene, render_style, PLAYER_NAMES)
+                              self._scene, render_style, self.config.player_names)
         self.render_mode = render_mode
         core = BatchCore(1, opponent, opponent_params, self.config, team_timeout, True, None)
         self.loop = HolderLoop(core, decision_cycles)
         self.decision_cycles = decision_cycles
+        self.action_names = self.loop.action_names
+        """The names of the actions, in index order (``HOLD, PASS, DRIBBLE``: 2v2)."""
         self.observation_space = self.loop.observe.box
-        self.action_space = spaces.Discrete(len(HOLDER_ACTIONS))
+        self.action_space = spaces.Discrete(len(self.action_names))
         self._busy_init()
         self._has_reset = False
 
@@ -413,7 +463,7 @@ class HolderEnv(Pickled, gym.Env):
         code = int(batch.outcome[0])
         chooser, choice = -1, None
         if batch.cycle[0] > 0:  # the last decision, until the next one
-            chooser, choice = int(loop.decider[0]), HOLDER_ACTIONS[int(loop.action[0])].name
+            chooser, choice = int(loop.decider[0]), loop.action_names[int(loop.action[0])]
         return Scene(team=loop.core.team.name, chooser=chooser, choice=choice,
                      outcome=OUTCOME_NAMES[code],
                      reward=None if code == _RUNNING else float(batch.attacker_reward[0]))
@@ -431,9 +481,9 @@ class HolderEnv(Pickled, gym.Env):
         self._screen.record(frames, state)
 
     def action_masks(self) -> np.ndarray:
-        """Which actions are legal now: all three, always (bool; for sb3-contrib's
+        """Which actions are legal now: all of them, always (bool; for sb3-contrib's
         ``MaskablePPO``, which asks every environment for ``action_masks()``)."""
-        return np.ones(len(HOLDER_ACTIONS), dtype=bool)
+        return np.ones(len(self.action_names), dtype=bool)
 
     def reset(
         self, *, seed: int | None = None, options: dict | None = None
@@ -450,7 +500,8 @@ class HolderEnv(Pickled, gym.Env):
             if self._screen.each_cycle:
                 self._screen.start(batch.state_of(0))
             return loop.observe(batch.state, _ONE, batch.holder)[0], {
-                "duration": 0, "cycles": 0, "outcome": None, "holder": PLAYER_NAMES[holder],
+                "duration": 0, "cycles": 0, "outcome": None,
+                "holder": self.config.player_names[holder],
             }
 
     def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -465,7 +516,7 @@ class HolderEnv(Pickled, gym.Env):
         batch = loop.core.batch
         if batch.outcome[0] != _RUNNING:
             raise RuntimeError("step() called after the episode ended; call reset()")
-        loop.begin(_ONE, np.array((check_holder_action(action),)))
+        loop.begin(_ONE, np.array((check_holder_action(action, loop.attackers),)))
         screen = self._screen
         while True:
             running = loop.cycle(_ONE)
@@ -479,7 +530,7 @@ class HolderEnv(Pickled, gym.Env):
             "duration": cycle - int(loop.start[0]),
             "cycles": cycle,
             "outcome": OUTCOME_NAMES[code],
-            "holder": PLAYER_NAMES[holder] if code == _RUNNING else None,
+            "holder": self.config.player_names[holder] if code == _RUNNING else None,
         }
         if code == _RUNNING:
             return obs, 0.0, False, False, info

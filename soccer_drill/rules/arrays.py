@@ -8,11 +8,11 @@ a simple skill):
 
 | record | one per | holds | written by |
 |---|---|---|---|
-| :data:`STATE` | drill | positions and velocities (the four players, then the ball), who holds the ball, the cycle, the last passer and their lock-out, the outcome code | the drill's cycle |
-| :data:`CYCLE` | drill | the four players' commands (``skill``, ``target``, ``speed``), then what a cycle works out on its way (the pass's two normals, the motions and velocities set before the physics, who may tackle, the kicker) | the environment, the support player and the team (the commands); the cycle (the rest) |
+| :data:`STATE` | drill | positions and velocities (the players, then the ball), who holds the ball, the cycle, the last passer and their lock-out, the outcome code | the drill's cycle |
+| :data:`CYCLE` | drill | the players' commands (``skill``, ``target``, ``speed``, ``receiver``), then what a cycle works out on its way (the pass's two normals, the motions and velocities set before the physics, who may tackle, the kicker) | the environment, the support player and the team (the commands); the cycle (the rest) |
 | :data:`PARAMETERS` | configuration | the numbers of a :class:`~soccer_drill.config.DrillConfig` the rules read, by name | :func:`rule_parameters` |
 
-Python reads a field of every drill as an array view (``state["pos"]``: ``(n, 5, 2)``),
+Python reads a field of every drill as an array view (``state["pos"]``: ``(n, 5, 2)`` in the 2v2 drill),
 compiled code a drill's record (``state[i].pos``: ``(5, 2)``).
 """
 
@@ -26,38 +26,53 @@ import numpy as np
 from soccer_drill.config import DrillConfig
 from soccer_drill.interruptions import QuietIntEnum
 
-STATE = np.dtype([
-    ("pos", np.float64, (5, 2)),
-    ("vel", np.float64, (5, 2)),
-    ("holder", np.int64),
-    ("cycle", np.int64),
-    ("passer", np.int64),
-    ("lockout_until", np.int64),
-    ("outcome", np.int64),
-])
-"""One drill's state: ``pos`` and ``vel`` of the four players (``PLAYER_NAMES`` order) then
-the ball (metres, m/s); ``holder`` the player in possession (-1: a loose ball); ``cycle``
-since the episode's start; ``passer`` the last player who passed (-1: none) and
-``lockout_until`` the cycle before which it cannot take the ball back; ``outcome`` an
-:class:`Outcome` code."""
 
-CYCLE = np.dtype([
-    ("skill", np.int64, (4,)),
-    ("target", np.float64, (4, 2)),
-    ("speed", np.float64, (4,)),
-    ("noise", np.float64, (2,)),
-    ("motions", np.float64, (4, 5)),
-    ("new_vel", np.float64, (5, 2)),
-    ("order", np.int64, (4,)),
-    ("tacklers", np.int64),
-    ("kicker", np.int64),
-    ("passing", np.int64),
-])
+def state_record(players: int) -> np.dtype:
+    """One drill's state with ``players`` players (:data:`STATE` for the paper's four)."""
+    return np.dtype([
+        ("pos", np.float64, (players + 1, 2)),
+        ("vel", np.float64, (players + 1, 2)),
+        ("holder", np.int64),
+        ("cycle", np.int64),
+        ("passer", np.int64),
+        ("lockout_until", np.int64),
+        ("outcome", np.int64),
+    ])
+
+
+def cycle_record(players: int) -> np.dtype:
+    """One drill's cycle with ``players`` players (:data:`CYCLE` for the paper's four)."""
+    return np.dtype([
+        ("skill", np.int64, (players,)),
+        ("target", np.float64, (players, 2)),
+        ("speed", np.float64, (players,)),
+        ("receiver", np.int64, (players,)),
+        ("noise", np.float64, (2,)),
+        ("motions", np.float64, (players, 5)),
+        ("new_vel", np.float64, (players + 1, 2)),
+        ("order", np.int64, (players,)),
+        ("tacklers", np.int64),
+        ("kicker", np.int64),
+        ("passing", np.int64),
+    ])
+
+
+STATE = state_record(4)
+"""One drill's state: ``pos`` and ``vel`` of the players (``DrillConfig.player_names``
+order: the attackers, then the defenders) then the ball (metres, m/s); ``holder`` the
+player in possession (-1: a loose ball); ``cycle`` since the episode's start; ``passer``
+the last player who passed (-1: none) and ``lockout_until`` the cycle before which it
+cannot take the ball back; ``outcome`` an :class:`Outcome` code. This is the paper's
+2v2 drill's; :func:`state_record` gives it for any number of players."""
+
+CYCLE = cycle_record(4)
 """One drill's cycle: each player's command (a :class:`~soccer_drill.commands.Skill` value,
-a ``MOVE_TO`` target, a fraction of the top speed), then the cycle's own working values:
-the two standard normals of a pass, each player's motion (``vx, vy``, ball action, its
-vector), the velocities set before the physics, the opponents who may tackle (nearest
-first) and their number, who kicked the ball (-1: nobody), whether the holder passes."""
+a ``MOVE_TO`` target, a fraction of the top speed, and for a ``PASS`` the teammate it
+goes to, -1: the nearest), then the cycle's own working values: the two standard normals
+of a pass, each player's motion (``vx, vy``, ball action, its vector), the velocities set
+before the physics, the opponents who may tackle (nearest first) and their number, who
+kicked the ball (-1: nobody), whether the holder passes. This is the paper's 2v2 drill's;
+:func:`cycle_record` gives it for any number of players."""
 
 PARAMETERS = np.dtype([
     ("field_size", np.float64),
@@ -81,13 +96,14 @@ PARAMETERS = np.dtype([
     ("substeps", np.int64),
     ("lockout_cycles", np.int64),
     ("max_cycles", np.int64),
+    ("attackers", np.int64),
 ])
 """The numbers of a configuration the rules read: top speeds, the control radius and
 speed, the ball's damping rate (per second) and top speed, the pass's arrival speed and
 noise (radians, fraction), the spacing of the rolling ball's table (seconds), the players'
 speed change per cycle, the cycle's length, where a held ball is kept, the ball's speed
 kept per cycle, the sub-step's length, the sub-steps, a pass's lock-out and the episode's
-length (cycles)."""
+length (cycles), the number of attackers (players ``0 .. attackers - 1``)."""
 
 
 class Outcome(QuietIntEnum):
@@ -139,6 +155,7 @@ def rule_parameters(cfg: DrillConfig) -> np.ndarray:
         "substeps": cfg.substeps,
         "lockout_cycles": cfg.pass_lockout_cycles,
         "max_cycles": cfg.max_cycles,
+        "attackers": cfg.attackers,
     }
     for name, value in values.items():
         params[0][name] = value

@@ -41,7 +41,7 @@ except ImportError:  # pragma: no cover - numba is a dependency; tested with it 
     numba = None
 
 F = TypeVar("F", bound=Callable[..., Any])
-W = TypeVar("W", bound=Callable[[], None])
+W = TypeVar("W", bound=Callable[[Any], None])
 
 COMPILED = numba is not None and not numba.config.DISABLE_JIT
 """Whether the rules run compiled (numba importable, ``NUMBA_DISABLE_JIT`` not set)."""
@@ -153,18 +153,19 @@ def _as_records(function: Callable[..., Any]) -> Callable[..., Any]:
     return plain
 
 
-_warmers: list[Callable[[], None]] = []
-_warmed: set[Callable[[], None]] = set()
+_warmers: list[Callable[[Any], None]] = []
+_warmed: set[tuple[Callable[[Any], None], tuple[int, int]]] = set()
 
 
 def warms(warmer: W) -> W:
     """Register ``warmer``, a call of some compiled rules with the types their callers
-    pass, for :func:`warm_up`."""
+    pass, for :func:`warm_up`: ``warmer(config)``, a drill's configuration (``None``: the
+    default drill), whose numbers of players give the records' types."""
     _warmers.append(warmer)
     return warmer
 
 
-def warm_up() -> None:
+def warm_up(config: Any = None) -> None:
     """Compile every registered rule now (or load it from the disk cache), once per
     process: a rule's first use compiles it, which can take seconds, and must not fall
     inside a scripted team's time-bounded call (``TeamDriver`` calls this first), nor be
@@ -172,14 +173,18 @@ def warm_up() -> None:
     of the process. So signals with a Python handler (a Ctrl-C, a ``SIGALRM`` or
     ``SIGTERM`` handler that raises) wait for it to end
     (:class:`~soccer_drill.interruptions.SignalsDeferred`): a Ctrl-C during a first
-    compilation stops the program when it ends."""
+    compilation stops the program when it ends.
+
+    ``config``: a drill's configuration (``None``: the default drill); the rules are
+    compiled once per number of attackers and defenders."""
     if not COMPILED:
         return
+    size = (2, 2) if config is None else (config.attackers, config.defenders)
     for warmer in list(_warmers):
-        if warmer not in _warmed:
+        if (warmer, size) not in _warmed:
             with SignalsDeferred():
-                warmer()
-                _warmed.add(warmer)
+                warmer(config)
+                _warmed.add((warmer, size))
 
 
 _SPLIT = 134217729.0  # 2**27 + 1: Dekker's split of a double into two halves

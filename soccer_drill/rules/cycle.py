@@ -65,8 +65,9 @@ def velocities_into(state, cycle, params):
     p = params[0]
     accel, dt, ball_offset = p.acceleration, p.cycle_seconds, p.ball_offset
     kicker = -1
-    bvx, bvy = vel[4, 0] * p.roll, vel[4, 1] * p.roll  # rolling freely, unless acted on
-    for i in range(4):
+    ball = pos.shape[0] - 1
+    bvx, bvy = vel[ball, 0] * p.roll, vel[ball, 1] * p.roll  # rolling freely, unless acted on
+    for i in range(ball):
         vx0, vy0 = vel[i, 0], vel[i, 1]
         dvx, dvy = motions[i, 0] - vx0, motions[i, 1] - vy0
         dv = hypot(dvx, dvy)
@@ -85,12 +86,12 @@ def velocities_into(state, cycle, params):
             # A small kick that puts the ball at the control point after this cycle,
             # turning it round the player by at most 40 degrees so it stays controlled.
             px, py = pos[i, 0], pos[i, 1]
-            bx, by = pos[4, 0], pos[4, 1]
+            bx, by = pos[ball, 0], pos[ball, 1]
             ux, uy = turn_toward(bx - px, by - py, motions[i, 3], motions[i, 4])
             cx = px + vx * dt + ux * ball_offset
             cy = py + vy * dt + uy * ball_offset
             bvx, bvy = (cx - bx) / dt, (cy - by) / dt
-    out[4, 0], out[4, 1] = capped(bvx, bvy, p.ball_max_speed)
+    out[ball, 0], out[ball, 1] = capped(bvx, bvy, p.ball_max_speed)
     return kicker
 
 
@@ -99,10 +100,11 @@ def recap(vel, params):
     """Cap each body's velocity in ``vel`` at its top speed (a collision can push a
     player past it); the usual case, under the cap, costs no square root."""
     p = params[0]
-    for i in range(5):
-        if i < 2:
+    ball = vel.shape[0] - 1
+    for i in range(ball + 1):
+        if i < p.attackers:
             cap = p.attacker_speed
-        elif i < 4:
+        elif i < ball:
             cap = p.defender_speed
         else:
             cap = p.ball_max_speed
@@ -120,16 +122,17 @@ def possession(state, order, dist, params):
     player controls the ball within the control radius of it at a relative speed of at
     most the control speed, unless it passed it and is locked out. The holder keeps it
     while it controls it (then each opponent in control may tackle); a loose ball goes to
-    the nearest player in control (the lower index if equal). ``order`` and ``dist`` (4
-    entries) are scratch.
+    the nearest player in control (the lower index if equal). ``order`` and ``dist`` (one
+    entry per player) are scratch.
     """
     pos, vel, holder = state.pos, state.vel, state.holder
     radius, speed = params[0].control_radius, params[0].control_speed
-    bx, by = pos[4, 0], pos[4, 1]
-    bvx, bvy = vel[4, 0], vel[4, 1]
+    attackers, ball = params[0].attackers, pos.shape[0] - 1
+    bx, by = pos[ball, 0], pos[ball, 1]
+    bvx, bvy = vel[ball, 0], vel[ball, 1]
     locked_out = state.passer if state.cycle < state.lockout_until else -1
     count = 0
-    for i in range(4):  # in control, sorted by (distance, index) as they come
+    for i in range(ball):  # in control, sorted by (distance, index) as they come
         d = hypot(pos[i, 0] - bx, pos[i, 1] - by)
         if d <= radius and i != locked_out and hypot(bvx - vel[i, 0], bvy - vel[i, 1]) <= speed:
             k = count
@@ -147,7 +150,7 @@ def possession(state, order, dist, params):
     tacklers = 0
     for k in range(count):
         i = order[k]
-        if (i >= 2) != (holder >= 2):
+        if (i >= attackers) != (holder >= attackers):
             order[tacklers] = i
             tacklers += 1
     return holder, tacklers
@@ -163,12 +166,14 @@ def tackle(order: np.ndarray, tacklers: int, rng: np.random.Generator, probabili
 
 
 @compiled
-def outcome(pos, holder, cycle, size, max_cycles):
-    """The outcome code of one drill's state: an interception (a defender holds the
-    ball), a success (an attacker holds it on or past the goal line, between the posts
-    of the field's width), out (the ball left the field), a timeout, else ``RUNNING``."""
-    bx, by = pos[4, 0], pos[4, 1]
-    if holder >= 2:
+def outcome(pos, holder, cycle, size, max_cycles, attackers):
+    """The outcome code of one drill's state: an interception (a defender, a player from
+    ``attackers`` on, holds the ball), a success (an attacker holds it on or past the goal
+    line, between the posts of the field's width), out (the ball left the field), a
+    timeout, else ``RUNNING``."""
+    ball = pos.shape[0] - 1
+    bx, by = pos[ball, 0], pos[ball, 1]
+    if holder >= attackers:
         return _INTERCEPTION
     if holder >= 0 and by <= 0.0 and 0.0 <= bx <= size:
         return _SUCCESS
@@ -188,13 +193,14 @@ def reward(code: int, ball_x: float, cfg: DrillConfig) -> float:
 
 def draw_start(rng: np.random.Generator, cfg: DrillConfig) -> tuple[np.ndarray, int]:
     """An episode's start, drawn from ``rng``: each player's nominal start plus a uniform
-    jitter (the four players' draws first), then the attacker given the ball, which
-    starts ``ball_offset`` below it. Returns the positions (``(5, 2)``) and the holder."""
-    jitter = rng.uniform(-cfg.start_jitter, cfg.start_jitter, size=(4, 2))
-    pos = np.empty((5, 2))
-    pos[:4] = np.array([*cfg.attacker_starts, *cfg.defender_starts]) + jitter
-    holder = int(rng.integers(2))
-    pos[4] = pos[holder, 0], pos[holder, 1] - cfg.ball_offset
+    jitter (the players' draws first), then the attacker given the ball, which starts
+    ``ball_offset`` below it. Returns the positions (``(players + 1, 2)``) and the holder."""
+    players = cfg.players
+    jitter = rng.uniform(-cfg.start_jitter, cfg.start_jitter, size=(players, 2))
+    pos = np.empty((players + 1, 2))
+    pos[:players] = np.array([*cfg.attacker_starts, *cfg.defender_starts]) + jitter
+    holder = int(rng.integers(cfg.attackers))
+    pos[players] = pos[holder, 0], pos[holder, 1] - cfg.ball_offset
     return pos, holder
 
 
@@ -212,7 +218,7 @@ def before_physics(state, cycle, params, table):
 @compiled
 def after_physics(state, cycle, players, dist, params):
     """One drill's state after the physics: the players as the physics left them
-    (``players``: ``(4, 4)``, ``x, y, vx, vy``), the ball moved by its velocity in
+    (``players``: ``(players, 4)``, ``x, y, vx, vy``), the ball moved by its velocity in
     ``cycle.new_vel``, every velocity capped (:func:`recap`).
 
     The ball meets nothing, so it moves as pymunk moves a free body with no gravity and
@@ -220,28 +226,31 @@ def after_physics(state, cycle, players, dist, params):
     addition of pymunk's zero force and bias velocity, which turns a -0.0 into 0.0). Then
     a kick's passer and lock-out, the cycle counted, possession (:func:`possession`,
     before any tackle, the opponents who may tackle into ``cycle.order`` and
-    ``cycle.tacklers``; ``dist``: scratch of 4) and the outcome code, which it returns.
+    ``cycle.tacklers``; ``dist``: scratch of one per player) and the outcome code, which
+    it returns.
     """
     pos, vel = state.pos, state.vel
     p = params[0]
-    for k in range(4):
+    ball = pos.shape[0] - 1
+    for k in range(ball):
         pos[k, 0], pos[k, 1] = players[k, 0], players[k, 1]
         vel[k, 0], vel[k, 1] = players[k, 2], players[k, 3]
-    bvx, bvy = cycle.new_vel[4, 0] + 0.0, cycle.new_vel[4, 1] + 0.0
+    bvx, bvy = cycle.new_vel[ball, 0] + 0.0, cycle.new_vel[ball, 1] + 0.0
     step_x, step_y = bvx * p.sub_dt, bvy * p.sub_dt
-    bx, by = pos[4, 0], pos[4, 1]
+    bx, by = pos[ball, 0], pos[ball, 1]
     for _ in range(p.substeps):
         bx += step_x
         by += step_y
-    pos[4, 0], pos[4, 1] = bx, by
-    vel[4, 0], vel[4, 1] = bvx, bvy
+    pos[ball, 0], pos[ball, 1] = bx, by
+    vel[ball, 0], vel[ball, 1] = bvx, bvy
     recap(vel, params)  # a collision can push a body past its top speed
     if cycle.kicker >= 0:
         state.holder, state.passer = -1, cycle.kicker
         state.lockout_until = state.cycle + 1 + p.lockout_cycles
     state.cycle += 1
     state.holder, cycle.tacklers = possession(state, cycle.order, dist, params)
-    state.outcome = outcome(pos, state.holder, state.cycle, p.field_size, p.max_cycles)
+    state.outcome = outcome(pos, state.holder, state.cycle, p.field_size, p.max_cycles,
+                            p.attackers)
     return state.outcome
 
 
@@ -283,11 +292,11 @@ def before_physics_of_drills(active, first, state, cycle, params, table):
 
 @compiled
 def after_physics_of_drills(active, players, state, cycle, params):
-    """:func:`after_physics` of each active drill (``players``: ``(n, 4, 4)``, the
+    """:func:`after_physics` of each active drill (``players``: ``(n, players, 4)``, the
     physics' players), the tackles to draw in ``cycle[i].tacklers`` (0 in inactive
     drills). Returns the number of active drills with a tackle to draw, and of those
     ended."""
-    dist = np.empty(4)
+    dist = np.empty(players.shape[1])
     tackling = ended = 0
     for i in range(state.shape[0]):
         c = cycle[i]

@@ -1,9 +1,10 @@
 """The skills' rules, written once for one drill: a command becomes a desired velocity and,
 for the ball holder, a ball action.
 
-Every function here reads one drill's arrays, ``pos`` and ``vel`` (``(5, 2)`` float64:
-the four players then the ball, as :attr:`~soccer_drill.state.DrillState.pos`) or its
-records (:mod:`soccer_drill.rules.arrays`), and is compiled per drill
+Every function here reads one drill's arrays, ``pos`` and ``vel`` (``(players + 1, 2)``
+float64: the attackers, the defenders, then the ball, as
+:attr:`~soccer_drill.state.DrillState.pos`; ``attackers`` says where the defenders
+start) or its records (:mod:`soccer_drill.rules.arrays`), and is compiled per drill
 (:mod:`soccer_drill.rules.compiled`). The drill's cycle runs them for each of its drills;
 teams call them (:func:`interception_points` and :func:`mark_targets` for many drills at
 once); :mod:`soccer_drill.skills` offers them on a :class:`~soccer_drill.state.DrillState`.
@@ -70,11 +71,20 @@ def unit(x, y):
 
 
 @compiled
+def opponents_range(player, attackers, players):
+    """``(first, stop)``: the indices of ``player``'s opponents, ``range(first, stop)``."""
+    if player < attackers:
+        return attackers, players
+    return 0, attackers
+
+
+@compiled
 def interception_point(pos, vel, holder, player, vmax, params, table):
     """Earliest point of the rolling ball's path that ``player`` can reach in time (a
     carried ball: where it will be when ``player`` gets there), running at ``vmax``."""
-    bx, by = pos[4, 0], pos[4, 1]
-    bvx, bvy = vel[4, 0], vel[4, 1]
+    ball = pos.shape[0] - 1
+    bx, by = pos[ball, 0], pos[ball, 1]
+    bvx, bvy = vel[ball, 0], vel[ball, 1]
     px, py = pos[player, 0], pos[player, 1]
     if holder >= 0 and holder != player:
         # Aim where a carried ball will be when we get there, so chasers do not trail.
@@ -117,9 +127,10 @@ def interception_point(pos, vel, holder, player, vmax, params, table):
 
 
 @compiled
-def support_spot(pos, player, size):
+def support_spot(pos, player, size, attackers):
     """Where an off-ball attacker gets open: wide of the ball and a little ahead of it."""
-    bx, by = pos[4, 0], pos[4, 1]
+    ball = pos.shape[0] - 1
+    bx, by = pos[ball, 0], pos[ball, 1]
     side = 1.0 if pos[player, 0] >= bx else -1.0
     if not 3.0 <= bx + side * 11.0 <= size - 3.0:
         side = -side
@@ -128,8 +139,8 @@ def support_spot(pos, player, size):
     tx = lo if tx < lo else hi if tx > hi else tx
     ty = lo if ty < lo else hi if ty > hi else ty
     # Step away from an opponent standing on the spot.
-    first = 2 if player < 2 else 0
-    for d in (first, first + 1):
+    first, stop = opponents_range(player, attackers, ball)
+    for d in range(first, stop):
         dx, dy = tx - pos[d, 0], ty - pos[d, 1]
         dist = hypot(dx, dy)
         if dist < 5.0:
@@ -141,7 +152,7 @@ def support_spot(pos, player, size):
 
 
 @compiled
-def dribble_heading(pos, player, size):
+def dribble_heading(pos, player, size, attackers):
     """Unit heading toward the goal line that keeps clear of opponents and touchlines.
 
     The candidate with the highest score wins, the first in :data:`HEADINGS`' order among
@@ -151,23 +162,19 @@ def dribble_heading(pos, player, size):
     """
     px, py = pos[player, 0], pos[player, 1]
     best_x, best_y, best_score, best_order = 0.0, -1.0, -math.inf, len(HEADINGS)
-    first = 2 if player < 2 else 0
-    r1x, r1y = pos[first, 0] - px, pos[first, 1] - py
-    r2x, r2y = pos[first + 1, 0] - px, pos[first + 1, 1] - py
+    first, stop = opponents_range(player, attackers, pos.shape[0] - 1)
     headings = _HEADINGS_BY_SCORE
     for h in range(headings.shape[0]):
         order, hx, hy, score = headings[h, 0], headings[h, 1], headings[h, 2], headings[h, 3]
         if score < best_score:
             break
         # Each opponent ahead within 12 m costs more the closer it is to the heading line.
-        ahead = r1x * hx + r1y * hy
-        if 0.0 < ahead < 12.0:
-            free = 1.0 - abs(r1x * hy - r1y * hx) / 4.0
-            score -= 2.0 * (free if free > 0.0 else 0.0) * (1.0 - ahead / 12.0)
-        ahead = r2x * hx + r2y * hy
-        if 0.0 < ahead < 12.0:
-            free = 1.0 - abs(r2x * hy - r2y * hx) / 4.0
-            score -= 2.0 * (free if free > 0.0 else 0.0) * (1.0 - ahead / 12.0)
+        for d in range(first, stop):
+            rx, ry = pos[d, 0] - px, pos[d, 1] - py
+            ahead = rx * hx + ry * hy
+            if 0.0 < ahead < 12.0:
+                free = 1.0 - abs(rx * hy - ry * hx) / 4.0
+                score -= 2.0 * (free if free > 0.0 else 0.0) * (1.0 - ahead / 12.0)
         ex = px + hx * 4.0
         if not 1.0 <= ex <= size - 1.0:
             score -= 3.0
@@ -177,23 +184,61 @@ def dribble_heading(pos, player, size):
 
 
 @compiled
-def shield_direction(pos, player):
+def shield_direction(pos, player, attackers):
     """Unit direction away from the nearest opponent: where a shielded ball is kept."""
     px, py = pos[player, 0], pos[player, 1]
-    first = 2 if player < 2 else 0
+    first, stop = opponents_range(player, attackers, pos.shape[0] - 1)
     x1, y1 = pos[first, 0], pos[first, 1]
-    x2, y2 = pos[first + 1, 0], pos[first + 1, 1]
-    if hypot(x2 - px, y2 - py) < hypot(x1 - px, y1 - py):  # the first if equal
-        x1, y1 = x2, y2
+    for d in range(first + 1, stop):
+        x2, y2 = pos[d, 0], pos[d, 1]
+        if hypot(x2 - px, y2 - py) < hypot(x1 - px, y1 - py):  # the first if equal
+            x1, y1 = x2, y2
     return unit(px - x1, py - y1)
 
 
 @compiled
-def pass_velocity(pos, vel, player, angle_normal, speed_normal, params):
-    """Kick velocity that brings the ball to the teammate at about arrival speed, with
+def nearest_teammate(pos, player, attackers):
+    """``player``'s nearest teammate (the lowest index among equals), or -1: none."""
+    first, stop = (0, attackers) if player < attackers else (attackers, pos.shape[0] - 1)
+    px, py = pos[player, 0], pos[player, 1]
+    best, best_d = -1, 0.0
+    for m in range(first, stop):
+        if m == player:
+            continue
+        d = hypot(pos[m, 0] - px, pos[m, 1] - py)
+        if best < 0 or d < best_d:
+            best, best_d = m, d
+    return best
+
+
+@compiled
+def ranked_teammate(pos, player, attackers, rank):
+    """``player``'s teammate of ``rank`` (0: the nearest) by distance, the lower index
+    first among equals; -1 if it has fewer teammates."""
+    first, stop = (0, attackers) if player < attackers else (attackers, pos.shape[0] - 1)
+    px, py = pos[player, 0], pos[player, 1]
+    order = np.empty(4, np.int64)
+    dist = np.empty(4)
+    count = 0
+    for m in range(first, stop):
+        if m == player:
+            continue
+        d = hypot(pos[m, 0] - px, pos[m, 1] - py)
+        k = count
+        while k > 0 and dist[k - 1] > d:
+            order[k], dist[k] = order[k - 1], dist[k - 1]
+            k -= 1
+        order[k], dist[k] = m, d
+        count += 1
+    return order[rank] if 0 <= rank < count else -1
+
+
+@compiled
+def pass_velocity(pos, vel, player, mate, angle_normal, speed_normal, params):
+    """Kick velocity that brings the ball to teammate ``mate`` at about arrival speed, with
     ``angle_normal`` and ``speed_normal`` (standard normals) as its noise."""
-    bx, by = pos[4, 0], pos[4, 1]
-    mate = player ^ 1
+    ball = pos.shape[0] - 1
+    bx, by = pos[ball, 0], pos[ball, 1]
     mx, my = pos[mate, 0], pos[mate, 1]
     p = params[0]
     k, arrival, top = p.damping_rate, p.arrival_speed, p.ball_max_speed
@@ -212,27 +257,40 @@ def pass_velocity(pos, vel, player, angle_normal, speed_normal, params):
 
 
 @compiled
-def free_opponent(pos, holder, player):
-    """The opponent of ``player`` without the ball (for a loose ball, the one farther
-    from it)."""
-    a = 2 if player < 2 else 0
-    b = a + 1
-    if holder == a:
-        return b
-    if holder == b:
-        return a
-    bx, by = pos[4, 0], pos[4, 1]
-    da = hypot(pos[a, 0] - bx, pos[a, 1] - by)
-    db = hypot(pos[b, 0] - bx, pos[b, 1] - by)
-    return a if da > db else b
+def free_opponent(pos, holder, player, attackers):
+    """The opponent of ``player`` to mark: of those without the ball, the nearest to
+    ``player`` while an opponent holds it, else the farthest from the ball (the later
+    index among equals). With two opponents: the one without the ball, or for a loose
+    ball (or one a teammate holds) the one farther from it."""
+    ball = pos.shape[0] - 1
+    first, stop = opponents_range(player, attackers, ball)
+    if stop - first == 1:
+        return first
+    px, py = pos[player, 0], pos[player, 1]
+    bx, by = pos[ball, 0], pos[ball, 1]
+    held = first <= holder < stop
+    best, best_d = -1, 0.0
+    for k in range(first, stop):
+        if k == holder:
+            continue
+        if held:
+            d = hypot(pos[k, 0] - px, pos[k, 1] - py)
+            if best < 0 or d < best_d:
+                best, best_d = k, d
+        else:
+            d = hypot(pos[k, 0] - bx, pos[k, 1] - by)
+            if best < 0 or d >= best_d:
+                best, best_d = k, d
+    return best
 
 
 @compiled
-def mark_target(pos, holder, player, fraction):
+def mark_target(pos, holder, player, fraction, attackers):
     """``fraction`` of the way from ``player``'s free opponent to the ball."""
-    free = free_opponent(pos, holder, player)
+    free = free_opponent(pos, holder, player, attackers)
     fx, fy = pos[free, 0], pos[free, 1]
-    return fx + fraction * (pos[4, 0] - fx), fy + fraction * (pos[4, 1] - fy)
+    ball = pos.shape[0] - 1
+    return fx + fraction * (pos[ball, 0] - fx), fy + fraction * (pos[ball, 1] - fy)
 
 
 @compiled
@@ -245,7 +303,8 @@ def motion(state, cycle, player, params, table):
     skill, speed = cycle.skill[player], cycle.speed[player]
     tx, ty = cycle.target[player, 0], cycle.target[player, 1]
     p = params[0]
-    is_attacker = player < 2
+    attackers = p.attackers
+    is_attacker = player < attackers
     top = p.attacker_speed if is_attacker else p.defender_speed
     vmax = top * speed
     px, py = pos[player, 0], pos[player, 1]
@@ -254,13 +313,19 @@ def motion(state, cycle, player, params, table):
         if player != holder:
             return 0.0, 0.0, _NO_BALL, 0.0, 0.0
         if skill == Skill.DRIBBLE:
-            hx, hy = dribble_heading(pos, player, size)
+            hx, hy = dribble_heading(pos, player, size, attackers)
             v = p.dribble_speed * speed
             return hx * v, hy * v, _CONTROL, hx, hy
         if skill == Skill.PASS:
-            kx, ky = pass_velocity(pos, vel, player, cycle.noise[0], cycle.noise[1], params)
+            mate = cycle.receiver[player]
+            if mate < 0 or mate >= attackers or mate == player:
+                mate = nearest_teammate(pos, player, attackers)
+            if mate < 0:  # no teammate to pass to: stands still, as a ball skill off the ball
+                return 0.0, 0.0, _NO_BALL, 0.0, 0.0
+            kx, ky = pass_velocity(pos, vel, player, mate, cycle.noise[0], cycle.noise[1],
+                                   params)
             return 0.0, 0.0, _KICK, kx, ky
-        sx, sy = shield_direction(pos, player)  # HOLD
+        sx, sy = shield_direction(pos, player, attackers)  # HOLD
         v = p.hold_speed * speed
         vx, vy = sx * v, sy * v
         # Shielding backs away from pressure, but never over a touchline.
@@ -277,13 +342,13 @@ def motion(state, cycle, player, params, table):
             sx, sy = (1.0 if sx > 0 else -1.0), 0.0
         return vx, vy, _CONTROL, sx, sy
     if skill == Skill.GET_OPEN:
-        tx, ty = support_spot(pos, player, size)
+        tx, ty = support_spot(pos, player, size, attackers)
     elif skill == Skill.GO_TO_BALL or skill == Skill.INTERCEPT:
         tx, ty = interception_point(pos, vel, holder, player, vmax, params, table)
     elif skill == Skill.MARK:
-        tx, ty = mark_target(pos, holder, player, MARK_FRACTION)
+        tx, ty = mark_target(pos, holder, player, MARK_FRACTION, attackers)
     elif skill == Skill.GUARD_LINE:
-        x = pos[4, 0]
+        x = pos[pos.shape[0] - 1, 0]
         x = 4.0 if x < 4.0 else x  # min(max(x, 4.0), size - 4.0), as the builtins compare
         tx, ty = (size - 4.0 if size - 4.0 < x else x), GUARD_DEPTH
     # Toward the target at most vmax, slowing on arrival.
@@ -299,9 +364,9 @@ def motion(state, cycle, player, params, table):
 
 @compiled
 def motions_into(state, cycle, params, table):
-    """:func:`motion` of the four players of one drill, into ``cycle.motions``."""
+    """:func:`motion` of every player of one drill, into ``cycle.motions``."""
     out = cycle.motions
-    for k in range(4):
+    for k in range(out.shape[0]):
         vx, vy, ball, bx, by = motion(state, cycle, k, params, table)
         out[k, 0] = vx
         out[k, 1] = vy
@@ -314,7 +379,7 @@ def motions_into(state, cycle, params, table):
 @compiled
 def _interception_points(out, pos, vel, holder, vmax, params, table):
     for i in range(pos.shape[0]):
-        for k in range(4):
+        for k in range(pos.shape[1] - 1):
             x, y = interception_point(pos[i], vel[i], holder[i], k, vmax[i, k], params, table)
             out[i, k, 0] = x
             out[i, k, 1] = y
@@ -323,27 +388,30 @@ def _interception_points(out, pos, vel, holder, vmax, params, table):
 def interception_points(
     pos: np.ndarray, vel: np.ndarray, holder: np.ndarray, vmax: np.ndarray, cfg: DrillConfig
 ) -> np.ndarray:
-    """:func:`interception_point` of each of the four players of each drill (``pos``,
-    ``vel``: ``(n, 5, 2)``; ``vmax``: ``(n, 4)``, each player's running speed): ``(n, 4, 2)``."""
-    out = np.empty((len(pos), 4, 2))
+    """:func:`interception_point` of each player of each drill (``pos``, ``vel``:
+    ``(n, players + 1, 2)``; ``vmax``: ``(n, players)``, each player's running speed):
+    ``(n, players, 2)``."""
+    out = np.empty((len(pos), pos.shape[1] - 1, 2))
     _interception_points(out, _floats(pos), _floats(vel), _ints(holder), _floats(vmax),
                          rule_parameters(cfg), roll_table(cfg))
     return out
 
 
 @compiled
-def _mark_targets(out, pos, holder, fraction):
+def _mark_targets(out, pos, holder, fraction, attackers):
     for i in range(pos.shape[0]):
-        for k in range(4):
-            x, y = mark_target(pos[i], holder[i], k, fraction)
+        for k in range(pos.shape[1] - 1):
+            x, y = mark_target(pos[i], holder[i], k, fraction, attackers)
             out[i, k, 0] = x
             out[i, k, 1] = y
 
 
-def mark_targets(pos: np.ndarray, holder: np.ndarray, fraction: float = MARK_FRACTION) -> np.ndarray:
-    """:func:`mark_target` of each of the four players of each drill: ``(n, 4, 2)``."""
-    out = np.empty((len(pos), 4, 2))
-    _mark_targets(out, _floats(pos), _ints(holder), float(fraction))
+def mark_targets(pos: np.ndarray, holder: np.ndarray, fraction: float = MARK_FRACTION,
+                 attackers: int = 2) -> np.ndarray:
+    """:func:`mark_target` of each player of each drill (``pos``: ``(n, players + 1, 2)``,
+    the first ``attackers`` of them attackers): ``(n, players, 2)``."""
+    out = np.empty((len(pos), pos.shape[1] - 1, 2))
+    _mark_targets(out, _floats(pos), _ints(holder), float(fraction), int(attackers))
     return out
 
 

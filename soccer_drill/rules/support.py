@@ -4,8 +4,8 @@ It chases a loose ball it is nearer to (or its mate may not take yet), otherwise
 open: it runs to its support spot moved by a random offset (normal, :data:`OFFSET_STD` m
 per axis), redrawn every :data:`RESAMPLE_CYCLES` cycles, so the teammate is not perfectly
 predictable but the episode stays seeded. Each drill draws from its own generator, given
-at the episode's start (:class:`SupportDraws`); both attackers draw from it, attacker 0
-first, and share one offset.
+at the episode's start (:class:`SupportDraws`); every supported attacker draws from it,
+in index order, each a new offset.
 """
 
 from __future__ import annotations
@@ -34,20 +34,25 @@ next one to use (:data:`BLOCK`: none left)."""
 
 
 @compiled
-def support_target(state, player, offset_x, offset_y, size):
+def support_target(state, player, offset_x, offset_y, size, attackers):
     """The support behaviour's ``(skill, x, y)`` for attacker ``player`` of one drill:
-    ``GO_TO_BALL`` for a loose ball it is no farther from than its mate (or its mate may
-    not take yet), else ``MOVE_TO`` its support spot moved by the offset."""
+    ``GO_TO_BALL`` for a loose ball it is no farther from than each teammate that may
+    take it (a passer locked out may not), else ``MOVE_TO`` its support spot moved by
+    the offset."""
     pos = state.pos
     if state.holder < 0:
-        mate = player ^ 1
-        mate_locked = state.passer == mate and state.cycle < state.lockout_until
-        bx, by = pos[4, 0], pos[4, 1]
-        if mate_locked or hypot(pos[player, 0] - bx, pos[player, 1] - by) <= hypot(
-            pos[mate, 0] - bx, pos[mate, 1] - by
-        ):
+        ball = pos.shape[0] - 1
+        bx, by = pos[ball, 0], pos[ball, 1]
+        mine = hypot(pos[player, 0] - bx, pos[player, 1] - by)
+        nearest = True
+        for mate in range(attackers):
+            if mate == player or (state.passer == mate and state.cycle < state.lockout_until):
+                continue
+            if not mine <= hypot(pos[mate, 0] - bx, pos[mate, 1] - by):
+                nearest = False
+        if nearest:
             return _GO_TO_BALL, 0.0, 0.0
-    x, y = support_spot(pos, player, size)
+    x, y = support_spot(pos, player, size, attackers)
     x, y = x + offset_x, y + offset_y
     lo, hi = 1.0, size - 1.0  # each clamp min(max(v, lo), hi), as the builtins compare
     return (_MOVE_TO, (lo if x < lo else hi if x > hi else x),
@@ -65,22 +70,26 @@ def support_commands(state, cycle, supporting, support, start, size):
     (nothing of it changed): refill it (:meth:`SupportDraws.refill`) and call again from
     there.
     """
+    attackers = supporting.shape[1]
     for i in range(start, state.shape[0]):
-        k0, k1 = supporting[i, 0], supporting[i, 1]
-        if not (k0 or k1):
+        count = 0
+        for k in range(attackers):
+            if supporting[i, k]:
+                count += 1
+        if count == 0:
             continue
         s, c, d = state[i], cycle[i], support[i]
         resample = s.cycle % RESAMPLE_CYCLES == 0
-        if resample and d.next + 2 * (int(k0) + int(k1)) > BLOCK:
+        if resample and d.next + 2 * count > BLOCK:
             return i
-        for k in range(2):
+        for k in range(attackers):
             if not supporting[i, k]:
                 continue
             if resample:
                 d.offset[0] = OFFSET_STD * d.normals[d.next]
                 d.offset[1] = OFFSET_STD * d.normals[d.next + 1]
                 d.next += 2
-            skill, x, y = support_target(s, k, d.offset[0], d.offset[1], size)
+            skill, x, y = support_target(s, k, d.offset[0], d.offset[1], size, attackers)
             c.skill[k] = skill
             c.target[k, 0] = x
             c.target[k, 1] = y

@@ -24,11 +24,11 @@ from typing import Any
 import numpy as np
 
 from soccer_drill.commands import BALL_SKILLS, SCRIPTED_SKILLS, Command, Skill
+from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import is_int, is_real
 from soccer_drill.interruptions import MAX_ITEMS, delivered_by_signal, short_repr
 from soccer_drill.rules.compiled import compiled, warms
 from soccer_drill.rules.first_use import warm_up
-from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams.kit import BatchCommands, BatchRandom, BatchTeam, BatchView
 from soccer_drill.teams.registry import (
     DEFAULT_TEAM_TIMEOUT,
@@ -66,9 +66,9 @@ def _target_refused(target: object) -> str:
 # Each array of BatchCommands: its name, shape for m drills, dtype kinds, their words, and
 # the dtype the drill keeps.
 _COMMAND_ARRAYS = (
-    ("skill", lambda m: (m, 2), "iu", "integers (Skill values)", np.int64),
-    ("target", lambda m: (m, 2, 2), "iuf", "numbers", np.float64),
-    ("speed", lambda m: (m, 2), "iuf", "numbers", np.float64),
+    ("skill", lambda m, d: (m, d), "iu", "integers (Skill values)", np.int64),
+    ("target", lambda m, d: (m, d, 2), "iuf", "numbers", np.float64),
+    ("speed", lambda m, d: (m, d), "iuf", "numbers", np.float64),
 )
 
 
@@ -110,7 +110,8 @@ def check_commands(commands: object, cycle: np.ndarray, drills: np.ndarray, cycl
                    team: str, players: tuple[str, ...], named: bool = True) -> None:
     """``commands``, one row per drill of ``drills``, checked, then written into those
     drills' :data:`~soccer_drill.rules.arrays.CYCLE` records (``cycle``) as the commands of
-    players 2 and 3; else :class:`TeamError`, nothing written.
+    the defenders, ``players`` (the last of the drill's players); else :class:`TeamError`,
+    nothing written.
 
     Valid: a :class:`~soccer_drill.teams.kit.BatchCommands` of numeric arrays of the
     right shapes, each skill one a scripted defender may use (any but the ball skills),
@@ -124,7 +125,7 @@ def check_commands(commands: object, cycle: np.ndarray, drills: np.ndarray, cycl
             f"team {team!r}: act() must return BatchCommands(skill, target, speed), "
             f"got {type(commands).__name__}"
         )
-    m = len(drills)
+    m, d = len(drills), len(players)
     arrays = []
     for (name, shape, kinds, what, dtype), given in zip(_COMMAND_ARRAYS, commands, strict=True):
         if (type(given) is np.ndarray and given.dtype == dtype and given.flags.c_contiguous
@@ -144,9 +145,9 @@ def check_commands(commands: object, cycle: np.ndarray, drills: np.ndarray, cycl
             # As int64, a value out of the int64 range wraps to a negative one, refused
             # all the same.
             array = np.array(array, dtype=dtype)
-        if array.shape != shape(m):
+        if array.shape != shape(m, d):
             raise TeamError(
-                f"team {team!r}: commands' {name} must have shape {shape(m)} (one row per "
+                f"team {team!r}: commands' {name} must have shape {shape(m, d)} (one row per "
                 f"drill acting, one column per player), got {array.shape}"
                 f"{_Calling(drills if named else None, cycles):}"
             )
@@ -171,10 +172,12 @@ def _checked_into(cycle, drills, skill, target, speed, allowed):
     """The first command refused, as ``(what, row, player)``: every skill checked first
     (one a scripted defender may use), then every speed (in (0, 1], not NaN), then every
     ``MOVE_TO``'s target (finite), rows in order. If none is (``(0, -1, -1)``), each row
-    is written into drill ``drills[r]``'s record as the commands of players 2 and 3."""
+    is written into drill ``drills[r]``'s record as the commands of its last
+    ``skill.shape[1]`` players (the defenders)."""
+    defenders = skill.shape[1]
     for what in range(_SKILL, _TARGET + 1):
         for r in range(skill.shape[0]):
-            for k in range(2):
+            for k in range(defenders):
                 s = skill[r, k]
                 if what == _SKILL:
                     bad = s < 0 or s >= allowed.shape[0] or not allowed[s]
@@ -187,24 +190,28 @@ def _checked_into(cycle, drills, skill, target, speed, allowed):
                     return what, r, k
     for r in range(drills.shape[0]):
         c = cycle[drills[r]]
-        for k in range(2):
-            c.skill[2 + k] = skill[r, k]
-            c.target[2 + k, 0] = target[r, k, 0]
-            c.target[2 + k, 1] = target[r, k, 1]
-            c.speed[2 + k] = speed[r, k]
+        first = c.skill.shape[0] - defenders
+        for k in range(defenders):
+            c.skill[first + k] = skill[r, k]
+            c.target[first + k, 0] = target[r, k, 0]
+            c.target[first + k, 1] = target[r, k, 1]
+            c.speed[first + k] = speed[r, k]
     return 0, -1, -1
 
 
 @warms
-def _compile_checks() -> None:
+def _compile_checks(config: DrillConfig | None) -> None:
     """The check, with its callers' types, before a team's bounded call."""
-    from soccer_drill.rules.arrays import CYCLE
+    from soccer_drill.rules.arrays import cycle_record
 
-    skill, target, speed = np.zeros((1, 2), np.int64), np.zeros((1, 2, 2)), np.ones((1, 2))
+    cfg = config or DrillConfig()
+    d = cfg.defenders
+    skill, target, speed = np.zeros((1, d), np.int64), np.zeros((1, d, 2)), np.ones((1, d))
     shown = np.zeros(1, dtype=np.int64)
     shown.flags.writeable = False  # as a batch of one drill, or every drill, passes them
     for drills in (np.zeros(1, dtype=np.int64), shown):
-        _checked_into(np.zeros(1, CYCLE), drills, skill, target, speed, _ALLOWED)
+        _checked_into(np.zeros(1, cycle_record(cfg.players)), drills, skill, target, speed,
+                      _ALLOWED)
 
 
 # ---------------------------------------------------------------- one drill's teams
@@ -227,9 +234,9 @@ def _read(commands: object, players: tuple[str, ...]) -> BatchCommands:
             got = type(commands).__name__
         raise _Refused(f"must return a mapping with exactly the players it drives "
                        f"{sorted(players)}, got {got}")
-    skill = np.empty((1, 2), dtype=np.int64)
-    target = np.zeros((1, 2, 2))
-    speed = np.empty((1, 2))
+    skill = np.empty((1, len(players)), dtype=np.int64)
+    target = np.zeros((1, len(players), 2))
+    speed = np.empty((1, len(players)))
     previous = None
     for k, player in enumerate(players):
         command = commands[player]
@@ -386,12 +393,12 @@ class TeamDriver:
         single: bool = False,
     ) -> None:
         self.team_timeout = check_team_timeout(team_timeout)
-        warm_up()  # the rules a team may call, compiled before any bounded call
+        warm_up(batch.config)  # the rules a team may call, compiled before any bounded call
         self.single = single
         self._batch = batch
-        self.view = BatchView(batch, PLAYER_NAMES[2:])
+        self.view = BatchView(batch, batch.config.player_names[batch.config.attackers:])
         team, self.name, params = resolve_team(opponent, opponent_params, self.team_timeout)
-        warm_up()  # and those the team's own module registered when it was imported
+        warm_up(batch.config)  # and those the team's own module registered when imported
         self.team = team
         # Every attribute of the team is read inside its bound and error wrapping (a
         # property runs the team's code), as its methods are called.

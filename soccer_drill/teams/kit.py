@@ -30,16 +30,17 @@ from soccer_drill.state import DrillState, DrillView, ReadOnlyView
 
 
 class BatchCommands(NamedTuple):
-    """The commands of a team's two players in ``m`` drills.
+    """The commands of a team's ``d`` players (``view.players``: two in the 2v2 drill) in
+    ``m`` drills.
 
     Attributes
     ----------
     skill
-        ``(m, 2)`` integers, :class:`~soccer_drill.commands.Skill` values.
+        ``(m, d)`` integers, :class:`~soccer_drill.commands.Skill` values.
     target
-        ``(m, 2, 2)`` floats, the ``MOVE_TO`` targets (ignored for other skills).
+        ``(m, d, 2)`` floats, the ``MOVE_TO`` targets (ignored for other skills).
     speed
-        ``(m, 2)`` floats in ``(0, 1]``.
+        ``(m, d)`` floats in ``(0, 1]``.
     """
 
     skill: np.ndarray
@@ -100,12 +101,13 @@ class BatchView(ReadOnlyView):
 
     @property
     def pos(self) -> np.ndarray:
-        """``(n, 5, 2)``: the four players (``PLAYER_NAMES`` order) then the ball, metres."""
+        """``(n, players + 1, 2)``: the players (``config.player_names`` order: ``(n, 5,
+        2)`` in the 2v2 drill) then the ball, metres."""
         return _read_only(self._source.pos)  # type: ignore[attr-defined]
 
     @property
     def vel(self) -> np.ndarray:
-        """``(n, 5, 2)`` velocities, m/s."""
+        """``(n, players + 1, 2)`` velocities, m/s."""
         return _read_only(self._source.vel)  # type: ignore[attr-defined]
 
     @property
@@ -253,12 +255,12 @@ class SameCommands:
             self._row, self._made = row, {}
 
     def act(self, view: BatchView, drills: np.ndarray) -> BatchCommands:
-        """The command for both players of each of ``drills``."""
-        m = len(drills)
+        """The command for every player of each of ``drills``."""
+        m, d = len(drills), len(view.players)
         made = self._made.get(m)
-        if made is None:
+        if made is None or made.skill.shape[1] != d:
             skill, target, speed = self._row
             made = self._made[m] = BatchCommands(
-                np.full((m, 2), skill, dtype=np.int64), np.full((m, 2, 2), target),
-                np.full((m, 2), speed))
+                np.full((m, d), skill, dtype=np.int64), np.full((m, d, 2), target),
+                np.full((m, d), speed))
         return made

@@ -133,7 +133,7 @@ class ScriptedAttack:
             for k, (i, action) in enumerate(zip(deciding.tolist(), actions.tolist(),
                                                 strict=True)):
                 try:
-                    checked[k] = check_holder_action(action)
+                    checked[k] = check_holder_action(action, self.loop.attackers)
                 except ValueError as error:
                     raise ValueError(f"drill {i}: attack {self.attack!r} decided "
                                      f"{action!r}; {error}") from None

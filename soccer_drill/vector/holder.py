@@ -13,7 +13,6 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from soccer_drill.commands import HOLDER_ACTIONS
 from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import (
     Integer,
@@ -36,11 +35,9 @@ from soccer_drill.envs.holder import (
 from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
-from soccer_drill.state import PLAYER_NAMES
 from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
 from soccer_drill.vector.memory import check_frames_fit, check_frames_memory, check_num_envs
 
-_NAMES = np.array([*PLAYER_NAMES, None], dtype=object)  # index -1: None
 _OUTCOMES = np.array(OUTCOME_NAMES, dtype=object)
 _AUTORESET_MODES = OneOf((AutoresetMode.NEXT_STEP.value, AutoresetMode.SAME_STEP.value))
 RESET_OPTIONS = ("reset_mask",)
@@ -267,7 +264,10 @@ class HolderVectorEnv(Pickled, VectorEnv):
         self.loop = HolderLoop(core, decision_cycles)
         """The holder loop of these drills (:class:`~soccer_drill.envs.holder.HolderLoop`)."""
         self.single_observation_space = self.loop.observe.box
-        self.single_action_space = spaces.Discrete(len(HOLDER_ACTIONS))
+        self.action_names = self.loop.action_names
+        """The names of the holder's actions, in index order (``HOLD, PASS, DRIBBLE``: 2v2)."""
+        self.single_action_space = spaces.Discrete(len(self.action_names))
+        self._names = np.array([*self.config.player_names, None], dtype=object)  # -1: None
         self.observation_space = batch_space(self.single_observation_space, n)
         self.action_space = batch_space(self.single_action_space, n)
         self._all = core.every
@@ -357,15 +357,15 @@ class HolderVectorEnv(Pickled, VectorEnv):
         if a.dtype.kind not in "iu":  # as HolderEnv.step, which refuses 2.0 and True
             bad = _first_non_integer(a)
             raise ValueError(
-                f"drill {int(drills[bad])}: {holder_action_refused(a[bad])} (actions of dtype "
+                f"drill {int(drills[bad])}: {holder_action_refused(a[bad], self.loop.attackers)} (actions of dtype "
                 f"{a.dtype}; an integer dtype is needed)"
             )
-        bad_rows = np.flatnonzero((a < 0) | (a >= len(HOLDER_ACTIONS)))
+        bad_rows = np.flatnonzero((a < 0) | (a >= len(self.action_names)))
         bad_rows = bad_rows[~self._autoreset[drills[bad_rows]]]  # ignored for drills being reset
         if len(bad_rows):
             i = int(bad_rows[0])
             raise ValueError(
-                f"drill {int(drills[i])}: {holder_action_refused(a[i])}"
+                f"drill {int(drills[i])}: {holder_action_refused(a[i], self.loop.attackers)}"
                 + (f" ({len(bad_rows)} drills had bad actions)" if len(bad_rows) > 1 else "")
             )
         return a.astype(np.int64)
@@ -575,13 +575,13 @@ class HolderVectorEnv(Pickled, VectorEnv):
             "duration": duration.astype(np.int64), "_duration": everyone,
             "cycles": b.cycle[rows], "_cycles": everyone.copy(),
             "outcome": _OUTCOMES[outcome], "_outcome": everyone.copy(),
-            "holder": _NAMES[holder], "_holder": everyone.copy(),
+            "holder": self._names[holder], "_holder": everyone.copy(),
         }
 
     def action_masks(self) -> np.ndarray:
         """Which actions are legal in each drill now: all three, always (``(num_envs, 3)``
         bool; ``HolderEnv.action_masks`` per drill, for masking learners)."""
-        return np.ones((self.num_envs, len(HOLDER_ACTIONS)), dtype=bool)
+        return np.ones((self.num_envs, len(self.action_names)), dtype=bool)
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """One frame per drill with ``render_mode="rgb_array"`` (else ``None``)."""
@@ -659,7 +659,7 @@ def play_episodes(
                                            strict=True)):
                 action = policies[e](obs[k], rngs[i])  # type: ignore[arg-type]
                 try:
-                    actions[k] = check_holder_action(action)
+                    actions[k] = check_holder_action(action, loop.attackers)
                 except ValueError as error:
                     raise ValueError(
                         f"drill {i} (seed {seeds[e]}): the rule returned {action!r}; {error}"

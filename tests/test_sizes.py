@@ -1,0 +1,96 @@
+"""Drills of any size: attackers and defenders from 1 to 4, the holder's SMDP at each."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from soccer_drill import DrillConfig, HolderEnv
+from soccer_drill.rules.features import feature_names
+from soccer_drill.vector import HolderVectorEnv
+
+
+def test_the_paper_drill_keeps_its_starts_and_its_holder() -> None:
+    cfg = DrillConfig()
+    assert cfg.size == (2, 2)
+    assert cfg.attacker_starts == ((4.0, 31.0), (31.0, 31.0))
+    assert cfg.defender_starts == ((13.0, 9.0), (22.0, 9.0))
+    assert cfg.player_names == ("attacker_0", "attacker_1", "defender_0", "defender_1")
+    env = HolderEnv()
+    assert env.observation_space.shape == (9,)
+    assert env.action_names == ("HOLD", "PASS", "DRIBBLE")
+    assert feature_names(1, 2)[4] == "pass_angle"
+
+
+@pytest.mark.parametrize("field", ["attacker_starts", "defender_starts"])
+def test_starts_must_be_one_point_per_player(field: str) -> None:
+    with pytest.raises(ValueError, match=rf"DrillConfig.{field} must be a list of 3 values.*"
+                                         r"three \(x, y\) points inside the field"):
+        DrillConfig(attackers=3, defenders=3, **{field: ((4.0, 31.0), (31.0, 31.0))})
+
+
+@pytest.mark.parametrize("count", [0, 5, 2.0, True])
+def test_team_sizes_are_one_to_four(count: object) -> None:
+    with pytest.raises(ValueError, match=r"DrillConfig.attackers must be an integer in \[1, 4\]"):
+        DrillConfig(attackers=count)
+
+
+@pytest.mark.parametrize(("attackers", "defenders"), [(1, 1), (3, 2), (2, 3), (4, 4)])
+def test_the_holder_plays_every_size(attackers: int, defenders: int) -> None:
+    cfg = DrillConfig(attackers=attackers, defenders=defenders, max_cycles=60)
+    env = HolderEnv(config=cfg)
+    m = attackers - 1
+    assert env.observation_space.shape == (4 * m + defenders + 3,)
+    assert env.action_space.n == attackers + 1
+    assert env.action_names[0] == "HOLD" and env.action_names[-1] == "DRIBBLE"
+    check_env(env, skip_render_check=True)
+    rng = np.random.default_rng(0)
+    outcomes = set()
+    for seed in range(3):
+        obs, info = env.reset(seed=seed)
+        assert info["holder"] in cfg.player_names[:attackers]
+        done = False
+        while not done:
+            obs, reward, terminated, truncated, info = env.step(int(rng.integers(attackers + 1)))
+            assert env.observation_space.contains(obs)
+            done = terminated or truncated
+        outcomes.add(info["outcome"])
+    assert outcomes <= {"success", "interception", "out", "timeout"}
+
+
+def test_teammates_are_ranked_by_distance_and_a_pass_goes_to_its_rank() -> None:
+    """At 3v2 the holder's first two features are its teammates' distances, nearest
+    first; PASS_2 kicks the ball toward the farther teammate."""
+    env = HolderEnv(config=DrillConfig(attackers=3, defenders=2))
+    for seed in range(5):
+        obs, _ = env.reset(seed=seed)
+        assert obs[0] <= obs[1]
+        state = env.drill_state
+        holder = env.loop.core.batch.holder[0]
+        pos = np.array(state.pos)
+        mates = [k for k in range(3) if k != holder]
+        far = max(mates, key=lambda k: np.hypot(*(pos[k] - pos[holder])))
+        env.step(2)  # PASS_2: the second nearest
+        ball = np.array(env.drill_state.pos[-1])
+        to_far = pos[far] - pos[-1]
+        moved = ball - pos[-1]
+        cosine = moved @ to_far / (np.linalg.norm(moved) * np.linalg.norm(to_far))
+        assert cosine > 0.8, (seed, cosine)
+
+
+def test_the_batched_holder_plays_a_larger_drill_as_the_single_one() -> None:
+    cfg = DrillConfig(attackers=3, defenders=3)
+    single = HolderEnv(config=cfg)
+    vector = HolderVectorEnv(num_envs=2, config=cfg, drills_per_space=1)
+    assert vector.single_action_space.n == 4
+    obs, _ = vector.reset(seed=[7, 8])
+    first, _ = single.reset(seed=7)
+    assert np.array_equal(obs[0], first)
+    for action in (3, 1, 0, 3, 2):
+        obs, reward, terminated, truncated, _ = vector.step(np.array([action, 0]))
+        step = single.step(action)
+        if terminated[0] or truncated[0]:
+            assert reward[0] == step[1]
+            break
+        assert np.array_equal(obs[0], step[0])
