@@ -94,3 +94,24 @@ def test_the_batched_holder_plays_a_larger_drill_as_the_single_one() -> None:
             assert reward[0] == step[1]
             break
         assert np.array_equal(obs[0], step[0])
+
+
+@pytest.mark.parametrize(("attackers", "defenders"), [(3, 2), (1, 1)])
+def test_the_multi_agent_drill_passes_pettingzoo_tests_at_other_sizes(
+        attackers: int, defenders: int) -> None:
+    from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test
+
+    import soccer_drill
+
+    cfg = DrillConfig(attackers=attackers, defenders=defenders, max_cycles=30)
+    api_test(soccer_drill.env(config=cfg), num_cycles=30)
+    parallel_api_test(soccer_drill.parallel_env(config=cfg), num_cycles=30)
+    parallel_seed_test(lambda: soccer_drill.parallel_env(config=cfg), num_cycles=10)
+    env = soccer_drill.parallel_env(config=cfg, opponent="chasers", render_mode="rgb_array")
+    obs, _ = env.reset(seed=1)
+    assert env.agents == list(cfg.player_names[:attackers])
+    most = max(attackers, defenders)
+    assert {o["observation"].shape for o in obs.values()} == {(5 * most - 1,)}
+    assert env.state().shape == (6 * cfg.players + 5,)
+    assert env.action_space(env.agents[0]).n == attackers + 3
+    assert env.render().ndim == 3

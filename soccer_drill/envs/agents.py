@@ -11,7 +11,7 @@ import numpy as np
 from gymnasium import spaces
 from pettingzoo import AECEnv, ParallelEnv
 
-from soccer_drill.commands import ATTACKER_ACTIONS, BALL_SKILLS, DEFENDER_ACTIONS, Skill
+from soccer_drill.commands import BALL_SKILLS, DEFENDER_ACTIONS, Skill
 from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import Integer, OneOf, checked, is_int
 from soccer_drill.envs.core import (
@@ -22,9 +22,8 @@ from soccer_drill.envs.core import (
     HOLDER_DEFAULT,
     HOLDER_MASK,
     ILLEGAL_ACTION,
-    OFF_BALL_DEFAULT,
     OFF_BALL_MASK,
-    SHARED_DEFENDER_MASK,
+    AttackerActions,
     BatchCore,
     IllegalAction,
     Observation,
@@ -42,7 +41,7 @@ from soccer_drill.rendering.scene import FrameStyle, Scene
 from soccer_drill.rendering.screen import RENDER_MODES, Screen, frames_per_second
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.rules.features import GLOBAL_STATE
-from soccer_drill.state import PLAYER_NAMES
+from soccer_drill.rules.motion import ranked_teammate
 from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
 
 ObsFormat = Literal["dict", "flat"]
@@ -58,7 +57,7 @@ _RUNNING = int(Outcome.RUNNING)  # read once: an enum member's lookup costs abou
 _ROLE_FLAG = (np.zeros(1, dtype=np.float32), np.ones(1, dtype=np.float32))  # defender, attacker
 _ONE = np.zeros(1, dtype=np.int64)  # the single environment's one drill
 _ACTIVE = np.ones(1, dtype=bool)
-_PLAYER = tuple(np.full(1, i, dtype=np.int64) for i in range(4))
+_PLAYER = tuple(np.full(1, i, dtype=np.int64) for i in range(8))
 for _array in (_ONE, _ACTIVE, *_PLAYER):
     _array.flags.writeable = False
 # The same masks as tuples of bools, for checking an action (indexing a tuple is cheaper).
@@ -99,7 +98,7 @@ class _DrillEnvBase(Pickled):
         cfg = make_config(config, max_cycles)
         self.metadata = {**_METADATA, "render_fps": frames_per_second(cfg)}  # a frame a cycle
         self._screen = Screen(cfg, render_mode, self.metadata["render_fps"], self._scene,
-                              render_style, PLAYER_NAMES)
+                              render_style, cfg.player_names)
         self.obs_format = checked("obs_format", obs_format, OBS_FORMAT)
         self.illegal_action = checked("illegal_action", illegal_action, ILLEGAL_ACTION)
         shared_spaces = resolve_shared_spaces(shared_spaces, opponent)
@@ -110,9 +109,16 @@ class _DrillEnvBase(Pickled):
         self.render_mode = render_mode
         self.shared_spaces = shared_spaces
         self._flat = obs_format == "flat"
-        indices = (0, 1) if opponent is not None else (0, 1, 2, 3)
-        self.possible_agents = [PLAYER_NAMES[i] for i in indices]
-        self._index = {name: PLAYER_NAMES.index(name) for name in self.possible_agents}
+        names, attackers = cfg.player_names, cfg.attackers
+        self._attackers = attackers
+        actions = self._actions = AttackerActions(attackers)
+        self._holder_legal = tuple(bool(x) for x in actions.holder_mask)
+        self._off_ball_legal = tuple(bool(x) for x in actions.off_ball_mask)
+        self._holder_skills = _legal_skills(actions.skills, self._holder_legal)
+        self._off_ball_skills = _legal_skills(actions.skills, self._off_ball_legal)
+        indices = range(attackers) if opponent is not None else range(cfg.players)
+        self.possible_agents = [names[i] for i in indices]
+        self._index = {name: names.index(name) for name in self.possible_agents}
         box = self._observe.box
         if shared_spaces:  # a trailing role flag tells one shared policy which side it plays
             box = spaces.Box(
@@ -120,13 +126,13 @@ class _DrillEnvBase(Pickled):
                 np.append(box.high, 1.0).astype(np.float32),
                 dtype=np.float32,
             )
-        self._defender_mask = SHARED_DEFENDER_MASK if shared_spaces else DEFENDER_MASK
+        self._defender_mask = actions.shared_defender_mask if shared_spaces else DEFENDER_MASK
         self._defender_legal = tuple(bool(x) for x in self._defender_mask)
         self._defender_skills = _legal_skills(DEFENDER_SKILLS, self._defender_legal)
         self._action_spaces: dict[str, spaces.Discrete] = {}
         self._observation_spaces: dict[str, spaces.Space] = {}
         for name, i in self._index.items():
-            n = len(ATTACKER_ACTIONS if i < 2 or shared_spaces else DEFENDER_ACTIONS)
+            n = len(actions.names) if i < attackers or shared_spaces else len(DEFENDER_ACTIONS)
             self._action_spaces[name] = spaces.Discrete(n)
             self._observation_spaces[name] = (
                 spaces.Box(box.low, box.high, dtype=np.float32)
@@ -163,12 +169,13 @@ class _DrillEnvBase(Pickled):
         return self._observe(self._batch.state, _ONE, _PLAYER[i])[0]
 
     def _with_role(self, i: int) -> np.ndarray:
-        return np.concatenate((self._plain(i), _ROLE_FLAG[i < 2]))
+        return np.concatenate((self._plain(i), _ROLE_FLAG[i < self._attackers]))
 
     def _mask(self, i: int) -> np.ndarray:
-        if i >= 2:
+        if i >= self._attackers:
             return self._defender_mask
-        return HOLDER_MASK if self._batch.holder[0] == i else OFF_BALL_MASK
+        actions = self._actions
+        return actions.holder_mask if self._batch.holder[0] == i else actions.off_ball_mask
 
     def _dict_observation(self, agent: str) -> dict[str, np.ndarray]:
         i = self._index[agent]
@@ -198,38 +205,49 @@ class _DrillEnvBase(Pickled):
         """Check ``action`` of ``agent`` and set it as player ``index``'s command (a masked
         action replaced by the role's default, said in :attr:`replaced`, or refused)."""
         holds = self._batch.holder[0] == index
-        if type(action) is int:  # the common case: a legal plain int (a bool is not one)
-            if index >= 2:
+        attackers, actions = self._attackers, self._actions
+        if type(action) is int and attackers <= 2:  # the common case: a legal plain int
+            if index >= attackers:
                 legal = self._defender_skills
             else:
-                legal = _HOLDER_SKILLS if holds else _OFF_BALL_SKILLS
+                legal = self._holder_skills if holds else self._off_ball_skills
             if 0 <= action < len(legal) and (skill := legal[action]) is not None:
                 self._batch.skill[0, index] = skill
                 return
-        n = len(ATTACKER_ACTIONS) if self.shared_spaces or index < 2 else len(DEFENDER_ACTIONS)
+        n = (len(actions.names) if self.shared_spaces or index < attackers
+             else len(DEFENDER_ACTIONS))
         if type(action) is not int:
             if isinstance(action, np.ndarray) and action.shape == ():
                 action = action.item()
             if not is_int(action):
                 raise TypeError(
                     f"action for {agent!r} must be {Integer(0, n - 1).describe()} "
-                    f"({action_list(index, n)}), got {action!r} of type {type(action).__name__}"
+                    f"({action_list(index, n, attackers)}), got {action!r} of type "
+                    f"{type(action).__name__}"
                 )
         a = int(action)  # type: ignore[call-overload]
         if not 0 <= a < n:
-            raise ValueError(out_of_range(agent, index, n, a))
-        if index >= 2:
+            raise ValueError(out_of_range(agent, index, n, a, attackers))
+        if index >= attackers:
             legal_now = self._defender_legal
         else:
-            legal_now = _HOLDER_LEGAL if holds else _OFF_BALL_LEGAL
+            legal_now = self._holder_legal if holds else self._off_ball_legal
         if not legal_now[a]:
             if self.illegal_action == "raise":
                 raise ValueError(masked_action(agent, index, n, a, int(self._batch.cycle[0]),
-                                               self._mask(index)))
+                                               self._mask(index), attackers))
             given = a
-            a = (HOLDER_DEFAULT if holds else OFF_BALL_DEFAULT) if index < 2 else DEFENDER_DEFAULT
+            a = ((HOLDER_DEFAULT if holds else actions.off_ball_default) if index < attackers
+                 else DEFENDER_DEFAULT)
             self.replaced = (given, a)
-        self._batch.skill[0, index] = (ATTACKER_SKILLS if index < 2 else DEFENDER_SKILLS)[a]
+        if index >= attackers:
+            self._batch.skill[0, index] = DEFENDER_SKILLS[a]
+            return
+        self._batch.skill[0, index] = actions.skills[a]
+        rank = int(actions.ranks[a])
+        if attackers > 2:  # a pass to the teammate of its rank now (-1: none, or the nearest)
+            self._batch.receiver[0, index] = ranked_teammate(self._batch.pos[0], index,
+                                                             attackers, rank) if rank > 0 else -1
 
     def _step_info(self, agent: str, replaced: tuple[int, int] | None) -> dict[str, Any]:
         """An agent's info while the episode runs: the replaced action, the flat mask."""
@@ -597,7 +615,8 @@ class raw_env(_DrillEnvBase, AECEnv):
                 info = self._outcome_info()
                 done = info["outcome"] != "timeout"
                 for name in self.agents:
-                    self.rewards[name] = reward if self._index[name] < 2 else -reward
+                    self.rewards[name] = (reward if self._index[name] < self._attackers
+                                          else -reward)
                     self.terminations[name] = done
                     self.truncations[name] = not done
                     self.infos[name] = {**self.infos[name], **info}
@@ -701,7 +720,7 @@ class parallel_env(_DrillEnvBase, ParallelEnv):
         reward = float(self._batch.attacker_reward[0])
         info = self._outcome_info()
         done = info["outcome"] != "timeout"
-        rewards = {a: reward if self._index[a] < 2 else -reward for a in agents}
+        rewards = {a: reward if self._index[a] < self._attackers else -reward for a in agents}
         for a in agents:
             infos[a].update(info)
         self.agents = []

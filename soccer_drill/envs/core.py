@@ -19,7 +19,12 @@ from typing import Any, Literal, TypeVar
 import numpy as np
 from gymnasium import spaces
 
-from soccer_drill.commands import ATTACKER_ACTIONS, DEFENDER_ACTIONS
+from soccer_drill.commands import (
+    ATTACKER_ACTIONS,
+    DEFENDER_ACTIONS,
+    attacker_action_names,
+    attacker_action_skills,
+)
 from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import Bool, NoneOr, OneOf, checked, is_int
 from soccer_drill.drill.drills import BatchDrill
@@ -56,6 +61,25 @@ ATTACKER_SKILLS = np.array([int(s) for s in ATTACKER_ACTIONS])
 """An attacker's action, as the skill value the drill reads."""
 DEFENDER_SKILLS = np.array([int(s) for s in DEFENDER_ACTIONS])
 """A defender's action, as the skill value."""
+
+
+class AttackerActions:
+    """An attacker agent's actions in a drill with ``attackers`` attackers (the module's
+    constants with two): their names and skills, each pass's rank of teammate (-1 for
+    the other actions), the masks by role and the default actions."""
+
+    def __init__(self, attackers: int) -> None:
+        self.attackers = attackers
+        self.names = attacker_action_names(attackers)
+        self.skills = np.array([int(s) for s in attacker_action_skills(attackers)])
+        self.ranks = np.array([-1, *range(attackers - 1), -1, -1, -1])
+        ball = attackers + 1  # HOLD, the passes, DRIBBLE
+        self.holder_mask = np.array([1] * ball + [0, 0], dtype=np.int8)
+        self.off_ball_mask = np.array([0] * ball + [1, 1], dtype=np.int8)
+        self.shared_defender_mask = np.array([1, 1, 1] + [0] * (ball - 1), dtype=np.int8)
+        for mask in (self.holder_mask, self.off_ball_mask, self.shared_defender_mask):
+            mask.flags.writeable = False
+        self.off_ball_default = ball  # GET_OPEN
 
 
 def make_config(config: DrillConfig | Mapping[str, Any] | None, max_cycles: int | None) -> DrillConfig:
@@ -325,29 +349,30 @@ def not_reset(method: str) -> RuntimeError:
     return RuntimeError(f"{method}() called before reset(); call reset() first")
 
 
-def action_names(index: int, n: int) -> list[str]:
+def action_names(index: int, n: int, attackers: int = 2) -> list[str]:
     """The names of player ``index``'s ``n`` actions (with shared spaces a defender has an
-    attacker's five, its last two padding)."""
-    actions = ATTACKER_ACTIONS if index < 2 else DEFENDER_ACTIONS
-    return [s.name for s in actions] + ["padding"] * (n - len(actions))
+    attacker's, its last ones padding)."""
+    actions = (attacker_action_names(attackers) if index < attackers
+               else [s.name for s in DEFENDER_ACTIONS])
+    return list(actions) + ["padding"] * (n - len(actions))
 
 
-def action_list(index: int, n: int) -> str:
+def action_list(index: int, n: int, attackers: int = 2) -> str:
     """``0=HOLD, 1=PASS, ...``: player ``index``'s ``n`` actions, for messages."""
-    return ", ".join(f"{k}={name}" for k, name in enumerate(action_names(index, n)))
+    return ", ".join(f"{k}={name}" for k, name in enumerate(action_names(index, n, attackers)))
 
 
-def out_of_range(agent: str, index: int, n: int, action: int) -> str:
+def out_of_range(agent: str, index: int, n: int, action: int, attackers: int = 2) -> str:
     """Why ``action`` of ``agent`` (player ``index``, ``n`` actions) is refused: out of
     range (the single and the batched multi-agent environments alike)."""
     return (f"action {action} for {agent!r} is out of range; allowed: 0..{n - 1} "
-            f"({action_list(index, n)})")
+            f"({action_list(index, n, attackers)})")
 
 
 def masked_action(agent: str, index: int, n: int, action: int, cycle: int,
-                  mask: np.ndarray) -> str:
+                  mask: np.ndarray, attackers: int = 2) -> str:
     """Why ``action`` of ``agent`` is refused: masked now (``mask``: its action mask)."""
-    names = action_names(index, n)
+    names = action_names(index, n, attackers)
     legal_now = [f"{k}={names[k]}" for k in np.flatnonzero(mask)]
     return (f"action {action} ({names[action]}) is masked for {agent!r} at cycle {cycle}; "
             f"legal actions now: {legal_now}. illegal_action='default' replaces a masked "

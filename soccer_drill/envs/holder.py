@@ -76,6 +76,7 @@ def step_record(attackers: int) -> np.dtype:
         ("supporting", np.int8, (attackers,)),
         ("skill", np.int64),
         ("receiver", np.int64),
+        *([] if attackers == 2 else [(f"attackers_{attackers}", np.int8, (0,))]),
     ])
 
 

@@ -37,7 +37,16 @@ def state_record(players: int) -> np.dtype:
         ("passer", np.int64),
         ("lockout_until", np.int64),
         ("outcome", np.int64),
+        *_size_mark(players),
     ])
+
+
+def _size_mark(players: int) -> list[tuple[str, type, tuple[int, ...]]]:
+    """An empty field named for the number of players (none for the paper's four):
+    numba's disk cache tells record types apart by their fields' names and types, not
+    by their nested arrays' shapes, and would otherwise hand one size's compiled rules
+    to another's records."""
+    return [] if players == 4 else [(f"players_{players}", np.int8, (0,))]
 
 
 def cycle_record(players: int) -> np.dtype:
@@ -54,6 +63,7 @@ def cycle_record(players: int) -> np.dtype:
         ("tacklers", np.int64),
         ("kicker", np.int64),
         ("passing", np.int64),
+        *_size_mark(players),
     ])
 
 
