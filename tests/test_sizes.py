@@ -115,3 +115,45 @@ def test_the_multi_agent_drill_passes_pettingzoo_tests_at_other_sizes(
     assert env.state().shape == (6 * cfg.players + 5,)
     assert env.action_space(env.agents[0]).n == attackers + 3
     assert env.render().ndim == 3
+
+
+def test_the_batched_multi_agent_drill_plays_a_larger_drill_as_the_single_one() -> None:
+    import soccer_drill
+    from soccer_drill.vector import ParallelVectorEnv
+
+    cfg = DrillConfig(attackers=3, defenders=2)
+    single = soccer_drill.parallel_env(config=cfg, opponent="chasers")
+    vector = ParallelVectorEnv(num_envs=2, config=cfg, opponent="chasers", drills_per_space=1)
+    obs, _ = vector.reset(seed=[3, 4])
+    one, _ = single.reset(seed=3)
+    rng = np.random.default_rng(0)
+    for _ in range(40):
+        for agent in single.agents:
+            assert np.array_equal(obs[agent]["observation"][0], one[agent]["observation"])
+        masks = {a: one[a]["action_mask"] for a in single.agents}
+        actions = {a: int(rng.choice(np.flatnonzero(masks[a]))) for a in single.agents}
+        one, rewards, terminated, truncated, _ = single.step(actions)
+        obs, vrewards, vterm, _, _ = vector.step(
+            {a: np.array([actions[a], 0]) for a in vector.agents})
+        if any(terminated.values()) or any(truncated.values()):
+            assert vterm["attacker_0"][0] == terminated["attacker_0"]
+            break
+
+
+@pytest.mark.parametrize("name", ["keepaway", "pass_first", "late_pass", "lane", "random"])
+def test_the_fixed_rules_play_every_size(name: str) -> None:
+    """A rule reads the features' layout from their length: its actions exist at every
+    size, and at 3v2 it passes to a teammate it may pass to."""
+    from soccer_drill.policies import HOLDER_POLICIES, layout
+
+    rng = np.random.default_rng(1)
+    for attackers, defenders in [(1, 1), (2, 2), (3, 2), (4, 3)]:
+        env = HolderEnv(config=DrillConfig(attackers=attackers, defenders=defenders))
+        obs, _ = env.reset(seed=2)
+        assert layout(obs) == (attackers - 1, defenders)
+        for _ in range(30):
+            action = HOLDER_POLICIES[name](obs, rng)
+            assert 0 <= action <= attackers
+            obs, _, terminated, truncated, _ = env.step(action)
+            if terminated or truncated:
+                break

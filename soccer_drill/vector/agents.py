@@ -10,21 +10,17 @@ from typing import Any, ClassVar
 import numpy as np
 from gymnasium import spaces
 
-from soccer_drill.commands import ATTACKER_ACTIONS, DEFENDER_ACTIONS
+from soccer_drill.commands import DEFENDER_ACTIONS
 from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import Integer, checked, is_int
 from soccer_drill.drill.spaces import DRILLS_PER_SPACE
 from soccer_drill.envs.core import (
-    ATTACKER_SKILLS,
     DEFENDER_DEFAULT,
     DEFENDER_MASK,
     DEFENDER_SKILLS,
     HOLDER_DEFAULT,
-    HOLDER_MASK,
     ILLEGAL_ACTION,
-    OFF_BALL_DEFAULT,
-    OFF_BALL_MASK,
-    SHARED_DEFENDER_MASK,
+    AttackerActions,
     BatchCore,
     IllegalAction,
     Observation,
@@ -41,7 +37,7 @@ from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.rules.features import GLOBAL_STATE
-from soccer_drill.state import PLAYER_NAMES
+from soccer_drill.rules.motion import ranked_teammate
 from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
 from soccer_drill.vector.attack import HolderRuleAttack, ScriptedAttack, make_attack
 from soccer_drill.vector.memory import check_frames_fit, check_frames_memory, check_num_envs
@@ -190,10 +186,15 @@ class ParallelVectorEnv(Pickled):
             drills_per_space, attack,
         )
         self._attack = None if attack is None else ScriptedAttack(attack, self._core)
-        indices = (0, 1) if opponent is not None else (2, 3) if attack is not None else (0, 1, 2, 3)
-        self.possible_agents = [PLAYER_NAMES[i] for i in indices]
+        cfg = self.config
+        attackers, names = cfg.attackers, cfg.player_names
+        self._attackers, self._actions = attackers, AttackerActions(attackers)
+        indices = (tuple(range(attackers)) if opponent is not None
+                   else tuple(range(attackers, cfg.players)) if attack is not None
+                   else tuple(range(cfg.players)))
+        self.possible_agents = [names[i] for i in indices]
         self.agents = list(self.possible_agents)
-        self._index = {a: PLAYER_NAMES.index(a) for a in self.possible_agents}
+        self._index = {a: names.index(a) for a in self.possible_agents}
         self._indices = tuple(self._index.values())
         k = len(indices)  # every agent of every drill in one pass
         self._rows = np.repeat(np.arange(n), k)
@@ -204,11 +205,14 @@ class ParallelVectorEnv(Pickled):
         if shared_spaces:  # a trailing role flag tells one shared policy which side it plays
             bounds = (np.append(bounds[0], 0.0).astype(np.float32),
                       np.append(bounds[1], 1.0).astype(np.float32))
-            self._role = np.array([1.0 if i < 2 else 0.0 for i in self._indices], dtype=np.float32)
+            self._role = np.array([1.0 if i < attackers else 0.0 for i in self._indices],
+                                  dtype=np.float32)
         self._obs_box = spaces.Box(*bounds, dtype=np.float32)
-        self._defender_mask = SHARED_DEFENDER_MASK if shared_spaces else DEFENDER_MASK
+        self._defender_mask = (self._actions.shared_defender_mask if shared_spaces
+                               else DEFENDER_MASK)
         self._spaces = {
-            a: spaces.Discrete(len(ATTACKER_ACTIONS if i < 2 or shared_spaces else DEFENDER_ACTIONS))
+            a: spaces.Discrete(len(self._actions.names) if i < attackers or shared_spaces
+                               else len(DEFENDER_ACTIONS))
             for a, i in self._index.items()
         }
         # One drill's observation, as ``parallel_env``'s dict observations are spaced.
@@ -276,10 +280,11 @@ class ParallelVectorEnv(Pickled):
         holder = self._core.batch.holder
         out = {}
         for agent, i in self._index.items():
-            if i >= 2:
+            if i >= self._attackers:
                 out[agent] = np.broadcast_to(self._defender_mask, (self.num_envs, len(self._defender_mask))).copy()
             else:
-                out[agent] = np.where((holder == i)[:, None], HOLDER_MASK, OFF_BALL_MASK)
+                out[agent] = np.where((holder == i)[:, None], self._actions.holder_mask,
+                                      self._actions.off_ball_mask)
         return out
 
     def _observations(self) -> dict[str, Any]:
@@ -307,6 +312,7 @@ class ParallelVectorEnv(Pickled):
             raise ValueError(f"actions must be a mapping of every agent {self.agents} (and no "
                              f"other key) to ({self.num_envs},) integers, got {got}")
         b = self._core.batch
+        attackers, table = self._attackers, self._actions
         checked_actions, illegal, taken = {}, {}, {}
         for agent, i in self._index.items():
             a = np.asarray(actions[agent])
@@ -320,14 +326,16 @@ class ParallelVectorEnv(Pickled):
                 d = next((j for j, x in enumerate(a.tolist()) if not is_int(x)), 0)
                 raise TypeError(
                     f"drill {d}: action for {agent!r} must be "
-                    f"{Integer(0, n_actions - 1).describe()} ({action_list(i, n_actions)}), got "
+                    f"{Integer(0, n_actions - 1).describe()} "
+                    f"({action_list(i, n_actions, attackers)}), got "
                     f"{a[d]!r} (actions of dtype {a.dtype}; an integer dtype is needed)"
                 )
             # One test of the range (a negative action is a large unsigned one).
             if np.count_nonzero(stepping & (a.astype(np.uint64, copy=False) >= n_actions)):
                 d = int(np.nonzero(stepping & ((a < 0) | (a >= n_actions)))[0][0])
-                raise ValueError(f"drill {d}: {out_of_range(agent, i, n_actions, int(a[d]))}")
-            legal = is_legal(a, b.holder, i)
+                raise ValueError(
+                    f"drill {d}: {out_of_range(agent, i, n_actions, int(a[d]), attackers)}")
+            legal = is_legal(a, b.holder, i, attackers)
             masked = np.nonzero(stepping & ~legal)[0]
             given = np.full(self.num_envs, -1)
             done = np.full(self.num_envs, -1)
@@ -336,22 +344,24 @@ class ParallelVectorEnv(Pickled):
                 if self.illegal_action == "raise":
                     d = int(masked[0])
                     why = masked_action(agent, i, n_actions, int(a[d]), int(b.cycle[d]),
-                                        masks[agent][d])
+                                        masks[agent][d], attackers)
                     raise ValueError(f"drill {d}: {why}")
                 given[masked] = a[masked]
                 a = a.copy()
                 a[masked] = (
-                    np.where(b.holder[masked] == i, HOLDER_DEFAULT, OFF_BALL_DEFAULT)
-                    if i < 2 else DEFENDER_DEFAULT
+                    np.where(b.holder[masked] == i, HOLDER_DEFAULT, table.off_ball_default)
+                    if i < attackers else DEFENDER_DEFAULT
                 )
                 done[masked] = a[masked]
             if not stepping.all():  # a drill being reset ignores its action, whatever it is
                 a = np.where(stepping, a, 0)
             checked_actions[agent], illegal[agent], taken[agent] = a, given, done
         for agent, i in self._index.items():
-            table = ATTACKER_SKILLS if i < 2 else DEFENDER_SKILLS
-            b.skill[:, i] = table[checked_actions[agent]]
+            chosen = checked_actions[agent]
+            b.skill[:, i] = (table.skills if i < attackers else DEFENDER_SKILLS)[chosen]
             b.speed[:, i] = 1.0
+            if i < attackers and attackers > 2:  # each pass to the teammate of its rank now
+                b.receiver[:, i] = ranked_teammates(b.pos, i, attackers, table.ranks[chosen])
         return illegal, taken
 
     def step(self, actions: Mapping[str, Any]):
@@ -376,7 +386,8 @@ class ParallelVectorEnv(Pickled):
             truncated = ended & (b.outcome == Outcome.TIMEOUT)
             terminated = ended & ~truncated
             self._autoreset = ended
-            rewards = {a: (reward.copy() if i < 2 else -reward) for a, i in self._index.items()}
+            rewards = {a: (reward.copy() if i < self._attackers else -reward)
+                       for a, i in self._index.items()}
             return (
                 self._observations(), rewards,
                 {a: terminated.copy() for a in self.agents},
@@ -411,8 +422,22 @@ class ParallelVectorEnv(Pickled):
             self._renderer.close()
 
 
-def is_legal(actions: np.ndarray, holder: np.ndarray, index: int) -> np.ndarray:
+def is_legal(actions: np.ndarray, holder: np.ndarray, index: int,
+             attackers: int = 2) -> np.ndarray:
     """Whether each drill's action (in range) is legal for player ``index``, as the
     action masks say, without making the masks: an attacker may take a ball action
-    (0-2) exactly when it holds the ball, a defender any of its three actions."""
-    return (actions < 3) == (holder == index) if index < 2 else actions < 3
+    (``0 .. attackers``: 0-2 in the 2v2 drill) exactly when it holds the ball, a defender
+    any of its three actions."""
+    if index < attackers:
+        return (actions <= attackers) == (holder == index)
+    return actions < 3
+
+
+def ranked_teammates(pos: np.ndarray, player: int, attackers: int,
+                     ranks: np.ndarray) -> np.ndarray:
+    """In each drill, ``player``'s teammate of ``ranks[i]`` by distance, or -1 (a rank of
+    0, the nearest, or none: the drill's own choice at the kick)."""
+    out = np.full(len(ranks), -1, dtype=np.int64)
+    for i in np.flatnonzero(ranks > 0).tolist():
+        out[i] = ranked_teammate(pos[i], player, attackers, int(ranks[i]))
+    return out
