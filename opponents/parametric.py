@@ -44,6 +44,7 @@ from soccer_drill.teams import (
     mark_target,
     roll_table,
     rule_parameters,
+    state_record,
     warms,
 )
 
@@ -67,10 +68,12 @@ _EDGE = 2.0  # guards stay this far inside the touchlines
 _MARK_FRACTION = 0.35  # soccer_drill's MARK skill stands this far from the attacker toward the ball
 _PRESS_MODE, _COVER = COORDINATIONS.index("press"), COORDINATIONS.index("cover")
 
+MOST = 4
+"""The most defenders a team plays (``DrillConfig.defenders`` allows 1 to 4)."""
 SETTINGS = np.dtype([
-    ("guard", np.int8, (2,)),
+    ("guard", np.int8, (MOST,)),
     ("coordination", np.int64),
-    ("speed", np.float64, (2,)),
+    ("speed", np.float64, (MOST,)),
     ("reaction_delay", np.int64),
     ("mark_fraction", np.float64),
     ("chase_loose", np.bool_),
@@ -83,26 +86,35 @@ SETTINGS = np.dtype([
     ("sortie_cycles", np.int64),
 ])
 """A team's settings as its compiled plan reads them, by name (``coordination``: an index of
-:data:`COORDINATIONS`; ``guard[k]``: defender ``k`` is a guard)."""
+:data:`COORDINATIONS`; ``guard[k]``: defender ``k`` is a guard; the roles and speeds
+cycled to :data:`MOST` defenders, of which a drill's plan reads its own number)."""
 MEMORY = np.dtype([
-    ("sortie_left", np.int64, (2,)),
+    ("sortie_left", np.int64, (MOST,)),
     ("presser", np.int64),
     ("sorties", np.int64),
     ("count", np.int64),
-    ("draws", np.float64, (2,)),
+    ("draws", np.float64, (MOST,)),
 ])
 """What a team remembers of one drill's episode: each guard's sortie cycles left, the
 presser (-1: none yet), the sorties started, the states seen (for the delay), and this
 cycle's two uniforms (the guards' on their line)."""
-PLANS = np.dtype([("skill", np.int64, (2,)), ("target", np.float64, (2, 2))])
-"""The plan of one drill: its two defenders' skills and ``MOVE_TO`` targets."""
+
+
+def plans_record(defenders: int) -> np.dtype:
+    """The plan of one drill: its defenders' skills and ``MOVE_TO`` targets."""
+    return np.dtype([("skill", np.int64, (defenders,)),
+                     ("target", np.float64, (defenders, 2))])
+
+
+PLANS = plans_record(2)
+"""The plan of one drill of the 2v2 drill: its two defenders' skills and targets."""
 
 
 _SPEED = Real(0.0, 1.0, low_open=True)
 PARAMETERS: dict[str, Constraint] = {
-    "roles": ListOf(OneOf(ROLES), min_len=2, max_len=2),
+    "roles": ListOf(OneOf(ROLES), min_len=1, max_len=MOST),
     "coordination": OneOf(COORDINATIONS),
-    "speed": AnyOf((_SPEED, ListOf(_SPEED, 2, 2, kinds=(list, tuple, np.ndarray)))),
+    "speed": AnyOf((_SPEED, ListOf(_SPEED, 1, MOST, kinds=(list, tuple, np.ndarray)))),
     "reaction_delay": Integer(0),
     "mark_fraction": Real(0.0, 1.0),
     "chase_loose": Bool(),
@@ -133,14 +145,26 @@ class ParametricTeam:
     leaves its line at least once in an episode of ``n`` cycles with probability
     ``1 - (1 - p) ** n``.
 
+    **Any number of defenders.** ``roles`` (and ``speed``, if a list) name the first
+    defenders' and repeat in turn for the others (``("interceptor", "guard")`` with three
+    defenders: interceptor, guard, interceptor; with one: the interceptor alone). Guards
+    share the line: the ``n``-th of ``g`` has its home spot at ``(n + 1) / (g + 1)`` of
+    the width and stands ``(n - (g - 1) / 2) * guard_spacing`` from the ball's abscissa
+    when following it (one and two guards: as the paper's teams). With interceptors only
+    and ``cover`` or ``screen``, the presser is the defender nearest the ball (changed
+    when another is ``_SWITCH_MARGIN`` nearer) and every other defender covers or screens
+    (a marker marks, of the attackers without the ball, the nearest to it).
+
     Parameters
     ----------
     roles
-        The two defenders' roles, each ``"interceptor"`` or ``"guard"``.
+        The defenders' roles, each ``"interceptor"`` or ``"guard"`` (1 to 4, repeated in
+        turn for more defenders).
     coordination
-        ``"press"``, ``"cover"`` or ``"screen"`` (two interceptors only).
+        ``"press"``, ``"cover"`` or ``"screen"`` (interceptors only).
     speed
-        Fraction of the defenders' top speed, one number or one per defender, in (0, 1].
+        Fraction of the defenders' top speed, one number or a list (1 to 4, repeated in
+        turn), in (0, 1].
     reaction_delay
         The team acts on the state this many cycles old (>= 0); with a
         delay, every command is a ``MOVE_TO`` to where the skill would have gone.
@@ -185,11 +209,12 @@ class ParametricTeam:
         sortie_cycles: int = 10,
     ) -> None:
         check_fields("", locals(), PARAMETERS, get=dict.get)  # the parameters, by name
-        speeds = (speed, speed) if is_real(speed) else tuple(speed)  # type: ignore[arg-type]
         roles = tuple(roles)
-        self.roles: tuple[str, str] = roles  # type: ignore[assignment]
+        speeds = ((speed,) * len(roles) if is_real(speed)
+                  else tuple(speed))  # type: ignore[arg-type]
+        self.roles: tuple[str, ...] = roles
         self.coordination = coordination
-        self.speeds = (float(speeds[0]), float(speeds[1]))
+        self.speeds = tuple(float(s) for s in speeds)
         self.reaction_delay = int(reaction_delay)
         self.mark_fraction = float(mark_fraction)
         self.chase_loose = bool(chase_loose)
@@ -224,13 +249,21 @@ class ParametricTeam:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params().items())
         return f"{type(self).__name__}({args})"
 
+    def roles_of(self, defenders: int) -> tuple[str, ...]:
+        """The roles of ``defenders`` defenders: :attr:`roles` repeated in turn."""
+        return tuple(self.roles[k % len(self.roles)] for k in range(defenders))
+
+    def speeds_of(self, defenders: int) -> tuple[float, ...]:
+        """The speeds of ``defenders`` defenders: :attr:`speeds` repeated in turn."""
+        return tuple(self.speeds[k % len(self.speeds)] for k in range(defenders))
+
     def settings(self) -> np.ndarray:
         """The settings as :func:`plan_into` reads them: one :data:`SETTINGS` record."""
         settings = np.zeros(1, dtype=SETTINGS)
         values = {
-            "guard": [role == "guard" for role in self.roles],
+            "guard": [role == "guard" for role in self.roles_of(MOST)],
             "coordination": COORDINATIONS.index(self.coordination),
-            "speed": self.speeds,
+            "speed": self.speeds_of(MOST),
             **{name: getattr(self, name) for name in (
                 "reaction_delay", "mark_fraction", "chase_loose", "screen_distance",
                 "guard_depth", "guard_track", "guard_spacing", "guard_reach",
@@ -240,13 +273,13 @@ class ParametricTeam:
             settings[0][name] = value
         return settings
 
-    def _drawing(self) -> tuple[int, ...]:
+    def _drawing(self, defenders: int = 2) -> tuple[int, ...]:
         """The defenders who may draw a uniform for a random sortie (guards, when sorties
         can start at random), in defender order: each draws in a cycle it starts on its
         line, as the plan reads them."""
         if self.press_probability <= 0:
             return ()
-        return tuple(k for k in (0, 1) if self.roles[k] == "guard")
+        return tuple(k for k, role in enumerate(self.roles_of(defenders)) if role == "guard")
 
     @property
     def sorties(self) -> int:
@@ -262,7 +295,7 @@ class ParametricTeam:
 
 @compiled
 def plan_into(skill, target, memory, seen, settings, params, table):
-    """The two defenders' commands in one drill, written into ``skill`` and ``target``
+    """The defenders' commands in one drill, written into ``skill`` and ``target``
     (a ``MOVE_TO``'s target; other skills' own targets are the drill's), on the state it
     sees (``seen``: a :data:`~soccer_drill.rules.arrays.STATE` record).
 
@@ -278,15 +311,19 @@ def plan_into(skill, target, memory, seen, settings, params, table):
     t, p = settings[0], params[0]
     pos, vel, holder = seen.pos, seen.vel, seen.holder
     size = p.field_size
-    bx, by = pos[4, 0], pos[4, 1]
-    guards = int(t.guard[0]) + int(t.guard[1])
-    skill[0] = skill[1] = Skill.INTERCEPT
+    defenders, attackers = skill.shape[0], p.attackers
+    ball = pos.shape[0] - 1
+    bx, by = pos[ball, 0], pos[ball, 1]
+    guards = 0
+    for k in range(defenders):
+        guards += int(t.guard[k])
+        skill[k] = Skill.INTERCEPT
     n = 0
-    for k in range(2):
+    for k in range(defenders):
         if not t.guard[k]:
             continue
         if memory.sortie_left[k] == 0:
-            gx, gy = pos[2 + k, 0], pos[2 + k, 1]
+            gx, gy = pos[attackers + k, 0], pos[attackers + k, 1]
             reach_k = t.guard_reach
             close = reach_k > 0 and hypot(bx - gx, by - gy) <= reach_k
             drawn = t.press_probability > 0 and memory.draws[k] < t.press_probability
@@ -298,43 +335,61 @@ def plan_into(skill, target, memory, seen, settings, params, table):
         else:
             _guard_spot_into(skill, target, k, n, guards, bx, size, settings)
         n += 1
-    if guards == 0 and t.coordination != _PRESS_MODE:
-        d0 = hypot(pos[2, 0] - bx, pos[2, 1] - by)
-        d1 = hypot(pos[3, 0] - bx, pos[3, 1] - by)
+    if guards == 0 and t.coordination != _PRESS_MODE and defenders > 1:
+        # The presser: the nearest to the ball (the lower index among equals), changed
+        # only when another is _SWITCH_MARGIN nearer than the one pressing.
+        nearest, d_near = 0, hypot(pos[attackers, 0] - bx, pos[attackers, 1] - by)
+        for k in range(1, defenders):
+            d = hypot(pos[attackers + k, 0] - bx, pos[attackers + k, 1] - by)
+            if d < d_near:
+                nearest, d_near = k, d
         presser = memory.presser
-        if presser < 0 or (d0 if presser == 1 else d1) + _SWITCH_MARGIN < (
-            d1 if presser == 1 else d0
+        if presser < 0 or d_near + _SWITCH_MARGIN < hypot(
+            pos[attackers + presser, 0] - bx, pos[attackers + presser, 1] - by
         ):
-            presser = 0 if d0 <= d1 else 1
+            presser = nearest
         memory.presser = presser
-        other = 1 - presser
         if not (holder < 0 and t.chase_loose):
-            if t.coordination == _COVER:
-                fraction = t.mark_fraction
-                if fraction == _MARK_FRACTION:
-                    skill[other] = Skill.MARK
-                else:
-                    skill[other] = Skill.MOVE_TO
-                    target[other, 0], target[other, 1] = mark_target(pos, holder, 2 + other,
-                                                                     fraction, 2)
-            else:  # screen: goal-side of the ball, min(max(...)) as the builtins compare
-                ty = by - t.screen_distance
-                x = 1.0 if 1.0 > bx else bx
-                skill[other] = Skill.MOVE_TO
-                target[other, 0] = size - 1.0 if size - 1.0 < x else x
-                target[other, 1] = 1.0 if 1.0 > ty else ty
+            for other in range(defenders):
+                if other != presser:
+                    _support_into(skill, target, other, pos, holder, size, settings, attackers)
     if t.reaction_delay > 0:
         # React to the old state: go where the skill would have gone back then.
-        for k in range(2):
+        for k in range(defenders):
             if skill[k] == Skill.INTERCEPT:
                 target[k, 0], target[k, 1] = interception_point(
-                    pos, vel, holder, 2 + k, p.defender_speed * t.speed[k], params, table)
+                    pos, vel, holder, attackers + k, p.defender_speed * t.speed[k], params,
+                    table)
             elif skill[k] == Skill.MARK:
-                target[k, 0], target[k, 1] = mark_target(pos, holder, 2 + k, _MARK_FRACTION, 2)
+                target[k, 0], target[k, 1] = mark_target(pos, holder, attackers + k,
+                                                         _MARK_FRACTION, attackers)
             elif skill[k] == Skill.GUARD_LINE:
                 x = 4.0 if 4.0 > bx else bx
                 target[k, 0], target[k, 1] = (size - 4.0 if size - 4.0 < x else x), GUARD_DEPTH
             skill[k] = Skill.MOVE_TO
+
+
+@compiled
+def _support_into(skill, target, other, pos, holder, size, settings, attackers):
+    """Defender ``other``, not pressing: it covers (marks the free attacker from the
+    passing lane) or screens (stands goal-side of the ball), by ``coordination``."""
+    t = settings[0]
+    ball = pos.shape[0] - 1
+    bx, by = pos[ball, 0], pos[ball, 1]
+    if t.coordination == _COVER:
+        fraction = t.mark_fraction
+        if fraction == _MARK_FRACTION:
+            skill[other] = Skill.MARK
+        else:
+            skill[other] = Skill.MOVE_TO
+            target[other, 0], target[other, 1] = mark_target(pos, holder, attackers + other,
+                                                             fraction, attackers)
+    else:  # screen: goal-side of the ball, min(max(...)) as the builtins compare
+        ty = by - t.screen_distance
+        x = 1.0 if 1.0 > bx else bx
+        skill[other] = Skill.MOVE_TO
+        target[other, 0] = size - 1.0 if size - 1.0 < x else x
+        target[other, 1] = 1.0 if 1.0 > ty else ty
 
 
 @compiled
@@ -349,8 +404,8 @@ def _guard_spot_into(skill, target, k, n, guards, bx, size, settings):
             return
         home, offset = size / 2, 0.0
     else:
-        home = size * (n + 1) / 3
-        offset = (n - 0.5) * t.guard_spacing
+        home = size * (n + 1) / (guards + 1)
+        offset = (n - (guards - 1) / 2) * t.guard_spacing
     x = home + track * (bx + offset - home)
     x = _EDGE if _EDGE > x else x  # min(max(x, _EDGE), size - _EDGE), as the builtins compare
     skill[k] = Skill.MOVE_TO
@@ -440,22 +495,25 @@ class ParametricBatch:
         self.memory = np.zeros(n, dtype=MEMORY)
         """What the team remembers of each drill's episode (:data:`MEMORY`)."""
         self._history = np.zeros((n, 0), dtype=STATE)  # the states seen, a ring per drill
-        self._speeds = np.array([team.speeds])
-        self._drawing = team._drawing()
+        self._defenders = 0  # set at the first reset, from the drill's players
         self._settings = team.settings()
         self._rng: BatchRandom | None = None
         self._made: dict[int, BatchCommands] = {}
-        self.fixed = (team.roles == ("interceptor", "interceptor")
+        self.fixed = (set(team.roles) == {"interceptor"}
                       and team.coordination == "press" and team.reaction_delay == 0)
         """Whether the plan never reads the state (its commands made once)."""
 
     def reset(self, view: BatchView, drills: np.ndarray, rng: BatchRandom) -> None:
         """Start an episode in ``drills``; ``rng`` feeds the sorties."""
-        if len(view.players) != 2:
-            raise ValueError(f"this team drives two defenders, got players {view.players!r}")
+        defenders = len(view.players)
+        if defenders != self._defenders:
+            self._defenders, self._made = defenders, {}
+            self._speeds = np.array([self.team.speeds_of(defenders)])
+            self._drawing = self.team._drawing(defenders)
+            self._plans = plans_record(defenders)
         depth = min(self.team.reaction_delay, view.config.max_cycles) + 1
-        if depth != self._history.shape[1]:
-            self._history = np.zeros((self.n, depth), dtype=STATE)
+        if depth != self._history.shape[1] or self._history.dtype != view.state.dtype:
+            self._history = np.zeros((self.n, depth), dtype=view.state.dtype)
         self._rng = rng
         memory = self.memory
         memory["sortie_left"][drills] = 0
@@ -464,17 +522,17 @@ class ParametricBatch:
         memory["count"][drills] = 0
 
     def act(self, view: BatchView, drills: np.ndarray) -> BatchCommands:
-        """The two defenders' commands in each of ``drills`` (:func:`plan_into`)."""
-        m = len(drills)
+        """The defenders' commands in each of ``drills`` (:func:`plan_into`)."""
+        m, d = len(drills), self._defenders
         if self.fixed:
             made = self._made.get(m)
             if made is None:
                 made = self._made[m] = BatchCommands(
-                    np.full((m, 2), int(Skill.INTERCEPT)), np.zeros((m, 2, 2)),
+                    np.full((m, d), int(Skill.INTERCEPT)), np.zeros((m, d, 2)),
                     np.repeat(self._speeds, m, axis=0))
             return made
         self._draw(drills)
-        plans = np.zeros(m, dtype=PLANS)
+        plans = np.zeros(m, dtype=self._plans)
         state = view.state if every_drill(drills, view.n) else view.state[drills]
         _plans_of_drills(plans, drills, state, self.memory, self._history, self._settings,
                          view.params, view.table)
@@ -517,10 +575,10 @@ def _compile_plans(config: DrillConfig | None) -> None:
     """:func:`plan_into` and its batched loop, called once with their callers' types
     (compiled before a team's time-bounded call reaches them)."""
     cfg = config or DrillConfig()
-    if cfg.size != (2, 2):
-        return  # the family plays the 2v2 drill only
+    record = state_record(cfg.players)
     team = ParametricTeam(roles=("interceptor", "guard"), press_probability=0.5)
-    state = np.zeros(1, dtype=STATE)
+    cover = ParametricTeam(coordination="cover", mark_fraction=0.3)
+    state = np.zeros(1, dtype=record)
     state["pos"][0] = [*cfg.attacker_starts, *cfg.defender_starts, (10.0, 10.0)]
     drills = np.zeros(1, dtype=np.int64)
     drills.flags.writeable = False  # as the driver hands them
@@ -528,6 +586,7 @@ def _compile_plans(config: DrillConfig | None) -> None:
     shown.flags.writeable = False  # as the view hands every drill (some: a writable gather)
     for depth in (1, 2):
         for seen in (state, shown):
-            _plans_of_drills(np.zeros(1, dtype=PLANS), drills, seen, np.zeros(1, dtype=MEMORY),
-                             np.zeros((1, depth), dtype=STATE), team.settings(),
-                             rule_parameters(cfg), roll_table(cfg))
+            for settings in (team.settings(), cover.settings()):
+                _plans_of_drills(np.zeros(1, dtype=plans_record(cfg.defenders)), drills, seen,
+                                 np.zeros(1, dtype=MEMORY), np.zeros((1, depth), dtype=record),
+                                 settings, rule_parameters(cfg), roll_table(cfg))

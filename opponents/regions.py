@@ -26,9 +26,8 @@ import numpy as np
 
 from soccer_drill import TeamError, make_team
 from soccer_drill.constraints import Name, OneOf, Real, check, checked
-from soccer_drill.policies import HOLDER_POLICIES
+from soccer_drill.policies import HOLDER_POLICIES, layout
 from soccer_drill.teams import (
-    BALL,
     FEATURE_NAMES,
     BatchCommands,
     BatchRandom,
@@ -83,8 +82,11 @@ class Region:
         return np.float32(value) <= np.float32(self.threshold)
 
     def observed_below(self, obs: np.ndarray) -> bool:
-        """Whether the holder whose 9 features are ``obs`` is below."""
-        return bool(self.below(obs[self.index]))
+        """Whether the holder whose features are ``obs`` is below (of any size: its
+        distance to the goal line and lateral offset follow its teammates' and opponents'
+        features, ``obs[3 m + d]`` and the next, :func:`soccer_drill.policies.layout`)."""
+        m, d = layout(obs)
+        return bool(self.below(obs[3 * m + d + (self.feature == "lateral")]))
 
     def value_at(self, x: float | np.ndarray, y: float | np.ndarray, field_size: float):
         """The feature's value at field point ``(x, y)`` (arrays too)."""
@@ -194,7 +196,8 @@ class RegionBatch:
     def below(self, view: BatchView, drills: np.ndarray) -> np.ndarray:
         """``(len(drills),)`` bool: the carrier (or loose ball) of each drill is below."""
         holder = view.holder[drills]
-        where = view.pos[drills, np.where(holder >= 0, holder, BALL)]
+        ball = view.pos.shape[1] - 1
+        where = view.pos[drills, np.where(holder >= 0, holder, ball)]
         return self.region.below(self.region.value_at(where[:, 0], where[:, 1],
                                                       view.config.field_size))
 

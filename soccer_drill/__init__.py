@@ -43,3 +43,7 @@ if HOLDER_ENV_ID not in gymnasium.registry:
         entry_point="soccer_drill.envs.holder:HolderEnv",
         vector_entry_point="soccer_drill.vector.holder:HolderVectorEnv",
     )
+
+from soccer_drill import scenarios as _scenarios  # noqa: E402  (the named scenarios' ids)
+
+_scenarios._register()

@@ -230,7 +230,7 @@ def test_reaction_delay_acts_on_the_state_of_cycles_ago():
 
 def test_family_rejects_bad_parameters_by_name():
     for bad, message in (
-        ({"roles": ["keeper", "guard"]}, "roles must be a list of 2 values"),
+        ({"roles": ["keeper", "guard"]}, "roles must be a list of 1 to 4 values"),
         ({"coordination": "zonal"}, "coordination must be one of"),
         ({"speed": 1.5}, "speed must be a finite number in"),
         ({"reaction_delay": -1}, "reaction_delay must be an integer"),

@@ -13,9 +13,9 @@ from soccer_drill.vector import HolderVectorEnv
 
 
 @pytest.mark.parametrize("params, said", [
-    ({"speed": True}, r"speed must be a finite number in \(0, 1\] or a list of 2 values, each a finite number in \(0, 1\], got True"),
-    ({"speed": [1.0, True]}, r"speed must be a finite number in \(0, 1\] or a list of 2 values, each a finite number in \(0, 1\], got \[1.0, True\]"),
-    ({"speed": None}, r"speed must be a finite number in \(0, 1\] or a list of 2 values, each a finite number in \(0, 1\], got None"),
+    ({"speed": True}, r"speed must be a finite number in \(0, 1\] or a list of 1 to 4 values, each a finite number in \(0, 1\], got True"),
+    ({"speed": [1.0, True]}, r"speed must be a finite number in \(0, 1\] or a list of 1 to 4 values, each a finite number in \(0, 1\], got \[1.0, True\]"),
+    ({"speed": None}, r"speed must be a finite number in \(0, 1\] or a list of 1 to 4 values, each a finite number in \(0, 1\], got None"),
     ({"reaction_delay": True}, "reaction_delay must be an integer >= 0, got True"),
     ({"sortie_cycles": True}, "sortie_cycles must be an integer >= 1, got True"),
     ({"mark_fraction": True}, r"mark_fraction must be a finite number in \[0, 1\], got True"),

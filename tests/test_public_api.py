@@ -122,10 +122,10 @@ SNAPSHOT: dict[str, list[str]] = {
     "soccer_drill.registry": ["PROJECT_DISTRIBUTION", "PluginWarning", "Registry"],
     "soccer_drill.rules.first_use": ["warm_up"],
     "soccer_drill.teams": [
-        "BALL", "BatchCommands", "BatchRandom", "BatchTeam", "BatchView", "FEATURE_NAMES",
+        "BatchCommands", "BatchRandom", "BatchTeam", "BatchView", "FEATURE_NAMES",
         "GUARD_DEPTH", "PluginWarning", "STATE", "SameCommands", "broken_teams", "compiled",
         "describe", "every_drill", "hypot", "interception_point", "mark_target", "refresh",
-        "roll_table", "rule_parameters", "team_code", "team_ids", "warms"
+        "roll_table", "rule_parameters", "state_record", "team_code", "team_ids", "warms"
     ],
     "soccer_drill.vector": ["HolderVectorEnv", "ParallelVectorEnv", "play_episodes"],
     "soccer_drill.vector.attack": ["ATTACKS", "HolderRuleAttack"],

@@ -157,3 +157,59 @@ def test_the_fixed_rules_play_every_size(name: str) -> None:
             obs, _, terminated, truncated, _ = env.step(action)
             if terminated or truncated:
                 break
+
+
+@pytest.mark.parametrize("defenders", [1, 3, 4])
+def test_every_built_in_team_plays_any_number_of_defenders(defenders: int) -> None:
+    from soccer_drill.teams import team_ids
+
+    cfg = DrillConfig(attackers=2, defenders=defenders, max_cycles=40)
+    for team in team_ids():
+        env = HolderEnv(opponent=team, config=cfg)
+        obs, _ = env.reset(seed=3)
+        for action in (2, 1, 0, 2, 2, 2):
+            obs, _, terminated, truncated, _ = env.step(action)
+            if terminated or truncated:
+                break
+        skills = env.loop.core.batch.skill[0, 2:]
+        assert len(skills) == defenders, team
+
+
+def test_a_team_repeats_its_roles_for_more_defenders() -> None:
+    from opponents.parametric import ParametricTeam
+
+    team = ParametricTeam(roles=("interceptor", "guard"), speed=[0.9, 0.8])
+    assert team.roles_of(3) == ("interceptor", "guard", "interceptor")
+    assert team.roles_of(1) == ("interceptor",)
+    assert team.speeds_of(4) == (0.9, 0.8, 0.9, 0.8)
+    guards = HolderEnv(opponent="goal_guards", config=DrillConfig(defenders=3),
+                       opponent_params={"press_probability": 0.0, "guard_reach": 0.0})
+    guards.reset(seed=0)
+    guards.step(0)
+    batch = guards.loop.core.batch
+    # Three guards on the line, spread across it at their depth.
+    assert np.all(batch.target[0, 2:, 1] == 2.5)
+    assert np.all(np.diff(batch.target[0, 2:, 0]) > 0)
+
+
+class _TwoOnly:
+    """A team that says which numbers of defenders it plays."""
+
+    defender_counts = (2,)
+
+    def reset(self, view, rng):
+        pass
+
+    def act(self, view):
+        from soccer_drill import Command, Skill
+
+        return {p: Command(Skill.INTERCEPT) for p in view.players}
+
+
+def test_a_team_that_cannot_play_the_size_says_so_when_the_drill_is_made() -> None:
+    from soccer_drill import TeamError
+
+    HolderEnv(opponent=_TwoOnly())  # the size it plays
+    with pytest.raises(TeamError, match=r"team '.*' plays 2 defender\(s\), and this drill has 3 "
+                                        r"\(DrillConfig.defenders=3\)"):
+        HolderEnv(opponent=_TwoOnly(), config=DrillConfig(defenders=3))

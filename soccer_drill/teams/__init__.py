@@ -3,8 +3,8 @@
 | need | names |
 |---|---|
 | the protocol and the registry | ``soccer_drill``'s ``Team`` (one drill: ``reset(view, rng)``, ``act(view)``), ``register``, ``make_team``, ``available_teams`` and ``TeamError``; ``team_ids``, ``describe``; plugins: ``refresh``, ``broken_teams``, ``PluginWarning``, ``team_code`` |
-| what a team is told and says | ``soccer_drill``'s ``Command``, ``Skill``, ``DrillView`` and ``DrillState`` (one drill), ``PLAYER_NAMES`` and ``DrillConfig``; ``BALL``, ``FEATURE_NAMES`` |
-| many drills at once (``batch(n)``, one drill too) | ``BatchView`` (read-only arrays of every drill, the rule parameters by name), ``BatchCommands``, ``BatchRandom`` (each drill's draws), ``BatchTeam``, ``SameCommands``, ``every_drill``, ``STATE`` (a drill's record) |
+| what a team is told and says | ``soccer_drill``'s ``Command``, ``Skill``, ``DrillView`` and ``DrillState`` (one drill), ``PLAYER_NAMES`` and ``DrillConfig`` (its ``attackers``, ``defenders`` and ``player_names``); ``FEATURE_NAMES`` |
+| many drills at once (``batch(n)``, one drill too) | ``BatchView`` (read-only arrays of every drill, the rule parameters by name), ``BatchCommands``, ``BatchRandom`` (each drill's draws), ``BatchTeam``, ``SameCommands``, ``every_drill``, ``STATE`` (a drill's record; ``state_record(players)`` for any size) |
 | the skills' rules | ``rule_parameters`` and ``roll_table`` (what the rules read of a configuration, by name), ``interception_point`` and ``mark_target`` (one drill, compiled: call them in a loop over ``every_drill``), ``GUARD_DEPTH`` |
 | compiled team code | ``compiled`` (numba, or plain Python with the same floats), ``hypot``, ``warms`` (compile before the team's first time-bounded call) |
 
@@ -16,7 +16,7 @@ environments) as it plays many; ``docs/plugins.md`` has a short example, and
 command checks), :mod:`~soccer_drill.teams.time_bound`.
 """
 
-from soccer_drill.rules.arrays import STATE, roll_table, rule_parameters
+from soccer_drill.rules.arrays import STATE, roll_table, rule_parameters, state_record
 from soccer_drill.rules.compiled import compiled, hypot, warms
 from soccer_drill.rules.features import FEATURE_NAMES
 from soccer_drill.rules.motion import (
@@ -24,7 +24,7 @@ from soccer_drill.rules.motion import (
     interception_point,
     mark_target,
 )
-from soccer_drill.state import BALL
+from soccer_drill.state import BALL  # noqa: F401  (the 2v2 drill's ball index, kept importable)
 from soccer_drill.teams.kit import (
     BatchCommands,
     BatchRandom,
@@ -43,7 +43,6 @@ from soccer_drill.teams.registry import (
 )
 
 __all__ = [
-    "BALL",
     "FEATURE_NAMES",
     "GUARD_DEPTH",
     "STATE",
@@ -63,6 +62,7 @@ __all__ = [
     "refresh",
     "roll_table",
     "rule_parameters",
+    "state_record",
     "team_code",
     "team_ids",
     "warms",

@@ -402,6 +402,8 @@ class TeamDriver:
         self.team = team
         # Every attribute of the team is read inside its bound and error wrapping (a
         # property runs the team's code), as its methods are called.
+        self._check_size(self.call("defender_counts", "", getattr, team, "defender_counts",
+                                   None))
         batched = self.call("batch()", "", self._batched)
         self.batched: BatchTeam | _Copies = batched if batched is not None else _Copies(
             [team] + [self._copy(opponent, params, i) for i in range(1, batch.n)], self)
@@ -410,6 +412,25 @@ class TeamDriver:
         """The error of the team's last failed call, until every drill is reset."""
         self._every = np.arange(batch.n)
         self._every.flags.writeable = False
+
+    def _check_size(self, counts: object) -> None:
+        """The drill's number of defenders, among those the team says it plays (its
+        ``defender_counts``, a collection of integers; none said: any); else
+        :class:`TeamError` naming the team, the size asked and the sizes it plays."""
+        if counts is None:
+            return
+        defenders = self._batch.config.defenders
+        try:
+            plays = sorted(int(k) for k in counts)  # type: ignore[attr-defined]
+        except (TypeError, ValueError) as exc:
+            raise TeamError(f"team {self.name!r}: defender_counts must be a collection of "
+                            f"integers (the numbers of defenders it plays), got "
+                            f"{short_repr(counts)}") from exc
+        if defenders not in plays:
+            raise TeamError(
+                f"team {self.name!r} plays {', '.join(map(str, plays))} defender(s), and this "
+                f"drill has {defenders} (DrillConfig.defenders={defenders}); make the drill "
+                f"with defenders in {plays}, or choose a team that plays {defenders}")
 
     def _batched(self) -> BatchTeam | None:
         """The team's batched form (``team.batch(n)``, checked), or ``None`` if it has none."""

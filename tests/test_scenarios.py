@@ -1,0 +1,56 @@
+"""The named scenarios: made by id, checked by Gymnasium's and PettingZoo's own tests."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+from pettingzoo.test import api_test, parallel_api_test, parallel_seed_test
+
+import soccer_drill
+from soccer_drill import scenarios
+from soccer_drill.scenarios import SCENARIOS
+
+NAMES = sorted(SCENARIOS)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_a_scenario_is_made_by_its_gymnasium_id_and_passes_the_checker(name: str) -> None:
+    s = SCENARIOS[name]
+    env = gym.make(s.gym_id, config={"max_cycles": 40})
+    assert env.unwrapped.config.size == (s.attackers, s.defenders)
+    assert env.action_space.n == s.attackers + 1
+    assert env.observation_space.shape == (4 * (s.attackers - 1) + s.defenders + 3,)
+    check_env(env.unwrapped, skip_render_check=True)
+    vector = gym.make_vec(s.gym_id, num_envs=2, config={"max_cycles": 40})
+    obs, _ = vector.reset(seed=0)
+    assert obs.shape == (2, *env.observation_space.shape)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_a_scenario_passes_pettingzoos_tests(name: str) -> None:
+    config = {"max_cycles": 25}
+    api_test(scenarios.env(name, config=config), num_cycles=25)
+    parallel_api_test(scenarios.parallel_env(name, config=config), num_cycles=25)
+    parallel_seed_test(lambda: scenarios.parallel_env(name, config=config), num_cycles=10)
+    par = scenarios.parallel_env(name, render_mode="rgb_array")
+    par.reset(seed=0)
+    assert par.render().dtype == np.uint8
+
+
+def test_the_paper_drill_is_the_default_holder_env() -> None:
+    a = gym.make("soccer_drill/Holder-v0").unwrapped
+    b = scenarios.holder_env("drill_2v2")
+    assert a.config == b.config
+    assert np.array_equal(a.reset(seed=4)[0], b.reset(seed=4)[0])
+
+
+def test_an_unknown_scenario_is_refused_naming_the_known_ones() -> None:
+    with pytest.raises(ValueError, match=r"scenario must be one of .*'drill_3v2'"):
+        scenarios.parallel_env("drill_9v9")
+
+
+def test_a_config_of_another_size_is_refused() -> None:
+    with pytest.raises(ValueError, match=r"scenario 'drill_3v2' is 3v2; the config given is 2v2"):
+        scenarios.holder_env("drill_3v2", config=soccer_drill.DrillConfig())
