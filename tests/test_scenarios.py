@@ -54,3 +54,22 @@ def test_an_unknown_scenario_is_refused_naming_the_known_ones() -> None:
 def test_a_config_of_another_size_is_refused() -> None:
     with pytest.raises(ValueError, match=r"scenario 'drill_3v2' is 3v2; the config given is 2v2"):
         scenarios.holder_env("drill_3v2", config=soccer_drill.DrillConfig())
+
+
+def test_the_scenarios_page_is_written_from_kept_per_seed_outcomes(tmp_path) -> None:
+    import hashlib
+    import json
+
+    from soccer_drill import scenarios_table
+
+    scenarios_table.main(["--episodes", "2", "--first-seed", "1000", "--out", str(tmp_path)])
+    kept = json.loads((tmp_path / "data" / "scenarios_fixed_rules.json").read_text())
+    record = kept["record"]
+    body = json.dumps(record, sort_keys=True)
+    assert kept["sha256"] == hashlib.sha256(body.encode()).hexdigest()
+    assert record["schema_version"] == 1 and record["first_seed"] == 1000
+    assert set(record["outcomes"]) == set(SCENARIOS)
+    assert all(len(got) == 2 for rules in record["outcomes"].values() for got in rules.values())
+    page = (tmp_path / "scenarios.md").read_text()
+    assert page == scenarios_table.page(record["outcomes"], 1000)
+    assert "| `drill_3v2` | 3v2 | drill | `soccer_drill/Holder3v2-v0` | `chasers` |" in page
