@@ -214,3 +214,15 @@ def test_a_team_that_cannot_play_the_size_says_so_when_the_drill_is_made() -> No
     with pytest.raises(TeamError, match=r"team '.*' plays 2 defender\(s\), and this drill has 3 "
                                         r"\(DrillConfig.defenders=3\)"):
         HolderEnv(opponent=_TwoOnly(), config=DrillConfig(attackers=3, defenders=3))
+
+
+def test_the_batched_drills_render_at_other_sizes() -> None:
+    """Each drill's frame draws its own players (the ball is the last body)."""
+    cfg = DrillConfig(attackers=3, defenders=2)
+    vector = HolderVectorEnv(num_envs=2, config=cfg, render_mode="rgb_array")
+    vector.reset(seed=0)
+    frames = vector.render()
+    single = HolderEnv(config=cfg, render_mode="rgb_array")
+    single.reset(seed=0)
+    assert len(frames) == 2 and frames[0].shape == single.render().shape
+    assert frames[0].dtype == np.uint8

@@ -338,6 +338,19 @@ class raw_env(_DrillEnvBase, AECEnv):
     scripted and only the attackers are agents. All agents act once per cycle, in
     that order.
 
+    ## Other sizes
+
+    With ``config=DrillConfig(attackers=A, defenders=D)`` (1 to 4 each) the agents are
+    ``attacker_0 .. attacker_{A-1}`` and ``defender_0 .. defender_{D-1}``; an attacker
+    has ``A + 3`` actions: ``HOLD``, a ``PASS`` to each teammate, nearest first
+    (``PASS`` at 2v2, else ``PASS_1`` ...), ``DRIBBLE`` (ball holder only), ``GET_OPEN``,
+    ``GO_TO_BALL`` (off the ball only); a defender its three (padded to ``A + 3`` with
+    shared spaces). The features have room for the larger team on both sides (``5 max(A,
+    D) - 1`` values, a slot with nobody in it reading 0), the kinematic observation ``4
+    (A + D) + 10`` values (teammates, then opponents, then the ball), the full one both
+    and the time left, ``state()`` ``6 (A + D) + 5`` values (:mod:`soccer_drill.rules.features`).
+    Named scenarios: :mod:`soccer_drill.scenarios`.
+
     ## Spaces shared or per role
 
     Every agent has the same action and observation spaces by default, the PettingZoo

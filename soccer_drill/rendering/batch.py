@@ -59,7 +59,7 @@ class BatchRenderer:
         if self._renderer is None:
             from soccer_drill.rendering.draw import Renderer
 
-            self._renderer = Renderer(self.config, "rgb_array")
+            self._renderer = Renderer(self.config, "rgb_array", players=self.config.player_names)
         if len(self._trails) != n:
             from soccer_drill.rendering.draw import Trail
 

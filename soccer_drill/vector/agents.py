@@ -65,6 +65,9 @@ class ParallelVectorEnv(Pickled):
     | defender | ``Discrete(3)`` | 0 INTERCEPT, 1 MARK, 2 GUARD_LINE (always legal) | the same, from the defender's side |
     | defender, ``shared_spaces=True`` | ``Discrete(5)`` | 0-2 as above; 3 and 4 always masked | the same |
 
+    Drills of other sizes (``config=DrillConfig(attackers=A, defenders=D)``): the agents,
+    actions and observations of ``raw_env``'s "Other sizes".
+
     ``observation_space(agent)`` (a ``Dict`` of ``"observation"`` and ``"action_mask"``,
     as ``parallel_env``'s) and ``action_space(agent)`` are one drill's spaces. With
     shared spaces (as ``parallel_env``'s, the default with no opponent) every agent has the same spaces, and

@@ -90,7 +90,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
 
     | space | value |
     |---|---|
-    | ``single_action_space`` | ``Discrete(3)``: 0 HOLD, 1 PASS, 2 DRIBBLE |
+    | ``single_action_space`` | ``Discrete(3)``: 0 HOLD, 1 PASS, 2 DRIBBLE (``Discrete(A + 1)`` with ``A`` attackers: ``HolderEnv``'s, :attr:`action_names`) |
     | ``action_space`` | ``MultiDiscrete([3] * N)``: one action per drill |
     | ``single_observation_space`` | ``Box(9,)`` float32, the holder's 9 features |
     | ``observation_space`` | ``Box((N, 9))`` float32 |
