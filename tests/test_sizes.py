@@ -226,3 +226,13 @@ def test_the_batched_drills_render_at_other_sizes() -> None:
     single.reset(seed=0)
     assert len(frames) == 2 and frames[0].shape == single.render().shape
     assert frames[0].dtype == np.uint8
+
+
+def test_a_team_saying_its_sizes_wrongly_is_refused_in_the_vocabularys_words() -> None:
+    from soccer_drill import TeamError
+
+    team = _TwoOnly()
+    team.defender_counts = (0, 2)  # type: ignore[misc]
+    with pytest.raises(TeamError, match=r"defender_counts must be a list of at least 1 values, "
+                                        r"each an integer in \[1, 4\], got \(0, 2\)"):
+        HolderEnv(opponent=team)

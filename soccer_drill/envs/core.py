@@ -118,7 +118,19 @@ class Observation:
         self.size = len(low)
         self.box = spaces.Box(low, high, dtype=np.float32)
         self.low, self.high = low.astype(np.float64), high.astype(np.float64)  # as compiled
+        self._config = config
         self._params = rule_parameters(config)
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        del state["_params"]  # the configuration's read-only record, taken again by a copy
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        # The same read-only array as the original's: a writable copy would be another
+        # type for the compiled rules, compiled anew at the copy's first observation.
+        self._params = rule_parameters(self._config)
 
     def __call__(self, state: np.ndarray, rows: np.ndarray, players: np.ndarray) -> np.ndarray:
         out = np.empty((len(rows), self.size), np.float32)

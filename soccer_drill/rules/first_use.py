@@ -43,9 +43,11 @@ def _observed_with(every: np.ndarray, fixed: np.ndarray) -> list:
     """Each observation type with the ``(rows, players)`` its callers pass: the single
     environments (and every core's global state) read-only arrays, the vector
     environments writable ones, and the single holder its read-only drill with the
-    players it gathers (the holder's features)."""
+    players it gathers (the features, and the holder's own)."""
     single, vector, holder = (fixed, fixed), (every, every), (fixed, every)
-    uses = [(kind, (single, vector)) for kind in OBSERVATION_TYPES.values()]
+    uses = []
+    for name, kind in OBSERVATION_TYPES.items():
+        uses.append((kind, (single, vector, holder) if name == "features" else (single, vector)))
     return [*uses, (HOLDER_FEATURES, (single, vector, holder)), (GLOBAL_STATE, (single,))]
 
 

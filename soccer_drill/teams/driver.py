@@ -25,7 +25,7 @@ import numpy as np
 
 from soccer_drill.commands import BALL_SKILLS, SCRIPTED_SKILLS, Command, Skill
 from soccer_drill.config import DrillConfig
-from soccer_drill.constraints import is_int, is_real
+from soccer_drill.constraints import Integer, ListOf, checked, is_int, is_real
 from soccer_drill.interruptions import MAX_ITEMS, delivered_by_signal, short_repr
 from soccer_drill.rules.compiled import compiled, warms
 from soccer_drill.rules.first_use import warm_up
@@ -46,6 +46,8 @@ _ALLOWED = np.zeros(len(Skill), dtype=bool)  # by skill value: may a scripted de
 _ALLOWED[[int(s) for s in SCRIPTED_SKILLS]] = True
 _ALLOWED.flags.writeable = False
 _SKILL, _SPEED, _TARGET = 1, 2, 3  # what was refused first
+_DEFENDER_COUNTS = ListOf(Integer(1, 4), min_len=1, kinds=(list, tuple, set, frozenset, range))
+"""What a team's ``defender_counts`` may be: the numbers of defenders it plays."""
 
 
 def skill_refused(skill: object) -> str:
@@ -421,11 +423,9 @@ class TeamDriver:
             return
         defenders = self._batch.config.defenders
         try:
-            plays = sorted(int(k) for k in counts)  # type: ignore[attr-defined]
-        except (TypeError, ValueError) as exc:
-            raise TeamError(f"team {self.name!r}: defender_counts must be a collection of "
-                            f"integers (the numbers of defenders it plays), got "
-                            f"{short_repr(counts)}") from exc
+            plays = sorted(set(checked("defender_counts", counts, _DEFENDER_COUNTS)))
+        except ValueError as exc:
+            raise TeamError(f"team {self.name!r}: {exc}") from exc
         if defenders not in plays:
             raise TeamError(
                 f"team {self.name!r} plays {', '.join(map(str, plays))} defender(s), and this "
