@@ -267,6 +267,33 @@ class _DrillEnvBase(Pickled):
         self._screen.close()
 
     @property
+    def caption(self) -> str | None:
+        """Extra text drawn on rendered frames' header (e.g. a prompt)."""
+        return self._screen.caption
+
+    @caption.setter
+    def caption(self, text: str | None) -> None:
+        self._screen.caption = text
+
+    @property
+    def policy_name(self) -> str | None:
+        """The name of what decides for the agents, in rendered frames' header."""
+        return self._screen.policy
+
+    @policy_name.setter
+    def policy_name(self, text: str | None) -> None:
+        self._screen.policy = text
+
+    @property
+    def score_text(self) -> str | None:
+        """A running score, in rendered frames' header (``soccer-drill-play`` keeps one)."""
+        return self._screen.score
+
+    @score_text.setter
+    def score_text(self, text: str | None) -> None:
+        self._screen.score = text
+
+    @property
     def scene(self):
         """What a frame shows besides the bodies (a
         :class:`~soccer_drill.rendering.scene.Scene`): the team, the holder's ball skill
