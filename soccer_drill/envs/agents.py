@@ -485,7 +485,8 @@ class raw_env(_DrillEnvBase, AECEnv):
     | ``"rgb_array_list"`` | every frame since the last ``render()`` (or ``reset``): one per cycle, so a video written at ``metadata["render_fps"]`` plays at true speed |
     | ``"human"`` | ``None``; a window shows every cycle at ``metadata["render_fps"]`` frames per second |
 
-    A frame shows the team, the cycle and the time left, each player's role, the holder
+    A frame shows the team, :attr:`policy_name`, :attr:`score_text` and :attr:`caption` if
+    set, the cycle and the time left, each player's role, the holder
     and the ball skill it was given, short trails, the goal line shaded by its reward, a
     legend and, at the end, the outcome and the reward (:attr:`scene` holds these facts;
     ``render_style``, a :class:`~soccer_drill.rendering.scene.FrameStyle`, turns each part
