@@ -39,7 +39,7 @@ from soccer_drill.envs.core import (
 )
 from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.scene import FrameStyle, Scene
-from soccer_drill.rendering.screen import RENDER_MODES, Screen, frames_per_second
+from soccer_drill.rendering.screen import RENDER_MODES, HeaderTexts, Screen, frames_per_second
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.rules.features import GLOBAL_STATE
 from soccer_drill.state import PLAYER_NAMES
@@ -76,7 +76,7 @@ _HOLDER_SKILLS = _legal_skills(ATTACKER_SKILLS, _HOLDER_LEGAL)
 _OFF_BALL_SKILLS = _legal_skills(ATTACKER_SKILLS, _OFF_BALL_LEGAL)
 
 
-class _DrillEnvBase(Pickled):
+class _DrillEnvBase(HeaderTexts, Pickled):
     """Construction, spaces, observations, action checks, state and rendering common to
     both APIs: one drill of a :class:`~soccer_drill.envs.core.BatchCore`."""
 
@@ -265,33 +265,6 @@ class _DrillEnvBase(Pickled):
     def close(self) -> None:
         """Close the window, if any."""
         self._screen.close()
-
-    @property
-    def caption(self) -> str | None:
-        """Extra text drawn on rendered frames' header (e.g. a prompt)."""
-        return self._screen.caption
-
-    @caption.setter
-    def caption(self, text: str | None) -> None:
-        self._screen.caption = text
-
-    @property
-    def policy_name(self) -> str | None:
-        """The name of what decides for the agents, in rendered frames' header."""
-        return self._screen.policy
-
-    @policy_name.setter
-    def policy_name(self, text: str | None) -> None:
-        self._screen.policy = text
-
-    @property
-    def score_text(self) -> str | None:
-        """A running score, in rendered frames' header (``soccer-drill-play`` keeps one)."""
-        return self._screen.score
-
-    @score_text.setter
-    def score_text(self, text: str | None) -> None:
-        self._screen.score = text
 
     @property
     def scene(self):
