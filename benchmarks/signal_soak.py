@@ -15,6 +15,15 @@ process after a random delay (exponential, mean ``--mean-ms``), waits until the 
 loop has caught the handler's exception, lets it check the environments, then sends
 the next: ``--per-worker`` deliveries per worker, ``--deliveries`` in all.
 
+A ``close`` takes a few microseconds, so a signal sent at a random time almost never
+lands in one. After its sent signals each worker therefore closes ``--closes-per-worker``
+environments (each kind in turn) with a signal raised at a random point of the call: a
+profile hook counts the points where the interpreter runs signal handlers (a Python
+function's entry, a C function's return), and raises the signal at the k-th, k drawn
+from one to the points a close of that kind has. Each must reach the program; the
+environment is then closed again without error, and a new one of its kind resets and
+steps.
+
 Checked after each delivery (any failure is counted, with its description):
 
 * **crash**: a worker ending by a signal or a non-zero status, or with no report;
@@ -51,6 +60,7 @@ from typing import Any
 
 MARK_START, MARK_END = "<!-- signal-soak:start -->", "<!-- signal-soak:end -->"
 SIGNALS = ("SIGINT", "SIGALRM", "SIGTERM")
+KINDS = ("holder", "parallel", "holder_vector", "parallel_vector")
 RESET = re.compile(r"call reset\(\)|before reset\(\)|reset\(\) first")
 
 
@@ -66,7 +76,10 @@ class Terminated(BaseException):
 class Worker:
     """One process's loop of operations under signals (see the module docstring)."""
 
-    def __init__(self, seed: int, deliveries: int, mean_ms: float, patience: float) -> None:
+    def __init__(self, seed: int, deliveries: int, mean_ms: float, patience: float,
+                 closes: int = 0) -> None:
+        self.closes = closes
+        self.close_points: dict[str, int] = {}  # the points a close of each kind has
         self.rng = random.Random(seed)
         self.sender_rng = random.Random(seed + 1)
         self.deliveries, self.mean, self.patience = deliveries, mean_ms / 1000, patience
@@ -140,14 +153,16 @@ class Worker:
                 self.handled.set()
         for slot in self.envs:
             slot.env.close()
+        for i in range(self.closes):
+            self.close_at_a_random_point(KINDS[i % len(KINDS)])
         return {"sent": self.sent, "ran": self.ran, "caught": self.caught,
                 "problems": self.problems, "trace": self.trace, "at": dict(self.at), "kinds": dict(self.kinds)}
 
-    def make(self) -> Slot:
+    def make(self, kind: str | None = None) -> Slot:
         import soccer_drill
         from soccer_drill.vector import HolderVectorEnv, ParallelVectorEnv
 
-        kind = self.rng.choice(("holder", "parallel", "holder_vector", "parallel_vector"))
+        kind = self.rng.choice(KINDS) if kind is None else kind
         self.operation = "first use (compiled rules)" if self.first else "construction"
         if kind == "holder":
             env = soccer_drill.HolderEnv(opponent="chasers")
@@ -209,6 +224,54 @@ class Worker:
         slot.obs = env.step(actions)[0]
         return False
 
+    def close_at_a_random_point(self, kind: str) -> None:
+        """Close a used environment of ``kind`` with a signal at a random point of the call
+        (the module docstring); count what went wrong."""
+        if kind not in self.close_points:  # how many points a close of this kind has
+            slot = self.used(kind)
+            counter = AtPoint(10**9, signal.SIGALRM)
+            sys.setprofile(counter)
+            try:
+                slot.env.close()
+            finally:
+                sys.setprofile(None)
+            self.close_points[kind] = counter.seen
+        slot = self.used(kind)
+        name = self.rng.choice(SIGNALS)
+        hook = AtPoint(self.rng.randint(1, self.close_points[kind]), getattr(signal, name))
+        self.operation = "close"
+        try:
+            sys.setprofile(hook)
+            try:
+                slot.env.close()
+            finally:
+                sys.setprofile(None)
+        except (KeyboardInterrupt, Alarm, Terminated):
+            self.caught += 1
+        self.operation = "between"
+        if not hook.raised:  # this close had fewer points: nothing was delivered
+            return
+        self.sent += 1
+        self.kinds[name] += 1
+        if self.caught < self.ran:
+            self.problems.append(f"swallowed: {name}'s handler ran during a close of "
+                                 f"{kind}, its exception never reached the program")
+            self.caught = self.ran
+        try:
+            slot.env.close()
+            self.used(kind).env.close()
+        except Exception as exc:
+            self.problems.append(f"unusable: {kind} after a delivery during close: "
+                                 f"{type(exc).__name__}: {exc}")
+
+    def used(self, kind: str) -> Slot:
+        """A new environment of ``kind``, reset and stepped once."""
+        slot = self.make(kind)
+        self.operation = "between"
+        self.reset(slot)
+        self.step(slot)
+        return slot
+
     def check(self) -> None:
         """Every environment steps or refuses saying to call reset(); then resets and steps."""
         for slot in list(self.envs):
@@ -232,6 +295,21 @@ class Worker:
                 self.envs.remove(slot)
 
 
+class AtPoint:
+    """A profile hook that raises ``signum`` at the ``k``-th point where the interpreter
+    runs signal handlers (a Python function's entry, a C function's return)."""
+
+    def __init__(self, k: int, signum: int) -> None:
+        self.k, self.signum, self.seen, self.raised = k, signum, 0, False
+
+    def __call__(self, frame: Any, event: str, arg: Any) -> None:
+        if event in ("call", "c_return"):
+            self.seen += 1
+            if self.seen == self.k:
+                self.raised = True
+                signal.raise_signal(self.signum)
+
+
 class Slot:
     """An environment of the worker, its kind and its last observations (``None``: to reset)."""
 
@@ -243,7 +321,8 @@ class Slot:
 def run_worker(seed: int, deliveries: int, args: argparse.Namespace) -> dict:
     """One worker in a fresh interpreter; its report, or a crash described."""
     command = [sys.executable, __file__, "--worker", str(seed), "--per-worker", str(deliveries),
-               "--mean-ms", str(args.mean_ms), "--patience", str(args.patience)]
+               "--mean-ms", str(args.mean_ms), "--patience", str(args.patience),
+               "--closes-per-worker", str(args.closes_per_worker)]
     try:
         done = subprocess.run(command, capture_output=True, text=True, timeout=args.timeout)
     except subprocess.TimeoutExpired:
@@ -295,14 +374,16 @@ def report(args: argparse.Namespace, totals: dict) -> str:
         "## Signal soak",
         "",
         f"Command: `python benchmarks/signal_soak.py --deliveries {args.deliveries} "
-        f"--per-worker {args.per_worker} --seed {args.seed}`",
+        f"--per-worker {args.per_worker} --closes-per-worker {args.closes_per_worker} "
+        f"--seed {args.seed}`",
         "",
         f"Python {platform.python_version()}, {os.cpu_count()} cores; {totals['workers']} "
         f"worker processes, each a fresh interpreter; {totals['seconds']:.0f} s.",
         "",
         "| measure | value |",
         "|---|---:|",
-        f"| signals sent | {totals['sent']:,} |",
+        f"| signals sent (at random times, and at a random point of a close) | "
+        f"{totals['sent']:,} |",
         f"| handlers run | {totals['ran']:,} |",
         f"| exceptions caught by the program | {totals['caught']:,} |",
         f"| **crashes** (a worker killed by a signal, a non-zero status, no report) | "
@@ -350,6 +431,8 @@ def parse(argv: Sequence[str] | None) -> argparse.Namespace:
                    help="mean delay before each signal, in milliseconds")
     p.add_argument("--patience", type=float, default=120.0,
                    help="seconds a sent signal may take to be handled before it counts as lost")
+    p.add_argument("--closes-per-worker", type=int, default=12,
+                   help="environments each worker closes with a signal at a random point")
     p.add_argument("--timeout", type=float, default=1800.0, help="seconds a worker may take")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", type=Path, default=None, help="write the report into this file")
@@ -359,6 +442,8 @@ def parse(argv: Sequence[str] | None) -> argparse.Namespace:
     for name in ("deliveries", "per_worker"):
         if getattr(args, name) < 1:
             p.error(f"--{name.replace('_', '-')} must be at least 1")
+    if args.closes_per_worker < 0:
+        p.error("--closes-per-worker must be at least 0")
     if not (args.mean_ms > 0 and args.patience > 0 and args.timeout > 0):
         p.error("--mean-ms, --patience and --timeout must be positive")
     return args
@@ -367,7 +452,8 @@ def parse(argv: Sequence[str] | None) -> argparse.Namespace:
 def main(argv: Sequence[str] | None = None) -> int:
     args = parse(argv)
     if args.worker is not None:
-        worker = Worker(args.worker, args.per_worker, args.mean_ms, args.patience)
+        worker = Worker(args.worker, args.per_worker, args.mean_ms, args.patience,
+                        args.closes_per_worker)
         print(json.dumps(worker.run()), flush=True)
         return 0
     totals = soak(args)

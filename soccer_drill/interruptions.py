@@ -176,9 +176,16 @@ class SignalsDeferred:
     on to the program's handler. Only on the main thread, where Python runs signal
     handlers; ``SIG_DFL`` and ``SIG_IGN`` are left alone. Costs about 14 us on a loaded
     2-core machine (it reads each of the 62 signals' handlers).
+
+    With ``second_passes=True`` a signal that comes a second time inside the block is not
+    held: its handler runs at once (pressing Ctrl-C twice stops a block that hangs, such
+    as a plugin's import), and the first one is then not raised again.
     """
 
-    __slots__ = ("_came", "_deferring", "_previous")
+    __slots__ = ("_came", "_deferring", "_previous", "_second_passes")
+
+    def __init__(self, second_passes: bool = False) -> None:
+        self._second_passes = second_passes
 
     def __enter__(self) -> SignalsDeferred:
         self._previous: dict[int, Any] = {}
@@ -199,9 +206,11 @@ class SignalsDeferred:
         return self
 
     def _note(self, signum: int, frame: FrameType | None) -> None:
-        if self._deferring:
+        if self._deferring and not (self._second_passes and signum in self._came):
             self._came.append(signum)
             return
+        if self._deferring:  # a second one: it arrives now, and once
+            self._came.remove(signum)
         handler = self._previous.get(signum)  # left in place: the program's handler runs
         if callable(handler):
             handler(signum, frame)

@@ -419,7 +419,11 @@ class Registry:
         where = f"the entry point of {self.kind} {name!r} ({_value(ep)})"
         declared = f" (distribution {entry.distribution!r}, entry-point group {self.group!r})"
         try:
-            obj = ep.load()
+            # Held back: a handler's exception raised while the import machinery runs a
+            # weakref callback (its module locks) is printed and ignored by Python. A
+            # second Ctrl-C still stops an import that hangs.
+            with SignalsDeferred(second_passes=True):
+                obj = ep.load()
         # SystemExit too: a plugin calling sys.exit() at import must not end the host.
         except BaseException as exc:
             if delivered_by_signal(exc):

@@ -75,3 +75,136 @@ def test_an_unknown_team_is_refused_by_the_command(capsys):
         play.main(["--team", "no_such_team"])
     assert exc.value.code == 2
     assert "no_such_team" in capsys.readouterr().err
+
+
+# ------------------------------------------------------------ --control attacker
+def _recording(monkeypatch, player: str) -> list[tuple[tuple[int, ...], int, dict[str, int]]]:
+    """Each step of the PettingZoo drill: ``player``'s action mask and the holder before
+    it, and the actions it was given."""
+    steps = []
+    step = soccer_drill.parallel_env.step
+
+    def recorded(env, actions):
+        steps.append((tuple(env.action_mask(player).tolist()), env.drill_state.holder,
+                      dict(actions)))
+        return step(env, actions)
+
+    monkeypatch.setattr(soccer_drill.parallel_env, "step", recorded)
+    return steps
+
+
+_ACTION_OF = {pygame.K_h: 0, pygame.K_p: 1, pygame.K_d: 2, pygame.K_g: 3, pygame.K_b: 4,
+              pygame.K_1: 0, pygame.K_5: 4}
+
+
+def _attacker(team="goal_guards", player=None, attack=None, decision_cycles=4):
+    return play.PlaySetup(team=team, control="attacker", player=player, attack=attack,
+                          decision_cycles=decision_cycles)
+
+
+def test_the_attacker_takes_the_legal_keys_and_the_score_counts_the_episode(window,
+                                                                           monkeypatch):
+    steps = _recording(monkeypatch, "attacker_1")
+    script = [pygame.K_g, pygame.K_d, pygame.K_p, pygame.K_b, pygame.K_h, pygame.K_1,
+              pygame.K_5, pygame.K_d] * 40
+    lines = []
+    score = play.play(_attacker(player="attacker_1", attack="keepaway", decision_cycles=1),
+                      episodes=1, seed=4, keys=script, out=lines.append)
+    assert score.episodes == 1 and steps
+    # One decision a cycle: each step takes the next key whose action is legal then;
+    # the keys of masked actions before it were refused, each said once.
+    keys, refused = iter(script), 0
+    for mask, _, actions in steps:
+        action = _ACTION_OF[next(keys)]
+        while not mask[action]:
+            refused += 1
+            action = _ACTION_OF[next(keys)]
+        assert actions["attacker_1"] == action
+    assert {mask for mask, _, _ in steps} == {(1, 1, 1, 0, 0), (0, 0, 0, 1, 1)}
+    assert refused > 0
+    assert sum(line.startswith("refused: ") for line in lines) == refused
+    assert all("legal: " in line for line in lines if line.startswith("refused: "))
+    # The episode counted is the one these actions give without a window.
+    monkeypatch.undo()
+    env = soccer_drill.parallel_env(opponent="goal_guards")
+    env.reset(seed=4)
+    for _, _, actions in steps:
+        _, rewards, _, _, infos = env.step(actions)
+    assert not env.agents
+    assert score.won == (infos["attacker_1"]["outcome"] == "success")
+    assert score.reward == pytest.approx(rewards["attacker_1"])
+    assert lines[-1].startswith(f"episode 1: {infos['attacker_1']['outcome']},")
+
+
+@pytest.mark.parametrize(("attack", "action"), [("hold", 0), ("dribble", 2)])
+def test_the_other_attacker_plays_the_scripted_attack(window, monkeypatch, attack, action):
+    steps = _recording(monkeypatch, "attacker_0")
+    play.play(_attacker(attack=attack), episodes=1, seed=2, keys=itertools.repeat(pygame.K_g),
+              out=lambda _: None)
+    holding = [actions["attacker_1"] for _, holder, actions in steps if holder == 1]
+    assert holding and set(holding) == {action}
+    assert {actions["attacker_0"] for _, _, actions in steps} == {3}  # G: GET_OPEN
+
+
+def test_a_session_is_a_function_of_its_seed_and_keys(window, monkeypatch):
+    steps = _recording(monkeypatch, "attacker_0")
+
+    def session(seed):
+        steps.clear()
+        lines = []
+        keys = itertools.cycle([pygame.K_b, pygame.K_d, pygame.K_g, pygame.K_p, pygame.K_SPACE])
+        play.play(_attacker(attack="mixed_rules"), episodes=2, seed=seed, keys=keys,
+                  out=lines.append)
+        return list(steps), lines
+
+    first = session(7)
+    assert session(7) == first
+    assert session(8) != first
+
+
+def test_the_window_names_whom_you_play_and_the_keys(window, monkeypatch):
+    titles = []
+    set_caption = pygame.display.set_caption
+    monkeypatch.setattr(pygame.display, "set_caption",
+                        lambda text, *rest: (titles.append(text), set_caption(text, *rest)))
+    play.play(_attacker(player="attacker_1"), keys=[pygame.K_ESCAPE], out=lambda _: None)
+    title = titles[-1]
+    assert "A2 (attacker_1)" in title and "goal_guards" in title
+    assert all(word in title for word in ("H hold", "P pass", "D dribble", "G get open",
+                                          "B go to ball"))
+
+
+@pytest.mark.parametrize(("argv", "named"), [
+    (["--control", "attacker", "--player", "defender_0"], ["'attacker_0'", "'attacker_1'"]),
+    (["--control", "attacker", "--player", "attacker_9"], ["'attacker_0'", "'attacker_1'"]),
+    (["--player", "attacker_1"], ["control 'attacker' only"]),
+])
+def test_a_bad_player_is_refused_naming_the_allowed(capsys, argv, named):
+    assert play.main(argv) == 1
+    err = capsys.readouterr().err
+    assert argv[-1] in err and all(name in err for name in named)
+
+
+@pytest.mark.parametrize(("argv", "named"), [
+    (["--control", "attacker", "--attack", "no_such_rule"], ["late_pass", "mixed_rules"]),
+    (["--control", "attacker", "--team", "no_such_team"], ["goal_guards", "chasers"]),
+    (["--control", "striker"], ["holder", "attacker"]),
+])
+def test_an_unknown_attack_team_or_control_is_refused_by_the_command(capsys, argv, named):
+    with pytest.raises(SystemExit) as exc:
+        play.main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert argv[-1] in err and all(name in err for name in named)
+
+
+@pytest.mark.parametrize(("field", "value", "named"), [
+    ("attack", "no_such_rule", "late_pass"),
+    ("team", "no_such_team", "goal_guards"),
+    ("control", "striker", "'attacker'"),
+    ("decision_cycles", 0, "[1, 50]"),
+])
+def test_a_bad_setup_is_refused_naming_the_allowed(field, value, named):
+    with pytest.raises(ValueError, match=rf"PlaySetup\.{field}") as exc:
+        play.PlaySetup(**{field: value})
+    assert named in str(exc.value)

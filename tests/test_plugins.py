@@ -416,6 +416,75 @@ def test_a_signal_while_a_plugin_is_first_imported_propagates_and_the_next_use_i
     assert type(soccer_drill.make_team("sigwall")).__name__ == "Wall"
 
 
+_SIGNAL_IN_A_WEAKREF_CALLBACK = '''
+import signal
+import weakref
+import plugin_cb_control
+
+
+class _Thing:
+    pass
+
+
+def _collected(ref):
+    # The import machinery's module locks are freed in such callbacks: a handler's
+    # exception raised in one is printed ("Exception ignored") and lost.
+    if plugin_cb_control.ARMED is not None:
+        signum, plugin_cb_control.ARMED = plugin_cb_control.ARMED, None
+        signal.raise_signal(signum)
+
+
+_thing = _Thing()
+_ref = weakref.ref(_thing, _collected)
+del _thing
+''' + _GOOD_TEAM
+
+
+@pytest.mark.parametrize("kind", sorted(SIGNALS))
+def test_a_signal_in_a_weakref_callback_of_a_plugins_import_is_not_lost(install, kind):
+    signum, handler, expected = SIGNALS[kind]
+    install("callback-teams", {"plugin_cb_control": "ARMED = None\n",
+                               "plugin_cb_team": _SIGNAL_IN_A_WEAKREF_CALLBACK},
+            "cbwall = plugin_cb_team:Wall")
+    import plugin_cb_control
+
+    plugin_cb_control.ARMED = signum
+    with _handler(signum, handler), pytest.raises(expected):  # before: the team, and
+        soccer_drill.make_team("cbwall")                      # the signal lost
+    assert plugin_cb_control.ARMED is None
+    assert type(soccer_drill.make_team("cbwall")).__name__ == "Wall"
+
+
+_TWICE_INTERRUPTED_TEAM = '''
+import signal
+import plugin_twice_control
+
+plugin_twice_control.STEPS.append("first")
+signal.raise_signal(signal.SIGINT)
+plugin_twice_control.STEPS.append("second")
+signal.raise_signal(signal.SIGINT)
+plugin_twice_control.STEPS.append("after")  # an import that would hang from here
+''' + _GOOD_TEAM
+
+
+def test_a_second_ctrl_c_stops_a_plugins_import_at_once(install):
+    install("twice-teams", {"plugin_twice_control": "STEPS = []\n",
+                            "plugin_twice_team": _TWICE_INTERRUPTED_TEAM},
+            "twicewall = plugin_twice_team:Wall")
+    import plugin_twice_control
+
+    calls = []
+
+    def ctrl_c(signum, frame):
+        calls.append(signum)
+        raise KeyboardInterrupt
+
+    with _handler(signal.SIGINT, ctrl_c), pytest.raises(KeyboardInterrupt):
+        soccer_drill.make_team("twicewall")
+    assert plugin_twice_control.STEPS == ["first", "second"]  # the first one held back
+    assert calls == [signal.SIGINT]  # the two presses run the handler once
+
+
 def test_a_thread_waits_while_another_reads_the_entry_points_or_imports_a_plugin(
         install, monkeypatch):
     gate = "import threading\nENTERED = threading.Event()\nGO = threading.Event()\n"

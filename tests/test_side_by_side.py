@@ -69,9 +69,42 @@ def test_bad_commands_are_refused_before_any_episode(argv, message, capsys, tmp_
     assert message in capsys.readouterr().err
 
 
-@pytest.mark.skipif(importlib.util.find_spec("moviepy") is not None, reason="moviepy installed")
+@pytest.mark.skipif(importlib.util.find_spec("imageio_ffmpeg") is not None,
+                    reason="the video extra is installed")
 def test_an_mp4_without_moviepy_says_what_to_install(tmp_path, capsys):
     out = tmp_path / "x.mp4"
     assert sbs.main(["--team", "chasers", "--policy", "pass_first", "--policy",
                      "hold", "-o", str(out)]) == 1
     assert "moviepy" in capsys.readouterr().err and not out.exists()
+
+
+def test_an_mp4_holds_every_frame_of_the_panels(tmp_path):
+    imageio_ffmpeg = pytest.importorskip(
+        "imageio_ffmpeg", reason="an MP4 needs the video extra (pip install -e '.[video]'), "
+        "not installed")
+
+    out = tmp_path / "two.mp4"
+    assert sbs.main(["--team", "chasers", "--policy", "pass_first", "--policy", "dribble",
+                     "--seeds", "4", "-o", str(out)]) == 0
+    left, right = _alone("pass_first", "chasers", 4), _alone("dribble", "chasers", 4)
+    frames, seconds = imageio_ffmpeg.count_frames_and_secs(str(out))
+    assert frames == max(len(left), len(right)) + sbs.LINGER
+    assert seconds == pytest.approx(frames / 10, abs=0.1 + 1e-6)  # 10 fps, the default
+    reader = imageio_ffmpeg.read_frames(str(out))
+    meta = next(reader)
+    assert tuple(meta["size"]) == (2 * left[0].shape[1] + 6, left[0].shape[0])
+    reader.close()
+    assert not list(tmp_path.glob(".*partial*"))  # written in place of a partial file
+
+
+@pytest.mark.parametrize("size", [(9, 14), (10, 15), (11, 13)])
+def test_an_mp4_of_odd_sized_frames_keeps_every_frame(tmp_path, size):
+    imageio_ffmpeg = pytest.importorskip(
+        "imageio_ffmpeg", reason="an MP4 needs the video extra (pip install -e '.[video]'), "
+        "not installed")
+    frames = [np.full((*size, 3), 20 * k, dtype=np.uint8) for k in range(7)]
+    out = sbs._write_mp4(frames, tmp_path / "odd.mp4", 10)
+    assert imageio_ffmpeg.count_frames_and_secs(str(out))[0] == 7
+    reader = imageio_ffmpeg.read_frames(str(out))
+    assert tuple(next(reader)["size"]) == (size[1] + size[1] % 2, size[0] + size[0] % 2)
+    reader.close()

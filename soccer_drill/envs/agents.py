@@ -38,7 +38,7 @@ from soccer_drill.envs.core import (
 )
 from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.scene import FrameStyle, Scene
-from soccer_drill.rendering.screen import RENDER_MODES, Screen, frames_per_second
+from soccer_drill.rendering.screen import RENDER_MODES, HeaderTexts, Screen, frames_per_second
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.rules.features import GLOBAL_STATE
 from soccer_drill.rules.motion import ranked_teammate
@@ -75,7 +75,7 @@ _HOLDER_SKILLS = _legal_skills(ATTACKER_SKILLS, _HOLDER_LEGAL)
 _OFF_BALL_SKILLS = _legal_skills(ATTACKER_SKILLS, _OFF_BALL_LEGAL)
 
 
-class _DrillEnvBase(Pickled):
+class _DrillEnvBase(HeaderTexts, Pickled):
     """Construction, spaces, observations, action checks, state and rendering common to
     both APIs: one drill of a :class:`~soccer_drill.envs.core.BatchCore`."""
 
@@ -489,7 +489,8 @@ class raw_env(_DrillEnvBase, AECEnv):
     | ``"rgb_array_list"`` | every frame since the last ``render()`` (or ``reset``): one per cycle, so a video written at ``metadata["render_fps"]`` plays at true speed |
     | ``"human"`` | ``None``; a window shows every cycle at ``metadata["render_fps"]`` frames per second |
 
-    A frame shows the team, the cycle and the time left, each player's role, the holder
+    A frame shows the team, :attr:`policy_name`, :attr:`score_text` and :attr:`caption` if
+    set, the cycle and the time left, each player's role, the holder
     and the ball skill it was given, short trails, the goal line shaded by its reward, a
     legend and, at the end, the outcome and the reward (:attr:`scene` holds these facts;
     ``render_style``, a :class:`~soccer_drill.rendering.scene.FrameStyle`, turns each part

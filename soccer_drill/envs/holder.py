@@ -21,7 +21,7 @@ from soccer_drill.drill.spaces import DrillSpace
 from soccer_drill.envs.core import BatchCore, Observation, make_config, not_reset
 from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.scene import FrameStyle, Scene
-from soccer_drill.rendering.screen import RENDER_MODES, Screen, frames_per_second
+from soccer_drill.rendering.screen import RENDER_MODES, HeaderTexts, Screen, frames_per_second
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.rules.compiled import compiled, warms
 from soccer_drill.rules.features import HOLDER_FEATURES
@@ -276,7 +276,7 @@ _ONE = np.zeros(1, dtype=np.int64)
 _RUNNING, _TIMEOUT = int(Outcome.RUNNING), int(Outcome.TIMEOUT)  # an enum lookup costs ~1 us
 
 
-class HolderEnv(Pickled, gym.Env):
+class HolderEnv(HeaderTexts, Pickled, gym.Env):
     """The drill as seen by whichever attacker holds the ball: keepaway's SMDP.
 
     Only the ball holder decides; its teammate runs a fixed stochastic support
@@ -422,33 +422,6 @@ class HolderEnv(Pickled, gym.Env):
     def __copy__(self) -> HolderEnv:
         """An independent copy continuing the episode (see Copies)."""
         return copy.deepcopy(self)
-
-    @property
-    def caption(self) -> str | None:
-        """Extra text drawn on rendered frames (e.g. the active option)."""
-        return self._screen.caption
-
-    @caption.setter
-    def caption(self, text: str | None) -> None:
-        self._screen.caption = text
-
-    @property
-    def policy_name(self) -> str | None:
-        """The name of what decides for the holder, in rendered frames' header."""
-        return self._screen.policy
-
-    @policy_name.setter
-    def policy_name(self, text: str | None) -> None:
-        self._screen.policy = text
-
-    @property
-    def score_text(self) -> str | None:
-        """A running score, in rendered frames' header (``soccer-drill-play`` keeps one)."""
-        return self._screen.score
-
-    @score_text.setter
-    def score_text(self, text: str | None) -> None:
-        self._screen.score = text
 
     @property
     def scene(self) -> Scene:

@@ -1,23 +1,41 @@
-"""Play the drill yourself: you decide for the ball holder, a registered team defends.
+"""Play the drill yourself: you decide for the ball holder, or play one attacker, against a
+registered team.
 
 Command line::
 
     soccer-drill-play --team goal_guards [--episodes N] [--seed 0]
+    soccer-drill-play --team goal_guards --control attacker [--player attacker_0] [--attack late_pass]
 
-A window shows the drill at true speed (``HolderEnv`` with ``render_mode="human"``).
-Whenever an attacker of yours holds the ball the drill waits for your decision:
+A window shows the drill at true speed (``render_mode="human"``). ``--control`` says what
+you decide for (:mod:`soccer_drill.rendering.controls`):
 
-| key | decision |
+| ``--control`` | environment | you decide |
+|---|---|---|
+| ``holder`` (default) | ``HolderEnv``, the holder's SMDP | for whichever attacker holds the ball |
+| ``attacker`` | the four-player PettingZoo drill (``soccer_drill.parallel_env``) | for one attacker agent (``--player``, default ``attacker_0``), on the ball and off it; a scripted attack (``--attack``, an id of ``soccer_drill.attacks``, default ``late_pass``) decides for the other attacker when it holds the ball |
+
+Whenever you must decide the drill waits for a key:
+
+| key | action |
 |---|---|
-| ``H`` or ``1`` | HOLD: shield the ball for 0.4 s |
-| ``P`` or ``2`` | PASS to the other attacker |
-| ``D`` or ``3`` | DRIBBLE toward the goal line for 0.4 s |
+| ``H`` or ``1`` | HOLD: shield the ball (holding it) |
+| ``P`` or ``2`` | PASS to the other attacker (holding it) |
+| ``D`` or ``3`` | DRIBBLE toward the goal line (holding it) |
+| ``G`` or ``4`` | GET_OPEN: run to a support spot (``attacker`` control, off the ball) |
+| ``B`` or ``5`` | GO_TO_BALL: run to the ball (``attacker`` control, off the ball) |
 | ``Space`` or ``Enter`` | after an episode: the next one |
 | ``Esc``, ``Q`` or closing the window | stop |
 
+A decision lasts ``--decision-cycles`` cycles (4, 0.4 s; a PASS one kick), cut short when
+your player gains or loses the ball. A key whose action is not legal now (the agent's
+action mask: a ball action off the ball, an off-ball action holding it) is refused with a
+message naming the legal keys, and the drill goes on waiting. The window's title names whom
+you play and the keys; its header, the legal keys now.
+
 The score (episodes won, their number, the total reward) is kept over the episodes, shown
 in the header and printed after each episode. Episode ``k`` is played on seed ``seed + k``,
-so a session can be replayed against the same starts.
+so a session can be replayed against the same starts: the same seed and the same keys give
+the same episodes.
 """
 
 from __future__ import annotations
@@ -29,19 +47,17 @@ from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
 from soccer_drill.constraints import Integer, NoneOr, checked
-from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.teams.registry import TeamError, team_ids
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
 import pygame  # after the prompt is hidden
 
-DECISION_KEYS = {pygame.K_h: 0, pygame.K_1: 0, pygame.K_p: 1, pygame.K_2: 1,
-                 pygame.K_d: 2, pygame.K_3: 2}
-"""The keys of the holder's three decisions (0 HOLD, 1 PASS, 2 DRIBBLE)."""
+from soccer_drill.rendering.controls import CONTROLS, DEFAULT_ATTACK, Control, PlaySetup
+from soccer_drill.vector.attack import ATTACKS
+
 NEXT_KEYS = frozenset({pygame.K_SPACE, pygame.K_RETURN})
 QUIT_KEYS = frozenset({pygame.K_ESCAPE, pygame.K_q})
-PROMPT = "your move: H hold, P pass, D dribble"
 NEXT = "Space: next episode, Esc: stop"
 EPISODES = NoneOr(Integer(1))
 
@@ -84,33 +100,51 @@ def _key(allowed: Iterable[int], script: Iterator[int] | None) -> int:
         pygame.time.wait(15)
 
 
-def play(team: str = "goal_guards", episodes: int | None = None, seed: int = 0,
+def _decision(control: Control, script: Iterator[int] | None, out) -> int:
+    """Wait for the key of an action ``control`` allows now; a key of an action not
+    allowed now is refused, said in the window and through ``out``."""
+    while True:
+        action = control.keys[_key(control.keys, script)]
+        refused = control.refusal(action)
+        if refused is None:
+            return action
+        out(f"refused: {refused}")
+        control.env.caption = refused
+        control.env.render()
+
+
+def play(setup: PlaySetup | str = "goal_guards", episodes: int | None = None, seed: int = 0,
          keys: Iterable[int] | None = None, out=print) -> Score:
-    """Play episodes against ``team`` in a window until ``episodes`` are over (``None``:
-    until you stop); return the score. ``keys``: pygame key codes pressed in turn
-    whenever the session waits for one (a scripted session, e.g. headless under SDL's
-    dummy video driver), ``Esc`` once they run out."""
+    """Play episodes of ``setup`` (a team id alone: the holder control against that team)
+    in a window until ``episodes`` are over (``None``: until you stop); return the score.
+    ``keys``: pygame key codes pressed in turn whenever the session waits for one (a
+    scripted session, e.g. headless under SDL's dummy video driver), ``Esc`` once they
+    run out."""
+    if isinstance(setup, str):
+        setup = PlaySetup(team=setup)
     episodes = checked("episodes", episodes, EPISODES)
     script = None if keys is None else iter(keys)
-    env = HolderEnv(opponent=team, render_mode="human")
-    env.policy_name = "you (keyboard)"
+    control = CONTROLS[setup.control](setup)
+    env = control.env
     score = Score()
     try:
         while episodes is None or score.episodes < episodes:
             env.score_text = str(score)
-            env.caption = PROMPT
-            env.reset(seed=seed + score.episodes)
-            done, reward, info = False, 0.0, {}
-            while not done:
-                env.caption = PROMPT
+            env.caption = None
+            control.start(seed + score.episodes)
+            if pygame.display.get_init():  # the window opened at the reset
+                pygame.display.set_caption(control.title)
+            ended = None
+            while ended is None:
+                env.caption = control.prompt()
                 env.render()
-                action = DECISION_KEYS[_key(DECISION_KEYS, script)]
+                action = _decision(control, script, out)
                 env.caption = None
-                _, reward, terminated, truncated, info = env.step(action)
-                done = terminated or truncated
-            score.add(info["outcome"], reward)
+                ended = control.act(action)
+            score.add(ended.outcome, ended.reward)
             env.score_text = str(score)
-            out(f"episode {score.episodes}: {info['outcome']}, reward {reward:+.2f}; {score}")
+            out(f"episode {score.episodes}: {ended.outcome}, reward {ended.reward:+.2f}; "
+                f"{score}")
             if episodes is None or score.episodes < episodes:
                 env.caption = NEXT
                 env.render()
@@ -124,16 +158,34 @@ def play(team: str = "goal_guards", episodes: int | None = None, seed: int = 0,
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point ``soccer-drill-play``."""
-    parser = argparse.ArgumentParser(prog="soccer-drill-play",
-                                     description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="soccer-drill-play", description=__doc__.split("\n\n")[0].replace("\n", " "),
+        epilog="keys: H/1 hold, P/2 pass, D/3 dribble (holding the ball); G/4 get open, "
+               "B/5 go to ball (--control attacker, off the ball); a key whose action is "
+               "masked now is refused. Space/Enter: next episode; Esc/Q: stop.")
     parser.add_argument("--team", default="goal_guards", choices=team_ids(), metavar="TEAM",
                         help="the defending team (soccer-drill-teams lists them)")
+    parser.add_argument("--control", default="holder", choices=tuple(CONTROLS),
+                        help="holder (default): decide for whichever attacker holds the ball "
+                             "(the holder SMDP); attacker: play one attacker of the "
+                             "four-player PettingZoo drill, on and off the ball")
+    parser.add_argument("--player", default=None, metavar="AGENT",
+                        help="--control attacker: the attacker agent you play (default: "
+                             "attacker_0; one of the drill's possible_agents)")
+    parser.add_argument("--attack", default=None, choices=ATTACKS.names(), metavar="ATTACK",
+                        help="--control attacker: the scripted attack deciding for the other "
+                             f"attacker when it holds the ball (default: {DEFAULT_ATTACK}; "
+                             f"one of {', '.join(ATTACKS.names())})")
+    parser.add_argument("--decision-cycles", type=int, default=4, metavar="N",
+                        help="the cycles a decision lasts at most (default 4, 0.4 s)")
     parser.add_argument("--episodes", type=int, default=None,
                         help="stop after this many episodes (default: until Esc)")
     parser.add_argument("--seed", type=int, default=0, help="the first episode's seed")
     args = parser.parse_args(argv)
     try:
-        score = play(args.team, args.episodes, args.seed)
+        setup = PlaySetup(team=args.team, control=args.control, player=args.player,
+                          attack=args.attack, decision_cycles=args.decision_cycles)
+        score = play(setup, args.episodes, args.seed)
     except (TeamError, ValueError, pygame.error) as exc:
         print(f"{parser.prog}: error: {exc}", file=sys.stderr)
         return 1

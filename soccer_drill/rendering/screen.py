@@ -165,3 +165,37 @@ class Screen:
         for renderer in self._renderers.values():
             renderer.close()
         self._renderers = {}
+
+
+class HeaderTexts:
+    """The texts an environment's user sets for its frames' header, held by the
+    environment's :class:`Screen` (its ``_screen``): a mixin of the environments."""
+
+    _screen: Screen
+
+    @property
+    def caption(self) -> str | None:
+        """Extra text drawn on rendered frames (e.g. the active option, a prompt)."""
+        return self._screen.caption
+
+    @caption.setter
+    def caption(self, text: str | None) -> None:
+        self._screen.caption = text
+
+    @property
+    def policy_name(self) -> str | None:
+        """The name of what decides for the attackers, in rendered frames' header."""
+        return self._screen.policy
+
+    @policy_name.setter
+    def policy_name(self, text: str | None) -> None:
+        self._screen.policy = text
+
+    @property
+    def score_text(self) -> str | None:
+        """A running score, in rendered frames' header (``soccer-drill-play`` keeps one)."""
+        return self._screen.score
+
+    @score_text.setter
+    def score_text(self, text: str | None) -> None:
+        self._screen.score = text

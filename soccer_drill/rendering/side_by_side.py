@@ -8,7 +8,7 @@ Command line::
 Each panel plays every seed in turn on its own environment, one frame per cycle; a panel
 whose episode ends first holds its last frame (its end banner) until the longest is over,
 so the panels stay in step episode by episode. Each panel's header names its policy.
-``-o x.mp4`` writes an MP4 where moviepy is installed (the ``integrations`` extra).
+``-o x.mp4`` writes an MP4 where moviepy is installed (the ``video`` extra).
 From code, :func:`write_side_by_side` takes any players of an episode (e.g. a learner's
 ``run_episode``) as :class:`Panel` s.
 """
@@ -145,16 +145,30 @@ def write_side_by_side(path: str | os.PathLike, panels: Sequence[Panel],
 
 
 def _write_mp4(frames: Sequence[np.ndarray], path: Path, fps: float) -> Path:
+    """Every frame into an H.264 MP4 (imageio-ffmpeg, which the video extra's moviepy
+    brings; moviepy's own writer drops a clip's last frame). H.264's usual pixel format
+    needs even sides: frames with an odd one get a dark row or column more."""
     try:
-        from moviepy import ImageSequenceClip
+        import imageio_ffmpeg
     except ImportError:
-        raise ValueError("an MP4 needs moviepy (pip install -e '.[integrations]'); "
-                         "write a .gif instead") from None
+        raise ValueError("an MP4 needs the video extra, moviepy and imageio-ffmpeg (pip "
+                         "install -e '.[video]'); write a .gif instead") from None
+    height, width = frames[0].shape[:2]
+    if height % 2 or width % 2:
+        pad = ((0, height % 2), (0, width % 2), (0, 0))
+        frames = [np.pad(f, pad, constant_values=_GAP_COLOUR[0]) for f in frames]
     path.parent.mkdir(parents=True, exist_ok=True)
     partial = path.with_name(f".{path.name}.partial.mp4")
-    clip = ImageSequenceClip([np.ascontiguousarray(f) for f in frames], fps=fps)
     try:
-        clip.write_videofile(str(partial), logger=None)
+        writer = imageio_ffmpeg.write_frames(
+            str(partial), (frames[0].shape[1], frames[0].shape[0]), fps=fps,
+            macro_block_size=2, ffmpeg_log_level="error")
+        writer.send(None)  # start ffmpeg
+        try:
+            for frame in frames:
+                writer.send(np.ascontiguousarray(frame))
+        finally:
+            writer.close()
         partial.replace(path)
     finally:
         partial.unlink(missing_ok=True)
