@@ -36,3 +36,25 @@ def team_registry():
 
     with teams.TEAMS.isolated():
         yield teams
+
+
+
+_GUARDED_SIGNALS = ("SIGINT", "SIGTERM", "SIGALRM")
+
+
+@pytest.fixture(autouse=True)
+def _signal_handlers_put_back():
+    """Every test ends with the handlers of the signals the suite sends as it found them,
+    set again at the C level too. A command's ``main()`` leaves its ``SIGTERM`` handler in
+    place (as a command should), a handler an interruption left in place passes its signal
+    on but is not the one the test found, and a library that installs a C handler where
+    it finds ``SIG_DFL`` (SDL, under pygame's display) is invisible to
+    ``signal.getsignal``: left so, a later test in the same worker that sends the signal
+    sees no exception, far from the cause."""
+    import signal
+
+    before = {name: signal.getsignal(getattr(signal, name)) for name in _GUARDED_SIGNALS}
+    yield
+    for name, handler in before.items():
+        if handler is not None:  # None: a handler not set from Python, left alone
+            signal.signal(getattr(signal, name), handler)
