@@ -39,6 +39,17 @@ def team_registry():
 
 
 
+
+def pytest_configure(config):
+    """The suite sends Ctrl-C and checks that it stops what runs, which needs Python's
+    own SIGINT handler. A command started in the background by a shell without job
+    control (``make test &`` in a script, a CI runner's step) inherits SIGINT ignored,
+    and Python then installs no handler: every such test would see nothing raised."""
+    import signal
+
+    if signal.getsignal(signal.SIGINT) == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
 _GUARDED_SIGNALS = ("SIGINT", "SIGTERM", "SIGALRM")
 
 
