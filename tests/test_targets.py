@@ -213,3 +213,36 @@ def test_a_learner_setting_added_later_is_recorded_only_when_set(name, default, 
     recorded = changed.results_record()["lifelong"]["learner"][name]
     assert recorded == (list(value) if isinstance(value, tuple) else value)
     assert base.to_dict()["lifelong"]["learner"][name] == default
+
+
+@pytest.mark.slow
+def test_a_crash_after_every_target_resumes_them_all_from_their_checkpoints(
+    tmp_path, monkeypatch
+):
+    # Killed in the next method, once every target of the first has its checkpoint: the
+    # resumed job must take each finished target from its own checkpoint, the second as
+    # well as the first (each compared with the state after the sources only).
+    cfg = _several().with_overrides(methods=("ilpss", "scratch"), n_seeds=1)
+    straight = run_experiment(cfg, tmp_path / "straight", progress=False)
+    real = LifelongLearner.run_trial
+
+    def crash_in_the_next_method(self, env, name, callback=None):
+        if self.provenance["method"] == "scratch":
+            raise KeyboardInterrupt("killed")
+        return real(self, env, name, callback)
+
+    monkeypatch.setattr(LifelongLearner, "run_trial", crash_in_the_next_method)
+    out = tmp_path / "crashed"
+    with pytest.raises(KeyboardInterrupt):
+        run_experiment(cfg, out, progress=False)
+    job = out / "seed_000" / "stream_00"
+    for index in range(len(SOURCES), len(SOURCES) + len(TARGETS)):
+        assert (job / "ilpss" / f"target_{index:02d}" / "LATEST").exists()
+
+    monkeypatch.setattr(LifelongLearner, "run_trial", real)
+    trials = _count_trials(monkeypatch)
+    done = []
+    resumed = run_experiment(cfg, out, progress=False, on_done=lambda s, d: done.append(d))
+    assert trials == [*SOURCES, *TARGETS]  # learning anew only
+    assert done[0].resumed == {"ilpss": len(SOURCES) + len(TARGETS), "scratch": 0}
+    assert resumed == straight

@@ -199,14 +199,15 @@ def run_lifelong(
         task = stream.tasks[t]
         learner.run_trial(make_env(cfg.env_id, task), task.name)
         store.save(key, learner)
-    records = list(learner.records)
+    sources = list(learner.records)
+    records = list(sources)
     if branches:
         for t in job.targets:
             target_key = checkpoint_key(job.seed, job.stream_index, method, t)
             mine = {**provenance, "target": t}
             branch = _restore(job.store, target_key, space, mine, cfg.reward_range,
                               range(main_line + 1, main_line + 2))
-            if branch is not None and branch.records[:main_line] != records:
+            if branch is not None and branch.records[:main_line] != sources:
                 raise ValueError(
                     f"{job.store.location}: the checkpoint {target_key} does not start from "
                     f"the state after the sources in {key}; delete it to run the target again"
