@@ -28,8 +28,6 @@ import numpy as np
 from ilpss.policy import FrozenPolicy
 from ilpss.tiles import TileCoder
 
-__all__ = ["map_policy"]
-
 
 def map_policy(
     policy: FrozenPolicy, coder: TileCoder, features: Sequence[int], actions: Sequence[int],

@@ -32,8 +32,6 @@ from dataclasses import dataclass
 
 from ilpss.experiments.drill_facts import HolderDrill
 
-__all__ = ["InterTaskMapping", "keepaway_mapping", "keepaway_slots"]
-
 
 @dataclass(frozen=True)
 class InterTaskMapping:

@@ -58,14 +58,12 @@ from soccer_drill.registry import Registry
 
 __all__ = [
     "METHODS",
-    "CrossSizeMethod",
     "FineTuneMethod",
     "Job",
     "LifelongMethod",
     "Method",
     "MethodSettings",
     "PrqMethod",
-    "fine_tune",
     "lifelong_entry",
     "register_method",
 ]

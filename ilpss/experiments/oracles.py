@@ -39,7 +39,6 @@ from ilpss.reuse import GivenRegions, LatestPast, Reuse
 __all__ = [
     "ASSIGNED_REGIONS_FINETUNE",
     "ORACLE_REGIONS_FINETUNE",
-    "REUSE_SCENARIOS",
     "TRUE_REGIONS_FINETUNE",
     "TrueRegions",
 ]
