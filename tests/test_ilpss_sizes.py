@@ -230,3 +230,27 @@ def test_protocol_a_runs_every_method_at_3v3_and_the_transfer_at_2v2_is_fine_tun
     curves = job["methods"]
     assert curves["transfer_2v2"]["curves"] == curves["finetune"]["curves"]
     assert curves["transfer_2v2"]["curves"] != curves["scratch"]["curves"]
+
+
+@pytest.mark.slow
+def test_the_larger_drills_page_is_made_from_its_kept_numbers(tmp_path, capsys) -> None:
+    from ilpss.experiments.larger_drill import main
+
+    runs, docs = tmp_path / "runs", tmp_path / "docs"
+    tiny = ["--seeds", "2", "--episodes", "4", "--rollouts", "2", "--workers", "1", "--quiet"]
+    assert main(["--runs", str(runs), "--docs", str(docs), *tiny]) == 0
+    text = (docs / "larger_drill.md").read_text()
+    assert "## Protocol A in `drill_3v2`" in text
+    assert "## Transfer across sizes: drill_2v2 to drill_3v2" in text
+    assert "| `dist_mate_2` | `dist_mate` |" in text and "| action `PASS_2` | action `PASS` |" in text
+    assert "all 2 seeds" in text
+    assert "ilpss-larger-drill --seeds 2 --first-seed 0 --episodes 4 --rollouts 2" in text
+    # The kept numbers give the same page, and the finished seeds of the folder too.
+    for flags in (["--from-data", str(docs / "data" / "larger_drill")],
+                  ["--runs", str(runs), "--finished", *tiny]):
+        (docs / "larger_drill.md").unlink()
+        assert main(["--docs", str(docs), *flags]) == 0
+        assert (docs / "larger_drill.md").read_text() == text
+    with pytest.raises(SystemExit):
+        main(["--runs", str(runs), "--docs", str(docs), "--finished", "--seeds", "3"])
+    assert "its run has another configuration than these flags give" in capsys.readouterr().err

@@ -518,7 +518,7 @@ for _method in (
     # policy carried to this drill by keepaway's inter-task mapping (ilpss.experiments.
     # cross_size), then learnt as fine-tuning learns.
     CrossSizeMethod("transfer_2v2", "fine-tuning from the latest source learnt at 2 v 2, "
-                    "mapped to this drill (inter-task mapping)"),
+                    "mapped by keepaway's inter-task mapping"),
     LifelongMethod("ilpss_ft", "ILPSS-FT (fine-tuned start, options valued by their policies)",
                    lambda base: _fine_tuned(base, "kernels_finetune")),
     LifelongMethod("whole_policies_ft", "whole past policies, ILPSS-FT's settings",
