@@ -59,9 +59,11 @@ EXPERIMENT_CONSTRAINTS = {
     "storage": NoneOr(Text()),
     "baseline": NoneOr(Name()),
     "featured": NoneOr(Name()),
+    "scenario": Name(),
 }
 """What the plain fields of :class:`ExperimentConfig` allow (the protocol, methods,
-environment and sampler are names looked up in their registries)."""
+environment and sampler are names looked up in their registries, the scenario among the
+drill's)."""
 
 
 @dataclass(frozen=True)
@@ -219,7 +221,8 @@ class ExperimentConfig:
         widths = learner.tile_widths
         if widths in {s.tile_widths for s in scenarios}:
             widths = drill.tile_widths
-        if widths is not None and len(widths) != len(drill.feature_names):
+        if self.scenario != drill_facts.SCENARIO and widths is not None and \
+                len(widths) != len(drill.feature_names):  # (2v2: refused by the tile coder)
             raise ValueError(
                 f"ExperimentConfig.lifelong.learner.tile_widths: scenario {self.scenario!r} "
                 f"has {len(drill.feature_names)} features ({', '.join(drill.feature_names)}), "
