@@ -12,11 +12,12 @@ weight of the same tile of source variable ``features[j]`` for action ``actions[
 variable and the one it is mapped to must be tiled alike (the same range, width and
 number of tilings), so that "the same tile" covers the same values.
 
-With more target variables than source ones, a state whose novel variables equal the
-variables they are mapped to gets more than the source's value (each copied variable
-counts again): the values are a start that learning corrects, as in Taylor and Stone's
-transfer, and the greedy action at such a state is the mapped one only where the copied
-variables do not change the order (:func:`map_policy`'s test checks states where it does not).
+With more target variables than source ones, the copied variables count again: at a
+target state whose variables equal those they are mapped to, each action's value is its
+mapped action's value in the source plus the copied variables' weights, which may change
+which action is greedy. The values are a start that learning corrects, as in Taylor and
+Stone's transfer; where the source's values do not depend on the variables copied more
+than once, the greedy actions are exactly the mapped ones (``tests/test_ilpss_sizes.py``).
 """
 
 from __future__ import annotations
