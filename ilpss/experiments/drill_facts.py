@@ -77,6 +77,8 @@ import sys
 from dataclasses import dataclass
 from typing import Any
 
+from soccer_drill.constraints import OneOf, checked
+
 ENV_PACKAGE = "soccer_drill"
 """The package that registers the holder environment with Gymnasium."""
 ENV_ID = f"{ENV_PACKAGE}:soccer_drill/Holder-v0"
@@ -278,10 +280,7 @@ def holder_drill(scenario: str) -> HolderDrill:
     Raises:
         ValueError: ``scenario`` is not a scenario of the drill (the message names them).
     """
-    names = scenario_names()
-    if not isinstance(scenario, str) or scenario not in names:
-        raise ValueError(f"scenario must be one of {list(names)}, got {scenario!r}")
-    return _holder_drill(scenario)
+    return _holder_drill(checked("scenario", scenario, OneOf(scenario_names())))
 
 
 @functools.cache
