@@ -517,8 +517,7 @@ for _method in (
     # Transfer across sizes: the sources learnt anew in the paper's 2 v 2 drill, the latest
     # policy carried to this drill by keepaway's inter-task mapping (ilpss.experiments.
     # cross_size), then learnt as fine-tuning learns.
-    CrossSizeMethod("transfer_2v2", "fine-tuning from the latest source learnt at 2 v 2, "
-                    "mapped by keepaway's inter-task mapping"),
+    CrossSizeMethod("transfer_2v2", "fine-tuning from the latest source learnt at 2v2, mapped"),
     LifelongMethod("ilpss_ft", "ILPSS-FT (fine-tuned start, options valued by their policies)",
                    lambda base: _fine_tuned(base, "kernels_finetune")),
     LifelongMethod("whole_policies_ft", "whole past policies, ILPSS-FT's settings",
