@@ -99,6 +99,16 @@ def feature_slots(cfg: DrillConfig, holder: bool = False) -> tuple[int, int]:
     return most - 1, most
 
 
+def holder_feature_indices(cfg: DrillConfig) -> np.ndarray:
+    """Where the ball holder's features (:func:`feature_slots` with ``holder``) sit in a
+    player's multi-agent features of ``cfg``'s drill, which have room for the larger team:
+    ``agent_features[holder_feature_indices(cfg)]`` is the holder's view (the identity
+    when the attackers are the larger team, as in the 2v2 drill)."""
+    agent = feature_names(*feature_slots(cfg))
+    return np.array([agent.index(name) for name in feature_names(*feature_slots(cfg, True))],
+                    dtype=np.int64)
+
+
 def feature_bounds(cfg: DrillConfig, holder: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Lower and upper bounds of the features (float32; the 9 features in the 2v2 drill)."""
     m, d = feature_slots(cfg, holder)
