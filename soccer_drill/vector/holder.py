@@ -612,7 +612,8 @@ def play_episodes(
     so the batch stays full: what a Gymnasium ``step`` cannot do (each of its drills
     waits for the others' decisions). Several rules in one call keep a batch full for
     longer than one rule's episodes would (calibration plays every rule against a team
-    at once). Returns ``(total reward, outcome)`` per seed, in the order of ``seeds``.
+    at once). Returns ``(total reward, outcome)`` per seed, in the order of ``seeds`` (in
+keepaway the total reward is the episode's length in seconds).
     A rule's action is checked as ``HolderEnv.step`` checks it, and the seeds as
     ``HolderEnv.reset`` takes them (integers >= 0): anything else is a ``ValueError``
     naming the drill and the seed. It plays the environment's holder loop
@@ -669,6 +670,9 @@ def play_episodes(
         ended = np.flatnonzero((episode >= 0) & (b.outcome != Outcome.RUNNING))
         if len(ended):
             for i in ended.tolist():
-                results[episode[i]] = (float(b.attacker_reward[i]), OUTCOME_NAMES[b.outcome[i]])
+                total = float(b.attacker_reward[i])
+                if loop.cycle_reward:  # keepaway's seconds; nothing in the drill
+                    total += loop.cycle_reward * int(b.cycle[i])
+                results[episode[i]] = (total, OUTCOME_NAMES[b.outcome[i]])
             start(ended)
     return results  # type: ignore[return-value]
