@@ -113,7 +113,7 @@ def page(outcomes: dict[str, dict[str, list[str]]], first_seed: int,
     lines += ["", "Success rate of every fixed rule:", "",
               "| scenario | " + " | ".join(HOLDER_POLICIES) + " |",
               "|---|" + "---:|" * len(HOLDER_POLICIES)]
-    for name in outcomes:
+    for name in (n for n in SCENARIOS if n in outcomes):  # the scenarios' order
         by_rule = outcomes[name]
         cells = [f"{sum(o == 'success' for o in by_rule[r]) / len(by_rule[r]):.0%}"
                  for r in HOLDER_POLICIES]
@@ -122,7 +122,7 @@ def page(outcomes: dict[str, dict[str, list[str]]], first_seed: int,
         lines += ["", "Mean episode length (s) of every keeper policy:", "",
                   "| scenario | " + " | ".join(KEEPER_POLICIES) + " |",
                   "|---|" + "---:|" * len(KEEPER_POLICIES)]
-        for name in lengths:
+        for name in (n for n in SCENARIOS if n in lengths):
             cells = [f"{mean_interval(lengths[name][r])[0]:.2f}" for r in KEEPER_POLICIES]
             lines.append(f"| `{name}` | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"

@@ -627,6 +627,8 @@ class raw_env(_DrillEnvBase, AECEnv):
             self.infos[agent] = self._step_info(agent, None)
             self._reported.discard(agent)
         self._cumulative_rewards[agent] = 0.0
+        if self._paid:  # a step pays only when it ends a cycle (keepaway's seconds)
+            self._clear_rewards()
         if agent == self._last_agent:
             self._core.advance(_ACTIVE, _ONE)
             if self._paid:  # keepaway: every cycle pays its seconds, the takers lose them

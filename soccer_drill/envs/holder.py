@@ -322,18 +322,29 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
     (``PASS_1``, ``PASS_2``, ...), ``A`` ``DRIBBLE`` (keepaway's one pass per teammate;
     a lone attacker has ``HOLD`` and ``DRIBBLE``). :attr:`action_names` names them.
 
+    Keepaway (``DrillConfig(task="keepaway")``, the scenarios ``keepaway_3v2`` and
+    ``keepaway_4v3``): ``Discrete(A)``, ``HOLD`` and a pass to each other keeper, nearest
+    first (keepaway has no dribble).
+
     ## Observation space
 
     ``Box(9,)`` float32: the 9 features of the holder (units and bounds in
     :mod:`soccer_drill.rules.features`). With ``A`` attackers and ``D`` defenders,
     ``Box(4 (A - 1) + D + 3,)``: keepaway's features (teammates and opponents ordered by
     distance, a passing-lane angle per teammate) and the goal line's (the module's table).
+    Keepaway: keepaway's ``4 A + 2 D - 3`` state variables (13 at 3v2, 19 at 4v3:
+    :mod:`soccer_drill.rules.keepaway`).
 
     ## Rewards
 
     Zero until the episode ends; then success pays 1.0 at the centre of the goal
     line falling linearly to 0.5 at its ends, and an interception, the ball
     leaving the region or a timeout pays -1 (configurable in ``DrillConfig``).
+    Keepaway: every step pays the seconds it lasted (``duration * cycle_seconds``) and
+    the end nothing more, so an episode's return is its length; it ends when a taker
+    gains possession (interception) or the ball leaves the region (out), and is
+    truncated at ``max_cycles``. The other keepers get open (keepaway's ``GetOpen``)
+    instead of the drill's support behaviour.
 
     ## Episode end
 
