@@ -25,6 +25,8 @@ def _limited(default: float, constraint: Real | Integer) -> Any:
 
 PLAYERS_PER_TEAM = Integer(1, 4)
 """What ``DrillConfig.attackers`` and ``defenders`` allow."""
+TASK = OneOf(tuple(TASKS))
+"""What ``DrillConfig.task`` allows: a task of :data:`~soccer_drill.tasks.TASKS`."""
 SUBSTEPS = Integer(1, 1000)
 """What ``DrillConfig.substeps`` allows, before :func:`step_bound`."""
 _SPACE = pymunk.Space()  # pymunk's defaults, which the drill's spaces keep
@@ -171,7 +173,7 @@ class DrillConfig:
     """Attackers' reward for an interception or the ball leaving the region."""
     reward_timeout: float = _limited(-1.0, Real(-1000.0, 1000.0))
     """Attackers' reward when ``max_cycles`` pass without an outcome."""
-    task: str = field(default="drill", metadata={"constraint": OneOf(tuple(TASKS))})
+    task: str = "drill"
     """What the attackers do (:data:`~soccer_drill.tasks.TASKS`): ``"drill"``, carry the
     ball over the goal line (the paper's drill), or ``"keepaway"``, keep it inside the
     region as long as they can. It gives the default starts, whether ``y = 0`` is a goal
@@ -188,6 +190,7 @@ class DrillConfig:
         check("DrillConfig.ball_offset", self.ball_offset,
               Real(0.0, self.control_radius - 0.05, high_open=True),
               why="smaller than control_radius - 0.05: the holder must keep control")
+        check("DrillConfig.task", self.task, TASK)
         self._check_substeps()
         self._check_control_per_cycle()
         for name, count in (("attacker_starts", self.attackers),
