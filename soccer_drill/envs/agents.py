@@ -745,7 +745,8 @@ class parallel_env(_DrillEnvBase, ParallelEnv):
             infos = {a: {} for a in agents}
         paid = self._paid  # keepaway's seconds per cycle; 0 in the drill
         if self._batch.outcome[0] == _RUNNING:
-            pays = {a: paid if self._index[a] < self._attackers else -paid for a in agents}
+            pays = ({a: paid if self._index[a] < self._attackers else -paid for a in agents}
+                    if paid else dict.fromkeys(agents, 0.0))  # (never a -0.0 in the drill)
             falses = dict.fromkeys(agents, False)
             return obs, pays, falses, dict(falses), infos
         reward = float(self._batch.attacker_reward[0])
