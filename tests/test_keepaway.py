@@ -143,3 +143,29 @@ def test_the_drill_keeps_its_defaults_and_a_task_is_checked():
     assert DrillConfig().attacker_starts == ((4.0, 31.0), (31.0, 31.0))
     with pytest.raises(ValueError, match=r"DrillConfig.task must be 'drill' or 'keepaway', got 'football'"):
         DrillConfig(task="football")
+
+
+@pytest.mark.slow
+def test_the_keepaway_page_is_written_from_kept_per_seed_records(tmp_path):
+    import hashlib
+    import json
+
+    from ilpss.experiments import keepaway
+
+    args = ["--scenario", "keepaway_3v2", "--seeds", "1000-1001", "--episodes", "3",
+            "--eval-episodes", "2", "--runs", str(tmp_path / "runs"), "--out", str(tmp_path),
+            "--set", "initial_value=10.0"]
+    keepaway.main(args)
+    kept = json.loads((tmp_path / "data" / "keepaway_3v2.json").read_text())
+    assert kept["sha256"] == hashlib.sha256(
+        json.dumps(kept["record"], sort_keys=True).encode()).hexdigest()
+    record = kept["record"]
+    assert record["schema_version"] == 1 and record["meta"]["seeds"] == [1000, 1001]
+    assert all(len(v) == 2 and min(v) > 0 for v in record["per_seed"].values())
+    page = (tmp_path / "keepaway.md").read_text()
+    assert "--set initial_value=10.0" in page and "| hand_coded |" in page
+    records = sorted((tmp_path / "runs").rglob("seed_*.json"))
+    assert len(records) == 2
+    before = [r.stat().st_mtime_ns for r in records]
+    keepaway.main(args)  # a rerun reads the kept records
+    assert [r.stat().st_mtime_ns for r in records] == before

@@ -151,9 +151,9 @@ def page(results: dict[str, dict[str, Any]]) -> str:
         "is its length. The state is keepaway's 13 variables at 3v2 (19 at 4v3).",
         "",
         "Arms: **learned**, SMDP Sarsa(0) with keepaway's tile coding (32 one-dimensional",
-        "tilings, 3 m and 10 degrees; step size 0.125, epsilon 0.01, values from 0:",
-        "`ilpss.smdp.KEEPAWAY`), one learner for whichever keeper holds the ball, evaluated",
-        "greedily after its training episodes; **hand_coded**, keepaway's hand-coded keeper",
+        "tilings, 3 m and 10 degrees; step size 0.125, epsilon 0.01: `ilpss.smdp.KEEPAWAY`,",
+        "with the changes each section names), one learner for whichever keeper holds the",
+        "ball, evaluated greedily after its training episodes; **hand_coded**, keepaway's hand-coded keeper",
         "(hold while no taker is within 5 m, else the best of holding, scored 90, and passing",
         "to keeper i, scored 4 x its nearest taker's distance + its passing lane's angle);",
         "**random**; **hold** (always). Every arm of a seed plays the same evaluation",
@@ -169,12 +169,16 @@ def page(results: dict[str, dict[str, Any]]) -> str:
             f"## `{scenario}`",
             "",
             f"{len(seeds)} seeds ({seeds[0]}..{seeds[-1]}), {meta['episodes']} training episodes "
-            f"per seed, {meta['eval_episodes']} evaluation episodes per seed and arm. Command:",
+            f"per seed, {meta['eval_episodes']} evaluation episodes per seed and arm. Learner "
+            f"changes from keepaway's: {_changes(meta.get('learner_changes') or {})}. Command:",
             "",
             "```bash",
             f"python -m ilpss.experiments.keepaway --scenario {scenario} --seeds "
             f"{seeds[0]}-{seeds[-1]} --episodes {meta['episodes']} --eval-episodes "
-            f"{meta['eval_episodes']} --runs results/keepaway --out docs",
+            f"{meta['eval_episodes']} --runs results/keepaway"
+            + "".join(f" --set {k}={json.dumps(v)}" for k, v in
+                      sorted((meta.get("learner_changes") or {}).items()))
+            + " --out docs",
             "```",
             "",
             "| arm | mean episode length (s) | 95% t interval over seeds (unadjusted) |",
@@ -190,8 +194,42 @@ def page(results: dict[str, dict[str, Any]]) -> str:
             diff = np.array(values[a]) - np.array(values[b])
             mean, low, high = t_interval(diff)
             lines.append(f"| {a} - {b} | {mean:+.2f} | [{low:+.2f}, {high:+.2f}] |")
-        lines += ["", f"Per-seed numbers: `docs/data/keepaway_{scenario}.json`.", ""]
-    return "\n".join(lines)
+        lines += ["", f"Per-seed numbers: `docs/data/{scenario}.json`.", ""]
+    return "\n".join(lines + NOTES)
+
+
+NOTES = [
+    "## How the learner was set",
+    "",
+    "On development seeds 1000 and 1001 only: keepaway's learner as it is (values from 0)",
+    "stayed near always-hold (3.8 s and 5.6 s greedy after 3000 episodes): with values",
+    "from 0 and epsilon 0.01 the first action that pays anything keeps being chosen. With",
+    "optimistic values (`initial_value` 10, about the hand-coded keeper's episode length)",
+    "it reached 13.7 s on seed 1000 after 1500 episodes; Watkins's Q(0.9) with the same",
+    "start 12.3 s. The page's runs use Sarsa(0) with `initial_value` 10; nothing else was",
+    "tuned. Those development runs' numbers were not kept.",
+    "",
+    "## What differs from RoboCup keepaway",
+    "",
+    "- The physics is the drill's (pymunk; keepers run at 6 m/s, takers 4.6 m/s, a rolling",
+    "  ball keeps 40% of its speed per second), not the RoboCup soccer server's; possession",
+    "  is the drill's (control within 1 m, a taker in control of a held ball takes it with",
+    "  probability 0.2 per cycle), so the episode lengths are not comparable with the",
+    "  literature's, only the ordering of the policies is.",
+    "- `HOLD` lasts 4 cycles (0.4 s, the drill SMDP's `decision_cycles`), not one.",
+    "- The keepers off the ball get open from where the ball is, or from where the keeper",
+    "  reaching it first will take it, on a 5 x 5 grid (keepaway's `GetOpen`, simplified);",
+    "  the takers' keeper \"with the ball\" is the keeper nearest it.",
+    "- One learner decides for whichever keeper holds the ball (RoboCup keepaway has one",
+    "  learner per keeper).",
+    "- Episodes are truncated at 60 s.",
+    "",
+]
+"""The page's notes: how the learner was set, and the differences from RoboCup keepaway."""
+
+
+def _changes(changes: dict[str, Any]) -> str:
+    return ", ".join(f"`{k}` {v!r}" for k, v in sorted(changes.items())) or "none"
 
 
 def write_outputs(out: Path, results: dict[str, dict[str, Any]]) -> None:
@@ -201,7 +239,7 @@ def write_outputs(out: Path, results: dict[str, dict[str, Any]]) -> None:
                            "unit": "seconds (mean evaluation episode length per seed)",
                            **result}, sort_keys=True)
         digest = hashlib.sha256(body.encode()).hexdigest()
-        atomic_write_text(out / "data" / f"keepaway_{scenario}.json",
+        atomic_write_text(out / "data" / f"{scenario}.json",
                           json.dumps({"sha256": digest, "record": json.loads(body)},
                                      sort_keys=True, indent=1) + "\n")
     atomic_write_text(out / "keepaway.md", page(results))
