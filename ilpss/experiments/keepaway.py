@@ -224,6 +224,9 @@ NOTES = [
     "  learner per keeper).",
     "- Episodes are truncated at 60 s.",
     "",
+    "`keepaway_4v3` has no learned keeper on this page yet (`--scenario keepaway_4v3` runs",
+    "it); its fixed keepers over 300 episodes are in `docs/scenarios.md`.",
+    "",
 ]
 """The page's notes: how the learner was set, and the differences from RoboCup keepaway."""
 
