@@ -175,7 +175,8 @@ class BatchDrill:
             if taken >= 0:
                 self.holder[i] = taken
                 self.outcome[i] = outcome(self.pos[i], taken, self.cycle[i], cfg.field_size,
-                                          cfg.max_cycles, cfg.attackers)
+                                          cfg.max_cycles, cfg.attackers,
+                                          self.params[0]["goal_line"])
 
     def _rewards(self, active: np.ndarray) -> None:
         """The attackers' reward in the active drills whose episode has ended."""

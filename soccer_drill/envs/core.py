@@ -32,7 +32,7 @@ from soccer_drill.drill.spaces import DRILLS_PER_SPACE, DrillSpace
 from soccer_drill.rules.arrays import Outcome, rule_parameters
 from soccer_drill.rules.features import OBSERVATION_TYPES, ObservationType
 from soccer_drill.rules.first_use import warm_up
-from soccer_drill.rules.support import SupportDraws
+from soccer_drill.rules.task_rules import task_rules
 from soccer_drill.teams.driver import TeamDriver
 from soccer_drill.teams.registry import Team, check_team_timeout
 
@@ -164,7 +164,9 @@ class BatchCore:
         bound).
     support
         The attackers an environment names (:meth:`support_commands`) are driven by the
-        support behaviour (:mod:`soccer_drill.rules.support`).
+        support behaviour of the configuration's task (the drill's
+        :mod:`soccer_drill.rules.support`, keepaway's ``GetOpen``:
+        :data:`~soccer_drill.rules.task_rules.TASK_RULES`).
     drills_per_space
         Drills sharing one pymunk space; ``None``: the single environments' one drill, in
         a space of its own with the ball a body too (:class:`DrillSpace`), whose errors
@@ -204,7 +206,7 @@ class BatchCore:
             self.team: TeamDriver | None = None
         else:
             self.team = TeamDriver(opponent, opponent_params, self.batch, team_timeout, single)
-        self.support = SupportDraws(n) if support else None
+        self.support = task_rules(config).support(n, config) if support else None
         self.attack = attack
         self.every = np.arange(n)
         self.every.flags.writeable = False

@@ -334,11 +334,12 @@ def motion(state, cycle, player, params, table):
             vx = 0.0
         if (py < lo and vy < 0) or (py > hi and vy > 0):
             vy = 0.0
-        # Nor is the ball kept over a touchline or the far end: near one, it is kept along
-        # the line instead (else a pressing defender simply pushes it out of the region).
+        # Nor is the ball kept over a touchline or the far end (or, without a goal line,
+        # the near end): near one, it is kept along the line instead (else a pressing
+        # defender simply pushes it out of the region).
         if (px < lo and sx < 0) or (px > hi and sx > 0):
             sx, sy = 0.0, (1.0 if sy > 0 else -1.0)
-        if py > hi and sy > 0:
+        if (py > hi and sy > 0) or (p.goal_line == 0 and py < lo and sy < 0):
             sx, sy = (1.0 if sx > 0 else -1.0), 0.0
         return vx, vy, _CONTROL, sx, sy
     if skill == Skill.GET_OPEN:

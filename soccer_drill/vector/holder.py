@@ -29,7 +29,6 @@ from soccer_drill.envs.core import BatchCore, check_seed, make_config
 from soccer_drill.envs.holder import (
     DECISION_CYCLES,
     HolderLoop,
-    check_holder_action,
     holder_action_refused,
 )
 from soccer_drill.envs.pickling import Pickled
@@ -357,7 +356,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
         if a.dtype.kind not in "iu":  # as HolderEnv.step, which refuses 2.0 and True
             bad = _first_non_integer(a)
             raise ValueError(
-                f"drill {int(drills[bad])}: {holder_action_refused(a[bad], self.loop.attackers)} (actions of dtype "
+                f"drill {int(drills[bad])}: {holder_action_refused(a[bad], self.loop.attackers, self.action_names)} (actions of dtype "
                 f"{a.dtype}; an integer dtype is needed)"
             )
         bad_rows = np.flatnonzero((a < 0) | (a >= len(self.action_names)))
@@ -365,7 +364,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
         if len(bad_rows):
             i = int(bad_rows[0])
             raise ValueError(
-                f"drill {int(drills[i])}: {holder_action_refused(a[i], self.loop.attackers)}"
+                f"drill {int(drills[i])}: {holder_action_refused(a[i], self.loop.attackers, self.action_names)}"
                 + (f" ({len(bad_rows)} drills had bad actions)" if len(bad_rows) > 1 else "")
             )
         return a.astype(np.int64)
@@ -535,10 +534,11 @@ class HolderVectorEnv(Pickled, VectorEnv):
         ready[rows] = False
         obs = self._observe(rows, loop.deciders(rows))
         ended = b.outcome[rows] != Outcome.RUNNING
-        rewards = np.where(ended, b.attacker_reward[rows], 0.0)
+        durations = b.cycle[rows] - loop.start[rows]
+        rewards = loop.rewards(rows, durations)
         truncated = ended & (b.outcome[rows] == Outcome.TIMEOUT)
         terminated = ended & ~truncated
-        infos = self._infos(rows, b.cycle[rows] - loop.start[rows])
+        infos = self._infos(rows, durations)
         if self.autoreset_mode == AutoresetMode.SAME_STEP and ended.any():
             done = np.flatnonzero(ended)
             final_obs = np.full(len(rows), None, dtype=object)
@@ -612,7 +612,8 @@ def play_episodes(
     so the batch stays full: what a Gymnasium ``step`` cannot do (each of its drills
     waits for the others' decisions). Several rules in one call keep a batch full for
     longer than one rule's episodes would (calibration plays every rule against a team
-    at once). Returns ``(total reward, outcome)`` per seed, in the order of ``seeds``.
+    at once). Returns ``(total reward, outcome)`` per seed, in the order of ``seeds`` (in
+keepaway the total reward is the episode's length in seconds).
     A rule's action is checked as ``HolderEnv.step`` checks it, and the seeds as
     ``HolderEnv.reset`` takes them (integers >= 0): anything else is a ``ValueError``
     naming the drill and the seed. It plays the environment's holder loop
@@ -659,7 +660,7 @@ def play_episodes(
                                            strict=True)):
                 action = policies[e](obs[k], rngs[i])  # type: ignore[arg-type]
                 try:
-                    actions[k] = check_holder_action(action, loop.attackers)
+                    actions[k] = loop.check_action(action)
                 except ValueError as error:
                     raise ValueError(
                         f"drill {i} (seed {seeds[e]}): the rule returned {action!r}; {error}"
@@ -669,6 +670,9 @@ def play_episodes(
         ended = np.flatnonzero((episode >= 0) & (b.outcome != Outcome.RUNNING))
         if len(ended):
             for i in ended.tolist():
-                results[episode[i]] = (float(b.attacker_reward[i]), OUTCOME_NAMES[b.outcome[i]])
+                total = float(b.attacker_reward[i])
+                if loop.cycle_reward:  # keepaway's seconds; nothing in the drill
+                    total += loop.cycle_reward * int(b.cycle[i])
+                results[episode[i]] = (total, OUTCOME_NAMES[b.outcome[i]])
             start(ended)
     return results  # type: ignore[return-value]
