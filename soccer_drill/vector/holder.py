@@ -454,6 +454,8 @@ class HolderVectorEnv(Pickled, VectorEnv):
         def recv() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
             obs, rewards, terminated, truncated, infos = self._recv()
             rows = infos.pop("_rows")
+            if rows is self._all:  # the core's own array: the caller gets a copy
+                rows = rows.copy()
             infos["env_id"], infos["_env_id"] = rows, np.ones(len(rows), dtype=bool)
             return obs, rewards, terminated, truncated, infos
 
