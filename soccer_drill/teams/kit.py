@@ -223,7 +223,7 @@ def every_drill(drills: np.ndarray, n: int) -> bool:
     batch's arrays as they are rather than gather its rows)."""
     if len(drills) != n:
         return False
-    return drills[0] == 0 if n == 1 else not np.count_nonzero(drills - rows(n))
+    return bool(drills[0] == 0) if n == 1 else not np.count_nonzero(drills - rows(n))
 
 
 @runtime_checkable
