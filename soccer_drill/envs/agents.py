@@ -58,8 +58,7 @@ _RUNNING = int(Outcome.RUNNING)  # read once: an enum member's lookup costs abou
 _ROLE_FLAG = (np.zeros(1, dtype=np.float32), np.ones(1, dtype=np.float32))  # defender, attacker
 _ONE = np.zeros(1, dtype=np.int64)  # the single environment's one drill
 _ACTIVE = np.ones(1, dtype=bool)
-_PLAYER = tuple(np.full(1, i, dtype=np.int64) for i in range(8))
-for _array in (_ONE, _ACTIVE, *_PLAYER):
+for _array in (_ONE, _ACTIVE):
     _array.flags.writeable = False
 # The same masks as tuples of bools, for checking an action (indexing a tuple is cheaper).
 _HOLDER_LEGAL = tuple(bool(x) for x in HOLDER_MASK)
@@ -121,6 +120,14 @@ class _DrillEnvBase(HeaderTexts, Pickled):
         indices = range(attackers) if opponent is not None else range(cfg.players)
         self.possible_agents = [names[i] for i in indices]
         self._index = {name: names.index(name) for name in self.possible_agents}
+        # Every agent's observation in one call: one row per agent (_plain).
+        self._agent_players = np.array(list(self._index.values()), dtype=np.int64)
+        self._agent_drills = np.zeros(len(self._agent_players), dtype=np.int64)
+        for array in (self._agent_players, self._agent_drills):
+            array.flags.writeable = False
+        self._agent_row = {i: row for row, i in enumerate(self._index.values())}
+        self._seen: np.ndarray | None = None
+        self._seen_at = -1  # the drill's steps when _seen was computed
         box = self._observe.box
         if shared_spaces:  # a trailing role flag tells one shared policy which side it plays
             box = spaces.Box(
@@ -168,7 +175,13 @@ class _DrillEnvBase(HeaderTexts, Pickled):
 
     # ---------------------------------------------------------- observations
     def _plain(self, i: int) -> np.ndarray:
-        return self._observe(self._batch.state, _ONE, _PLAYER[i])[0]
+        """Player ``i``'s observation, a new array: a row of every agent's, computed in
+        one call once per state of the drill (``BatchDrill.steps``: a cycle, a reset)."""
+        batch = self._batch
+        if self._seen_at != batch.steps:
+            self._seen = self._observe(batch.state, self._agent_drills, self._agent_players)
+            self._seen_at = batch.steps
+        return self._seen[self._agent_row[i]].copy()
 
     def _with_role(self, i: int) -> np.ndarray:
         return np.concatenate((self._plain(i), _ROLE_FLAG[i < self._attackers]))

@@ -163,9 +163,9 @@ class BatchCore:
         CPU-time bound of one call of the team, or of each drill's copy's (``None``: no
         bound).
     support
-        The attackers an environment names (:meth:`support_commands`) are driven by the
-        support behaviour of the configuration's task (the drill's
-        :mod:`soccer_drill.rules.support`, keepaway's ``GetOpen``:
+        The attackers an environment names are driven by the support behaviour of the
+        configuration's task (:attr:`support`: the drill's
+        :class:`~soccer_drill.rules.support.SupportDraws`, keepaway's ``GetOpen``:
         :data:`~soccer_drill.rules.task_rules.TASK_RULES`).
     drills_per_space
         Drills sharing one pymunk space; ``None``: the single environments' one drill, in
@@ -274,13 +274,6 @@ class BatchCore:
             self.team.reset(drills, list(team_seeds))
         if self.attack is not None:
             self.attack.reset(drills, list(team_seeds))
-
-    def support_commands(self, supporting: np.ndarray) -> None:
-        """The support behaviour's commands for attacker ``k`` in the drills where
-        ``supporting[:, k]`` (``(n, 2)`` bool)."""
-        b = self.batch
-        self.support.commands(b.state, b.commands, supporting,  # type: ignore[union-attr]
-                              self.config.field_size)
 
     def advance(self, active: np.ndarray, drills: np.ndarray | None = None) -> None:
         """One cycle of the drills where ``active`` (``drills``: the same as indices, if

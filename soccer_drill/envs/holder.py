@@ -6,6 +6,7 @@ Gymnasium environment (``soccer_drill/Holder-v0``).
 from __future__ import annotations
 
 import copy
+import functools
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -25,7 +26,7 @@ from soccer_drill.rendering.screen import RENDER_MODES, HeaderTexts, Screen, fra
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.rules.compiled import compiled, warms
 from soccer_drill.rules.motion import ranked_teammate
-from soccer_drill.rules.support import SupportDraws
+from soccer_drill.rules.support import SupportDraws, support_commands
 from soccer_drill.rules.task_rules import cycle_reward, task_rules
 from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
 
@@ -49,12 +50,20 @@ def check_holder_action(action: object, attackers: int = 2,
     attackers: 3 in the 2v2 drill; or the ``names`` given, a task's), as
     ``HolderEnv.step`` takes it: an int, a NumPy integer or a 0-d integer array; bools,
     floats and values out of range are refused."""
+    count = _action_count(attackers) if names is None else len(names)
+    if type(action) is int and 0 <= action < count:  # the common case
+        return action
     if isinstance(action, np.ndarray) and action.shape == ():
         action = action.item()
     names = holder_action_names(attackers) if names is None else names
     if not Integer(0, len(names) - 1).allows(action):
         raise ValueError(holder_action_refused(action, attackers, names))
     return int(action)  # type: ignore[call-overload]
+
+
+@functools.cache
+def _action_count(attackers: int) -> int:
+    return len(holder_action_names(attackers))
 
 
 def holder_action_refused(action: object, attackers: int = 2,
@@ -142,6 +151,17 @@ def _holder_commands(steps, cycle):
 
 
 @compiled
+def _cycle_commands(steps, state, cycle, supporting, support, size):
+    """:func:`_holder_commands`, then the support behaviour's commands where an attacker
+    is supported (:func:`~soccer_drill.rules.support.support_commands`, in the same call):
+    -1, or the first drill whose support draws ran out (finish with
+    :meth:`~soccer_drill.rules.support.SupportDraws.finish`)."""
+    if _holder_commands(steps, cycle):
+        return support_commands(state, cycle, supporting, support, 0, size)
+    return -1
+
+
+@compiled
 def _after_cycle(steps, state):
     """After a cycle: a drill's action goes on while its holder keeps the ball, for the
     cycles left; the drill runs on until an outcome, or until an attacker holds the ball
@@ -204,6 +224,10 @@ class HolderLoop:
         """What the attackers are paid per cycle of a step (0 in the drill; keepaway:
         ``cycle_seconds``, its reward being the time the keepers hold the ball)."""
         self.steps = np.zeros(core.n, dtype=step_record(cfg.attackers))
+        if core.support is None:
+            raise ValueError("the holder loop needs a core with support players (support=True)")
+        self._field_size = cfg.field_size
+        self._drill_support = isinstance(core.support, SupportDraws)
         self.handed_to: str | None = None
         self.observe = Observation(rules.holder_observation, cfg)
         """The holder's observation (its features: the 9 in the 2v2 drill; keepaway's
@@ -244,9 +268,14 @@ class HolderLoop:
         """One cycle of every drill whose step runs (``drills``: their indices, if the
         caller has them); returns how many still run."""
         core, steps = self.core, self.steps
-        batch = core.batch
-        if _holder_commands(steps, batch.commands):
-            core.support_commands(self._supporting)
+        batch, support, size = core.batch, core.support, self._field_size
+        if self._drill_support:  # the holder's and the support's commands in one call
+            start = _cycle_commands(steps, batch.state, batch.commands, self._supporting,
+                                    support.records, size)
+            if start >= 0:
+                support.finish(batch.state, batch.commands, self._supporting, size, start)
+        elif _holder_commands(steps, batch.commands):  # another task's support behaviour
+            support.commands(batch.state, batch.commands, self._supporting, size)
         core.advance(self.running, drills)
         return _after_cycle(steps, batch.state)
 
@@ -291,6 +320,8 @@ def _compile_loop(config: DrillConfig | None) -> None:
             _begin(steps, batch.state, chosen, np.zeros(n, dtype=np.int64), 4)
         _holder_commands(steps, batch.commands)
         support.commands(batch.state, batch.commands, steps["supporting"], cfg.field_size)
+        _cycle_commands(steps, batch.state, batch.commands, steps["supporting"], support.records,
+                        cfg.field_size)
         batch.step(steps["running"], rngs)
         _after_cycle(steps, batch.state)
 
@@ -451,6 +482,9 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
         """The names of the actions, in index order (``HOLD, PASS, DRIBBLE``: 2v2)."""
         self.observation_space = self.loop.observe.box
         self.action_space = spaces.Discrete(len(self.action_names))
+        # Whose observation, for one drill (writable, as loop.deciders returns them: the
+        # compiled observation's types).
+        self._players = tuple(np.full(1, i, dtype=np.int64) for i in range(self.config.players))
         self._busy_init()
         self._has_reset = False
 
@@ -508,7 +542,7 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
             holder = int(batch.holder[0])
             if self._screen.each_cycle:
                 self._screen.start(batch.state_of(0))
-            return loop.observe(batch.state, _ONE, batch.holder)[0], {
+            return loop.observe(batch.state, _ONE, self._players[holder])[0], {
                 "duration": 0, "cycles": 0, "outcome": None,
                 "holder": self.config.player_names[holder],
             }
@@ -534,7 +568,9 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
             if not running:
                 break
         code, cycle, holder = int(batch.outcome[0]), int(batch.cycle[0]), int(batch.holder[0])
-        obs = loop.observe(batch.state, _ONE, loop.deciders(_ONE))[0]
+        # loop.deciders(_ONE), for one drill without array work
+        decider = holder if 0 <= holder < loop.attackers else int(loop.decider[0])
+        obs = loop.observe(batch.state, _ONE, self._players[decider])[0]
         info = {
             "duration": cycle - int(loop.start[0]),
             "cycles": cycle,

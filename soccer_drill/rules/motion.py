@@ -212,13 +212,12 @@ def nearest_teammate(pos, player, attackers):
 
 
 @compiled
-def ranked_teammate(pos, player, attackers, rank):
-    """``player``'s teammate of ``rank`` (0: the nearest) by distance, the lower index
-    first among equals; -1 if it has fewer teammates."""
+def teammates_by_distance(pos, player, attackers, order, dist):
+    """``player``'s teammates by distance into ``order`` (their indices) and ``dist``
+    (their distances), nearest first, the lower index first among equals (an insertion
+    sort); returns how many there are. ``order`` and ``dist`` hold at least as many."""
     first, stop = (0, attackers) if player < attackers else (attackers, pos.shape[0] - 1)
     px, py = pos[player, 0], pos[player, 1]
-    order = np.empty(4, np.int64)
-    dist = np.empty(4)
     count = 0
     for m in range(first, stop):
         if m == player:
@@ -230,6 +229,16 @@ def ranked_teammate(pos, player, attackers, rank):
             k -= 1
         order[k], dist[k] = m, d
         count += 1
+    return count
+
+
+@compiled
+def ranked_teammate(pos, player, attackers, rank):
+    """``player``'s teammate of ``rank`` (0: the nearest) by distance, the lower index
+    first among equals; -1 if it has fewer teammates."""
+    order = np.empty(4, np.int64)
+    dist = np.empty(4)
+    count = teammates_by_distance(pos, player, attackers, order, dist)
     return order[rank] if 0 <= rank < count else -1
 
 
