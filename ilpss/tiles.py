@@ -230,6 +230,14 @@ class TileCoder:
         bins = np.floor(z[:, :, None] + self._shift[None, None, :]).astype(np.int64)
         return (self._base[None] + bins).reshape(x.shape[0], self.n_active)
 
+    def feature_tiles(self, f: int) -> slice:
+        """The indices of feature ``f``'s tiles (its ``n_tilings`` tilings, one after
+        another): where its part of a weight vector lies."""
+        if not 0 <= f < self.n_features:
+            raise ValueError(f"feature {f} out of range [0, {self.n_features})")
+        start = int(self._base[f, 0])
+        return slice(start, start + self.n_tilings * int(self.n_bins[f]))
+
     # ---------------------------------------------------------- persistence
     def to_arrays(self) -> dict[str, np.ndarray]:
         """Arrays that fully describe the coder (for saving beside weights)."""

@@ -4,6 +4,9 @@ Examples::
 
     ilpss-experiment --protocol A --seeds 30 --out results/protocol_a
     ilpss-experiment --protocol C --seeds 10 --episodes 200 --out results/protocol_c
+    # the paper's teams in the 3 v 2 drill
+    ilpss-experiment --protocol A --scenario drill_3v2 --methods scratch ilpss \
+        --out results/protocol_a_3v2
     ilpss-experiment --config results/protocol_a/config.json --out results/protocol_a  # resume
     # the paper's three sources learnt once per seed, then each of three targets from there
     ilpss-experiment --protocol A --teams interceptors_press interceptors_cover \
@@ -23,7 +26,7 @@ from pathlib import Path
 from ilpss._io import FolderInUseError
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import ExperimentConfig
-from ilpss.experiments.drill_facts import TEAM_ERROR, drill_exception
+from ilpss.experiments.drill_facts import TEAM_ERROR, drill_exception, scenario_names
 from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.methods import METHODS
 from ilpss.experiments.outputs import check_utf8, unwritten_report
@@ -43,7 +46,8 @@ def build_config(args: argparse.Namespace) -> ExperimentConfig:
     flags = {"protocol": "protocol", "seeds": "n_seeds", "first_seed": "first_seed",
              "methods": "methods", "workers": "workers", "executor": "executor",
              "stream_length": "stream_length", "teams": "teams", "targets": "targets",
-             "storage": "storage", "baseline": "baseline", "featured": "featured"}
+             "storage": "storage", "baseline": "baseline", "featured": "featured",
+             "scenario": "scenario"}
     changes: dict = {field: getattr(args, flag) for flag, field in flags.items()
                      if getattr(args, flag) is not None}
     for role in ("baseline", "featured"):
@@ -107,6 +111,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--targets", nargs="+", metavar="TEAM",
                    help="protocol A: held-out teams, each learnt from the state after the "
                    "sources (learnt once per seed); results per target and pooled")
+    p.add_argument("--scenario", choices=scenario_names(),
+                   help="the drill played (default drill_2v2, the paper's); its holder's "
+                   "features give the learner's tile widths (protocols A, B and C)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="a LifelongConfig field (or learner.FIELD, library.FIELD), value as "
                    "JSON; repeatable, e.g. --set n_kernels=2 --set learner.intra_option=true "

@@ -12,6 +12,7 @@ from ilpss.baselines import PrqConfig
 from ilpss.experiments import drill_facts
 from ilpss.experiments.executor import EXECUTOR
 from ilpss.experiments.methods import METHODS, LifelongMethod
+from ilpss.experiments.oracles import REUSE_SCENARIOS
 from ilpss.experiments.protocols import PROTOCOLS, Stream
 from ilpss.experiments.registry import SAMPLERS, check_env_id
 from ilpss.lifelong import LIFELONG_CONSTRAINTS, LearnerConfig, LifelongConfig
@@ -29,14 +30,11 @@ from soccer_drill.constraints import (
 
 __all__ = ["ExperimentConfig"]
 
-EPISODE_REWARDS = {drill_facts.ENV_ID: drill_facts.EPISODE_REWARD,
-                   drill_facts.ENV_ID.partition(":")[2]: drill_facts.EPISODE_REWARD}
-"""Range of an episode's total reward, per environment id (other environments: any
-finite number); results are checked against it."""
 RUN_ONLY_FIELDS = ("executor", "workers", "storage")
 """Fields of :class:`ExperimentConfig` that say where jobs run and keep their checkpoints,
 not what they compute."""
 RECORDED_IF_SET = {"targets": [], "baseline": "scratch", "featured": None,
+                   "scenario": drill_facts.SCENARIO,
                    "lifelong.learner.step_targets": "every_choice",
                    "lifelong.learner.value_bounds": None,
                    "lifelong.learner.option_traces": "kept"}
@@ -61,9 +59,11 @@ EXPERIMENT_CONSTRAINTS = {
     "storage": NoneOr(Text()),
     "baseline": NoneOr(Name()),
     "featured": NoneOr(Name()),
+    "scenario": Name(),
 }
 """What the plain fields of :class:`ExperimentConfig` allow (the protocol, methods,
-environment and sampler are names looked up in their registries)."""
+environment and sampler are names looked up in their registries, the scenario among the
+drill's)."""
 
 
 @dataclass(frozen=True)
@@ -92,7 +92,8 @@ class ExperimentConfig:
     same learner with bounded values, chained starts, a choice among the recent sources
     only)."""
     env_id: str = drill_facts.ENV_ID
-    """Gymnasium id of the environment (see :func:`~ilpss.experiments.registry.check_env_id`)."""
+    """Gymnasium id of the environment (see :func:`~ilpss.experiments.registry.check_env_id`).
+    Left at a scenario's holder, it is :attr:`scenario`'s."""
     teams: tuple[str, ...] = drill_facts.PAPER_TEAMS
     """Protocols A and B: the teams; in A the last one is held out (unless ``targets``
     are given: then all of them are sources)."""
@@ -134,6 +135,14 @@ class ExperimentConfig:
     """The method whose kernels, GIF and per-opponent head start the reports show; it must
     be one of :attr:`methods`. ``None``: the first of :attr:`methods` whose options have
     kernels fitted by EM (ILPSS's), if any (:attr:`featured_method`)."""
+    scenario: str = drill_facts.SCENARIO
+    """The drill played (``drill_2v2``, the paper's; ``drill_1v1``, ``drill_3v2``,
+    ``drill_3v3``: :func:`~ilpss.experiments.drill_facts.scenario_names`). Its holder
+    becomes :attr:`env_id`, and its keepaway tile widths the learner's, where those are
+    left at a scenario's (:func:`~ilpss.experiments.drill_facts.holder_drill`); the
+    protocols, methods and ways of reusing past policies made for the 2v2 drill alone
+    (protocols R, S and L, the oracles' regions) refuse another. Recorded in results only
+    when it is not the paper's."""
 
     def __post_init__(self) -> None:
         # Every field is checked here, with its name and what is allowed, because configs
@@ -144,6 +153,7 @@ class ExperimentConfig:
                 object.__setattr__(self, name, tuple(getattr(self, name)))
         PROTOCOLS.check("ExperimentConfig.protocol", self.protocol)
         check_fields("ExperimentConfig", self, EXPERIMENT_CONSTRAINTS)
+        self._take_scenario()
         for method in self.methods:
             METHODS.check("ExperimentConfig.methods", method)
             missing = [m for m in METHODS.get(method).reuses if m not in self.methods]
@@ -181,11 +191,73 @@ class ExperimentConfig:
                 f"streams say which tasks are targets), got {self.targets!r}"
             )
         protocol.check(self)
+        if protocol.scenarios is not None and self.scenario not in protocol.scenarios:
+            raise ValueError(
+                f"ExperimentConfig.scenario: protocol {self.protocol} is made for "
+                f"{' and '.join(protocol.scenarios)} only (its teams and regions are that "
+                f"drill's), got {self.scenario!r}; choose scenario "
+                f"{protocol.scenarios[0]!r}, or protocol A, B or C")
+        self._check_methods_play_scenario()
+
+    def _take_scenario(self) -> None:
+        """:attr:`scenario`'s holder as the environment and its tile widths as the
+        learner's, where those are left at a scenario's; refuse a scenario that is not the
+        drill's, and an environment or widths that belong to another scenario."""
+        try:
+            drill = drill_facts.holder_drill(self.scenario)
+        except ValueError as exc:
+            raise ValueError(f"ExperimentConfig.{exc}") from None
+        scenarios = [drill_facts.holder_drill(n) for n in drill_facts.scenario_names()]
+        if self.env_id in {s.env_id for s in scenarios}:
+            object.__setattr__(self, "env_id", drill.env_id)
+        elif self.scenario != drill_facts.SCENARIO:
+            raise ValueError(
+                f"ExperimentConfig.env_id {self.env_id!r} is not the drill's: a scenario "
+                f"other than the paper's needs its holder, {drill.env_id!r} (leave env_id "
+                f"at its default), got scenario {self.scenario!r}")
+        learner = self.lifelong.learner if isinstance(self.lifelong, LifelongConfig) else None
+        if learner is None or drill_facts.drill_of_env(self.env_id) is None:
+            return
+        widths = learner.tile_widths
+        if widths in {s.tile_widths for s in scenarios}:
+            widths = drill.tile_widths
+        if self.scenario != drill_facts.SCENARIO and widths is not None and \
+                len(widths) != len(drill.feature_names):  # (2v2: refused by the tile coder)
+            raise ValueError(
+                f"ExperimentConfig.lifelong.learner.tile_widths: scenario {self.scenario!r} "
+                f"has {len(drill.feature_names)} features ({', '.join(drill.feature_names)}), "
+                f"got {len(widths)} widths; leave them at the default for keepaway's")
+        if widths != learner.tile_widths:
+            object.__setattr__(self, "lifelong", replace(
+                self.lifelong, learner=replace(learner, tile_widths=widths)))
+
+    def _check_methods_play_scenario(self) -> None:
+        """Refuse a lifelong method whose way of reusing past policies is made for
+        another drill (the oracles' regions are the 2v2 drill's features)."""
+        for name in self.methods:
+            method = METHODS.get(name)
+            if not isinstance(method, LifelongMethod):
+                continue
+            options = method.config(self.lifelong).options
+            allowed = REUSE_SCENARIOS.get(options)
+            if allowed is not None and self.scenario not in allowed:
+                raise ValueError(
+                    f"ExperimentConfig.methods: {name!r} reuses past policies by "
+                    f"{options!r}, whose regions are made for {' and '.join(allowed)} only, "
+                    f"and the scenario is {self.scenario!r}; leave it out, or play "
+                    f"scenario {allowed[0]!r}")
+
+    @property
+    def drill(self) -> drill_facts.HolderDrill | None:
+        """What ``ilpss`` knows of this run's drill (``None``: another environment)."""
+        return drill_facts.drill_of_env(self.env_id)
 
     @property
     def reward_range(self) -> tuple[float, float]:
-        """The range of an episode's total reward in this run's environment."""
-        return EPISODE_REWARDS.get(self.env_id, (-math.inf, math.inf))
+        """The range of an episode's total reward in this run's environment (another
+        environment than the drill's: any number)."""
+        drill = self.drill
+        return (-math.inf, math.inf) if drill is None else drill.episode_reward
 
     @property
     def featured_method(self) -> str | None:

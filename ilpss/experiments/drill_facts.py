@@ -2,7 +2,7 @@
 
 ``ilpss`` never imports the drill's rules or environments: it makes the holder
 environment through Gymnasium (``gymnasium.make(ENV_ID, opponent=..., ...)``) and learns
-on its 9 features as it would on any ``Box``. (It shares one module of the drill's
+on its features (the paper's 9 in the 2v2 drill) as it would on any ``Box``. (It shares one module of the drill's
 package, ``soccer_drill.files``: the project's atomic writes and output checks.) The experiments need a few facts about it, all here:
 
 ==========================  =========================================================
@@ -14,6 +14,12 @@ fact                        used by
 :data:`PAPER_TEAMS`         protocols A and B, ``ilpss-results``,
                             ``ilpss-holder-learning``
 :data:`TILE_WIDTHS`         the learner's tile coder (keepaway's widths)
+:data:`SCENARIO`,           the drill an experiment plays (``ExperimentConfig.scenario``)
+:func:`holder_drill`        and what ``ilpss`` knows of its holder at any size: its
+                            Gymnasium id, feature and action names, tile widths, the
+                            indices of the holder's position, its episode's reward
+                            range (:class:`HolderDrill`; the constants of this table
+                            are the 2v2 drill's)
 :data:`SAMPLER`,            protocol C's stream of opponents
 :data:`SAMPLER_TEAM`
 :data:`EPISODE_REWARD`      the checks of saved results (an episode pays one reward)
@@ -65,9 +71,13 @@ the pages' names and the two vector environments are drill code that
 
 from __future__ import annotations
 
+import functools
 import importlib
 import sys
+from dataclasses import dataclass
 from typing import Any
+
+from soccer_drill.constraints import OneOf, checked
 
 ENV_PACKAGE = "soccer_drill"
 """The package that registers the holder environment with Gymnasium."""
@@ -78,7 +88,9 @@ PAPER_TEAMS = ("interceptors_press", "interceptors_cover", "interceptor_guard", 
 """The paper's four opponent teams, in its order (ids of the ``opponents`` package)."""
 TILE_WIDTHS = (3.0, 3.0, 3.0, 3.0, 10.0, 3.0, 3.0, 3.0, 10.0)
 """Keepaway's tile widths for the drill's 9 features: 3 m for distances, 10 degrees for
-angles."""
+angles (:attr:`HolderDrill.tile_widths` at any size)."""
+DISTANCE_WIDTH, ANGLE_WIDTH = 3.0, 10.0
+"""Keepaway's tile widths: metres for a distance, degrees for an angle."""
 SAMPLER = "parametric"
 """The registered sampler of protocol C's opponents (``opponents.parametric``)."""
 SAMPLER_TEAM = "parametric"
@@ -203,3 +215,108 @@ metres)."""
 KEEPAWAY_VECTOR_ENV = "soccer_drill.scenarios:holder_vector_env"
 """``holder_vector_env(name, num_envs)``: a keepaway scenario's batched SMDP, for
 :data:`PLAY_EPISODES` (which pays keepaway's seconds)."""
+
+
+SCENARIO = "drill_2v2"
+"""The paper's drill: the default of ``ExperimentConfig.scenario``."""
+SCENARIOS = "soccer_drill.scenarios:SCENARIOS"
+"""The drill's named scenarios, ``{name: Scenario}`` (``attackers``, ``defenders``,
+``gym_id``, ``config()``)."""
+FEATURE_NAMES = "soccer_drill.rules.features:feature_names"
+"""``feature_names(teammates, opponents)``: the holder's features' names at a size."""
+
+
+@dataclass(frozen=True)
+class HolderDrill:
+    """What ``ilpss`` knows of the holder of one scenario of the drill.
+
+    The holder's features are keepaway's at every size (teammates and opponents by
+    distance, a passing lane per teammate) with the goal line's, ``4 m + d + 3`` of them
+    for ``m`` teammates and ``d`` opponents (the paper's 9 at 2v2); its actions are
+    ``HOLD``, one ``PASS`` per teammate (nearest first) and ``DRIBBLE``.
+    """
+
+    scenario: str
+    """The scenario's name (``drill_2v2``, ``drill_3v2``, ...)."""
+    attackers: int
+    defenders: int
+    env_id: str
+    """The holder's Gymnasium id, with its package (what ``gymnasium.make`` takes)."""
+    feature_names: tuple[str, ...]
+    """The features' names, by index."""
+    episode_reward: tuple[float, float]
+    """Range of an episode's total reward (the drill pays one reward, at the end)."""
+
+    @property
+    def teammates(self) -> int:
+        """The holder's teammates (``m``)."""
+        return self.attackers - 1
+
+    @property
+    def opponents(self) -> int:
+        """The holder's opponents (``d``)."""
+        return self.defenders
+
+    @property
+    def action_names(self) -> tuple[str, ...]:
+        """The primitive actions by index: ``HOLD``, the passes (nearest teammate first;
+        ``PASS`` when there is one teammate), ``DRIBBLE``."""
+        passes = (("PASS",) if self.teammates == 1 else
+                  tuple(f"PASS_{k}" for k in range(1, self.teammates + 1)))
+        return ("HOLD", *passes, "DRIBBLE")
+
+    @property
+    def tile_widths(self) -> tuple[float, ...]:
+        """Keepaway's widths, one per feature: :data:`ANGLE_WIDTH` for an angle, else
+        :data:`DISTANCE_WIDTH` (every other feature is a distance or an offset in
+        metres)."""
+        return tuple(ANGLE_WIDTH if "angle" in name else DISTANCE_WIDTH
+                     for name in self.feature_names)
+
+    @property
+    def lateral(self) -> int:
+        """Index of the holder's lateral offset from the line centre."""
+        return self.feature_names.index("lateral")
+
+    @property
+    def goal_distance(self) -> int:
+        """Index of the holder's distance to the goal line."""
+        return self.feature_names.index("dist_goal")
+
+
+def scenario_names() -> tuple[str, ...]:
+    """The names of the drill's scenarios."""
+    return tuple(drill_object(SCENARIOS))
+
+
+def holder_drill(scenario: str) -> HolderDrill:
+    """What ``ilpss`` knows of scenario ``scenario``'s holder.
+
+    Raises:
+        ValueError: ``scenario`` is not a scenario of the drill (the message names them).
+    """
+    return _holder_drill(checked("scenario", scenario, OneOf(scenario_names())))
+
+
+@functools.cache
+def _holder_drill(scenario: str) -> HolderDrill:
+    s = drill_object(SCENARIOS)[scenario]
+    config = s.config()
+    rewards = (config.reward_success_centre, config.reward_success_edge,
+               config.reward_failure, config.reward_timeout)
+    return HolderDrill(
+        scenario=scenario, attackers=s.attackers, defenders=s.defenders,
+        env_id=f"{ENV_PACKAGE}:{s.gym_id}",
+        feature_names=tuple(drill_object(FEATURE_NAMES)(s.attackers - 1, s.defenders)),
+        episode_reward=(float(min(rewards)), float(max(rewards))),
+    )
+
+
+def drill_of_env(env_id: str) -> HolderDrill | None:
+    """The scenario whose holder ``env_id`` names (with or without its package), or
+    ``None`` for another environment."""
+    name = env_id.rpartition(":")[2]
+    for scenario in scenario_names():
+        if holder_drill(scenario).env_id.rpartition(":")[2] == name:
+            return holder_drill(scenario)
+    return None

@@ -1,9 +1,10 @@
 """Drill-specific pictures: kernels drawn on the field, and a GIF of the agent with its options.
 
-The drill's 9 features include the holder's position (:data:`~ilpss.experiments.drill_facts.LATERAL`,
-its lateral offset from the line centre, and
-:data:`~ilpss.experiments.drill_facts.GOAL_DISTANCE`, its distance to the goal line), so each
-kernel, projected on those two features, is an ellipse on the field.
+The drill's features include the holder's position (its lateral offset from the line centre,
+and its distance to the goal line: :data:`~ilpss.experiments.drill_facts.LATERAL` and
+:data:`~ilpss.experiments.drill_facts.GOAL_DISTANCE` in the 2v2 drill, and at any size
+:class:`~ilpss.experiments.drill_facts.HolderDrill`'s ``lateral`` and ``goal_distance``), so
+each kernel, projected on those two features, is an ellipse on the field.
 """
 
 from __future__ import annotations
@@ -18,12 +19,13 @@ import numpy as np
 
 from ilpss._io import save_figure
 from ilpss.experiments.drill_facts import (
-    ACTION_NAMES,
     FIELD,
     GIF_WRITER,
-    GOAL_DISTANCE,
-    LATERAL,
+    SCENARIO,
+    HolderDrill,
     drill_object,
+    drill_of_env,
+    holder_drill,
 )
 from ilpss.lifelong import LifelongLearner
 from ilpss.options import OptionLibrary
@@ -35,10 +37,13 @@ GIF_SEEDS = range(1, 51)
 
 
 def plot_kernels_on_field(
-    learner: LifelongLearner, path: str | os.PathLike[str], task_names: list[str] | None = None
+    learner: LifelongLearner, path: str | os.PathLike[str], task_names: list[str] | None = None,
+    drill: HolderDrill | None = None,
 ) -> Path:
     """Each kernel as 1- and 2-sigma ellipses on the field, the bags of states as dots,
-    and the active options of each kernel (policy and scale) in the legend."""
+    and the active options of each kernel (policy and scale) in the legend; ``drill``:
+    the scenario the learner played (``None``: the paper's 2v2 drill), whose features
+    say where the holder is."""
     import matplotlib
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
@@ -47,6 +52,12 @@ def plot_kernels_on_field(
     model = learner.kernel_model
     if model is None or not hasattr(model, "means_"):
         raise ValueError("the learner has no fitted kernel model yet")
+    drill = drill or holder_drill(SCENARIO)
+    if learner.tile_coder.n_features != len(drill.feature_names):
+        raise ValueError(
+            f"the learner has {learner.tile_coder.n_features} features, the holder of "
+            f"{drill.scenario} {len(drill.feature_names)}: pass the drill it played")
+    lateral, goal_distance = drill.lateral, drill.goal_distance
     names = task_names or [r.name for r in learner.records]
     # An explicit Agg figure: no pyplot, so a notebook's backend is left alone.
     fig = Figure(figsize=(6.4, 6.4))
@@ -56,12 +67,12 @@ def plot_kernels_on_field(
     ax.plot([0, FIELD], [0, 0], color="white", lw=4, zorder=1)
     for i, bag in enumerate(learner.bags):
         if len(bag):
-            ax.scatter(bag[:, LATERAL] + FIELD / 2, bag[:, GOAL_DISTANCE], s=3, alpha=0.35,
+            ax.scatter(bag[:, lateral] + FIELD / 2, bag[:, goal_distance], s=3, alpha=0.35,
                        label=f"states, {names[i] if i < len(names) else i}", zorder=2)
     library: OptionLibrary | None = learner.library
     colours = matplotlib.colormaps["tab10"].colors
     for k in range(model.n_components):
-        idx = [LATERAL, GOAL_DISTANCE]
+        idx = [lateral, goal_distance]
         mean = model.means_[k, idx] + np.array([FIELD / 2, 0.0])
         cov = model.covariances_[k][np.ix_(idx, idx)]
         values, vectors = np.linalg.eigh(cov)
@@ -164,8 +175,9 @@ def write_episode_gif(
     and updating), written as a GIF of every cycle captioned with the action and the
     option running, if any, with the drill's GIF writer
     (:data:`~ilpss.experiments.drill_facts.GIF_WRITER`); ``label`` names the agent in the
-    frames' header (an environment with a ``policy_name``). Returns the outcome, reward,
-    options run and the number of frames."""
+    frames' header (an environment with a ``policy_name``). The actions are named as the
+    holder of the environment's scenario names them (another environment: the 2v2
+    drill's). Returns the outcome, reward, options run and the number of frames."""
     import gymnasium as gym
     from PIL import Image, ImageDraw
 
@@ -193,10 +205,13 @@ def write_episode_gif(
             frames.extend(self.env.render())
             return out
 
+    spec = getattr(env, "spec", None)
+    drill = (drill_of_env(spec.id) if spec is not None else None) or holder_drill(SCENARIO)
+    action_names = drill.action_names
     result = agent.run_episode(_Recorder(env), learn=learn, seed=seed)
     starts.append(len(frames))
     names = task_names or []
-    labels = [f"{ACTION_NAMES[a]} (primitive)" for a in actions]
+    labels = [f"{action_names[a]} (primitive)" for a in actions]
     lib = agent.library
     for run in result.option_runs:
         kernel_id, policy_id = lib.registry[run.option_id] if lib is not None else (-1, -1)
@@ -210,7 +225,7 @@ def write_episode_gif(
             image = Image.new("RGB", (frame.shape[1], frame.shape[0] + 18), (20, 20, 20))
             image.paste(Image.fromarray(frame), (0, 0))
             draw = ImageDraw.Draw(image)
-            draw.text((6, image.height - 15), f"{ACTION_NAMES[actions[d]]} <- {label}",
+            draw.text((6, image.height - 15), f"{action_names[actions[d]]} <- {label}",
                       fill=(255, 255, 255))
             captioned.append(np.asarray(image))
     if not captioned:

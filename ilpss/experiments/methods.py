@@ -12,6 +12,10 @@ Methods are registered by name in :data:`METHODS`; a configuration names them in
   ILPSS without discounting are four of them.
 * :class:`PrqMethod`: PRQ-learning on every target, reusing the policies that learning
   anew learnt on the earlier tasks.
+* :class:`FineTuneMethod`: a learner on every target that starts from the values of a
+  policy learning anew learnt on the sources.
+* :class:`CrossSizeMethod`: the same, its sources learnt in a drill of another size and
+  carried over by an inter-task mapping (``transfer_2v2``: from the paper's 2 v 2).
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ from ilpss._io import json_differences
 from ilpss.baselines import PrqConfig, PrqLearner
 from ilpss.experiments import drill_facts
 from ilpss.experiments.checkpoints import CheckpointStore, is_uri
+from ilpss.experiments.cross_size import keepaway_mapping
 from ilpss.experiments.folder import checkpoint_key
 from ilpss.experiments.protocols import Stream, make_env
 from ilpss.lifelong import (
@@ -37,6 +42,7 @@ from ilpss.lifelong import (
     handing_back,
     trial_seeds,
 )
+from ilpss.policy import FrozenPolicy
 from ilpss.reuse import (
     BestOfPast,
     LatestPast,
@@ -45,6 +51,8 @@ from ilpss.reuse import (
 )
 from ilpss.smdp import EpisodeResult, SmdpLearner
 from ilpss.statewise import StatewiseStart
+from ilpss.tiles import TileCoder
+from ilpss.transfer import map_policy
 from soccer_drill.constraints import Constraint, Integer, Real
 from soccer_drill.registry import Registry
 
@@ -69,6 +77,9 @@ class MethodSettings(Protocol):
     lifelong: LifelongConfig
     prq: PrqConfig
     reward_range: tuple[float, float]
+
+    @property
+    def drill(self) -> drill_facts.HolderDrill | None: ...
 
     def results_record(self) -> dict[str, Any]: ...
 
@@ -333,18 +344,87 @@ class FineTuneMethod(Method):
         """Fine-tune on one target, the job's seed ``seed`` and ``before`` tasks before it,
         from the policies of learning anew's learner ``scratch``: the learner it leaves and
         its episodes (a function of these arguments alone, so it can be played again)."""
-        learner_seed, env_seed, _, _ = trial_seeds(seed, before)
-        config = cfg.lifelong.learner
-        if self.value_bounds is not None:
-            config = replace(config, value_bounds=self.value_bounds)
-        learner = SmdpLearner(scratch.n_primitive, scratch.tile_coder, None, config,
-                              seed=learner_seed)
         # Only a start that reads the sources' bags of states is handed them.
         bags = scratch.bags[:before] if getattr(self.start, "uses_bags", False) else None
-        results = learn_with(self.start, learner, scratch.policies[:before], env,
-                             cfg.lifelong.train_episodes, seed=env_seed,
-                             choice_seed=choice_seed(seed, before), bags=bags)
-        return learner, results
+        return fine_tune(cfg, seed, before, env, scratch.n_primitive, scratch.tile_coder,
+                         scratch.policies[:before], self.start, self.value_bounds, bags)
+
+
+def fine_tune(
+    cfg: MethodSettings, seed: int, before: int, env: Any, n_primitive: int,
+    tile_coder: TileCoder, policies: Sequence[FrozenPolicy], start: StartRule,
+    value_bounds: tuple[float, float] | None = None,
+    bags: Sequence[Any] | None = None,
+) -> tuple[SmdpLearner, list[EpisodeResult]]:
+    """A learner with the base learner's settings (``value_bounds`` replaced unless
+    ``None``) on one target, seeded as learning anew's learner of the task after
+    ``before`` others is, its values chosen by ``start`` among ``policies``, then learning
+    for the rest of the budget: the learner it leaves and its episodes."""
+    learner_seed, env_seed, _, _ = trial_seeds(seed, before)
+    config = cfg.lifelong.learner
+    if value_bounds is not None:
+        config = replace(config, value_bounds=value_bounds)
+    learner = SmdpLearner(n_primitive, tile_coder, None, config, seed=learner_seed)
+    results = learn_with(start, learner, policies, env, cfg.lifelong.train_episodes,
+                         seed=env_seed, choice_seed=choice_seed(seed, before), bags=bags)
+    return learner, results
+
+
+@dataclass(frozen=True)
+class CrossSizeMethod(Method):
+    """Transfer across drill sizes: learning anew on the sources in the drill
+    ``source_scenario`` (the same seeds, budget and learner as learning anew in this
+    drill), then on every target a learner of this drill that starts from the latest
+    source policy carried over by the inter-task mapping
+    (:func:`~ilpss.experiments.cross_size.keepaway_mapping`, :func:`~ilpss.transfer.map_policy`)
+    and learns. Everything else is fine-tuning's (:func:`fine_tune`): against learning anew
+    in this drill, only the start differs; against fine-tuning from the latest source,
+    only the drill the sources were learnt in. The source trials are not charged to the
+    target (they are the sources' learning, as fine-tuning's are learning anew's) and are
+    kept in no checkpoint: a job stopped before its result is written learns them again."""
+
+    name: str
+    label: str
+    source_scenario: str = drill_facts.SCENARIO
+    """The drill (``ExperimentConfig.scenario``'s names) the sources are learnt in."""
+    value_bounds: tuple[float, float] | None = None
+    reuses: tuple[str, ...] = ("scratch",)
+
+    def run(self, job: Job) -> dict[str, Any]:
+        cfg = job.cfg
+        target_drill = cfg.drill
+        if target_drill is None:
+            raise ValueError(f"method {self.name!r} maps the drill's features; the "
+                             f"environment {cfg.env_id!r} is not a scenario of the drill")
+        source_drill = drill_facts.holder_drill(self.source_scenario)
+        mapping = keepaway_mapping(source_drill, target_drill)
+        scratch = job.learners["scratch"]  # this drill's tile coder and actions
+        sources = self.learn_sources(job, source_drill)
+        curves = {}
+        for t in job.targets:
+            before = job.tasks_before(t)
+            mapped = [map_policy(sources.policies[before - 1], scratch.tile_coder,
+                                 mapping.features, mapping.actions)] if before else []
+            _, results = fine_tune(cfg, job.seed, before,
+                                   make_env(cfg.env_id, job.stream.tasks[t]),
+                                   scratch.n_primitive, scratch.tile_coder, mapped,
+                                   LatestPast(), self.value_bounds)
+            curves[str(t)] = [float(r.total_reward) for r in results]
+        return {"curves": curves}
+
+    def learn_sources(self, job: Job, drill: drill_facts.HolderDrill) -> LifelongLearner:
+        """Learning anew on the tasks before the job's targets, in ``drill``: the
+        lifelong learner of method ``scratch`` of a run of that drill with this seed."""
+        cfg, stream = job.cfg, job.stream
+        sources = max(job.tasks_before(t) for t in job.targets)
+        config = replace(cfg.lifelong, options="none", learner=replace(
+            cfg.lifelong.learner, tile_widths=drill.tile_widths))
+        env0 = make_env(drill.env_id, stream.tasks[0])
+        learner = LifelongLearner(config, env0.observation_space, int(env0.action_space.n),
+                                  job.seed)
+        for task in stream.tasks[:sources]:
+            learner.run_trial(make_env(drill.env_id, task), task.name)
+        return learner
 
 
 def _plus(base: LifelongConfig) -> dict[str, Any]:
@@ -434,6 +514,10 @@ for _method in (
                    "fine-tuning chained (from its own latest policy), values bounded",
                    lambda base: {"options": "finetune_latest", "learner": replace(
                        base.learner, value_bounds=drill_facts.EPISODE_REWARD)}),
+    # Transfer across sizes: the sources learnt anew in the paper's 2 v 2 drill, the latest
+    # policy carried to this drill by keepaway's inter-task mapping (ilpss.experiments.
+    # cross_size), then learnt as fine-tuning learns.
+    CrossSizeMethod("transfer_2v2", "fine-tuning from the latest source learnt at 2v2, mapped"),
     LifelongMethod("ilpss_ft", "ILPSS-FT (fine-tuned start, options valued by their policies)",
                    lambda base: _fine_tuned(base, "kernels_finetune")),
     LifelongMethod("whole_policies_ft", "whole past policies, ILPSS-FT's settings",

@@ -112,3 +112,8 @@ ASSIGNED_REGIONS_FINETUNE = Reuse("assigned_regions_finetune", GIVEN_REGIONS, La
                                   TrueRegions(assigned=True))
 """The sharp test's oracle that knows the assignment too: each side offers the policy of the
 source played there."""
+
+REUSE_SCENARIOS = {reuse.name: (drill_facts.SCENARIO,) for reuse in (
+    ORACLE_REGIONS_FINETUNE, TRUE_REGIONS_FINETUNE, ASSIGNED_REGIONS_FINETUNE)}
+"""The drills each oracle's reuse is made for, by its name: their regions split the 2v2
+drill's features (an experiment of another scenario refuses them)."""

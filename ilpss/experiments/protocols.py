@@ -122,6 +122,8 @@ class Protocol:
     title = ""
     takes_targets = False
     """Whether the protocol reads ``ExperimentConfig.targets`` (others refuse them)."""
+    scenarios: tuple[str, ...] | None = None
+    """The drills (``ExperimentConfig.scenario``) it is made for; ``None``: any."""
 
     def check(self, cfg: StreamSettings) -> None:
         """Refuse a configuration this protocol cannot run (``ValueError`` naming the
@@ -221,6 +223,7 @@ class RegionStream(HeldOutTeam):
     # Not "a stream where regions matter": one fixed rule per episode gets 89-94% of the
     # composed rule's gain on two of its three targets (docs/regions.md).
     title = "targets composed by region"
+    scenarios = (drill_facts.SCENARIO,)  # its teams split the 2v2 drill's features
 
     def check(self, cfg: StreamSettings) -> None:
         if cfg.targets:

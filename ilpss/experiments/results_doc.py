@@ -311,15 +311,15 @@ def _span(cfg: ExperimentConfig, folder: RunFolder) -> dict[str, Any]:
             "workers": cfg.workers, "executor": None}
 
 
-def wall_time(record: dict[str, Any] | None) -> str:
-    """A run's wall time in words, from its timing record."""
+def wall_time(record: dict[str, Any] | None, command: str = "ilpss-results") -> str:
+    """A run's wall time in words, from its timing record (kept by ``command``)."""
     if record is None:
         return "not recorded"
     if record["executor"] is None:
-        return (f"not recorded (run without `ilpss-results`); {_duration(record['seconds'])} "
+        return (f"not recorded (run without `{command}`); {_duration(record['seconds'])} "
                 "from its `config.json` to its last `result.json`, pauses included")
     return (f"{_duration(record['seconds'])} with {record['workers']} {record['executor']} "
-            "worker(s), summed over the `ilpss-results` invocations that finished jobs")
+            f"worker(s), summed over the `{command}` invocations that finished jobs")
 
 
 def _duration(seconds: float) -> str:

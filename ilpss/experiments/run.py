@@ -43,7 +43,7 @@ from ilpss.experiments.checkpoints import (
     stream_records,
 )
 from ilpss.experiments.config import ExperimentConfig
-from ilpss.experiments.drill_facts import ENV_ID, TEAM_CODE, drill_object
+from ilpss.experiments.drill_facts import TEAM_CODE, drill_object
 from ilpss.experiments.executor import (
     SETTINGS_ERRORS,
     JobsFailed,
@@ -398,7 +398,7 @@ TEAM_CODE_SCHEMA = "ilpss.team_code/1"
 def team_codes(cfg: ExperimentConfig) -> dict[str, dict[str, str]]:
     """The code of every drill team ``cfg``'s tasks play
     (:data:`~ilpss.experiments.drill_facts.TEAM_CODE`), by team id; none for another environment."""
-    if cfg.env_id.rpartition(":")[2] != ENV_ID.rpartition(":")[2]:  # with or without its package
+    if cfg.drill is None:  # not a scenario of the drill (with or without its package)
         return {}
     code_of = drill_object(TEAM_CODE)
     teams = {t.env_kwargs.get("opponent") for seed in cfg.seeds for s in cfg.streams(seed)

@@ -206,7 +206,9 @@ def kernels_and_gif(cfg: ExperimentConfig, folder: Path, docs: Path) -> list[str
                 "there is no kernel picture or GIF.", ""]
     lines = ["### The kernels and the agent", ""]
     if learner.kernel_model is not None:
-        kernels = plot_kernels_on_field(learner, docs / "figures" / f"protocol_{cfg.protocol.lower()}_kernels.png")
+        kernels = plot_kernels_on_field(
+            learner, docs / "figures" / f"protocol_{cfg.protocol.lower()}_kernels.png",
+            drill=cfg.drill)
         bags = ", ".join(f"{len(b)} ({r.name})" for b, r in
                          zip(learner.bags, learner.records, strict=True))
         lines += [f"![kernels](figures/{kernels.name})", "",
