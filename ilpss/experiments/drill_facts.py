@@ -285,8 +285,10 @@ class HolderDrill:
 
 
 def scenario_names() -> tuple[str, ...]:
-    """The names of the drill's scenarios."""
-    return tuple(drill_object(SCENARIOS))
+    """The names of the drill's scenarios: those of its task ``drill`` (keepaway's, whose
+    holder has other features and pays by the second, have their own experiment,
+    :mod:`ilpss.experiments.keepaway`)."""
+    return tuple(name for name, s in drill_object(SCENARIOS).items() if s.task == "drill")
 
 
 def holder_drill(scenario: str) -> HolderDrill:
