@@ -499,6 +499,7 @@ class ParametricBatch:
         self._settings = team.settings()
         self._rng: BatchRandom | None = None
         self._made: dict[int, BatchCommands] = {}
+        self._speed_rows: dict[int, np.ndarray] = {}  # the speeds of m drills, by m
         self.fixed = (set(team.roles) == {"interceptor"}
                       and team.coordination == "press" and team.reaction_delay == 0)
         """Whether the plan never reads the state (its commands made once)."""
@@ -507,7 +508,7 @@ class ParametricBatch:
         """Start an episode in ``drills``; ``rng`` feeds the sorties."""
         defenders = len(view.players)
         if defenders != self._defenders:
-            self._defenders, self._made = defenders, {}
+            self._defenders, self._made, self._speed_rows = defenders, {}, {}
             self._speeds = np.array([self.team.speeds_of(defenders)])
             self._drawing = self.team._drawing(defenders)
             self._plans = plans_record(defenders)
@@ -536,7 +537,10 @@ class ParametricBatch:
         state = view.state if every_drill(drills, view.n) else view.state[drills]
         _plans_of_drills(plans, drills, state, self.memory, self._history, self._settings,
                          view.params, view.table)
-        return BatchCommands(plans["skill"], plans["target"], np.repeat(self._speeds, m, axis=0))
+        speeds = self._speed_rows.get(m)  # the same every cycle: made once per number of rows
+        if speeds is None:
+            speeds = self._speed_rows[m] = np.repeat(self._speeds, m, axis=0)
+        return BatchCommands(plans["skill"], plans["target"], speeds)
 
     def _draw(self, drills: np.ndarray) -> None:
         """This cycle's uniform of each guard on its line that may start a sortie at

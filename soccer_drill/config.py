@@ -9,7 +9,9 @@ from typing import Any
 import numpy as np
 import pymunk
 
-from soccer_drill.constraints import Integer, ListOf, Real, check, checked
+from soccer_drill.constraints import Integer, ListOf, OneOf, Real, check, checked
+from soccer_drill.tasks import PAPER_STARTS, TASKS  # noqa: F401  (PAPER_STARTS: importable here)
+from soccer_drill.tasks import drill_starts as default_starts  # noqa: F401  (the drill's, by its old name)
 
 Point = tuple[float, float]
 
@@ -23,6 +25,8 @@ def _limited(default: float, constraint: Real | Integer) -> Any:
 
 PLAYERS_PER_TEAM = Integer(1, 4)
 """What ``DrillConfig.attackers`` and ``defenders`` allow."""
+TASK = OneOf(tuple(TASKS))
+"""What ``DrillConfig.task`` allows: a task of :data:`~soccer_drill.tasks.TASKS`."""
 SUBSTEPS = Integer(1, 1000)
 """What ``DrillConfig.substeps`` allows, before :func:`step_bound`."""
 _SPACE = pymunk.Space()  # pymunk's defaults, which the drill's spaces keep
@@ -85,38 +89,6 @@ def fewest_substeps(top_speed: float, cycle_seconds: float, player_radius: float
 
 
 _COUNTS = ("no", "one", "two", "three", "four")
-PAPER_STARTS: dict[str, tuple[Point, ...]] = {
-    "attacker_starts": ((4.0, 31.0), (31.0, 31.0)),
-    "defender_starts": ((13.0, 9.0), (22.0, 9.0)),
-}
-"""The nominal starts of the paper's drill: two attackers in the top corners, two
-defenders near the goal line."""
-
-
-def default_starts(name: str, count: int, field_size: float) -> tuple[Point, ...]:
-    """The nominal starts of ``count`` attackers (``name`` ``"attacker_starts"``) or
-    defenders (``"defender_starts"``) in a region of ``field_size``: the attackers spread
-    evenly along a line ``4 / 35`` of the size below the top, from ``4 / 35`` of it in
-    from each touchline (one: the centre); the defenders ``9 / 35`` of the size apart,
-    centred, on a line ``9 / 35`` of it above the goal line. In the 35 m region two
-    attackers start at ``(4, 31)`` and ``(31, 31)``, two defenders at ``(13, 9)`` and
-    ``(22, 9)`` (the paper's drill, :data:`PAPER_STARTS`). Two attackers or two defenders keep these points
-    in a region of any size, as they always have (a configuration written before the
-    drill had other sizes starts where it did)."""
-    if count == 2:
-        return PAPER_STARTS[name]
-    centre = field_size / 2
-    if name == "attacker_starts":
-        edge = field_size * 4.0 / 35.0
-        top = field_size - edge
-        if count == 1:
-            return ((centre, top),)
-        step = (top - edge) / (count - 1)
-        return tuple((edge + k * step if k < count - 1 else top, top) for k in range(count))
-    gap = field_size * 9.0 / 35.0
-    return tuple((centre + (k - (count - 1) / 2) * gap, gap) for k in range(count))
-
-
 @dataclass(frozen=True)
 class DrillConfig:
     """Every number of the drill, in SI units (metres, seconds, m/s).
@@ -186,12 +158,12 @@ class DrillConfig:
     defenders: int = _limited(2, PLAYERS_PER_TEAM)
     """Number of defenders (1 to 4)."""
     attacker_starts: tuple[Point, ...] | None = None
-    """Nominal starting points of the attackers, one per attacker; ``None``:
-    :func:`default_starts` (for two attackers in the 35 m region: the top corners,
+    """Nominal starting points of the attackers, one per attacker; ``None``: the task's
+    (:data:`~soccer_drill.tasks.TASKS`; the drill's :func:`default_starts`, for two attackers in the 35 m region: the top corners,
     ``(4, 31)`` and ``(31, 31)``)."""
     defender_starts: tuple[Point, ...] | None = None
-    """Nominal starting points of the defenders, one per defender; ``None``:
-    :func:`default_starts` (for two defenders in the 35 m region: ``(13, 9)`` and
+    """Nominal starting points of the defenders, one per defender; ``None``: the task's
+    (the drill's :func:`default_starts`, for two defenders in the 35 m region: ``(13, 9)`` and
     ``(22, 9)``, near the goal line)."""
     reward_success_centre: float = _limited(1.0, Real(-1000.0, 1000.0))
     """Attackers' reward for crossing the goal line at its centre."""
@@ -201,6 +173,12 @@ class DrillConfig:
     """Attackers' reward for an interception or the ball leaving the region."""
     reward_timeout: float = _limited(-1.0, Real(-1000.0, 1000.0))
     """Attackers' reward when ``max_cycles`` pass without an outcome."""
+    task: str = "drill"
+    """What the attackers do (:data:`~soccer_drill.tasks.TASKS`): ``"drill"``, carry the
+    ball over the goal line (the paper's drill), or ``"keepaway"``, keep it inside the
+    region as long as they can. It gives the default starts, whether ``y = 0`` is a goal
+    line, and the reward (keepaway: the seconds the episode runs, the outcome rewards
+    unused)."""
 
     def __post_init__(self) -> None:
         # NumPy numbers are accepted and stored as Python numbers, so to_dict() is JSON.
@@ -212,12 +190,13 @@ class DrillConfig:
         check("DrillConfig.ball_offset", self.ball_offset,
               Real(0.0, self.control_radius - 0.05, high_open=True),
               why="smaller than control_radius - 0.05: the holder must keep control")
+        check("DrillConfig.task", self.task, TASK)
         self._check_substeps()
         self._check_control_per_cycle()
         for name, count in (("attacker_starts", self.attackers),
                             ("defender_starts", self.defenders)):
             if getattr(self, name) is None:
-                object.__setattr__(self, name, default_starts(name, count, self.field_size))
+                object.__setattr__(self, name, TASKS[self.task].starts(name, count, self.field_size))
             inside = Real(0.0, self.field_size)
             point = ListOf(inside, 2, 2, kinds=(list, tuple, np.ndarray))
             check(f"DrillConfig.{name}", getattr(self, name),

@@ -6,10 +6,14 @@
 | ``drill_1v1`` | 1 v 1 | drill | ``soccer_drill/Holder1v1-v0`` | ``drill_1v1`` | ``chasers`` |
 | ``drill_3v2`` | 3 v 2 | drill | ``soccer_drill/Holder3v2-v0`` | ``drill_3v2`` | ``chasers`` |
 | ``drill_3v3`` | 3 v 3 | drill | ``soccer_drill/Holder3v3-v0`` | ``drill_3v3`` | ``chasers`` |
+| ``keepaway_3v2`` | 3 keepers v 2 takers | keepaway, 20 m x 20 m, 60 s limit | ``soccer_drill/Keepaway3v2-v0`` | ``keepaway_3v2`` | ``keepaway_takers`` |
+| ``keepaway_4v3`` | 4 keepers v 3 takers | keepaway, 30 m x 30 m, 60 s limit | ``soccer_drill/Keepaway4v3-v0`` | ``keepaway_4v3`` | ``keepaway_takers`` |
 
-Every scenario is the drill's :class:`~soccer_drill.config.DrillConfig` with its numbers
-of players and the 35 m region of the paper (``docs/scenarios.md`` has the table with
-each scenario's best fixed rule). The Gymnasium ids are registered when ``soccer_drill``
+Every drill scenario is the drill's :class:`~soccer_drill.config.DrillConfig` with its
+numbers of players and the 35 m region of the paper; the keepaway scenarios are
+``DrillConfig(task="keepaway")`` on keepaway's standard regions (3v2 on 20 m x 20 m,
+4v3 on 30 m x 30 m; ``docs/keepaway.md``). ``docs/scenarios.md`` has the table with each
+scenario's best fixed rule. The Gymnasium ids are registered when ``soccer_drill``
 is imported; ``gymnasium.make(id, opponent=..., config=...)`` overrides a scenario's team
 or any other field (``config``: a dict of ``DrillConfig`` fields, merged over the
 scenario's). The PettingZoo environments are :func:`env` and :func:`parallel_env` of a
@@ -42,22 +46,31 @@ class Scenario:
     gym_id: str
     """Its Gymnasium id (the ball holder's SMDP, :class:`~soccer_drill.envs.holder.HolderEnv`)."""
     task: str = "drill"
-    """What the attackers do: ``drill``, carry the ball over the goal line."""
+    """What the attackers do (:data:`~soccer_drill.tasks.TASKS`): ``drill``, carry the
+    ball over the goal line; ``keepaway``, keep it in the region as long as they can."""
     opponent: str = "chasers"
     """The scripted team the holder's SMDP meets by default."""
+    settings: tuple[tuple[str, Any], ...] = ()
+    """The scenario's own ``DrillConfig`` fields (a keepaway region's size, its time
+    limit), under any changes given."""
 
     def config(self, changes: Mapping[str, Any] | DrillConfig | None = None) -> DrillConfig:
         """The scenario's configuration, with ``changes`` (a dict of fields, or a whole
         ``DrillConfig`` of the scenario's size) over it."""
         if isinstance(changes, DrillConfig):
-            if changes.size != (self.attackers, self.defenders):
+            if changes.size != (self.attackers, self.defenders) or changes.task != self.task:
                 raise ValueError(
-                    f"scenario {self.name!r} is {self.attackers}v{self.defenders}; the config "
-                    f"given is {changes.attackers}v{changes.defenders}")
+                    f"scenario {self.name!r} is {self.task} {self.attackers}v{self.defenders}; "
+                    f"the config given is {changes.task} {changes.attackers}v{changes.defenders}")
             return changes
-        values = {"attackers": self.attackers, "defenders": self.defenders, **(changes or {})}
+        values = {"attackers": self.attackers, "defenders": self.defenders, "task": self.task,
+                  **dict(self.settings), **(changes or {})}
         return DrillConfig.from_dict(values)
 
+
+KEEPAWAY_MAX_CYCLES = 600
+"""The keepaway scenarios' time limit: 600 cycles, 60 s (a truncation; keepaway itself
+has none)."""
 
 SCENARIOS: dict[str, Scenario] = {
     s.name: s for s in (
@@ -65,6 +78,12 @@ SCENARIOS: dict[str, Scenario] = {
         Scenario("drill_1v1", 1, 1, "soccer_drill/Holder1v1-v0"),
         Scenario("drill_3v2", 3, 2, "soccer_drill/Holder3v2-v0"),
         Scenario("drill_3v3", 3, 3, "soccer_drill/Holder3v3-v0"),
+        Scenario("keepaway_3v2", 3, 2, "soccer_drill/Keepaway3v2-v0", task="keepaway",
+                 opponent="keepaway_takers",
+                 settings=(("field_size", 20.0), ("max_cycles", KEEPAWAY_MAX_CYCLES))),
+        Scenario("keepaway_4v3", 4, 3, "soccer_drill/Keepaway4v3-v0", task="keepaway",
+                 opponent="keepaway_takers",
+                 settings=(("field_size", 30.0), ("max_cycles", KEEPAWAY_MAX_CYCLES))),
     )
 }
 """The named scenarios, by name."""

@@ -1,10 +1,14 @@
 """The table of the named scenarios (``docs/scenarios.md``): each scenario's size, task,
 default team and best fixed holder rule, measured.
 
-Every fixed rule of :data:`~soccer_drill.policies.HOLDER_POLICIES` plays the same
-episodes of each scenario (seeds ``first_seed`` onwards) against the scenario's team in
-the batched holder drill (:func:`~soccer_drill.vector.holder.play_episodes`); the per-seed
-outcomes are kept beside the page (``docs/data/scenarios_fixed_rules.json``)::
+Every fixed rule of the scenario's task (the drill's
+:data:`~soccer_drill.policies.HOLDER_POLICIES`, scored by their success rate; keepaway's
+:data:`~soccer_drill.keepaway_policies.KEEPER_POLICIES`, scored by the mean length of
+their episodes) plays the same episodes of each scenario (seeds ``first_seed`` onwards)
+against the scenario's team in the batched holder drill
+(:func:`~soccer_drill.vector.holder.play_episodes`); the per-seed outcomes (the drill's)
+and lengths (keepaway's, seconds) are kept beside the page
+(``docs/data/scenarios_fixed_rules.json``)::
 
     python -m soccer_drill.scenarios_table --episodes 300 --out docs
 """
@@ -19,22 +23,30 @@ from pathlib import Path
 
 from soccer_drill.constraints import Integer, checked
 from soccer_drill.files import atomic_write_text, check_output_file
+from soccer_drill.keepaway_policies import KEEPER_POLICIES
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.scenarios import SCENARIOS, Scenario
 
-SCHEMA_VERSION = 1
-"""The version of the kept outcomes' layout."""
+SCHEMA_VERSION = 2
+"""The version of the kept outcomes' layout (2: keepaway's lengths beside the drill's
+outcomes)."""
+RULES: dict[str, dict] = {"drill": HOLDER_POLICIES, "keepaway": KEEPER_POLICIES}
+"""Each task's fixed rules of the ball holder."""
+KEPT = {"drill": "outcomes", "keepaway": "lengths"}
+"""What is kept of each task's episodes: the drill's outcomes, keepaway's lengths (s)."""
 
 
-def play_rules(s: Scenario, episodes: int, first_seed: int) -> dict[str, list[str]]:
-    """Each fixed rule's outcome per episode of scenario ``s`` (seeds ``first_seed``
-    onwards), against its team."""
+def play_rules(s: Scenario, episodes: int, first_seed: int) -> dict[str, list]:
+    """Each fixed rule of the scenario's task, per episode of scenario ``s`` (seeds
+    ``first_seed`` onwards) against its team: its outcome (the drill) or its length in
+    seconds (keepaway)."""
     from soccer_drill.vector.holder import HolderVectorEnv, play_episodes
 
     env = HolderVectorEnv(num_envs=min(64, episodes), opponent=s.opponent, config=s.config())
     seeds = list(range(first_seed, first_seed + episodes))
-    return {rule: [outcome for _, outcome in play_episodes(env, policy, seeds)]
-            for rule, policy in HOLDER_POLICIES.items()}
+    pick = 1 if s.task == "drill" else 0  # the outcome, or the total reward: the seconds
+    return {rule: [played[pick] for played in play_episodes(env, policy, seeds)]
+            for rule, policy in RULES[s.task].items()}
 
 
 def wilson(successes: int, n: int) -> tuple[float, float]:
@@ -46,8 +58,20 @@ def wilson(successes: int, n: int) -> tuple[float, float]:
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
-def page(outcomes: dict[str, dict[str, list[str]]], first_seed: int) -> str:
-    """The page's text from the kept outcomes."""
+def mean_interval(values: list[float]) -> tuple[float, float, float]:
+    """The mean of episode lengths and its 95% normal interval over the episodes."""
+    n = len(values)
+    mean = math.fsum(values) / n
+    sd = math.sqrt(math.fsum((v - mean) ** 2 for v in values) / (n - 1)) if n > 1 else 0.0
+    half = 1.959963984540054 * sd / math.sqrt(n)
+    return mean, mean - half, mean + half
+
+
+def page(outcomes: dict[str, dict[str, list[str]]], first_seed: int,
+         lengths: dict[str, dict[str, list[float]]] | None = None) -> str:
+    """The page's text from the kept outcomes (the drill's scenarios) and lengths
+    (keepaway's)."""
+    lengths = lengths or {}
     episodes = len(next(iter(next(iter(outcomes.values())).values())))
     lines = [
         "# Named scenarios",
@@ -59,29 +83,48 @@ def page(outcomes: dict[str, dict[str, list[str]]], first_seed: int) -> str:
         f"holder rule of `soccer_drill.policies` played the same {episodes} episodes (seeds",
         f"{first_seed}..{first_seed + episodes - 1}) against the scenario's default team; the best",
         "rule has the highest success rate, given with its 95% Wilson interval (unadjusted for",
-        "the comparison of the rules).",
+        "the comparison of the rules). In a keepaway scenario the rules are the keeper",
+        "policies of `soccer_drill.keepaway_policies` on the same seeds, and the best keeps the",
+        "ball longest: its mean episode length in seconds, with a 95% normal interval over the",
+        "episodes (unadjusted); `docs/keepaway.md` has the learned keeper.",
         "",
-        "| scenario | size | task | Gymnasium id | default team | best fixed rule | its success rate | random | learning curve |",
+        "| scenario | size | task | Gymnasium id | default team | best fixed rule | its success rate (drill) or mean episode length (keepaway) | random | learning curve |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for name in SCENARIOS:  # in the scenarios' and the rules' own order, however kept
-        by_rule, s = outcomes[name], SCENARIOS[name]
-        rates = {rule: sum(o == "success" for o in by_rule[rule]) / len(by_rule[rule])
-                 for rule in HOLDER_POLICIES}
-        best = max(rates, key=lambda rule: (rates[rule], rule == "random"))
-        low, high = wilson(round(rates[best] * episodes), episodes)
+        s = SCENARIOS[name]
+        if s.task == "keepaway":
+            means = {rule: mean_interval(lengths[name][rule]) for rule in KEEPER_POLICIES}
+            best = max(means, key=lambda rule: (means[rule][0], rule == "random"))
+            mean, low, high = means[best]
+            score, random_score = f"{mean:.1f} s [{low:.1f}, {high:.1f}]", f"{means['random'][0]:.1f} s"
+            curve = "`docs/keepaway.md`"
+        else:
+            by_rule = outcomes[name]
+            rates = {rule: sum(o == "success" for o in by_rule[rule]) / len(by_rule[rule])
+                     for rule in HOLDER_POLICIES}
+            best = max(rates, key=lambda rule: (rates[rule], rule == "random"))
+            low, high = wilson(round(rates[best] * episodes), episodes)
+            score = f"{rates[best]:.0%} [{low:.0%}, {high:.0%}]"
+            random_score, curve = f"{rates['random']:.0%}", "not yet measured"
         lines.append(
             f"| `{name}` | {s.attackers}v{s.defenders} | {s.task} | `{s.gym_id}` | `{s.opponent}` "
-            f"| `{best}` | {rates[best]:.0%} [{low:.0%}, {high:.0%}] | {rates['random']:.0%} "
-            "| not yet measured |")
+            f"| `{best}` | {score} | {random_score} | {curve} |")
     lines += ["", "Success rate of every fixed rule:", "",
               "| scenario | " + " | ".join(HOLDER_POLICIES) + " |",
               "|---|" + "---:|" * len(HOLDER_POLICIES)]
-    for name in SCENARIOS:
+    for name in (n for n in SCENARIOS if n in outcomes):  # the scenarios' order
         by_rule = outcomes[name]
         cells = [f"{sum(o == 'success' for o in by_rule[r]) / len(by_rule[r]):.0%}"
                  for r in HOLDER_POLICIES]
         lines.append(f"| `{name}` | " + " | ".join(cells) + " |")
+    if lengths:
+        lines += ["", "Mean episode length (s) of every keeper policy:", "",
+                  "| scenario | " + " | ".join(KEEPER_POLICIES) + " |",
+                  "|---|" + "---:|" * len(KEEPER_POLICIES)]
+        for name in (n for n in SCENARIOS if n in lengths):
+            cells = [f"{mean_interval(lengths[name][r])[0]:.2f}" for r in KEEPER_POLICIES]
+            lines.append(f"| `{name}` | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
 
@@ -98,13 +141,15 @@ def main(argv: list[str] | None = None) -> None:
     data, text = out / "data" / "scenarios_fixed_rules.json", out / "scenarios.md"
     for path in (data, text):
         check_output_file(path)
-    outcomes = {name: play_rules(s, episodes, first_seed) for name, s in SCENARIOS.items()}
-    body = json.dumps({"schema_version": SCHEMA_VERSION, "first_seed": first_seed,
-                       "outcomes": outcomes}, sort_keys=True)
+    played = {name: play_rules(s, episodes, first_seed) for name, s in SCENARIOS.items()}
+    kept = {kind: {name: rules for name, rules in played.items()
+                   if KEPT[SCENARIOS[name].task] == kind} for kind in KEPT.values()}
+    body = json.dumps({"schema_version": SCHEMA_VERSION, "first_seed": first_seed, **kept},
+                      sort_keys=True)
     digest = hashlib.sha256(body.encode()).hexdigest()
     atomic_write_text(data, json.dumps({"sha256": digest, "record": json.loads(body)},
                                        sort_keys=True) + "\n")
-    atomic_write_text(text, page(outcomes, first_seed))
+    atomic_write_text(text, page(kept["outcomes"], first_seed, kept["lengths"]))
     print(f"wrote {text} and {data}")
 
 

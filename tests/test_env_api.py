@@ -176,3 +176,22 @@ def test_last_after_the_episode_ended_says_so():
         env.step(action)
     with pytest.raises(RuntimeError, match=r"last\(\) called after the episode ended"):
         env.last()
+
+
+def test_each_observation_is_a_new_array():
+    """The agents' observations of one state are computed together; each agent still gets
+    an array of its own, and writing into it changes no other observation."""
+    env = soccer_drill.env()
+    env.reset(seed=3)
+    first = {a: env.observe(a)["observation"] for a in env.agents}
+    again = {a: env.observe(a)["observation"] for a in env.agents}
+    for agent in env.agents:
+        assert first[agent] is not again[agent]
+        np.testing.assert_array_equal(first[agent], again[agent])
+        first[agent][:] = -1.0
+    for agent in env.agents:
+        np.testing.assert_array_equal(env.observe(agent)["observation"], again[agent])
+    parallel = soccer_drill.parallel_env()
+    obs, _ = parallel.reset(seed=3)
+    rows = [obs[a]["observation"] for a in parallel.agents]
+    assert not any(np.shares_memory(x, y) for x in rows for y in rows if x is not y)

@@ -7,6 +7,7 @@ import json
 import numpy as np
 import pytest
 
+import soccer_drill.scenarios
 from ilpss.experiments import drill_facts
 from ilpss.experiments.cli import build_config, parser
 from ilpss.experiments.config import ExperimentConfig
@@ -52,6 +53,14 @@ def test_an_unknown_scenario_is_refused_naming_the_scenarios() -> None:
     with pytest.raises(ValueError, match=r"ExperimentConfig.scenario must be one of 'drill_2v2', "
                                          r".*'drill_3v2'.*, got 'drill_9v9'"):
         ExperimentConfig(scenario="drill_9v9")
+
+
+def test_a_keepaway_scenario_is_not_taken_for_a_drill() -> None:
+    # Keepaway's holder has other features and pays by the second: its own experiment.
+    assert "keepaway_3v2" in soccer_drill.scenarios.SCENARIOS
+    with pytest.raises(ValueError, match=r"ExperimentConfig.scenario must be one of .*"
+                                         r"'drill_3v3'.*, got 'keepaway_3v2'"):
+        ExperimentConfig(scenario="keepaway_3v2")
 
 
 # ---------------------------------------------------------------- the configuration

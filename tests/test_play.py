@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import itertools
 
+import numpy as np
 import pygame
 import pytest
 
 import soccer_drill
+from soccer_drill import scenarios
+from soccer_drill.commands import attacker_action_names
 from soccer_drill.rendering import play
+from soccer_drill.rules.features import holder_feature_indices
 
 
 class _NoWait:
@@ -189,6 +193,7 @@ def test_a_bad_player_is_refused_naming_the_allowed(capsys, argv, named):
     (["--control", "attacker", "--attack", "no_such_rule"], ["late_pass", "mixed_rules"]),
     (["--control", "attacker", "--team", "no_such_team"], ["goal_guards", "chasers"]),
     (["--control", "striker"], ["holder", "attacker"]),
+    (["--scenario", "drill_9v9"], ["drill_2v2", "drill_3v2"]),
 ])
 def test_an_unknown_attack_team_or_control_is_refused_by_the_command(capsys, argv, named):
     with pytest.raises(SystemExit) as exc:
@@ -203,8 +208,77 @@ def test_an_unknown_attack_team_or_control_is_refused_by_the_command(capsys, arg
     ("team", "no_such_team", "goal_guards"),
     ("control", "striker", "'attacker'"),
     ("decision_cycles", 0, "[1, 50]"),
+    ("scenario", "drill_9v9", "'drill_3v3'"),
 ])
 def test_a_bad_setup_is_refused_naming_the_allowed(field, value, named):
     with pytest.raises(ValueError, match=rf"PlaySetup\.{field}") as exc:
         play.PlaySetup(**{field: value})
     assert named in str(exc.value)
+
+
+# ------------------------------------------------------------ other sizes
+def _played_in(name: str, team: str, action: int, seed: int) -> tuple[str, float]:
+    """The outcome and reward of always taking ``action`` in scenario ``name``."""
+    env = scenarios.holder_env(name, opponent=team)
+    env.reset(seed=seed)
+    done = False
+    while not done:
+        _, reward, terminated, truncated, info = env.step(action)
+        done = terminated or truncated
+    return info["outcome"], reward
+
+
+@pytest.mark.parametrize(("key", "action"), [
+    (pygame.K_p, 1), (pygame.K_2, 1), (pygame.K_3, 2), (pygame.K_d, 3), (pygame.K_4, 3)])
+def test_each_key_takes_its_decision_in_a_three_attacker_drill(window, key, action):
+    # HOLD, PASS_1 (nearest teammate, also P), PASS_2, DRIBBLE (also D).
+    setup = play.PlaySetup(team="chasers", scenario="drill_3v2")
+    score = play.play(setup, episodes=1, seed=3, keys=itertools.repeat(key), out=lambda _: None)
+    outcome, reward = _played_in("drill_3v2", "chasers", action, 3)
+    assert (score.won, score.reward) == (outcome == "success", pytest.approx(reward))
+
+
+def test_the_window_lists_every_pass_of_a_larger_drill(window, monkeypatch):
+    titles = []
+    set_caption = pygame.display.set_caption
+    monkeypatch.setattr(pygame.display, "set_caption",
+                        lambda text, *rest: (titles.append(text), set_caption(text, *rest)))
+    setup = play.PlaySetup(team="chasers", scenario="drill_3v3", control="attacker",
+                           player="attacker_2")
+    play.play(setup, keys=[pygame.K_ESCAPE], out=lambda _: None)
+    assert "A3 (attacker_2)" in titles[-1]
+    assert ("H hold, P pass 1, 3 pass 2, D dribble, G get open, B go to ball"
+            in titles[-1])
+
+
+@pytest.mark.parametrize("size", [(3, 2), (2, 3), (1, 1), (4, 2)])
+def test_the_scripted_mates_decide_on_the_holders_features_at_any_size(size):
+    # What a mate hands its attack is what the holder's SMDP would observe.
+    config = soccer_drill.DrillConfig(attackers=size[0], defenders=size[1])
+    agents = soccer_drill.parallel_env(opponent="chasers", config=config)
+    holder = soccer_drill.HolderEnv(opponent="chasers", config=config)
+    observations, _ = agents.reset(seed=11)
+    view, _ = holder.reset(seed=11)
+    assert agents.drill_state.pos == holder.unwrapped.drill_state.pos
+    index = agents.drill_state.holder
+    assert 0 <= index < agents.config.attackers
+    mine = observations[agents.config.player_names[index]]
+    mine = mine["observation"] if isinstance(mine, dict) else mine
+    picked = np.asarray(mine)[holder_feature_indices(agents.config)]
+    np.testing.assert_array_equal(picked, view)
+
+
+@pytest.mark.parametrize(("attack", "skill"), [("hold", "HOLD"), ("dribble", "DRIBBLE")])
+def test_the_other_attackers_play_the_scripted_attack_in_a_larger_drill(window, monkeypatch,
+                                                                        attack, skill):
+    steps = _recording(monkeypatch, "attacker_0")
+    setup = play.PlaySetup(team="chasers", scenario="drill_3v2", control="attacker",
+                           attack=attack)
+    # Seed 1 starts with attacker_2 on the ball; you get open, or hold when you have it.
+    play.play(setup, episodes=1, seed=1, keys=itertools.cycle([pygame.K_g, pygame.K_h]),
+              out=lambda _: None)
+    names = attacker_action_names(3)
+    holding = [actions[f"attacker_{h}"] for _, h, actions in steps if h in (1, 2)]
+    assert holding and {names[a] for a in holding} == {skill}
+    assert {names[actions["attacker_0"]] for _, _, actions in steps} <= {"GET_OPEN", "HOLD"}
+

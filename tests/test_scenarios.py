@@ -20,8 +20,14 @@ def test_a_scenario_is_made_by_its_gymnasium_id_and_passes_the_checker(name: str
     s = SCENARIOS[name]
     env = gym.make(s.gym_id, config={"max_cycles": 40})
     assert env.unwrapped.config.size == (s.attackers, s.defenders)
-    assert env.action_space.n == s.attackers + 1
-    assert env.observation_space.shape == (4 * (s.attackers - 1) + s.defenders + 3,)
+    assert env.unwrapped.config.task == s.task
+    k, d = s.attackers, s.defenders
+    if s.task == "keepaway":  # HOLD and a pass per keeper; keepaway's state variables
+        assert env.action_space.n == k
+        assert env.observation_space.shape == (4 * k + 2 * d - 3,)
+    else:  # HOLD, a pass per teammate, DRIBBLE; the drill's features
+        assert env.action_space.n == k + 1
+        assert env.observation_space.shape == (4 * (k - 1) + d + 3,)
     check_env(env.unwrapped, skip_render_check=True)
     vector = gym.make_vec(s.gym_id, num_envs=2, config={"max_cycles": 40})
     obs, _ = vector.reset(seed=0)
@@ -37,6 +43,21 @@ def test_a_scenario_passes_pettingzoos_tests(name: str) -> None:
     par = scenarios.parallel_env(name, render_mode="rgb_array")
     par.reset(seed=0)
     assert par.render().dtype == np.uint8
+    holder = scenarios.holder_env(name, render_mode="rgb_array")
+    holder.reset(seed=0)
+    assert holder.render().dtype == np.uint8
+
+
+def test_keepaways_parallel_env_pays_the_keepers_each_cycles_seconds() -> None:
+    par = scenarios.parallel_env("keepaway_3v2", opponent="keepaway_takers",
+                                 illegal_action="default")
+    par.reset(seed=1)
+    total, cycles = 0.0, 0
+    while par.agents:  # the holder holds, the others take their default (GET_OPEN)
+        _, rewards, _, _, _ = par.step({a: 0 for a in par.agents})
+        total += rewards["attacker_0"]
+        cycles += 1
+    assert total == pytest.approx(0.1 * cycles)
 
 
 def test_the_paper_drill_is_the_default_holder_env() -> None:
@@ -52,7 +73,7 @@ def test_an_unknown_scenario_is_refused_naming_the_known_ones() -> None:
 
 
 def test_a_config_of_another_size_is_refused() -> None:
-    with pytest.raises(ValueError, match=r"scenario 'drill_3v2' is 3v2; the config given is 2v2"):
+    with pytest.raises(ValueError, match=r"scenario 'drill_3v2' is drill 3v2; the config given is drill 2v2"):
         scenarios.holder_env("drill_3v2", config=soccer_drill.DrillConfig())
 
 
@@ -67,9 +88,13 @@ def test_the_scenarios_page_is_written_from_kept_per_seed_outcomes(tmp_path) -> 
     record = kept["record"]
     body = json.dumps(record, sort_keys=True)
     assert kept["sha256"] == hashlib.sha256(body.encode()).hexdigest()
-    assert record["schema_version"] == 1 and record["first_seed"] == 1000
-    assert set(record["outcomes"]) == set(SCENARIOS)
-    assert all(len(got) == 2 for rules in record["outcomes"].values() for got in rules.values())
+    assert record["schema_version"] == 2 and record["first_seed"] == 1000
+    assert set(record["outcomes"]) | set(record["lengths"]) == set(SCENARIOS)
+    assert set(record["lengths"]) == {"keepaway_3v2", "keepaway_4v3"}
+    for kept in (record["outcomes"], record["lengths"]):
+        assert all(len(got) == 2 for rules in kept.values() for got in rules.values())
+    assert all(t > 0 for rules in record["lengths"].values() for got in rules.values()
+               for t in got)
     page = (tmp_path / "scenarios.md").read_text()
-    assert page == scenarios_table.page(record["outcomes"], 1000)
+    assert page == scenarios_table.page(record["outcomes"], 1000, record["lengths"])
     assert "| `drill_3v2` | 3v2 | drill | `soccer_drill/Holder3v2-v0` | `chasers` |" in page

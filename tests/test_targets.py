@@ -101,34 +101,48 @@ def test_several_targets_learn_the_sources_once_and_equal_one_run_per_target(
     assert max(max(r["methods"]["scratch"]["curves"]["3"]) for r in several) > 0
 
 
-@pytest.mark.slow
-def test_a_crash_after_the_first_target_resumes_without_relearning_the_sources(
-    tmp_path, monkeypatch
-):
+def _crashed(tmp_path, monkeypatch, crash):
+    """A one-seed run of ILPSS and learning anew killed at the first trial for which
+    ``crash(learner, task_name)`` holds; the configuration, the uninterrupted run's
+    result, the crashed run's folder and its job folder."""
     cfg = _several().with_overrides(methods=("ilpss", "scratch"), n_seeds=1)
     straight = run_experiment(cfg, tmp_path / "straight", progress=False)
     real = LifelongLearner.run_trial
 
-    def crash_at_the_second_target(self, env, name, callback=None):
-        if name == TARGETS[1]:
+    def crashing(self, env, name, callback=None):
+        if crash(self, name):
             raise KeyboardInterrupt("killed")
         return real(self, env, name, callback)
 
-    monkeypatch.setattr(LifelongLearner, "run_trial", crash_at_the_second_target)
+    monkeypatch.setattr(LifelongLearner, "run_trial", crashing)
     out = tmp_path / "crashed"
     with pytest.raises(KeyboardInterrupt):
         run_experiment(cfg, out, progress=False)
-    job = out / "seed_000" / "stream_00"
-    assert (job / "ilpss" / "target_02" / "LATEST").exists()
-    assert not (job / "ilpss" / "target_03").exists() and not (job / "result.json").exists()
-
     monkeypatch.setattr(LifelongLearner, "run_trial", real)
+    return cfg, straight, out, out / "seed_000" / "stream_00"
+
+
+def _resumed(cfg, out, monkeypatch):
+    """The crashed run run again: the trials it ran, its job's record and its result."""
     trials = _count_trials(monkeypatch)
     done = []
     resumed = run_experiment(cfg, out, progress=False, on_done=lambda s, d: done.append(d))
+    return trials, done[0], resumed
+
+
+@pytest.mark.slow
+def test_a_crash_after_the_first_target_resumes_without_relearning_the_sources(
+    tmp_path, monkeypatch
+):
+    cfg, straight, out, job = _crashed(tmp_path, monkeypatch,
+                                       lambda learner, name: name == TARGETS[1])
+    assert (job / "ilpss" / "target_02" / "LATEST").exists()
+    assert not (job / "ilpss" / "target_03").exists() and not (job / "result.json").exists()
+
+    trials, done, resumed = _resumed(cfg, out, monkeypatch)
     # ILPSS resumes: no source, no finished target again; learning anew had not started.
     assert trials == [TARGETS[1], *SOURCES, *TARGETS]
-    assert done[0].resumed == {"ilpss": len(SOURCES) + 1, "scratch": 0}
+    assert done.resumed == {"ilpss": len(SOURCES) + 1, "scratch": 0}
     assert resumed == straight
     assert (job / "result.json").read_bytes() == (
         tmp_path / "straight" / "seed_000" / "stream_00" / "result.json").read_bytes()
@@ -140,6 +154,24 @@ def test_a_crash_after_the_first_target_resumes_without_relearning_the_sources(
     with pytest.raises(JobError, match=r"ValueError: .*target_03: the checkpoint comes from another run "
                                          r"\(target: 2 saved, 3 here\)"):
         run_experiment(cfg, out, progress=False)
+
+
+@pytest.mark.slow
+def test_a_crash_after_every_target_resumes_them_all_from_their_checkpoints(
+    tmp_path, monkeypatch
+):
+    # Killed in the next method, once every target of the first has its checkpoint: the
+    # resumed job takes each finished target from its own checkpoint, the second as well
+    # as the first (each compared with the state after the sources only).
+    cfg, straight, out, job = _crashed(
+        tmp_path, monkeypatch, lambda learner, name: learner.provenance["method"] == "scratch")
+    for index in range(len(SOURCES), len(SOURCES) + len(TARGETS)):
+        assert (job / "ilpss" / f"target_{index:02d}" / "LATEST").exists()
+
+    trials, done, resumed = _resumed(cfg, out, monkeypatch)
+    assert trials == [*SOURCES, *TARGETS]  # learning anew only
+    assert done.resumed == {"ilpss": len(SOURCES) + len(TARGETS), "scratch": 0}
+    assert resumed == straight
 
 
 @pytest.mark.slow
@@ -214,35 +246,3 @@ def test_a_learner_setting_added_later_is_recorded_only_when_set(name, default, 
     assert recorded == (list(value) if isinstance(value, tuple) else value)
     assert base.to_dict()["lifelong"]["learner"][name] == default
 
-
-@pytest.mark.slow
-def test_a_crash_after_every_target_resumes_them_all_from_their_checkpoints(
-    tmp_path, monkeypatch
-):
-    # Killed in the next method, once every target of the first has its checkpoint: the
-    # resumed job must take each finished target from its own checkpoint, the second as
-    # well as the first (each compared with the state after the sources only).
-    cfg = _several().with_overrides(methods=("ilpss", "scratch"), n_seeds=1)
-    straight = run_experiment(cfg, tmp_path / "straight", progress=False)
-    real = LifelongLearner.run_trial
-
-    def crash_in_the_next_method(self, env, name, callback=None):
-        if self.provenance["method"] == "scratch":
-            raise KeyboardInterrupt("killed")
-        return real(self, env, name, callback)
-
-    monkeypatch.setattr(LifelongLearner, "run_trial", crash_in_the_next_method)
-    out = tmp_path / "crashed"
-    with pytest.raises(KeyboardInterrupt):
-        run_experiment(cfg, out, progress=False)
-    job = out / "seed_000" / "stream_00"
-    for index in range(len(SOURCES), len(SOURCES) + len(TARGETS)):
-        assert (job / "ilpss" / f"target_{index:02d}" / "LATEST").exists()
-
-    monkeypatch.setattr(LifelongLearner, "run_trial", real)
-    trials = _count_trials(monkeypatch)
-    done = []
-    resumed = run_experiment(cfg, out, progress=False, on_done=lambda s, d: done.append(d))
-    assert trials == [*SOURCES, *TARGETS]  # learning anew only
-    assert done[0].resumed == {"ilpss": len(SOURCES) + len(TARGETS), "scratch": 0}
-    assert resumed == straight

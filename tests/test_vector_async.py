@@ -204,3 +204,17 @@ def test_step_after_a_send_without_its_recv_is_refused():
     obs, *_ = venv.recv()  # the send's results are still there
     assert obs.shape == (3, 9)
     venv.step(np.zeros(3, dtype=int))
+
+
+def test_recv_of_every_drill_hands_out_env_ids_of_the_callers_own():
+    """With every drill's result at once, ``env_id`` is a new array each time: writing into
+    it changes nothing of the environment's."""
+    env = HolderVectorEnv(num_envs=3, opponent="chasers", batch_size=3)
+    env.async_reset(seed=0)
+    *_, info = env.recv()
+    ids = info["env_id"]
+    assert ids.tolist() == [0, 1, 2] and ids.flags.writeable
+    ids[:] = 7
+    env.send(np.zeros(3, dtype=np.int64), np.arange(3))
+    *_, info = env.recv()
+    assert info["env_id"].tolist() == [0, 1, 2]

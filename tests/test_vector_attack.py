@@ -11,32 +11,39 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from soccer_drill import scenarios
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.vector import ParallelVectorEnv
 from soccer_drill.vector.attack import ATTACKS, SCORING_RULES, HolderRuleAttack, attack_code
 
 
-def _batched(attack: str, n: int, seed: int, action: int = 0) -> np.ndarray:
+def _batched(attack: str, n: int, seed: int, action: int = 0,
+             scenario: str = "drill_2v2") -> np.ndarray:
     """The attackers' reward in each drill, one episode each, the defenders always taking
     ``action``."""
-    env = ParallelVectorEnv(n, attack=attack)
-    assert env.possible_agents == ["defender_0", "defender_1"]
+    env = ParallelVectorEnv(n, attack=attack, config=scenarios.scenario(scenario).config())
+    defenders = [f"defender_{k}" for k in range(scenarios.scenario(scenario).defenders)]
+    assert env.possible_agents == defenders
     env.reset(seed=seed)
     out = np.full(n, np.nan)
     while np.isnan(out).any():
         _, rewards, term, trunc, _ = env.step({a: np.full(n, action) for a in env.agents})
         done = (term["defender_0"] | trunc["defender_0"]) & np.isnan(out)
-        assert np.array_equal(rewards["defender_0"], rewards["defender_1"])
+        for other in defenders[1:]:
+            assert np.array_equal(rewards["defender_0"], rewards[other])
         out[done] = -rewards["defender_0"][done]
     return out
 
 
-@pytest.mark.parametrize("rule", ["late_pass", "shield_pass"])
-def test_a_scripted_attack_plays_the_holder_environment_episode_for_episode(rule):
+@pytest.mark.parametrize(("rule", "scenario"), [
+    ("late_pass", "drill_2v2"), ("shield_pass", "drill_2v2"), ("lane", "drill_3v2"),
+    ("late_pass", "drill_3v3"), ("dribble", "drill_1v1")])
+def test_a_scripted_attack_plays_the_holder_environment_episode_for_episode(rule, scenario):
     # defenders that always INTERCEPT at full speed are the team `chasers`
     n, seed = 30, 500
-    batched = _batched(rule, n, seed)
-    env = gym.make("soccer_drill/Holder-v0", opponent="chasers", disable_env_checker=True)
+    batched = _batched(rule, n, seed, scenario=scenario)
+    env = gym.make(scenarios.scenario(scenario).gym_id, opponent="chasers",
+                   disable_env_checker=True)
     single = []
     for i in range(n):
         obs, _ = env.reset(seed=seed + i)

@@ -51,7 +51,7 @@ def test_the_batched_rewards_are_those_of_the_active_drills_that_ended(n):
         _random_states(batch, rng)
         active = rng.random(n) < 0.7
         codes = [outcome(batch.pos[i], int(batch.holder[i]), int(batch.cycle[i]),
-                         cfg.field_size, cfg.max_cycles, cfg.attackers) for i in range(n)]
+                         cfg.field_size, cfg.max_cycles, cfg.attackers, 1) for i in range(n)]
         batch.outcome[:] = codes
         batch.attacker_reward[:] = 0.0
         batch._rewards(active)

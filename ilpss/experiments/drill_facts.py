@@ -202,6 +202,21 @@ def drill_object(spec: str) -> Any:
     return getattr(importlib.import_module(module), attribute)
 
 
+KEEPAWAY_ENV_IDS = {"keepaway_3v2": "soccer_drill/Keepaway3v2-v0",
+                    "keepaway_4v3": "soccer_drill/Keepaway4v3-v0"}
+"""The keepaway scenarios' Gymnasium ids (the keeper with the ball's SMDP), by name."""
+KEEPER_POLICIES = "soccer_drill.keepaway_policies:KEEPER_POLICIES"
+"""Keepaway's fixed keeper policies (``hand_coded``, ``random``, ``hold``): name to
+``rule(obs, rng)``."""
+KEEPAWAY_LAYOUT = "soccer_drill.keepaway_policies:keepaway_layout"
+"""``keepaway_layout(obs) -> (keepers, takers)`` of keepaway's state variables (their
+last ``keepers - 1`` are the passing lanes' angles, in degrees; the rest distances, in
+metres)."""
+KEEPAWAY_VECTOR_ENV = "soccer_drill.scenarios:holder_vector_env"
+"""``holder_vector_env(name, num_envs)``: a keepaway scenario's batched SMDP, for
+:data:`PLAY_EPISODES` (which pays keepaway's seconds)."""
+
+
 SCENARIO = "drill_2v2"
 """The paper's drill: the default of ``ExperimentConfig.scenario``."""
 SCENARIOS = "soccer_drill.scenarios:SCENARIOS"
@@ -270,8 +285,10 @@ class HolderDrill:
 
 
 def scenario_names() -> tuple[str, ...]:
-    """The names of the drill's scenarios."""
-    return tuple(drill_object(SCENARIOS))
+    """The names of the drill's scenarios: those of its task ``drill`` (keepaway's, whose
+    holder has other features and pays by the second, have their own experiment,
+    :mod:`ilpss.experiments.keepaway`)."""
+    return tuple(name for name, s in drill_object(SCENARIOS).items() if s.task == "drill")
 
 
 def holder_drill(scenario: str) -> HolderDrill:

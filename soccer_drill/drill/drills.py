@@ -111,11 +111,12 @@ class BatchDrill:
             setattr(self, name, self.state[name])
         for name in _COMMANDS:
             setattr(self, name, self.commands[name])
+        self._new_vel = self.commands["new_vel"]  # what the physics is given each cycle
         self.params, self.table = rule_parameters(self.config), roll_table(self.config)
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        for name in (*self.state.dtype.names, *_COMMANDS, "params", "table"):
+        for name in (*self.state.dtype.names, *_COMMANDS, "_new_vel", "params", "table"):
             del state[name]
         return state
 
@@ -155,7 +156,7 @@ class BatchDrill:
             for i in np.flatnonzero(cycle["passing"]).tolist():
                 noise[i] = rngs[i].normal(size=2)
             before_physics_of_drills(active, False, state, cycle, params, table)
-        players = self.physics.cycle(self.pos, cycle["new_vel"],
+        players = self.physics.cycle(self.pos, self._new_vel,
                                      active if n_active < self.n else None)
         tackling, ended = after_physics_of_drills(active, players, state, cycle, params)
         self.cycles_run += n_active
@@ -175,7 +176,8 @@ class BatchDrill:
             if taken >= 0:
                 self.holder[i] = taken
                 self.outcome[i] = outcome(self.pos[i], taken, self.cycle[i], cfg.field_size,
-                                          cfg.max_cycles, cfg.attackers)
+                                          cfg.max_cycles, cfg.attackers,
+                                          self.params[0]["goal_line"])
 
     def _rewards(self, active: np.ndarray) -> None:
         """The attackers' reward in the active drills whose episode has ended."""

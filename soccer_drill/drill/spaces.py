@@ -42,14 +42,67 @@ _BALL_FILTER = pymunk.ShapeFilter(categories=0, mask=0)  # the ball's shape meet
 _set_velocity = pymunk.Body.velocity.fset
 _set_position = pymunk.Body.position.fset
 _set_filter = pymunk.Shape.filter.fset
-try:  # chipmunk's own step, behind Space.step
+try:  # chipmunk's own step, behind Space.step, and the C side of pymunk.batch
+    from pymunk._chipmunk import ffi as _ffi
     from pymunk._chipmunk import lib as _chipmunk
 
     _SPACE_STEP = _chipmunk.cpSpaceStep
+    _SET_VELOCITY = _chipmunk.cpBodySetVelocity
+    _EACH_BODY = _chipmunk.cpSpaceEachBody
+    _READ_BODY = _ffi.addressof(_chipmunk, "pmSpaceBodyGetIteratorFuncBatched")
+    _WRITE_BODY = _ffi.addressof(_chipmunk, "pmSpaceBodySetIteratorFuncBatched")
+    _FLOAT_BYTES = _ffi.sizeof("cpFloat")
 except (ImportError, AttributeError):  # pragma: no cover - another pymunk build
-    _SPACE_STEP = None
+    _SPACE_STEP = _SET_VELOCITY = _EACH_BODY = None
 _FIELDS = pmb.BodyFields.POSITION | pmb.BodyFields.VELOCITY
-_get_space_bodies, _frombuffer = pmb.get_space_bodies, np.frombuffer
+_frombuffer = np.frombuffer
+
+
+class BatchedBodies:
+    """Every body of a space read, or written, through one ``pymunk.batch.Buffer``: its
+    position and velocity (``x, y, vx, vy`` per body, in the space's order).
+
+    What ``pymunk.batch.get_space_bodies`` and ``set_space_bodies`` do, the same C
+    iteration, with its C arguments made once: those functions make them anew at each
+    call (a C struct, an enum's value, a function's address), which costs about as much
+    as the C call itself. With a pymunk build without these C functions (or its batch
+    buffers' C arrays), through ``pymunk.batch``.
+    """
+
+    def __init__(self, buffer: pmb.Buffer) -> None:
+        self.buffer = buffer
+        self._data = self._floats = self._ints = None
+        if _EACH_BODY is None:  # pragma: no cover - another pymunk build
+            return
+        try:
+            floats, ints = buffer._float_arr, buffer._int_arr
+            data = _ffi.new("pmBatchedData *")
+            data.fields, data.floatArray, data.intArray = _FIELDS.value, floats, ints
+        except (AttributeError, TypeError):  # pragma: no cover - another pymunk build
+            return
+        self._data, self._floats, self._ints = data, floats, ints
+
+    def read(self, space: pymunk.Space) -> np.ndarray:
+        """Every body of ``space``, flat: ``x, y, vx, vy`` each (a view of the buffer,
+        overwritten by the next read)."""
+        floats = self._floats
+        if floats is None:  # pragma: no cover - another pymunk build
+            self.buffer.clear()
+            pmb.get_space_bodies(space, _FIELDS, self.buffer)
+            return _frombuffer(self.buffer.float_buf(), dtype=np.float64)
+        floats.num = self._ints.num = 0  # as Buffer.clear
+        _EACH_BODY(space._space, _READ_BODY, self._data)
+        return _frombuffer(_ffi.buffer(floats.arr, _FLOAT_BYTES * floats.num), dtype=np.float64)
+
+    def write(self, space: pymunk.Space) -> None:
+        """Every body of ``space`` set from the buffer (its array, ``x, y, vx, vy`` each)."""
+        floats = self._floats
+        if floats is None:  # pragma: no cover - another pymunk build
+            pmb.set_space_bodies(space, _FIELDS, self.buffer)
+            return
+        count, floats.num = floats.num, 0  # read from the start, as set_space_bodies
+        _EACH_BODY(space._space, _WRITE_BODY, self._data)
+        floats.num = count
 DRILLS_PER_SPACE = 64
 """The default number of drills sharing one pymunk space."""
 
@@ -62,6 +115,15 @@ def space_step(space: pymunk.Space) -> Callable[[float], object]:
     if _SPACE_STEP is not None and hasattr(space, "_space"):
         return functools.partial(_SPACE_STEP, space._space)
     return space.step
+
+
+def velocity_setters(bodies: Sequence[pymunk.Body]) -> list[Callable[[Sequence[float]], object]]:
+    """For each body, a call setting its velocity to ``(vx, vy)``: chipmunk's
+    ``cpBodySetVelocity`` on the body when this pymunk has it (what ``Body.velocity``'s
+    setter calls, without its Python), else that setter."""
+    if _SET_VELOCITY is not None and all(hasattr(body, "_body") for body in bodies):
+        return [functools.partial(_SET_VELOCITY, body._body) for body in bodies]
+    return [functools.partial(_set_velocity, body) for body in bodies]  # pragma: no cover
 
 
 def check_batch_order(space: pymunk.Space, bodies: Sequence[pymunk.Body]) -> None:
@@ -117,19 +179,21 @@ class DrillSpace:
     def __init__(self, config: DrillConfig) -> None:
         self.config = config
         self._sub_dt, self._substeps = config.cycle_seconds / config.substeps, config.substeps
-        self._buffer = pmb.Buffer()  # reused: one batched read per cycle
+        self._reader = BatchedBodies(pmb.Buffer())  # reused: one batched read per cycle
         self.renew(np.zeros(1, dtype=np.int64), np.zeros((1, config.players + 1, 2)))
         check_batch_order(self.space, self._bodies)
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        del state["_buffer"], state["_step"]  # C handles, not picklable: a copy makes its own
+        # C handles, not picklable: a copy makes its own
+        del state["_reader"], state["_step"], state["_velocities"]
         return state
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
-        self._buffer = pmb.Buffer()
+        self._reader = BatchedBodies(pmb.Buffer())
         self._step = space_step(self.space)
+        self._velocities = velocity_setters(self._bodies)
         with SignalsDeferred():
             keep(self, 0, self.space)
 
@@ -160,6 +224,7 @@ class DrillSpace:
             _set_position(body, p)
         self.space = space
         self._step = space_step(space)
+        self._velocities = velocity_setters(self._bodies)
         keep(self, 0, space)  # the space replaced is freed here
 
     def cycle(self, pos: np.ndarray, vel: np.ndarray, active: np.ndarray | None) -> np.ndarray:
@@ -167,19 +232,15 @@ class DrillSpace:
         ball's too, so that it moves in the space as on the arrays). The players start where
         the last cycle left them (``pos`` is not read). Returns the players, ``(1,
         players, 4)``."""
-        for body, (vx, vy) in zip(self._bodies, vel[0].tolist(), strict=True):
-            _set_velocity(body, (vx, vy))
+        for set_velocity, v in zip(self._velocities, vel[0].tolist(), strict=True):
+            set_velocity(v)
         step, sub_dt = self._step, self._sub_dt
         for _ in range(self._substeps):
             step(sub_dt)
         # One batched read of every body: x, y, vx, vy each, the players first
         # (check_batch_order), then the ball and the space's static body.
-        buffer = self._buffer
-        buffer.clear()
-        _get_space_bodies(self.space, _FIELDS, buffer)
         players = len(self._bodies) - 1
-        return _frombuffer(buffer.float_buf(), dtype=np.float64)[:4 * players].reshape(
-            1, players, 4)
+        return self._reader.read(self.space)[:4 * players].reshape(1, players, 4)
 
 
 class BatchPhysics:
@@ -228,7 +289,7 @@ class BatchPhysics:
         self._bodies: list[np.ndarray] = [None] * k  # type: ignore[list-item]  # (count, players, 4) views
         self._steps: list = [None] * k
         self._fresh = np.ones(k, dtype=bool)  # built and not stepped since: nothing to forget
-        self._get_buffer = pmb.Buffer()
+        self._reader = BatchedBodies(pmb.Buffer())
         self.offsets = np.zeros((self.n, 2))  # (n, 2): where each drill's region starts in its space
         self._offsets = self.offsets[:, None, :]
         for space in range(k):
@@ -274,9 +335,7 @@ class BatchPhysics:
         space.step(0.0)  # Space.step's checks of the new bodies, once; nothing moves
         check_batch_order(space, bodies)
         array = np.zeros((cfg.players * count + 1, 4))  # x, y, vx, vy per body, then the static body
-        self._get_buffer.clear()
-        pmb.get_space_bodies(space, _FIELDS, self._get_buffer)
-        array[:] = np.frombuffer(self._get_buffer.float_buf(), dtype=np.float64).reshape(-1, 4)
+        array[:] = self._reader.read(space).reshape(-1, 4)
         self.spaces[k] = space
         self._arrays[k] = array
         self._attach(k)
@@ -289,7 +348,7 @@ class BatchPhysics:
         space, array = self.spaces[k], self._arrays[k]
         buffer = pmb.Buffer()
         buffer.set_float_buf(array)
-        self._set_buffers[k] = buffer
+        self._set_buffers[k] = BatchedBodies(buffer)
         self._bodies[k] = array[:-1].reshape(-1, self.config.players, 4)
         self._steps[k] = space_step(space)
 
@@ -297,7 +356,7 @@ class BatchPhysics:
         """Everything but the C handles and the views, which a copy makes anew; pymunk's
         spaces copy themselves, their contacts included."""
         state = self.__dict__.copy()
-        for name in ("_set_buffers", "_get_buffer", "_steps", "_bodies", "_offsets"):
+        for name in ("_set_buffers", "_reader", "_steps", "_bodies", "_offsets"):
             del state[name]
         return state
 
@@ -305,7 +364,7 @@ class BatchPhysics:
         self.__dict__.update(state)
         k = len(self.spaces)
         self._set_buffers, self._bodies, self._steps = [None] * k, [None] * k, [None] * k
-        self._get_buffer = pmb.Buffer()
+        self._reader = BatchedBodies(pmb.Buffer())
         self._offsets = self.offsets[:, None, :]
         with SignalsDeferred():
             for space in range(k):
@@ -327,7 +386,7 @@ class BatchPhysics:
         offsets, out = self._offsets, self._out
         sub_dt, substeps = self._sub_dt, self.config.substeps
         stepped = []
-        for k, (sl, bodies, buffer, space, step) in enumerate(zip(
+        for k, (sl, bodies, writer, space, step) in enumerate(zip(
             self._slices, self._bodies, self._set_buffers, self.spaces, self._steps, strict=True
         )):
             if active is not None and not np.count_nonzero(active[sl]):
@@ -335,17 +394,14 @@ class BatchPhysics:
             self._fresh[k] = False
             np.add(pos[sl, :-1], offsets[sl], out=bodies[..., 0:2])
             bodies[..., 2:4] = vel[sl, :-1]
-            pmb.set_space_bodies(space, _FIELDS, buffer)
+            writer.write(space)
             stepped.append((sl, space, step))
         for _, _, step in stepped:
             for _ in range(substeps):
                 step(sub_dt)
-        get, buffer = pmb.get_space_bodies, self._get_buffer
+        read = self._reader.read
         for sl, space, _ in stepped:
-            buffer.clear()
-            get(space, _FIELDS, buffer)
-            rows = np.frombuffer(buffer.float_buf(), dtype=np.float64)[:-4].reshape(
-                -1, self.config.players, 4)
+            rows = read(space)[:-4].reshape(-1, self.config.players, 4)
             np.subtract(rows[..., 0:2], offsets[sl], out=out[sl, :, 0:2])
             out[sl, :, 2:4] = rows[..., 2:4]
         return out

@@ -42,6 +42,7 @@ from soccer_drill.rendering.screen import RENDER_MODES, HeaderTexts, Screen, fra
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.rules.features import GLOBAL_STATE
 from soccer_drill.rules.motion import ranked_teammate
+from soccer_drill.rules.task_rules import cycle_reward
 from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
 
 ObsFormat = Literal["dict", "flat"]
@@ -57,8 +58,7 @@ _RUNNING = int(Outcome.RUNNING)  # read once: an enum member's lookup costs abou
 _ROLE_FLAG = (np.zeros(1, dtype=np.float32), np.ones(1, dtype=np.float32))  # defender, attacker
 _ONE = np.zeros(1, dtype=np.int64)  # the single environment's one drill
 _ACTIVE = np.ones(1, dtype=bool)
-_PLAYER = tuple(np.full(1, i, dtype=np.int64) for i in range(8))
-for _array in (_ONE, _ACTIVE, *_PLAYER):
+for _array in (_ONE, _ACTIVE):
     _array.flags.writeable = False
 # The same masks as tuples of bools, for checking an action (indexing a tuple is cheaper).
 _HOLDER_LEGAL = tuple(bool(x) for x in HOLDER_MASK)
@@ -106,6 +106,7 @@ class _DrillEnvBase(HeaderTexts, Pickled):
         self._core = BatchCore(1, opponent, opponent_params, cfg, team_timeout, False, None)
         self._batch = self._core.batch
         self.config = cfg
+        self._paid = cycle_reward(cfg)  # the attackers' pay per cycle: keepaway's seconds
         self.render_mode = render_mode
         self.shared_spaces = shared_spaces
         self._flat = obs_format == "flat"
@@ -119,6 +120,14 @@ class _DrillEnvBase(HeaderTexts, Pickled):
         indices = range(attackers) if opponent is not None else range(cfg.players)
         self.possible_agents = [names[i] for i in indices]
         self._index = {name: names.index(name) for name in self.possible_agents}
+        # Every agent's observation in one call: one row per agent (_plain).
+        self._agent_players = np.array(list(self._index.values()), dtype=np.int64)
+        self._agent_drills = np.zeros(len(self._agent_players), dtype=np.int64)
+        for array in (self._agent_players, self._agent_drills):
+            array.flags.writeable = False
+        self._agent_row = {i: row for row, i in enumerate(self._index.values())}
+        self._seen: np.ndarray | None = None
+        self._seen_at = -1  # the drill's steps when _seen was computed
         box = self._observe.box
         if shared_spaces:  # a trailing role flag tells one shared policy which side it plays
             box = spaces.Box(
@@ -166,7 +175,13 @@ class _DrillEnvBase(HeaderTexts, Pickled):
 
     # ---------------------------------------------------------- observations
     def _plain(self, i: int) -> np.ndarray:
-        return self._observe(self._batch.state, _ONE, _PLAYER[i])[0]
+        """Player ``i``'s observation, a new array: a row of every agent's, computed in
+        one call once per state of the drill (``BatchDrill.steps``: a cycle, a reset)."""
+        batch = self._batch
+        if self._seen_at != batch.steps:
+            self._seen = self._observe(batch.state, self._agent_drills, self._agent_players)
+            self._seen_at = batch.steps
+        return self._seen[self._agent_row[i]].copy()
 
     def _with_role(self, i: int) -> np.ndarray:
         return np.concatenate((self._plain(i), _ROLE_FLAG[i < self._attackers]))
@@ -446,7 +461,10 @@ class raw_env(_DrillEnvBase, AECEnv):
     | timeout (``max_cycles`` cycles pass) | -1 |
 
     Defenders receive the negation (zero-sum). All values are configurable in
-    :class:`~soccer_drill.config.DrillConfig`.
+    :class:`~soccer_drill.config.DrillConfig`. In keepaway (``DrillConfig(task=
+    "keepaway")``) every cycle pays the attackers (the keepers) its ``cycle_seconds`` and
+    the defenders (the takers) its negation, and the end pays nothing more: an episode's
+    return is its length; the agents keep the drill's actions (a keeper may dribble).
 
     ## Episode end
 
@@ -622,10 +640,18 @@ class raw_env(_DrillEnvBase, AECEnv):
             self.infos[agent] = self._step_info(agent, None)
             self._reported.discard(agent)
         self._cumulative_rewards[agent] = 0.0
+        if self._paid:  # a step pays only when it ends a cycle (keepaway's seconds)
+            self._clear_rewards()
         if agent == self._last_agent:
             self._core.advance(_ACTIVE, _ONE)
+            if self._paid:  # keepaway: every cycle pays its seconds, the takers lose them
+                for name in self.agents:
+                    self.rewards[name] = (self._paid if self._index[name] < self._attackers
+                                          else -self._paid)
             if self._batch.outcome[0] != _RUNNING:
                 reward = float(self._batch.attacker_reward[0])
+                if self._paid:
+                    reward += self._paid
                 info = self._outcome_info()
                 done = info["outcome"] != "timeout"
                 for name in self.agents:
@@ -637,9 +663,12 @@ class raw_env(_DrillEnvBase, AECEnv):
                 # The only cycle with rewards: before it they are all zero, so clearing
                 # and accumulating them on every step would change nothing.
                 self._accumulate_rewards()
-            elif self._flat:  # masks change with possession
-                for name in self.agents:
-                    self.infos[name]["action_mask"] = self._mask(self._index[name])
+            else:
+                if self._paid:
+                    self._accumulate_rewards()
+                if self._flat:  # masks change with possession
+                    for name in self.agents:
+                        self.infos[name]["action_mask"] = self._mask(self._index[name])
             if self._screen.each_cycle:
                 self._after_cycle()
         self.agent_selection = self._next_agent[agent]
@@ -727,11 +756,15 @@ class parallel_env(_DrillEnvBase, ParallelEnv):
             infos = {a: self._step_info(a, replaced.get(a)) for a in agents}
         else:
             infos = {a: {} for a in agents}
+        paid = self._paid  # keepaway's seconds per cycle; 0 in the drill
         if self._batch.outcome[0] == _RUNNING:
-            zeros = dict.fromkeys(agents, 0.0)
+            pays = ({a: paid if self._index[a] < self._attackers else -paid for a in agents}
+                    if paid else dict.fromkeys(agents, 0.0))  # (never a -0.0 in the drill)
             falses = dict.fromkeys(agents, False)
-            return obs, zeros, falses, dict(falses), infos
+            return obs, pays, falses, dict(falses), infos
         reward = float(self._batch.attacker_reward[0])
+        if paid:
+            reward += paid
         info = self._outcome_info()
         done = info["outcome"] != "timeout"
         rewards = {a: reward if self._index[a] < self._attackers else -reward for a in agents}

@@ -32,7 +32,7 @@ from soccer_drill.drill.spaces import DRILLS_PER_SPACE, DrillSpace
 from soccer_drill.rules.arrays import Outcome, rule_parameters
 from soccer_drill.rules.features import OBSERVATION_TYPES, ObservationType
 from soccer_drill.rules.first_use import warm_up
-from soccer_drill.rules.support import SupportDraws
+from soccer_drill.rules.task_rules import task_rules
 from soccer_drill.teams.driver import TeamDriver
 from soccer_drill.teams.registry import Team, check_team_timeout
 
@@ -163,8 +163,10 @@ class BatchCore:
         CPU-time bound of one call of the team, or of each drill's copy's (``None``: no
         bound).
     support
-        The attackers an environment names (:meth:`support_commands`) are driven by the
-        support behaviour (:mod:`soccer_drill.rules.support`).
+        The attackers an environment names are driven by the support behaviour of the
+        configuration's task (:attr:`support`: the drill's
+        :class:`~soccer_drill.rules.support.SupportDraws`, keepaway's ``GetOpen``:
+        :data:`~soccer_drill.rules.task_rules.TASK_RULES`).
     drills_per_space
         Drills sharing one pymunk space; ``None``: the single environments' one drill, in
         a space of its own with the ball a body too (:class:`DrillSpace`), whose errors
@@ -204,7 +206,7 @@ class BatchCore:
             self.team: TeamDriver | None = None
         else:
             self.team = TeamDriver(opponent, opponent_params, self.batch, team_timeout, single)
-        self.support = SupportDraws(n) if support else None
+        self.support = task_rules(config).support(n, config) if support else None
         self.attack = attack
         self.every = np.arange(n)
         self.every.flags.writeable = False
@@ -272,13 +274,6 @@ class BatchCore:
             self.team.reset(drills, list(team_seeds))
         if self.attack is not None:
             self.attack.reset(drills, list(team_seeds))
-
-    def support_commands(self, supporting: np.ndarray) -> None:
-        """The support behaviour's commands for attacker ``k`` in the drills where
-        ``supporting[:, k]`` (``(n, 2)`` bool)."""
-        b = self.batch
-        self.support.commands(b.state, b.commands, supporting,  # type: ignore[union-attr]
-                              self.config.field_size)
 
     def advance(self, active: np.ndarray, drills: np.ndarray | None = None) -> None:
         """One cycle of the drills where ``active`` (``drills``: the same as indices, if

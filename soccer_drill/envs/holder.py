@@ -6,6 +6,7 @@ Gymnasium environment (``soccer_drill/Holder-v0``).
 from __future__ import annotations
 
 import copy
+import functools
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
@@ -24,9 +25,9 @@ from soccer_drill.rendering.scene import FrameStyle, Scene
 from soccer_drill.rendering.screen import RENDER_MODES, HeaderTexts, Screen, frames_per_second
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.rules.compiled import compiled, warms
-from soccer_drill.rules.features import HOLDER_FEATURES
 from soccer_drill.rules.motion import ranked_teammate
-from soccer_drill.rules.support import SupportDraws
+from soccer_drill.rules.support import SupportDraws, support_commands
+from soccer_drill.rules.task_rules import cycle_reward, task_rules
 from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
 
 DECISION_CYCLES_RANGE = (1, 50)
@@ -43,21 +44,34 @@ def holder_action(attackers: int) -> Integer:
     return Integer(0, len(holder_action_names(attackers)) - 1)
 
 
-def check_holder_action(action: object, attackers: int = 2) -> int:
+def check_holder_action(action: object, attackers: int = 2,
+                        names: tuple[str, ...] | None = None) -> int:
     """``action`` as an int in [0, n - 1] (``n`` the holder's actions with ``attackers``
-    attackers: 3 in the 2v2 drill), as ``HolderEnv.step`` takes it: an int, a NumPy
-    integer or a 0-d integer array; bools, floats and values out of range are refused."""
+    attackers: 3 in the 2v2 drill; or the ``names`` given, a task's), as
+    ``HolderEnv.step`` takes it: an int, a NumPy integer or a 0-d integer array; bools,
+    floats and values out of range are refused."""
+    count = _action_count(attackers) if names is None else len(names)
+    if type(action) is int and 0 <= action < count:  # the common case
+        return action
     if isinstance(action, np.ndarray) and action.shape == ():
         action = action.item()
-    if not holder_action(attackers).allows(action):
-        raise ValueError(holder_action_refused(action, attackers))
+    names = holder_action_names(attackers) if names is None else names
+    if not Integer(0, len(names) - 1).allows(action):
+        raise ValueError(holder_action_refused(action, attackers, names))
     return int(action)  # type: ignore[call-overload]
 
 
-def holder_action_refused(action: object, attackers: int = 2) -> str:
+@functools.cache
+def _action_count(attackers: int) -> int:
+    return len(holder_action_names(attackers))
+
+
+def holder_action_refused(action: object, attackers: int = 2,
+                          names: tuple[str, ...] | None = None) -> str:
     """Why ``action`` is not a holder action, in the vocabulary's words."""
-    words = ", ".join(f"{k}={name}" for k, name in enumerate(holder_action_names(attackers)))
-    return f"action must be {holder_action(attackers).describe()} ({words}), got {action!r}"
+    names = holder_action_names(attackers) if names is None else names
+    words = ", ".join(f"{k}={name}" for k, name in enumerate(names))
+    return f"action must be {Integer(0, len(names) - 1).describe()} ({words}), got {action!r}"
 
 
 # ------------------------------------------------------------------ the loop
@@ -137,6 +151,17 @@ def _holder_commands(steps, cycle):
 
 
 @compiled
+def _cycle_commands(steps, state, cycle, supporting, support, size):
+    """:func:`_holder_commands`, then the support behaviour's commands where an attacker
+    is supported (:func:`~soccer_drill.rules.support.support_commands`, in the same call):
+    -1, or the first drill whose support draws ran out (finish with
+    :meth:`~soccer_drill.rules.support.SupportDraws.finish`)."""
+    if _holder_commands(steps, cycle):
+        return support_commands(state, cycle, supporting, support, 0, size)
+    return -1
+
+
+@compiled
 def _after_cycle(steps, state):
     """After a cycle: a drill's action goes on while its holder keeps the ball, for the
     cycles left; the drill runs on until an outcome, or until an attacker holds the ball
@@ -191,13 +216,22 @@ class HolderLoop:
         self.decision_cycles = checked("decision_cycles", decision_cycles, DECISION_CYCLES)
         cfg = core.config
         self.attackers = cfg.attackers
-        self.action_names = holder_action_names(cfg.attackers)
-        """The holder's actions, in index order (``HOLD, PASS, DRIBBLE`` in the 2v2 drill)."""
+        rules = task_rules(cfg)
+        self.action_names = rules.holder_actions(cfg.attackers)
+        """The holder's actions, in index order (``HOLD, PASS, DRIBBLE`` in the 2v2 drill;
+        keepaway's ``HOLD, PASS_1, PASS_2`` at 3v2)."""
+        self.cycle_reward = cycle_reward(cfg)
+        """What the attackers are paid per cycle of a step (0 in the drill; keepaway:
+        ``cycle_seconds``, its reward being the time the keepers hold the ball)."""
         self.steps = np.zeros(core.n, dtype=step_record(cfg.attackers))
+        if core.support is None:
+            raise ValueError("the holder loop needs a core with support players (support=True)")
+        self._field_size = cfg.field_size
+        self._drill_support = isinstance(core.support, SupportDraws)
         self.handed_to: str | None = None
-        self.observe = Observation(HOLDER_FEATURES, cfg)
-        """The holder's observation (its features: the 9 in the 2v2 drill) of drills
-        (``observe(state, rows, players)``)."""
+        self.observe = Observation(rules.holder_observation, cfg)
+        """The holder's observation (its features: the 9 in the 2v2 drill; keepaway's
+        state variables) of drills (``observe(state, rows, players)``)."""
         self._views()
 
     def _views(self) -> None:
@@ -234,11 +268,30 @@ class HolderLoop:
         """One cycle of every drill whose step runs (``drills``: their indices, if the
         caller has them); returns how many still run."""
         core, steps = self.core, self.steps
-        batch = core.batch
-        if _holder_commands(steps, batch.commands):
-            core.support_commands(self._supporting)
+        batch, support, size = core.batch, core.support, self._field_size
+        if self._drill_support:  # the holder's and the support's commands in one call
+            start = _cycle_commands(steps, batch.state, batch.commands, self._supporting,
+                                    support.records, size)
+            if start >= 0:
+                support.finish(batch.state, batch.commands, self._supporting, size, start)
+        elif _holder_commands(steps, batch.commands):  # another task's support behaviour
+            support.commands(batch.state, batch.commands, self._supporting, size)
         core.advance(self.running, drills)
         return _after_cycle(steps, batch.state)
+
+    def check_action(self, action: object) -> int:
+        """``action`` as an index of :attr:`action_names` (:func:`check_holder_action`)."""
+        return check_holder_action(action, self.attackers, self.action_names)
+
+    def rewards(self, rows: np.ndarray, durations: np.ndarray) -> np.ndarray:
+        """The reward of the steps of drills ``rows`` that lasted ``durations`` cycles:
+        the attackers' reward where the episode ended, plus the task's pay per cycle
+        (keepaway's seconds; none in the drill, whose steps pay only at the end)."""
+        b = self.core.batch
+        rewards = np.where(b.outcome[rows] != _RUNNING, b.attacker_reward[rows], 0.0)
+        if self.cycle_reward:
+            rewards = rewards + self.cycle_reward * durations
+        return rewards
 
     def deciders(self, rows: np.ndarray) -> np.ndarray:
         """Whose observation each drill of ``rows`` returns: its holder, or at an end the
@@ -267,6 +320,8 @@ def _compile_loop(config: DrillConfig | None) -> None:
             _begin(steps, batch.state, chosen, np.zeros(n, dtype=np.int64), 4)
         _holder_commands(steps, batch.commands)
         support.commands(batch.state, batch.commands, steps["supporting"], cfg.field_size)
+        _cycle_commands(steps, batch.state, batch.commands, steps["supporting"], support.records,
+                        cfg.field_size)
         batch.step(steps["running"], rngs)
         _after_cycle(steps, batch.state)
 
@@ -298,18 +353,29 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
     (``PASS_1``, ``PASS_2``, ...), ``A`` ``DRIBBLE`` (keepaway's one pass per teammate;
     a lone attacker has ``HOLD`` and ``DRIBBLE``). :attr:`action_names` names them.
 
+    Keepaway (``DrillConfig(task="keepaway")``, the scenarios ``keepaway_3v2`` and
+    ``keepaway_4v3``): ``Discrete(A)``, ``HOLD`` and a pass to each other keeper, nearest
+    first (keepaway has no dribble).
+
     ## Observation space
 
     ``Box(9,)`` float32: the 9 features of the holder (units and bounds in
     :mod:`soccer_drill.rules.features`). With ``A`` attackers and ``D`` defenders,
     ``Box(4 (A - 1) + D + 3,)``: keepaway's features (teammates and opponents ordered by
     distance, a passing-lane angle per teammate) and the goal line's (the module's table).
+    Keepaway: keepaway's ``4 A + 2 D - 3`` state variables (13 at 3v2, 19 at 4v3:
+    :mod:`soccer_drill.rules.keepaway`).
 
     ## Rewards
 
     Zero until the episode ends; then success pays 1.0 at the centre of the goal
     line falling linearly to 0.5 at its ends, and an interception, the ball
     leaving the region or a timeout pays -1 (configurable in ``DrillConfig``).
+    Keepaway: every step pays the seconds it lasted (``duration * cycle_seconds``) and
+    the end nothing more, so an episode's return is its length; it ends when a taker
+    gains possession (interception) or the ball leaves the region (out), and is
+    truncated at ``max_cycles``. The other keepers get open (keepaway's ``GetOpen``)
+    instead of the drill's support behaviour.
 
     ## Episode end
 
@@ -416,6 +482,9 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
         """The names of the actions, in index order (``HOLD, PASS, DRIBBLE``: 2v2)."""
         self.observation_space = self.loop.observe.box
         self.action_space = spaces.Discrete(len(self.action_names))
+        # Whose observation, for one drill (writable, as loop.deciders returns them: the
+        # compiled observation's types).
+        self._players = tuple(np.full(1, i, dtype=np.int64) for i in range(self.config.players))
         self._busy_init()
         self._has_reset = False
 
@@ -473,7 +542,7 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
             holder = int(batch.holder[0])
             if self._screen.each_cycle:
                 self._screen.start(batch.state_of(0))
-            return loop.observe(batch.state, _ONE, batch.holder)[0], {
+            return loop.observe(batch.state, _ONE, self._players[holder])[0], {
                 "duration": 0, "cycles": 0, "outcome": None,
                 "holder": self.config.player_names[holder],
             }
@@ -490,7 +559,7 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
         batch = loop.core.batch
         if batch.outcome[0] != _RUNNING:
             raise RuntimeError("step() called after the episode ended; call reset()")
-        loop.begin(_ONE, np.array((check_holder_action(action, loop.attackers),)))
+        loop.begin(_ONE, np.array((loop.check_action(action),)))
         screen = self._screen
         while True:
             running = loop.cycle(_ONE)
@@ -499,17 +568,21 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
             if not running:
                 break
         code, cycle, holder = int(batch.outcome[0]), int(batch.cycle[0]), int(batch.holder[0])
-        obs = loop.observe(batch.state, _ONE, loop.deciders(_ONE))[0]
+        # loop.deciders(_ONE), for one drill without array work
+        decider = holder if 0 <= holder < loop.attackers else int(loop.decider[0])
+        obs = loop.observe(batch.state, _ONE, self._players[decider])[0]
         info = {
             "duration": cycle - int(loop.start[0]),
             "cycles": cycle,
             "outcome": OUTCOME_NAMES[code],
             "holder": self.config.player_names[holder] if code == _RUNNING else None,
         }
+        paid = loop.cycle_reward * info["duration"]  # keepaway's seconds; 0 in the drill
         if code == _RUNNING:
-            return obs, 0.0, False, False, info
+            return obs, paid, False, False, info
         truncated = code == _TIMEOUT
-        return obs, float(batch.attacker_reward[0]), not truncated, truncated, info
+        reward = float(batch.attacker_reward[0])
+        return obs, reward + paid if paid else reward, not truncated, truncated, info
 
     def render(self) -> np.ndarray | list[np.ndarray] | None:
         """The current frame, the frames since the last call, or ``None`` (see Rendering)."""

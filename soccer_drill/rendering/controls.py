@@ -4,8 +4,11 @@ by name in :data:`CONTROLS`, each driving its environment for the one play loop 
 
 | control | environment | you decide | the other attackers |
 |---|---|---|---|
-| ``holder`` (default) | ``HolderEnv``, the holder's SMDP | for whichever attacker holds the ball: HOLD, PASS, DRIBBLE | the support behaviour |
-| ``attacker`` | ``soccer_drill.parallel_env``, the four-player PettingZoo drill | for one attacker agent, on the ball and off it: its five actions, those its action mask allows now | a scripted attack's holder rule on the ball (``soccer_drill.attacks``); off the ball, chasing a loose ball no free mate is nearer to, else GET_OPEN |
+| ``holder`` (default) | ``HolderEnv``, the holder's SMDP | for whichever attacker holds the ball: HOLD, a PASS per teammate, DRIBBLE | the support behaviour |
+| ``attacker`` | the scenario's PettingZoo drill (``soccer_drill.scenarios.parallel_env``) | for one attacker agent, on the ball and off it: its actions, those its action mask allows now | a scripted attack's holder rule on the ball (``soccer_drill.attacks``); off the ball, chasing a loose ball no free mate is nearer to, else GET_OPEN |
+
+Either plays any named scenario (:mod:`soccer_drill.scenarios`: the paper's 2v2 drill by
+default, 1v1, 3v2, 3v3).
 
 In both a decision lasts ``decision_cycles`` cycles (HOLD, DRIBBLE, and off the ball
 GET_OPEN, GO_TO_BALL) or one kick (PASS), cut short when it can no longer go on: in the
@@ -33,26 +36,32 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
 import pygame  # after the prompt is hidden
 
-from soccer_drill.commands import ATTACKER_ACTIONS, HOLDER_ACTIONS, Skill
+from soccer_drill.commands import (
+    Skill,
+    attacker_action_names,
+    attacker_action_skills,
+    holder_action_names,
+)
+from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import NoneOr, OneOf, Text, check_fields, checked
-from soccer_drill.envs.agents import parallel_env
-from soccer_drill.envs.holder import DECISION_CYCLES, HolderEnv, check_holder_action
+from soccer_drill.envs.holder import DECISION_CYCLES, check_holder_action
 from soccer_drill.rendering.draw import roles
-from soccer_drill.state import PLAYER_NAMES, DrillState
+from soccer_drill.rules.features import holder_feature_indices
+from soccer_drill.scenarios import SCENARIOS, holder_env, parallel_env, scenario
+from soccer_drill.state import DrillState
 from soccer_drill.teams.registry import TEAMS
 from soccer_drill.vector.attack import ATTACKS, make_attack
 
 SKILL_KEYS = {Skill.HOLD: pygame.K_h, Skill.PASS: pygame.K_p, Skill.DRIBBLE: pygame.K_d,
               Skill.GET_OPEN: pygame.K_g, Skill.GO_TO_BALL: pygame.K_b}
-"""The letter key of each action's skill; action ``i`` of a space is also digit ``i + 1``."""
+"""The letter key of each action's skill (of the first action with that skill: ``P`` is
+the pass to the nearest teammate); action ``i`` of a space is also digit ``i + 1``."""
 DEFAULT_ATTACK = "late_pass"
 """The scripted attack playing the other attackers by default: the one fixed holder rule
 that succeeds in at least 70% of episodes against each of the four paper teams
 (``docs/opponents.md``)."""
 _LABEL = NoneOr(Text())
 _ONE = np.zeros(1, dtype=np.int64)  # an attack's one drill
-_GET_OPEN = ATTACKER_ACTIONS.index(Skill.GET_OPEN)
-_GO_TO_BALL = ATTACKER_ACTIONS.index(Skill.GO_TO_BALL)
 
 
 @dataclass(frozen=True)
@@ -62,6 +71,7 @@ class PlaySetup:
     | field | default | meaning |
     |---|---|---|
     | ``team`` | ``"goal_guards"`` | the defending team's id (``soccer-drill-teams`` lists them) |
+    | ``scenario`` | ``"drill_2v2"`` | a name of :data:`~soccer_drill.scenarios.SCENARIOS`: the drill's size |
     | ``control`` | ``"holder"`` | a name of :data:`CONTROLS`: ``"holder"`` or ``"attacker"`` |
     | ``player`` | ``None`` | ``attacker`` control: the agent you play, one of the drill's ``possible_agents`` (``None``: the first, ``attacker_0``) |
     | ``attack`` | ``None`` | ``attacker`` control: the id of the scripted attack (``soccer_drill.attacks``) playing the other attackers (``None``: :data:`DEFAULT_ATTACK`) |
@@ -70,13 +80,15 @@ class PlaySetup:
 
     team: str = "goal_guards"
     control: str = "holder"
+    scenario: str = "drill_2v2"
     player: str | None = None
     attack: str | None = None
     decision_cycles: int = 4
 
     def __post_init__(self) -> None:
         check_fields("PlaySetup", self, {
-            "control": OneOf(tuple(CONTROLS)), "player": _LABEL, "attack": _LABEL,
+            "control": OneOf(tuple(CONTROLS)), "scenario": OneOf(tuple(SCENARIOS)),
+            "player": _LABEL, "attack": _LABEL,
             "decision_cycles": DECISION_CYCLES,
         })
         TEAMS.check("PlaySetup.team", self.team)
@@ -112,21 +124,26 @@ class Control(Protocol):
 
 
 def action_keys(actions: Sequence[Skill]) -> dict[int, int]:
-    """Key code to action index for a space of ``actions``: each skill's letter and the
-    index's digit from 1."""
-    keys = {SKILL_KEYS[skill]: i for i, skill in enumerate(actions)}
+    """Key code to action index for a space of ``actions`` (their skills, in index order):
+    each skill's letter (:data:`SKILL_KEYS`) for its first action, and digit ``i + 1``
+    for action ``i``."""
+    keys: dict[int, int] = {}
+    for i, skill in enumerate(actions):
+        keys.setdefault(SKILL_KEYS[skill], i)
     keys.update({pygame.K_1 + i: i for i in range(len(actions))})
     return keys
 
 
-def key_text(actions: Sequence[Skill], which: Sequence[int] | None = None) -> str:
-    """``"H hold, P pass, ..."``: the keys of ``actions`` (those of ``which`` only)."""
+def key_text(actions: Sequence[Skill], names: Sequence[str],
+             which: Sequence[int] | None = None) -> str:
+    """``"H hold, P pass, ..."``: the key of each of ``actions`` (those of ``which`` only),
+    its letter if it has one, else its digit, and its name (``names``, in index order)."""
+    letters = {i: code for code, i in action_keys(actions).items()
+               if code in SKILL_KEYS.values()}
     which = range(len(actions)) if which is None else which
-    return ", ".join(f"{pygame.key.name(SKILL_KEYS[actions[i]]).upper()} "
-                     f"{actions[i].name.lower().replace('_', ' ')}" for i in which)
-
-
-_ROLES = dict(zip(PLAYER_NAMES, roles(PLAYER_NAMES), strict=True))
+    return ", ".join(
+        f"{pygame.key.name(letters[i]).upper() if i in letters else i + 1} "
+        f"{names[i].lower().replace('_', ' ')}" for i in which)
 
 
 class HolderControl:
@@ -138,13 +155,16 @@ class HolderControl:
                 "player and attack apply to control 'attacker' only (control 'holder' "
                 "decides for whichever attacker holds the ball; the support behaviour "
                 f"moves the other), got player={setup.player!r}, attack={setup.attack!r}")
-        self.env = HolderEnv(opponent=setup.team, render_mode="human",
-                             decision_cycles=setup.decision_cycles)
+        self.env = holder_env(setup.scenario, opponent=setup.team, render_mode="human",
+                              decision_cycles=setup.decision_cycles)
         self.env.policy_name = "you (keyboard)"
-        self.keys = action_keys(HOLDER_ACTIONS)
-        self._prompt = f"your move: {key_text(HOLDER_ACTIONS)}"
+        attackers = scenario(setup.scenario).attackers
+        names = holder_action_names(attackers)
+        actions = attacker_action_skills(attackers)[:len(names)]
+        self.keys = action_keys(actions)
+        self._prompt = f"your move: {key_text(actions, names)}"
         self.title = (f"soccer-drill-play: you decide for the ball holder against "
-                      f"{setup.team} ({key_text(HOLDER_ACTIONS)}; Esc stops)")
+                      f"{setup.team} ({key_text(actions, names)}; Esc stops)")
 
     def start(self, seed: int) -> None:
         self.env.reset(seed=seed)
@@ -163,12 +183,12 @@ class HolderControl:
 class RuleAttacker:
     """An attacker agent of the PettingZoo drill played by a scripted attack.
 
-    Holding the ball with no decision running, it asks the attack (``decide`` on its 9
-    features, as :class:`~soccer_drill.vector.attack.ScriptedAttack` does) and keeps the
-    decision ``decision_cycles`` cycles (a PASS: one), cut short when it loses the ball.
-    Off the ball it chases a loose ball when no other attacker that may take it (not the
-    passer while locked out) is nearer, else takes GET_OPEN: the support behaviour's
-    choice (:mod:`soccer_drill.rules.support`) in the agent's actions.
+    Holding the ball with no decision running, it asks the attack (``decide`` on the
+    holder's features, as :class:`~soccer_drill.vector.attack.ScriptedAttack` does) and
+    keeps the decision ``decision_cycles`` cycles (a PASS: one), cut short when it loses
+    the ball. Off the ball it chases a loose ball when no other attacker that may take it
+    (not the passer while locked out) is nearer, else takes GET_OPEN: the support
+    behaviour's choice (:mod:`soccer_drill.rules.support`) in the agent's actions.
 
     Parameters
     ----------
@@ -176,17 +196,20 @@ class RuleAttacker:
         An attack (``reset(drills, seeds)``, ``decide(drills, features)``), for one drill.
     agent
         The agent it plays.
-    attackers
-        Every attacker agent of the drill.
+    config
+        The drill's :class:`~soccer_drill.config.DrillConfig` (its players and size).
     decision_cycles
         The cycles a HOLD or DRIBBLE lasts.
     """
 
-    def __init__(self, attack: Any, agent: str, attackers: Sequence[str],
+    def __init__(self, attack: Any, agent: str, config: DrillConfig,
                  decision_cycles: int) -> None:
         self.attack, self.agent, self.decision_cycles = attack, agent, decision_cycles
-        self.index = PLAYER_NAMES.index(agent)
-        self.others = tuple(PLAYER_NAMES.index(a) for a in attackers if a != agent)
+        names, self.attackers = config.player_names, config.attackers
+        self.index = names.index(agent)
+        self.others = tuple(i for i in range(self.attackers) if i != self.index)
+        self.skills = attacker_action_skills(self.attackers)
+        self.holder_view = holder_feature_indices(config)
         self.action, self.left = 0, 0
 
     def reset(self, seed: int) -> None:
@@ -195,40 +218,38 @@ class RuleAttacker:
         self.action, self.left = 0, 0
 
     def act(self, observation: np.ndarray, state: DrillState) -> int:
-        """The action this cycle, given the agent's 9 features and the drill's state."""
+        """The action this cycle, given the agent's features (``obs_type="features"``)
+        and the drill's state."""
         if state.holder != self.index:
             self.left = 0
-            return _GO_TO_BALL if self._chases(state) else _GET_OPEN
+            wanted = Skill.GO_TO_BALL if self._chases(state) else Skill.GET_OPEN
+            return self.skills.index(wanted)
         if self.left == 0:
-            decided = np.asarray(self.attack.decide(_ONE, np.asarray(observation)[None, :]))
+            features = np.asarray(observation)[self.holder_view]
+            decided = np.asarray(self.attack.decide(_ONE, features[None, :]))
             if decided.shape != (1,):
                 raise ValueError(f"attack {self.attack!r}: decide() returned shape "
                                  f"{decided.shape}, expected (1,): one action for one drill")
-            self.action = check_holder_action(decided[0])
-            self.left = 1 if self.action == ATTACKER_ACTIONS.index(Skill.PASS) else (
-                self.decision_cycles)
+            self.action = check_holder_action(decided[0], self.attackers)
+            self.left = 1 if self.skills[self.action] is Skill.PASS else self.decision_cycles
         self.left -= 1
         return self.action
 
     def _chases(self, state: DrillState) -> bool:
         if state.holder >= 0:
             return False
-        ball = state.pos[-1]
-
-        def distance(i: int) -> float:
-            return float(np.hypot(state.pos[i][0] - ball[0], state.pos[i][1] - ball[1]))
-
-        mine = distance(self.index)
-        return not any(distance(i) < mine for i in self.others
+        mine = state.distance(self.index, len(state.pos) - 1)
+        return not any(state.distance(i, len(state.pos) - 1) < mine for i in self.others
                        if not (i == state.passer and state.cycle < state.lockout_until))
 
 
 class AttackerControl:
-    """You play one attacker agent of the four-player PettingZoo drill (every attacker is
+    """You play one attacker agent of the scenario's PettingZoo drill (every attacker is
     an agent there, the defenders the ``team``); a scripted attack plays the others."""
 
     def __init__(self, setup: PlaySetup) -> None:
-        env = parallel_env(opponent=setup.team, render_mode="human", illegal_action="raise")
+        env = parallel_env(setup.scenario, opponent=setup.team, render_mode="human",
+                           illegal_action="raise")
         agents = tuple(env.possible_agents)
         try:
             player = checked("player", agents[0] if setup.player is None else setup.player,
@@ -237,17 +258,24 @@ class AttackerControl:
             env.close()
             raise
         attack = DEFAULT_ATTACK if setup.attack is None else setup.attack
+        config = env.config
         self.env, self.player, self.decision_cycles = env, player, setup.decision_cycles
-        self.actions = ATTACKER_ACTIONS[:env.action_space(player).n]
+        self.index = config.player_names.index(player)
+        self.actions = attacker_action_skills(config.attackers)
+        self.names = attacker_action_names(config.attackers)
         self.keys = action_keys(self.actions)
-        self.mates = {a: RuleAttacker(make_attack(attack), a, agents, setup.decision_cycles)
+        self.mates = {a: RuleAttacker(make_attack(attack), a, config, setup.decision_cycles)
                       for a in agents if a != player}
-        self.role = _ROLES[player]
-        mates = ", ".join(f"{_ROLES[a]} {attack}" for a in self.mates)
+        role = dict(zip(config.player_names, roles(config.player_names), strict=True))
+        self.role = role[player]
+        mates = ", ".join(f"{role[a]} {attack}" for a in self.mates)
         env.policy_name = f"you {self.role}" + (f", {mates}" if mates else "")
         self.title = (f"soccer-drill-play: you are {self.role} ({player}) against "
-                      f"{setup.team}; {key_text(self.actions)} (when legal); Esc stops")
+                      f"{setup.team}; {self._keys()} (when legal); Esc stops")
         self._observations: dict[str, Any] = {}
+
+    def _keys(self, which: Sequence[int] | None = None) -> str:
+        return key_text(self.actions, self.names, which)
 
     def _mask(self) -> np.ndarray:
         return self.env.action_mask(self.player)
@@ -256,8 +284,8 @@ class AttackerControl:
         return np.flatnonzero(self._mask()).tolist()
 
     def _where(self) -> str:
-        return "holding the ball" if self.env.drill_state.holder == PLAYER_NAMES.index(
-            self.player) else "off the ball"
+        holding = self.env.drill_state.holder == self.index
+        return "holding the ball" if holding else "off the ball"
 
     def start(self, seed: int) -> None:
         self._observations, _ = self.env.reset(seed=seed)
@@ -268,13 +296,13 @@ class AttackerControl:
             mate.reset(mate_seed)
 
     def prompt(self) -> str:
-        return f"you {self.role}, {self._where()}: {key_text(self.actions, self._legal())}"
+        return f"you {self.role}, {self._where()}: {self._keys(self._legal())}"
 
     def refusal(self, action: int) -> str | None:
         if self._mask()[action]:
             return None
-        return (f"{self.actions[action].name} is masked for {self.player} now "
-                f"({self._where()}); legal: {key_text(self.actions, self._legal())}")
+        return (f"{self.names[action]} is masked for {self.player} now "
+                f"({self._where()}); legal: {self._keys(self._legal())}")
 
     def act(self, action: int) -> Ended | None:
         mask = self._mask().copy()

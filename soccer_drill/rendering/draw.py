@@ -27,6 +27,7 @@ import pygame
 from soccer_drill.config import DrillConfig
 from soccer_drill.rendering.scene import DEFAULT_STYLE, FrameStyle, Scene
 from soccer_drill.state import PLAYER_NAMES, DrillState
+from soccer_drill.tasks import TASKS
 
 MARGIN = 2.0  # metres drawn around the region, at least (more when the walls are further)
 HEADER = 46  # pixels: two lines of text over the field
@@ -170,6 +171,10 @@ class Renderer:
         x0, y0 = self._px(0, size)
         x1, y1 = self._px(size, 0)
         pygame.draw.rect(s, _LINE, (x0, y0, x1 - x0, y1 - y0), 1)
+        if not TASKS[cfg.task].goal_line:  # keepaway: the region's square is its boundary
+            pygame.draw.rect(s, _LINE, (x0, y0, x1 - x0, y1 - y0), 3)
+            self._text("keepaway region", ((x0 + x1) // 2, y1 + 4), self._small, centre=True)
+            return
         if not self.style.goal_shading:
             pygame.draw.line(s, _LINE, (x0, y1), (x1, y1), 3)
             return
@@ -255,7 +260,7 @@ class Renderer:
         x += 16 + self._text("holder", (x + 16, mid - 6), self._small) + 14
         pygame.draw.circle(s, _BALL, (x + 5, mid), 4)
         x += 14 + self._text("ball", (x + 14, mid - 6), self._small) + 14
-        if self.style.goal_shading:
+        if self.style.goal_shading and TASKS[self.config.task].goal_line:
             pygame.draw.rect(s, _GOAL_CENTRE, (x, mid - 4, 10, 8))
             self._text("goal line: brighter pays more", (x + 16, mid - 6), self._small)
 

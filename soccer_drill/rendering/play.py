@@ -5,6 +5,7 @@ Command line::
 
     soccer-drill-play --team goal_guards [--episodes N] [--seed 0]
     soccer-drill-play --team goal_guards --control attacker [--player attacker_0] [--attack late_pass]
+    soccer-drill-play --scenario drill_3v2 --team chasers [--control attacker]
 
 A window shows the drill at true speed (``render_mode="human"``). ``--control`` says what
 you decide for (:mod:`soccer_drill.rendering.controls`):
@@ -12,17 +13,21 @@ you decide for (:mod:`soccer_drill.rendering.controls`):
 | ``--control`` | environment | you decide |
 |---|---|---|
 | ``holder`` (default) | ``HolderEnv``, the holder's SMDP | for whichever attacker holds the ball |
-| ``attacker`` | the four-player PettingZoo drill (``soccer_drill.parallel_env``) | for one attacker agent (``--player``, default ``attacker_0``), on the ball and off it; a scripted attack (``--attack``, an id of ``soccer_drill.attacks``, default ``late_pass``) decides for the other attacker when it holds the ball |
+| ``attacker`` | the PettingZoo drill (``soccer_drill.scenarios.parallel_env``) | for one attacker agent (``--player``, default ``attacker_0``), on the ball and off it; a scripted attack (``--attack``, an id of ``soccer_drill.attacks``, default ``late_pass``) decides for the other attackers when they hold the ball |
+
+``--scenario`` picks the drill's size, a named scenario of :mod:`soccer_drill.scenarios`
+(``drill_2v2``, the paper's drill, by default; ``drill_1v1``, ``drill_3v2``,
+``drill_3v3``); the team must play its number of defenders.
 
 Whenever you must decide the drill waits for a key:
 
 | key | action |
 |---|---|
 | ``H`` or ``1`` | HOLD: shield the ball (holding it) |
-| ``P`` or ``2`` | PASS to the other attacker (holding it) |
-| ``D`` or ``3`` | DRIBBLE toward the goal line (holding it) |
-| ``G`` or ``4`` | GET_OPEN: run to a support spot (``attacker`` control, off the ball) |
-| ``B`` or ``5`` | GO_TO_BALL: run to the ball (``attacker`` control, off the ball) |
+| ``P`` or ``2`` | PASS to the other attacker (holding it); with more attackers, to the nearest teammate, and ``3`` ... to the next nearest |
+| ``D`` or the digit after the passes (``3`` in the 2v2 drill) | DRIBBLE toward the goal line (holding it) |
+| ``G`` or the next digit (``4``) | GET_OPEN: run to a support spot (``attacker`` control, off the ball) |
+| ``B`` or the next digit (``5``) | GO_TO_BALL: run to the ball (``attacker`` control, off the ball) |
 | ``Space`` or ``Enter`` | after an episode: the next one |
 | ``Esc``, ``Q`` or closing the window | stop |
 
@@ -54,6 +59,7 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # after the prompt is hidden
 
 from soccer_drill.rendering.controls import CONTROLS, DEFAULT_ATTACK, Control, PlaySetup
+from soccer_drill.scenarios import SCENARIOS
 from soccer_drill.vector.attack import ATTACKS
 
 NEXT_KEYS = frozenset({pygame.K_SPACE, pygame.K_RETURN})
@@ -160,21 +166,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point ``soccer-drill-play``."""
     parser = argparse.ArgumentParser(
         prog="soccer-drill-play", description=__doc__.split("\n\n")[0].replace("\n", " "),
-        epilog="keys: H/1 hold, P/2 pass, D/3 dribble (holding the ball); G/4 get open, "
-               "B/5 go to ball (--control attacker, off the ball); a key whose action is "
-               "masked now is refused. Space/Enter: next episode; Esc/Q: stop.")
+        epilog="keys (the 2v2 drill): H/1 hold, P/2 pass, D/3 dribble (holding the ball); "
+               "G/4 get open, B/5 go to ball (--control attacker, off the ball); with more "
+               "attackers P passes to the nearest teammate and the digits follow the actions "
+               "(the window's title lists them); a key whose action is masked now is "
+               "refused. Space/Enter: next episode; Esc/Q: stop.")
     parser.add_argument("--team", default="goal_guards", choices=team_ids(), metavar="TEAM",
                         help="the defending team (soccer-drill-teams lists them)")
+    parser.add_argument("--scenario", default="drill_2v2", choices=tuple(SCENARIOS),
+                        help="the drill's size: a named scenario (default: drill_2v2, the "
+                             "paper's drill)")
     parser.add_argument("--control", default="holder", choices=tuple(CONTROLS),
                         help="holder (default): decide for whichever attacker holds the ball "
                              "(the holder SMDP); attacker: play one attacker of the "
-                             "four-player PettingZoo drill, on and off the ball")
+                             "PettingZoo drill, on and off the ball")
     parser.add_argument("--player", default=None, metavar="AGENT",
                         help="--control attacker: the attacker agent you play (default: "
                              "attacker_0; one of the drill's possible_agents)")
     parser.add_argument("--attack", default=None, choices=ATTACKS.names(), metavar="ATTACK",
                         help="--control attacker: the scripted attack deciding for the other "
-                             f"attacker when it holds the ball (default: {DEFAULT_ATTACK}; "
+                             f"attackers when they hold the ball (default: {DEFAULT_ATTACK}; "
                              f"one of {', '.join(ATTACKS.names())})")
     parser.add_argument("--decision-cycles", type=int, default=4, metavar="N",
                         help="the cycles a decision lasts at most (default 4, 0.4 s)")
@@ -183,7 +194,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0, help="the first episode's seed")
     args = parser.parse_args(argv)
     try:
-        setup = PlaySetup(team=args.team, control=args.control, player=args.player,
+        setup = PlaySetup(team=args.team, control=args.control, scenario=args.scenario,
+                          player=args.player,
                           attack=args.attack, decision_cycles=args.decision_cycles)
         score = play(setup, args.episodes, args.seed)
     except (TeamError, ValueError, pygame.error) as exc:

@@ -25,6 +25,7 @@ import numpy as np
 
 from soccer_drill.config import DrillConfig
 from soccer_drill.interruptions import QuietIntEnum
+from soccer_drill.tasks import TASKS
 
 
 def state_record(players: int) -> np.dtype:
@@ -107,13 +108,16 @@ PARAMETERS = np.dtype([
     ("lockout_cycles", np.int64),
     ("max_cycles", np.int64),
     ("attackers", np.int64),
+    ("goal_line", np.int64),
 ])
 """The numbers of a configuration the rules read: top speeds, the control radius and
 speed, the ball's damping rate (per second) and top speed, the pass's arrival speed and
 noise (radians, fraction), the spacing of the rolling ball's table (seconds), the players'
 speed change per cycle, the cycle's length, where a held ball is kept, the ball's speed
 kept per cycle, the sub-step's length, the sub-steps, a pass's lock-out and the episode's
-length (cycles), the number of attackers (players ``0 .. attackers - 1``)."""
+length (cycles), the number of attackers (players ``0 .. attackers - 1``), and whether
+``y = 0`` is a goal line (1, the drill) or an edge of the region like the others (0,
+keepaway: :data:`~soccer_drill.tasks.TASKS`)."""
 
 
 class Outcome(QuietIntEnum):
@@ -166,6 +170,7 @@ def rule_parameters(cfg: DrillConfig) -> np.ndarray:
         "lockout_cycles": cfg.pass_lockout_cycles,
         "max_cycles": cfg.max_cycles,
         "attackers": cfg.attackers,
+        "goal_line": int(TASKS[cfg.task].goal_line),
     }
     for name, value in values.items():
         params[0][name] = value

@@ -154,7 +154,7 @@ def _as_records(function: Callable[..., Any]) -> Callable[..., Any]:
 
 
 _warmers: list[Callable[[Any], None]] = []
-_warmed: set[tuple[Callable[[Any], None], tuple[int, int]]] = set()
+_warmed: set[tuple[Callable[[Any], None], tuple[int, int, str]]] = set()
 
 
 def warms(warmer: W) -> W:
@@ -176,10 +176,12 @@ def warm_up(config: Any = None) -> None:
     compilation stops the program when it ends.
 
     ``config``: a drill's configuration (``None``: the default drill); the rules are
-    compiled once per number of attackers and defenders."""
+    compiled once per number of attackers and defenders and task (a task's own rules
+    are warmed for its configurations only)."""
     if not COMPILED:
         return
-    size = (2, 2) if config is None else (config.attackers, config.defenders)
+    size = ((2, 2, "drill") if config is None
+            else (config.attackers, config.defenders, config.task))
     for warmer in list(_warmers):
         if (warmer, size) not in _warmed:
             with SignalsDeferred():

@@ -29,6 +29,7 @@ from soccer_drill.config import DrillConfig
 from soccer_drill.rules.arrays import Outcome
 from soccer_drill.rules.compiled import compiled, hypot
 from soccer_drill.rules.motion import BallAction, motions_into
+from soccer_drill.tasks import TASKS
 
 _RUNNING, _SUCCESS, _INTERCEPTION, _OUT, _TIMEOUT = (int(o) for o in Outcome)  # as stored
 _NO_BALL, _CONTROL, _KICK = (int(a) for a in BallAction)  # as the motions hold them
@@ -166,16 +167,16 @@ def tackle(order: np.ndarray, tacklers: int, rng: np.random.Generator, probabili
 
 
 @compiled
-def outcome(pos, holder, cycle, size, max_cycles, attackers):
+def outcome(pos, holder, cycle, size, max_cycles, attackers, goal_line):
     """The outcome code of one drill's state: an interception (a defender, a player from
-    ``attackers`` on, holds the ball), a success (an attacker holds it on or past the goal
-    line, between the posts of the field's width), out (the ball left the field), a
-    timeout, else ``RUNNING``."""
+    ``attackers`` on, holds the ball), a success (with ``goal_line``, an attacker holds it
+    on or past the goal line, between the posts of the field's width), out (the ball left
+    the field), a timeout, else ``RUNNING``."""
     ball = pos.shape[0] - 1
     bx, by = pos[ball, 0], pos[ball, 1]
     if holder >= attackers:
         return _INTERCEPTION
-    if holder >= 0 and by <= 0.0 and 0.0 <= bx <= size:
+    if goal_line and holder >= 0 and by <= 0.0 and 0.0 <= bx <= size:
         return _SUCCESS
     if not (0.0 <= bx <= size and 0.0 <= by <= size):
         return _OUT
@@ -185,7 +186,10 @@ def outcome(pos, holder, cycle, size, max_cycles, attackers):
 
 
 def reward(code: int, ball_x: float, cfg: DrillConfig) -> float:
-    """The attackers' reward for an episode ending with outcome ``code``."""
+    """The attackers' reward for an episode ending with outcome ``code`` (nothing where the
+    task pays no outcome: keepaway pays the time, :data:`~soccer_drill.tasks.TASKS`)."""
+    if not TASKS[cfg.task].outcome_rewards:
+        return 0.0
     if code == Outcome.SUCCESS:
         return cfg.success_reward(ball_x)
     return cfg.reward_timeout if code == Outcome.TIMEOUT else cfg.reward_failure
@@ -250,7 +254,7 @@ def after_physics(state, cycle, players, dist, params):
     state.cycle += 1
     state.holder, cycle.tacklers = possession(state, cycle.order, dist, params)
     state.outcome = outcome(pos, state.holder, state.cycle, p.field_size, p.max_cycles,
-                            p.attackers)
+                            p.attackers, p.goal_line)
     return state.outcome
 
 

@@ -58,6 +58,7 @@ import numpy as np
 
 from soccer_drill.config import DrillConfig
 from soccer_drill.rules.compiled import compiled, hypot
+from soccer_drill.rules.motion import teammates_by_distance
 
 FEATURE_NAMES: tuple[str, ...] = (
     "dist_mate",
@@ -99,6 +100,16 @@ def feature_slots(cfg: DrillConfig, holder: bool = False) -> tuple[int, int]:
     return most - 1, most
 
 
+def holder_feature_indices(cfg: DrillConfig) -> np.ndarray:
+    """Where the ball holder's features (:func:`feature_slots` with ``holder``) sit in a
+    player's multi-agent features of ``cfg``'s drill, which have room for the larger team:
+    ``agent_features[holder_feature_indices(cfg)]`` is the holder's view (the identity
+    when the attackers are the larger team, as in the 2v2 drill)."""
+    agent = feature_names(*feature_slots(cfg))
+    return np.array([agent.index(name) for name in feature_names(*feature_slots(cfg, True))],
+                    dtype=np.int64)
+
+
 def feature_bounds(cfg: DrillConfig, holder: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """Lower and upper bounds of the features (float32; the 9 features in the 2v2 drill)."""
     m, d = feature_slots(cfg, holder)
@@ -124,25 +135,12 @@ def features_into(out, pos, player, params, low, high, mates, opponents):
     to ``player`` (the lower index among equals), opponents' distances ascending."""
     players, attackers = pos.shape[0] - 1, params[0].attackers
     half_size = params[0].field_size / 2
-    if player < attackers:
-        t0, t1, o0, o1 = 0, attackers, attackers, players
-    else:
-        t0, t1, o0, o1 = attackers, players, 0, attackers
+    o0, o1 = (attackers, players) if player < attackers else (0, attackers)  # opponents
     sx, sy = pos[player, 0], pos[player, 1]
-    # Teammates by distance (an insertion sort keeps equals in index order).
+    # Teammates by distance (equals in index order).
     rank = np.empty(4, np.int64)
     mdist = np.empty(4)
-    count = 0
-    for j in range(t0, t1):
-        if j == player:
-            continue
-        d = hypot(pos[j, 0] - sx, pos[j, 1] - sy)
-        k = count
-        while k > 0 and mdist[k - 1] > d:
-            rank[k], mdist[k] = rank[k - 1], mdist[k - 1]
-            k -= 1
-        rank[k], mdist[k] = j, d
-        count += 1
+    count = teammates_by_distance(pos, player, attackers, rank, mdist)
     # Opponents' distances, ascending, and the dribbling lane.
     odist = np.empty(4)
     n_opp = 0

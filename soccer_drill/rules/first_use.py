@@ -78,7 +78,8 @@ def _drill_rules(config: DrillConfig | None) -> None:
         interception_points(batch.pos, batch.vel, batch.holder, np.ones((n, size)), cfg)
         mark_targets(batch.pos, batch.holder, attackers=cfg.attackers)
         # A tackle's outcome, found outside the compiled cycle (BatchDrill's tackles).
-        outcome(batch.pos[0], 0, batch.cycle[0], cfg.field_size, cfg.max_cycles, cfg.attackers)
+        outcome(batch.pos[0], 0, batch.cycle[0], cfg.field_size, cfg.max_cycles, cfg.attackers,
+                params[0]["goal_line"])
     state = batch.state_of(0)
     for player in range(size):
         ball_interception_point(state, player, cfg.defender_speed, cfg)

@@ -212,13 +212,12 @@ def nearest_teammate(pos, player, attackers):
 
 
 @compiled
-def ranked_teammate(pos, player, attackers, rank):
-    """``player``'s teammate of ``rank`` (0: the nearest) by distance, the lower index
-    first among equals; -1 if it has fewer teammates."""
+def teammates_by_distance(pos, player, attackers, order, dist):
+    """``player``'s teammates by distance into ``order`` (their indices) and ``dist``
+    (their distances), nearest first, the lower index first among equals (an insertion
+    sort); returns how many there are. ``order`` and ``dist`` hold at least as many."""
     first, stop = (0, attackers) if player < attackers else (attackers, pos.shape[0] - 1)
     px, py = pos[player, 0], pos[player, 1]
-    order = np.empty(4, np.int64)
-    dist = np.empty(4)
     count = 0
     for m in range(first, stop):
         if m == player:
@@ -230,6 +229,16 @@ def ranked_teammate(pos, player, attackers, rank):
             k -= 1
         order[k], dist[k] = m, d
         count += 1
+    return count
+
+
+@compiled
+def ranked_teammate(pos, player, attackers, rank):
+    """``player``'s teammate of ``rank`` (0: the nearest) by distance, the lower index
+    first among equals; -1 if it has fewer teammates."""
+    order = np.empty(4, np.int64)
+    dist = np.empty(4)
+    count = teammates_by_distance(pos, player, attackers, order, dist)
     return order[rank] if 0 <= rank < count else -1
 
 
@@ -334,11 +343,12 @@ def motion(state, cycle, player, params, table):
             vx = 0.0
         if (py < lo and vy < 0) or (py > hi and vy > 0):
             vy = 0.0
-        # Nor is the ball kept over a touchline or the far end: near one, it is kept along
-        # the line instead (else a pressing defender simply pushes it out of the region).
+        # Nor is the ball kept over a touchline or the far end (or, without a goal line,
+        # the near end): near one, it is kept along the line instead (else a pressing
+        # defender simply pushes it out of the region).
         if (px < lo and sx < 0) or (px > hi and sx > 0):
             sx, sy = 0.0, (1.0 if sy > 0 else -1.0)
-        if py > hi and sy > 0:
+        if (py > hi and sy > 0) or (p.goal_line == 0 and py < lo and sy < 0):
             sx, sy = (1.0 if sx > 0 else -1.0), 0.0
         return vx, vy, _CONTROL, sx, sy
     if skill == Skill.GET_OPEN:

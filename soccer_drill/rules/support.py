@@ -132,7 +132,13 @@ class SupportDraws:
     def commands(self, state: np.ndarray, cycle: np.ndarray, supporting: np.ndarray,
                  size: float) -> None:
         """:func:`support_commands` of every drill, refilling whose normals run out."""
-        start = support_commands(state, cycle, supporting, self.records, 0, size)
+        self.finish(state, cycle, supporting, size,
+                    support_commands(state, cycle, supporting, self.records, 0, size))
+
+    def finish(self, state: np.ndarray, cycle: np.ndarray, supporting: np.ndarray,
+               size: float, start: int) -> None:
+        """:func:`support_commands` from drill ``start`` on (what a call of it returned:
+        -1, none left), refilling whose normals run out."""
         while start >= 0:
             self.refill(start)
             start = support_commands(state, cycle, supporting, self.records, start, size)

@@ -68,10 +68,19 @@ def _target_refused(target: object) -> str:
 # Each array of BatchCommands: its name, shape for m drills, dtype kinds, their words, and
 # the dtype the drill keeps.
 _COMMAND_ARRAYS = (
-    ("skill", lambda m, d: (m, d), "iu", "integers (Skill values)", np.int64),
-    ("target", lambda m, d: (m, d, 2), "iuf", "numbers", np.float64),
-    ("speed", lambda m, d: (m, d), "iuf", "numbers", np.float64),
+    ("skill", lambda m, d: (m, d), "iu", "integers (Skill values)", np.dtype(np.int64)),
+    ("target", lambda m, d: (m, d, 2), "iuf", "numbers", np.dtype(np.float64)),
+    ("speed", lambda m, d: (m, d), "iuf", "numbers", np.dtype(np.float64)),
 )
+_shapes: dict[tuple[int, int], tuple[tuple[int, ...], ...]] = {}  # by (m, d): the arrays' shapes
+
+
+def _command_shapes(m: int, d: int) -> tuple[tuple[int, ...], ...]:
+    """The shapes of the three arrays of the commands of ``d`` players in ``m`` drills."""
+    shapes = _shapes.get((m, d))
+    if shapes is None:
+        shapes = _shapes[m, d] = tuple(shape(m, d) for _, shape, *_ in _COMMAND_ARRAYS)
+    return shapes
 
 
 class _Calling:
@@ -129,9 +138,10 @@ def check_commands(commands: object, cycle: np.ndarray, drills: np.ndarray, cycl
         )
     m, d = len(drills), len(players)
     arrays = []
-    for (name, shape, kinds, what, dtype), given in zip(_COMMAND_ARRAYS, commands, strict=True):
-        if (type(given) is np.ndarray and given.dtype == dtype and given.flags.c_contiguous
-                and given.flags.writeable):
+    for (name, _, kinds, what, dtype), shape, given in zip(_COMMAND_ARRAYS, _command_shapes(m, d),
+                                                          commands, strict=True):
+        if (type(given) is np.ndarray and (given.dtype is dtype or given.dtype == dtype)
+                and (flags := given.flags).c_contiguous and flags.writeable):
             array = given  # as the drill keeps them: read as they are
         else:
             try:
@@ -147,9 +157,9 @@ def check_commands(commands: object, cycle: np.ndarray, drills: np.ndarray, cycl
             # As int64, a value out of the int64 range wraps to a negative one, refused
             # all the same.
             array = np.array(array, dtype=dtype)
-        if array.shape != shape(m, d):
+        if array.shape != shape:
             raise TeamError(
-                f"team {team!r}: commands' {name} must have shape {shape(m, d)} (one row per "
+                f"team {team!r}: commands' {name} must have shape {shape} (one row per "
                 f"drill acting, one column per player), got {array.shape}"
                 f"{_Calling(drills if named else None, cycles):}"
             )

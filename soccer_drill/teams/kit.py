@@ -221,7 +221,9 @@ class BatchRandom:
 def every_drill(drills: np.ndarray, n: int) -> bool:
     """Whether ``drills`` is ``0, 1, ..., n - 1`` in order (then a team may read the
     batch's arrays as they are rather than gather its rows)."""
-    return len(drills) == n and not np.count_nonzero(drills - rows(n))
+    if len(drills) != n:
+        return False
+    return bool(drills[0] == 0) if n == 1 else not np.count_nonzero(drills - rows(n))
 
 
 @runtime_checkable

@@ -47,6 +47,7 @@ from soccer_drill.registry import PROJECT_DISTRIBUTION, PluginWarning, Registry
 from soccer_drill.state import DrillView
 
 ENTRY_POINT_GROUP = "soccer_drill.opponents"
+KEEPAWAY_ENTRY_POINT_GROUP = "soccer_drill.keepaway_teams"
 DEFAULT_TEAM_TIMEOUT = 1.0
 """Seconds of CPU time a team's ``reset`` or ``act`` may take before it is stopped."""
 TEAM_TIMEOUT_RANGE = (0.001, 86_400.0)
@@ -87,8 +88,25 @@ TEAMS = Registry(
     ENTRY_POINT_GROUP, "team", label="id", names=Name(dots=False),
     calls="a team class or factory", error=TeamError,
 )
-"""Every team, by id: in-process registrations (:func:`register`) and the entry points of
-the group ``soccer_drill.opponents``, each imported on first use."""
+"""Every team of the drill, by id: in-process registrations (:func:`register`) and the
+entry points of the group ``soccer_drill.opponents``, each imported on first use."""
+KEEPAWAY_TEAMS = Registry(
+    KEEPAWAY_ENTRY_POINT_GROUP, "keepaway team", label="id", names=Name(dots=False),
+    calls="a team class or factory", error=TeamError,
+)
+"""The takers' teams of the keepaway task (:data:`~soccer_drill.tasks.TASKS`), by id: the
+entry points of the group ``soccer_drill.keepaway_teams``."""
+TASK_TEAMS: dict[str, Registry] = {"drill": TEAMS, "keepaway": KEEPAWAY_TEAMS}
+"""Each task's teams. An id is looked up in every task's registry (the drill's first), so
+any team can be named in any environment; :func:`team_ids` lists one task's."""
+
+
+def _registry_of(team_id: object) -> Registry:
+    """The registry holding ``team_id`` (the drill's if none does: its error names it)."""
+    for registry in TASK_TEAMS.values():
+        if team_id in registry:
+            return registry
+    return TEAMS
 
 
 def check_team_timeout(team_timeout: object) -> float | None:
@@ -129,14 +147,15 @@ def register(team_id: str, factory: Callable[..., Team], *, overwrite: bool = Fa
     TEAMS.register(team_id, factory, overwrite=overwrite)
 
 
-def team_ids() -> list[str]:
-    """Ids of every known team, sorted (without importing any plugin)."""
-    return TEAMS.names()
+def team_ids(task: str = "drill") -> list[str]:
+    """Ids of every known team of ``task`` (the drill's by default), sorted (without
+    importing any plugin)."""
+    return TASK_TEAMS[task].names()
 
 
 def describe(team_id: str) -> str:
     """First line of the team factory's docstring."""
-    factory = TEAMS.get(team_id)
+    factory = _registry_of(team_id).get(team_id)
     doc = (getattr(factory, "__doc__", None) or "").strip()
     return doc.splitlines()[0] if doc else ""
 
@@ -176,9 +195,10 @@ def team_code(team_id: str) -> dict[str, str]:
     namespace package).
     A key is left out when it cannot be known (a factory made at run time).
     """
-    factory = TEAMS.get(team_id)
+    registry = _registry_of(team_id)
+    factory = registry.get(team_id)
     out = {"factory": f"{getattr(factory, '__module__', '?')}:{getattr(factory, '__qualname__', '?')}"}
-    entry_point = TEAMS.entry_point(team_id)
+    entry_point = registry.entry_point(team_id)
     dist = getattr(entry_point, "dist", None)
     if dist is not None:
         out["distribution"] = f"{dist.name} {dist.version}"
@@ -223,7 +243,7 @@ def make_team(team_id: str, **params: Any) -> Team:
         is not caught, see :mod:`soccer_drill.interruptions`), or built something that is
         not a team.
     """
-    factory = TEAMS.get(team_id)
+    factory = _registry_of(team_id).get(team_id)
     problem = _binding_problem(factory, params)
     if problem is not None:
         raise ValueError(f"bad parameters {short_repr(params)} for team {team_id!r}: {problem}")

@@ -10,8 +10,8 @@ seeds)`` and ``decide(drills, features) -> actions``::
     [project.entry-points."soccer_drill.attacks"]
     my_attack = "my_package.attacks:my_attack"
 
-``ParallelVectorEnv(attack="early_pass")`` plays one: the two attackers are scripted and
-the defenders are the agents.
+``ParallelVectorEnv(attack="early_pass")`` plays one: the attackers are scripted and the
+defenders are the agents, in a drill of any size (``config``).
 
 | id | the holder's rule (:mod:`soccer_drill.policies`) |
 |---|---|
@@ -20,12 +20,13 @@ the defenders are the agents.
 
 An attack only decides the holder's actions; :class:`ScriptedAttack` plays them through
 the holder loop of the holder environment
-(:class:`~soccer_drill.envs.holder.HolderLoop`): the attacker holding the ball decides
-on its 9 features; a HOLD or DRIBBLE lasts ``decision_cycles`` cycles (4, ``HolderEnv``'s
-default) and a PASS one kick, each cut short when the holder loses the ball; the other
-attacker, and both while the ball is loose, run the support behaviour. The attack draws
-from generators seeded from the drill's own at each reset (the seeds a scripted team
-would get), so an episode is a function of the drill's seed and the defenders' actions.
+(:class:`~soccer_drill.envs.holder.HolderLoop`): the attacker holding the ball decides on
+the holder's features (the paper's 9 in the 2v2 drill); a HOLD or DRIBBLE lasts
+``decision_cycles`` cycles (4, ``HolderEnv``'s default) and a PASS one kick, each cut
+short when the holder loses the ball; the other attackers, and all of them while the ball
+is loose, run the support behaviour. The attack draws from generators seeded from the
+drill's own at each reset (the seeds a scripted team would get), so an episode is a
+function of the drill's seed and the defenders' actions.
 """
 
 from __future__ import annotations

@@ -29,7 +29,6 @@ from soccer_drill.envs.core import BatchCore, check_seed, make_config
 from soccer_drill.envs.holder import (
     DECISION_CYCLES,
     HolderLoop,
-    check_holder_action,
     holder_action_refused,
 )
 from soccer_drill.envs.pickling import Pickled
@@ -39,6 +38,7 @@ from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
 from soccer_drill.vector.memory import check_frames_fit, check_frames_memory, check_num_envs
 
 _OUTCOMES = np.array(OUTCOME_NAMES, dtype=object)
+_RUNNING, _TIMEOUT = int(Outcome.RUNNING), int(Outcome.TIMEOUT)  # an enum lookup costs ~1 us
 _AUTORESET_MODES = OneOf((AutoresetMode.NEXT_STEP.value, AutoresetMode.SAME_STEP.value))
 RESET_OPTIONS = ("reset_mask",)
 """The keys ``HolderVectorEnv.reset``'s ``options`` may hold."""
@@ -252,6 +252,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
         self.render_mode = check_render_mode(render_mode, type(self).__name__)
         mode = autoreset_mode.value if isinstance(autoreset_mode, AutoresetMode) else autoreset_mode
         self.autoreset_mode = AutoresetMode(checked("autoreset_mode", mode, _AUTORESET_MODES))
+        self._same_step = self.autoreset_mode == AutoresetMode.SAME_STEP
         self.num_envs = n
         self.batch_size = int(batch_size)
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
@@ -357,15 +358,17 @@ class HolderVectorEnv(Pickled, VectorEnv):
         if a.dtype.kind not in "iu":  # as HolderEnv.step, which refuses 2.0 and True
             bad = _first_non_integer(a)
             raise ValueError(
-                f"drill {int(drills[bad])}: {holder_action_refused(a[bad], self.loop.attackers)} (actions of dtype "
+                f"drill {int(drills[bad])}: {holder_action_refused(a[bad], self.loop.attackers, self.action_names)} (actions of dtype "
                 f"{a.dtype}; an integer dtype is needed)"
             )
-        bad_rows = np.flatnonzero((a < 0) | (a >= len(self.action_names)))
-        bad_rows = bad_rows[~self._autoreset[drills[bad_rows]]]  # ignored for drills being reset
+        bad = (a < 0) | (a >= len(self.action_names))
+        bad_rows = np.flatnonzero(bad) if np.count_nonzero(bad) else ()
+        if len(bad_rows):
+            bad_rows = bad_rows[~self._autoreset[drills[bad_rows]]]  # ignored: drills being reset
         if len(bad_rows):
             i = int(bad_rows[0])
             raise ValueError(
-                f"drill {int(drills[i])}: {holder_action_refused(a[i], self.loop.attackers)}"
+                f"drill {int(drills[i])}: {holder_action_refused(a[i], self.loop.attackers, self.action_names)}"
                 + (f" ({len(bad_rows)} drills had bad actions)" if len(bad_rows) > 1 else "")
             )
         return a.astype(np.int64)
@@ -450,6 +453,8 @@ class HolderVectorEnv(Pickled, VectorEnv):
         def recv() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
             obs, rewards, terminated, truncated, infos = self._recv()
             rows = infos.pop("_rows")
+            if rows is self._all:  # the core's own array: the caller gets a copy
+                rows = rows.copy()
             infos["env_id"], infos["_env_id"] = rows, np.ones(len(rows), dtype=bool)
             return obs, rewards, terminated, truncated, infos
 
@@ -481,8 +486,13 @@ class HolderVectorEnv(Pickled, VectorEnv):
 
     def _check_waiting(self, drills: np.ndarray, what: str) -> None:
         """Every drill of ``drills`` waits for an action; else ``ValueError`` naming one."""
-        running = self.loop.running
-        busy = drills[running[drills] | self._ready[drills]]
+        running, ready = self.loop.running, self._ready
+        if drills is self._all:  # every drill, in order: no gathering
+            if not (np.count_nonzero(running) or np.count_nonzero(ready)):
+                return
+            busy = np.flatnonzero(running | ready)
+        else:
+            busy = drills[running[drills] | ready[drills]]
         if len(busy):
             i = int(busy[0])
             state = "running its step" if running[i] else "done, its result not yet received by recv()"
@@ -491,7 +501,8 @@ class HolderVectorEnv(Pickled, VectorEnv):
     def _send(self, actions: np.ndarray, drills: np.ndarray) -> None:
         """``actions[k]`` for drill ``drills[k]`` (ascending): reset the ended drills,
         start the others' steps."""
-        resetting = drills[self._autoreset[drills]]
+        autoreset = self._autoreset
+        resetting = drills[autoreset[drills]] if np.count_nonzero(autoreset) else ()
         if len(resetting):
             self._restart(resetting)
             self._make_ready(resetting)
@@ -520,26 +531,31 @@ class HolderVectorEnv(Pickled, VectorEnv):
         ``infos["_rows"]``), after the autoreset mode's handling of ended episodes."""
         loop, b, want = self.loop, self._core.batch, self.batch_size
         running, ready = loop.running, self._ready
-        while np.count_nonzero(ready) < want:
-            if not np.count_nonzero(running):  # the checks before prevent it: never forever
-                raise RuntimeError(f"recv(): {np.count_nonzero(ready)} drills have results and "
-                                   f"none is running, so {want} (batch_size) never will")
-            was_running = running.copy()
-            loop.cycle()
-            self._recv_cycles += 1
-            self._make_ready(np.flatnonzero(was_running & ~running))
-        waiting = np.flatnonzero(ready)
-        if len(waiting) > want:  # those that waited longest, then the lowest index
-            waiting = np.sort(waiting[np.argsort(self._ready_at[waiting], kind="stable")[:want]])
-        rows = waiting
+        if want == self.num_envs:  # every drill's result: the drills run until none does
+            rows = self._all
+            self._run_all(running)
+        else:
+            while np.count_nonzero(ready) < want:
+                if not np.count_nonzero(running):  # the checks before prevent it: never forever
+                    raise RuntimeError(f"recv(): {np.count_nonzero(ready)} drills have results "
+                                       f"and none is running, so {want} (batch_size) never will")
+                was_running = running.copy()
+                loop.cycle()
+                self._recv_cycles += 1
+                self._make_ready(np.flatnonzero(was_running & ~running))
+            rows = np.flatnonzero(ready)
+            if len(rows) > want:  # those that waited longest, then the lowest index
+                rows = np.sort(rows[np.argsort(self._ready_at[rows], kind="stable")[:want]])
         ready[rows] = False
         obs = self._observe(rows, loop.deciders(rows))
-        ended = b.outcome[rows] != Outcome.RUNNING
-        rewards = np.where(ended, b.attacker_reward[rows], 0.0)
-        truncated = ended & (b.outcome[rows] == Outcome.TIMEOUT)
+        outcome = b.outcome[rows]
+        ended = outcome != _RUNNING
+        durations = b.cycle[rows] - loop.start[rows]
+        rewards = loop.rewards(rows, durations)
+        truncated = outcome == _TIMEOUT  # ended too
         terminated = ended & ~truncated
-        infos = self._infos(rows, b.cycle[rows] - loop.start[rows])
-        if self.autoreset_mode == AutoresetMode.SAME_STEP and ended.any():
+        infos = self._infos(rows, durations, outcome)
+        if self._same_step and np.count_nonzero(ended):
             done = np.flatnonzero(ended)
             final_obs = np.full(len(rows), None, dtype=object)
             for k in done.tolist():
@@ -560,16 +576,31 @@ class HolderVectorEnv(Pickled, VectorEnv):
         infos["_rows"] = rows
         return obs, rewards, terminated, truncated, infos
 
+    def _run_all(self, running: np.ndarray) -> None:
+        """Cycles until no drill runs, every drill then done (``batch_size`` is every
+        drill, which ``step`` and ``recv``'s checks have made sure are each running or
+        done): no drill's result waits for another's, so when each is done does not
+        matter. Every drill's indices are handed on while all run."""
+        loop, n = self.loop, self.num_envs
+        left = np.count_nonzero(running)
+        while left:
+            left = loop.cycle(self._all if left == n else None)
+            self._recv_cycles += 1
+
     # ------------------------------------------------------------- results
     def _observe(self, rows: np.ndarray, players: np.ndarray | None = None) -> np.ndarray:
         """The 9 features of ``players`` (by default the holders) of drills ``rows``."""
         b = self._core.batch
         return self.loop.observe(b.state, rows, b.holder[rows] if players is None else players)
 
-    def _infos(self, rows: np.ndarray, duration: np.ndarray) -> dict[str, Any]:
+    def _infos(self, rows: np.ndarray, duration: np.ndarray,
+               outcome: np.ndarray | None = None) -> dict[str, Any]:
+        """The infos of drills ``rows`` (``outcome``: their outcome codes, if the caller
+        has them)."""
         b = self._core.batch
-        outcome = b.outcome[rows]
-        holder = np.where(outcome == Outcome.RUNNING, b.holder[rows], -1)
+        if outcome is None:
+            outcome = b.outcome[rows]
+        holder = np.where(outcome == _RUNNING, b.holder[rows], -1)
         everyone = np.ones(len(rows), dtype=bool)
         return {
             "duration": duration.astype(np.int64), "_duration": everyone,
@@ -612,7 +643,8 @@ def play_episodes(
     so the batch stays full: what a Gymnasium ``step`` cannot do (each of its drills
     waits for the others' decisions). Several rules in one call keep a batch full for
     longer than one rule's episodes would (calibration plays every rule against a team
-    at once). Returns ``(total reward, outcome)`` per seed, in the order of ``seeds``.
+    at once). Returns ``(total reward, outcome)`` per seed, in the order of ``seeds`` (in
+keepaway the total reward is the episode's length in seconds).
     A rule's action is checked as ``HolderEnv.step`` checks it, and the seeds as
     ``HolderEnv.reset`` takes them (integers >= 0): anything else is a ``ValueError``
     naming the drill and the seed. It plays the environment's holder loop
@@ -659,7 +691,7 @@ def play_episodes(
                                            strict=True)):
                 action = policies[e](obs[k], rngs[i])  # type: ignore[arg-type]
                 try:
-                    actions[k] = check_holder_action(action, loop.attackers)
+                    actions[k] = loop.check_action(action)
                 except ValueError as error:
                     raise ValueError(
                         f"drill {i} (seed {seeds[e]}): the rule returned {action!r}; {error}"
@@ -669,6 +701,9 @@ def play_episodes(
         ended = np.flatnonzero((episode >= 0) & (b.outcome != Outcome.RUNNING))
         if len(ended):
             for i in ended.tolist():
-                results[episode[i]] = (float(b.attacker_reward[i]), OUTCOME_NAMES[b.outcome[i]])
+                total = float(b.attacker_reward[i])
+                if loop.cycle_reward:  # keepaway's seconds; nothing in the drill
+                    total += loop.cycle_reward * int(b.cycle[i])
+                results[episode[i]] = (total, OUTCOME_NAMES[b.outcome[i]])
             start(ended)
     return results  # type: ignore[return-value]
