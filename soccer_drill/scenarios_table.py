@@ -67,6 +67,15 @@ def mean_interval(values: list[float]) -> tuple[float, float, float]:
     return mean, mean - half, mean + half
 
 
+LEARNING_CURVES: dict[str, str] = {
+    "drill_2v2": "`docs/results.md` (learning anew and the transfer methods, protocols A-C)",
+    "drill_3v2": "`docs/larger_drill.md` (learning anew, the transfer methods and the "
+                 "transfer from 2v2, against `goal_guards`)",
+    "keepaway_3v2": "`docs/keepaway.md` (a tile-coded Sarsa keeper)",
+}
+"""Where a scenario's learning curves are measured (the others: not yet)."""
+
+
 def page(outcomes: dict[str, dict[str, list[str]]], first_seed: int,
          lengths: dict[str, dict[str, list[float]]] | None = None) -> str:
     """The page's text from the kept outcomes (the drill's scenarios) and lengths
@@ -98,7 +107,6 @@ def page(outcomes: dict[str, dict[str, list[str]]], first_seed: int,
             best = max(means, key=lambda rule: (means[rule][0], rule == "random"))
             mean, low, high = means[best]
             score, random_score = f"{mean:.1f} s [{low:.1f}, {high:.1f}]", f"{means['random'][0]:.1f} s"
-            curve = "`docs/keepaway.md`"
         else:
             by_rule = outcomes[name]
             rates = {rule: sum(o == "success" for o in by_rule[rule]) / len(by_rule[rule])
@@ -106,7 +114,8 @@ def page(outcomes: dict[str, dict[str, list[str]]], first_seed: int,
             best = max(rates, key=lambda rule: (rates[rule], rule == "random"))
             low, high = wilson(round(rates[best] * episodes), episodes)
             score = f"{rates[best]:.0%} [{low:.0%}, {high:.0%}]"
-            random_score, curve = f"{rates['random']:.0%}", "not yet measured"
+            random_score = f"{rates['random']:.0%}"
+        curve = LEARNING_CURVES.get(name, "not yet measured")
         lines.append(
             f"| `{name}` | {s.attackers}v{s.defenders} | {s.task} | `{s.gym_id}` | `{s.opponent}` "
             f"| `{best}` | {score} | {random_score} | {curve} |")
