@@ -28,6 +28,7 @@ from soccer_drill.teams import (
     compiled,
     every_drill,
     hypot,
+    in_cone,
     state_record,
     warms,
 )
@@ -42,20 +43,6 @@ SPEED = Real(0.0, 1.0, low_open=True)
 """What ``speed`` may be: a fraction of the takers' top speed in (0, 1]."""
 _INTERCEPT, _MOVE_TO = int(Skill.INTERCEPT), int(Skill.MOVE_TO)
 _DEGREES = 180.0 / math.pi
-
-
-@compiled
-def _blocked(ax, ay, bx, by, px, py, width):
-    """Whether ``(px, py)`` lies in the cone from ``a`` to ``b`` (half-width ``width``
-    per metre along it, between the ends)."""
-    dx, dy = bx - ax, by - ay
-    length = hypot(dx, dy)
-    if length < 1e-9:
-        return False
-    along = ((px - ax) * dx + (py - ay) * dy) / length
-    if along <= 0.0 or along > length:
-        return False
-    return abs((px - ax) * dy - (py - ay) * dx) / length <= width * along
 
 
 @compiled
@@ -90,7 +77,7 @@ def plan_into(skill, target, pos, keepers):
             du = hypot(ux, uy)
             for j in range(takers):
                 o = keepers + j
-                if _blocked(bx, by, pos[q, 0], pos[q, 1], pos[o, 0], pos[o, 1], CONE):
+                if in_cone(bx, by, pos[q, 0], pos[q, 1], pos[o, 0], pos[o, 1], CONE):
                     count += 1
                 ax, ay = pos[o, 0] - bx, pos[o, 1] - by
                 da = hypot(ax, ay)

@@ -39,7 +39,7 @@ from soccer_drill.commands import Skill
 from soccer_drill.config import DrillConfig
 from soccer_drill.rules.arrays import roll_table, rule_parameters
 from soccer_drill.rules.compiled import compiled, hypot
-from soccer_drill.rules.motion import interception_point
+from soccer_drill.rules.motion import in_cone, interception_point, players_by_distance
 
 GRID = 5
 """Points per side of the grid a keeper gets open on."""
@@ -84,25 +84,6 @@ def _clip(out, k, value, low, high):
 
 
 @compiled
-def _ranked(pos, first, stop, skip, sx, sy, order, dist):
-    """Players ``first .. stop - 1`` but ``skip`` by their distance to ``(sx, sy)`` into
-    ``order`` and ``dist`` (an insertion sort: equals keep the lower index first);
-    returns how many."""
-    count = 0
-    for j in range(first, stop):
-        if j == skip:
-            continue
-        d = hypot(pos[j, 0] - sx, pos[j, 1] - sy)
-        k = count
-        while k > 0 and dist[k - 1] > d:
-            order[k], dist[k] = order[k - 1], dist[k - 1]
-            k -= 1
-        order[k], dist[k] = j, d
-        count += 1
-    return count
-
-
-@compiled
 def keepaway_state_into(out, pos, player, params, low, high):
     """The state variables of keeper ``player`` (``K1``) in one drill (``pos``: ``(players
     + 1, 2)``, the first ``params[0].attackers`` of them keepers) into ``out`` (float32),
@@ -116,8 +97,8 @@ def keepaway_state_into(out, pos, player, params, low, high):
     mdist = np.empty(4)
     opps = np.empty(4, np.int64)
     odist = np.empty(4)
-    m = _ranked(pos, 0, keepers, player, sx, sy, mates, mdist)
-    t = _ranked(pos, keepers, players, -1, sx, sy, opps, odist)
+    m = players_by_distance(pos, 0, keepers, player, sx, sy, mates, mdist)
+    t = players_by_distance(pos, keepers, players, -1, sx, sy, opps, odist)
     _clip(out, 0, hypot(sx - c, sy - c), low, high)
     for i in range(m):
         _clip(out, 1 + i, mdist[i], low, high)
@@ -154,21 +135,6 @@ def keepaway_states_of_drills(out, state, rows, players, params, low, high):
 
 
 # ------------------------------------------------------------------ off the ball
-@compiled
-def in_cone(ax, ay, bx, by, px, py, width):
-    """Whether ``(px, py)`` lies in the cone from ``a`` to ``b`` whose half-width grows by
-    ``width`` per metre along it (between the two ends)."""
-    dx, dy = bx - ax, by - ay
-    length = hypot(dx, dy)
-    if length < 1e-9:
-        return False
-    along = ((px - ax) * dx + (py - ay) * dy) / length
-    if along <= 0.0 or along > length:
-        return False
-    across = abs((px - ax) * dy - (py - ay) * dx) / length
-    return across <= width * along
-
-
 @compiled
 def get_open_point(pos, player, fx, fy, size, keepers):
     """Where keeper ``player`` gets open for a pass from ``(fx, fy)`` (the module's

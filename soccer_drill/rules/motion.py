@@ -212,24 +212,49 @@ def nearest_teammate(pos, player, attackers):
 
 
 @compiled
-def teammates_by_distance(pos, player, attackers, order, dist):
-    """``player``'s teammates by distance into ``order`` (their indices) and ``dist``
-    (their distances), nearest first, the lower index first among equals (an insertion
-    sort); returns how many there are. ``order`` and ``dist`` hold at least as many."""
-    first, stop = (0, attackers) if player < attackers else (attackers, pos.shape[0] - 1)
-    px, py = pos[player, 0], pos[player, 1]
+def players_by_distance(pos, first, stop, skip, sx, sy, order, dist):
+    """Players ``first .. stop - 1`` but ``skip`` by their distance to ``(sx, sy)`` into
+    ``order`` (their indices) and ``dist`` (their distances), nearest first, the lower
+    index first among equals (an insertion sort); returns how many there are. ``order``
+    and ``dist`` hold at least as many."""
     count = 0
-    for m in range(first, stop):
-        if m == player:
+    for j in range(first, stop):
+        if j == skip:
             continue
-        d = hypot(pos[m, 0] - px, pos[m, 1] - py)
+        d = hypot(pos[j, 0] - sx, pos[j, 1] - sy)
         k = count
         while k > 0 and dist[k - 1] > d:
             order[k], dist[k] = order[k - 1], dist[k - 1]
             k -= 1
-        order[k], dist[k] = m, d
+        order[k], dist[k] = j, d
         count += 1
     return count
+
+
+@compiled
+def teammates_by_distance(pos, player, attackers, order, dist):
+    """``player``'s teammates by distance into ``order`` (their indices) and ``dist``
+    (their distances), nearest first, the lower index first among equals
+    (:func:`players_by_distance`); returns how many there are."""
+    first, stop = (0, attackers) if player < attackers else (attackers, pos.shape[0] - 1)
+    return players_by_distance(pos, first, stop, player, pos[player, 0], pos[player, 1],
+                               order, dist)
+
+
+@compiled
+def in_cone(ax, ay, bx, by, px, py, width):
+    """Whether ``(px, py)`` lies in the cone from ``a`` to ``b`` whose half-width grows by
+    ``width`` per metre along it (between the two ends): a pass from ``a`` to ``b`` that
+    a player at ``p`` can block."""
+    dx, dy = bx - ax, by - ay
+    length = hypot(dx, dy)
+    if length < 1e-9:
+        return False
+    along = ((px - ax) * dx + (py - ay) * dy) / length
+    if along <= 0.0 or along > length:
+        return False
+    across = abs((px - ax) * dy - (py - ay) * dx) / length
+    return across <= width * along
 
 
 @compiled

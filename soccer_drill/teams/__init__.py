@@ -21,6 +21,7 @@ from soccer_drill.rules.compiled import compiled, hypot, warms
 from soccer_drill.rules.features import FEATURE_NAMES
 from soccer_drill.rules.motion import (
     GUARD_DEPTH,
+    in_cone,  # noqa: F401  (keepaway's pass cone, for the takers)
     interception_point,
     mark_target,
 )
