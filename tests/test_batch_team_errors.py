@@ -440,7 +440,7 @@ def test_no_timer_longer_than_team_timeout_is_armed_whatever_the_number_of_drill
         num_envs=8, opponent=Plain(), team_timeout=86_400)
     env.reset(seed=0)
     _step_n(env, 8)
-    assert recorder.armed and max(recorder.armed) == 86_400
+    assert recorder.armed and 0 < max(recorder.armed) <= 86_400
 
 
 # -------------------------------------- a team's attributes, read inside its bound

@@ -208,8 +208,8 @@ def test_a_team_stuck_computing_in_act_is_stopped_named_and_the_env_recovers(
     with pytest.raises(TeamError) as err:
         _steps(env, kind, 10)
     assert team.hung
-    # Interrupted after its 0.2 s of CPU time (about 0.4 s when it swallows the first
-    # interruption: one more interval), not when its loop of 10 s of CPU time ended.
+    # Interrupted after its 0.2 s of CPU time (a tick later when it swallows the first
+    # interruption), not when its loop of 10 s of CPU time ended.
     assert timeout <= team.cpu < 2.0
     assert re.fullmatch(
         rf"team '_Hanging' exceeded its time bound of {timeout:g} s of CPU time in act\(\) "
@@ -371,6 +371,45 @@ def test_a_slow_call_off_the_main_thread_is_reported_when_it_returns():
     assert re.search(r"stopped after (0\.[5-9]|[1-9])\d* s of CPU time", str(errors[0]))
     if UNIX_TIMER:
         assert signal.getsignal(signal.SIGPROF) is before
+
+
+class _LaggingTimers:
+    """``_signal`` as on a loaded machine: ``ITIMER_PROF`` fires after ``lag`` times the
+    CPU time it was armed for (measured there: 0.22-0.85 s of the thread's CPU time for a
+    timer of 0.2 s, the kernel counting the process's CPU time as sampled at clock ticks)."""
+
+    def __init__(self, real, lag: float) -> None:
+        self._real, self._lag = real, lag
+
+    def setitimer(self, which, value, interval=0.0):
+        if which != signal.ITIMER_PROF:
+            return self._real.setitimer(which, value, interval)
+        value, interval = self._real.setitimer(which, value * self._lag, interval * self._lag)
+        return value / self._lag, interval / self._lag
+
+    def __getattr__(self, name):
+        return getattr(self._real, name)
+
+
+@pytest.mark.skipif(not UNIX_TIMER, reason="interrupting a call needs setitimer (Unix)")
+@pytest.mark.parametrize("how", ["loop", "swallow"])
+def test_a_cpu_timer_that_fires_late_still_stops_the_call_near_its_bound(
+    how, monkeypatch, sentinel_prof_handler
+):
+    """Before: the timer was armed for the whole bound and trusted, so a call on a loaded
+    machine ran several times its bound (1.0-1.2 s of CPU time for a bound of 0.2 s). The
+    bound now looks at the thread's own CPU time at every tick of a short interval."""
+    from soccer_drill.teams import time_bound
+
+    monkeypatch.setattr(time_bound, "_sig", _LaggingTimers(time_bound._sig, lag=4.0))
+    team = _Hanging("act", how)
+    env = soccer_drill.HolderEnv(opponent=team, team_timeout=0.2)
+    env.reset(seed=0)
+    with pytest.raises(TeamError, match=r"stopped after 0\.2\d s of CPU time"):
+        _steps(env, "holder", 10)
+    assert 0.2 <= team.cpu < 0.3, team.cpu
+    assert signal.getitimer(signal.ITIMER_PROF) == (0.0, 0.0)
+    assert signal.getsignal(signal.SIGPROF) is sentinel_prof_handler
 
 
 @pytest.mark.skipif(not UNIX_TIMER, reason="setitimer (Unix)")

@@ -8,18 +8,25 @@ price is that a call blocked forever (a ``time.sleep`` or a lock that never come
 not stopped either: that needs a wall-clock watchdog around the whole run.
 
 How an overrun is stopped: on the main thread of a Unix process a CPU-time interval
-timer (``setitimer(ITIMER_PROF)``) is armed around the call, and its ``SIGPROF`` handler
-raises :class:`Overrun` inside the call once the thread's own CPU time (less garbage
-collections) has passed the bound. ``ITIMER_PROF`` counts the whole process's CPU time,
-so it can only fire early (other threads also ran); the handler then re-arms it for what
-is left. It does not raise in a garbage collection (where finalisers and weakref
-callbacks run, and where an exception would be printed and ignored) nor in this
-module's own bookkeeping: it marks the call overrun and raises when the call returns,
-or at the next tick. Elsewhere -- off the main thread (signals reach the main thread
-only), without ``setitimer`` (Windows), or with another ``ITIMER_PROF`` timer already
-armed (a profiler's: it is put back, with what it had left, within microseconds) -- the
-call's CPU time is measured and :class:`Overrun` raised when it returns. The previous
-``SIGPROF`` handler is put back and the timer disarmed after every call, whatever fails.
+timer (``setitimer(ITIMER_PROF)``) ticks every :data:`LOOK` seconds of the process's CPU
+time around the call (or once the bound is spent, if that comes first), and its ``SIGPROF``
+handler raises :class:`Overrun` inside the call once the thread's own CPU time (less
+garbage collections) has passed the bound. The timer is only the prompt to look, never
+the measure: the kernel counts ``ITIMER_PROF`` against the process's CPU time as sampled
+at clock ticks, which on a loaded machine falls far behind the time the thread really ran
+(a 0.2 s ``ITIMER_PROF`` timer fired after 0.22-0.85 s of the thread's
+``time.thread_time``, measured with four busy processes sharing one core), so a timer
+armed for the whole bound let a call run several times its bound. Looking every
+:data:`LOOK` seconds keeps that lag to a few hundredths of a second; other threads' CPU
+time only makes it look more often. It does not raise in a garbage collection (where
+finalisers and weakref callbacks run, and where an exception would be printed and
+ignored) nor in this module's own bookkeeping: it marks the call overrun and raises when
+the call returns, or at the next tick. Elsewhere -- off the main thread (signals reach
+the main thread only), without ``setitimer`` (Windows), or with another ``ITIMER_PROF``
+timer already armed (a profiler's: it is put back, with what it had left, within
+microseconds) -- the call's CPU time is measured and :class:`Overrun` raised when it
+returns. The previous ``SIGPROF`` handler is put back and the timer disarmed after every
+call, whatever fails.
 """
 
 from __future__ import annotations
@@ -42,7 +49,9 @@ except ImportError:  # pragma: no cover - other Python implementations
 CAN_INTERRUPT = hasattr(signal, "setitimer") and hasattr(signal, "SIGPROF")
 """Whether an overrunning call can be interrupted (on the main thread)."""
 _MAIN_THREAD = threading.main_thread().ident
-_RETRY = 0.01  # CPU seconds before an interruption that had to wait is tried again
+LOOK = 0.01
+"""CPU seconds (of the process, as ``ITIMER_PROF`` counts them) between two looks at a
+bounded call's own CPU time: a look costs a few microseconds."""
 _thread_time = time.thread_time
 
 
@@ -125,9 +134,8 @@ def restart_count() -> float:
     For a call that runs parts one after another, each held to the bound on its own (the
     batched drill runs a team's copies, one per drill, in one bounded call): a part that
     runs past ``timeout`` from its start is stopped as a call would be, with one timer
-    armed for all of them (the interval timer, re-armed when it fires early, fires
-    ``timeout`` after the start of the part running then at the latest). Outside a
-    bounded call it only returns :func:`counted_cpu`.
+    armed for all of them (each tick looks at the part running then). Outside a bounded
+    call it only returns :func:`counted_cpu`.
     """
     call, now, collected = _innermost.call, _thread_time(), _gc_time.total
     if call is not None:
@@ -159,12 +167,13 @@ def call_within(timeout: float, method: Callable[..., Any], *args: Any) -> Any:
             previous = _sig.signal(signal.SIGPROF, _on_cpu_timer)
             disarm = True
             try:
-                # An interval, not a one-shot: a call that swallows the first interruption
-                # (a bare ``except:``) is interrupted again. Armed inside the ``try``, so
+                # An interval, not a one-shot: it looks every LOOK seconds, and a call that
+                # swallows the first interruption (a bare ``except:``) is interrupted again
+                # at the next tick. Armed inside the ``try``, so
                 # that the previous handler is put back even if arming fails. Arming
                 # returns the timer it replaced, which saves asking first: someone else's
                 # (a profiler's) is put back at once, and the call only measured.
-                replaced = _sig.setitimer(signal.ITIMER_PROF, timeout, timeout)
+                replaced = _sig.setitimer(signal.ITIMER_PROF, min(timeout, LOOK), LOOK)
                 if replaced[0] == 0.0:
                     _active = call
                     try:
@@ -205,19 +214,17 @@ _OWN_CODES = (call_within.__code__, _drain.__code__)
 
 
 def _on_cpu_timer(signum: int, frame: Any) -> None:
-    """SIGPROF during a bounded call: stop it if its own CPU time passed the bound."""
+    """SIGPROF during a bounded call: stop it if its own CPU time passed the bound (else
+    the next tick looks again)."""
     call = _active
     if call is None:
         return
     used = call.cpu()
     if used < call.timeout:
-        if not call.closing:  # other threads' CPU time fired the process-wide timer early
-            _sig.setitimer(signal.ITIMER_PROF, call.timeout - used, call.timeout)
         return
     call.overrun = True
     if call.closing or (frame is not None and frame.f_code in _OWN_CODES):
         return  # raised when the call returns
-    if _gc_time.started is not None:  # in a collection: finalisers, weakref callbacks
-        _sig.setitimer(signal.ITIMER_PROF, _RETRY, call.timeout)
-        return
+    if _gc_time.started is not None:  # in a collection (finalisers, weakref callbacks)
+        return  # the next tick, after it
     raise Overrun(used)
