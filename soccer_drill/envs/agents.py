@@ -179,7 +179,8 @@ class _DrillEnvBase(HeaderTexts, Pickled):
         one call once per state of the drill (``BatchDrill.steps``: a cycle, a reset)."""
         batch = self._batch
         if self._seen_at != batch.steps:
-            self._seen = self._observe(batch.state, self._agent_drills, self._agent_players)
+            self._seen = self._observe.again(batch.state, self._agent_drills,
+                                             self._agent_players)
             self._seen_at = batch.steps
         return self._seen[self._agent_row[i]].copy()
 
