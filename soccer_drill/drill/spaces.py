@@ -239,13 +239,14 @@ class DrillSpace:
     def cycle(self, pos: np.ndarray, vel: np.ndarray, active: np.ndarray | None) -> np.ndarray:
         """One cycle with the bodies' velocities ``vel[0]`` (``(1, players + 1, 2)``; the
         ball's too, so that it moves in the space as on the arrays). The players start where
-        the last cycle left them (``pos`` is not read). Returns the players, ``(1,
-        players, 4)``."""
-        for set_velocity, v in zip(self._velocities, vel[0].tolist(), strict=True):
-            set_velocity(v)
-        step, sub_dt = self._step, self._sub_dt
-        for _ in range(self._substeps):
-            step(sub_dt)
+        the last cycle left them (``pos`` is not read); with ``active`` false they stand
+        still (the space is not stepped). Returns the players, ``(1, players, 4)``."""
+        if active is None or active[0]:
+            for set_velocity, v in zip(self._velocities, vel[0].tolist(), strict=True):
+                set_velocity(v)
+            step, sub_dt = self._step, self._sub_dt
+            for _ in range(self._substeps):
+                step(sub_dt)
         # One batched read of every body: x, y, vx, vy each, the players first
         # (check_batch_order), then the ball and the space's static body. The same array
         # every cycle while the read's is (the rules after the physics are bound to it).

@@ -186,9 +186,10 @@ class BatchCore:
         :class:`~soccer_drill.rules.support.SupportDraws`, keepaway's ``GetOpen``:
         :data:`~soccer_drill.rules.task_rules.TASK_RULES`).
     drills_per_space
-        Drills sharing one pymunk space; ``None``: the single environments' one drill, in
-        a space of its own with the ball a body too (:class:`DrillSpace`), whose errors
-        name no drill.
+        Drills sharing one pymunk space; ``None``: the single environments' one drill,
+        whose errors name no drill. One drill (``n`` 1, whatever ``drills_per_space``) is
+        in a space of its own with the ball a body too (:class:`DrillSpace`), the single
+        drill's physics: a batch of one plays the single environment's episodes.
     attack
         A scripted attack (:mod:`soccer_drill.vector.attack`), seeded at each reset with
         the seeds a team would get (there is no team then); ``None``: none.
@@ -216,7 +217,7 @@ class BatchCore:
         single = drills_per_space is None
         self.n, self.config = n, config
         self.batch = BatchDrill(n, config, drills_per_space or DRILLS_PER_SPACE,
-                                DrillSpace(config) if single else None)
+                                DrillSpace(config) if single or n == 1 else None)
         self.generators = [np.random.default_rng(s) for s in np.random.SeedSequence().spawn(n)]
         if opponent is None:
             if opponent_params:
