@@ -75,12 +75,20 @@ def bind(rule: Callable[..., Any], *args: Any) -> Callable[[], Any]:
     signals held back, for types it did not warm); plain Python when the rules are not
     compiled.
     """
+    return functools.partial(typed(rule, *args), *args)
+
+
+def typed(rule: F, *args: Any) -> F:
+    """``rule``'s machine code for the types of ``args`` (as :func:`bind` finds it), called
+    with arguments of exactly those types without typing them: for a caller that has
+    checked what it passes (the dtype, the number of dimensions, C order, writeable or
+    not), which numba would otherwise type again at each call. ``rule`` itself when the
+    rules are not compiled."""
     if not COMPILED:
-        return functools.partial(rule, *args)
+        return rule
     types = tuple(rule.typeof_pyval(a) for a in args)  # type: ignore[attr-defined]
     with SignalsDeferred():
-        entry = rule.compile(types)  # type: ignore[attr-defined]
-    return functools.partial(entry, *args)
+        return rule.compile(types)  # type: ignore[attr-defined,no-any-return]
 
 
 class NoDiskCacheWarning(UserWarning):
