@@ -83,8 +83,8 @@ def typed(rule: F, *args: Any) -> F:
     with arguments of exactly those types without typing them: for a caller that has
     checked what it passes (the dtype, the number of dimensions, C order, writeable or
     not), which numba would otherwise type again at each call. ``rule`` itself when the
-    rules are not compiled."""
-    if not COMPILED:
+    rules are not compiled, or ``rule`` is not a compiled function."""
+    if not COMPILED or not hasattr(rule, "typeof_pyval"):  # plain Python (a user's rule)
         return rule
     types = tuple(rule.typeof_pyval(a) for a in args)  # type: ignore[attr-defined]
     with SignalsDeferred():
