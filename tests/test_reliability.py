@@ -69,14 +69,15 @@ def test_the_soak_checks_its_output_before_any_episode(tmp_path, monkeypatch, ca
 @pytest.mark.slow
 def test_soak_counts_and_reports_violations(monkeypatch, tmp_path):
     """A drill whose observations turn NaN at cycle 3 must fail the soak (exit status 1)."""
-    observe = soccer_drill.envs.core.Observation.__call__
+    for method in ("__call__", "again"):  # a new array, or one made again each state
+        observe = getattr(soccer_drill.envs.core.Observation, method)
 
-    def broken(self, state, rows, players):
-        obs = observe(self, state, rows, players)
-        obs[state["cycle"][rows] == 3] = np.nan
-        return obs
+        def broken(self, state, rows, players, observe=observe):
+            obs = observe(self, state, rows, players)
+            obs[state["cycle"][rows] == 3] = np.nan
+            return obs
 
-    monkeypatch.setattr(soccer_drill.envs.core.Observation, "__call__", broken)
+        monkeypatch.setattr(soccer_drill.envs.core.Observation, method, broken)
     out = tmp_path / "r.md"
     assert soak.main(["--episodes", "30", "--warmup", "20", "--out", str(out)]) == 1
     text = out.read_text()

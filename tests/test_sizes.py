@@ -236,3 +236,29 @@ def test_a_team_saying_its_sizes_wrongly_is_refused_in_the_vocabularys_words() -
     with pytest.raises(TeamError, match=r"defender_counts must be a list of at least 1 values, "
                                         r"each an integer in \[1, 4\], got \(0, 2\)"):
         HolderEnv(opponent=team)
+
+
+@pytest.mark.parametrize(("attackers", "defenders"), [(3, 2), (4, 3)])
+def test_plain_int_actions_give_the_same_episode_as_numpy_ones(attackers: int,
+                                                               defenders: int) -> None:
+    """A legal plain int takes the action check's shortcut, a NumPy integer its full path;
+    both set the same skill and, for a pass, the same receiver by rank."""
+    import soccer_drill
+
+    cfg = DrillConfig(attackers=attackers, defenders=defenders)
+    runs = []
+    for kind in (int, np.int64):
+        env = soccer_drill.parallel_env(config=cfg, opponent="chasers")
+        rng, seen = np.random.default_rng(3), []
+        for seed in range(6):
+            obs, _ = env.reset(seed=seed)
+            while env.agents:
+                actions = {a: kind(rng.choice(np.flatnonzero(obs[a]["action_mask"])))
+                           for a in env.agents}
+                obs, rewards, *_ = env.step(actions)
+                seen.append((tuple(env.unwrapped._batch.receiver[0].tolist()),
+                             b"".join(o["observation"].tobytes() for o in obs.values()),
+                             tuple(rewards.values())))
+        runs.append(seen)
+    assert runs[0] == runs[1]
+    assert any(r >= 0 for step in runs[0] for r in step[0])  # passes to a teammate by rank

@@ -108,6 +108,26 @@ def test_one_drill_plays_the_single_environments_episodes_step_by_step(team):
         venv.step(np.array([0]))  # NEXT_STEP autoreset
 
 
+def test_a_batch_of_one_drill_is_the_single_drill_bit_for_bit():
+    """A batch of one drill is in the single drill's own space (the ball a body too,
+    velocities alone written): its episodes are ``HolderEnv``'s to the last bit, also
+    those with simultaneous contacts, where a space of the batch's kind differs."""
+    venv = HolderVectorEnv(num_envs=1, opponent="interceptors_cover")
+    env = HolderEnv(opponent="interceptors_cover")
+    rng = np.random.default_rng(5)
+    for seed in range(60):
+        obs, _ = venv.reset(seed=seed)
+        single, _ = env.reset(seed=seed)
+        done = False
+        while not done:
+            action = int(rng.integers(3))
+            obs, reward, term, trunc, info = venv.step(np.array([action]))
+            single, r, t, tr, i = env.step(action)
+            assert obs[0].tobytes() == single.tobytes(), f"seed {seed}, cycle {i['cycles']}"
+            assert (reward[0], term[0], trunc[0]) == (r, t, tr)
+            done = t or tr
+
+
 def test_make_vec_gives_the_batched_env_with_gymnasiums_spaces_and_first_observations():
     venv = gym.make_vec("soccer_drill/Holder-v0", num_envs=5, vectorization_mode="vector_entry_point",
                         opponent="goal_guards")

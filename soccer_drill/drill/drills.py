@@ -30,6 +30,7 @@ from soccer_drill.rules.arrays import (
     rule_parameters,
     state_record,
 )
+from soccer_drill.rules.compiled import bind
 from soccer_drill.rules.cycle import (
     after_physics_of_drills,
     before_physics_of_drills,
@@ -97,6 +98,7 @@ class BatchDrill:
         self.commands["speed"] = 1.0
         self.commands["receiver"] = -1
         self.attacker_reward = np.zeros(n)
+        self._active = np.zeros(n, dtype=bool)  # the drills a cycle moves, as the rules read them
         self.cycles_run = 0
         """Drill-cycles advanced since construction (for benchmarks)."""
         self.steps = 0
@@ -113,10 +115,15 @@ class BatchDrill:
             setattr(self, name, self.commands[name])
         self._new_vel = self.commands["new_vel"]  # what the physics is given each cycle
         self.params, self.table = rule_parameters(self.config), roll_table(self.config)
+        # The cycle's rules bound to these arrays (rules.compiled.bind), made at the first
+        # cycle; the rules after the physics also to the physics' array of players.
+        self._before: tuple | None = None
+        self._after: tuple = (None, None)
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        for name in (*self.state.dtype.names, *_COMMANDS, "_new_vel", "params", "table"):
+        for name in (*self.state.dtype.names, *_COMMANDS, "_new_vel", "params", "table",
+                     "_before", "_after"):
             del state[name]
         return state
 
@@ -146,19 +153,28 @@ class BatchDrill:
         """Advance the drills where ``active`` (``(n,)`` bool) by one cycle, with the
         commands in :attr:`commands`; ``rngs[i]`` is drill ``i``'s generator. Inactive
         drills stand still and keep their state."""
-        state, cycle, params, table = self.state, self.commands, self.params, self.table
-        ended, passes, n_active = before_physics_of_drills(active, True, state, cycle, params,
-                                                           table)
+        state, cycle, params = self.state, self.commands, self.params
+        before = self._before
+        if before is None:
+            before = self._before = tuple(
+                bind(before_physics_of_drills, self._active, first, state, cycle, params,
+                     self.table) for first in (True, False))
+        np.copyto(self._active, active)
+        ended, passes, n_active = before[0]()
         if ended >= 0:
             raise RuntimeError(f"drill {ended}: the episode has ended; reset it first")
         if passes:  # the pass's two draws, then its drill's rules
             noise = cycle["noise"]
             for i in np.flatnonzero(cycle["passing"]).tolist():
                 noise[i] = rngs[i].normal(size=2)
-            before_physics_of_drills(active, False, state, cycle, params, table)
+            before[1]()
         players = self.physics.cycle(self.pos, self._new_vel,
                                      active if n_active < self.n else None)
-        tackling, ended = after_physics_of_drills(active, players, state, cycle, params)
+        bound_to, after = self._after
+        if players is not bound_to:  # the physics' array is new: bound once more
+            after = bind(after_physics_of_drills, self._active, players, state, cycle, params)
+            self._after = (players, after)
+        tackling, ended = after()
         self.cycles_run += n_active
         self.steps += 1
         if tackling:

@@ -72,6 +72,7 @@ class BatchedBodies:
     def __init__(self, buffer: pmb.Buffer) -> None:
         self.buffer = buffer
         self._data = self._floats = self._ints = None
+        self._read: tuple = (None, 0, None)  # the last read's C array, its length, its view
         if _EACH_BODY is None:  # pragma: no cover - another pymunk build
             return
         try:
@@ -84,7 +85,8 @@ class BatchedBodies:
 
     def read(self, space: pymunk.Space) -> np.ndarray:
         """Every body of ``space``, flat: ``x, y, vx, vy`` each (a view of the buffer,
-        overwritten by the next read)."""
+        overwritten by the next read; the same array as the last read's while the buffer
+        keeps its memory and length)."""
         floats = self._floats
         if floats is None:  # pragma: no cover - another pymunk build
             self.buffer.clear()
@@ -92,7 +94,12 @@ class BatchedBodies:
             return _frombuffer(self.buffer.float_buf(), dtype=np.float64)
         floats.num = self._ints.num = 0  # as Buffer.clear
         _EACH_BODY(space._space, _READ_BODY, self._data)
-        return _frombuffer(_ffi.buffer(floats.arr, _FLOAT_BYTES * floats.num), dtype=np.float64)
+        memory, count, view = self._read
+        if floats.num != count or floats.arr != memory:  # grown (moved): viewed anew
+            memory, count = floats.arr, floats.num
+            view = _frombuffer(_ffi.buffer(memory, _FLOAT_BYTES * count), dtype=np.float64)
+            self._read = (memory, count, view)
+        return view
 
     def write(self, space: pymunk.Space) -> None:
         """Every body of ``space`` set from the buffer (its array, ``x, y, vx, vy`` each)."""
@@ -180,18 +187,20 @@ class DrillSpace:
         self.config = config
         self._sub_dt, self._substeps = config.cycle_seconds / config.substeps, config.substeps
         self._reader = BatchedBodies(pmb.Buffer())  # reused: one batched read per cycle
+        self._players: tuple = (None, None)  # the last read, and its players' view
         self.renew(np.zeros(1, dtype=np.int64), np.zeros((1, config.players + 1, 2)))
         check_batch_order(self.space, self._bodies)
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
         # C handles, not picklable: a copy makes its own
-        del state["_reader"], state["_step"], state["_velocities"]
+        del state["_reader"], state["_step"], state["_velocities"], state["_players"]
         return state
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         self._reader = BatchedBodies(pmb.Buffer())
+        self._players = (None, None)
         self._step = space_step(self.space)
         self._velocities = velocity_setters(self._bodies)
         with SignalsDeferred():
@@ -230,17 +239,24 @@ class DrillSpace:
     def cycle(self, pos: np.ndarray, vel: np.ndarray, active: np.ndarray | None) -> np.ndarray:
         """One cycle with the bodies' velocities ``vel[0]`` (``(1, players + 1, 2)``; the
         ball's too, so that it moves in the space as on the arrays). The players start where
-        the last cycle left them (``pos`` is not read). Returns the players, ``(1,
-        players, 4)``."""
-        for set_velocity, v in zip(self._velocities, vel[0].tolist(), strict=True):
-            set_velocity(v)
-        step, sub_dt = self._step, self._sub_dt
-        for _ in range(self._substeps):
-            step(sub_dt)
+        the last cycle left them (``pos`` is not read); with ``active`` false they stand
+        still (the space is not stepped). Returns the players, ``(1, players, 4)``."""
+        if active is None or active[0]:
+            for set_velocity, v in zip(self._velocities, vel[0].tolist(), strict=True):
+                set_velocity(v)
+            step, sub_dt = self._step, self._sub_dt
+            for _ in range(self._substeps):
+                step(sub_dt)
         # One batched read of every body: x, y, vx, vy each, the players first
-        # (check_batch_order), then the ball and the space's static body.
-        players = len(self._bodies) - 1
-        return self._reader.read(self.space)[:4 * players].reshape(1, players, 4)
+        # (check_batch_order), then the ball and the space's static body. The same array
+        # every cycle while the read's is (the rules after the physics are bound to it).
+        read = self._reader.read(self.space)
+        last, players = self._players
+        if read is not last:
+            count = len(self._bodies) - 1
+            players = read[:4 * count].reshape(1, count, 4)
+            self._players = (read, players)
+        return players
 
 
 class BatchPhysics:

@@ -117,6 +117,7 @@ class _DrillEnvBase(HeaderTexts, Pickled):
         self._off_ball_legal = tuple(bool(x) for x in actions.off_ball_mask)
         self._holder_skills = _legal_skills(actions.skills, self._holder_legal)
         self._off_ball_skills = _legal_skills(actions.skills, self._off_ball_legal)
+        self._ranks = tuple(int(r) for r in actions.ranks)
         indices = range(attackers) if opponent is not None else range(cfg.players)
         self.possible_agents = [names[i] for i in indices]
         self._index = {name: names.index(name) for name in self.possible_agents}
@@ -179,7 +180,8 @@ class _DrillEnvBase(HeaderTexts, Pickled):
         one call once per state of the drill (``BatchDrill.steps``: a cycle, a reset)."""
         batch = self._batch
         if self._seen_at != batch.steps:
-            self._seen = self._observe(batch.state, self._agent_drills, self._agent_players)
+            self._seen = self._observe.again(batch.state, self._agent_drills,
+                                             self._agent_players)
             self._seen_at = batch.steps
         return self._seen[self._agent_row[i]].copy()
 
@@ -221,13 +223,17 @@ class _DrillEnvBase(HeaderTexts, Pickled):
         action replaced by the role's default, said in :attr:`replaced`, or refused)."""
         holds = self._batch.holder[0] == index
         attackers, actions = self._attackers, self._actions
-        if type(action) is int and attackers <= 2:  # the common case: a legal plain int
+        if type(action) is int:  # the common case: a legal plain int
             if index >= attackers:
                 legal = self._defender_skills
             else:
                 legal = self._holder_skills if holds else self._off_ball_skills
             if 0 <= action < len(legal) and (skill := legal[action]) is not None:
                 self._batch.skill[0, index] = skill
+                if attackers > 2 and index < attackers:  # as below: the pass's receiver
+                    rank = self._ranks[action]
+                    self._batch.receiver[0, index] = ranked_teammate(
+                        self._batch.pos[0], index, attackers, rank) if rank > 0 else -1
                 return
         n = (len(actions.names) if self.shared_spaces or index < attackers
              else len(DEFENDER_ACTIONS))

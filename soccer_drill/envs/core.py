@@ -30,6 +30,7 @@ from soccer_drill.constraints import Bool, NoneOr, OneOf, checked, is_int
 from soccer_drill.drill.drills import BatchDrill
 from soccer_drill.drill.spaces import DRILLS_PER_SPACE, DrillSpace
 from soccer_drill.rules.arrays import Outcome, rule_parameters
+from soccer_drill.rules.compiled import bind
 from soccer_drill.rules.features import OBSERVATION_TYPES, ObservationType
 from soccer_drill.rules.first_use import warm_up
 from soccer_drill.rules.task_rules import task_rules
@@ -120,10 +121,12 @@ class Observation:
         self.low, self.high = low.astype(np.float64), high.astype(np.float64)  # as compiled
         self._config = config
         self._params = rule_parameters(config)
+        self._bound: tuple = (None, None, None, None, None)  # see again()
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
         del state["_params"]  # the configuration's read-only record, taken again by a copy
+        del state["_bound"]
         return state
 
     def __setstate__(self, state: dict) -> None:
@@ -131,10 +134,25 @@ class Observation:
         # The same read-only array as the original's: a writable copy would be another
         # type for the compiled rules, compiled anew at the copy's first observation.
         self._params = rule_parameters(self._config)
+        self._bound = (None, None, None, None, None)
 
     def __call__(self, state: np.ndarray, rows: np.ndarray, players: np.ndarray) -> np.ndarray:
         out = np.empty((len(rows), self.size), np.float32)
         self.kind.rule(out, state, rows, players, self._params, self.low, self.high)
+        return out
+
+    def again(self, state: np.ndarray, rows: np.ndarray, players: np.ndarray) -> np.ndarray:
+        """As calling it, for a caller that asks with the same three arrays each time (the
+        single environment's drill and agents): into one array of this object, overwritten
+        by the next call, the rule bound to the arrays
+        (:func:`~soccer_drill.rules.compiled.bind`) while they are the same."""
+        bound_state, bound_rows, bound_players, out, call = self._bound
+        if state is not bound_state or rows is not bound_rows or players is not bound_players:
+            out = np.empty((len(rows), self.size), np.float32)
+            call = bind(self.kind.rule, out, state, rows, players, self._params, self.low,
+                        self.high)
+            self._bound = (state, rows, players, out, call)
+        call()
         return out
 
 
@@ -168,9 +186,10 @@ class BatchCore:
         :class:`~soccer_drill.rules.support.SupportDraws`, keepaway's ``GetOpen``:
         :data:`~soccer_drill.rules.task_rules.TASK_RULES`).
     drills_per_space
-        Drills sharing one pymunk space; ``None``: the single environments' one drill, in
-        a space of its own with the ball a body too (:class:`DrillSpace`), whose errors
-        name no drill.
+        Drills sharing one pymunk space; ``None``: the single environments' one drill,
+        whose errors name no drill. One drill (``n`` 1, whatever ``drills_per_space``) is
+        in a space of its own with the ball a body too (:class:`DrillSpace`), the single
+        drill's physics: a batch of one plays the single environment's episodes.
     attack
         A scripted attack (:mod:`soccer_drill.vector.attack`), seeded at each reset with
         the seeds a team would get (there is no team then); ``None``: none.
@@ -198,7 +217,7 @@ class BatchCore:
         single = drills_per_space is None
         self.n, self.config = n, config
         self.batch = BatchDrill(n, config, drills_per_space or DRILLS_PER_SPACE,
-                                DrillSpace(config) if single else None)
+                                DrillSpace(config) if single or n == 1 else None)
         self.generators = [np.random.default_rng(s) for s in np.random.SeedSequence().spawn(n)]
         if opponent is None:
             if opponent_params:

@@ -24,7 +24,7 @@ from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.scene import FrameStyle, Scene
 from soccer_drill.rendering.screen import RENDER_MODES, HeaderTexts, Screen, frames_per_second
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
-from soccer_drill.rules.compiled import compiled, warms
+from soccer_drill.rules.compiled import bind, compiled, warms
 from soccer_drill.rules.motion import ranked_teammate
 from soccer_drill.rules.support import SupportDraws, support_commands
 from soccer_drill.rules.task_rules import cycle_reward, task_rules
@@ -239,10 +239,11 @@ class HolderLoop:
         self.running, self.decider, self.start = steps["running"], steps["decider"], steps["start"]
         self.action = steps["action"]
         self._supporting = steps["supporting"]
+        self._bound: tuple | None = None  # the cycle's rules bound to the arrays (cycle())
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        for name in ("running", "decider", "start", "action", "_supporting"):
+        for name in ("running", "decider", "start", "action", "_supporting", "_bound"):
             del state[name]
         return state
 
@@ -269,15 +270,20 @@ class HolderLoop:
         caller has them); returns how many still run."""
         core, steps = self.core, self.steps
         batch, support, size = core.batch, core.support, self._field_size
+        bound = self._bound
+        if bound is None:  # the arrays are the same every cycle (rules.compiled.bind)
+            bound = self._bound = (
+                bind(_cycle_commands, steps, batch.state, batch.commands, self._supporting,
+                     support.records, size) if self._drill_support else None,
+                bind(_after_cycle, steps, batch.state))
         if self._drill_support:  # the holder's and the support's commands in one call
-            start = _cycle_commands(steps, batch.state, batch.commands, self._supporting,
-                                    support.records, size)
+            start = bound[0]()
             if start >= 0:
                 support.finish(batch.state, batch.commands, self._supporting, size, start)
         elif _holder_commands(steps, batch.commands):  # another task's support behaviour
             support.commands(batch.state, batch.commands, self._supporting, size)
         core.advance(self.running, drills)
-        return _after_cycle(steps, batch.state)
+        return bound[1]()
 
     def check_action(self, action: object) -> int:
         """``action`` as an index of :attr:`action_names` (:func:`check_holder_action`)."""

@@ -27,7 +27,7 @@ from soccer_drill.commands import BALL_SKILLS, SCRIPTED_SKILLS, Command, Skill
 from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import Integer, ListOf, checked, is_int, is_real
 from soccer_drill.interruptions import MAX_ITEMS, delivered_by_signal, short_repr
-from soccer_drill.rules.compiled import compiled, warms
+from soccer_drill.rules.compiled import compiled, typed, warms
 from soccer_drill.rules.first_use import warm_up
 from soccer_drill.teams.kit import BatchCommands, BatchRandom, BatchTeam, BatchView
 from soccer_drill.teams.registry import (
@@ -165,7 +165,7 @@ def check_commands(commands: object, cycle: np.ndarray, drills: np.ndarray, cycl
             )
         arrays.append(array)
     skill, target, speed = arrays
-    what, r, k = _checked_into(cycle, drills, skill, target, speed, _ALLOWED)
+    what, r, k = _check_of(cycle, drills)(cycle, drills, skill, target, speed, _ALLOWED)
     if what == 0:
         return
     where = (f"team {team!r}, " + (f"drill {int(drills[r])}, " if named else "")
@@ -177,6 +177,31 @@ def check_commands(commands: object, cycle: np.ndarray, drills: np.ndarray, cycl
     if what == _SPEED:
         raise TeamError(where + _speed_refused(float(speed[r, k])))
     raise TeamError(where + _target_refused(tuple(target[r, k].tolist())))
+
+
+_checks: dict[tuple[int, bool], tuple[np.dtype, Callable[..., Any]]] = {}
+
+
+def _check_of(cycle: np.ndarray, drills: np.ndarray) -> Callable[..., Any]:
+    """:func:`_checked_into` for these arrays: its machine code for their types
+    (:func:`~soccer_drill.rules.compiled.typed`: the commands' three arrays are by now
+    C-ordered, writeable, of the drill's dtypes and shapes), found once per records' dtype
+    and kind of ``drills``; else (an array of other types) the compiled rule, which types
+    its arguments."""
+    if not (type(cycle) is np.ndarray and type(drills) is np.ndarray and drills.ndim == 1
+            and drills.dtype is _INT64 and (flags := drills.flags).c_contiguous
+            and cycle.ndim == 1 and cycle.flags.c_contiguous):
+        return _checked_into
+    dtype, writeable = cycle.dtype, flags.writeable
+    known = _checks.get((id(dtype), writeable))
+    if known is None or known[0] is not dtype:  # kept: its id is not another's meanwhile
+        known = _checks[id(dtype), writeable] = (dtype, typed(
+            _checked_into, cycle, drills, np.zeros((1, 1), np.int64), np.zeros((1, 1, 2)),
+            np.ones((1, 1)), _ALLOWED))
+    return known[1]
+
+
+_INT64 = np.dtype(np.int64)
 
 
 @compiled

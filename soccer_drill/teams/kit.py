@@ -51,7 +51,10 @@ class BatchCommands(NamedTuple):
 def _read_only(array: np.ndarray) -> np.ndarray:
     """A read-only copy: a view could be made writeable again (its ``flags``, or its
     ``base``) and write into the batch's state."""
-    out = array.copy()
+    if array.dtype.names is None:
+        out = array.copy()
+    else:  # records: their bytes copied whole (``copy`` goes field by field, 5x slower)
+        out = np.ndarray(array.shape, array.dtype, bytearray(array.tobytes()))
     out.flags.writeable = False
     return out
 

@@ -166,7 +166,9 @@ class HolderVectorEnv(Pickled, VectorEnv):
     (:class:`~soccer_drill.drill.BatchDrill`, of which the single drill is one): the same
     compiled rules (skills, support player, team, possession, outcome), the ball moved on
     arrays as pymunk moves it, the random draws in the same order from the same streams.
-    What differs is the physics of the players: the single drill's space holds its ball
+    A batch of one drill (``num_envs=1``) is in the single drill's own space, so it plays
+    ``HolderEnv``'s episodes bit for bit. In a batch of more, what differs is the physics
+    of the players: the single drill's space holds its ball
     as a body too (shapes that meet nothing still shape the spatial index, hence the
     order in which simultaneous contacts are solved), the batch writes each player's
     position and velocity into pymunk every cycle (the single drill its velocity only),
