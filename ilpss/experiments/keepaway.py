@@ -236,7 +236,9 @@ def _changes(changes: dict[str, Any]) -> str:
 
 
 def write_outputs(out: Path, results: dict[str, dict[str, Any]]) -> None:
-    """The page and each scenario's per-seed numbers (JSON: schema version, digest)."""
+    """Each scenario's per-seed numbers (JSON: schema version, digest), then the page
+    from every scenario kept in ``<out>/data`` (a scenario not run now keeps its
+    section)."""
     for scenario, result in results.items():
         body = json.dumps({"schema_version": SCHEMA_VERSION, "scenario": scenario,
                            "unit": "seconds (mean evaluation episode length per seed)",
@@ -245,7 +247,31 @@ def write_outputs(out: Path, results: dict[str, dict[str, Any]]) -> None:
         atomic_write_text(out / "data" / f"{scenario}.json",
                           json.dumps({"sha256": digest, "record": json.loads(body)},
                                      sort_keys=True, indent=1) + "\n")
-    atomic_write_text(out / "keepaway.md", page(results))
+    write_page(out)
+
+
+def read_results(data: Path) -> dict[str, dict[str, Any]]:
+    """Every keepaway scenario's kept numbers in ``data`` (``<scenario>.json``), in the
+    scenarios' order, each digest checked."""
+    out = {}
+    for scenario in drill_facts.KEEPAWAY_ENV_IDS:
+        path = data / f"{scenario}.json"
+        if not path.is_file():
+            continue
+        kept = json.loads(path.read_text())
+        record = kept["record"]
+        if hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest() != kept.get("sha256"):
+            raise ValueError(f"{path}: its sha256 does not match its record (changed by hand?)")
+        if record.get("schema_version") != SCHEMA_VERSION:
+            raise ValueError(f"{path}: schema version {record.get('schema_version')!r}, this "
+                             f"code reads {SCHEMA_VERSION}")
+        out[scenario] = {k: record[k] for k in ("meta", "per_seed", "curves")}
+    return out
+
+
+def write_page(out: Path) -> None:
+    """``<out>/keepaway.md`` from the numbers kept in ``<out>/data``."""
+    atomic_write_text(out / "keepaway.md", page(read_results(out / "data")))
 
 
 def _seeds(text: str) -> list[int]:
@@ -264,7 +290,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", default=None, help="write keepaway.md and data/ here")
     parser.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
                         help="a LearnerConfig field over keepaway's learner (JSON value)")
+    parser.add_argument("--from-data", metavar="DOCS",
+                        help="run nothing: write DOCS/keepaway.md from DOCS/data")
     args = parser.parse_args(argv)
+    if args.from_data is not None:
+        write_page(Path(args.from_data))
+        print(f"wrote {Path(args.from_data) / 'keepaway.md'}")
+        return
     changes = {}
     for item in args.set:
         field, _, value = item.partition("=")
