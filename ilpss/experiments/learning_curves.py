@@ -134,8 +134,11 @@ def best_rule(fixed: dict[str, Any], scenario: str) -> tuple[str, list[bool]]:
     return best, [o == "success" for o in outcomes[best]]
 
 
-def _pct(mean: float, low: float, high: float) -> str:
-    return f"{mean:.0%} [{low:.0%}, {high:.0%}]"
+def _pct(mean: float, low: float, high: float, sign: str = "") -> str:
+    """A rate and its interval in whole percents (never a "-0%")."""
+    def p(x: float) -> str:
+        return f"{round(100 * x):{sign}d}%"
+    return f"{p(mean)} [{p(low)}, {p(high)}]"
 
 
 def section(scenario: str, result: dict[str, Any], fixed: dict[str, Any]) -> list[str]:
@@ -155,7 +158,7 @@ def section(scenario: str, result: dict[str, Any], fixed: dict[str, Any]) -> lis
         f"Against `{team}`, {len(seeds)} seeds ({seeds[0]}..{seeds[-1]}), {meta['episodes']} "
         f"training episodes per seed, the greedy policy evaluated on {n_eval} episodes "
         f"(seeds 0..{n_eval - 1}) before learning and every {every} episodes; "
-        f"{np.sum(cpu) / 60:.0f} CPU-minutes in all ({np.mean(cpu):.0f} s a seed). Command:",
+        f"{np.sum(cpu) / 60:.1f} CPU-minutes in all ({np.mean(cpu):.0f} s a seed). Command:",
         "",
         "```bash",
         f"python -m ilpss.experiments.learning_curves --scenario {scenario} --seeds "
@@ -182,9 +185,14 @@ def section(scenario: str, result: dict[str, Any], fixed: dict[str, Any]) -> lis
         else:
             block = training[:, points[k - 1]:point].mean(axis=1)
             trained = _pct(*t_interval(block))
-        lines.append(f"| {point} | {_pct(mean, low, high)} | {d_mean:+.0%} "
-                     f"[{d_low:+.0%}, {d_high:+.0%}] | {trained} |")
-    lines += ["", f"Per-seed numbers: `docs/data/{STEM}{scenario}.json`.", ""]
+        lines.append(f"| {point} | {_pct(mean, low, high)} | {_pct(d_mean, d_low, d_high, '+')} "
+                     f"| {trained} |")
+    d_mean, d_low, d_high = t_interval((evaluation[:, -1] - rule_same).mean(axis=1))
+    verdict = ("ahead of" if d_low > 0 else "behind" if d_high < 0 else
+               "not told apart from")
+    lines += ["", f"After {points[-1]} episodes the learned policy is {verdict} `{rule}` on "
+              f"the same episodes ({_pct(d_mean, d_low, d_high, '+')}, unadjusted).",
+              "", f"Per-seed numbers: `docs/data/{STEM}{scenario}.json`.", ""]
     return lines
 
 
