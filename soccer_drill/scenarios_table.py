@@ -11,6 +11,8 @@ and lengths (keepaway's, seconds) are kept beside the page
 (``docs/data/scenarios_fixed_rules.json``)::
 
     python -m soccer_drill.scenarios_table --episodes 300 --out docs
+
+``--from-data`` writes the page from the kept outcomes alone (no episode is played).
 """
 
 from __future__ import annotations
@@ -69,9 +71,12 @@ def mean_interval(values: list[float]) -> tuple[float, float, float]:
 
 LEARNING_CURVES: dict[str, str] = {
     "drill_2v2": "`docs/results.md` (learning anew and the transfer methods, protocols A-C)",
+    "drill_1v1": "`docs/learning_curves.md` (learning anew against `chasers`)",
     "drill_3v2": "`docs/larger_drill.md` (learning anew, the transfer methods and the "
                  "transfer from 2v2, against `goal_guards`)",
+    "drill_3v3": "`docs/learning_curves.md` (learning anew against `chasers`)",
     "keepaway_3v2": "`docs/keepaway.md` (a tile-coded Sarsa keeper)",
+    "keepaway_4v3": "`docs/keepaway.md` (a tile-coded Sarsa keeper)",
 }
 """Where a scenario's learning curves are measured (the others: not yet)."""
 
@@ -137,12 +142,27 @@ def page(outcomes: dict[str, dict[str, list[str]]], first_seed: int,
     return "\n".join(lines) + "\n"
 
 
+def read_kept(path: Path) -> dict:
+    """The kept outcomes and lengths (``docs/data/scenarios_fixed_rules.json``), their
+    digest and schema version checked."""
+    kept = json.loads(path.read_text())
+    record = kept["record"]
+    if hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest() != kept.get("sha256"):
+        raise ValueError(f"{path}: its sha256 does not match its record (changed by hand?)")
+    if record.get("schema_version") != SCHEMA_VERSION:
+        raise ValueError(f"{path}: schema version {record.get('schema_version')!r}, this code "
+                         f"reads {SCHEMA_VERSION}")
+    return record
+
+
 def main(argv: list[str] | None = None) -> None:
     """Play the rules on every scenario, keep the outcomes, write the page."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=300)
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--out", default="docs")
+    parser.add_argument("--from-data", action="store_true",
+                        help="play nothing: the page from <out>/data's kept outcomes")
     args = parser.parse_args(argv)
     episodes = checked("--episodes", args.episodes, Integer(1, 100_000))
     first_seed = checked("--first-seed", args.first_seed, Integer(0))
@@ -150,6 +170,12 @@ def main(argv: list[str] | None = None) -> None:
     data, text = out / "data" / "scenarios_fixed_rules.json", out / "scenarios.md"
     for path in (data, text):
         check_output_file(path)
+    if args.from_data:
+        record = read_kept(data)
+        atomic_write_text(text, page(record["outcomes"], record["first_seed"],
+                                     record["lengths"]))
+        print(f"wrote {text} from {data}")
+        return
     played = {name: play_rules(s, episodes, first_seed) for name, s in SCENARIOS.items()}
     kept = {kind: {name: rules for name, rules in played.items()
                    if KEPT[SCENARIOS[name].task] == kind} for kind in KEPT.values()}

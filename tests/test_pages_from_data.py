@@ -74,3 +74,46 @@ def test_the_larger_drills_page_is_what_its_committed_numbers_give(tmp_path, mon
     kept = (DOCS / "larger_drill.md").read_text().splitlines()
     # One line differs by folder: the metrics note links statistics.md beside the page.
     assert [a for a, b in zip(made, kept, strict=True) if a != b and "statistics.md" not in a] == []
+
+
+def test_the_keepaway_page_is_what_its_committed_numbers_give(tmp_path):
+    """Every keepaway scenario kept in docs/data (3v2 and 4v3) has its section, as the
+    committed page shows it."""
+    import shutil
+
+    from ilpss.experiments import keepaway
+
+    shutil.copytree(DOCS / "data", tmp_path / "data")
+    keepaway.main(["--from-data", str(tmp_path)])
+    made = (tmp_path / "keepaway.md").read_text()
+    assert made == (DOCS / "keepaway.md").read_text()
+    for scenario in keepaway.read_results(DOCS / "data"):
+        assert f"## `{scenario}`" in made
+
+
+def test_the_learning_curves_page_is_what_its_committed_numbers_give(tmp_path):
+    import shutil
+
+    from ilpss.experiments import learning_curves
+
+    shutil.copytree(DOCS / "data", tmp_path / "data")
+    learning_curves.main(["--from-data", str(tmp_path)])
+    made = (tmp_path / "learning_curves.md").read_text()
+    assert made == (DOCS / "learning_curves.md").read_text()
+    for scenario in ("drill_1v1", "drill_3v3"):
+        assert f"## `{scenario}`" in made
+
+
+def test_a_changed_number_is_refused_by_its_digest(tmp_path):
+    import json
+    import shutil
+
+    from ilpss.experiments import keepaway
+
+    shutil.copytree(DOCS / "data", tmp_path / "data")
+    path = tmp_path / "data" / "keepaway_3v2.json"
+    kept = json.loads(path.read_text())
+    kept["record"]["per_seed"]["learned"][0] += 1.0
+    path.write_text(json.dumps(kept))
+    with pytest.raises(ValueError, match="sha256 does not match"):
+        keepaway.main(["--from-data", str(tmp_path)])

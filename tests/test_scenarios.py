@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -98,3 +100,19 @@ def test_the_scenarios_page_is_written_from_kept_per_seed_outcomes(tmp_path) -> 
     page = (tmp_path / "scenarios.md").read_text()
     assert page == scenarios_table.page(record["outcomes"], 1000, record["lengths"])
     assert "| `drill_3v2` | 3v2 | drill | `soccer_drill/Holder3v2-v0` | `chasers` |" in page
+
+
+def test_the_committed_scenarios_page_is_what_its_kept_outcomes_give(tmp_path) -> None:
+    """docs/scenarios.md from docs/data's kept outcomes, no episode played; every
+    scenario's row names where its learning curve is measured."""
+    import shutil
+
+    from soccer_drill import scenarios_table
+
+    docs = Path(__file__).resolve().parents[1] / "docs"
+    shutil.copytree(docs / "data", tmp_path / "data")
+    scenarios_table.main(["--from-data", "--out", str(tmp_path)])
+    page = (tmp_path / "scenarios.md").read_text()
+    assert page == (docs / "scenarios.md").read_text()
+    assert "not yet measured" not in page
+    assert set(scenarios_table.LEARNING_CURVES) == set(SCENARIOS)

@@ -38,6 +38,7 @@ from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.rules.features import GLOBAL_STATE
 from soccer_drill.rules.motion import ranked_teammate
+from soccer_drill.rules.task_rules import cycle_reward
 from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
 from soccer_drill.vector.attack import HolderRuleAttack, ScriptedAttack, make_attack
 from soccer_drill.vector.memory import check_frames_fit, check_frames_memory, check_num_envs
@@ -96,8 +97,11 @@ class ParallelVectorEnv(Pickled):
 
     ## Rewards and episode end
 
-    Zero until a drill's last cycle; then the attackers get the attackers' reward and
-    the defenders its negative. ``terminations`` on success, interception or out,
+    As ``parallel_env``'s, cycle by cycle: in the drill zero until a drill's last cycle,
+    then the attackers get the attackers' reward and the defenders its negative; in
+    keepaway (``DrillConfig(task="keepaway")``) every cycle a drill plays pays the
+    attackers (the keepers) the task's pay per cycle (``cycle_seconds``) and the
+    defenders its negative, and the end nothing more. ``terminations`` on success, interception or out,
     ``truncations`` on timeout, for every agent of that drill.
 
     ## Autoreset
@@ -230,6 +234,7 @@ class ParallelVectorEnv(Pickled):
         self._renderer = (BatchRenderer(self.config, check_frames_memory,
                                         None if team is None else team.name)
                           if self.render_mode else None)
+        self._paid = cycle_reward(self.config)  # the attackers' pay per cycle: keepaway's seconds
         self._autoreset = np.zeros(n, dtype=bool)
         self._has_reset = False
         self._busy_init()
@@ -386,6 +391,8 @@ class ParallelVectorEnv(Pickled):
                 self._attack.cycle(stepping)
             ended = stepping & (b.outcome != Outcome.RUNNING)
             reward = np.where(ended, b.attacker_reward, 0.0)
+            if self._paid:  # keepaway: every cycle a drill plays pays its seconds
+                reward = reward + np.where(stepping, self._paid, 0.0)
             truncated = ended & (b.outcome == Outcome.TIMEOUT)
             terminated = ended & ~truncated
             self._autoreset = ended

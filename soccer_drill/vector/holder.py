@@ -97,8 +97,9 @@ class HolderVectorEnv(Pickled, VectorEnv):
 
     ## Rewards and episode end
 
-    As ``HolderEnv``, per drill: zero until the episode ends, then the attackers' reward;
-    ``terminated`` on success, interception or out, ``truncated`` on timeout.
+    As ``HolderEnv``, per drill: in the drill zero until the episode ends, then the
+    attackers' reward; in keepaway the seconds each step lasted (``duration *
+    cycle_seconds``), nothing more at the end; ``terminated`` on success, interception or out, ``truncated`` on timeout.
 
     ## Autoreset
 

@@ -1,0 +1,46 @@
+"""The learning-curve experiment: per-seed records kept and read back, the page and its
+numbers written from them, the comparison with the best fixed rule on the same
+episodes."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from ilpss.experiments import learning_curves
+
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+
+
+def test_the_best_rule_is_the_one_docs_scenarios_names() -> None:
+    fixed = learning_curves.read_json(DOCS / "data" / learning_curves.FIXED_RULES)
+    rule, successes = learning_curves.best_rule(fixed, "drill_3v3")
+    assert rule == "lane" and len(successes) == 300
+    assert f"`{rule}` | {sum(successes) / 300:.0%}" in (DOCS / "scenarios.md").read_text()
+
+
+@pytest.mark.slow
+def test_a_small_run_keeps_its_records_and_writes_the_page(tmp_path) -> None:
+    docs = tmp_path / "docs"
+    (docs / "data").mkdir(parents=True)
+    shutil.copy(DOCS / "data" / learning_curves.FIXED_RULES, docs / "data")
+    args = ["--scenario", "drill_1v1", "--seeds", "1000-1001", "--episodes", "5",
+            "--every", "3", "--eval-episodes", "2", "--runs", str(tmp_path / "runs"),
+            "--out", str(docs)]
+    learning_curves.main(args)
+    kept = learning_curves.read_json(docs / "data" / "learning_curve_drill_1v1.json")
+    result = kept["record"]["result"]
+    assert result["points"] == [0, 3, 5]
+    assert [len(s) for s in result["training_success"]] == [5, 5]
+    assert all(len(e) == 2 for seed in result["evaluation_success"] for e in seed)
+    page = (docs / "learning_curves.md").read_text()
+    assert "## `drill_1v1`" in page and "`dribble`" in page and "| 5 |" in page
+    records = sorted((tmp_path / "runs").rglob("seed_*.json"))
+    assert len(records) == 2
+    before = [r.stat().st_mtime_ns for r in records]
+    learning_curves.main(args)  # a rerun reads the kept records
+    assert [r.stat().st_mtime_ns for r in records] == before
+    assert json.loads(records[0].read_text())["schema_version"] == learning_curves.SCHEMA_VERSION
