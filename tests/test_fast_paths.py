@@ -243,3 +243,63 @@ def test_a_plain_int_action_gets_what_a_numpy_integer_gets(shared_spaces, illega
                     except ValueError as exc:
                         outcomes.append(str(exc))
                 assert outcomes[0] == outcomes[1], (holder, agent, action)
+
+
+def _same_step(plain: tuple, general: tuple) -> None:
+    """Two parallel steps' results are equal, observations and masks bit for bit."""
+    for got, want in zip(plain, general, strict=True):
+        assert got.keys() == want.keys()
+        for agent in got:
+            x, y = got[agent], want[agent]
+            if isinstance(x, dict):
+                assert x.keys() == y.keys()
+                for key in x:
+                    np.testing.assert_array_equal(x[key], y[key])
+            elif isinstance(x, np.ndarray):
+                np.testing.assert_array_equal(x, y)
+            else:
+                assert x == y and type(x) is type(y), (agent, x, y)
+
+
+@pytest.mark.parametrize("size", [(2, 2), (3, 2)])
+@pytest.mark.parametrize("opponent", ["chasers", None])
+@pytest.mark.parametrize("obs_format", ["dict", "flat"])
+@pytest.mark.parametrize("illegal_action", ["raise", "default"])
+def test_the_parallel_steps_plain_int_loop_gets_what_numpy_integers_get(
+        size, opponent, obs_format, illegal_action):
+    """The parallel step's loop over plain-int actions (the shortcut, inlined) against
+    the general path NumPy integers take: the same commands, the same refusals and
+    replacements, the same observations, rewards and infos, episode after episode."""
+    attackers, defenders = size
+    cfg = DrillConfig(attackers=attackers, defenders=defenders)
+    envs = [soccer_drill.parallel_env(config=cfg, opponent=opponent, obs_format=obs_format,
+                                      illegal_action=illegal_action) for _ in range(2)]
+    rng = np.random.default_rng(5)
+    refused = replaced = 0
+    for episode in range(3):
+        results = [env.reset(seed=episode) for env in envs]
+        _same_step(*results)
+        while envs[0].agents:
+            assert envs[1].agents == envs[0].agents
+            n = {a: envs[0].action_space(a).n for a in envs[0].agents}
+            actions = {a: int(rng.integers(-1, n[a] + 1)) if rng.random() < 0.1
+                       else int(rng.integers(n[a])) for a in envs[0].agents}
+            outcomes = []
+            for env, kind in zip(envs, (int, np.int64), strict=True):
+                try:
+                    outcomes.append(env.step({a: kind(x) for a, x in actions.items()}))
+                except ValueError as exc:
+                    outcomes.append(str(exc))
+            if isinstance(outcomes[0], str):
+                assert outcomes[0] == outcomes[1]
+                refused += 1
+                continue
+            assert not isinstance(outcomes[1], str), outcomes[1]
+            _same_step(*outcomes)
+            replaced += any("illegal_action" in info for info in outcomes[0][4].values())
+            for name in ("skill", "receiver"):
+                np.testing.assert_array_equal(getattr(envs[0]._core.batch, name),
+                                              getattr(envs[1]._core.batch, name))
+    assert refused > 0  # out of range, and masked under "raise"
+    if illegal_action == "default":
+        assert replaced > 0
