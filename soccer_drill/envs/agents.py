@@ -182,12 +182,18 @@ class _DrillEnvBase(HeaderTexts, Pickled):
     def _plain(self, i: int) -> np.ndarray:
         """Player ``i``'s observation, a new array: a row of every agent's, computed in
         one call once per state of the drill (``BatchDrill.steps``: a cycle, a reset)."""
+        return self._every_row()[self._agent_row[i]].copy()
+
+    def _every_row(self) -> np.ndarray:
+        """Every agent's observation row of the drill's current state, computed in one
+        compiled call at the first need after each cycle or reset (shared: copy a row
+        before handing it out)."""
         batch = self._batch
         if self._seen_at != batch.steps:
             self._seen = self._observe.again(batch.state, self._agent_drills,
                                              self._agent_players)
             self._seen_at = batch.steps
-        return self._seen[self._agent_row[i]].copy()
+        return self._seen
 
     def _every_observation(self) -> dict[str, Any]:
         """Every agent's observation of the drill's state (every agent is live: the
@@ -195,12 +201,7 @@ class _DrillEnvBase(HeaderTexts, Pickled):
         array of its own, and the masks chosen by one read of the holder."""
         if self.shared_spaces:  # the role flag: per agent
             return {a: self._observation(a) for a in self.agents}
-        batch = self._batch
-        if self._seen_at != batch.steps:
-            self._seen = self._observe.again(batch.state, self._agent_drills,
-                                             self._agent_players)
-            self._seen_at = batch.steps
-        seen = self._seen
+        seen, batch = self._every_row(), self._batch
         if self._flat:
             return {a: seen[row].copy() for a, _, row in self._agent_rows}
         holder, attackers, actions = int(batch.holder[0]), self._attackers, self._actions
