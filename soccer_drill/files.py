@@ -6,14 +6,19 @@
   with ``O_EXCL`` under a random name, so it never follows a link planted there nor
   meets another writer's temporary), ``fsync`` s it and renames it over the destination:
   a crash leaves the old file or the new one, never half of one.
+* :func:`write_digested_json` / :func:`read_digested_json`: a page's kept numbers with the
+  SHA-256 of their JSON, checked when read.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import os
 import re
 import secrets
 from pathlib import Path
+from typing import Any
 
 __all__ = ["TEMPORARY", "atomic_write_bytes", "atomic_write_text", "check_output_file"]
 
@@ -93,6 +98,31 @@ def atomic_write_text(path: str | os.PathLike[str], text: str) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_bytes(path, text.encode("utf-8"))
     return path
+
+
+def write_digested_json(path: str | os.PathLike[str], record: dict[str, Any],
+                        indent: int | None = None) -> Path:
+    """``{"record": record, "sha256": digest}`` written atomically, the digest the SHA-256
+    of the record's JSON with sorted keys: a page's kept numbers, whose reader
+    (:func:`read_digested_json`) tells a file changed by hand."""
+    body = json.dumps(record, sort_keys=True, allow_nan=False)
+    digest = hashlib.sha256(body.encode()).hexdigest()
+    return atomic_write_text(path, json.dumps({"sha256": digest, "record": json.loads(body)},
+                                              sort_keys=True, indent=indent) + "\n")
+
+
+def read_digested_json(path: str | os.PathLike[str],
+                       schema_version: int | None = None) -> dict[str, Any]:
+    """The record of a file :func:`write_digested_json` wrote, ``ValueError`` naming the
+    file if its digest does not match (or, given ``schema_version``, its version differs)."""
+    kept = json.loads(Path(path).read_text())
+    record = kept["record"]
+    if hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest() != kept.get("sha256"):
+        raise ValueError(f"{path}: its sha256 does not match its record (changed by hand?)")
+    if schema_version is not None and record.get("schema_version") != schema_version:
+        raise ValueError(f"{path}: schema version {record.get('schema_version')!r}, this code "
+                         f"reads {schema_version}")
+    return record
 
 
 def _naming(exc: OSError, path: Path) -> OSError:

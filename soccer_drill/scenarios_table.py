@@ -18,13 +18,16 @@ and lengths (keepaway's, seconds) are kept beside the page
 from __future__ import annotations
 
 import argparse
-import hashlib
-import json
 import math
 from pathlib import Path
 
 from soccer_drill.constraints import Integer, checked
-from soccer_drill.files import atomic_write_text, check_output_file
+from soccer_drill.files import (
+    atomic_write_text,
+    check_output_file,
+    read_digested_json,
+    write_digested_json,
+)
 from soccer_drill.keepaway_policies import KEEPER_POLICIES
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.scenarios import SCENARIOS, Scenario
@@ -145,14 +148,7 @@ def page(outcomes: dict[str, dict[str, list[str]]], first_seed: int,
 def read_kept(path: Path) -> dict:
     """The kept outcomes and lengths (``docs/data/scenarios_fixed_rules.json``), their
     digest and schema version checked."""
-    kept = json.loads(path.read_text())
-    record = kept["record"]
-    if hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest() != kept.get("sha256"):
-        raise ValueError(f"{path}: its sha256 does not match its record (changed by hand?)")
-    if record.get("schema_version") != SCHEMA_VERSION:
-        raise ValueError(f"{path}: schema version {record.get('schema_version')!r}, this code "
-                         f"reads {SCHEMA_VERSION}")
-    return record
+    return read_digested_json(path, SCHEMA_VERSION)
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -179,11 +175,8 @@ def main(argv: list[str] | None = None) -> None:
     played = {name: play_rules(s, episodes, first_seed) for name, s in SCENARIOS.items()}
     kept = {kind: {name: rules for name, rules in played.items()
                    if KEPT[SCENARIOS[name].task] == kind} for kind in KEPT.values()}
-    body = json.dumps({"schema_version": SCHEMA_VERSION, "first_seed": first_seed, **kept},
-                      sort_keys=True)
-    digest = hashlib.sha256(body.encode()).hexdigest()
-    atomic_write_text(data, json.dumps({"sha256": digest, "record": json.loads(body)},
-                                       sort_keys=True) + "\n")
+    write_digested_json(data, {"schema_version": SCHEMA_VERSION, "first_seed": first_seed,
+                               **kept})
     atomic_write_text(text, page(kept["outcomes"], first_seed, kept["lengths"]))
     print(f"wrote {text} and {data}")
 

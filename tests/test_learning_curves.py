@@ -11,12 +11,13 @@ from pathlib import Path
 import pytest
 
 from ilpss.experiments import learning_curves
+from soccer_drill.files import read_digested_json
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
 
 def test_the_best_rule_is_the_one_docs_scenarios_names() -> None:
-    fixed = learning_curves.read_json(DOCS / "data" / learning_curves.FIXED_RULES)
+    fixed = read_digested_json(DOCS / "data" / learning_curves.FIXED_RULES)
     rule, successes = learning_curves.best_rule(fixed, "drill_3v3")
     assert rule == "lane" and len(successes) == 300
     assert f"`{rule}` | {sum(successes) / 300:.0%}" in (DOCS / "scenarios.md").read_text()
@@ -31,8 +32,8 @@ def test_a_small_run_keeps_its_records_and_writes_the_page(tmp_path) -> None:
             "--every", "3", "--eval-episodes", "2", "--runs", str(tmp_path / "runs"),
             "--out", str(docs)]
     learning_curves.main(args)
-    kept = learning_curves.read_json(docs / "data" / "learning_curve_drill_1v1.json")
-    result = kept["record"]["result"]
+    kept = read_digested_json(docs / "data" / "learning_curve_drill_1v1.json")
+    result = kept["result"]
     assert result["points"] == [0, 3, 5]
     assert [len(s) for s in result["training_success"]] == [5, 5]
     assert all(len(e) == 2 for seed in result["evaluation_success"] for e in seed)

@@ -35,7 +35,7 @@ from ilpss.experiments import drill_facts
 from ilpss.metrics.inference import t_interval
 from ilpss.smdp import KEEPAWAY, LearnerConfig, SmdpLearner
 from ilpss.tiles import KEEPAWAY_ANGLE_WIDTH, KEEPAWAY_DISTANCE_WIDTH
-from soccer_drill.files import atomic_write_text
+from soccer_drill.files import atomic_write_text, read_digested_json, write_digested_json
 
 SCHEMA_VERSION = 1
 """The version of the kept records' and the page data's layout."""
@@ -259,13 +259,10 @@ def write_outputs(out: Path, results: dict[str, dict[str, Any]]) -> None:
     from every scenario kept in ``<out>/data`` (a scenario not run now keeps its
     section)."""
     for scenario, result in results.items():
-        body = json.dumps({"schema_version": SCHEMA_VERSION, "scenario": scenario,
-                           "unit": "seconds (mean evaluation episode length per seed)",
-                           **result}, sort_keys=True)
-        digest = hashlib.sha256(body.encode()).hexdigest()
-        atomic_write_text(out / "data" / f"{scenario}.json",
-                          json.dumps({"sha256": digest, "record": json.loads(body)},
-                                     sort_keys=True, indent=1) + "\n")
+        write_digested_json(out / "data" / f"{scenario}.json",
+                            {"schema_version": SCHEMA_VERSION, "scenario": scenario,
+                             "unit": "seconds (mean evaluation episode length per seed)",
+                             **result}, indent=1)
     write_page(out)
 
 
@@ -277,13 +274,7 @@ def read_results(data: Path) -> dict[str, dict[str, Any]]:
         path = data / f"{scenario}.json"
         if not path.is_file():
             continue
-        kept = json.loads(path.read_text())
-        record = kept["record"]
-        if hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest() != kept.get("sha256"):
-            raise ValueError(f"{path}: its sha256 does not match its record (changed by hand?)")
-        if record.get("schema_version") != SCHEMA_VERSION:
-            raise ValueError(f"{path}: schema version {record.get('schema_version')!r}, this "
-                             f"code reads {SCHEMA_VERSION}")
+        record = read_digested_json(path, SCHEMA_VERSION)
         out[scenario] = {k: record[k] for k in ("meta", "per_seed", "curves")}
     return out
 

@@ -24,7 +24,6 @@ Seeds from 1000 are for development; the page's are from 0.
 from __future__ import annotations
 
 import argparse
-import hashlib
 import json
 import time
 from dataclasses import asdict
@@ -38,7 +37,7 @@ from ilpss.experiments import drill_facts
 from ilpss.experiments.config import ExperimentConfig
 from ilpss.metrics.inference import t_interval
 from ilpss.smdp import SmdpLearner
-from soccer_drill.files import atomic_write_text
+from soccer_drill.files import atomic_write_text, read_digested_json, write_digested_json
 
 SCHEMA_VERSION = 1
 """The version of the kept records' and the page data's layout."""
@@ -128,7 +127,7 @@ def result_of(records: list[dict[str, Any]], seeds: list[int], episodes: int, ev
 def best_rule(fixed: dict[str, Any], scenario: str) -> tuple[str, list[bool]]:
     """The fixed rule with the highest success rate on every kept episode (as
     ``docs/scenarios.md`` picks it), and its per-episode successes."""
-    outcomes = fixed["record"]["outcomes"][scenario]
+    outcomes = fixed["outcomes"][scenario]
     rates = {rule: np.mean([o == "success" for o in kept]) for rule, kept in outcomes.items()}
     best = max(rates, key=lambda rule: (rates[rule], rule == "random"))
     return best, [o == "success" for o in outcomes[best]]
@@ -219,29 +218,13 @@ def page(results: dict[str, dict[str, Any]], fixed: dict[str, Any]) -> str:
     return "\n".join(lines)
 
 
-def _write_json(path: Path, body: dict[str, Any]) -> None:
-    text = json.dumps(body, sort_keys=True)
-    digest = hashlib.sha256(text.encode()).hexdigest()
-    atomic_write_text(path, json.dumps({"sha256": digest, "record": json.loads(text)},
-                                       sort_keys=True) + "\n")
-
-
-def read_json(path: Path) -> dict[str, Any]:
-    """A kept data file, its digest checked."""
-    kept = json.loads(path.read_text())
-    digest = hashlib.sha256(json.dumps(kept["record"], sort_keys=True).encode()).hexdigest()
-    if digest != kept.get("sha256"):
-        raise ValueError(f"{path}: its sha256 does not match its record (changed by hand?)")
-    return kept
-
-
 def read_results(data: Path) -> dict[str, dict[str, Any]]:
     """Every scenario's kept numbers in ``data``."""
     out = {}
     for scenario in drill_facts.scenario_names():
         path = data / f"{STEM}{scenario}.json"
         if path.is_file():
-            record = read_json(path)["record"]
+            record = read_digested_json(path)
             if record.get("schema_version") != SCHEMA_VERSION:
                 raise ValueError(f"{path}: schema version {record.get('schema_version')!r}, "
                                  f"this code reads {SCHEMA_VERSION}")
@@ -254,7 +237,7 @@ def write_outputs(out: Path, results: dict[str, dict[str, Any]]) -> None:
     ``<out>/data`` (those not run now keep their sections)."""
     data = out / "data"
     for scenario, result in results.items():
-        _write_json(data / f"{STEM}{scenario}.json",
+        write_digested_json(data / f"{STEM}{scenario}.json",
                     {"schema_version": SCHEMA_VERSION, "scenario": scenario,
                      "unit": "success (1) or not (0) per episode", "result": result})
     write_page(out)
@@ -264,7 +247,7 @@ def write_page(out: Path) -> None:
     """``<out>/learning_curves.md`` from the numbers kept in ``<out>/data``."""
     data = out / "data"
     atomic_write_text(out / "learning_curves.md",
-                      page(read_results(data), read_json(data / FIXED_RULES)))
+                      page(read_results(data), read_digested_json(data / FIXED_RULES)))
 
 
 def _seeds(text: str) -> list[int]:
