@@ -133,6 +133,18 @@ class _DrillEnvBase(HeaderTexts, Pickled):
                                  enumerate(self._index.items()))
         self._seen: np.ndarray | None = None
         self._seen_at = -1  # the drill's steps when _seen was computed
+        self._make_spaces(actions, shared_spaces)
+        self._features = self._with_role if shared_spaces else self._plain
+        self._observation = self._flat_observation if self._flat else self._dict_observation
+        self._state = Observation(GLOBAL_STATE, cfg)
+        self.state_space = self._state.box
+        self.replaced: tuple[int, int] | None = None
+        self._has_reset = False
+        self._busy_init()
+
+    def _make_spaces(self, actions: AttackerActions, shared_spaces: bool) -> None:
+        """Each agent's action and observation space, and the defenders' legal actions."""
+        attackers = self._attackers
         box = self._observe.box
         if shared_spaces:  # a trailing role flag tells one shared policy which side it plays
             box = spaces.Box(
@@ -158,13 +170,6 @@ class _DrillEnvBase(HeaderTexts, Pickled):
                     }
                 )
             )
-        self._features = self._with_role if shared_spaces else self._plain
-        self._observation = self._flat_observation if self._flat else self._dict_observation
-        self._state = Observation(GLOBAL_STATE, cfg)
-        self.state_space = self._state.box
-        self.replaced: tuple[int, int] | None = None
-        self._has_reset = False
-        self._busy_init()
 
     def __copy__(self):
         """An independent copy continuing the episode (see Copies in :class:`raw_env`)."""
