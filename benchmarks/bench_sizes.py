@@ -8,8 +8,9 @@ this thread (``time.thread_time``). The loops of a size:
 
 * ``floor``: the bare pymunk cycle of one drill's own space with that size's bodies (one
   velocity set per body, the sub-steps), as ``benchmarks/bench_env.py``'s floor;
-* ``parallel``: a ``parallel_env`` cycle, the attackers agents (random legal actions drawn
-  in advance), ``chasers`` defending;
+* ``parallel``: a ``parallel_env`` cycle, the attackers agents (a random legal action for
+  each, chosen from its mask by the loop), ``chasers`` defending; and the same loop's
+  ``reset`` and ``step`` calls alone (the environment's cost, without the client's choice);
 * ``holder``: a ``HolderEnv`` cycle (random actions);
 * ``batch floor``: the bare ``BatchPhysics`` cycle of ``--drills`` drills (one batched
   write, the sub-steps, one batched read), per drill;
@@ -65,26 +66,39 @@ class Floor:
 
 
 class Parallel:
-    """``parallel_env`` episodes, the attackers agents, random legal actions."""
+    """``parallel_env`` episodes, the attackers agents, random legal actions.
+
+    ``env_seconds`` adds up the CPU time of the environment's own calls (``reset`` and
+    ``step``), leaving out the client's random legal choice (``np.flatnonzero`` of each
+    agent's mask), which the block's time includes."""
 
     def __init__(self, cfg: DrillConfig) -> None:
         self.env = soccer_drill.parallel_env(config=cfg, opponent="chasers")
         self.u = np.random.default_rng(0).random(1 << 20).tolist()
         self.k, self.seed, self.obs = 0, 0, {}
+        self.env_seconds = 0.0
 
     def run(self, cycles: int) -> int:
-        env = self.env
+        env, clock, spent = self.env, time.thread_time, 0.0
         for _ in range(cycles):
             if not env.agents:
+                start = clock()
                 self.obs, _ = env.reset(seed=self.seed)
+                spent += clock() - start
                 self.seed += 1
             actions = {}
             for a in env.agents:
                 legal = np.flatnonzero(self.obs[a]["action_mask"])
                 self.k = (self.k + 1) % len(self.u)
                 actions[a] = int(legal[int(self.u[self.k] * len(legal))])
+            start = clock()
             self.obs, *_ = env.step(actions)
+            spent += clock() - start
+        self.env_seconds = spent
         return cycles
+
+
+ENV_ONLY = "parallel, the environment's calls only"
 
 
 class Holder:
@@ -153,7 +167,7 @@ def main() -> None:
         loops[size] = {"floor": Floor(cfg), "parallel": Parallel(cfg), "holder": Holder(cfg),
                        "batch floor": BatchFloor(cfg, args.drills),
                        "batched holder": BatchedHolder(cfg, args.drills)}
-    costs = {size: {name: [] for name in group} for size, group in loops.items()}
+    costs = {size: {name: [] for name in [*group, ENV_ONLY]} for size, group in loops.items()}
     load_before = os.getloadavg()
     for _ in range(args.rounds):
         for size, group in loops.items():
@@ -162,6 +176,8 @@ def main() -> None:
                 start = time.thread_time()
                 n = loop.run(block)
                 costs[size][name].append((time.thread_time() - start) / n * 1e6)
+                if isinstance(loop, Parallel):
+                    costs[size][ENV_ONLY].append(loop.env_seconds / n * 1e6)
     load_after = os.getloadavg()
     print(f"python {platform.python_version()}, pymunk {pymunk.version}, {os.cpu_count()} CPUs; "
           f"load average {load_before[0]:.1f} before, {load_after[0]:.1f} after; "
@@ -174,7 +190,8 @@ def main() -> None:
     median = {size: {name: statistics.median(v) for name, v in group.items()}
               for size, group in costs.items()}
     players = {size: cfg.players for size, cfg in sizes.items()}
-    for name, floor in (("floor", "floor"), ("parallel", "floor"), ("holder", "floor"),
+    for name, floor in (("floor", "floor"), ("parallel", "floor"), (ENV_ONLY, "floor"),
+                        ("holder", "floor"),
                         ("batch floor", "batch floor"), ("batched holder", "batch floor")):
         cells, ratios = [], []
         for size in sizes:

@@ -195,3 +195,13 @@ def test_each_observation_is_a_new_array():
     obs, _ = parallel.reset(seed=3)
     rows = [obs[a]["observation"] for a in parallel.agents]
     assert not any(np.shares_memory(x, y) for x in rows for y in rows if x is not y)
+    stepped, *_ = parallel.step({a: int(np.flatnonzero(obs[a]["action_mask"])[0])
+                                 for a in parallel.agents})
+    after = [stepped[a]["observation"] for a in parallel.agents]
+    assert not any(np.shares_memory(x, y) for x in rows + after for y in rows + after
+                   if x is not y)
+    for row in after:
+        row[:] = -1.0
+    again, *_ = parallel.step({a: int(np.flatnonzero(stepped[a]["action_mask"])[0])
+                               for a in parallel.agents})
+    assert not any((again[a]["observation"] == -1.0).all() for a in parallel.agents)

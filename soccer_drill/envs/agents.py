@@ -206,16 +206,18 @@ class _DrillEnvBase(HeaderTexts, Pickled):
         array of its own, and the masks chosen by one read of the holder."""
         if self.shared_spaces:  # the role flag: per agent
             return {a: self._observation(a) for a in self.agents}
-        seen, batch = self._every_row(), self._batch
+        # One copy of every row, each agent handed its own row of it (rows in the
+        # agents' order): no agent's array shares memory with another's or the drill's.
+        fresh = self._every_row().copy()
         if self._flat:
-            return {a: seen[row].copy() for a, _, row in self._agent_rows}
-        holder, attackers, actions = int(batch.holder[0]), self._attackers, self._actions
+            return {a: row for (a, _, _), row in zip(self._agent_rows, fresh, strict=True)}
+        holder, attackers, actions = int(self._batch.holder[0]), self._attackers, self._actions
         holding, off_ball, defending = (actions.holder_mask, actions.off_ball_mask,
                                         self._defender_mask)
-        return {a: {"observation": seen[row].copy(),
+        return {a: {"observation": row,
                     "action_mask": (defending if i >= attackers
                                     else holding if i == holder else off_ball)}
-                for a, i, row in self._agent_rows}
+                for (a, i, _), row in zip(self._agent_rows, fresh, strict=True)}
 
     def _with_role(self, i: int) -> np.ndarray:
         return np.concatenate((self._plain(i), _ROLE_FLAG[i < self._attackers]))
@@ -787,18 +789,20 @@ class parallel_env(_DrillEnvBase, ParallelEnv):
         skill, holder = batch.skill, int(batch.holder[0])
         legal_holding, legal_off_ball, legal_defending = (
             self._holder_skills, self._off_ball_skills, self._defender_skills)
+        ranks = self._ranks
         for agent, i, _ in self._agent_rows:
             action = actions[agent]
             # _command's shortcut for a legal plain int, inlined: one loop over the
-            # agents with what they share read once (at 3v2, not a pass by rank)
+            # agents with what they share read once
             if type(action) is int:
                 legal = (legal_defending if i >= attackers
                          else legal_holding if i == holder else legal_off_ball)
-                if 0 <= action < len(legal) and (chosen := legal[action]) is not None and (
-                        attackers <= 2 or i >= attackers or self._ranks[action] <= 0):
+                if 0 <= action < len(legal) and (chosen := legal[action]) is not None:
                     skill[0, i] = chosen
-                    if attackers > 2 and i < attackers:
-                        batch.receiver[0, i] = -1
+                    if attackers > 2 and i < attackers:  # a pass's receiver by rank now
+                        rank = ranks[action]
+                        batch.receiver[0, i] = ranked_teammate(
+                            batch.pos[0], i, attackers, rank) if rank > 0 else -1
                     continue
             self._command(agent, i, action)
             if self.replaced is not None:
