@@ -15,8 +15,9 @@ from ilpss.experiments.report_text import label
 from ilpss.experiments.run import run_experiment
 
 # The methods docs/discussion.md lists for the recommendation, and earlier rounds' picks.
-CANDIDATES = ("finetune", "finetune_best", "whole_policies_ft", "ilpss_ft",
-              "whole_policies_plus", "ilpss_plus", "ilpss", "scratch")
+CANDIDATES = ("whole_policies_ft_bounded_cut", "finetune", "finetune_best",
+              "whole_policies_ft", "ilpss_ft", "whole_policies_plus", "ilpss_plus", "ilpss",
+              "scratch")
 
 
 class _Configured(Exception):
@@ -54,7 +55,7 @@ def test_a_method_with_no_agent_to_show_is_refused_before_any_work(monkeypatch, 
 @pytest.mark.slow
 def test_the_demo_shows_the_agent_of_a_lifelong_or_a_fine_tuning_method(monkeypatch,
                                                                         tmp_path):
-    shown = ("finetune", "finetune_best", "ilpss_ft")
+    shown = ("finetune", "finetune_best", "ilpss_ft", demo.RECOMMENDED)
     cfg = ExperimentConfig(protocol="A", n_seeds=1, workers=1, featured="ilpss",
                            methods=("scratch", "ilpss", *shown)).with_overrides(
         lifelong={"train_episodes": 6, "rollout_episodes": 3, "n_kernels": 2})

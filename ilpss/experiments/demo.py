@@ -53,7 +53,7 @@ from ilpss.options import OptionLibrary
 from ilpss.policy import FrozenPolicy
 from ilpss.smdp import LearnerConfig, SmdpLearner
 
-RECOMMENDED = "finetune"
+RECOMMENDED = "whole_policies_ft_bounded_cut"
 """The method the README recommends (``docs/results.md`` and ``docs/discussion.md`` say
 on what evidence): the one place the demo takes it from, a lifelong or a fine-tuning
 method (:func:`check_showable`). The README's paragraph on ``make demo`` names it too
