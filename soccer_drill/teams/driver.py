@@ -54,7 +54,13 @@ def skill_refused(skill: object) -> str:
     """Why a scripted team's command of ``skill`` is refused."""
     allowed = [f"{s.name}={int(s)}" for s in SCRIPTED_SKILLS]
     shown = f"{skill.name}={int(skill)}" if isinstance(skill, Skill) else short_repr(skill)
-    return f"skill {shown} is not allowed for a scripted defender; allowed: {allowed}"
+    why = f"skill {shown} is not allowed for a scripted defender; allowed: {allowed}"
+    if is_int(skill) and not isinstance(skill, Skill) and 0 <= skill < len(Skill):  # type: ignore[operator]
+        # A Command's plain integer, whose value may be an allowed skill's: say why it is not.
+        member = Skill(int(skill))  # type: ignore[call-overload]
+        why += (f"; a Command's skill is a soccer_drill.Skill member, not its integer "
+                f"(Skill({int(skill)}) is Skill.{member.name})")  # type: ignore[call-overload]
+    return why
 
 
 def _speed_refused(speed: object) -> str:
