@@ -572,7 +572,7 @@ class raw_env(_DrillEnvBase, AECEnv):
 
     | argument | default | meaning |
     |----------|---------|---------|
-    | ``opponent`` | ``None`` | team id (see ``soccer-drill-teams``), a ``Team`` instance, or ``None`` (defenders are agents) |
+    | ``opponent`` | ``None`` | team id (see ``soccer-drill-teams``), a ``Team`` instance, or ``None`` (defenders are agents); an instance another live environment plays already is copied (``copy.deepcopy``), so that each environment plays its own |
     | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
     | ``obs_type`` | ``"features"`` | a kind of observation of ``soccer_drill.rules.features.OBSERVATION_TYPES``: ``"features"``, ``"kinematic"`` or ``"full"`` (see Observation space) |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |

@@ -449,7 +449,7 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
 
     | argument | default | meaning |
     |----------|---------|---------|
-    | ``opponent`` | ``"chasers"`` | team id or a team instance |
+    | ``opponent`` | ``"chasers"`` | team id or a team instance (one another live environment plays already is copied, ``copy.deepcopy``: each environment plays its own) |
     | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |

@@ -18,6 +18,7 @@ import copy
 import itertools
 import math
 import time
+import weakref
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -448,6 +449,8 @@ class TeamDriver:
         self._check_size(self.call("defender_counts", "", getattr, team, "defender_counts",
                                    None))
         batched = self.call("batch()", "", self._batched)
+        if batched is None and not isinstance(opponent, str) and _played_elsewhere(team):
+            team = self.team = self.call("copy.deepcopy()", "", self._own_copy)
         self.batched: BatchTeam | _Copies = batched if batched is not None else _Copies(
             [team] + [self._copy(opponent, params, i) for i in range(1, batch.n)], self)
         self.rng = BatchRandom(batch.n)
@@ -455,6 +458,7 @@ class TeamDriver:
         """The error of the team's last failed call, until every drill is reset."""
         self._every = np.arange(batch.n)
         self._every.flags.writeable = False
+        _DRIVERS.add(self)
 
     def _check_size(self, counts: object) -> None:
         """The drill's number of defenders, among those the team says it plays (its
@@ -509,6 +513,20 @@ class TeamDriver:
                 f"copy per drill, made by copy.deepcopy, and copying it failed "
                 f"({type(exc).__name__}: {text}); make it copyable, give it a batch(n) "
                 "method, or register its factory and pass its id"
+            ) from exc
+
+    def _own_copy(self) -> Team:
+        """A copy of the team instance, which another live environment plays already."""
+        try:
+            return copy.deepcopy(self.team)
+        except Exception as exc:  # not copyable: said, with what to do
+            if delivered_by_signal(exc):
+                raise
+            raise _NotCopied(
+                f"team {self.name!r}: this instance is played by another environment already, "
+                f"and copying it for this one failed ({type(exc).__name__}: "
+                f"{short_repr(str(exc))}); pass each environment an instance of its own, or "
+                "register its factory and pass its id"
             ) from exc
 
     # -------------------------------------------------------------- the calls
@@ -646,6 +664,17 @@ class TeamDriver:
         if refused.player is None:
             return TeamError(f"{named} {refused.why} at cycle {cycle}")
         return TeamError(f"{named}, player {refused.player!r}, cycle {cycle}: {refused.why}")
+
+
+_DRIVERS: weakref.WeakSet[TeamDriver] = weakref.WeakSet()
+"""The drivers made in this process and still alive (their environments' teams)."""
+
+
+def _played_elsewhere(team: object) -> bool:
+    """Whether a live driver plays ``team`` (the very instance): a team without a batched
+    form keeps its episode in its attributes, so two environments stepping one instance in
+    turn would mix their episodes; the later one plays a copy instead."""
+    return any(driver.team is team for driver in list(_DRIVERS))
 
 
 class _NotCopied(Exception):
