@@ -264,3 +264,15 @@ def test_players_reset_refuses_a_seed_that_is_not_a_non_negative_integer(make, s
     fresh = make(opponent="chasers")
     fresh.reset(seed=7)
     assert np.array_equal(env.state(), fresh.state())
+
+
+def test_holder_reset_takes_a_numpy_integer_seed_as_the_other_environments_do():
+    # The players' and the batched environments take NumPy integers (seeds drawn from an
+    # np.arange or a Generator); Gymnasium's own check refused them here.
+    env = soccer_drill.HolderEnv(opponent="chasers")
+    obs, _ = env.reset(seed=np.int64(7))
+    fresh, _ = soccer_drill.HolderEnv(opponent="chasers").reset(seed=7)
+    np.testing.assert_array_equal(obs, fresh)
+    for seed in (-1, 3.0, True, [1, 2]):
+        with pytest.raises(ValueError, match=r"seed must be None or an integer >= 0, got "):
+            env.reset(seed=seed)

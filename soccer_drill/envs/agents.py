@@ -13,7 +13,7 @@ from pettingzoo import AECEnv, ParallelEnv
 
 from soccer_drill.commands import BALL_SKILLS, DEFENDER_ACTIONS, Skill
 from soccer_drill.config import DrillConfig
-from soccer_drill.constraints import Integer, NoneOr, OneOf, checked, is_int
+from soccer_drill.constraints import Integer, OneOf, checked, is_int
 from soccer_drill.envs.core import (
     ATTACKER_SKILLS,
     DEFENDER_DEFAULT,
@@ -23,6 +23,7 @@ from soccer_drill.envs.core import (
     HOLDER_MASK,
     ILLEGAL_ACTION,
     OFF_BALL_MASK,
+    SEED,
     AttackerActions,
     BatchCore,
     IllegalAction,
@@ -58,7 +59,6 @@ _RUNNING = int(Outcome.RUNNING)  # read once: an enum member's lookup costs abou
 _ROLE_FLAG = (np.zeros(1, dtype=np.float32), np.ones(1, dtype=np.float32))  # defender, attacker
 _ONE = np.zeros(1, dtype=np.int64)  # the single environment's one drill
 _ACTIVE = np.ones(1, dtype=bool)
-_SEED = NoneOr(Integer(0))  # what reset(seed=...) takes: None (continue the generator) or a seed
 for _array in (_ONE, _ACTIVE):
     _array.flags.writeable = False
 # The same masks as tuples of bools, for checking an action (indexing a tuple is cheaper).
@@ -240,7 +240,7 @@ class _DrillEnvBase(HeaderTexts, Pickled):
         """Reseed (``None``: continue the generator) and reset the drill; every agent is live.
         A seed that is not ``None`` or an integer >= 0 is refused before anything changes
         (NumPy would take a list as a seed sequence, and word a bad one in its own terms)."""
-        seed = checked("seed", seed, _SEED)
+        seed = checked("seed", seed, SEED)
         self._core.seed(None if seed is None else [seed])
         self._core.reset(_ONE)
         self.agents = self.possible_agents[:]
