@@ -263,4 +263,8 @@ def test_a_shared_team_instance_that_cannot_be_copied_is_refused_saying_why():
     first = soccer_drill.HolderEnv(opponent=team)
     with pytest.raises(TypeError, match="played by another environment already"):
         soccer_drill.HolderEnv(opponent=team)
-    del first
+    first.reset(seed=0)
+    del first  # gone: the next environment plays the instance itself, as the first did
+    second = soccer_drill.HolderEnv(opponent=team)
+    assert second.loop.core.team.team is team
+    second.reset(seed=0)

@@ -15,6 +15,7 @@ refuses to act again until every drill is reset.
 from __future__ import annotations
 
 import copy
+import gc
 import itertools
 import math
 import time
@@ -516,12 +517,16 @@ class TeamDriver:
             ) from exc
 
     def _own_copy(self) -> Team:
-        """A copy of the team instance, which another live environment plays already."""
+        """A copy of the team instance, which another live environment plays already (the
+        instance itself if that environment was only waiting to be collected)."""
         try:
             return copy.deepcopy(self.team)
         except Exception as exc:  # not copyable: said, with what to do
             if delivered_by_signal(exc):
                 raise
+            gc.collect()  # an environment dropped in a reference cycle plays nothing
+            if not _played_elsewhere(self.team):
+                return self.team
             raise _NotCopied(
                 f"team {self.name!r}: this instance is played by another environment already, "
                 f"and copying it for this one failed ({type(exc).__name__}: "
