@@ -461,6 +461,13 @@ class TeamDriver:
         self._every.flags.writeable = False
         _DRIVERS.add(self)
 
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        # Read-only again, as the original's (copy.deepcopy and pickle make arrays
+        # writable): a writable array is another type to a compiled team, which would be
+        # compiled anew inside the copy's first time-bounded call.
+        self._every.flags.writeable = False
+
     def _check_size(self, counts: object) -> None:
         """The drill's number of defenders, among those the team says it plays (its
         ``defender_counts``, a collection of integers; none said: any); else
