@@ -364,6 +364,15 @@ class Registry:
             self._discover()
             return sorted(self._entries)
 
+    def own_names(self) -> list[str]:
+        """The names this project's own distribution declares, sorted: none of a plugin
+        installed beside it, nor of an in-process registration (imports nothing)."""
+        with self._lock:
+            self._discover()
+            return sorted(name for name, entry in self._entries.items()
+                          if entry.entry_point is not None
+                          and _normalised(entry.distribution) == self.own_distribution)
+
     def __contains__(self, name: object) -> bool:
         with self._lock:
             self._discover()

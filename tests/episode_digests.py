@@ -33,7 +33,7 @@ import pymunk
 
 import soccer_drill
 from soccer_drill.policies import keepaway_rule
-from soccer_drill.teams import team_ids
+from soccer_drill.teams.registry import TEAMS
 
 DIGEST_FILE = Path(__file__).with_name("episode_digests.json")
 SCHEMA_VERSION = 1
@@ -144,9 +144,11 @@ def holder_digest(opponent: str) -> str:
 
 
 def configurations() -> list[tuple[str, str, str | None, dict[str, Any]]]:
-    """``(name, api, opponent, keyword arguments)`` of every recorded configuration."""
+    """``(name, api, opponent, keyword arguments)`` of every recorded configuration: this
+    project's own teams (a team installed beside it as a plugin has no recorded digest)."""
     out = []
-    for opponent in (None, *team_ids()):
+    teams = TEAMS.own_names()
+    for opponent in (None, *teams):
         for obs_type in ("features", "kinematic"):
             for obs_format in ("dict", "flat"):
                 for shared in (False, True):
@@ -155,7 +157,7 @@ def configurations() -> list[tuple[str, str, str | None, dict[str, Any]]]:
                     tag = f"{opponent}/{obs_type}/{obs_format}/shared={shared}"
                     out.append((f"aec/{tag}", "aec", opponent, kwargs))
                     out.append((f"parallel/{tag}", "parallel", opponent, kwargs))
-    for opponent in team_ids():
+    for opponent in teams:
         out.append((f"holder/{opponent}", "holder", opponent, {}))
     return out
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 import pickle
+import threading
 
 import gymnasium as gym
 import numpy as np
@@ -207,3 +208,63 @@ def test_through_gymnasiums_vector_wrappers_only_copy_copy_shares_the_batch_as_s
     assert duplicate.unwrapped is not env.unwrapped
     copied = _batched_steps(duplicate.unwrapped, 7, 10)
     assert _batched_steps(env.unwrapped, 7, 10) == copied
+
+
+class _Homes:
+    """A team of one drill with an episode in its attributes: homes drawn at each reset."""
+
+    def reset(self, view, rng):
+        self.players = view.players
+        self.homes = {p: (float(rng.uniform(5, 30)), float(rng.uniform(2, 10)))
+                      for p in view.players}
+
+    def act(self, view):
+        return {p: soccer_drill.Command(soccer_drill.Skill.MOVE_TO, self.homes[p])
+                for p in self.players}
+
+
+def _holder_episode(env, seed, actions):
+    observations = [env.reset(seed=seed)[0]]
+    for action in actions:
+        obs, _, terminated, truncated, _ = env.step(action)
+        observations.append(obs)
+        if terminated or truncated:
+            break
+    return np.array(observations)
+
+
+def test_one_team_instance_given_to_two_environments_plays_each_ones_episodes():
+    actions = [2, 0, 2, 1, 2, 2]
+    alone = [_holder_episode(soccer_drill.HolderEnv(opponent=_Homes()), s, actions)
+             for s in (1, 2)]
+    team = _Homes()
+    first, second = (soccer_drill.HolderEnv(opponent=team) for _ in range(2))
+    assert first.loop.core.team.team is team  # the first plays the instance itself
+    observations = [[first.reset(seed=1)[0]], [second.reset(seed=2)[0]]]
+    for action in actions[:len(alone[0]) - 1]:  # stepped in turn
+        observations[0].append(first.step(action)[0])
+        if len(observations[1]) < len(alone[1]):
+            observations[1].append(second.step(action)[0])
+    for got, want in zip(observations, alone, strict=True):
+        np.testing.assert_array_equal(np.array(got), want)
+    # Gymnasium's sync vector environment passes one instance to every environment.
+    envs = gym.make_vec("soccer_drill/Holder-v0", num_envs=2, vectorization_mode="sync",
+                        opponent=_Homes())
+    obs, _ = envs.reset(seed=[1, 2])
+    for step in range(3):
+        for k in range(2):
+            np.testing.assert_array_equal(obs[k], alone[k][step])
+        obs = envs.step(np.array([actions[step]] * 2))[0]
+
+
+def test_a_shared_team_instance_that_cannot_be_copied_is_refused_saying_why():
+    team = _Homes()
+    team.lock = threading.Lock()  # copy.deepcopy cannot copy a lock
+    first = soccer_drill.HolderEnv(opponent=team)
+    with pytest.raises(TypeError, match="played by another environment already"):
+        soccer_drill.HolderEnv(opponent=team)
+    first.reset(seed=0)
+    del first  # gone: the next environment plays the instance itself, as the first did
+    second = soccer_drill.HolderEnv(opponent=team)
+    assert second.loop.core.team.team is team
+    second.reset(seed=0)

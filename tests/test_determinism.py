@@ -9,7 +9,7 @@ import pytest
 
 import soccer_drill
 from soccer_drill.policies import keepaway_rule
-from soccer_drill.teams import team_ids
+from soccer_drill.teams.registry import TEAMS
 
 
 def _aec_rollout(env, seed: int, episodes: int) -> list:
@@ -145,7 +145,7 @@ def test_reseeding_a_used_holder_env_reproduces_the_episode_for_every_team():
     engine between episodes (its contact caches) would show up in some of them.
     """
     actions = [int(a) for a in np.random.default_rng(0).integers(3, size=60)]
-    for team in team_ids():
+    for team in TEAMS.own_names():
         fresh = _holder_seeded(soccer_drill.HolderEnv(opponent=team), 7, actions)
         used = soccer_drill.HolderEnv(opponent=team)
         for earlier in range(12):
@@ -155,7 +155,7 @@ def test_reseeding_a_used_holder_env_reproduces_the_episode_for_every_team():
 
 @pytest.mark.slow
 def test_reseeding_used_aec_and_parallel_envs_reproduces_the_episode():
-    for opponent in (None, *team_ids()):
+    for opponent in (None, *TEAMS.own_names()):
         fresh = _aec_seeded(soccer_drill.env(opponent=opponent), 7, 0)
         used = soccer_drill.env(opponent=opponent)
         for earlier in range(15):

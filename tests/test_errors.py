@@ -240,3 +240,39 @@ def test_shared_spaces_may_be_a_numpy_bool(make):
     env = make(shared_spaces=np.True_)
     env.reset(seed=0)
     assert env.observation_space("attacker_0") == env.observation_space("defender_0")
+
+
+def test_a_commands_plain_integer_skill_is_named_as_not_a_skill_member():
+    # Command(6) is refused (a Command names a Skill member): the error must not read as
+    # if MARK=6 were refused while listing MARK=6 as allowed.
+    env = soccer_drill.HolderEnv(opponent=_Team(lambda p: dict.fromkeys(p, Command(6))))
+    env.reset(seed=0)
+    with pytest.raises(TeamError, match=r"not its integer \(Skill\(6\) is Skill\.MARK\)"):
+        env.step(0)
+
+
+@pytest.mark.parametrize("make", [soccer_drill.env, soccer_drill.parallel_env])
+@pytest.mark.parametrize("seed", [-1, 3.0, "3", True, [1, 2], np.array([4])])
+def test_players_reset_refuses_a_seed_that_is_not_a_non_negative_integer(make, seed):
+    env = make(opponent="chasers")
+    env.reset(seed=5)
+    before = env.state()
+    with pytest.raises(ValueError, match=r"seed must be None or an integer >= 0, got "):
+        env.reset(seed=seed)
+    assert np.array_equal(env.state(), before)  # refused before anything changed
+    env.reset(seed=np.int64(7))  # a NumPy integer is a seed like any other
+    fresh = make(opponent="chasers")
+    fresh.reset(seed=7)
+    assert np.array_equal(env.state(), fresh.state())
+
+
+def test_holder_reset_takes_a_numpy_integer_seed_as_the_other_environments_do():
+    # The players' and the batched environments take NumPy integers (seeds drawn from an
+    # np.arange or a Generator); Gymnasium's own check refused them here.
+    env = soccer_drill.HolderEnv(opponent="chasers")
+    obs, _ = env.reset(seed=np.int64(7))
+    fresh, _ = soccer_drill.HolderEnv(opponent="chasers").reset(seed=7)
+    np.testing.assert_array_equal(obs, fresh)
+    for seed in (-1, 3.0, True, [1, 2]):
+        with pytest.raises(ValueError, match=r"seed must be None or an integer >= 0, got "):
+            env.reset(seed=seed)

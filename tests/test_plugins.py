@@ -65,6 +65,18 @@ def test_foreign_team_is_discovered_and_plays(foreign_distribution, monkeypatch)
     assert "wall" not in teams.team_ids()
 
 
+def test_the_recorded_episodes_are_of_this_projects_teams_alone(foreign_distribution):
+    # A team installed beside the project has no recorded digest: with one installed, the
+    # digests' test must still ask for exactly the recorded configurations.
+    from episode_digests import configurations
+
+    assert "wall" in teams.team_ids()
+    recorded = {opponent for _, _, opponent, _ in configurations()}
+    assert "wall" not in recorded
+    assert recorded == {None, *TEAMS.own_names()}
+    assert {"chasers", "goal_guards", "parametric"} <= recorded
+
+
 def test_broken_entry_point_is_reported_by_name(tmp_path, monkeypatch):
     info = tmp_path / "broken_teams-0.1.dist-info"
     info.mkdir()

@@ -23,6 +23,7 @@ from soccer_drill.envs.core import (
     HOLDER_MASK,
     ILLEGAL_ACTION,
     OFF_BALL_MASK,
+    SEED,
     AttackerActions,
     BatchCore,
     IllegalAction,
@@ -236,7 +237,10 @@ class _DrillEnvBase(HeaderTexts, Pickled):
         return self._features(self._index[agent])
 
     def _begin_episode(self, seed: int | None) -> None:
-        """Reseed (``None``: continue the generator) and reset the drill; every agent is live."""
+        """Reseed (``None``: continue the generator) and reset the drill; every agent is live.
+        A seed that is not ``None`` or an integer >= 0 is refused before anything changes
+        (NumPy would take a list as a seed sequence, and word a bad one in its own terms)."""
+        seed = checked("seed", seed, SEED)
         self._core.seed(None if seed is None else [seed])
         self._core.reset(_ONE)
         self.agents = self.possible_agents[:]
@@ -568,7 +572,7 @@ class raw_env(_DrillEnvBase, AECEnv):
 
     | argument | default | meaning |
     |----------|---------|---------|
-    | ``opponent`` | ``None`` | team id (see ``soccer-drill-teams``), a ``Team`` instance, or ``None`` (defenders are agents) |
+    | ``opponent`` | ``None`` | team id (see ``soccer-drill-teams``), a ``Team`` instance, or ``None`` (defenders are agents); an instance another live environment plays already is copied (``copy.deepcopy``), so that each environment plays its own |
     | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
     | ``obs_type`` | ``"features"`` | a kind of observation of ``soccer_drill.rules.features.OBSERVATION_TYPES``: ``"features"``, ``"kinematic"`` or ``"full"`` (see Observation space) |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |

@@ -26,7 +26,7 @@ from soccer_drill.commands import (
     attacker_action_skills,
 )
 from soccer_drill.config import DrillConfig
-from soccer_drill.constraints import Bool, NoneOr, OneOf, checked, is_int
+from soccer_drill.constraints import Bool, Integer, NoneOr, OneOf, checked, is_int
 from soccer_drill.drill.drills import BatchDrill
 from soccer_drill.drill.spaces import DRILLS_PER_SPACE, DrillSpace
 from soccer_drill.rules.arrays import Outcome, rule_parameters
@@ -306,6 +306,12 @@ class BatchCore:
     def ended(self) -> np.ndarray:
         """``(n,)`` bool: the drills whose episode has an outcome."""
         return self.batch.outcome != Outcome.RUNNING
+
+
+SEED = NoneOr(Integer(0))
+"""What a single environment's ``reset(seed=...)`` takes: ``None`` (continue the
+generator) or an integer >= 0, Python's or NumPy's (not a bool, a float or a list, which
+NumPy would take as a seed sequence)."""
 
 
 def check_seed(seed: object, n: int) -> list[int | None] | None:

@@ -19,7 +19,7 @@ from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import Integer, checked
 from soccer_drill.drill.drills import BatchDrill
 from soccer_drill.drill.spaces import DrillSpace
-from soccer_drill.envs.core import BatchCore, Observation, make_config, not_reset
+from soccer_drill.envs.core import SEED, BatchCore, Observation, make_config, not_reset
 from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.scene import FrameStyle, Scene
 from soccer_drill.rendering.screen import RENDER_MODES, HeaderTexts, Screen, frames_per_second
@@ -449,7 +449,7 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
 
     | argument | default | meaning |
     |----------|---------|---------|
-    | ``opponent`` | ``"chasers"`` | team id or a team instance |
+    | ``opponent`` | ``"chasers"`` | team id or a team instance (one another live environment plays already is copied, ``copy.deepcopy``: each environment plays its own) |
     | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` (default 100) |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
@@ -537,7 +537,10 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        """Start an episode; the observation is the 9 features of the attacker given the ball."""
+        """Start an episode; the observation is the 9 features of the attacker given the ball.
+        ``seed``: ``None`` (continue the generator) or an integer >= 0, Python's or NumPy's,
+        as every environment of the drill takes it."""
+        seed = checked("seed", seed, SEED)
         loop = self.loop
         with self._claim("reset"):
             super().reset(seed=seed)

@@ -15,9 +15,11 @@ refuses to act again until every drill is reset.
 from __future__ import annotations
 
 import copy
+import gc
 import itertools
 import math
 import time
+import weakref
 from collections.abc import Callable, Mapping
 from typing import Any
 
@@ -54,7 +56,13 @@ def skill_refused(skill: object) -> str:
     """Why a scripted team's command of ``skill`` is refused."""
     allowed = [f"{s.name}={int(s)}" for s in SCRIPTED_SKILLS]
     shown = f"{skill.name}={int(skill)}" if isinstance(skill, Skill) else short_repr(skill)
-    return f"skill {shown} is not allowed for a scripted defender; allowed: {allowed}"
+    why = f"skill {shown} is not allowed for a scripted defender; allowed: {allowed}"
+    if is_int(skill) and not isinstance(skill, Skill) and 0 <= skill < len(Skill):  # type: ignore[operator]
+        # A Command's plain integer, whose value may be an allowed skill's: say why it is not.
+        member = Skill(int(skill))  # type: ignore[call-overload]
+        why += (f"; a Command's skill is a soccer_drill.Skill member, not its integer "
+                f"(Skill({int(skill)}) is Skill.{member.name})")  # type: ignore[call-overload]
+    return why
 
 
 def _speed_refused(speed: object) -> str:
@@ -442,12 +450,22 @@ class TeamDriver:
         self._check_size(self.call("defender_counts", "", getattr, team, "defender_counts",
                                    None))
         batched = self.call("batch()", "", self._batched)
+        if batched is None and not isinstance(opponent, str) and _played_elsewhere(team):
+            team = self.team = self.call("copy.deepcopy()", "", self._own_copy)
         self.batched: BatchTeam | _Copies = batched if batched is not None else _Copies(
             [team] + [self._copy(opponent, params, i) for i in range(1, batch.n)], self)
         self.rng = BatchRandom(batch.n)
         self.failure: str | None = None
         """The error of the team's last failed call, until every drill is reset."""
         self._every = np.arange(batch.n)
+        self._every.flags.writeable = False
+        _DRIVERS.add(self)
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        # Read-only again, as the original's (copy.deepcopy and pickle make arrays
+        # writable): a writable array is another type to a compiled team, which would be
+        # compiled anew inside the copy's first time-bounded call.
         self._every.flags.writeable = False
 
     def _check_size(self, counts: object) -> None:
@@ -503,6 +521,24 @@ class TeamDriver:
                 f"copy per drill, made by copy.deepcopy, and copying it failed "
                 f"({type(exc).__name__}: {text}); make it copyable, give it a batch(n) "
                 "method, or register its factory and pass its id"
+            ) from exc
+
+    def _own_copy(self) -> Team:
+        """A copy of the team instance, which another live environment plays already (the
+        instance itself if that environment was only waiting to be collected)."""
+        try:
+            return copy.deepcopy(self.team)
+        except Exception as exc:  # not copyable: said, with what to do
+            if delivered_by_signal(exc):
+                raise
+            gc.collect()  # an environment dropped in a reference cycle plays nothing
+            if not _played_elsewhere(self.team):
+                return self.team
+            raise _NotCopied(
+                f"team {self.name!r}: this instance is played by another environment already, "
+                f"and copying it for this one failed ({type(exc).__name__}: "
+                f"{short_repr(str(exc))}); pass each environment an instance of its own, or "
+                "register its factory and pass its id"
             ) from exc
 
     # -------------------------------------------------------------- the calls
@@ -640,6 +676,17 @@ class TeamDriver:
         if refused.player is None:
             return TeamError(f"{named} {refused.why} at cycle {cycle}")
         return TeamError(f"{named}, player {refused.player!r}, cycle {cycle}: {refused.why}")
+
+
+_DRIVERS: weakref.WeakSet[TeamDriver] = weakref.WeakSet()
+"""The drivers made in this process and still alive (their environments' teams)."""
+
+
+def _played_elsewhere(team: object) -> bool:
+    """Whether a live driver plays ``team`` (the very instance): a team without a batched
+    form keeps its episode in its attributes, so two environments stepping one instance in
+    turn would mix their episodes; the later one plays a copy instead."""
+    return any(driver.team is team for driver in list(_DRIVERS))
 
 
 class _NotCopied(Exception):
