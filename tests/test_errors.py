@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -276,3 +277,25 @@ def test_holder_reset_takes_a_numpy_integer_seed_as_the_other_environments_do():
     for seed in (-1, 3.0, True, [1, 2]):
         with pytest.raises(ValueError, match=r"seed must be None or an integer >= 0, got "):
             env.reset(seed=seed)
+
+
+@pytest.mark.parametrize("make", [soccer_drill.env, soccer_drill.parallel_env])
+@pytest.mark.parametrize("opponent", [None, "chasers"])
+def test_an_unknown_agent_is_named_with_the_environments_agents(make, opponent):
+    """A per-agent call with a name that is not an agent (a defender when the defenders
+    are a scripted team, a typo, an unhashable value) says so and lists the agents,
+    still as a ``KeyError``, as a mapping's lookup would be."""
+    env = make(opponent=opponent)
+    env.reset(seed=0)
+    unknown = ["attacker_9", "goalkeeper", ["attacker_0"]]
+    if opponent is not None:
+        unknown.append("defender_0")
+    calls = [env.observation_space, env.action_space, env.action_mask]
+    if hasattr(env, "observe"):
+        calls.append(env.observe)
+    agents = re.escape(str(list(env.possible_agents)))
+    for call in calls:
+        for agent in unknown:
+            with pytest.raises(KeyError, match="is not an agent of this environment; "
+                                               f"its agents are {agents}"):
+                call(agent)

@@ -38,6 +38,7 @@ from soccer_drill.envs.core import (
     resolve_shared_spaces,
 )
 from soccer_drill.envs.pickling import Pickled
+from soccer_drill.interruptions import short_repr
 from soccer_drill.rendering.scene import FrameStyle, Scene
 from soccer_drill.rendering.screen import RENDER_MODES, HeaderTexts, Screen, frames_per_second
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
@@ -178,11 +179,29 @@ class _DrillEnvBase(HeaderTexts, Pickled):
 
     def observation_space(self, agent: str) -> spaces.Space:
         """The agent's observation space (see the class docstring); the same object every call."""
-        return self._observation_spaces[agent]
+        try:
+            return self._observation_spaces[agent]
+        except (KeyError, TypeError):
+            raise self._unknown(agent) from None
 
     def action_space(self, agent: str) -> spaces.Space:
         """The agent's ``Discrete`` action space (see the class docstring); the same object."""
-        return self._action_spaces[agent]
+        try:
+            return self._action_spaces[agent]
+        except (KeyError, TypeError):
+            raise self._unknown(agent) from None
+
+    def _unknown(self, agent: object) -> KeyError:
+        """A ``KeyError`` (as a mapping's) naming ``agent`` and the environment's agents."""
+        return KeyError(f"{short_repr(agent)} is not an agent of this environment; its agents "
+                        f"are {list(self.possible_agents)}")
+
+    def _checked_index(self, agent: object) -> int:
+        """The player index of ``agent``, or :meth:`_unknown`'s error."""
+        try:
+            return self._index[agent]
+        except (KeyError, TypeError):
+            raise self._unknown(agent) from None
 
     # ---------------------------------------------------------- observations
     def _plain(self, i: int) -> np.ndarray:
@@ -253,7 +272,7 @@ class _DrillEnvBase(HeaderTexts, Pickled):
     def action_mask(self, agent: str) -> np.ndarray:
         """The current action mask of ``agent`` (int8, 1 = legal; read-only)."""
         self._require_reset("action_mask")
-        return self._mask(self._index[agent])
+        return self._mask(self._checked_index(agent))
 
     # --------------------------------------------------------------- actions
     def _command(self, agent: str, index: int, action: object) -> None:
@@ -632,6 +651,7 @@ class raw_env(_DrillEnvBase, AECEnv):
         """The observation of ``agent`` (see the class docstring)."""
         if not self._has_reset:
             raise not_reset("observe")
+        self._checked_index(agent)
         return self._observation(agent)
 
     def last(self, observe: bool = True):
