@@ -299,3 +299,41 @@ def test_an_unknown_agent_is_named_with_the_environments_agents(make, opponent):
             with pytest.raises(KeyError, match="is not an agent of this environment; "
                                                f"its agents are {agents}"):
                 call(agent)
+
+
+class _LookAhead(_Team):
+    """A team that plays a drill of its own inside its act() (a look-ahead), against a
+    team of its own that may fail there."""
+
+    def __init__(self, inner):
+        super().__init__(lambda players: dict.fromkeys(players, Command(Skill.MARK)))
+        self.inner = inner
+
+    def reset(self, view, rng):
+        super().reset(view, rng)
+        self.sim = soccer_drill.HolderEnv(opponent=self.inner)
+
+    def act(self, view):
+        self.sim.reset(seed=0)
+        self.sim.step(0)
+        return super().act(view)
+
+
+def test_a_team_whose_own_inner_drill_fails_is_the_team_named():
+    """The error of an environment a team runs inside its act() is the team's failure:
+    named after the outer team and its call, the inner error said after it (and chained),
+    not passed on as if the inner team were the environment's."""
+    # No time bound on the outer team: its first call may compile the inner drill's rules.
+    env = soccer_drill.HolderEnv(opponent=_LookAhead(_Team(_boom)), team_timeout=None)
+    env.reset(seed=0)
+    with pytest.raises(TeamError, match=r"^team '_LookAhead' raised in act\(\) at cycle 0: "
+                                        r".*team '_Team' raised in act\(\) at cycle 0: KeyError"
+                       ) as raised:
+        env.step(0)
+    assert isinstance(raised.value.__cause__, TeamError)
+    with pytest.raises(TeamError, match=r"the team failed earlier \(team '_LookAhead' raised"):
+        env.step(0)  # the outer environment's own refusal names its own team
+    # A look-ahead whose inner team behaves plays on.
+    fine = soccer_drill.HolderEnv(opponent=_LookAhead("chasers"), team_timeout=None)
+    fine.reset(seed=0)
+    fine.step(0)

@@ -589,10 +589,10 @@ class TeamDriver:
     def check_usable(self) -> None:
         """:class:`TeamError` if the team failed and not every drill was reset since."""
         if self.failure is not None:
-            raise TeamError(
+            raise _raised_by(self, TeamError(
                 f"the team failed earlier ({self.failure}), leaving the drills that acted "
                 "part-way through that cycle; call reset() before stepping again"
-            )
+            ))
 
     def call(self, call: str, when: object, method: Callable[..., Any], *args: Any) -> Any:
         """``method(*args)`` within the team's time bound; any failure a :class:`TeamError`
@@ -604,10 +604,13 @@ class TeamDriver:
                 return self._guarded(call, when, method, args)
             return call_within(self.team_timeout, self._guarded, call, when, method, args)
         except Overrun as exc:
-            raise self._past_bound(call, self._when(when), exc, start) from None
+            raise _raised_by(self, self._past_bound(call, self._when(when), exc, start)) from None
         except _NotCopied as exc:
             raise TypeError(str(exc)) from exc.__cause__
-        except (TeamError, TypeError):
+        except TeamError as exc:
+            _raised_by(self, exc)
+            raise
+        except TypeError:
             raise
         except Exception as exc:  # the bound itself failed (arming its timer)
             if delivered_by_signal(exc):  # the program's own, landing while the bound is set
@@ -620,8 +623,14 @@ class TeamDriver:
         """``method(*args)``, whatever it raises a :class:`TeamError` (a Ctrl-C apart)."""
         try:
             return method(*args)
-        except (Overrun, TeamError, _NotCopied):
+        except (Overrun, _NotCopied):
             raise
+        except TeamError as exc:
+            if getattr(exc, _RAISED_BY, self) is self:  # this driver's own check
+                raise
+            # Another driver's: an environment the team runs inside its own call failed.
+            raise TeamError(f"{self._who()} raised in {call}{self._when(when)}: "
+                            f"{_what_happened(exc)}") from exc
         except BaseException as exc:
             if delivered_by_signal(exc):
                 raise
@@ -676,6 +685,19 @@ class TeamDriver:
         if refused.player is None:
             return TeamError(f"{named} {refused.why} at cycle {cycle}")
         return TeamError(f"{named}, player {refused.player!r}, cycle {cycle}: {refused.why}")
+
+
+_RAISED_BY = "_soccer_drill_raised_by"
+"""The attribute naming the driver a :class:`TeamError` left (its ``call`` or
+``check_usable``): a team that runs an environment of its own inside its call, and that
+environment's team fails, is this driver's team failing, not the inner one."""
+
+
+def _raised_by(driver: TeamDriver, exc: TeamError) -> TeamError:
+    """``exc``, marked as leaving ``driver`` unless an inner driver marked it first."""
+    if not hasattr(exc, _RAISED_BY):
+        setattr(exc, _RAISED_BY, driver)
+    return exc
 
 
 _DRIVERS: weakref.WeakSet[TeamDriver] = weakref.WeakSet()
