@@ -421,6 +421,11 @@ def _rewrite_bags(checkpoint: Path, edit) -> None:
         (lambda c: (c / "trial_0001" / "library" / "kernels.npz").write_bytes(
             (c / "trial_0001" / "library" / "kernels.npz").read_bytes()[:-30]),
          "not a readable|modified"),
+        # A file gone is damage too (a FileNotFoundError, not a ValueError, before).
+        (lambda c: (c / "trial_0001" / "bags.npz").unlink(), r"bags.npz: missing"),
+        (lambda c: (c / "trial_0001" / "policy_0.npz").unlink(), r"policy_0.npz: missing"),
+        (lambda c: (c / "trial_0001" / "library" / "library.npz").unlink(),
+         r"library/library.npz: missing"),
     ],
 )
 def test_damaged_checkpoints_are_refused_by_name(checkpoints, tmp_path, tamper, match) -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 import sys
 from pathlib import Path
 
@@ -160,6 +161,30 @@ def test_a_resume_refuses_checkpoints_and_results_of_another_configuration(tmp_p
     with pytest.raises(ValueError, match=r"different configuration \(lifelong.learner.alpha: "
                        r"0.125 saved, 0.5 here\)"):
         run_experiment(_alpha(0.5), tmp_path, progress=False)
+
+
+def test_a_damaged_checkpoint_at_a_resume_says_how_to_go_on_and_deleting_it_does(tmp_path):
+    """A resume reads a damaged checkpoint the same way every time, so the error says to
+    delete the method's folder (the job's other methods are kept), not only what is wrong;
+    before, a truncated policy or a file gone was named, and the advice was to run the same
+    command again, which failed the same way."""
+    from ilpss.experiments.run import JobError, run_experiment
+
+    run_experiment(_tiny(), tmp_path, progress=False)
+    job = tmp_path / "seed_000" / "stream_00"
+    kept = (job / "result.json").read_bytes()
+    (job / "result.json").unlink()
+    checkpoint = next((job / "scratch").glob("trial_*"))
+    for damage in (lambda: (checkpoint / "policy_0.npz").write_bytes(b"PK"),
+                   lambda: (checkpoint / "policy_0.npz").unlink()):
+        damage()
+        with pytest.raises(JobError, match=r"seed 0, stream 0: ValueError: .*scratch: the "
+                           r"checkpoint cannot be resumed: .*policy_0.npz: .*; delete that "
+                           r"folder to run this method of the job again"):
+            run_experiment(_tiny(), tmp_path, progress=False)
+    shutil.rmtree(job / "scratch")
+    run_experiment(_tiny(), tmp_path, progress=False)
+    assert (job / "result.json").read_bytes() == kept
 
 
 _HOLD = """

@@ -242,13 +242,17 @@ def _restore(
 ) -> LifelongLearner | None:
     """The checkpoint at ``key``, if there is one, refused (``ValueError`` naming the
     field) if another configuration or job wrote it, if the number of its trials is not
-    in ``trials``, or if its rewards are ones the environment cannot have paid."""
-    learner = store.restore(key, space)
-    if learner is None:
-        return None
+    in ``trials``, if its rewards are ones the environment cannot have paid, or if it is
+    damaged (a file truncated, edited or gone): each message says how to go on."""
     where = f"{store.location}/{key}" if is_uri(store.location) else os.fspath(
         Path(store.location) / key)
     hint = "delete that folder to run this method of the job again"
+    try:
+        learner = store.restore(key, space)
+    except ValueError as exc:  # a resume reads it the same way every time: say what helps
+        raise ValueError(f"{where}: the checkpoint cannot be resumed: {exc}; {hint}") from exc
+    if learner is None:
+        return None
     if learner.provenance is None:
         raise ValueError(f"{where}: the checkpoint records no provenance; {hint}")
     diffs = json_differences(learner.provenance, provenance)
