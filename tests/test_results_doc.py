@@ -75,6 +75,13 @@ def test_results_doc_runs_every_protocol_and_resumes(tmp_path):
                  "--quiet"]) == 0
     recomputed = (elsewhere / "results.md").read_text()
     assert _tables(recomputed) == _tables(text) and len(_tables(text)) > 50
+    # The numbers keep no checkpoints, and the page says so, the same every time (it named
+    # a temporary folder, another at every regeneration, before).
+    assert recomputed.count("made from the kept per-seed numbers, which hold no "
+                            "checkpoints, so there is no kernel picture or GIF") == 2  # A, R
+    assert main(["--from-data", str(docs / "data" / "results"), "--docs", str(elsewhere),
+                 "--quiet"]) == 0
+    assert (elsewhere / "results.md").read_text() == recomputed
 
 
 def _tables(text: str) -> list[str]:

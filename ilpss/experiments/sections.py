@@ -19,7 +19,7 @@ from ilpss import metrics
 from ilpss._io import MAX_ARCHIVE_BYTES, atomic_write_bytes, check_inside, read_regular
 from ilpss.experiments.checkpoints import checkpoint_store
 from ilpss.experiments.config import ExperimentConfig
-from ilpss.experiments.folder import checkpoint_key
+from ilpss.experiments.folder import RunFolder, checkpoint_key
 from ilpss.experiments.methods import METHODS, LifelongMethod
 from ilpss.experiments.report import report_body
 from ilpss.experiments.report_bodies import pooled_lines
@@ -179,6 +179,10 @@ def kernels_and_gif(cfg: ExperimentConfig, folder: Path, docs: Path) -> list[str
     if featured is None:
         return []
     name = label(featured)
+    if not RunFolder(folder).config.is_file():  # a page from the kept per-seed numbers
+        return ["### The kernels and the agent", "",
+                "This section is made from the kept per-seed numbers, which hold no "
+                "checkpoints, so there is no kernel picture or GIF.", ""]
     import gymnasium as gym
 
     from ilpss.experiments.figures import (
