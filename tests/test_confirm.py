@@ -113,6 +113,37 @@ def test_the_confirmatory_command_runs_the_plan_and_adjusts_across_the_whole_fam
     assert all(0.0 <= p <= 1.0 or math.isnan(p) for p in adjusted)
 
 
+@pytest.mark.parametrize(("raised", "status", "said"), [
+    (KeyboardInterrupt, 130, "ilpss-confirm: stopped by Ctrl-C (SIGINT); the finished jobs "
+                             "are kept, and the same command goes on from them\n"),
+    (RuntimeError("a job's own failure"), 1, "The 0 finished job(s) are kept; run the same "
+                                             "command again to run only the failed one(s)\n"),
+])
+def test_a_stopped_or_failing_run_of_a_plan_ends_in_one_line(tmp_path, monkeypatch, capsys,
+                                                             raised, status, said):
+    """As ilpss-experiment does; before, Ctrl-C and a failed job (a team that raises)
+    ended ilpss-confirm, which runs for hours, with a traceback."""
+    import signal
+
+    from ilpss.lifelong import LifelongLearner
+
+    def run_trial(self, env, name, callback=None):
+        raise raised  # in the middle of a job
+
+    monkeypatch.setattr(LifelongLearner, "run_trial", run_trial)
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(PLAN))
+    previous = signal.getsignal(signal.SIGTERM)
+    try:
+        with pytest.raises(SystemExit) as exit_info:
+            main([str(path), "--runs", str(tmp_path / "runs"), "--quiet"])
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    err = capsys.readouterr().err
+    assert exit_info.value.code == status and err.endswith(said)
+    assert "Traceback" not in err and err.startswith("ilpss-confirm: ")
+
+
 def test_the_committed_plan_is_a_valid_plan_of_the_confirmatory_run():
     from pathlib import Path
 

@@ -38,13 +38,16 @@ from pathlib import Path
 import numpy as np
 
 from ilpss import metrics
-from ilpss._io import atomic_write_bytes, json_differences
+from ilpss._io import FolderInUseError, atomic_write_bytes, json_differences
+from ilpss.experiments.checkpoints import StorageError
+from ilpss.experiments.drill_facts import TEAM_ERROR, drill_exception
+from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.plan import PRIMARY, Plan, Qualify, TestSpec
 from ilpss.experiments.power import PowerReport, plan_power, power_lines
 from ilpss.experiments.provenance import check_one_code, code_line
 from ilpss.experiments.report_stats import threshold_for, windows
 from ilpss.experiments.report_text import interval_text
-from ilpss.experiments.run import run_experiment
+from ilpss.experiments.run import JobError, run_experiment
 from ilpss.experiments.seed_data import SeedData, seed_ranges
 
 __all__ = ["analyse", "main", "pick"]
@@ -238,6 +241,11 @@ def _p(p: float) -> str:
 # ---------------------------------------------------------------------- command
 def main(argv: Sequence[str] | None = None) -> int:
     """Run (or resume) the plan's protocols and write the confirmatory page."""
+    with stopped_in_one_line("ilpss-confirm"):  # Ctrl-C or SIGTERM: one line, 130 or 143
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     p = argparse.ArgumentParser(prog="ilpss-confirm", description=__doc__.splitlines()[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter,
                                 epilog=__doc__)
@@ -280,6 +288,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             folders = {protocol: runs / f"protocol_{protocol.lower()}"
                        for protocol in plan.protocols}
             if not args.analyse_only:
+                stop_on_sigterm()
                 for protocol, folder in folders.items():
                     run_experiment(plan.config(protocol), folder, progress=not args.quiet,
                                    allow_mixed_code=args.allow_mixed_code)
@@ -289,7 +298,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             out = Path(args.out) if args.out else runs / "confirm.md"
         tests = analyse(plan, data, allow_mixed_code=args.allow_mixed_code)
         atomic_write_bytes(out, ("\n".join(page(plan, tests, data, power)) + "\n").encode())
-    except (ValueError, KeyError, OSError) as exc:
+    except (ValueError, KeyError, OSError, FolderInUseError, StorageError, JobError,
+            drill_exception(TEAM_ERROR)) as exc:
+        # a bad plan or file, a full disk, another run's folder, a failed job (the finished
+        # ones kept), a team that fails to load
         p.exit(1, f"{p.prog}: error: {exc}\n")
     print(f"confirmatory page: {out}")
     return 0
