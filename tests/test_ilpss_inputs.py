@@ -133,6 +133,27 @@ def test_an_experiment_without_learning_episodes_is_refused_before_any_job(
     assert not (out / "config.json").exists()
 
 
+def test_a_run_wide_way_of_reusing_past_policies_is_refused_naming_the_methods(
+    tmp_path, monkeypatch, capsys
+):
+    """``--set options=whole_policies`` made the methods that take the default reuse
+    (``ilpss`` and its variants) run whole past policies under ILPSS's name, silently;
+    the reuse is each method's own."""
+    said = ("ExperimentConfig.lifelong.options: each method sets its own way of reusing past "
+            "policies, so the run's must stay 'kernels'")
+    with pytest.raises(ValueError, match=said + r".*got 'whole_policies'; choose a method "
+                       r"that reuses them so .*\['whole_policies', 'whole_policies_plus'\]"):
+        ExperimentConfig().with_overrides(lifelong={"options": "whole_policies"})
+    assert ExperimentConfig().with_overrides(lifelong={"options": "kernels"}).lifelong.options \
+        == "kernels"
+
+    _fail_if_run(monkeypatch)
+    out = tmp_path / "run"
+    code, err = _experiment(["--seeds", "1", "--methods", "scratch", "ilpss", "--set",
+                             "options=whole_policies", "--out", str(out)], capsys)
+    assert code == 2 and said in err and not (out / "config.json").exists()
+
+
 # ------------------------------------------------------------ ilpss-holder-learning
 def test_the_holder_learning_page_records_a_command_that_reruns_it():
     from ilpss.experiments.holder_learning import command, parser

@@ -171,6 +171,7 @@ class ExperimentConfig:
                     f"ExperimentConfig.{name} must be a {kind.__name__} (from_dict takes a "
                     f"dict), got {type(getattr(self, name)).__name__}"
                 )
+        self._check_reuse_is_each_methods()
         # LifelongConfig allows 0 (trials without learning), but an experiment reports
         # learning curves: without an episode it would run every job, then fail.
         check("ExperimentConfig.lifelong.train_episodes", self.lifelong.train_episodes,
@@ -198,6 +199,24 @@ class ExperimentConfig:
                 f"drill's), got {self.scenario!r}; choose scenario "
                 f"{protocol.scenarios[0]!r}, or protocol A, B or C")
         self._check_methods_play_scenario()
+
+    def _check_reuse_is_each_methods(self) -> None:
+        """The way of reusing past policies is each method's own (``ilpss`` and its
+        variants take the default, ILPSS's kernels): one set for the whole run would make
+        them another method under their names."""
+        default = LifelongConfig().options
+        given = self.lifelong.options
+        if given == default:
+            return
+        base = replace(self.lifelong, options=default)
+        named = [name for name in METHODS.names() if isinstance(METHODS.get(name), LifelongMethod)
+                 and METHODS.get(name).config(base).options == given]
+        raise ValueError(
+            f"ExperimentConfig.lifelong.options: each method sets its own way of reusing "
+            f"past policies, so the run's must stay {default!r} (ILPSS's, which 'ilpss' and "
+            f"its variants take as theirs), got {given!r}; choose a method that reuses them "
+            f"so in ExperimentConfig.methods (--methods): {named or 'none is registered'}"
+        )
 
     def _take_scenario(self) -> None:
         """:attr:`scenario`'s holder as the environment and its tile widths as the
