@@ -156,3 +156,21 @@ def test_plugin_page_example_builds_installs_and_is_discovered(tmp_path):
     first, duration = done.stdout.splitlines()
     assert first == "Each defender guards one half of the field and presses the ball when it enters it."
     assert int(duration) >= 1
+
+
+@pytest.mark.parametrize(("arguments", "said"), [
+    (("chasers", "earlypass", 5), r"rules must be a list of at least 1 values, each one of .*"
+                                  r"'early_pass'.*got \['earlypass'\]"),
+    (("chasers", "early_pass", -5), r"episodes must be an integer >= 1, got -5"),
+    (("chasers", "early_pass", 0), r"episodes must be an integer >= 1, got 0"),
+    (("chasers", "early_pass", 5, -1), r"first_seed must be an integer in \[0, .*got -1"),
+    (("chasers", "early_pass", 5, 0, None, None, 0), r"drills must be an integer >= 1, got 0"),
+])
+def test_one_cell_refuses_a_rule_or_a_count_it_cannot_play_naming_it(arguments, said):
+    """``evaluate`` (the plugin page's one cell in Python) raised a bare ``KeyError`` for a
+    mistyped rule and, for -5 episodes, an error about ``num_envs``, which the caller never
+    gave."""
+    from ilpss.experiments.calibrate import evaluate
+
+    with pytest.raises(ValueError, match=said):
+        evaluate(*arguments)

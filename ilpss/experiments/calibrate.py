@@ -48,6 +48,7 @@ from ilpss.experiments import drill_facts
 from ilpss.experiments.drill_facts import ENV_ID, PAPER_TEAMS, drill_exception, drill_object
 from ilpss.experiments.registry import SAMPLERS
 from ilpss.metrics import t_interval, wilson_interval
+from soccer_drill.constraints import Integer, ListOf, OneOf, check
 from soccer_drill.files import atomic_write_text, check_output_file
 
 TEAMS = (*PAPER_TEAMS, "chasers")
@@ -129,9 +130,14 @@ def evaluate_rules(
     ``first_seed + episodes - 1`` for each. With ``drills > 1`` every rule's episodes
     share one batch of ``drills`` drills (the drill's ``play_episodes``, a rule per
     episode), so the batch stays full until the last few episodes of all the rules, not
-    of each; with 1, one by one in the holder environment."""
-    seeds = list(range(first_seed, first_seed + episodes))
+    of each; with 1, one by one in the holder environment. Arguments out of range, and
+    rules the drill does not have, are refused naming them (``ValueError``)."""
     known = holder_rules()
+    check("evaluate_rules rules", rules, ListOf(OneOf(tuple(known)), min_len=1))
+    check("evaluate_rules episodes", episodes, Integer(1))
+    check("evaluate_rules first_seed", first_seed, Integer(0, 2**32 - 1))
+    check("evaluate_rules drills", drills, Integer(1))
+    seeds = list(range(first_seed, first_seed + episodes))
     if drills > 1:
         venv = gymnasium.make_vec(ENV_ID, num_envs=min(drills, episodes * len(rules)),
                                   vectorization_mode="vector_entry_point", opponent=team,
