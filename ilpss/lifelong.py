@@ -543,10 +543,11 @@ class LifelongLearner:
         for path in ckpt.rglob("*"):  # every file read below lies inside the checkpoint
             check_inside(ckpt, path, "checkpoint")
         state, config, records = read_state(ckpt)
-        for rel in state["files"]:  # a file gone is damage, as a changed one is
-            if not (ckpt / rel).is_file():
-                raise ValueError(f"{ckpt / rel}: missing (state.json lists it as a file of "
-                                 "this checkpoint)")
+        for rel in state["files"]:  # a file gone is damage, as a changed one is (a folder
+            path = ckpt / rel         # gone, the option library's, is named below)
+            if path.parent.is_dir() and not path.is_file():
+                raise ValueError(f"{path}: missing (state.json lists it as a file of this "
+                                 "checkpoint)")
         _check_space(config, observation_space, ckpt / "state.json")
         learner = cls(config, observation_space, state["n_primitive"], state["seed"],
                       provenance=state["provenance"])
