@@ -227,6 +227,35 @@ def test_a_team_that_fails_ends_the_commands_with_one_line(tmp_path, monkeypatch
     assert f"ilpss-holder-learning: error: team {broken_team!r} failed while being built" in err
 
 
+def test_a_team_failing_in_a_job_is_not_advised_to_run_the_same_command_again(
+    tmp_path, capsys, team_registry
+):
+    """A team plays the same given its seeds, so the same command failed the same way, and
+    once the team was fixed the run folder refused its changed code: the advice to run the
+    same command again helped in neither case."""
+    from soccer_drill import Command, Skill
+
+    class FailsAtCycle3:
+        def reset(self, view, rng):
+            self.players = view.players
+
+        def act(self, view):
+            if view.cycle == 3:
+                raise RuntimeError("planted failure")
+            return {p: Command(Skill.INTERCEPT) for p in self.players}
+
+    team_registry.register("fails_at_cycle_3", FailsAtCycle3)
+    out = tmp_path / "run"
+    argv = ["--seeds", "1", "--episodes", "2", "--rollouts", "1", "--workers", "1",
+            "--methods", "scratch", "--teams", "chasers", "fails_at_cycle_3", "--no-report",
+            "--quiet", "--out", str(out)]
+    code, err = _experiment(argv, capsys)
+    assert code == 1 and "Traceback" not in err
+    assert "TeamError: team 'fails_at_cycle_3' raised in act() at cycle 3" in err
+    assert "fix the team, then run the command with a new run folder" in err
+    assert "run the same command again" not in err
+
+
 def test_the_drill_exception_is_caught_without_importing_the_drill():
     from ilpss.experiments.drill_facts import TEAM_ERROR, drill_exception
     from soccer_drill import TeamError

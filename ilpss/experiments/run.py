@@ -43,7 +43,7 @@ from ilpss.experiments.checkpoints import (
     stream_records,
 )
 from ilpss.experiments.config import ExperimentConfig
-from ilpss.experiments.drill_facts import TEAM_CODE, drill_object
+from ilpss.experiments.drill_facts import TEAM_CODE, TEAM_ERROR, drill_exception, drill_object
 from ilpss.experiments.executor import (
     SETTINGS_ERRORS,
     JobsFailed,
@@ -346,6 +346,14 @@ class JobError(RuntimeError):
             advice = ("they fail the same way with these settings, so running the same "
                       "command again does not help: change the setting named above, in a new "
                       "run folder (this one's config.json keeps these settings)")
+        elif any(isinstance(exc, drill_exception(TEAM_ERROR))
+                 for exc in self.failures.values()):
+            # A team plays the same given its seeds, and the folder refuses a team whose code
+            # changed (team_code.json): the rerun that would help is a fixed team elsewhere.
+            advice = ("a team that failed fails the same way when run again (unless it "
+                      "overran its time bound on a loaded machine), and this folder refuses "
+                      "a team whose code changed since its jobs played it (team_code.json): "
+                      "fix the team, then run the command with a new run folder")
         else:
             advice = "run the same command again to run only the failed one(s)"
         super().__init__(
