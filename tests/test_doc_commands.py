@@ -43,8 +43,8 @@ def _commands() -> list[tuple[str, str]]:
         found += [(page.name, line) for line in lines if _whole(line)]
     from ilpss.experiments import cli  # its --help shows its module docstring's examples
 
-    found += [("ilpss-experiment --help", line.strip()) for line in cli.__doc__.splitlines()
-              if _whole(line.strip())]
+    found += [("ilpss-experiment --help", line.strip())
+              for line in cli.__doc__.replace("\\\n", " ").splitlines() if _whole(line.strip())]
     return found
 
 

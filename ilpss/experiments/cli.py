@@ -1,4 +1,4 @@
-"""Command line: ``ilpss-experiment`` runs protocol A, B, C or R and writes its report.
+r"""Command line: ``ilpss-experiment`` runs a protocol (A, B, C, L, R or S) and writes its report.
 
 Examples::
 
