@@ -186,8 +186,16 @@ class HolderVectorEnv(Pickled, VectorEnv):
     ## Copies
 
     ``copy.deepcopy``, ``copy.copy`` and ``pickle`` give an independent environment
-    continuing every drill's episode: the same actions give bit-identical steps in the
-    copy and the original (pymunk's spaces are copied with their contacts). A pickle is
+    continuing every drill's episode. With ``num_envs=1`` (the single drill's space) the
+    same actions give bit-identical steps in the copy and the original, as in
+    ``HolderEnv`` (the copy replays its space's cycles). With more drills the shared
+    spaces are pymunk's copies: their bodies, shapes and contacts, with a spatial index
+    built anew from where the shapes stand, so contacts that happen at once may be
+    solved in another order than in the original's space: the copy's steps are the
+    original's bit for bit until such a contact, then differ in the floats of the
+    players' positions and, in time, in outcomes (the same drills in distribution, as
+    the batch is the single drill's). Replaying a shared space would mean keeping every
+    cycle of every drill since the space was built, without bound. A pickle is
     for the code that made it: another version of ``soccer_drill`` refuses it, naming both. So does
     ``copy.copy`` of ``HolderSB3VecEnv``. Gymnasium's vector wrappers
     (``RecordEpisodeStatistics``, ...) are copied shallowly by ``copy.copy``, as its
