@@ -33,6 +33,7 @@ from soccer_drill.envs.holder import (
 )
 from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
+from soccer_drill.rendering.screen import frames_per_second
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
 from soccer_drill.vector.memory import check_frames_fit, check_frames_memory, check_num_envs
@@ -232,7 +233,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
     | ``autoreset_mode`` | ``NEXT_STEP`` | see Autoreset |
     | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
     | ``batch_size`` | ``None`` | drills per ``recv()`` (see Asynchronous use); ``None``: ``num_envs`` |
-    | ``render_mode`` | ``None`` | ``None`` or ``"rgb_array"``: ``render()`` returns a tuple of ``num_envs`` frames ``(H, W, 3)`` uint8, one per drill, as ``SyncVectorEnv.render`` does (a window or a video of every cycle: a single ``HolderEnv``) |
+    | ``render_mode`` | ``None`` | ``None`` or ``"rgb_array"``: ``render()`` returns a tuple of ``num_envs`` frames ``(H, W, 3)`` uint8, one per drill, as ``SyncVectorEnv.render`` does (a window or a video of every cycle: a single ``HolderEnv``); ``metadata["render_fps"]`` is ``HolderEnv``'s, ``1 / cycle_seconds`` |
     """
 
     metadata: ClassVar[dict] = {
@@ -266,9 +267,11 @@ class HolderVectorEnv(Pickled, VectorEnv):
         self._same_step = self.autoreset_mode == AutoresetMode.SAME_STEP
         self.num_envs = n
         self.batch_size = int(batch_size)
-        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         self.decision_cycles = decision_cycles
         self.config = make_config(config, max_cycles)
+        # HolderEnv's frame rate, which Gymnasium's vector HumanRendering and RecordVideo read
+        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode,
+                         "render_fps": frames_per_second(self.config)}
         if self.render_mode is not None:  # before any drill is built
             check_frames_fit(n, self.config)
         core = BatchCore(n, opponent, opponent_params, self.config, team_timeout, True,
