@@ -390,7 +390,9 @@ class BatchPhysics:
 
     def __getstate__(self) -> dict:
         """Everything but the C handles and the views, which a copy makes anew; pymunk's
-        spaces copy themselves, their contacts included."""
+        spaces copy themselves, their contacts included but not their spatial index,
+        which the copy builds anew (contacts met at once may then be solved in another
+        order: ``HolderVectorEnv``'s Copies)."""
         state = self.__dict__.copy()
         for name in ("_set_buffers", "_reader", "_steps", "_bodies", "_offsets"):
             del state[name]
