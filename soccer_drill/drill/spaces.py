@@ -186,7 +186,8 @@ class DrillSpace:
     copy of a space holds its bodies, shapes and contacts but builds its spatial index
     anew, from where the shapes stand: simultaneous contacts are then found, hence
     solved, in another order, and the copy's floats part from the original's at the
-    first such contact. The record holds one row of velocities per cycle of the episode.
+    first such contact. The record holds the velocities of each cycle of the episode
+    (a bytes object of ``16 (players + 1)`` bytes a cycle).
     """
 
     n = 1
@@ -214,7 +215,7 @@ class DrillSpace:
         with SignalsDeferred():
             self._renew_now(start[None])
             for velocities in history:  # the cycles since the space was built, again
-                self._move(velocities)
+                self._move(np.frombuffer(velocities).reshape(-1, 2).tolist())
         self._history = history
 
     def _move(self, velocities: list) -> None:
@@ -255,7 +256,7 @@ class DrillSpace:
         self._step = space_step(space)
         self._velocities = velocity_setters(self._bodies)
         self._start = np.array(pos[0], dtype=np.float64)  # what a copy builds and replays
-        self._history: list[list] = []
+        self._history: list[bytes] = []  # each stepped cycle's float64 velocities
         keep(self, 0, space)  # the space replaced is freed here
 
     def cycle(self, pos: np.ndarray, vel: np.ndarray, active: np.ndarray | None) -> np.ndarray:
@@ -264,9 +265,8 @@ class DrillSpace:
         the last cycle left them (``pos`` is not read); with ``active`` false they stand
         still (the space is not stepped). Returns the players, ``(1, players, 4)``."""
         if active is None or active[0]:
-            velocities = vel[0].tolist()
-            self._history.append(velocities)  # replayed by a copy
-            self._move(velocities)
+            self._history.append(vel[0].tobytes())  # replayed by a copy
+            self._move(vel[0].tolist())
         # One batched read of every body: x, y, vx, vy each, the players first
         # (check_batch_order), then the ball and the space's static body. The same array
         # every cycle while the read's is (the rules after the physics are bound to it).
