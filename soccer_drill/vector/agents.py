@@ -287,6 +287,8 @@ class ParallelVectorEnv(Pickled):
 
     def action_masks(self) -> dict[str, np.ndarray]:
         """``{agent: (num_envs, n) int8}``: the legal actions of each drill now."""
+        if not self._has_reset:  # no drill has started: there is no holder to read
+            raise RuntimeError("action_masks() called before reset(); call reset() first")
         holder = self._core.batch.holder
         out = {}
         for agent, i in self._index.items():
