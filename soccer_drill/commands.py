@@ -9,6 +9,7 @@ command into a desired velocity and, for the ball holder, a ball action
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from soccer_drill.interruptions import QuietIntEnum
@@ -82,6 +83,23 @@ def attacker_action_skills(attackers: int) -> tuple[Skill, ...]:
     every pass is ``PASS``, to the teammate of its rank."""
     return (Skill.HOLD, *(Skill.PASS,) * (attackers - 1), Skill.DRIBBLE, Skill.GET_OPEN,
             Skill.GO_TO_BALL)
+
+
+SKILL_LETTERS = {Skill.HOLD: "h", Skill.PASS: "p", Skill.DRIBBLE: "d", Skill.GET_OPEN: "g",
+                 Skill.GO_TO_BALL: "b"}
+"""The letter key of each action's skill, for the first action with that skill (``p`` is
+the pass to the nearest teammate); action ``i`` of a space is also digit ``i + 1``."""
+
+
+def action_letters(actions: Sequence[Skill]) -> dict[str, int]:
+    """Key (a letter or a digit) to action index for a space of ``actions`` (their skills,
+    in index order): each skill's letter (:data:`SKILL_LETTERS`) for its first action, and
+    digit ``i + 1`` for action ``i``; the keys of ``soccer-drill-play``."""
+    keys: dict[str, int] = {}
+    for i, skill in enumerate(actions):
+        keys.setdefault(SKILL_LETTERS[skill], i)
+    keys.update({str(i + 1): i for i in range(len(actions))})
+    return keys
 
 
 @dataclass(frozen=True, slots=True)

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import soccer_drill
+from soccer_drill import scenarios
 from soccer_drill.vector import HolderVectorEnv
 from soccer_drill.vector.agents import ParallelVectorEnv
 
@@ -88,6 +89,45 @@ def test_a_copy_continues_the_episode_bit_for_bit_and_on_its_own(kind, how, oppo
         assert len(copied) > 1
 
 
+SCENARIO_MAKERS = {
+    "aec": scenarios.env,
+    "parallel": scenarios.parallel_env,
+    "holder": scenarios.holder_env,
+}
+
+
+def _start_for(kind: str, env, seed: int, cycles: int) -> None:
+    """Reset with ``seed`` and play random legal actions (the holder: HOLD) for about
+    ``cycles`` cycles, the episode still running."""
+    rng = np.random.default_rng(seed + 1)
+    env.reset(seed=seed)
+    while env.drill_state.cycle < cycles:
+        if kind == "aec":
+            env.step(_pick(rng, env.action_mask()))
+        elif kind == "parallel":
+            env.step({a: _pick(rng, env.action_mask(a)) for a in env.agents})
+        else:
+            _, _, term, trunc, _ = env.step(0)
+            assert not (term or trunc)
+
+
+@pytest.mark.parametrize("how", ["deepcopy", "pickle"])
+@pytest.mark.parametrize("kind", list(SCENARIO_MAKERS))
+@pytest.mark.parametrize("name", ["drill_3v3", "keepaway_4v3"])
+def test_a_copy_late_in_a_crowded_episode_continues_bit_for_bit(name, kind, how):
+    # Players in contact with more than one body at once: a space whose spatial index were
+    # built anew (pymunk's copy) would solve those contacts in another order, and the
+    # copy's floats would part from the original's within a few cycles.
+    for cycles in (12, 40):
+        original = SCENARIO_MAKERS[kind](name)
+        _start_for(kind, original, 1, cycles)
+        before = original.drill_state
+        duplicate = COPIES[how](original)
+        copied = _rest(kind, duplicate, 2)
+        assert original.drill_state == before
+        assert _rest(kind, original, 2) == copied
+
+
 @pytest.mark.parametrize("how", list(COPIES))
 @pytest.mark.parametrize("kind", list(MAKERS))
 def test_a_copy_of_an_environment_never_reset_is_never_reset(kind, how):
@@ -161,6 +201,20 @@ def test_a_copy_of_a_batched_environment_continues_bit_for_bit_and_on_its_own(ki
     copied = _batched_steps(duplicate, 7, 30)
     # The original, not moved by the copy's steps, plays the same from where it was copied.
     assert _batched_steps(original, 7, 30) == copied
+
+
+@pytest.mark.parametrize("how", ["deepcopy", "pickle"])
+def test_a_copy_of_one_batched_drill_late_in_a_crowded_episode_continues_bit_for_bit(how):
+    # One drill is in the single drill's own space, which a copy replays (the class
+    # docstring's Copies: shared spaces are pymunk's copies, bit for bit only until
+    # contacts happen at once).
+    config = scenarios.scenario("keepaway_4v3").config()
+    original = ParallelVectorEnv(num_envs=1, config=config, opponent="keepaway_takers")
+    original.reset(seed=3)
+    _batched_steps(original, 4, 30)
+    duplicate = COPIES[how](original)
+    copied = _batched_steps(duplicate, 7, 40)
+    assert _batched_steps(original, 7, 40) == copied
 
 
 def _compiled_signatures() -> dict[str, int]:

@@ -116,6 +116,33 @@ def test_step_before_reset():
         soccer_drill.parallel_env().step({})
 
 
+def test_the_turns_of_an_environment_never_reset_are_refused_not_empty():
+    # A loop over agent_iter() before reset() did nothing, silently; PettingZoo's
+    # OrderEnforcingWrapper, which the drill's checks stand in for, refuses it.
+    env = soccer_drill.env(opponent="chasers")
+    with pytest.raises(RuntimeError, match=r"agent_iter\(\) called before reset\(\)"):
+        env.agent_iter()
+    env.reset(seed=0)
+    turns = []
+    for agent in env.agent_iter(3):
+        turns.append(agent)
+        env.step(3)  # GET_OPEN, or HOLD replacing it for the holder
+    assert turns == ["attacker_0", "attacker_1", "attacker_0"]
+
+
+def test_the_batched_masks_of_drills_never_reset_are_refused():
+    # They were the masks of a drill whose ball nobody holds, as if it were under way.
+    from soccer_drill.vector import ParallelVectorEnv
+
+    env = ParallelVectorEnv(num_envs=2)
+    with pytest.raises(RuntimeError, match=r"action_masks\(\) called before reset\(\)"):
+        env.action_masks()
+    observations, _ = env.reset(seed=0)
+    masks = env.action_masks()
+    for agent, mask in masks.items():
+        np.testing.assert_array_equal(mask, observations[agent]["action_mask"])
+
+
 def test_unknown_team_lists_known_ones():
     with pytest.raises(ValueError, match=r"unknown team 'nobody'; known teams: \[.*'chasers'"):
         soccer_drill.env(opponent="nobody")

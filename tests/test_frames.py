@@ -149,3 +149,21 @@ def test_without_rendering_no_scene_is_built(monkeypatch):
     drawing = soccer_drill.HolderEnv(opponent="chasers", render_mode="rgb_array_list")
     with pytest.raises(AssertionError, match="a scene was built"):
         drawing.reset(seed=0)
+
+
+def test_gymnasiums_vector_rendering_wrappers_take_the_batched_drills_frame_rate(monkeypatch):
+    import gymnasium as gym
+    from gymnasium.wrappers.vector import HumanRendering
+
+    from soccer_drill.vector import ParallelVectorEnv
+
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    config = {"cycle_seconds": 0.05}  # 20 frames a second: one frame a cycle is true speed
+    single = gym.make("soccer_drill/Holder-v0", config=config).metadata["render_fps"]
+    for mode in ("vector_entry_point", "sync"):
+        envs = gym.make_vec("soccer_drill/Holder-v0", num_envs=2, vectorization_mode=mode,
+                            render_mode="rgb_array", config=config)
+        assert envs.metadata["render_fps"] == single == 20
+    HumanRendering(envs)  # refused without render_fps (drawing needs opencv, not a test extra)
+    agents = ParallelVectorEnv(num_envs=2, config=config)
+    assert agents.metadata["render_fps"] == soccer_drill.parallel_env(config=config).metadata["render_fps"]

@@ -282,3 +282,20 @@ def test_the_other_attackers_play_the_scripted_attack_in_a_larger_drill(window, 
     assert holding and {names[a] for a in holding} == {skill}
     assert {names[actions["attacker_0"]] for _, _, actions in steps} <= {"GET_OPEN", "HOLD"}
 
+
+
+def test_gymnasiums_play_finds_the_keys_of_soccer_drill_play(window):
+    import gymnasium as gym
+    from gymnasium.utils.play import PlayableGame
+
+    from soccer_drill.rendering.controls import HolderControl, PlaySetup
+
+    env = gym.make("soccer_drill/Holder3v2-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    game = PlayableGame(env)  # MissingKeysToAction when the environment has no keys
+    assert game.relevant_keys == set("hpd1234")  # play() takes their code points
+    keys = env.get_wrapper_attr("get_keys_to_action")()
+    assert [keys[(key,)] for key in "hpd"] == [0, 1, 3]  # HOLD, PASS_1, DRIBBLE
+    control = HolderControl(PlaySetup(team="chasers", scenario="drill_3v2"))
+    assert {ord(key): action for (key,), action in keys.items()} == control.keys
+    env.close()

@@ -179,6 +179,15 @@ class DrillSpace:
     first step. Everything is added in one call (bodies first, then shapes, in order),
     and shapes keep pymunk's default elasticity and friction (0), which the drill wants:
     setting them costs more than the rest of a shape's creation.
+
+    A copy (``copy``, ``pickle``) builds its space as :meth:`renew` built this one and
+    replays the velocities of every cycle since: the same calls in a new space, so the
+    copy's space is this one's to the last bit, its spatial index included. pymunk's own
+    copy of a space holds its bodies, shapes and contacts but builds its spatial index
+    anew, from where the shapes stand: simultaneous contacts are then found, hence
+    solved, in another order, and the copy's floats part from the original's at the
+    first such contact. The record holds the velocities of each cycle of the episode
+    (a bytes object of ``16 (players + 1)`` bytes a cycle).
     """
 
     n = 1
@@ -193,18 +202,30 @@ class DrillSpace:
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        # C handles, not picklable: a copy makes its own
-        del state["_reader"], state["_step"], state["_velocities"], state["_players"]
+        # C handles, not picklable, and the space, which a copy builds and replays itself
+        for name in ("_reader", "_step", "_velocities", "_players", "space", "_bodies"):
+            del state[name]
         return state
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         self._reader = BatchedBodies(pmb.Buffer())
         self._players = (None, None)
-        self._step = space_step(self.space)
-        self._velocities = velocity_setters(self._bodies)
+        start, history = self._start, self._history
         with SignalsDeferred():
-            keep(self, 0, self.space)
+            self._renew_now(start[None])
+            for velocities in history:  # the cycles since the space was built, again
+                self._move(np.frombuffer(velocities).reshape(-1, 2).tolist())
+        self._history = history
+
+    def _move(self, velocities: list) -> None:
+        """Set the bodies' velocities (``(vx, vy)`` each, players then ball) and run the
+        cycle's sub-steps."""
+        for set_velocity, v in zip(self._velocities, velocities, strict=True):
+            set_velocity(v)
+        step, sub_dt = self._step, self._sub_dt
+        for _ in range(self._substeps):
+            step(sub_dt)
 
     def renew(self, drills: np.ndarray, pos: np.ndarray) -> None:
         """A new space with the bodies at rest at ``pos[0]`` (the drill's start); a Ctrl-C
@@ -234,6 +255,8 @@ class DrillSpace:
         self.space = space
         self._step = space_step(space)
         self._velocities = velocity_setters(self._bodies)
+        self._start = np.array(pos[0], dtype=np.float64)  # what a copy builds and replays
+        self._history: list[bytes] = []  # each stepped cycle's float64 velocities
         keep(self, 0, space)  # the space replaced is freed here
 
     def cycle(self, pos: np.ndarray, vel: np.ndarray, active: np.ndarray | None) -> np.ndarray:
@@ -242,11 +265,8 @@ class DrillSpace:
         the last cycle left them (``pos`` is not read); with ``active`` false they stand
         still (the space is not stepped). Returns the players, ``(1, players, 4)``."""
         if active is None or active[0]:
-            for set_velocity, v in zip(self._velocities, vel[0].tolist(), strict=True):
-                set_velocity(v)
-            step, sub_dt = self._step, self._sub_dt
-            for _ in range(self._substeps):
-                step(sub_dt)
+            self._history.append(vel[0].tobytes())  # replayed by a copy
+            self._move(vel[0].tolist())
         # One batched read of every body: x, y, vx, vy each, the players first
         # (check_batch_order), then the ball and the space's static body. The same array
         # every cycle while the read's is (the rules after the physics are bound to it).
@@ -370,7 +390,9 @@ class BatchPhysics:
 
     def __getstate__(self) -> dict:
         """Everything but the C handles and the views, which a copy makes anew; pymunk's
-        spaces copy themselves, their contacts included."""
+        spaces copy themselves, their contacts included but not their spatial index,
+        which the copy builds anew (contacts met at once may then be solved in another
+        order: ``HolderVectorEnv``'s Copies)."""
         state = self.__dict__.copy()
         for name in ("_set_buffers", "_reader", "_steps", "_bodies", "_offsets"):
             del state[name]

@@ -10,6 +10,7 @@ from typing import Any, Literal
 import numpy as np
 from gymnasium import spaces
 from pettingzoo import AECEnv, ParallelEnv
+from pettingzoo.utils.env import AECIterable
 
 from soccer_drill.commands import BALL_SKILLS, DEFENDER_ACTIONS, Skill
 from soccer_drill.config import DrillConfig
@@ -646,6 +647,14 @@ class raw_env(_DrillEnvBase, AECEnv):
             self.agent_selection = order[0]
         if self._screen.each_cycle:
             self._screen.start(self._batch.state_of(0))
+
+    def agent_iter(self, max_iter: int = 2**63) -> AECIterable:
+        """The agents in turn until every one is done (or ``max_iter`` turns), as
+        ``AECEnv.agent_iter``; before the first ``reset()``, ``RuntimeError`` (as
+        PettingZoo's ``OrderEnforcingWrapper`` refuses it) rather than no turn at all."""
+        if not self._has_reset:
+            raise not_reset("agent_iter")
+        return super().agent_iter(max_iter)
 
     def observe(self, agent: str) -> dict[str, np.ndarray] | np.ndarray:
         """The observation of ``agent`` (see the class docstring)."""

@@ -14,7 +14,13 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from soccer_drill.commands import HOLDER_ACTIONS, Skill, holder_action_names
+from soccer_drill.commands import (
+    HOLDER_ACTIONS,
+    Skill,
+    action_letters,
+    attacker_action_skills,
+    holder_action_names,
+)
 from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import Integer, checked
 from soccer_drill.drill.drills import BatchDrill
@@ -533,6 +539,13 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
         """Which actions are legal now: all of them, always (bool; for sb3-contrib's
         ``MaskablePPO``, which asks every environment for ``action_masks()``)."""
         return np.ones(len(self.action_names), dtype=bool)
+
+    def get_keys_to_action(self) -> dict[tuple[str], int]:
+        """The keys of ``soccer-drill-play`` (``H`` hold, ``P`` the pass to the nearest
+        teammate, ``D`` dribble, digit ``i + 1`` action ``i``), for
+        ``gymnasium.utils.play.play``, which asks an environment for them."""
+        skills = attacker_action_skills(self.config.attackers)[:len(self.action_names)]
+        return {(key,): action for key, action in action_letters(skills).items()}
 
     def reset(
         self, *, seed: int | None = None, options: dict | None = None

@@ -37,7 +37,9 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import pygame  # after the prompt is hidden
 
 from soccer_drill.commands import (
+    SKILL_LETTERS,
     Skill,
+    action_letters,
     attacker_action_names,
     attacker_action_skills,
     holder_action_names,
@@ -52,10 +54,9 @@ from soccer_drill.state import DrillState
 from soccer_drill.teams.registry import TEAMS
 from soccer_drill.vector.attack import ATTACKS, make_attack
 
-SKILL_KEYS = {Skill.HOLD: pygame.K_h, Skill.PASS: pygame.K_p, Skill.DRIBBLE: pygame.K_d,
-              Skill.GET_OPEN: pygame.K_g, Skill.GO_TO_BALL: pygame.K_b}
-"""The letter key of each action's skill (of the first action with that skill: ``P`` is
-the pass to the nearest teammate); action ``i`` of a space is also digit ``i + 1``."""
+SKILL_KEYS = {skill: ord(letter) for skill, letter in SKILL_LETTERS.items()}
+"""The key code of each action's skill letter (:data:`~soccer_drill.commands.SKILL_LETTERS`:
+pygame's codes of letters and digits are their characters' code points)."""
 DEFAULT_ATTACK = "late_pass"
 """The scripted attack playing the other attackers by default: the one fixed holder rule
 that succeeds in at least 70% of episodes against each of the four paper teams
@@ -125,13 +126,8 @@ class Control(Protocol):
 
 def action_keys(actions: Sequence[Skill]) -> dict[int, int]:
     """Key code to action index for a space of ``actions`` (their skills, in index order):
-    each skill's letter (:data:`SKILL_KEYS`) for its first action, and digit ``i + 1``
-    for action ``i``."""
-    keys: dict[int, int] = {}
-    for i, skill in enumerate(actions):
-        keys.setdefault(SKILL_KEYS[skill], i)
-    keys.update({pygame.K_1 + i: i for i in range(len(actions))})
-    return keys
+    :func:`~soccer_drill.commands.action_letters`, as pygame's key codes."""
+    return {ord(key): i for key, i in action_letters(actions).items()}
 
 
 def key_text(actions: Sequence[Skill], names: Sequence[str],

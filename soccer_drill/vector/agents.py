@@ -35,6 +35,7 @@ from soccer_drill.envs.core import (
 )
 from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
+from soccer_drill.rendering.screen import frames_per_second
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.rules.features import GLOBAL_STATE
 from soccer_drill.rules.motion import ranked_teammate
@@ -152,7 +153,7 @@ class ParallelVectorEnv(Pickled):
     | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take (a team without a batched ``act``: each drill's copy, each call) |
     | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
     | ``shared_spaces`` | ``None`` | as ``parallel_env``'s: ``None`` is ``True`` with no opponent (every agent has the same action and observation spaces), ``False`` with one; ``False``: per-role spaces |
-    | ``render_mode`` | ``None`` | ``None`` or ``"rgb_array"`` (see Calls) |
+    | ``render_mode`` | ``None`` | ``None`` or ``"rgb_array"`` (see Calls); ``metadata["render_fps"]`` is ``parallel_env``'s, ``1 / cycle_seconds`` |
     | ``attack`` | ``None`` | an attack id of :data:`~soccer_drill.vector.attack.ATTACKS` (or an attack object): scripted attackers, the defenders as agents; not with ``opponent`` |
     """
 
@@ -184,6 +185,7 @@ class ParallelVectorEnv(Pickled):
         self.render_mode = check_render_mode(render_mode, type(self).__name__)
         self.illegal_action = checked("illegal_action", illegal_action, ILLEGAL_ACTION)
         self.config = make_config(config, max_cycles)
+        self.metadata = {**self.metadata, "render_fps": frames_per_second(self.config)}
         self._observe = observation(obs_type, self.config)
         self.num_envs, self.obs_type = n, obs_type
         if self.render_mode is not None:  # before any drill is built
@@ -285,6 +287,8 @@ class ParallelVectorEnv(Pickled):
 
     def action_masks(self) -> dict[str, np.ndarray]:
         """``{agent: (num_envs, n) int8}``: the legal actions of each drill now."""
+        if not self._has_reset:  # no drill has started: there is no holder to read
+            raise RuntimeError("action_masks() called before reset(); call reset() first")
         holder = self._core.batch.holder
         out = {}
         for agent, i in self._index.items():

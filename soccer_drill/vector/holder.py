@@ -33,6 +33,7 @@ from soccer_drill.envs.holder import (
 )
 from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
+from soccer_drill.rendering.screen import frames_per_second
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
 from soccer_drill.teams.registry import DEFAULT_TEAM_TIMEOUT, Team
 from soccer_drill.vector.memory import check_frames_fit, check_frames_memory, check_num_envs
@@ -186,8 +187,16 @@ class HolderVectorEnv(Pickled, VectorEnv):
     ## Copies
 
     ``copy.deepcopy``, ``copy.copy`` and ``pickle`` give an independent environment
-    continuing every drill's episode: the same actions give bit-identical steps in the
-    copy and the original (pymunk's spaces are copied with their contacts). A pickle is
+    continuing every drill's episode. With ``num_envs=1`` (the single drill's space) the
+    same actions give bit-identical steps in the copy and the original, as in
+    ``HolderEnv`` (the copy replays its space's cycles). With more drills the shared
+    spaces are pymunk's copies: their bodies, shapes and contacts, with a spatial index
+    built anew from where the shapes stand, so contacts that happen at once may be
+    solved in another order than in the original's space: the copy's steps are the
+    original's bit for bit until such a contact, then differ in the floats of the
+    players' positions and, in time, in outcomes (the same drills in distribution, as
+    the batch is the single drill's). Replaying a shared space would mean keeping every
+    cycle of every drill since the space was built, without bound. A pickle is
     for the code that made it: another version of ``soccer_drill`` refuses it, naming both. So does
     ``copy.copy`` of ``HolderSB3VecEnv``. Gymnasium's vector wrappers
     (``RecordEpisodeStatistics``, ...) are copied shallowly by ``copy.copy``, as its
@@ -224,7 +233,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
     | ``autoreset_mode`` | ``NEXT_STEP`` | see Autoreset |
     | ``drills_per_space`` | ``64`` | drills sharing one pymunk space |
     | ``batch_size`` | ``None`` | drills per ``recv()`` (see Asynchronous use); ``None``: ``num_envs`` |
-    | ``render_mode`` | ``None`` | ``None`` or ``"rgb_array"``: ``render()`` returns a tuple of ``num_envs`` frames ``(H, W, 3)`` uint8, one per drill, as ``SyncVectorEnv.render`` does (a window or a video of every cycle: a single ``HolderEnv``) |
+    | ``render_mode`` | ``None`` | ``None`` or ``"rgb_array"``: ``render()`` returns a tuple of ``num_envs`` frames ``(H, W, 3)`` uint8, one per drill, as ``SyncVectorEnv.render`` does (a window or a video of every cycle: a single ``HolderEnv``); ``metadata["render_fps"]`` is ``HolderEnv``'s, ``1 / cycle_seconds`` |
     """
 
     metadata: ClassVar[dict] = {
@@ -258,9 +267,11 @@ class HolderVectorEnv(Pickled, VectorEnv):
         self._same_step = self.autoreset_mode == AutoresetMode.SAME_STEP
         self.num_envs = n
         self.batch_size = int(batch_size)
-        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         self.decision_cycles = decision_cycles
         self.config = make_config(config, max_cycles)
+        # HolderEnv's frame rate, which Gymnasium's vector HumanRendering and RecordVideo read
+        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode,
+                         "render_fps": frames_per_second(self.config)}
         if self.render_mode is not None:  # before any drill is built
             check_frames_fit(n, self.config)
         core = BatchCore(n, opponent, opponent_params, self.config, team_timeout, True,
