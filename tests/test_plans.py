@@ -294,3 +294,15 @@ def test_seeds_needed_is_the_fewest_at_which_a_simulated_t_test_reaches_the_powe
 
     assert simulated_power(n) >= 0.79
     assert simulated_power(n - 1) < 0.80
+
+
+def test_pilot_figures_from_the_plans_own_seeds_are_refused():
+    """The decisive run's own per-seed numbers (seeds from 3000) as its pilot: its power
+    would be read off its outcomes; refused, naming the seeds."""
+    path = ROOT / "docs" / "decisive_test.json"
+    if not (ROOT / "docs" / "data" / "decisive_test.json").exists():
+        pytest.skip("the decisive run's numbers are not kept")
+    plan = Plan.read(path)
+    with pytest.raises(ValueError, match=r"seeds \[3000, 3001, 3002, 3003, 3004\] \.\.\. of "
+                                         r"the plan's own \(3000 to 30"):
+        pilot_figures(plan, [SeedData.read(ROOT / "docs" / "data" / "decisive_test")])

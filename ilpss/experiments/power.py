@@ -11,8 +11,8 @@ normal distribution with the pilot's mean and standard deviation, the test's p-v
 computed as the run would compute it (the t-test, one-sided against the margin, or
 two-sided in the first form), Holm's adjustment is applied across the family, and the
 plan's rule is applied to the outcome. The report gives, per test, the probability that
-it is shown and the seeds it would need alone for 80% (at the Bonferroni level of the
-family, which Holm's first step uses), and per candidate the probability that its
+it is shown and the seeds it would need alone for 80% (the t test's power, at the
+Bonferroni level of the family, which Holm's first step uses), and per candidate the probability that its
 requirements are met and that the rule picks it.
 
 Tests are drawn independently. The tests a candidate requires are positively correlated
@@ -22,7 +22,8 @@ power given here errs low.
 
 ``--pilot-runs`` (run folders) or ``--pilot-data`` (their kept per-seed numbers) computes
 the pilot figures from development runs (any seeds they hold that both methods of a test
-finished) and ``--write`` writes them into the plan.
+finished) and ``--write`` writes them into the plan. Runs holding any of the seeds the
+plan will test are refused: a plan's power is never read off its own outcomes.
 """
 
 from __future__ import annotations
@@ -231,12 +232,22 @@ def pilot_figures(plan: Plan, runs: Sequence[SeedData]) -> dict[str, Pilot]:
     """Each family test's pilot figures from development runs ``runs`` (several may hold
     one protocol's seeds, each some of the methods: runs with the same seeds meet the same
     opponents): the mean and standard deviation of the per-seed total-reward differences
-    over the seeds both methods finished."""
+    over the seeds both methods finished. Seeds the plan itself will test are refused: its
+    power would then be read off its own outcomes."""
     out = {}
     for t in plan.family:
         ours, base = _seed_totals(runs, t.protocol, t.method), _seed_totals(runs, t.protocol,
                                                                               t.against)
         common = sorted(set(ours) & set(base))
+        cfg = plan.config(t.protocol)
+        planned = range(cfg.first_seed, cfg.first_seed + cfg.n_seeds)
+        reused = [s for s in common if s in planned]
+        if reused:
+            raise ValueError(
+                f"test {t.name!r}: the pilot runs of protocol {t.protocol} hold seeds "
+                f"{reused[:5]}{' ...' if len(reused) > 5 else ''} of the plan's own "
+                f"({planned.start} to {planned.stop - 1}): pilot figures come from other "
+                "seeds (development seeds, from 1000), never from those the plan will test")
         if len(common) < 2:
             raise ValueError(f"test {t.name!r}: the pilot runs have {len(common)} seeds with "
                              "both methods, at least 2 are needed")
