@@ -224,3 +224,19 @@ def test_the_demo_shows_the_recommended_method_succeeding_and_learning_anew_s_fi
     first = result["methods"]["scratch"]["curves"]["3"][0]
     (right,) = [line for line in text.splitlines() if line.startswith("- Right:")]
     assert f"reward {first:+.2f}" in right
+
+
+def test_a_config_file_naming_where_checkpoints_go_needs_the_command_line_to_say_it(tmp_path):
+    """A run folder's config.json edited to put its storage elsewhere: a resume from it
+    would write there; refused unless --storage says the same on the command line."""
+    from ilpss.experiments.cli import build_config, parser
+
+    path = tmp_path / "config.json"
+    elsewhere = str(tmp_path / "elsewhere")
+    path.write_text(json.dumps(ExperimentConfig(storage=elsewhere).to_dict()))
+    with pytest.raises(ValueError, match="sets storage to .*never taken from a file: give "
+                                         f"--storage {elsewhere}"):
+        build_config(parser().parse_args(["--out", "x", "--config", str(path)]))
+    cfg = build_config(parser().parse_args(["--out", "x", "--config", str(path),
+                                            "--storage", elsewhere]))
+    assert cfg.storage == elsewhere

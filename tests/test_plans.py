@@ -306,3 +306,11 @@ def test_pilot_figures_from_the_plans_own_seeds_are_refused():
     with pytest.raises(ValueError, match=r"seeds \[3000, 3001, 3002, 3003, 3004\] \.\.\. of "
                                          r"the plan's own \(3000 to 30"):
         pilot_figures(plan, [SeedData.read(ROOT / "docs" / "data" / "decisive_test")])
+
+
+def test_a_plan_naming_where_checkpoints_are_written_is_refused():
+    """A plan is a data file: it never leads a write outside its folder."""
+    plan = _changed(protocols={"A": {**PLAN["protocols"]["A"], "storage": "/elsewhere"}})
+    with pytest.raises(ValueError, match=r"protocols\.A\.storage: where checkpoints are "
+                                         "written is not a plan's to say"):
+        Plan.from_json(plan)

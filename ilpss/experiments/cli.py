@@ -41,6 +41,11 @@ def build_config(args: argparse.Namespace) -> ExperimentConfig:
             cfg = read_config(Path(args.config))
         except ValueError as exc:
             raise ValueError(f"--config {exc}") from exc
+        if cfg.storage is not None and args.storage is None:  # a file never leads a write
+            raise ValueError(  # outside its folder: the command line says where, again
+                f"--config {args.config} sets storage to {cfg.storage!r}; where checkpoints "
+                f"are written is never taken from a file: give --storage {cfg.storage} on "
+                "the command line to write there")
     else:
         cfg = ExperimentConfig(protocol=args.protocol or "A")
     flags = {"protocol": "protocol", "seeds": "n_seeds", "first_seed": "first_seed",

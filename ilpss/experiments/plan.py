@@ -469,6 +469,9 @@ def _runs(protocols: Any, methods: tuple[str, ...] | None,
             METHODS.get(m)  # unknown: KeyError naming the known ones
         if baseline not in run_methods:
             raise ValueError(f"{where}.methods must include the baseline {baseline!r}")
+        if "storage" in settings:  # a data file never leads a write outside its folder
+            raise ValueError(f"{where}.storage: where checkpoints are written is not a plan's "
+                             "to say; a plan's runs keep them in their run folders")
         allowed = {f for f in ExperimentConfig.__dataclass_fields__} - {"methods",
                                                                        "baseline", "protocol"}
         check_keys(where, settings, allowed, required=())
