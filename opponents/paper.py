@@ -15,13 +15,11 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 from opponents.parametric import ParametricTeam
+from opponents.presets import Preset
 
 
-class _PaperTeam(ParametricTeam):
-    DEFAULTS: ClassVar[dict[str, Any]] = {}
-
-    def __init__(self, **overrides: Any) -> None:
-        super().__init__(**{**self.DEFAULTS, **overrides})
+class _PaperTeam(Preset, ParametricTeam):
+    pass
 
 
 class InterceptorsPress(_PaperTeam):

@@ -27,6 +27,7 @@ from __future__ import annotations
 from typing import Any, ClassVar
 
 from opponents.parametric import ParametricTeam
+from opponents.presets import Preset
 from opponents.regions import Region, RegionTeam
 
 NEAR = Region("dist_goal", 12.0)
@@ -51,7 +52,7 @@ boundaries; each kept by the pre-check as needing a change within the episode
 (``docs/regions.md``)."""
 
 
-class ContainCover(ParametricTeam):
+class ContainCover(Preset, ParametricTeam):
     """Slow cover: the nearer defender waits in the holder's path, the other marks the free attacker closely.
 
     Paper team 2's coordination (``cover``) at 70% of the defenders' top speed (3.2 m/s,
@@ -76,15 +77,9 @@ class ContainCover(ParametricTeam):
         "chase_loose": True,
     }
 
-    def __init__(self, **overrides: Any) -> None:
-        super().__init__(**{**self.DEFAULTS, **overrides})
 
-
-class _Composition(RegionTeam):
-    DEFAULTS: ClassVar[dict[str, Any]] = {}
-
-    def __init__(self, **overrides: Any) -> None:
-        super().__init__(**{**self.DEFAULTS, **overrides})
+class _Composition(Preset, RegionTeam):
+    pass
 
 
 class PressFarContainNear(_Composition):

@@ -19,13 +19,14 @@ at every decision of the holder the rule's region is exactly the team's::
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
 
 from soccer_drill import TeamError, make_team
 from soccer_drill.constraints import Name, OneOf, Real, check, checked
+from soccer_drill.interruptions import short_repr
 from soccer_drill.policies import HOLDER_POLICIES, layout
 from soccer_drill.teams import (
     FEATURE_NAMES,
@@ -97,12 +98,18 @@ class Region:
         return {"feature": self.feature, "threshold": self.threshold}
 
 
+_REGION_FIELDS = tuple(field.name for field in fields(Region))
+
+
 def _region(region: Region | Mapping[str, Any]) -> Region:
+    """``region``, or the :class:`Region` a configuration's mapping of its fields gives
+    (a ``ValueError`` naming the fields for anything else, as for a field's value)."""
     if isinstance(region, Region):
         return region
-    if isinstance(region, Mapping):
+    if isinstance(region, Mapping) and set(region) == set(_REGION_FIELDS):
         return Region(**region)
-    raise TypeError(f"region must be a Region or a mapping of its fields, got {region!r}")
+    raise ValueError(f"region must be a Region or a mapping with exactly the keys "
+                     f"{' and '.join(map(repr, _REGION_FIELDS))}, got {short_repr(region)}")
 
 
 def _children(u: float) -> list[np.random.Generator]:
