@@ -39,3 +39,18 @@ def test_the_gallery_command_writes_the_committed_gifs(tmp_path):
         new, old = (tmp_path / "gifs" / name).read_bytes(), (DOCS / "gifs" / name).read_bytes()
         assert new == old, f"docs/gifs/{name} is not what soccer-drill-gallery writes"
         assert len(new) < 400_000, name  # the repository stays small
+
+
+@pytest.mark.parametrize("blocked", ["chasers.gif", "side_by_side.gif"])
+def test_an_output_that_cannot_be_written_is_refused_before_any_episode(tmp_path, monkeypatch, capsys,
+                                                                        blocked):
+    (tmp_path / "gifs" / blocked).mkdir(parents=True)  # a folder where a GIF goes
+    played = []
+    monkeypatch.setattr(gallery, "write_episode_gif", lambda *a, **k: played.append(a))
+    monkeypatch.setattr(gallery, "write_side_by_side", lambda *a, **k: played.append(a))
+    with pytest.raises(SystemExit) as stopped:
+        gallery.main(["--docs", str(tmp_path)])
+    assert stopped.value.code == 2
+    assert "the output must name a file, got the folder" in capsys.readouterr().err
+    assert played == []  # refused before the first GIF, so no part of the gallery is rewritten
+    assert sorted(p.name for p in (tmp_path / "gifs").iterdir()) == [blocked]

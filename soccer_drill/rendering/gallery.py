@@ -19,6 +19,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from soccer_drill.envs.holder import HolderEnv
+from soccer_drill.files import check_output_file
 from soccer_drill.rendering.gif import write_episode_gif
 from soccer_drill.rendering.side_by_side import policy_panel, write_side_by_side
 from soccer_drill.teams.registry import TeamError
@@ -39,8 +40,13 @@ NOTEBOOKS = ("01_drill_tour.ipynb", "02_ilpss_step_by_step.ipynb")
 
 
 def write_gallery(docs: Path) -> dict[str, str]:
-    """Write the gallery's GIFs under ``docs/gifs``; return each file's outcome(s)."""
+    """Write the gallery's GIFs under ``docs/gifs``; return each file's outcome(s).
+
+    Every file's path is checked first (:func:`check_output_file`), so a path that cannot
+    be written (a folder in a file's place) is refused before any episode is played."""
     gifs = docs / "gifs"
+    for name in (*(f"{team}.gif" for team in GALLERY), "side_by_side.gif"):
+        check_output_file(gifs / name)
     written = {}
     for team, (rule, seed) in GALLERY.items():
         info = write_episode_gif(gifs / f"{team}.gif", team, seed, rule)
@@ -94,7 +100,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     if not args.docs.is_dir():
         parser.error(f"--docs must name an existing folder, got {str(args.docs)!r}")
     try:
-        for name, what in write_gallery(args.docs).items():
+        written = write_gallery(args.docs)
+    except ValueError as exc:  # a path that cannot be written, found before any episode
+        parser.error(str(exc))
+    except (OSError, TeamError) as exc:
+        print(f"{parser.prog}: error: {exc}", file=sys.stderr)
+        return 1
+    try:
+        for name, what in written.items():
             print(f"wrote {args.docs / 'gifs' / name}: {what}")
         if args.notebooks is not None:
             for path in run_notebooks(args.notebooks):
