@@ -67,3 +67,19 @@ def test_the_team_draws_from_each_drills_own_stream():
         first, *_ = lone.step(np.array([2]))
         others, *_ = crowd.step(np.full(5, 2))
         np.testing.assert_array_equal(first[0], others[1])
+
+
+def test_every_name_the_kit_lists_is_importable_from_the_kit():
+    """``docs/plugins.md``: everything a team needs from the drill is in the kit."""
+    kit = soccer_drill.teams
+
+    table = kit.__doc__.split("| need | names |")[1].split("\n\n")[0]
+    listed = []
+    for row in table.splitlines()[2:]:
+        names = row.split("|")[2]
+        while re.search(r"\([^()]*\)", names):  # what a parenthesis says is not a name of the kit
+            names = re.sub(r"\([^()]*\)", "", names)
+        listed += re.findall(r"``([A-Za-z_]\w*)``", names)
+    assert {"Command", "Skill", "DrillView", "TeamError", "register", "BatchCommands"} <= set(listed)
+    missing = [name for name in listed if name not in kit.__all__ or not hasattr(kit, name)]
+    assert missing == [], f"the kit lists {missing} but does not export them"

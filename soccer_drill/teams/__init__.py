@@ -2,11 +2,14 @@
 
 | need | names |
 |---|---|
-| the protocol and the registry | ``soccer_drill``'s ``Team`` (one drill: ``reset(view, rng)``, ``act(view)``), ``register``, ``make_team``, ``available_teams`` and ``TeamError``; ``team_ids``, ``describe``; plugins: ``refresh``, ``broken_teams``, ``PluginWarning``, ``team_code`` |
-| what a team is told and says | ``soccer_drill``'s ``Command``, ``Skill``, ``DrillView`` and ``DrillState`` (one drill), ``PLAYER_NAMES`` and ``DrillConfig`` (its ``attackers``, ``defenders`` and ``player_names``); ``FEATURE_NAMES`` |
+| the protocol and the registry | ``Team`` (one drill: ``reset(view, rng)``, ``act(view)``), ``register``, ``make_team``, ``available_teams`` and ``TeamError``; ``team_ids``, ``describe``; plugins: ``refresh``, ``broken_teams``, ``PluginWarning``, ``team_code`` |
+| what a team is told and says | ``Command``, ``Skill``, ``DrillView`` and ``DrillState`` (one drill), ``PLAYER_NAMES`` and ``DrillConfig`` (its ``attackers``, ``defenders`` and ``player_names``); ``FEATURE_NAMES`` |
 | many drills at once (``batch(n)``, one drill too) | ``BatchView`` (read-only arrays of every drill, the rule parameters by name), ``BatchCommands``, ``BatchRandom`` (each drill's draws), ``BatchTeam``, ``SameCommands``, ``every_drill``, ``STATE`` (a drill's record; ``state_record(players)`` for any size) |
 | the skills' rules | ``rule_parameters`` and ``roll_table`` (what the rules read of a configuration, by name), ``interception_point`` and ``mark_target`` (one drill, compiled: call them in a loop over ``every_drill``), ``GUARD_DEPTH`` |
 | compiled team code | ``compiled`` (numba, or plain Python with the same floats), ``hypot``, ``warms`` (compile before the team's first time-bounded call) |
+
+Every name is importable from here (``from soccer_drill.teams import Command, Skill``); the
+protocol's and the commands' are ``soccer_drill``'s own too.
 
 A team written once in batched form (``batch(n)``) plays one drill (the single
 environments) as it plays many; ``docs/plugins.md`` has a short example, and
@@ -16,6 +19,8 @@ environments) as it plays many; ``docs/plugins.md`` has a short example, and
 command checks), :mod:`~soccer_drill.teams.time_bound`.
 """
 
+from soccer_drill.commands import Command, Skill
+from soccer_drill.config import DrillConfig
 from soccer_drill.rules.arrays import STATE, roll_table, rule_parameters, state_record
 from soccer_drill.rules.compiled import compiled, hypot, warms
 from soccer_drill.rules.features import FEATURE_NAMES
@@ -25,7 +30,12 @@ from soccer_drill.rules.motion import (
     interception_point,
     mark_target,
 )
-from soccer_drill.state import BALL  # noqa: F401  (the 2v2 drill's ball index, kept importable)
+from soccer_drill.state import (
+    BALL,  # noqa: F401  (the 2v2 drill's ball index, kept importable)
+    PLAYER_NAMES,
+    DrillState,
+    DrillView,
+)
 from soccer_drill.teams.kit import (
     BatchCommands,
     BatchRandom,
@@ -36,9 +46,14 @@ from soccer_drill.teams.kit import (
 )
 from soccer_drill.teams.registry import (
     PluginWarning,
+    Team,
+    TeamError,
+    available_teams,
     broken_teams,
     describe,
+    make_team,
     refresh,
+    register,
     team_code,
     team_ids,
 )
@@ -46,21 +61,32 @@ from soccer_drill.teams.registry import (
 __all__ = [
     "FEATURE_NAMES",
     "GUARD_DEPTH",
+    "PLAYER_NAMES",
     "STATE",
     "BatchCommands",
     "BatchRandom",
     "BatchTeam",
     "BatchView",
+    "Command",
+    "DrillConfig",
+    "DrillState",
+    "DrillView",
     "PluginWarning",
     "SameCommands",
+    "Skill",
+    "Team",
+    "TeamError",
+    "available_teams",
     "broken_teams",
     "compiled",
     "describe",
     "every_drill",
     "hypot",
     "interception_point",
+    "make_team",
     "mark_target",
     "refresh",
+    "register",
     "roll_table",
     "rule_parameters",
     "state_record",
