@@ -143,3 +143,23 @@ def test_the_demo_paragraph_names_the_method_the_demo_shows_and_its_files():
     assert f"`--methods {demo.RECOMMENDED}`" in paragraph
     assert "`RECOMMENDED` in `ilpss/experiments/demo.py`" in paragraph
     assert set(re.findall(r"results/demo/([\w.]+)", paragraph)) == set(demo.OUTPUTS)
+
+
+def test_the_readme_team_holds_its_own_defenders_starts_at_every_size(team_registry):
+    """The README's ``Statues`` keeps each defender where it started, in drills of any size
+    (it read attacker rows as defenders' where there are more than two attackers)."""
+    import numpy as np
+
+    from soccer_drill import DrillConfig, HolderEnv
+
+    code = next(c for _, c in PYTHON_BLOCKS if "class Statues" in c)
+    space = {"__name__": "__readme__"}
+    exec(compile(code, str(README), "exec"), space)
+    for config in (DrillConfig(), DrillConfig(attackers=3, defenders=3),
+                   DrillConfig(attackers=3, defenders=2)):
+        env = HolderEnv(opponent="statues", config=config)
+        env.reset(seed=0)
+        start = np.array(env.drill_state.pos[config.attackers:config.attackers + config.defenders])
+        env.step(0)  # a HOLD: four cycles
+        moved = np.array(env.drill_state.pos[config.attackers:config.attackers + config.defenders]) - start
+        assert np.abs(moved).max() < 0.5, (config, moved)
