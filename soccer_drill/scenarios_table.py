@@ -153,21 +153,31 @@ def read_kept(path: Path) -> dict:
 
 def main(argv: list[str] | None = None) -> None:
     """Play the rules on every scenario, keep the outcomes, write the page."""
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--episodes", type=int, default=300)
-    parser.add_argument("--first-seed", type=int, default=0)
-    parser.add_argument("--out", default="docs")
+    parser = argparse.ArgumentParser(
+        prog="python -m soccer_drill.scenarios_table",
+        description="The table of the named scenarios (docs/scenarios.md), measured.")
+    parser.add_argument("--episodes", type=int, default=300,
+                        help="episodes per scenario and rule, in [1, 100000] (default 300)")
+    parser.add_argument("--first-seed", type=int, default=0,
+                        help="the first episode's seed, >= 0 (default 0)")
+    parser.add_argument("--out", default="docs",
+                        help="the folder of scenarios.md and data/ (default docs)")
     parser.add_argument("--from-data", action="store_true",
                         help="play nothing: the page from <out>/data's kept outcomes")
     args = parser.parse_args(argv)
-    episodes = checked("--episodes", args.episodes, Integer(1, 100_000))
-    first_seed = checked("--first-seed", args.first_seed, Integer(0))
     out = Path(args.out)
     data, text = out / "data" / "scenarios_fixed_rules.json", out / "scenarios.md"
-    for path in (data, text):
-        check_output_file(path)
-    if args.from_data:
-        record = read_kept(data)
+    try:  # every argument and output checked before the first episode: a usage error
+        episodes = checked("--episodes", args.episodes, Integer(1, 100_000))
+        first_seed = checked("--first-seed", args.first_seed, Integer(0))
+        for path in (data, text):
+            check_output_file(path)
+        record = read_kept(data) if args.from_data else None
+    except ValueError as exc:
+        parser.error(str(exc))
+    except OSError as exc:  # the kept outcomes --from-data reads
+        parser.error(f"--from-data cannot read {str(data)!r}: {exc.strerror or exc}")
+    if record is not None:
         atomic_write_text(text, page(record["outcomes"], record["first_seed"],
                                      record["lengths"]))
         print(f"wrote {text} from {data}")

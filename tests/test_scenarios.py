@@ -116,3 +116,29 @@ def test_the_committed_scenarios_page_is_what_its_kept_outcomes_give(tmp_path) -
     assert page == (docs / "scenarios.md").read_text()
     assert "not yet measured" not in page
     assert set(scenarios_table.LEARNING_CURVES) == set(SCENARIOS)
+
+
+@pytest.mark.parametrize("argv, said", [
+    (["--episodes", "0"], r"--episodes must be an integer in \[1, 100,000\], got 0"),
+    (["--first-seed", "-1"], r"--first-seed must be an integer >= 0, got -1"),
+    (["--out", "{file}"], r"cannot write '.*': '.*' is a file, not a folder"),
+    (["--from-data"], r"--from-data cannot read '.*scenarios_fixed_rules.json': No such file"),
+])
+def test_the_scenarios_table_refuses_bad_arguments_as_usage_errors(tmp_path, capsys, argv, said):
+    """A bad argument or output is said on one line, before any episode, and nothing is
+    written (it was a traceback)."""
+    import re
+
+    from soccer_drill import scenarios_table
+
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    argv = [a.format(file=blocker) for a in argv]
+    if "--out" not in argv:
+        argv += ["--out", str(tmp_path / "out")]
+    with pytest.raises(SystemExit) as stopped:
+        scenarios_table.main(argv)
+    assert stopped.value.code == 2
+    err = capsys.readouterr().err
+    assert re.search(r"python -m soccer_drill.scenarios_table: error: " + said, err), err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
