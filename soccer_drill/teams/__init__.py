@@ -9,7 +9,7 @@
 | compiled team code | ``compiled`` (numba, or plain Python with the same floats), ``hypot``, ``warms`` (compile before the team's first time-bounded call) |
 
 Every name is importable from here (``from soccer_drill.teams import Command, Skill``); the
-protocol's and the commands' are ``soccer_drill``'s own too.
+protocol's and the commands' are ``soccer_drill``'s own, declared public there.
 
 A team written once in batched form (``batch(n)``) plays one drill (the single
 environments) as it plays many; ``docs/plugins.md`` has a short example, and
@@ -19,8 +19,10 @@ environments) as it plays many; ``docs/plugins.md`` has a short example, and
 command checks), :mod:`~soccer_drill.teams.time_bound`.
 """
 
-from soccer_drill.commands import Command, Skill
-from soccer_drill.config import DrillConfig
+# soccer_drill's own public names, importable from the kit too (not declared again here)
+from soccer_drill.commands import Command as Command
+from soccer_drill.commands import Skill as Skill
+from soccer_drill.config import DrillConfig as DrillConfig
 from soccer_drill.rules.arrays import STATE, roll_table, rule_parameters, state_record
 from soccer_drill.rules.compiled import compiled, hypot, warms
 from soccer_drill.rules.features import FEATURE_NAMES
@@ -30,12 +32,10 @@ from soccer_drill.rules.motion import (
     interception_point,
     mark_target,
 )
-from soccer_drill.state import (
-    BALL,  # noqa: F401  (the 2v2 drill's ball index, kept importable)
-    PLAYER_NAMES,
-    DrillState,
-    DrillView,
-)
+from soccer_drill.state import BALL  # noqa: F401  (the 2v2 drill's ball index, kept importable)
+from soccer_drill.state import PLAYER_NAMES as PLAYER_NAMES
+from soccer_drill.state import DrillState as DrillState
+from soccer_drill.state import DrillView as DrillView
 from soccer_drill.teams.kit import (
     BatchCommands,
     BatchRandom,
@@ -46,47 +46,36 @@ from soccer_drill.teams.kit import (
 )
 from soccer_drill.teams.registry import (
     PluginWarning,
-    Team,
-    TeamError,
-    available_teams,
     broken_teams,
     describe,
-    make_team,
     refresh,
-    register,
     team_code,
     team_ids,
 )
+from soccer_drill.teams.registry import Team as Team
+from soccer_drill.teams.registry import TeamError as TeamError
+from soccer_drill.teams.registry import available_teams as available_teams
+from soccer_drill.teams.registry import make_team as make_team
+from soccer_drill.teams.registry import register as register
 
 __all__ = [
     "FEATURE_NAMES",
     "GUARD_DEPTH",
-    "PLAYER_NAMES",
     "STATE",
     "BatchCommands",
     "BatchRandom",
     "BatchTeam",
     "BatchView",
-    "Command",
-    "DrillConfig",
-    "DrillState",
-    "DrillView",
     "PluginWarning",
     "SameCommands",
-    "Skill",
-    "Team",
-    "TeamError",
-    "available_teams",
     "broken_teams",
     "compiled",
     "describe",
     "every_drill",
     "hypot",
     "interception_point",
-    "make_team",
     "mark_target",
     "refresh",
-    "register",
     "roll_table",
     "rule_parameters",
     "state_record",
