@@ -18,6 +18,7 @@ at every decision of the holder the rule's region is exactly the team's::
 
 from __future__ import annotations
 
+import reprlib
 from collections.abc import Mapping
 from dataclasses import dataclass, fields
 from typing import Any
@@ -26,7 +27,6 @@ import numpy as np
 
 from soccer_drill import TeamError, make_team
 from soccer_drill.constraints import Name, OneOf, Real, check, checked
-from soccer_drill.interruptions import short_repr
 from soccer_drill.policies import HOLDER_POLICIES, layout
 from soccer_drill.teams import (
     FEATURE_NAMES,
@@ -109,7 +109,7 @@ def _region(region: Region | Mapping[str, Any]) -> Region:
     if isinstance(region, Mapping) and set(region) == set(_REGION_FIELDS):
         return Region(**region)
     raise ValueError(f"region must be a Region or a mapping with exactly the keys "
-                     f"{' and '.join(map(repr, _REGION_FIELDS))}, got {short_repr(region)}")
+                     f"{' and '.join(map(repr, _REGION_FIELDS))}, got {reprlib.repr(region)}")
 
 
 def _children(u: float) -> list[np.random.Generator]:
