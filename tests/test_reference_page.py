@@ -70,3 +70,40 @@ def test_the_summary_is_saved_with_a_digest_and_refused_when_changed(tmp_path):
     (tmp_path / "plain.json.gz").write_bytes(raw)
     with pytest.raises(ValueError, match="not a gzip-compressed JSON summary"):
         load_summary(tmp_path / "plain.json.gz")
+
+
+def _rows_after(text: str, heading: str) -> list[list[str]]:
+    """The cells of the rows of the first table after ``heading`` (its header left out)."""
+    lines = text[text.index(heading):].splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("|"))
+    rows = []
+    for line in lines[start + 2:]:
+        if not line.startswith("|"):
+            break
+        rows.append([c.strip().strip("*") for c in line.strip().strip("|").split("|")])
+    return rows
+
+
+def test_the_holder_figures_quoted_elsewhere_are_the_holder_pages():
+    """reference_rl.md's holder table and the README's PPO sentence quote
+    reference_rl_holder.md (whose tables its summary gives, above): the rule, the seeds
+    learned and the paired difference from the rule, per team and setting."""
+    page = (DOCS / "reference_rl_holder.md").read_text(encoding="utf-8")
+    held = {setting: {row[0]: row for row in _rows_after(page, f"## `{setting}`")}
+            for setting in ("ppo", "maskable_ppo")}
+    quoted = _rows_after((DOCS / "reference_rl.md").read_text(encoding="utf-8"),
+                         "| team | best fixed rule | `ppo` learned")
+    assert {row[0] for row in quoted} == set(held["ppo"])
+    for team, rule, ppo_learned, ppo_diff, mask_learned, mask_diff in quoted:
+        assert rule == held["ppo"][team][5].split(" [")[0].replace(":", ""), team
+        assert (ppo_learned, mask_learned) == (held["ppo"][team][1],
+                                               held["maskable_ppo"][team][1]), team
+        assert f"{ppo_diff} points" == held["ppo"][team][6], team
+        assert f"{mask_diff} points" == held["maskable_ppo"][team][6], team
+    readme = " ".join((DOCS.parent / "README.md").read_text(encoding="utf-8").split())
+    learned = sum(int(row[1].split(" of ")[0]) for row in held["ppo"].values())
+    seeds = sum(int(row[1].split(" of ")[1]) for row in held["ppo"].values())
+    assert f"in {learned} of {seeds} seeds" in readme
+    for team, row in held["ppo"].items():
+        figure = row[6].removesuffix(" points")
+        assert f"`{team}` ({figure}" in readme, team
