@@ -389,7 +389,8 @@ def test_a_spinning_copy_is_stopped_after_its_own_bound_whatever_the_number_of_d
     """One bound of team_timeout times the drills acting let a copy spin for 1.6 s of CPU
     time in 16 drills under a 0.1 s bound (6.4 s in 64): each copy is held to
     team_timeout, as the single environment holds its team (where the copies shared one
-    bound, it stops after 1.6 s; under load the timer's signal lands a little late)."""
+    bound, it stops after 1.6 s; under load the timer's signal lands late, up to 0.63 s
+    measured, so the test asks for less than 1 s)."""
     SpinsInSixthCopy.resets = 0
     n = 16
     env = (HolderVectorEnv if kind == "holder" else ParallelVectorEnv)(
@@ -398,9 +399,9 @@ def test_a_spinning_copy_is_stopped_after_its_own_bound_whatever_the_number_of_d
     start = time.process_time()
     with pytest.raises(TeamError, match=r"^team 'SpinsInSixthCopy' \(drill 5\) exceeded its time "
                                         r"bound of 0.1 s of CPU time in act\(\) at cycle 0 "
-                                        r"\(stopped after 0\.[1-4]\d s of CPU time"):
+                                        r"\(stopped after 0\.[1-9]\d s of CPU time"):
         _step_n(env, n)
-    assert time.process_time() - start < 0.6
+    assert time.process_time() - start < 1.2  # a shared bound: 1.6 s
 
 
 def _step_n(env, n):
