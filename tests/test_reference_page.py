@@ -7,8 +7,10 @@ from __future__ import annotations
 import gzip
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from ilpss.metrics import t_test_pvalue
 from ilpss.reference.page import (
     check_summary_tables,
     load_summary,
@@ -56,6 +58,21 @@ def test_differences_are_paired_by_episode():
     row = next(line for line in tables(_summary([swapped, swapped], rule))["mappo"]
                if line.startswith("| t |"))
     assert "+0.0 [-48.0, +48.0] points" in row  # unpaired, the rates would look equal
+
+
+def test_the_p_beside_each_difference_is_holm_adjusted_over_every_comparison_on_the_page():
+    rule = [1.0, -1.0] * 15  # 50%
+    better = [1.0] * 24 + [-1.0] * 6  # 80%, paired with the rule's episodes
+    diff = (np.array(better) > 0).astype(float) - (np.array(rule) > 0)
+    raw = float(t_test_pvalue(diff))
+    alone = _summary([better], rule)
+    row = next(line for line in tables(alone)["mappo"] if line.startswith("| t |"))
+    assert f"| {raw:.2g} |" in row  # a family of one: the test's own p
+    twice = _summary([better], rule)
+    twice["sections"].append({**twice["sections"][0], "name": "ippo"})
+    for name in ("mappo", "ippo"):  # two equal tests: Holm doubles the smaller p
+        row = next(line for line in tables(twice)[name] if line.startswith("| t |"))
+        assert f"| {min(1.0, 2 * raw):.2g} |" in row
 
 
 def test_the_summary_is_saved_with_a_digest_and_refused_when_changed(tmp_path):
@@ -107,3 +124,6 @@ def test_the_holder_figures_quoted_elsewhere_are_the_holder_pages():
     for team, row in held["ppo"].items():
         figure = row[6].removesuffix(" points")
         assert f"`{team}` ({figure}" in readme, team
+    holm_p = {team: row[7] for team, row in held["ppo"].items()}  # the page's Holm column
+    assert (f"(p = {holm_p['interceptors_press']} and {holm_p['interceptor_guard']})"
+            in readme)

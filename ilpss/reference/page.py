@@ -15,7 +15,10 @@ Statistics (``ilpss.metrics``):
   does not), so the counts are the summary, with the seeds' median and range.
 - against the rule, **paired by episode**: on each of the evaluation episodes, the
   seeds' mean success (and reward) minus the rule's, with a 95% t interval over the
-  episodes (the episode is the unit: the same starts for the learner and the rule).
+  episodes (the episode is the unit: the same starts for the learner and the rule),
+  unadjusted; beside it the success difference's two-sided t-test p, Holm-adjusted over
+  every such comparison on the page (each setting and team against its rule), the one
+  figure that says "ahead of the rule" or "behind it" for the page as a whole.
 - the defenders: the best scripted attack's success against them (the highest over the
   attacks, per seed), beside what the best fixed rule scores against the paper's teams.
 - self-play: its attackers against the teams and its defenders against the attacks,
@@ -48,8 +51,10 @@ from ilpss._io import (
 )
 from ilpss.metrics import (
     asymptotic_performance,
+    holm,
     jumpstart,
     t_interval,
+    t_test_pvalue,
     total_reward,
     wilson_interval,
 )
@@ -221,12 +226,17 @@ def _median_range(values: Sequence[float]) -> str:
     return f"{np.median(v):.1%} [{v.min():.1%}, {v.max():.1%}]"
 
 
+def _episode_differences(learnt: np.ndarray, rule: np.ndarray, success: bool) -> np.ndarray:
+    """The seeds' mean minus the rule on each episode (success or reward)."""
+    if success:
+        learnt, rule = (learnt > 0).astype(float), (rule > 0).astype(float)
+    return learnt.mean(axis=0) - rule
+
+
 def _paired(learnt: np.ndarray, rule: np.ndarray, success: bool) -> tuple[float, float, float]:
     """The seeds' mean minus the rule on each episode (success or reward), its mean and
     95% t interval over the episodes."""
-    if success:
-        learnt, rule = (learnt > 0).astype(float), (rule > 0).astype(float)
-    diff = learnt.mean(axis=0) - rule
+    diff = _episode_differences(learnt, rule, success)
     if np.ptp(diff) == 0:
         return float(diff.mean()), float(diff.mean()), float(diff.mean())
     m, lo, hi = (float(x) for x in t_interval(diff))
@@ -238,17 +248,38 @@ def _counted(k: int, n: int) -> str:
 
 
 # ----------------------------------------------------------------------------- tables
-def _attackers_table(section: dict[str, Any], summary: dict[str, Any]) -> list[str]:
+def _against_rules(summary: dict[str, Any]) -> dict[tuple[str, str], float]:
+    """The Holm-adjusted p of every learner-against-its-rule success comparison on the
+    page, by (section name, team): one family, the two-sided paired t-test over episodes."""
+    keys, p_values = [], []
+    for section in summary["sections"]:
+        if section["type"] not in ("holder", "attackers"):
+            continue
+        for team in dict.fromkeys(r["team"] for r in section["runs"]):
+            rule = summary["rules"].get(team)
+            if rule is None:
+                continue
+            greedy = np.array([r["eval"][team] for r in section["runs"] if r["team"] == team],
+                              float)
+            diff = _episode_differences(greedy, np.asarray(rule["rewards"], float), True)
+            keys.append((section["name"], team))
+            p_values.append(float(t_test_pvalue(diff)))
+    return dict(zip(keys, holm(np.array(p_values, float)) if keys else [], strict=True))
+
+
+def _attackers_table(section: dict[str, Any], summary: dict[str, Any],
+                     adjusted: Mapping[tuple[str, str], float]) -> list[str]:
     """Learned counts, greedy and stochastic success, and the paired differences against
-    the best fixed rule, team by team."""
+    the best fixed rule (with the page's Holm-adjusted p), team by team."""
     frac = summary["evaluation"]["learned_fraction"]
     rules, tile = summary["rules"], summary["tile"]
     lines = [f"| team | seeds learned (greedy >= {frac:g} x rule) | greedy success, median "
              "[min, max] over seeds | greedy success, mean [95% t over seeds] | stochastic "
              "success, mean | best fixed rule: success [Wilson] | success minus the rule, "
-             "paired by episode [95% t] | reward minus the rule, paired by episode [95% t] "
-             "| tile-coded SMDP: success |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "paired by episode [95% t, unadjusted] | the same: Holm-adjusted p (every "
+             "comparison on the page) | reward minus the rule, paired by episode [95% t, "
+             "unadjusted] | tile-coded SMDP: success |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     teams = list(dict.fromkeys(r["team"] for r in section["runs"]))
     for team in teams:
         runs = [r for r in section["runs"] if r["team"] == team]
@@ -258,17 +289,18 @@ def _attackers_table(section: dict[str, Any], summary: dict[str, Any]) -> list[s
                  if all("stochastic" in r for r in runs) else None)
         rule = rules.get(team)
         if rule is None:
-            count = paired_s = paired_r = rule_cell = "n/a"
+            count = paired_s = holm_p = paired_r = rule_cell = "n/a"
         else:
             rr = np.asarray(rule["rewards"], float)
             target = frac * _success(rr)
             count = _counted(sum(s >= target for s in succ), len(runs))
             rule_cell = f"{rule['rule']}: {_wilson(rr)}"
             paired_s = _signed_pct(*_paired(greedy, rr, True))
+            holm_p = f"{adjusted[section['name'], team]:.2g}"
             paired_r = _ci(*_paired(greedy, rr, False))
         lines.append(f"| {team} | {count} | {_median_range(succ)} | {_over(succ, True)} | "
                      f"{_over(stoch, True) if stoch else 'n/a'} | {rule_cell} | {paired_s} | "
-                     f"{paired_r} | {tile.get(team, ['n/a', 'n/a'])[1]} |")
+                     f"{holm_p} | {paired_r} | {tile.get(team, ['n/a', 'n/a'])[1]} |")
     return lines
 
 
@@ -397,7 +429,7 @@ def _budget_line(section: dict[str, Any]) -> str:
 
 def tables(summary: dict[str, Any]) -> dict[str, list[str]]:
     """Each section's tables, by setting name: a function of the summary alone."""
-    out = {}
+    out, adjusted = {}, _against_rules(summary)
     for section in summary["sections"]:
         kind = section["type"]
         if kind == "transfer":
@@ -405,7 +437,7 @@ def tables(summary: dict[str, Any]) -> dict[str, list[str]]:
             continue
         lines = [_budget_line(section), ""]
         if kind in ("holder", "attackers"):
-            lines += [*_attackers_table(section, summary), "", *_seed_table(section)]
+            lines += [*_attackers_table(section, summary, adjusted), "", *_seed_table(section)]
         elif kind == "defenders":
             lines += _defenders_table(section, summary)
         else:
@@ -492,7 +524,9 @@ def write_page(command: str, code: str, took: str, jobs: list[Job],
         "(the same for every seed, setting and fixed rule), greedy unless said. A seed "
         f"*learned* when its greedy success is at least {ev['learned_fraction']:g} times the "
         "best fixed rule's on the same episodes (the best rule by mean reward). Differences "
-        "against the rule are paired by episode. Curves: training success per rollout (the "
+        "against the rule are paired by episode, their intervals unadjusted; the success "
+        "differences' p-values are Holm-adjusted over every comparison with a rule on the "
+        "page. Curves: training success per rollout (the "
         "drill's reward, before any reward option). Settings: `ilpss/reference/settings.py`, "
         "recorded whole in every kept result. The per-seed numbers behind every table are in "
         "the summary file beside this page (`load_summary`, `tables`).", ""]
