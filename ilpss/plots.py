@@ -26,6 +26,8 @@ __all__ = ["plot_learning_curves"]
 
 LEGEND_INSIDE_AT_MOST = 5
 """Curves whose legend fits inside the axes; with more it goes below them."""
+LEGEND_ROW_INCHES = 0.2
+"""The height a row of the legend below the axes adds to the figure (its title one more)."""
 
 
 def _x_for(name: str, n: int, x: Mapping[str, ArrayLike] | ArrayLike | None) -> np.ndarray:
@@ -104,8 +106,7 @@ def plot_learning_curves(
         raise ValueError("curves is empty: nothing to plot")
     path = Path(path)
     crowded = len(curves) > LEGEND_INSIDE_AT_MOST
-    fig = Figure(figsize=(7.0, 4.5 + (0.2 * ((len(curves) + 1) // 2) if crowded else 0.0)),
-                 layout="constrained")
+    fig = Figure(figsize=(7.0, 4.5), layout="constrained")
     FigureCanvasAgg(fig)  # explicit Agg canvas: no display, no pyplot state
     ax = fig.add_subplot()
     for i, (name, raw) in enumerate(curves.items()):
@@ -124,10 +125,32 @@ def plot_learning_curves(
 def _legend(fig: Figure, ax, title: str, crowded: bool) -> None:
     """The legend inside the axes, or below them when ``crowded``."""
     if crowded:
-        fig.legend(title=title, fontsize=8, title_fontsize=8, loc="outside lower center",
-                   ncols=2)
+        legend_below(fig, *ax.get_legend_handles_labels(), title=title, most_columns=2)
     else:
         ax.legend(title=title, fontsize=8, title_fontsize=8, loc="best")
+
+
+def legend_below(fig: Figure, handles: list, labels: list[str], *, title: str | None = None,
+                 most_columns: int = 2) -> None:
+    """One legend below the axes of ``fig`` (constrained layout), in as many columns (at
+    most ``most_columns``) as fit the figure's width, so long method names are never cut
+    off at its edges; the figure grows by the legend's rows, so the axes keep their size."""
+    height = fig.get_figheight()
+    for ncols in range(min(most_columns, len(labels)), 0, -1):
+        legend = fig.legend(handles, labels, title=title, fontsize=8, title_fontsize=8,
+                            loc="outside lower center", ncols=ncols)
+        rows = -(-len(labels) // ncols) + (title is not None)
+        fig.set_figheight(height + LEGEND_ROW_INCHES * (rows + 1))
+        fits = legend.get_window_extent(fig.canvas.get_renderer()).width <= fig.bbox.width
+        if fits or ncols == 1:
+            return
+        legend.remove()
+
+
+def curve_style(i: int) -> tuple[str, str]:
+    """The colour and line style of the ``i``-th curve of a figure: ten colours, then the
+    same colours dashed, then dotted, so no two of 30 curves look alike."""
+    return _PALETTE[i % len(_PALETTE)], _STYLES[(i // len(_PALETTE)) % len(_STYLES)]
 
 
 _PALETTE = tuple(f"C{i}" for i in range(10))
@@ -145,8 +168,7 @@ def _draw_mean_curve(ax, i: int, name: str, raw: ArrayLike, *, window: int, band
     sm = smooth(arr, window)  # validates: 2-D, finite, non-empty, window <= n
     n_seeds, n_eps = sm.shape
     xs = _x_for(name, n_eps, x)
-    colour = _PALETTE[i % len(_PALETTE)]
-    style = _STYLES[(i // len(_PALETTE)) % len(_STYLES)]
+    colour, style = curve_style(i)
     label = f"{name} (n={n_seeds} seed{'s' if n_seeds != 1 else ''})"
     if band and n_seeds >= 2:
         mean, low, high = mean_curve_band(sm, n_boot=n_boot, confidence=confidence, seed=seed)

@@ -638,6 +638,29 @@ def test_many_curves_get_their_legend_below_the_axes_where_it_hides_none(tmp_pat
     assert height(11) > height(LEGEND_INSIDE_AT_MOST + 1)
 
 
+def test_a_legend_of_long_method_names_fits_the_figures_width(tmp_path):
+    """Names as long as the report's ("fine-tuning chained (from its own latest policy),
+    values bounded") in two columns ran off both edges of the figure: the legend goes
+    into one column then, and no mark touches the image's left or right edge below the axes."""
+    from PIL import Image
+
+    rng = np.random.default_rng(0)
+    curves = {f"method {i}, a long description of its settings and of what it reuses (n=30)":
+              rng.normal(0.0, 0.3, size=(3, 40)) for i in range(8)}
+    out = plot_learning_curves(curves, tmp_path / "long.png", title="t", n_boot=50)
+    with Image.open(out) as image:
+        pixels = np.asarray(image.convert("L"))
+    below = pixels[pixels.shape[0] // 2:]  # the legend's rows
+    assert (below[:, :3] > 250).all() and (below[:, -3:] > 250).all()
+
+
+def test_no_two_of_thirty_curves_share_a_colour_and_a_line_style():
+    from ilpss.plots import curve_style
+
+    # the held-out panels drew "C{i}" alone: the 11th method looked like the first
+    assert len({curve_style(i) for i in range(30)}) == 30
+
+
 def test_plot_learning_curves_validation(tmp_path):
     with pytest.raises(ValueError, match="empty"):
         plot_learning_curves({}, tmp_path / "a.png", title="x")

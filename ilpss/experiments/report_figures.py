@@ -23,7 +23,7 @@ from ilpss.experiments.report_stats import (
     windows,
 )
 from ilpss.experiments.report_text import ENDPOINT_LABELS, label
-from ilpss.plots import plot_learning_curves
+from ilpss.plots import curve_style, legend_below, plot_learning_curves
 
 
 def plot_comparison(curves: dict[str, np.ndarray], path: Path, title: str) -> Path:
@@ -55,12 +55,13 @@ def plot_held_out_panels(
             window = windows(c.shape[1])[2]
             sm = metrics.smooth(c, window)
             xs = np.arange(1, sm.shape[1] + 1)
+            colour, style = curve_style(i)
             if len(sm) >= 2:
                 mean, low, high = metrics.mean_curve_band(sm, seed=0)
-                ax.fill_between(xs, low, high, color=f"C{i}", alpha=0.2, linewidth=0)
+                ax.fill_between(xs, low, high, color=colour, alpha=0.2, linewidth=0)
             else:
                 mean = sm.mean(axis=0)
-            (handles[method],) = ax.plot(xs, mean, color=f"C{i}", linewidth=1.3)
+            (handles[method],) = ax.plot(xs, mean, color=colour, linestyle=style, linewidth=1.3)
         ax.set_title(f"held out: {team} ({len(streams)} source order"
                      f"{'s' if len(streams) != 1 else ''})", fontsize=10)
         ax.grid(True, alpha=0.3)
@@ -74,8 +75,7 @@ def plot_held_out_panels(
         ax.set_ylabel(f"reward (trailing mean over {window})")
     n_seeds = len(next(iter(curves.values())))
     fig.suptitle(f"Learning against each held-out team ({n_seeds} seeds)", fontsize=11)
-    fig.legend(list(handles.values()), [label(m) for m in handles],
-               loc="outside lower center", ncols=min(len(handles), 4), fontsize=8)
+    legend_below(fig, list(handles.values()), [label(m) for m in handles], most_columns=4)
     return save_figure(fig, path, dpi=110)
 
 
