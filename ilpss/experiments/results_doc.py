@@ -1,6 +1,6 @@
 """``ilpss-results``: run (or resume) protocols A, R, B and C and regenerate ``docs/results.md``.
 
-    ilpss-results --shuffles 0                      # the documented run (A: 30 seeds, R, B, C: 10)
+    ilpss-results                                   # the documented run (A: 30 seeds, R, B, C: 10)
     ilpss-results --protocols A                     # only A; the other sections are kept
     ilpss-results --runs /tmp/r --docs /tmp/d --seeds-a 2 --seeds-b 2 --seeds-c 2 \\
         --episodes 4 --rollouts 2 --stream-length 3 --teams interceptors_press goal_guards
