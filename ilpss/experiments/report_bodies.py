@@ -147,7 +147,7 @@ def parametric_stream_sections(
     episodes, baseline, featured = cfg.lifelong.train_episodes, cfg.baseline, cfg.featured_method
     jumpstarts = stream_jumpstarts(methods, featured, baseline) if featured else []
     sizes = library_sizes(cfg, results)
-    plot_stream(jumpstarts, sizes, out / "stream.png")
+    plot_stream(jumpstarts, sizes, out / "stream.png", featured, baseline)
     lines: list[str] = []
     targets = sorted(methods[baseline])
     if len(methods[baseline][targets[0]]) >= 2:

@@ -98,9 +98,11 @@ def run_scores(curve_sets: Sequence[dict[str, np.ndarray]],
 
 def plot_stream(
     jumpstarts: list[tuple[int, metrics.MetricEstimate]], sizes: dict[str, np.ndarray],
-    path: str | os.PathLike[str],
+    path: str | os.PathLike[str], featured: str | None = None, baseline: str | None = None,
 ) -> Path:
-    """Protocol C: jumpstart on each new opponent, and the library's size over the stream."""
+    """Protocol C: the featured method's jumpstart over the baseline on each new opponent
+    (95% t interval over seeds, unadjusted), and each method's library size over the
+    stream, each panel titled with what it shows and the legend below the axes."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -108,7 +110,7 @@ def plot_stream(
     values = [js.value for _, js in jumpstarts]
     lows = [js.low for _, js in jumpstarts]
     highs = [js.high for _, js in jumpstarts]
-    fig = Figure(figsize=(11, 4))
+    fig = Figure(figsize=(11, 4), layout="constrained")
     FigureCanvasAgg(fig)
     ax1, ax2 = fig.subplots(1, 2)
     ax1.errorbar(tasks, values, yerr=[np.subtract(values, lows), np.subtract(highs, values)],
@@ -116,11 +118,20 @@ def plot_stream(
     ax1.axhline(0, color="grey", lw=1)
     ax1.set_xlabel("opponent index in the stream")
     ax1.set_ylabel("jumpstart (first episodes)")
-    for method, runs in sizes.items():
+    if featured and baseline:
+        ax1.set_title(f"{label(featured)} against {label(baseline)}:\njumpstart on each new "
+                      "opponent (95% t over seeds, unadjusted)", fontsize=9)
+    handles, names = [], []
+    for i, (method, runs) in enumerate(sizes.items()):
         mean = runs.mean(axis=0)
-        ax2.plot(np.arange(1, len(mean) + 1), mean, marker="o", label=label(method))
+        colour, style = curve_style(i)
+        (line,) = ax2.plot(np.arange(1, len(mean) + 1), mean, marker="o", markersize=3,
+                           color=colour, linestyle=style)
+        handles.append(line)
+        names.append(label(method))
     ax2.set_xlabel("trials completed")
     ax2.set_ylabel("active options (mean over seeds)")
-    ax2.legend()
-    fig.tight_layout()
+    ax2.set_title("the option library's size over the stream", fontsize=9)
+    if handles:
+        legend_below(fig, handles, names, most_columns=3)
     return save_figure(fig, path, dpi=120)
