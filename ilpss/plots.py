@@ -206,8 +206,9 @@ def plot_score_profiles(
     ----------
     scores : mapping of str to mapping of str to array_like
         Panel title (e.g. ``"jumpstart"``) -> method name -> 1-D per-run scores, finite,
-        non-empty. Method order sets colours; the same method keeps its colour in every
-        panel.
+        non-empty. Method order sets colours and line styles; the same method keeps its
+        look in every panel. With more than five methods one legend for all panels goes
+        below them (:func:`legend_below`), where it hides no curve.
     path : str or os.PathLike
         Destination PNG; missing parent directories are created. Written atomically.
     title : str
@@ -227,10 +228,10 @@ def plot_score_profiles(
     """
     if not scores or any(not methods for methods in scores.values()):
         raise ValueError("scores must map at least one panel to at least one method's scores")
-    colours: dict[str, str] = {}
+    styles: dict[str, tuple[str, str]] = {}
     for methods in scores.values():
         for name in methods:
-            colours.setdefault(name, f"C{len(colours) % 10}")
+            styles.setdefault(name, curve_style(len(styles)))
     fig = Figure(figsize=(5.0 * len(scores), 3.8), layout="constrained")
     FigureCanvasAgg(fig)
     axes = np.atleast_1d(fig.subplots(1, len(scores)))
@@ -241,14 +242,24 @@ def plot_score_profiles(
                 raise ValueError(f"scores[{panel!r}][{name!r}] must be non-empty, 1-D and finite")
             xs = np.sort(values)
             share = 1.0 - np.arange(1, xs.size + 1) / xs.size  # share of runs > xs[i]
+            colour, style = styles[name]
             ax.step(np.concatenate([[xs[0]], xs]), np.concatenate([[1.0], share]),
-                    where="post", color=colours[name], linewidth=1.5,
+                    where="post", color=colour, linestyle=style, linewidth=1.5,
                     label=f"{name} ({xs.size} runs)")
         ax.axvline(0.0, color="0.4", linestyle="--", linewidth=0.8)
         ax.set_ylim(-0.02, 1.02)
         ax.set_xlabel(f"{panel} (method - baseline, per run)")
         ax.set_ylabel("share of runs with a larger score")
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=8, loc="lower left")
+    if len(styles) > LEGEND_INSIDE_AT_MOST:  # one legend for the panels, below them
+        handles, labels = axes[0].get_legend_handles_labels()
+        for ax in axes[1:]:
+            more, names = ax.get_legend_handles_labels()
+            new = [(h, n) for h, n in zip(more, names, strict=True) if n not in labels]
+            handles, labels = handles + [h for h, _ in new], labels + [n for _, n in new]
+        legend_below(fig, handles, labels, most_columns=len(scores) + 1)
+    else:
+        for ax in axes:
+            ax.legend(fontsize=8, loc="lower left")
     fig.suptitle(title, fontsize=11)
     return save_figure(fig, path, format="png", dpi=dpi)

@@ -718,6 +718,26 @@ def test_plot_score_profiles_writes_png(tmp_path):
     assert not (tmp_path / "x.png").exists()
 
 
+def test_many_score_profiles_share_one_legend_below_the_panels(tmp_path):
+    """Fourteen methods' legends drawn inside each panel covered the curves and ran off the
+    figure's right edge: one legend now sits below both panels, inside the figure."""
+    from PIL import Image
+
+    rng = np.random.default_rng(0)
+    names = [f"method {i}, with a description as long as the report's (fine-tuned start)"
+             for i in range(14)]
+    scores = {panel: {n: rng.normal(0, 1, 80) for n in names}
+              for panel in ("jumpstart", "total-reward gain")}
+    out = plot_score_profiles(scores, tmp_path / "profiles.png", title="t")
+    with Image.open(out) as image:
+        pixels = np.asarray(image.convert("L"))
+    assert (pixels[:, :3] > 250).all() and (pixels[:, -3:] > 250).all()
+    few = plot_score_profiles({p: dict(list(v.items())[:2]) for p, v in scores.items()},
+                              tmp_path / "few.png", title="t")
+    with Image.open(few) as image:
+        assert pixels.shape[0] > image.size[1]  # the legend takes rows of its own
+
+
 def _dip_by_loops(curve, window):
     means = [np.mean(curve[t - window + 1:t + 1]) for t in range(window - 1, len(curve))]
     return max(max(means[:i + 1]) - m for i, m in enumerate(means))

@@ -184,7 +184,7 @@ def several_targets_sections(
                   *target_tables(estimates, names), *per_target_dips(per_target, names, baseline)]
     for t, curves in per_target.items():
         lines += descriptive_lines(curves, baseline, out / f"curves_00_{t:02d}.png",
-                                   f"{names[t]}: learning against the held-out opponent",
+                                   f"{names[t]}: learning against the target",
                                    f"Target `{names[t]}`", "one target, unadjusted")
     return lines
 

@@ -122,7 +122,8 @@ def section_a_targets(
     for t in per_target:
         figure = docs / "figures" / f"protocol_{cfg.protocol.lower()}_curves_{t:02d}.png"
         _copy_figure(folder, f"curves_00_{t:02d}.png", figure)
-        lines += [f"![protocol A learning curves against {names[t]}](figures/{figure.name})", ""]
+        lines += [f"![protocol {cfg.protocol} learning curves against {names[t]}]"
+                  f"(figures/{figure.name})", ""]
     if not all(comparable(c, cfg.baseline) for c in per_target.values()):
         return [*lines, "Transfer metrics need at least 2 seeds.", "",
                 *diagnostics(cfg, results), *kernels_and_gif(cfg, folder, docs)]
