@@ -163,34 +163,43 @@ def page(uses: dict[str, list[RegionUse]], command: str, figure: str | None) -> 
 
 
 def plot(uses: dict[str, list[RegionUse]], path: Path) -> Path:
-    """Stacked bars: per method, the far and the near side, split into right source,
-    other sources and own primitives."""
-    import matplotlib
+    """Save :func:`figure` of ``uses`` at ``path`` (a PNG, written atomically)."""
+    return save_figure(figure(uses), path, dpi=110)
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+
+_PARTS = (("right source", "tab:green"), ("other sources", "tab:red"),
+          ("own primitives", "tab:gray"))
+
+
+def figure(uses: dict[str, list[RegionUse]]):
+    """Horizontal stacked bars, one per method and side (far, near), read top to bottom
+    in the page's order: the share of the side's decisions made by the right source's
+    option, another source's and the target's own primitives. The method names sit on
+    the axis at full length, one row each, so none runs into another."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
 
     labels, bars = [], []
     for method, found in uses.items():
-        for below, side in ((False, "far"), (True, "near")):
-            labels.append(f"{method}\n{side}")
+        for below, side in ((False, "far side"), (True, "near side")):
+            labels.append(f"{method}, {side}")
             bars.append(_pooled(found, below)[1:])
-    values = np.nan_to_num(np.array(bars))
-    fig, ax = plt.subplots(figsize=(max(6.0, 1.1 * len(labels)), 4.5))
-    bottom = np.zeros(len(labels))
-    for k, (name, colour) in enumerate((("right source", "tab:green"),
-                                        ("other sources", "tab:red"),
-                                        ("own primitives", "tab:gray"))):
-        ax.bar(labels, values[:, k], bottom=bottom, label=name, color=colour)
-        bottom += values[:, k]
-    ax.set_ylabel("share of the side's decisions")
-    ax.set_ylim(0, 1)
-    ax.legend(loc="upper right", fontsize=8)
-    ax.tick_params(axis="x", labelsize=7)
-    fig.tight_layout()
-    out = save_figure(fig, path, dpi=110)
-    plt.close(fig)
-    return out
+    values = np.nan_to_num(np.array(bars, dtype=float))
+    fig = Figure(figsize=(8.0, 1.6 + 0.32 * len(labels)), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax = fig.add_subplot()
+    rows = np.arange(len(labels))[::-1]  # the first method on top
+    left = np.zeros(len(labels))
+    for k, (name, colour) in enumerate(_PARTS):
+        ax.barh(rows, values[:, k], left=left, label=name, color=colour, height=0.7)
+        left += values[:, k]
+    ax.set_yticks(rows, labels, fontsize=8)
+    ax.set_xlim(0, 1)
+    ax.set_xlabel("share of the side's decisions (greedy episodes, pooled over targets "
+                  "and seeds)")
+    ax.set_title("Who acts on each side of the target's split", fontsize=10)
+    fig.legend(loc="outside lower center", ncols=len(_PARTS), fontsize=8)
+    return fig
 
 
 def main(argv: Sequence[str] | None = None) -> int:
