@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from markdown_tables import table_after
 
 from ilpss.experiments import confirm, results_doc
 
@@ -119,23 +120,13 @@ def test_a_changed_number_is_refused_by_its_digest(tmp_path):
         keepaway.main(["--from-data", str(tmp_path)])
 
 
-def _table_rows(text: str, header: str) -> list[list[str]]:
-    lines = text[text.index(header):].splitlines()
-    rows = []
-    for line in lines[2:]:
-        if not line.startswith("|"):
-            break
-        rows.append([c.strip().strip("*").strip() for c in line.strip().strip("|").split("|")])
-    return rows
-
-
 def test_the_discussions_table_of_the_decisive_run_is_its_pages():
     """discussion.md's table of the pick family quotes docs/decisive_test.md (which the
     test above recomputes from its kept numbers): each test's gain and interval, Holm p,
     whether it is shown and its pilot effect."""
-    page = _table_rows((DOCS / "decisive_test.md").read_text(), "| test | family |")
+    page = table_after((DOCS / "decisive_test.md").read_text(), "| test | family |")
     by_name = {row[0]: row for row in page if row[1] == "`pick`"}
-    quoted = _table_rows((DOCS / "discussion.md").read_text(),
+    quoted = table_after((DOCS / "discussion.md").read_text(),
                          "| test | gain [95% CI] | Holm-adjusted p | pilot |")
     assert [row[0].replace(" (margin 30)", "") for row in quoted] == list(by_name)
     for name, gain, holm, pilot in quoted:

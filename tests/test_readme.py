@@ -20,6 +20,7 @@ from importlib.metadata import entry_points
 from pathlib import Path
 
 import pytest
+from markdown_tables import table_after
 
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
@@ -165,24 +166,8 @@ def test_the_readme_team_holds_its_own_defenders_starts_at_every_size(team_regis
         assert np.abs(moved).max() < 0.5, (config, moved)
 
 
-def _cells(line: str) -> list[str]:
-    return [c.strip().strip("*").strip() for c in line.strip().strip("|").split("|")]
-
-
 def _numbers(cell: str) -> list[float]:
     return [float(x) for x in re.findall(r"[+-]?\d+(?:\.\d+)?", cell)]
-
-
-def _table_after(text: str, heading: str) -> list[list[str]]:
-    """The rows (cells) of the first table after ``heading``, its header and rule left out."""
-    lines = text[text.index(heading):].splitlines()
-    start = next(i for i, line in enumerate(lines) if line.startswith("|"))
-    rows = []
-    for line in lines[start + 2:]:
-        if not line.startswith("|"):
-            break
-        rows.append(_cells(line))
-    return rows
 
 
 def _close(readme_cell: str, page_cell: str) -> bool:
@@ -198,8 +183,8 @@ def test_the_headline_figures_are_the_decisive_pages():
     learning anew per stream, "-" where the method did not run on that stream."""
     text = README.read_text(encoding="utf-8")
     page = (ROOT / "docs" / "decisive_test.md").read_text(encoding="utf-8")
-    family = {(row[2], row[3], row[4]): row for row in _table_after(page, "| test | family |")}
-    headline = _table_after(text, "| stream (seeds) |")
+    family = {(row[2], row[3], row[4]): row for row in table_after(page, "| test | family |")}
+    headline = table_after(text, "| stream (seeds) |")
     assert len(headline) == 4
     for stream, gain, holm, _ in headline:
         protocol = re.search(r"\(([A-Z]), \d+", stream).group(1)
@@ -207,9 +192,9 @@ def test_the_headline_figures_are_the_decisive_pages():
         assert _close(gain, row[6]), (stream, gain, row[6])
         assert holm == row[9] and row[10] == "yes", (stream, holm, row[9], row[10])
     reported = {(row[0], row[1]): row[3]
-                for row in _table_after(page, "Reported comparisons, outside the family")
+                for row in table_after(page, "Reported comparisons, outside the family")
                 if row[2] == "`scratch`"}
-    gains = _table_after(text, "| method (`--methods`) | S | A | B | R |")
+    gains = table_after(text, "| method (`--methods`) | S | A | B | R |")
     assert len(gains) >= 5
     for row in gains:
         method = re.findall(r"`(\w+)`", row[0])[-1]

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from markdown_tables import table_after
 
 from ilpss.metrics import t_test_pvalue
 from ilpss.reference.page import (
@@ -89,26 +90,14 @@ def test_the_summary_is_saved_with_a_digest_and_refused_when_changed(tmp_path):
         load_summary(tmp_path / "plain.json.gz")
 
 
-def _rows_after(text: str, heading: str) -> list[list[str]]:
-    """The cells of the rows of the first table after ``heading`` (its header left out)."""
-    lines = text[text.index(heading):].splitlines()
-    start = next(i for i, line in enumerate(lines) if line.startswith("|"))
-    rows = []
-    for line in lines[start + 2:]:
-        if not line.startswith("|"):
-            break
-        rows.append([c.strip().strip("*") for c in line.strip().strip("|").split("|")])
-    return rows
-
-
 def test_the_holder_figures_quoted_elsewhere_are_the_holder_pages():
     """reference_rl.md's holder table and the README's PPO sentence quote
     reference_rl_holder.md (whose tables its summary gives, above): the rule, the seeds
     learned and the paired difference from the rule, per team and setting."""
     page = (DOCS / "reference_rl_holder.md").read_text(encoding="utf-8")
-    held = {setting: {row[0]: row for row in _rows_after(page, f"## `{setting}`")}
+    held = {setting: {row[0]: row for row in table_after(page, f"## `{setting}`")}
             for setting in ("ppo", "maskable_ppo")}
-    quoted = _rows_after((DOCS / "reference_rl.md").read_text(encoding="utf-8"),
+    quoted = table_after((DOCS / "reference_rl.md").read_text(encoding="utf-8"),
                          "| team | best fixed rule | `ppo` learned")
     assert {row[0] for row in quoted} == set(held["ppo"])
     for team, rule, ppo_learned, ppo_diff, mask_learned, mask_diff in quoted:
