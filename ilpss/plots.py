@@ -12,6 +12,7 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -27,7 +28,8 @@ __all__ = ["plot_learning_curves"]
 LEGEND_INSIDE_AT_MOST = 5
 """Curves whose legend fits inside the axes; with more it goes below them."""
 LEGEND_ROW_INCHES = 0.2
-"""The height a row of the legend below the axes adds to the figure (its title one more)."""
+"""The height a row of the legend below the axes adds to the figure (a title is a row,
+and one more row is its margin)."""
 
 
 def _x_for(name: str, n: int, x: Mapping[str, ArrayLike] | ArrayLike | None) -> np.ndarray:
@@ -252,12 +254,11 @@ def plot_score_profiles(
         ax.set_ylabel("share of runs with a larger score")
         ax.grid(True, alpha=0.3)
     if len(styles) > LEGEND_INSIDE_AT_MOST:  # one legend for the panels, below them
-        handles, labels = axes[0].get_legend_handles_labels()
-        for ax in axes[1:]:
-            more, names = ax.get_legend_handles_labels()
-            new = [(h, n) for h, n in zip(more, names, strict=True) if n not in labels]
-            handles, labels = handles + [h for h, _ in new], labels + [n for _, n in new]
-        legend_below(fig, handles, labels, most_columns=len(scores) + 1)
+        entries: dict[str, Any] = {}  # label -> handle, each method once, in order
+        for ax in axes:
+            for handle, name in zip(*ax.get_legend_handles_labels(), strict=True):
+                entries.setdefault(name, handle)
+        legend_below(fig, list(entries.values()), list(entries), most_columns=len(scores) + 1)
     else:
         for ax in axes:
             ax.legend(fontsize=8, loc="lower left")

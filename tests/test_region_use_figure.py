@@ -7,7 +7,7 @@ import itertools
 
 import numpy as np
 
-from ilpss.experiments.region_use import OWN, RegionUse, figure
+from ilpss.experiments.region_use import OWN, RegionUse, bars_figure
 
 
 def test_every_method_and_side_has_a_row_of_its_own_inside_the_figure():
@@ -16,7 +16,7 @@ def test_every_method_and_side_has_a_row_of_its_own_inside_the_figure():
     use = RegionUse("press_far_contain_near", "contain_cover", "interceptors_press",
                     {(True, "contain_cover"): 3, (True, OWN): 1, (False, "interceptors_press"): 2,
                      (False, "contain_cover"): 1, (False, OWN): 5})
-    fig = figure({m: [use] for m in methods})
+    fig = bars_figure({m: [use] for m in methods})
     renderer = fig.canvas.get_renderer()
     fig.draw(renderer)
     (ax,) = fig.axes
@@ -29,6 +29,6 @@ def test_every_method_and_side_has_a_row_of_its_own_inside_the_figure():
     width, height = fig.bbox.width, fig.bbox.height
     assert all(b.x0 >= 0 and b.x1 <= width and b.y0 >= 0 and b.y1 <= height for b in boxes)
     # the far side's bar of each method: 2 of 8 by the right source, 1 by another, 5 own
-    bars = [p for p in ax.patches]
+    bars = list(ax.patches)
     widths = np.array([p.get_width() for p in bars]).reshape(3, -1)  # parts x rows
     np.testing.assert_allclose(widths[:, 0], [2 / 8, 1 / 8, 5 / 8])

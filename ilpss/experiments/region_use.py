@@ -163,15 +163,15 @@ def page(uses: dict[str, list[RegionUse]], command: str, figure: str | None) -> 
 
 
 def plot(uses: dict[str, list[RegionUse]], path: Path) -> Path:
-    """Save :func:`figure` of ``uses`` at ``path`` (a PNG, written atomically)."""
-    return save_figure(figure(uses), path, dpi=110)
+    """Save :func:`bars_figure` of ``uses`` at ``path`` (a PNG, written atomically)."""
+    return save_figure(bars_figure(uses), path, dpi=110)
 
 
 _PARTS = (("right source", "tab:green"), ("other sources", "tab:red"),
           ("own primitives", "tab:gray"))
 
 
-def figure(uses: dict[str, list[RegionUse]]):
+def bars_figure(uses: dict[str, list[RegionUse]]):
     """Horizontal stacked bars, one per method and side (far, near), read top to bottom
     in the page's order: the share of the side's decisions made by the right source's
     option, another source's and the target's own primitives. The method names sit on
