@@ -29,14 +29,6 @@ FILE_KINDS = {"md", "py", "json", "gif", "npz", "toml", "txt", "tmp", "csv", "pn
 """A dotted name ending in one of these is a file's name (``opponents.md``)."""
 
 
-NOT_KEPT = {
-    "docs/data/confirmatory", "docs/data/confirmatory.csv.gz", "docs/data/sharp_test",
-    "docs/data/sharp_test.csv.gz",
-}
-"""Files the pages name that the repository does not hold: the per-seed numbers of the
-pages made before runs kept theirs (those pages say so). The set may only shrink."""
-
-
 def _groups() -> set[str]:
     """The entry-point groups: those this project declares, and those its registries read."""
     from ilpss.experiments.methods import METHODS
@@ -77,7 +69,7 @@ def missing(text: str) -> list[str]:
     for path in sorted(set(PATH.findall(text))):
         file = path.split("::")[0]
         stem_of_kept_numbers = (ROOT / f"{file}.json").is_file()  # --from-data STEM
-        if (file not in gymnasium.registry and file not in NOT_KEPT
+        if (file not in gymnasium.registry
                 and not (ROOT / file).exists() and not stem_of_kept_numbers):
             wrong.append(path)
     return wrong

@@ -16,6 +16,7 @@ import inspect
 import re
 import shlex
 import tomllib
+from decimal import ROUND_HALF_UP, Decimal
 from importlib.metadata import entry_points
 from pathlib import Path
 
@@ -204,3 +205,32 @@ def test_the_headline_figures_are_the_decisive_pages():
                 assert page_cell is None, (method, protocol, page_cell)
             else:
                 assert page_cell is not None and _close(cell, page_cell), (method, protocol, cell)
+
+
+def _whole(cell: str) -> str:
+    """A results.md cell's total-reward gain and interval, rounded to whole numbers (half
+    away from zero) as the README quotes them: "-14.3 [-30.0, +1.4] (p = 1)" -> "-14 [-30, +1]"."""
+    numbers = [Decimal(x) for x in re.findall(r"[-+]\d+\.\d+", cell)[:3]]
+    m, lo, hi = (int(x.quantize(Decimal(1), ROUND_HALF_UP)) for x in numbers)
+    return f"{m:+d} [{lo:+d}, {hi:+d}]"
+
+
+@pytest.mark.parametrize("pair", [
+    "ILPSS-FT (fine-tuned start, options valued by their policies) - whole past policies, "
+    "ILPSS-FT's settings",
+    "fine-tuning chained (from its own latest policy), values bounded - fine-tuning from "
+    "the latest source, values bounded"])
+def test_the_matched_comparisons_quoted_are_the_results_pages(pair):
+    """The kernels' and chaining's matched comparisons in the README's list are the
+    total-reward cells of docs/results.md (recomputed from its kept numbers by
+    tests/test_pages_from_data.py), protocol by protocol."""
+    text = " ".join(README.read_text(encoding="utf-8").split())
+    page = (ROOT / "docs" / "results.md").read_text(encoding="utf-8")
+    sections = re.split(r"^## Protocol ([A-Z]):", page, flags=re.MULTILINE)[1:]
+    quoted = 0
+    for protocol, body in zip(sections[::2], sections[1::2], strict=True):
+        (row,) = [line for line in body.splitlines() if line.startswith(f"| {pair} |")]
+        cell = row.split(" | ")[-1]
+        assert f"{_whole(cell)} on {protocol}" in text, (protocol, _whole(cell))
+        quoted += 1
+    assert quoted == 4
