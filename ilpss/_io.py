@@ -35,6 +35,7 @@ Shapes are written as :mod:`ilpss._schema` describes.
 from __future__ import annotations
 
 import contextlib
+import gzip
 import hashlib
 import io
 import json
@@ -59,6 +60,7 @@ __all__ = [
     "json_differences",
     "json_record_bytes",
     "load_archive",
+    "load_gzip_record",
     "load_json_record",
     "load_npz",
     "locked_folder",
@@ -67,6 +69,7 @@ __all__ = [
     "release_inherited_locks",
     "remove_stale_temporaries",
     "save_figure",
+    "save_gzip_record",
     "save_npz_atomic",
     "sha256_file",
 ]
@@ -389,6 +392,45 @@ def load_json_record(path: str | os.PathLike[str], schema: str) -> dict[str, Any
         raise ValueError(
             f"{where}: content checksum mismatch (sha256); the record was modified after saving"
         )
+    return record
+
+
+def save_gzip_record(record: Mapping[str, Any], path: str | os.PathLike[str]) -> None:
+    """Write :func:`json_record_bytes` of ``record`` gzip-compressed, atomically; the same
+    record gives the same bytes (no time stamp in the gzip header)."""
+    atomic_write_bytes(path, gzip.compress(json_record_bytes(record), mtime=0))
+
+
+def load_gzip_record(path: str | os.PathLike[str], schema: str, limit: int,
+                     what: str) -> dict[str, Any]:
+    """Read a file written by :func:`save_gzip_record`: an object of ``schema`` whose digest
+    matches (returned without its ``"sha256"``). ``what`` names the kind of file in errors.
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` does not exist.
+    ValueError
+        Naming the file: larger than ``limit`` bytes, not gzip, not strict JSON, not an
+        object of ``schema``, or modified after saving.
+    """
+    where = os.fspath(path)
+    try:
+        text = gzip.decompress(read_regular(path, limit, what))
+    except (OSError, EOFError) as exc:
+        if isinstance(exc, FileNotFoundError):
+            raise
+        raise ValueError(f"{where}: not a gzip-compressed JSON {what} ({exc})") from None
+    try:
+        record = _parse_json(text, where)
+    except ValueError as exc:
+        raise ValueError(f"{where}: not a gzip-compressed JSON {what} ({exc})") from None
+    if not isinstance(record, dict) or record.get("schema") != schema:
+        raise ValueError(f"{where}: not a {what} of schema {schema!r}")
+    digest = record.pop("sha256", None)
+    if digest != hashlib.sha256(canonical_json(record).encode()).hexdigest():
+        raise ValueError(f"{where}: content checksum mismatch (sha256); the {what} was "
+                         "modified after saving")
     return record
 
 

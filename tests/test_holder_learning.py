@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gzip
 import os
 import signal
 import sys
@@ -266,3 +267,39 @@ def test_jobs_failing_for_their_settings_are_not_advised_to_run_again(tmp_path, 
     err = capsys.readouterr().err
     assert "running the same command again does not help: change the setting" in err
     assert "computes only what is left" not in err
+
+
+# ------------------------------------------------------------ the numbers beside the page
+def test_the_page_is_written_again_from_its_numbers_alone(tmp_path):
+    from ilpss.experiments import holder_learning
+
+    code, out = _run(tmp_path, tmp_path / "keep")
+    assert code == 0
+    data = tmp_path / "learning_seeds.json.gz"
+    numbers = holder_learning.load_numbers(data)
+    assert [(r["team"], r["seed"]) for r in numbers["learnt"]] == [("chasers", s) for s in range(3)]
+    assert all(len(r["eval"]) == 3 for r in numbers["learnt"] + numbers["rules"])
+    again = tmp_path / "again.md"
+    assert holder_learning.main(["--from-data", str(data), "--out", str(again)]) == 0
+    assert again.read_bytes() == out.read_bytes()
+    # The same numbers give the same bytes; a changed file is refused, naming it.
+    before = data.read_bytes()
+    holder_learning.save_numbers(numbers, data)
+    assert data.read_bytes() == before
+    raw = gzip.decompress(before).replace(b'"seeds": 3', b'"seeds": 4')
+    (tmp_path / "changed.json.gz").write_bytes(gzip.compress(raw))
+    with pytest.raises(SystemExit):
+        holder_learning.main(["--from-data", str(tmp_path / "changed.json.gz"),
+                              "--out", str(tmp_path / "x.md")])
+    with pytest.raises(ValueError, match="changed.json.gz: content checksum mismatch"):
+        holder_learning.load_numbers(tmp_path / "changed.json.gz")
+
+
+def test_the_shipped_learning_page_is_what_its_numbers_give(tmp_path):
+    from ilpss.experiments import holder_learning
+
+    docs = Path(__file__).resolve().parents[1] / "docs"
+    out = tmp_path / "learning.md"
+    assert holder_learning.main(["--from-data", str(docs / "learning_seeds.json.gz"),
+                                 "--out", str(out)]) == 0
+    assert out.read_text() == (docs / "learning.md").read_text()

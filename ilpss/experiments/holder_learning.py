@@ -26,7 +26,12 @@ above writes ``docs/learning.md``). Each learning job (a team and a seed) and ea
 evaluation is kept in ``--keep`` (default ``results/holder_learning``) as soon as it ends
 (:mod:`ilpss.experiments.kept_jobs`): if a job fails, or the command is stopped, the
 same command loads the finished ones and computes only what is left; other settings
-never take them.
+never take them. The numbers the page is computed from (every seed's learning curve and
+greedy rewards, every rule's rewards, and how they were made) go beside it (``--data``,
+by default ``<page>_seeds.json.gz``), and ``--from-data`` writes the page from them
+alone, learning nothing::
+
+    ilpss-holder-learning --from-data docs/learning_seeds.json.gz --out page.md
 """
 
 from __future__ import annotations
@@ -47,6 +52,8 @@ import numpy as np
 from ilpss._io import (
     FolderInUseError,
     atomic_write_bytes,
+    load_gzip_record,
+    save_gzip_record,
 )
 from ilpss.experiments.config import EXPERIMENT_CONSTRAINTS
 from ilpss.experiments.drill_facts import (
@@ -75,6 +82,9 @@ from ilpss.smdp import SmdpLearner
 from soccer_drill.constraints import Integer, ListOf, Real, Text, check_fields, check_keys
 
 EVAL_SEED = 10_000  # evaluation episodes use seeds EVAL_SEED + i, never seen in learning
+NUMBERS_SCHEMA = "ilpss.holder_learning_numbers/1"
+"""The schema of the numbers a page is computed from (``--data``)."""
+MAX_NUMBERS_BYTES = 64 * 2**20
 
 FLAG_CONSTRAINTS = {
     # A repeated team would count each of its seeds twice (intervals too narrow).
@@ -261,6 +271,12 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--allow-mixed-code", action="store_true",
                    help="use kept jobs that other code computed (refused otherwise); the "
                    "page names every version of the code it mixes")
+    p.add_argument("--data", metavar="FILE",
+                   help="where to write the numbers the page is computed from (default: "
+                   "beside --out, its name ending in _seeds.json.gz)")
+    p.add_argument("--from-data", metavar="FILE",
+                   help="write the page from numbers written by --data alone: nothing is "
+                   "learnt, and the flags of learning are not read")
     return p
 
 
@@ -293,30 +309,31 @@ def _checked_inputs(p: argparse.ArgumentParser, args: argparse.Namespace
     return out, lc, names, keep
 
 
-def _header(p: argparse.ArgumentParser, args: argparse.Namespace, lc: LearnerConfig,
-            took: str, code: str) -> list[str]:
+def _header(numbers: dict[str, Any]) -> list[str]:
     """The page's title, how it was made and how it compares, and the table's head."""
+    lc, n_eval = numbers["learner"], numbers["eval"]
     return [
         "# SMDP learning against the best fixed holder rule",
         "",
-        f"Command: `{command(p, args)}` ({took}). Learning: SMDP "
-        f"{'Q' if lc.method == 'q' else 'Sarsa'}({lc.trace_decay:g}) with replacing traces, "
-        f"keepaway's tile coding, step size {lc.alpha:g}, epsilon {lc.epsilon:g}, initial "
-        f"values {lc.initial_value:g}, no options, {args.episodes} episodes per seed, "
-        f"{args.seeds} learning seeds per team. Evaluation: the greedy policy of each seed "
-        f"and every fixed rule on the same {args.eval} episode seeds (unseen in learning); "
-        "the best rule is the one with the highest mean reward on them.",
+        f"Command: `{numbers['command']}` ({numbers['took']}). Learning: SMDP "
+        f"{'Q' if lc['method'] == 'q' else 'Sarsa'}({lc['trace_decay']:g}) with replacing "
+        f"traces, keepaway's tile coding, step size {lc['alpha']:g}, epsilon "
+        f"{lc['epsilon']:g}, initial values {lc['initial_value']:g}, no options, "
+        f"{numbers['episodes']} episodes per seed, {numbers['seeds']} learning seeds per "
+        f"team. Evaluation: the greedy policy of each seed and every fixed rule on the same "
+        f"{n_eval} episode seeds (unseen in learning); the best rule is the one with the "
+        "highest mean reward on them.",
         "",
-        code,
+        numbers["code"],
         "",
         "How it is compared: the learning seed is the unit. For each seed, the mean over "
-        f"the {args.eval} episodes of (learnt reward - rule reward) on the same episode "
+        f"the {n_eval} episodes of (learnt reward - rule reward) on the same episode "
         "seed; then the mean of these per-seed differences over the seeds with a 95% "
         "Student t interval and the paired t-test, and the p-value adjusted with Holm's "
-        f"method across the {len(args.teams)} teams. Learnt mean reward and success: mean "
-        "over seeds of each seed's mean, with a t interval over seeds; the rule's: over its "
-        "episodes (t interval; Wilson for the success rate). The evaluation episodes are the "
-        "same for every seed and rule, so the comparison is conditional on them.",
+        f"method across the {len(numbers['teams'])} teams. Learnt mean reward and success: "
+        "mean over seeds of each seed's mean, with a t interval over seeds; the rule's: over "
+        "its episodes (t interval; Wilson for the success rate). The evaluation episodes "
+        "are the same for every seed and rule, so the comparison is conditional on them.",
         "",
         "| team | learnt: mean reward [95% CI] | learnt: success [95% CI] | best fixed rule | "
         "rule: mean reward [95% CI] | rule: success [95% CI] | learnt - rule [95% CI] | "
@@ -371,10 +388,58 @@ def _curves(teams: Sequence[str], learnt: list[dict[str, Any]], episodes: int) -
     return lines
 
 
+def page_lines(numbers: dict[str, Any]) -> list[str]:
+    """The page: a function of the numbers alone (what ``--data`` writes)."""
+    teams = numbers["teams"]
+    return (_header(numbers) + _comparisons(teams, numbers["learnt"], numbers["rules"])
+            + _curves(teams, numbers["learnt"], numbers["episodes"]))
+
+
+def save_numbers(numbers: dict[str, Any], path: Path) -> None:
+    """Write the numbers a page is computed from, gzip-compressed, with schema and digest."""
+    save_gzip_record({"schema": NUMBERS_SCHEMA, "numbers": numbers}, path)
+
+
+def load_numbers(path: Path) -> dict[str, Any]:
+    """The numbers written by :func:`save_numbers`; ``ValueError`` naming the file if they
+    are not (another schema, or changed after they were written)."""
+    return load_gzip_record(path, NUMBERS_SCHEMA, MAX_NUMBERS_BYTES,
+                            "holder-learning numbers")["numbers"]
+
+
+def _write_page(out: Path, lines: list[str]) -> None:
+    atomic_write_bytes(out, ("\n".join(lines) + "\n").encode())
+
+
+def _from_data(p: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    try:
+        check_utf8(args)
+        out = check_out_file(args.out)
+        numbers = load_numbers(Path(args.from_data))
+    except FileNotFoundError:
+        p.error(f"--from-data {args.from_data}: no such file")
+    except ValueError as exc:
+        p.error(f"--from-data: {exc}")
+    try:
+        _write_page(out, page_lines(numbers))
+    except OSError as exc:
+        print(f"ilpss-holder-learning: error: cannot write {out}: {exc}", file=sys.stderr)
+        return 1
+    print(f"page written to {out} from {args.from_data}")
+    return 0
+
+
 def _main(argv: Sequence[str] | None) -> int:
     p = parser()
     args = p.parse_args(argv)
+    if args.from_data is not None:
+        return _from_data(p, args)
     out, lc, names, keep = _checked_inputs(p, args)
+    try:
+        data = check_out_file(args.data or out.with_name(f"{out.stem}_seeds.json.gz"),
+                              "--data")
+    except ValueError as exc:
+        p.error(str(exc))
     stop_on_sigterm()
     start = time.perf_counter()
     pool = LocalExecutor(args.workers)
@@ -397,15 +462,19 @@ def _main(argv: Sequence[str] | None) -> int:
     if loaded:
         took += f", {loaded} of its learning jobs kept from an earlier run"
         print(f"{loaded} learning job(s) and {loaded_rules} rule evaluation(s) loaded from {keep}")
-    code = code_line({"code": code} for code in kept.codes.values())
-    lines = (_header(p, args, lc, took, code) + _comparisons(args.teams, learnt, fixed)
-             + _curves(args.teams, learnt, args.episodes))
+    numbers = {"command": command(p, args), "took": took,
+               "code": code_line({"code": code} for code in kept.codes.values()),
+               "learner": asdict(lc), "teams": list(args.teams), "episodes": args.episodes,
+               "eval": args.eval, "seeds": args.seeds, "learnt": learnt, "rules": fixed}
+    lines = page_lines(numbers)
     try:
-        atomic_write_bytes(out, ("\n".join(lines) + "\n").encode())
+        save_numbers(numbers, data)
+        _write_page(out, lines)
     except OSError as exc:  # a full disk: every job is kept, and a rerun writes the page
         print(f"ilpss-holder-learning: error: {unwritten_report(keep, exc)}", file=sys.stderr)
         return 1
     print("\n".join(lines))
+    print(f"page written to {out}, the numbers it is computed from to {data}")
     return 0
 
 

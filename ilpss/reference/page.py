@@ -30,9 +30,6 @@ Statistics (``ilpss.metrics``):
 
 from __future__ import annotations
 
-import gzip
-import hashlib
-import json
 import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -42,13 +39,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from ilpss._io import (
-    atomic_write_bytes,
-    canonical_json,
-    json_record_bytes,
-    read_regular,
-    save_figure,
-)
+from ilpss._io import load_gzip_record, save_figure, save_gzip_record
 from ilpss.metrics import (
     asymptotic_performance,
     holm,
@@ -165,25 +156,13 @@ def summarise(jobs: Sequence[Job], results: Sequence[dict[str, Any]],
 
 def save_summary(summary: dict[str, Any], path: Path) -> None:
     """Write ``summary`` as a gzip-compressed JSON record (schema, SHA-256), atomically."""
-    record = json_record_bytes({"schema": SUMMARY_SCHEMA, "summary": summary})
-    atomic_write_bytes(path, gzip.compress(record, mtime=0))
+    save_gzip_record({"schema": SUMMARY_SCHEMA, "summary": summary}, path)
 
 
 def load_summary(path: Path) -> dict[str, Any]:
     """The summary saved by :func:`save_summary`; ``ValueError`` naming the file if it is
     not one (not gzip, not JSON, another schema, or changed after it was saved)."""
-    where = str(path)
-    try:
-        record = json.loads(gzip.decompress(read_regular(path, MAX_SUMMARY_BYTES, "a summary")))
-    except (OSError, EOFError, ValueError) as exc:
-        raise ValueError(f"{where}: not a gzip-compressed JSON summary ({exc})") from None
-    if not isinstance(record, dict) or record.get("schema") != SUMMARY_SCHEMA:
-        raise ValueError(f"{where}: not a summary of schema {SUMMARY_SCHEMA!r}")
-    digest = record.pop("sha256", None)
-    if digest != hashlib.sha256(canonical_json(record).encode()).hexdigest():
-        raise ValueError(f"{where}: content checksum mismatch (sha256); the summary was "
-                         "modified after saving")
-    return record["summary"]
+    return load_gzip_record(path, SUMMARY_SCHEMA, MAX_SUMMARY_BYTES, "summary")["summary"]
 
 
 # ----------------------------------------------------------------------------- statistics
