@@ -291,7 +291,7 @@ def test_the_page_is_written_again_from_its_numbers_alone(tmp_path):
     with pytest.raises(SystemExit):
         holder_learning.main(["--from-data", str(tmp_path / "changed.json.gz"),
                               "--out", str(tmp_path / "x.md")])
-    with pytest.raises(ValueError, match="changed.json.gz: content checksum mismatch"):
+    with pytest.raises(ValueError, match=r"changed\.json\.gz: content checksum mismatch"):
         holder_learning.load_numbers(tmp_path / "changed.json.gz")
 
 
