@@ -60,7 +60,6 @@ __all__ = [
     "json_differences",
     "json_record_bytes",
     "load_archive",
-    "load_gzip_record",
     "load_json_record",
     "load_npz",
     "locked_folder",
@@ -69,7 +68,6 @@ __all__ = [
     "release_inherited_locks",
     "remove_stale_temporaries",
     "save_figure",
-    "save_gzip_record",
     "save_npz_atomic",
     "sha256_file",
 ]
