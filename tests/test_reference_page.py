@@ -20,7 +20,8 @@ from ilpss.reference.page import (
 )
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
-SHIPPED = {"reference_rl_results": "attackers", "reference_rl_holder": "holder"}
+SHIPPED = {"reference_rl_results": "attackers", "reference_rl_holder": "holder",
+           "reference_rl_transfer": "transfer"}
 """Each shipped page, by name, and a kind of section it must hold."""
 
 
