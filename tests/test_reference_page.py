@@ -5,6 +5,7 @@ strict criterion, counts, differences paired by episode). No torch needed."""
 from __future__ import annotations
 
 import gzip
+import re
 from pathlib import Path
 
 import numpy as np
@@ -117,3 +118,13 @@ def test_the_holder_figures_quoted_elsewhere_are_the_holder_pages():
     holm_p = {team: row[7] for team, row in held["ppo"].items()}  # the page's Holm column
     assert (f"(p = {holm_p['interceptors_press']} and {holm_p['interceptor_guard']})"
             in readme)
+
+
+def test_a_shares_interval_over_seeds_stays_within_0_and_100_percent():
+    # 19 seeds at 100% and one at 50%: the t interval of the mean reaches above 100%.
+    greedy = [[1.0] * 10] * 19 + [[1.0] * 5 + [-1.0] * 5]
+    lines = tables(_summary(greedy, [1.0] * 10))["mappo"]
+    (row,) = [line for line in lines if line.startswith("| t |") and " of 20" in line]
+    mean_cell = row.split(" | ")[3]
+    assert mean_cell.startswith("97.5% [") and mean_cell.endswith(", 100.0%]"), mean_cell
+    assert all(float(x) <= 100.0 for x in re.findall(r"(\d+\.\d)%", mean_cell))

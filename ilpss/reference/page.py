@@ -182,11 +182,14 @@ def _signed_pct(m: float, lo: float, hi: float) -> str:
 
 
 def _over(values: Sequence[float], pct: bool = False, digits: int = 3) -> str:
-    """The mean of ``values`` with its 95% t interval (the mean alone for one value)."""
+    """The mean of ``values`` with its 95% t interval (the mean alone for one value); a
+    share's (``pct``) interval is clipped to 0-100%, the values it can take."""
     v = np.asarray(values, float)
     if v.size < 2 or np.ptp(v) == 0:
         return _pct(float(v.mean())) if pct else f"{float(v.mean()):+.{digits}f}"
     m, lo, hi = (float(x) for x in t_interval(v))
+    if pct:
+        lo, hi = max(lo, 0.0), min(hi, 1.0)
     return _ci(m, lo, hi, pct, digits)
 
 
@@ -253,7 +256,7 @@ def _attackers_table(section: dict[str, Any], summary: dict[str, Any],
     frac = summary["evaluation"]["learned_fraction"]
     rules, tile = summary["rules"], summary["tile"]
     lines = [f"| team | seeds learned (greedy >= {frac:g} x rule) | greedy success, median "
-             "[min, max] over seeds | greedy success, mean [95% t over seeds] | stochastic "
+             "[min, max] over seeds | greedy success, mean [95% t over seeds, within 0-100%] | stochastic "
              "success, mean | best fixed rule: success [Wilson] | success minus the rule, "
              "paired by episode [95% t, unadjusted] | the same: Holm-adjusted p (every "
              "comparison on the page) | reward minus the rule, paired by episode [95% t, "
@@ -319,9 +322,9 @@ def _defenders_table(section: dict[str, Any], summary: dict[str, Any], part: str
              f"(against `{team}`); a seed *holds* when the best of the {len(attacks)} "
              f"scripted attacks scores less against its greedy defenders: "
              f"{_counted(held, len(runs))} seeds hold.", "",
-             "| attack | success against the defenders, mean [95% t over seeds] | median [min, "
+             "| attack | success against the defenders, mean [95% t over seeds, within 0-100%] | median [min, "
              "max] | stochastic defenders |" if part == "eval" and "stochastic" in runs[0] else
-             "| attack | success against the defenders, mean [95% t over seeds] | median [min, "
+             "| attack | success against the defenders, mean [95% t over seeds, within 0-100%] | median [min, "
              "max] | untrained |",
              "|---|---|---|---|"]
     for attack in attacks:
@@ -350,7 +353,7 @@ def _self_play_tables(section: dict[str, Any], summary: dict[str, Any]) -> list[
     lines = ["Its attackers against the scripted teams (greedy), beside the same networks "
              "untrained; *better* counts the seeds whose trained attackers score more than "
              "their untrained ones.", "",
-             "| team | trained: success, mean [95% t] | untrained | better in | best fixed rule |",
+             "| team | trained: success, mean [95% t, within 0-100%] | untrained | better in | best fixed rule |",
              "|---|---|---|---|---|"]
     for team in [*teams, SELF_PLAY]:
         trained = [_success(r["eval"][team]) for r in runs]
@@ -388,7 +391,7 @@ def _transfer_table(section: dict[str, Any]) -> list[str]:
         f"{w} episodes; final: last {w}; total: over the {section['target_episodes']:,} "
         f"episodes. {len(runs)} training seeds.", "",
         "| target | seeds | jumpstart [95% t] | total reward gain [95% t] | final gain [95% t] "
-        "| greedy success, fine-tuned [95% t] | greedy success, anew |",
+        "| greedy success, fine-tuned [95% t, within 0-100%] | greedy success, anew |",
         "|---|---|---|---|---|---|---|",
         f"| {section['target']} | {len(runs)} | {_over([r['jumpstart'] for r in runs])} | "
         f"{_over([r['total'] for r in runs], digits=1)} | {_over([r['final'] for r in runs])} | "
