@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from markdown_tables import table_after
 
+from ilpss._io import load_json_record
 from ilpss.metrics import t_test_pvalue
 from ilpss.reference.page import (
     check_summary_tables,
@@ -128,3 +129,28 @@ def test_a_shares_interval_over_seeds_stays_within_0_and_100_percent():
     mean_cell = row.split(" | ")[3]
     assert mean_cell.startswith("97.5% [") and mean_cell.endswith(", 100.0%]"), mean_cell
     assert all(float(x) <= 100.0 for x in re.findall(r"(\d+\.\d)%", mean_cell))
+
+
+def test_the_committed_kept_jobs_are_the_runs_behind_the_pages():
+    """docs/data/reference_rl_jobs holds the kept jobs the multi-agent and transfer pages
+    were rendered from (each a record with its digest): every run of their per-seed
+    numbers is one of them, with the same evaluation (rounded as the summary keeps it)."""
+    records = [load_json_record(path, "ilpss.kept_job/2") for path in
+               sorted((DOCS / "data" / "reference_rl_jobs").glob("reference-*.json"))]
+    kept = {(r["key"]["name"], r["key"]["team"], r["key"]["seed"]): r["result"] for r in records}
+    for name in ("reference_rl_results", "reference_rl_transfer"):
+        for section in load_summary(DOCS / f"{name}_seeds.json.gz")["sections"]:
+            for run in section["runs"]:
+                team = run.get("team", section.get("target"))
+                result = kept[(section["name"], team, run["seed"])]
+                for field in ("eval", "stochastic", "fine_tuned", "anew"):
+                    if field in run:  # the summary keeps rewards to 4 decimals
+                        rewards = result[field]
+                        rewards = rewards["eval"] if field in ("fine_tuned", "anew") else rewards
+                        assert run[field] == _rounded(rewards), (name, team, field)
+
+
+def _rounded(rewards):
+    if isinstance(rewards, dict):
+        return {team: _rounded(r) for team, r in rewards.items()}
+    return [round(float(r), 4) for r in rewards]
