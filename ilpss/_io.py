@@ -379,8 +379,12 @@ def load_json_record(path: str | os.PathLike[str], schema: str) -> dict[str, Any
         Naming the file: unreadable (see :func:`read_json`), not an object, another
         schema, or modified after saving.
     """
-    where = os.fspath(path)
-    record = read_json(path)
+    return _verified(read_json(path), schema, os.fspath(path))
+
+
+def _verified(record: Any, schema: str, where: str) -> dict[str, Any]:
+    """``record`` without its ``"sha256"``, once it is an object of ``schema`` whose digest
+    matches; ``ValueError`` naming ``where`` otherwise."""
     if not isinstance(record, dict):
         raise ValueError(f"{where}: not a JSON object")
     if record.get("schema") != schema:
@@ -410,26 +414,15 @@ def load_gzip_record(path: str | os.PathLike[str], schema: str, limit: int,
         If ``path`` does not exist.
     ValueError
         Naming the file: larger than ``limit`` bytes, not gzip, not strict JSON, not an
-        object of ``schema``, or modified after saving.
+        object of ``schema``, or modified after saving (as :func:`load_json_record`).
     """
     where = os.fspath(path)
+    compressed = read_regular(path, limit, what)
     try:
-        text = gzip.decompress(read_regular(path, limit, what))
-    except (OSError, EOFError) as exc:
-        if isinstance(exc, FileNotFoundError):
-            raise
+        record = _parse_json(gzip.decompress(compressed), where)
+    except (OSError, EOFError, ValueError) as exc:  # not gzip, or not JSON inside
         raise ValueError(f"{where}: not a gzip-compressed JSON {what} ({exc})") from None
-    try:
-        record = _parse_json(text, where)
-    except ValueError as exc:
-        raise ValueError(f"{where}: not a gzip-compressed JSON {what} ({exc})") from None
-    if not isinstance(record, dict) or record.get("schema") != schema:
-        raise ValueError(f"{where}: not a {what} of schema {schema!r}")
-    digest = record.pop("sha256", None)
-    if digest != hashlib.sha256(canonical_json(record).encode()).hexdigest():
-        raise ValueError(f"{where}: content checksum mismatch (sha256); the {what} was "
-                         "modified after saving")
-    return record
+    return _verified(record, schema, where)
 
 
 def _digest(arrays: Mapping[str, np.ndarray], meta: Mapping[str, Any]) -> str:
