@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ilpss.reference.settings import PPOConfig
+from ilpss.reference.settings import PPOConfig, SelfPlaySetting
 
 pytestmark = pytest.mark.integrations
 
@@ -74,3 +74,46 @@ def test_the_reward_options_total_is_the_drills_reward_minus_the_starts_potentia
     phi = marl.potential(states, shaping, field)
     terms = [phi[k + 1] - phi[k] for k in range(len(ys) - 2)] + [0.0 - phi[-2]]
     assert sum(terms) == pytest.approx(-phi[0])  # whatever happened in between
+
+
+def test_pfsp_draws_the_opponents_a_side_beats_some_of_the_time(marl):
+    """Prioritised fictitious self-play: an opponent the learning side beats about half
+    the time is drawn far more often than one it always beats or never beats (they give
+    no signal), none is left out, and a new checkpoint starts at q = 1/2, before the
+    current networks."""
+    setting = SelfPlaySetting(opponents="pfsp", pfsp_floor=0.02, pfsp_decay=0.9)
+    pool = ["even", "always beaten"]
+    drills = np.arange(4, 10)
+    opp = marl.Opponents(setting, drills, pool, "current", np.random.default_rng(0))
+    assert opp.weights() == pytest.approx(np.full(3, 1 / 3))  # every q starts at 1/2
+    games, wins = np.zeros(12), np.zeros(12)
+    games[drills] = 4
+    opp.drawn = np.array([0, 0, 1, 1, 2, 2])  # the candidates of the six drills
+    wins[drills] = [2, 2, 4, 4, 0, 0]  # the attackers' successes: q = 1/2, 1, 0
+    for _ in range(30):
+        opp.record(games, wins)
+    w = opp.weights()
+    assert w[0] > 5 * w[1] and w[0] > 5 * w[2] and w.min() > 0.0
+    assert w.sum() == pytest.approx(1.0)
+    pool.append("new")
+    w = opp.weights()
+    assert len(w) == 4 and w[2] == pytest.approx(w.max())  # the new one, at q = 1/2
+    drawn = np.bincount(np.random.default_rng(1).choice(4, 20_000, p=w), minlength=4)
+    assert drawn.min() > 0
+
+
+def test_uniform_opponents_keep_no_counts(marl):
+    opp = marl.Opponents(SelfPlaySetting(), np.arange(3), ["untrained"], "current",
+                         np.random.default_rng(0))
+    opp.record(np.ones(3), np.ones(3))
+    assert opp.games == [] and opp.wins == []
+
+
+@pytest.mark.parametrize(("field", "value", "message"), [
+    ("opponents", "league", "'uniform' or 'pfsp'"),
+    ("pfsp_floor", 0.0, "pfsp_floor"),
+    ("pfsp_decay", 1.0, "pfsp_decay"),
+])
+def test_self_play_settings_refuse_what_they_do_not_allow(field, value, message):
+    with pytest.raises(ValueError, match=message):
+        SelfPlaySetting(**{field: value})

@@ -173,7 +173,7 @@ def _run_self_play(job: Job, s: SelfPlaySetting) -> dict[str, Any]:
     from ilpss.reference import marl_ppo
     n, o, evaluate = job.evaluation.episodes, s.marl.obs_type, _evaluate(s.marl)
     pool_a, pool_d, curve = marl_ppo.train_self_play(
-        _parallel(s.ppo.n_envs, o), s.marl, job.seed, s.snapshots, _progress(job, s.ppo.steps))
+        _parallel(s.ppo.n_envs, o), s, job.seed, _progress(job, s.ppo.steps))
     out: dict[str, Any] = {"curve": curve}
     for prefix, a, d in (("", pool_a[-1], pool_d[-1]), ("untrained_", pool_a[0], pool_d[0])):
         out[f"{prefix}eval"] = {t: evaluate([a], _parallel(n, o, opponent=t), EVAL_SEED)

@@ -45,7 +45,7 @@ import torch
 from torch import nn
 from torch.distributions import Categorical
 
-from ilpss.reference.settings import MarlSetting, PPOConfig
+from ilpss.reference.settings import MarlSetting, PPOConfig, SelfPlaySetting
 
 __all__ = ["train"]
 
@@ -275,7 +275,8 @@ class _Learner:
 
 class _Drills:
     """The batch between rollouts: observations, state, and which drills' next step
-    only resets them."""
+    only resets them; after ``collect``, each drill's episodes in it (``games``) and
+    the attackers' successes among them (``wins``)."""
 
     def __init__(self, env: Any, seed: int, setting: MarlSetting) -> None:
         self.env, self.setting = env, setting
@@ -292,6 +293,7 @@ class _Drills:
         that agent's actions in every drill, for the agents no learner plays there);
         the attackers' rewards of the episodes that ended."""
         env, ended, shaping = self.env, [], self.setting.shaping
+        self.games, self.wins = np.zeros(env.num_envs), np.zeros(env.num_envs)
         for t in range(n_steps):
             deciding = self.schedule.deciding(holders(self.state), self.resetting)
             actions = self.actions
@@ -331,6 +333,8 @@ class _Drills:
                 ln.buf.rew[t] = np.repeat(ln.sign * shaped[ln.drills], k)
                 ln.buf.done[t] = np.repeat(done[ln.drills], k)
             ended += reward[done].tolist()
+            self.games += done
+            self.wins += done & (reward > 0)
             self.resetting = done
         return ended
 
@@ -463,43 +467,46 @@ def _frozen(side: Side) -> Side:
     return frozen
 
 
-def train_self_play(env: Any, setting: MarlSetting, seed: int, snapshots: int,
+def train_self_play(env: Any, setting: SelfPlaySetting, seed: int,
                     progress: Progress | None = None
                     ) -> tuple[list[Side], list[Side], list[list[float | None]]]:
     """Self-play of the attackers' and the defenders' sides in ``env`` (a
     ``ParallelVectorEnv`` of all four players, per-role spaces), against a pool of
     their past checkpoints (fictitious self-play): the first half of the drills trains
     the attackers, the second half the defenders, and in each rollout the other side of
-    each half is a checkpoint drawn uniformly from the pool (the current networks
-    included). ``snapshots`` checkpoints are taken at even intervals, the untrained
-    networks first and the trained ones last.
+    each half is drawn from the pool and the current networks as ``setting.opponents``
+    says (:class:`Opponents`). ``setting.snapshots`` checkpoints are taken at even
+    intervals, the untrained networks first and the trained ones last.
 
     Returns the attackers' and the defenders' checkpoints, and the learning curve (the
     attackers' success in every drill's episodes).
     """
-    cfg = setting.ppo
+    marl, cfg = setting.marl, setting.ppo
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
     n = env.num_envs
     half = n // 2
-    attack, defend = Side(ATTACKERS, env, setting), Side(DEFENDERS, env, setting)
+    attack, defend = Side(ATTACKERS, env, marl), Side(DEFENDERS, env, marl)
     learners = [_learner(attack, np.arange(half), env, cfg, 1.0),
                 _learner(defend, np.arange(half, n), env, cfg, -1.0)]
     pool_a, pool_d = [_frozen(attack)], [_frozen(defend)]
-    drills = _Drills(env, 1_000_000 * (seed + 1), setting)
+    # the attackers' half meets defenders, the defenders' half attackers
+    halves = (Opponents(setting, np.arange(half), pool_d, defend, rng),
+              Opponents(setting, np.arange(half, n), pool_a, attack, rng))
+    drills = _Drills(env, 1_000_000 * (seed + 1), marl)
     n_updates = -(-cfg.steps // (n * cfg.n_steps))
     # checkpoint k (1 .. snapshots - 2) after update ceil(k n_updates / (snapshots - 1)):
     # evenly spaced, and exactly `snapshots` of them however short the budget
-    due = [-(-k * n_updates // (snapshots - 1)) for k in range(1, snapshots - 1)]
+    due = [-(-k * n_updates // (setting.snapshots - 1)) for k in range(1, setting.snapshots - 1)]
     start, steps, curve = time.perf_counter(), 0, []
     for update in range(n_updates):
-        opp_d = pool_d[rng.integers(len(pool_d))] if rng.random() < 0.5 else defend
-        opp_a = pool_a[rng.integers(len(pool_a))] if rng.random() < 0.5 else attack
-        others = {**_scripted(opp_d, np.arange(half), n), **_scripted(opp_a, np.arange(half, n), n)}
+        others = {**halves[0].draw(n), **halves[1].draw(n)}
         ended = drills.collect(learners, others, cfg.n_steps)
+        for h in halves:
+            h.record(drills.games, drills.wins)
         steps += n * cfg.n_steps
         for ln in learners:
-            _learn(ln, drills, cfg, rng, _left(setting, update, n_updates))
+            _learn(ln, drills, cfg, rng, _left(marl, update, n_updates))
         curve.append(_curve_row(steps, start, ended))
         while len(pool_a) - 1 < len(due) and update + 1 >= due[len(pool_a) - 1]:
             pool_a.append(_frozen(attack))
@@ -511,16 +518,75 @@ def train_self_play(env: Any, setting: MarlSetting, seed: int, snapshots: int,
     return pool_a, pool_d, curve
 
 
-def _scripted(side: Side, drills: np.ndarray, n: int) -> dict[str, Callable]:
-    """``side``'s players as fixed players of ``drills`` (actions sampled, not learnt
-    from): agent -> ``act(observations)``, their actions in every drill (0 elsewhere)."""
+class Opponents:
+    """Who plays the other side in one half of the self-play drills (``drills``): the
+    checkpoints of ``pool`` (a list the training loop appends to) or the ``current``
+    networks, drawn at each rollout as ``setting.opponents`` says.
+
+    ``"uniform"``: one opponent for the half, the current networks with probability
+    1/2, else a checkpoint drawn uniformly. ``"pfsp"``: one per drill, candidate ``c``
+    drawn with probability proportional to ``q_c (1 - q_c) + pfsp_floor``, where ``q_c``
+    is the attackers' success in the episodes of that pairing, each rollout's earlier
+    counts kept at ``pfsp_decay`` (every candidate starts at one success in two
+    episodes, ``q = 1/2``).
+    """
+
+    def __init__(self, setting: SelfPlaySetting, drills: np.ndarray, pool: list[Side],
+                 current: Side, rng: np.random.Generator) -> None:
+        self.setting, self.drills, self.pool, self.current, self.rng = (
+            setting, drills, pool, current, rng)
+        self.games: list[float] = []
+        self.wins: list[float] = []
+        self.drawn = np.zeros(len(drills), np.int64)
+
+    def _candidates(self) -> list[Side]:
+        while len(self.games) < len(self.pool) + 1:  # a new checkpoint starts at q = 1/2
+            self.games.insert(len(self.pool) - 1, 2.0)
+            self.wins.insert(len(self.pool) - 1, 1.0)
+        return [*self.pool, self.current]
+
+    def weights(self) -> np.ndarray:
+        """``pfsp``: each candidate's probability (the pool's, then the current networks')."""
+        self._candidates()
+        q = np.asarray(self.wins) / np.asarray(self.games)
+        w = q * (1.0 - q) + self.setting.pfsp_floor
+        return w / w.sum()
+
+    def draw(self, n: int) -> dict[str, Callable]:
+        """This rollout's opponents, as fixed players of the half's drills."""
+        if self.setting.opponents == "uniform":
+            pool, rng = self.pool, self.rng
+            side = pool[rng.integers(len(pool))] if rng.random() < 0.5 else self.current
+            return _scripted([(side, self.drills)], n)
+        candidates = self._candidates()
+        self.drawn = self.rng.choice(len(candidates), size=len(self.drills), p=self.weights())
+        return _scripted([(c, self.drills[self.drawn == k]) for k, c in enumerate(candidates)
+                          if (self.drawn == k).any()], n)
+
+    def record(self, games: np.ndarray, wins: np.ndarray) -> None:
+        """Count the rollout's episodes (``games``, ``wins``: per drill of the batch)."""
+        if self.setting.opponents == "uniform":
+            return
+        keep = self.setting.pfsp_decay
+        for k in range(len(self.games)):
+            mine = self.drills[self.drawn == k]
+            self.games[k] = keep * self.games[k] + games[mine].sum()
+            self.wins[k] = keep * self.wins[k] + wins[mine].sum()
+
+
+def _scripted(plays: Sequence[tuple[Side, np.ndarray]], n: int) -> dict[str, Callable]:
+    """Fixed players (actions sampled, not learnt from): each ``(side, drills)`` of
+    ``plays`` plays its players in those drills; agent -> ``act(observations)``, that
+    agent's actions in every drill (0 where no side plays)."""
+    agents = plays[0][0].agents
     out: dict[str, Callable] = {}
-    for j, agent in enumerate(side.agents):
+    for j, agent in enumerate(agents):
         def act(observations: dict[str, Any], j: int = j) -> np.ndarray:
-            obs, mask = _rows(observations, side.agents, drills)
-            action, _ = _act(side.actor, obs, mask, greedy=False)
             full = np.zeros(n, np.int64)
-            full[drills] = action.reshape(len(drills), len(side.agents))[:, j]
+            for side, drills in plays:
+                obs, mask = _rows(observations, side.agents, drills)
+                action, _ = _act(side.actor, obs, mask, greedy=False)
+                full[drills] = action.reshape(len(drills), len(side.agents))[:, j]
             return full
         out[agent] = act
     return out

@@ -318,10 +318,16 @@ def _defenders_table(section: dict[str, Any], summary: dict[str, Any], part: str
     best = [_best_attack(r[part]) for r in runs]
     held = sum(s < allowed for s, _ in best)
     attacks = section["attacks"]
+    better = ""
+    if untrained is not None:
+        n_better = sum(s < _best_attack(r[untrained])[0] for r, (s, _) in zip(runs, best, strict=True))
+        better = (" The trained defenders do better than the same networks untrained (the "
+                  f"best attack scores less against them) in {_counted(n_better, len(runs))} "
+                  "seeds.")
     lines = [f"The paper's teams allow the best fixed rule at least {_pct(allowed)} success "
              f"(against `{team}`); a seed *holds* when the best of the {len(attacks)} "
              f"scripted attacks scores less against its greedy defenders: "
-             f"{_counted(held, len(runs))} seeds hold.", "",
+             f"{_counted(held, len(runs))} seeds hold.{better}", "",
              "| attack | success against the defenders, mean [95% t over seeds, within 0-100%] | median [min, "
              "max] | stochastic defenders |" if part == "eval" and "stochastic" in runs[0] else
              "| attack | success against the defenders, mean [95% t over seeds, within 0-100%] | median [min, "
@@ -536,7 +542,12 @@ def write_page(command: str, code: str, took: str, jobs: list[Job],
 
 def _described(setting: Any) -> str:
     if isinstance(setting, SelfPlaySetting):
-        setting = setting.marl
+        drawn = (" Opponents drawn per drill by prioritised fictitious self-play "
+                 f"(`opponents=\"pfsp\"`, floor {setting.pfsp_floor:g}, decay "
+                 f"{setting.pfsp_decay:g})." if setting.opponents == "pfsp" else
+                 " Opponents drawn per rollout: the current networks or a checkpoint "
+                 "drawn uniformly (`opponents=\"uniform\"`).")
+        return _described(setting.marl) + drawn
     if not isinstance(setting, MarlSetting):
         return ""
     critic = "MAPPO (critic on `state()`)" if setting.critic == "state" else \

@@ -219,23 +219,47 @@ class MarlSetting:
         })
 
 
+OPPONENT_SAMPLING = ("uniform", "pfsp")
+"""How self-play draws each half's opponents (:class:`SelfPlaySetting`)."""
+
+
 @dataclass(frozen=True)
 class SelfPlaySetting:
     """Self-play of both sides against a pool of their past checkpoints (fictitious
     self-play; ``marl_ppo.train_self_play``): the attackers' and the defenders' networks
     (``marl``'s critic, observation and options; its ``side`` and ``attack`` unused)
-    learn together, each half of the drills training one side against a checkpoint of
-    the other drawn from the pool. ``snapshots`` checkpoints are kept, evenly over
-    training (the untrained networks first, the trained last), and played against each
-    other on ``crossplay_episodes`` held-out episodes (the cross-play table)."""
+    learn together, each half of the drills training one side against checkpoints of
+    the other. ``snapshots`` checkpoints are kept, evenly over training (the untrained
+    networks first, the trained last), and played against each other on
+    ``crossplay_episodes`` held-out episodes (the cross-play table).
+
+    ``opponents`` is how a half's opponents are drawn at each rollout:
+
+    | ``opponents`` | the other side's players in a half's drills |
+    |---|---|
+    | ``"uniform"`` | one opponent for the whole half: its current networks with probability 1/2, else a checkpoint drawn uniformly from the pool |
+    | ``"pfsp"`` | one per drill, from the pool and the current networks, with probability proportional to ``q (1 - q) + pfsp_floor``, ``q`` the attackers' recent success in that pairing (prioritised fictitious self-play, Vinyals et al. 2019, "variance" weighting) |
+
+    Why ``"pfsp"`` exists: a side that loses every episode learns nothing from it (the
+    drill pays one reward at the end, and the reward option's terms add up to a
+    constant over an episode), and under ``"uniform"`` a whole half may face such an
+    opponent for a rollout. Opponents that the learning side beats some of the time
+    give it a signal; ``pfsp_floor`` keeps every opponent in play. ``pfsp_decay`` is
+    the weight each rollout keeps of the pairings' earlier results.
+    """
 
     marl: MarlSetting = field(default_factory=MarlSetting)
     snapshots: int = 6
     crossplay_episodes: int = 100
+    opponents: str = "uniform"
+    pfsp_floor: float = 0.02
+    pfsp_decay: float = 0.9
 
     def __post_init__(self) -> None:
-        check_fields("SelfPlaySetting", self, {"snapshots": Integer(2, 50),
-                                               "crossplay_episodes": Integer(1)})
+        check_fields("SelfPlaySetting", self, {
+            "snapshots": Integer(2, 50), "crossplay_episodes": Integer(1),
+            "opponents": OneOf(OPPONENT_SAMPLING), "pfsp_floor": Real(0.0, 1.0, low_open=True),
+            "pfsp_decay": Real(0.0, 1.0, high_open=True)})
 
     @property
     def ppo(self) -> PPOConfig:
@@ -271,6 +295,7 @@ SETTINGS: dict[str, HolderSetting | MarlSetting | SelfPlaySetting | TransferSett
     "ippo": MarlSetting(critic="own"),
     "defenders": MarlSetting(side="defenders", critic="state"),
     "self_play": SelfPlaySetting(),
+    "self_play_pfsp": SelfPlaySetting(opponents="pfsp"),
     "transfer": TransferSetting(),
 }
 """The command's settings by name, in the page's order."""
