@@ -154,3 +154,20 @@ def _rounded(rewards):
     if isinstance(rewards, dict):
         return {team: _rounded(r) for team, r in rewards.items()}
     return [round(float(r), 4) for r in rewards]
+
+
+def test_the_self_play_seed_table_compares_each_seed_with_its_untrained_networks():
+    from ilpss.reference.page import self_play_seed_table
+
+    def rewards(k):  # k successes in 4 episodes
+        return [1.0] * k + [-1.0] * (4 - k)
+
+    run = {"seed": 7,
+           "eval": {"a": rewards(4), "b": rewards(1), "self_play": rewards(4)},
+           "untrained_eval": {"a": rewards(0), "b": rewards(2), "self_play": rewards(0)},
+           "defence": {"x": rewards(2), "y": rewards(3)},
+           "untrained_defence": {"x": rewards(4), "y": rewards(0)}}
+    lines = self_play_seed_table({"runs": [run]})
+    # attackers: (100% + 25%) / 2 against (0% + 50%) / 2, better on one team of two;
+    # defenders: the best attack scores 75% against 100% untrained
+    assert lines[-1] == "| 7 | 62.5% (25.0%) | 1 of 2 | 75.0% (100.0%) | yes |"

@@ -114,6 +114,7 @@ def test_tiny_run_writes_resumes_is_deterministic_and_recomputes_a_changed_setti
     (["--ppo", "gamma=2"], "PPOConfig.gamma must be a finite number in [0, 1]"),
     (["--ppo", "batch_size=100"], "must divide n_envs * n_steps"),
     (["--seeds", "0"], "--seeds must be at least 1"),
+    (["--first-seed", "-1"], "--first-seed must be at least 0, got -1"),
     (["--seeds", "5", "ppo=0"], "--seeds ppo=N must be at least 1, got 0"),
     (["--marl", "critic=both"], "MarlSetting.critic must be"),
     (["--marl", "shaping=-1"], "MarlSetting.shaping must be"),
@@ -171,6 +172,7 @@ except SystemExit as exc:
 
 @pytest.mark.parametrize("argv, message", [
     (["--seeds", "0"], "--seeds must be at least 1"),
+    (["--first-seed", "-1"], "--first-seed must be at least 0, got -1"),
     (["--teams", "chasers", "--seeds", "1"], "pip install -e '.[integrations]'"),
 ])
 def test_without_torch_the_flags_are_checked_and_the_missing_extra_named(argv, message,
@@ -244,3 +246,12 @@ def test_the_ray_executor_gives_the_local_processes_numbers(tmp_path, capsys):
     assert set(local) == set(remote)
     for name in local:
         assert _no_times(remote[name]["result"]) == _no_times(local[name]["result"]), name
+
+
+def test_the_first_seed_moves_every_settings_seeds():
+    ev = cli.EvalSettings(episodes=10)
+    settings = {name: cli.SETTINGS[name] for name in ("mappo", "self_play")}
+    jobs = cli.make_jobs(settings, ["chasers"], {"mappo": 2, "self_play": 3}, ev,
+                         first_seed=1000)
+    seeds = {name: sorted(j.seed for j in jobs if j.name == name) for name in settings}
+    assert seeds == {"mappo": [1000, 1001], "self_play": [1000, 1001, 1002]}

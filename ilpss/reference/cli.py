@@ -176,13 +176,14 @@ def parse_seeds(items: Sequence[str]) -> tuple[int, dict[str, int]]:
 
 
 def make_jobs(settings: dict[str, Any], teams: Sequence[str], seeds: dict[str, int],
-              ev: EvalSettings, attacks: Sequence[str] = DEFAULT_ATTACKS) -> list[Job]:
+              ev: EvalSettings, attacks: Sequence[str] = DEFAULT_ATTACKS, first_seed: int = 0
+              ) -> list[Job]:
     """Every job, seed by seed (so that a stopped run has every setting's first seeds);
-    ``seeds`` by setting name."""
+    ``seeds`` by setting name, counted from ``first_seed``."""
     jobs = []
-    for seed in range(max(seeds.values())):
+    for seed in range(first_seed, first_seed + max(seeds.values())):
         for name, s in settings.items():
-            if seed >= seeds[name]:
+            if seed >= first_seed + seeds[name]:
                 continue
             if isinstance(s, TransferSetting):
                 jobs.append(Job(name, s, seed, PAPER_TEAMS[-1], tuple(PAPER_TEAMS[:-1]), ev))
@@ -234,6 +235,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds", nargs="+", default=["10"], metavar="N [SETTING=N]",
                    help="training seeds per setting and team (1 or more), and optionally "
                         "another number for named settings, e.g. 5 ppo=10")
+    p.add_argument("--first-seed", type=int, default=0,
+                   help="the first training seed (the page's runs use seeds from 0; settings "
+                        "are searched on development seeds, from 1000)")
     p.add_argument("--eval", type=int, default=EvalSettings.episodes,
                    help="held-out evaluation episodes per policy")
     p.add_argument("--ppo", nargs="+", default=[], metavar="KEY=VALUE",
@@ -304,6 +308,8 @@ def _check_flags(args: argparse.Namespace) -> dict[str, int]:
                         ("--eval", args.eval), ("--workers", args.workers)):
         if value < 1:
             raise ValueError(f"{flag} must be at least 1, got {value}")
+    if args.first_seed < 0:
+        raise ValueError(f"--first-seed must be at least 0, got {args.first_seed}")
     for flag in ("source_steps", "target_episodes", "window", "crossplay_episodes"):
         value = getattr(args, flag)
         if value is not None and value < 1:
@@ -367,7 +373,7 @@ def _main(argv: Sequence[str] | None) -> int:
     figures = Path(args.figures) if args.figures else out.parent / "figures"
     summary_path = Path(args.summary) if args.summary else out.with_name(f"{out.stem}_seeds.json.gz")
     ev = EvalSettings(episodes=args.eval)
-    jobs = make_jobs(settings, args.teams, seeds, ev, args.attacks)
+    jobs = make_jobs(settings, args.teams, seeds, ev, args.attacks, args.first_seed)
     names = sorted(drill_object(HOLDER_RULES))
     stop_on_sigterm()
     start = time.perf_counter()

@@ -373,6 +373,7 @@ def _self_play_tables(section: dict[str, Any], summary: dict[str, Any]) -> list[
     lines += ["", "Its defenders against the scripted attacks (greedy), beside the same "
               "networks untrained:", ""]
     lines += _defenders_table(section, summary, "defence", "untrained_defence")
+    lines += ["", *self_play_seed_table(section)]
     k = len(runs[0]["crossplay"])
     m = np.mean([np.asarray(r["crossplay"], float) for r in runs], axis=0)
     lines += ["", f"Cross-play: the attackers' success (mean over seeds) with the attackers "
@@ -383,6 +384,28 @@ def _self_play_tables(section: dict[str, Any], summary: dict[str, Any]) -> list[
     n = section["crossplay_episodes"]
     for i in range(k):
         lines.append(f"| {i} | " + " | ".join(_pct(m[i, j] / n) for j in range(k)) + " |")
+    return lines
+
+
+def self_play_seed_table(section: dict[str, Any]) -> list[str]:
+    """Self-play seed by seed: its attackers against the scripted teams and its defenders
+    against the scripted attacks, each beside the same networks untrained (greedy)."""
+    lines = ["Seed by seed: the attackers' mean success over the scripted teams, the teams "
+             "on which they score more than untrained, the best scripted attack's success "
+             "against the defenders, and whether it is lower than against them untrained.", "",
+             "| seed | attackers: mean success, trained (untrained) | teams better | "
+             "defenders: best attack's success, trained (untrained) | defenders better |",
+             "|---|---|---|---|---|"]
+    for r in section["runs"]:
+        teams = [t for t in r["eval"] if t != SELF_PLAY]
+        trained = [_success(r["eval"][t]) for t in teams]
+        before = [_success(r["untrained_eval"][t]) for t in teams]
+        better = sum(a > b for a, b in zip(trained, before, strict=True))
+        best, best_before = _best_attack(r["defence"])[0], _best_attack(r["untrained_defence"])[0]
+        lines.append(f"| {r['seed']} | {_pct(float(np.mean(trained)))} "
+                     f"({_pct(float(np.mean(before)))}) | {better} of {len(teams)} | "
+                     f"{_pct(best)} ({_pct(best_before)}) | "
+                     f"{'yes' if best < best_before else 'no'} |")
     return lines
 
 
