@@ -171,3 +171,17 @@ def test_the_self_play_seed_table_compares_each_seed_with_its_untrained_networks
     # attackers: (100% + 25%) / 2 against (0% + 50%) / 2, better on one team of two;
     # defenders: the best attack scores 75% against 100% untrained
     assert lines[-1] == "| 7 | 62.5% (25.0%) | 1 of 2 | 75.0% (100.0%) | yes |"
+
+
+def test_the_self_play_search_tables_are_its_committed_numbers():
+    """docs/reference_rl.md's self-play search: each arm's seed table is the one its
+    per-seed numbers give."""
+    from ilpss.reference.page import self_play_seed_table
+    text = (DOCS / "reference_rl.md").read_text(encoding="utf-8")
+    summary = load_summary(DOCS / "data" / "self_play_search_seeds.json.gz")
+    arms = {section["name"]: section for section in summary["sections"]}
+    assert set(arms) == {"self_play", "self_play_pfsp"}
+    for section in arms.values():
+        assert [r["seed"] for r in section["runs"]] == [1000, 1001, 1002, 1003]
+        table = "\n".join(self_play_seed_table(section)[2:])
+        assert table in text, section["name"]
