@@ -23,7 +23,7 @@ from ilpss.reference.page import (
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 SHIPPED = {"reference_rl_results": "attackers", "reference_rl_holder": "holder",
-           "reference_rl_transfer": "transfer"}
+           "reference_rl_transfer": "transfer", "reference_rl_self_play": "self_play"}
 """Each shipped page, by name, and a kind of section it must hold."""
 
 
@@ -138,7 +138,7 @@ def test_the_committed_kept_jobs_are_the_runs_behind_the_pages():
     records = [load_json_record(path, "ilpss.kept_job/2") for path in
                sorted((DOCS / "data" / "reference_rl_jobs").glob("reference-*.json"))]
     kept = {(r["key"]["name"], r["key"]["team"], r["key"]["seed"]): r["result"] for r in records}
-    for name in ("reference_rl_results", "reference_rl_transfer"):
+    for name in ("reference_rl_results", "reference_rl_transfer", "reference_rl_self_play"):
         for section in load_summary(DOCS / f"{name}_seeds.json.gz")["sections"]:
             for run in section["runs"]:
                 team = run.get("team", section.get("target"))
