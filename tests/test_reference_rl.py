@@ -114,7 +114,7 @@ def test_tiny_run_writes_resumes_is_deterministic_and_recomputes_a_changed_setti
     (["--ppo", "gamma=2"], "PPOConfig.gamma must be a finite number in [0, 1]"),
     (["--ppo", "batch_size=100"], "must divide n_envs * n_steps"),
     (["--seeds", "0"], "--seeds must be at least 1"),
-    (["--first-seed", "-1"], "--first-seed must be at least 0, got -1"),
+    (["--first-seed", "-1"], "--first-seed must be an integer >= 0, got -1"),
     (["--seeds", "5", "ppo=0"], "--seeds ppo=N must be at least 1, got 0"),
     (["--marl", "critic=both"], "MarlSetting.critic must be"),
     (["--marl", "shaping=-1"], "MarlSetting.shaping must be"),
@@ -172,7 +172,7 @@ except SystemExit as exc:
 
 @pytest.mark.parametrize("argv, message", [
     (["--seeds", "0"], "--seeds must be at least 1"),
-    (["--first-seed", "-1"], "--first-seed must be at least 0, got -1"),
+    (["--first-seed", "-1"], "--first-seed must be an integer >= 0, got -1"),
     (["--teams", "chasers", "--seeds", "1"], "pip install -e '.[integrations]'"),
 ])
 def test_without_torch_the_flags_are_checked_and_the_missing_extra_named(argv, message,

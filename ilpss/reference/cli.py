@@ -79,6 +79,7 @@ from ilpss.reference.settings import (
     SelfPlaySetting,
     TransferSetting,
 )
+from soccer_drill.constraints import Integer, check
 
 PROG = "soccer-drill-reference"
 DEFAULT_TEAMS = PAPER_TEAMS
@@ -308,8 +309,7 @@ def _check_flags(args: argparse.Namespace) -> dict[str, int]:
                         ("--eval", args.eval), ("--workers", args.workers)):
         if value < 1:
             raise ValueError(f"{flag} must be at least 1, got {value}")
-    if args.first_seed < 0:
-        raise ValueError(f"--first-seed must be at least 0, got {args.first_seed}")
+    check("--first-seed", args.first_seed, Integer(0))
     for flag in ("source_steps", "target_episodes", "window", "crossplay_episodes"):
         value = getattr(args, flag)
         if value is not None and value < 1:
