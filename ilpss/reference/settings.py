@@ -240,10 +240,11 @@ class SelfPlaySetting:
     | ``"uniform"`` | one opponent for the whole half: its current networks with probability 1/2, else a checkpoint drawn uniformly from the pool |
     | ``"pfsp"`` | one per drill, from the pool and the current networks, with probability proportional to ``q (1 - q) + pfsp_floor``, ``q`` the attackers' recent success in that pairing (prioritised fictitious self-play, Vinyals et al. 2019, "variance" weighting) |
 
-    Why ``"pfsp"`` exists: a side that loses every episode learns nothing from it (the
-    drill pays one reward at the end, and the reward option's terms add up to a
-    constant over an episode), and under ``"uniform"`` a whole half may face such an
-    opponent for a rollout. Opponents that the learning side beats some of the time
+    Why ``"pfsp"`` exists (a reading of the uniform pool's collapse in some seeds, not
+    shown; ``docs/reference_rl.md``): a side whose episodes all end the same way learns
+    no outcome from them (the drill pays one reward at the end, and the reward option's
+    terms add up to a constant over an episode), and under ``"uniform"`` a whole half
+    may face such an opponent for a rollout. Opponents that the learning side beats some of the time
     give it a signal; ``pfsp_floor`` keeps every opponent in play. ``pfsp_decay`` is
     the weight each rollout keeps of the pairings' earlier results.
     """
