@@ -84,7 +84,7 @@ def test_pfsp_draws_the_opponents_a_side_beats_some_of_the_time(marl):
     setting = SelfPlaySetting(opponents="pfsp", pfsp_floor=0.02, pfsp_decay=0.9)
     pool = ["even", "always beaten"]
     drills = np.arange(4, 10)
-    opp = marl.Opponents(setting, drills, pool, "current", np.random.default_rng(0))
+    opp = marl.Opponents(setting, drills, pool, ["current"], np.random.default_rng(0))
     assert opp.weights() == pytest.approx(np.full(3, 1 / 3))  # every q starts at 1/2
     games, wins = np.zeros(12), np.zeros(12)
     games[drills] = 4
@@ -103,7 +103,7 @@ def test_pfsp_draws_the_opponents_a_side_beats_some_of_the_time(marl):
 
 
 def test_uniform_opponents_keep_no_counts(marl):
-    opp = marl.Opponents(SelfPlaySetting(), np.arange(3), ["untrained"], "current",
+    opp = marl.Opponents(SelfPlaySetting(), np.arange(3), ["untrained"], ["current"],
                          np.random.default_rng(0))
     opp.record(np.ones(3), np.ones(3))
     assert opp.games == [] and opp.wins == []

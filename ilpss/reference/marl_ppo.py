@@ -486,13 +486,26 @@ def train_self_play(env: Any, setting: SelfPlaySetting, seed: int,
     rng = np.random.default_rng(seed)
     n = env.num_envs
     half = n // 2
+    main = half - setting.exploiter_drills()  # each half's drills of its main side
     attack, defend = Side(ATTACKERS, env, marl), Side(DEFENDERS, env, marl)
-    learners = [_learner(attack, np.arange(half), env, cfg, 1.0),
-                _learner(defend, np.arange(half, n), env, cfg, -1.0)]
+    learners = [_learner(attack, np.arange(main), env, cfg, 1.0),
+                _learner(defend, np.arange(half, half + main), env, cfg, -1.0)]
+    live_a, live_d = [attack], [defend]  # each side's networks that are learning
+    exploits: list[tuple[Side, np.ndarray]] = []  # the exploiters' opponents and drills
+    if main < half:
+        # main exploiters (Vinyals et al. 2019): each learns only against the other
+        # side's current networks, in its half's last drills, and is an opponent the
+        # other side's main networks may draw
+        for live, sign, drills, other in ((live_a, 1.0, np.arange(main, half), defend),
+                                          (live_d, -1.0, np.arange(half + main, n), attack)):
+            exploiter = Side(live[0].agents, env, marl)
+            learners.append(_learner(exploiter, drills, env, cfg, sign))
+            live.append(exploiter)
+            exploits.append((other, drills))
     pool_a, pool_d = [_frozen(attack)], [_frozen(defend)]
     # the attackers' half meets defenders, the defenders' half attackers
-    halves = (Opponents(setting, np.arange(half), pool_d, defend, rng),
-              Opponents(setting, np.arange(half, n), pool_a, attack, rng))
+    halves = (Opponents(setting, np.arange(main), pool_d, live_d, rng),
+              Opponents(setting, np.arange(half, half + main), pool_a, live_a, rng))
     drills = _Drills(env, 1_000_000 * (seed + 1), marl)
     n_updates = -(-cfg.steps // (n * cfg.n_steps))
     # checkpoint k (1 .. snapshots - 2) after update ceil(k n_updates / (snapshots - 1)):
@@ -500,8 +513,11 @@ def train_self_play(env: Any, setting: SelfPlaySetting, seed: int,
     due = [-(-k * n_updates // (setting.snapshots - 1)) for k in range(1, setting.snapshots - 1)]
     start, steps, curve = time.perf_counter(), 0, []
     for update in range(n_updates):
-        others = {**halves[0].draw(n), **halves[1].draw(n)}
-        ended = drills.collect(learners, others, cfg.n_steps)
+        plays_d, plays_a = halves[0].draw(), halves[1].draw()
+        for other, exploited in exploits:
+            (plays_d if other is defend else plays_a).append((other, exploited))
+        ended = drills.collect(learners, {**_scripted(plays_d, n), **_scripted(plays_a, n)},
+                               cfg.n_steps)
         for h in halves:
             h.record(drills.games, drills.wins)
         steps += n * cfg.n_steps
@@ -520,48 +536,53 @@ def train_self_play(env: Any, setting: SelfPlaySetting, seed: int,
 
 class Opponents:
     """Who plays the other side in one half of the self-play drills (``drills``): the
-    checkpoints of ``pool`` (a list the training loop appends to) or the ``current``
-    networks, drawn at each rollout as ``setting.opponents`` says.
+    checkpoints of ``pool`` (a list the training loop appends to) or the ``live``
+    networks (the other side's current ones, then its exploiter's, if any), drawn at
+    each rollout as ``setting.opponents`` says.
 
-    ``"uniform"``: one opponent for the half, the current networks with probability
-    1/2, else a checkpoint drawn uniformly. ``"pfsp"``: one per drill, candidate ``c``
-    drawn with probability proportional to ``q_c (1 - q_c) + pfsp_floor``, where ``q_c``
-    is the attackers' success in the episodes of that pairing, each rollout's earlier
-    counts kept at ``pfsp_decay`` (every candidate starts at one success in two
-    episodes, ``q = 1/2``).
+    ``"uniform"``: one opponent for the half, a checkpoint drawn uniformly with
+    probability 1/2, else live networks (the current ones, or with an exploiter either,
+    evenly). ``"pfsp"``: one per drill, candidate ``c`` drawn with probability
+    proportional to ``q_c (1 - q_c) + pfsp_floor``, where ``q_c`` is the attackers'
+    success in the episodes of that pairing, each rollout's earlier counts kept at
+    ``pfsp_decay`` (every candidate starts at one success in two episodes, ``q = 1/2``).
     """
 
     def __init__(self, setting: SelfPlaySetting, drills: np.ndarray, pool: list[Side],
-                 current: Side, rng: np.random.Generator) -> None:
-        self.setting, self.drills, self.pool, self.current, self.rng = (
-            setting, drills, pool, current, rng)
+                 live: list[Side], rng: np.random.Generator) -> None:
+        self.setting, self.drills, self.pool, self.live, self.rng = (
+            setting, drills, pool, live, rng)
         self.games: list[float] = []
         self.wins: list[float] = []
         self.drawn = np.zeros(len(drills), np.int64)
 
     def _candidates(self) -> list[Side]:
-        while len(self.games) < len(self.pool) + 1:  # a new checkpoint starts at q = 1/2
+        while len(self.games) < len(self.pool) + len(self.live):
+            # a new checkpoint, the pool's last, starts at q = 1/2
             self.games.insert(len(self.pool) - 1, 2.0)
             self.wins.insert(len(self.pool) - 1, 1.0)
-        return [*self.pool, self.current]
+        return [*self.pool, *self.live]
 
     def weights(self) -> np.ndarray:
-        """``pfsp``: each candidate's probability (the pool's, then the current networks')."""
+        """``pfsp``: each candidate's probability (the pool's, then the live networks')."""
         self._candidates()
         q = np.asarray(self.wins) / np.asarray(self.games)
         w = q * (1.0 - q) + self.setting.pfsp_floor
         return w / w.sum()
 
-    def draw(self, n: int) -> dict[str, Callable]:
-        """This rollout's opponents, as fixed players of the half's drills."""
+    def draw(self) -> list[tuple[Side, np.ndarray]]:
+        """This rollout's opponents: ``(side, drills)``, each side playing in those drills."""
+        pool, live, rng = self.pool, self.live, self.rng
         if self.setting.opponents == "uniform":
-            pool, rng = self.pool, self.rng
-            side = pool[rng.integers(len(pool))] if rng.random() < 0.5 else self.current
-            return _scripted([(side, self.drills)], n)
+            if rng.random() < 0.5:
+                side = pool[rng.integers(len(pool))]
+            else:
+                side = live[rng.integers(len(live))] if len(live) > 1 else live[0]
+            return [(side, self.drills)]
         candidates = self._candidates()
-        self.drawn = self.rng.choice(len(candidates), size=len(self.drills), p=self.weights())
-        return _scripted([(c, self.drills[self.drawn == k]) for k, c in enumerate(candidates)
-                          if (self.drawn == k).any()], n)
+        self.drawn = rng.choice(len(candidates), size=len(self.drills), p=self.weights())
+        return [(c, self.drills[self.drawn == k]) for k, c in enumerate(candidates)
+                if (self.drawn == k).any()]
 
     def record(self, games: np.ndarray, wins: np.ndarray) -> None:
         """Count the rollout's episodes (``games``, ``wins``: per drill of the batch)."""

@@ -570,6 +570,12 @@ def _described(setting: Any) -> str:
                  f"{setting.pfsp_decay:g})." if setting.opponents == "pfsp" else
                  " Opponents drawn per rollout: the current networks or a checkpoint "
                  "drawn uniformly (`opponents=\"uniform\"`).")
+        e = setting.exploiter_drills()
+        if e:
+            drawn += (f" A main exploiter per side in {e} of each half's "
+                      f"{setting.ppo.n_envs // 2} drills (`exploiter_share="
+                      f"{setting.exploiter_share:g}`), learning against the other side's "
+                      "current networks, which may draw it.")
         return _described(setting.marl) + drawn
     if not isinstance(setting, MarlSetting):
         return ""

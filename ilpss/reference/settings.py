@@ -42,7 +42,7 @@ are always the drill's reward.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from soccer_drill.constraints import (
     Bool,
@@ -247,6 +247,15 @@ class SelfPlaySetting:
     may face such an opponent for a rollout. Opponents that the learning side beats some of the time
     give it a signal; ``pfsp_floor`` keeps every opponent in play. ``pfsp_decay`` is
     the weight each rollout keeps of the pairings' earlier results.
+
+    ``exploiter_share`` (0: none, the default) adds a *main exploiter* per side
+    (Vinyals et al. 2019): the last drills of each half (:meth:`exploiter_drills`)
+    train another network of that half's side, only against the other side's current
+    networks, and each side's main networks may draw the other side's exploiter as an
+    opponent (one more live candidate beside its current networks). An exploiter looks
+    for what beats the other side now, so that side meets it. Its drills are taken from
+    its half's main side (give ``marl.ppo`` more drills and steps to keep the main
+    sides' data); it is neither kept in the pool nor evaluated.
     """
 
     marl: MarlSetting = field(default_factory=MarlSetting)
@@ -255,12 +264,22 @@ class SelfPlaySetting:
     opponents: str = "uniform"
     pfsp_floor: float = 0.02
     pfsp_decay: float = 0.9
+    exploiter_share: float = 0.0
 
     def __post_init__(self) -> None:
         check_fields("SelfPlaySetting", self, {
             "snapshots": Integer(2, 50), "crossplay_episodes": Integer(1),
             "opponents": OneOf(OPPONENT_SAMPLING), "pfsp_floor": Real(0.0, 1.0, low_open=True),
-            "pfsp_decay": Real(0.0, 1.0, high_open=True)})
+            "pfsp_decay": Real(0.0, 1.0, high_open=True),
+            "exploiter_share": Real(0.0, 0.5, high_open=True)})
+
+    def exploiter_drills(self) -> int:
+        """Each half's drills for its exploiter: ``exploiter_share`` of the half, rounded,
+        at least one if the share is not 0, and at most all but one (the main side's)."""
+        half = self.ppo.n_envs // 2
+        if not self.exploiter_share:
+            return 0
+        return min(max(1, round(self.exploiter_share * half)), half - 1)
 
     @property
     def ppo(self) -> PPOConfig:
@@ -297,6 +316,10 @@ SETTINGS: dict[str, HolderSetting | MarlSetting | SelfPlaySetting | TransferSett
     "defenders": MarlSetting(side="defenders", critic="state"),
     "self_play": SelfPlaySetting(),
     "self_play_pfsp": SelfPlaySetting(opponents="pfsp"),
+    # the main sides keep self_play_pfsp's 32 drills a half and steps; exploiters add 8
+    "self_play_league": SelfPlaySetting(
+        marl=MarlSetting(ppo=replace(_marl_ppo(), n_envs=80, steps=2_500_000)),
+        opponents="pfsp", exploiter_share=0.2),
     "transfer": TransferSetting(),
 }
 """The command's settings by name, in the page's order."""
