@@ -109,6 +109,64 @@ def test_uniform_opponents_keep_no_counts(marl):
     assert opp.games == [] and opp.wins == []
 
 
+def test_agent_ids_end_each_players_row(marl):
+    """With ``agent_id`` each row (drill by drill, player by player) ends with the
+    one-hot of the player's index in its side; the input bounds grow to match."""
+    from ilpss.reference.jobs import _parallel
+    from ilpss.reference.settings import MarlSetting
+    env = _parallel(3, "full")
+    observations, _ = env.reset(seed=0)
+    plain = marl.Side(marl.DEFENDERS, env, MarlSetting())
+    ided = marl.Side(marl.DEFENDERS, env, MarlSetting(agent_id=True))
+    drills = np.array([0, 2])
+    obs, mask = marl._rows(observations, plain, drills)
+    obs_id, mask_id = marl._rows(observations, ided, drills)
+    assert np.array_equal(obs_id[:, :-2], obs) and np.array_equal(mask_id, mask)
+    assert obs_id[:, -2:].tolist() == [[1, 0], [0, 1], [1, 0], [0, 1]]
+    assert ided.actor.low.shape[0] == plain.actor.low.shape[0] + 2
+    assert ided.critic.low.shape == plain.critic.low.shape  # the critic sees state()
+
+
+def test_an_exploiter_is_one_more_live_opponent(marl):
+    """With an exploiter the live networks are two candidates: the uniform pool draws
+    a checkpoint half the time and each live one a quarter; prioritised self-play puts
+    a new checkpoint before both live ones, at q = 1/2."""
+    rng = np.random.default_rng(0)
+    opp = marl.Opponents(SelfPlaySetting(), np.arange(3), ["untrained"],
+                         ["current", "exploiter"], rng)
+    drawn = [opp.draw()[0][0] for _ in range(4000)]
+    share = {name: drawn.count(name) / len(drawn) for name in ("untrained", "current",
+                                                                "exploiter")}
+    assert share == pytest.approx({"untrained": 0.5, "current": 0.25, "exploiter": 0.25},
+                                  abs=0.03)
+    pool = ["untrained"]
+    opp = marl.Opponents(SelfPlaySetting(opponents="pfsp"), np.arange(4), pool,
+                         ["current", "exploiter"], rng)
+    opp.drawn = np.array([0, 1, 2, 2])
+    opp.weights()
+    opp.record(np.ones(4), np.array([0.0, 1.0, 1.0, 1.0]))  # the exploiter always wins
+    pool.append("new")
+    opp.weights()
+    q = np.asarray(opp.wins) / np.asarray(opp.games)
+    assert q[1] == pytest.approx(0.5) and q[3] == pytest.approx(q.max())
+
+
+def test_self_play_with_exploiters_trains_and_is_deterministic(marl):
+    from ilpss.reference.jobs import _parallel
+    from ilpss.reference.settings import MarlSetting
+    ppo = PPOConfig(steps=8 * 32 * 3, n_envs=8, n_steps=32, batch_size=128, n_epochs=1,
+                    gamma=1.0)
+    runs = []
+    for share in (0.25, 0.25, 0.0):
+        s = SelfPlaySetting(marl=MarlSetting(ppo=ppo), opponents="pfsp", snapshots=3,
+                            exploiter_share=share)
+        pool_a, pool_d, curve = marl.train_self_play(_parallel(8, "full"), s, 5)
+        assert len(pool_a) == len(pool_d) == 3 and len(curve) == 3
+        runs.append([p.detach().numpy().copy() for p in pool_a[-1].parameters()])
+    assert all(np.array_equal(a, b) for a, b in zip(runs[0], runs[1], strict=True))
+    assert not all(np.array_equal(a, b) for a, b in zip(runs[0], runs[2], strict=True))
+
+
 @pytest.mark.parametrize(("field", "value", "message"), [
     ("opponents", "league", "'uniform' or 'pfsp'"),
     ("pfsp_floor", 0.0, "pfsp_floor"),

@@ -149,3 +149,23 @@ def test_the_docstring_example_writes_no_shipped_page():
     example = next(line for line in cli.__doc__.splitlines() if "soccer-drill-reference" in line)
     assert "--out" not in example and "docs/" not in example
     assert cli.parser().get_default("out").startswith("results/")
+
+
+@pytest.mark.parametrize(("n_envs", "share", "drills"), [
+    (80, 0.2, 8),  # self_play_league: 8 of each half's 40
+    (64, 0.0, 0),  # no exploiters, the default
+    (4, 0.2, 1),  # a share rounding to none still gives the exploiter a drill
+    (4, 0.45, 1),  # and the main side keeps one
+])
+def test_the_exploiters_drills_are_a_share_of_each_half(n_envs, share, drills):
+    from ilpss.reference.settings import MarlSetting, SelfPlaySetting
+    marl = MarlSetting(ppo=dataclasses.replace(MarlSetting().ppo, n_envs=n_envs,
+                                               batch_size=4 * n_envs))
+    assert SelfPlaySetting(marl=marl, exploiter_share=share).exploiter_drills() == drills
+
+
+@pytest.mark.parametrize("share", [-0.1, 0.5, float("nan")])
+def test_an_exploiter_share_outside_its_range_is_refused(share):
+    from ilpss.reference.settings import SelfPlaySetting
+    with pytest.raises(ValueError, match=r"exploiter_share must be .*got"):
+        SelfPlaySetting(exploiter_share=share)

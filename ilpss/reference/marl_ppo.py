@@ -158,6 +158,10 @@ class Side(nn.Module):
         self.agents = tuple(agents)
         space = env.observation_space(agents[0])["observation"]
         low, high = space.low.astype(np.float64), space.high.astype(np.float64)
+        self.agent_id = setting.agent_id
+        if self.agent_id:  # a one-hot of the player's index in its side ends each row
+            low = np.concatenate((low, np.zeros(len(agents))))
+            high = np.concatenate((high, np.ones(len(agents))))
         n_actions = int(env.action_space(agents[0]).n)
         widths = setting.ppo.net_arch
         self.actor = Actor(low, high, n_actions, widths, setting.mask_input)
@@ -174,13 +178,18 @@ class Side(nn.Module):
 
 
 # ----------------------------------------------------------------------------- helpers
-def _rows(observations: dict[str, Any], agents: Sequence[str], drills: np.ndarray
+def _rows(observations: dict[str, Any], side: Side, drills: np.ndarray
           ) -> tuple[np.ndarray, np.ndarray]:
-    """The observations and masks of ``agents`` in ``drills`` as ``(len(drills) *
+    """The observations and masks of ``side``'s players in ``drills`` as ``(len(drills) *
     len(agents), ...)`` rows, drill by drill (row ``k * len(agents) + j`` is agent ``j``
-    of the ``k``-th drill)."""
+    of the ``k``-th drill); with ``agent_id`` each observation ends with a one-hot of
+    ``j``."""
+    agents = side.agents
     obs = np.stack([observations[a]["observation"][drills] for a in agents], axis=1)
     mask = np.stack([observations[a]["action_mask"][drills] for a in agents], axis=1)
+    if side.agent_id:
+        ids = np.broadcast_to(np.eye(len(agents), dtype=obs.dtype), (len(drills),) + (len(agents),) * 2)
+        obs = np.concatenate((obs, ids), axis=-1)
     return obs.reshape(-1, obs.shape[-1]), mask.reshape(-1, mask.shape[-1]).astype(bool)
 
 
@@ -300,7 +309,7 @@ class _Drills:
             for a, act in others.items():
                 actions[a] = np.where(deciding, act(self.observations), actions.get(a, 0))
             for ln in learners:
-                obs, mask = _rows(self.observations, ln.side.agents, ln.drills)
+                obs, mask = _rows(self.observations, ln.side, ln.drills)
                 critic_in = ln.critic_in(obs, self.state)
                 action, logp = _act(ln.side.actor, obs, mask, greedy=False)
                 k = len(ln.side.agents)
@@ -413,7 +422,7 @@ def _learner(side: Side, drills: np.ndarray, env: Any, cfg: PPOConfig, sign: flo
 
 def _learn(ln: _Learner, drills: _Drills, cfg: PPOConfig, rng: np.random.Generator,
            left: float) -> None:
-    obs, _ = _rows(drills.observations, ln.side.agents, ln.drills)
+    obs, _ = _rows(drills.observations, ln.side, ln.drills)
     next_value = ln.side.values(ln.critic_in(obs, drills.state))
     adv, ret = _advantages(ln.buf, next_value, cfg)
     _update(ln, adv, ret, cfg, rng, left)
@@ -605,7 +614,7 @@ def _scripted(plays: Sequence[tuple[Side, np.ndarray]], n: int) -> dict[str, Cal
         def act(observations: dict[str, Any], j: int = j) -> np.ndarray:
             full = np.zeros(n, np.int64)
             for side, drills in plays:
-                obs, mask = _rows(observations, side.agents, drills)
+                obs, mask = _rows(observations, side, drills)
                 action, _ = _act(side.actor, obs, mask, greedy=False)
                 full[drills] = action.reshape(len(drills), len(side.agents))[:, j]
             return full
@@ -629,7 +638,7 @@ def evaluate(sides: Sequence[Side], env: Any, first_seed: int, greedy: bool = Tr
     while np.isnan(result).any():
         deciding = schedule.deciding(holders(env.state()), np.zeros(env.num_envs, bool))
         for side in sides:
-            obs, mask = _rows(observations, side.agents, every)
+            obs, mask = _rows(observations, side, every)
             action, _ = _act(side.actor, obs, mask, greedy, generator)
             per = action.reshape(env.num_envs, len(side.agents))
             for j, a in enumerate(side.agents):

@@ -583,8 +583,9 @@ def _described(setting: Any) -> str:
         "IPPO (critic on the player's observation)"
     option = (f", reward option `shaping={setting.shaping:g}`" if setting.shaping
               else ", the drill's reward")
+    ids = ", agent ids as input" if setting.agent_id else ""
     return (f" {critic}, `obs_type={setting.obs_type!r}`, mask as input: "
-            f"{setting.mask_input}, value normalisation: {setting.value_norm}{option}.")
+            f"{setting.mask_input}{ids}, value normalisation: {setting.value_norm}{option}.")
 
 
 def check_summary_tables(summary: dict[str, Any], page_text: str) -> list[str]:

@@ -197,7 +197,10 @@ class MarlSetting:
     changes hands, keeping their action in between (1: every cycle, the drill's pace;
     ``marl_ppo.Decisions``). ``anneal``: the learning rate and the entropy bonus fall
     linearly to 0 over the budget (CleanRL anneals the learning rate), so that the
-    policy settles.
+    policy settles. ``agent_id``: each player's observation ends with a one-hot of its
+    index in its side (the actor's input, and the critic's with ``critic="own"``), as
+    MAPPO gives agent ids to a shared policy, so that the side's two players can take
+    different roles in the same situation.
     """
 
     side: str = "attackers"
@@ -208,6 +211,7 @@ class MarlSetting:
     shaping: float = 1.0
     decision_cycles: int = 1
     anneal: bool = False
+    agent_id: bool = False
     attack: str = "mixed_rules"
     ppo: PPOConfig = field(default_factory=_marl_ppo)
 
@@ -215,7 +219,8 @@ class MarlSetting:
         check_fields("MarlSetting", self, {
             "side": OneOf(SIDES), "critic": OneOf(CRITICS), "obs_type": OneOf(OBS_TYPES),
             "mask_input": Bool(), "value_norm": Bool(), "shaping": Real(0.0, 10.0),
-            "decision_cycles": Integer(1, 50), "anneal": Bool(), "attack": Name(dots=False),
+            "decision_cycles": Integer(1, 50), "anneal": Bool(), "agent_id": Bool(),
+            "attack": Name(dots=False),
         })
 
 
