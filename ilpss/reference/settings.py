@@ -321,6 +321,9 @@ SETTINGS: dict[str, HolderSetting | MarlSetting | SelfPlaySetting | TransferSett
     "defenders": MarlSetting(side="defenders", critic="state"),
     "self_play": SelfPlaySetting(),
     "self_play_pfsp": SelfPlaySetting(opponents="pfsp"),
+    # each side's half of the drills gets the 2,000,000 steps of a one-side setting
+    "self_play_pfsp_long": SelfPlaySetting(
+        marl=MarlSetting(ppo=replace(_marl_ppo(), steps=4_000_000)), opponents="pfsp"),
     # the main sides keep self_play_pfsp's 32 drills a half and steps; exploiters add 8
     "self_play_league": SelfPlaySetting(
         marl=MarlSetting(ppo=replace(_marl_ppo(), n_envs=80, steps=2_500_000)),
