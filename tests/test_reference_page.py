@@ -180,8 +180,58 @@ def test_the_self_play_search_tables_are_its_committed_numbers():
     text = (DOCS / "reference_rl.md").read_text(encoding="utf-8")
     summary = load_summary(DOCS / "data" / "self_play_search_seeds.json.gz")
     arms = {section["name"]: section for section in summary["sections"]}
-    assert set(arms) == {"self_play", "self_play_pfsp"}
+    assert set(arms) == {"self_play", "self_play_pfsp", "self_play_league",
+                         "self_play_pfsp_long", "self_play_pfsp --marl agent_id=true"}
     for section in arms.values():
         assert [r["seed"] for r in section["runs"]] == [1000, 1001, 1002, 1003]
         table = "\n".join(self_play_seed_table(section)[2:])
         assert table in text, section["name"]
+
+
+def _successes(rewards) -> int:
+    return sum(r > 0 for r in rewards)
+
+
+def _from_the_press(runs, press: dict[str, int]) -> list[int]:
+    """Per run, the most episodes by which any attack's successes against its trained
+    defenders differ from that attack's against ``interceptors_press``."""
+    return [max(abs(_successes(r) - press[a]) for a, r in run["defence"].items())
+            for run in runs]
+
+
+def test_what_docs_say_of_self_plays_defenders_and_the_press_is_in_the_numbers():
+    """docs/reference_rl.md's reading of self-play's defenders: how many seeds concede
+    what interceptors_press concedes (from the kept fixed rules and the pages' per-seed
+    numbers), what the league's attackers score, and the search arms' means."""
+    text = " ".join((DOCS / "reference_rl.md").read_text(encoding="utf-8").split())
+    press = {}
+    for path in (DOCS / "data" / "reference_rl_jobs").glob("rule-*.json"):
+        result = load_json_record(path, "ilpss.kept_job/2")["result"]
+        if result["team"] == "interceptors_press":
+            press[result["rule"]] = _successes(result["eval"])
+    assert len(press) == 9 and press["late_pass"] == 165  # 82.5% of 200
+    pages = {section["name"]: section for name in ("results", "self_play")
+             for section in load_summary(DOCS / f"reference_rl_{name}_seeds.json.gz")["sections"]}
+    pfsp = _from_the_press(pages["self_play_pfsp"]["runs"], press)
+    uniform = _from_the_press(pages["self_play"]["runs"], press)
+    assert (pfsp.count(0), sum(0 < d <= 8 for d in pfsp), uniform.count(0)) == (8, 6, 3)
+    assert ("in 8 of `self_play_pfsp`'s 20 page seeds and in 3 of `self_play`'s, and in 6 "
+            "more of `self_play_pfsp`'s it is within 8 episodes") in text
+
+    search = {s["name"]: s["runs"] for s in load_summary(
+        DOCS / "data" / "self_play_search_seeds.json.gz")["sections"]}
+    assert _from_the_press(search["self_play_league"], press) == [0, 0, 0, 0]
+    assert min(_from_the_press(search["self_play_pfsp_long"], press)) > 8
+    assert min(_from_the_press(search["self_play_pfsp --marl agent_id=true"], press)) > 8
+    league = search["self_play_league"]
+    guard = [_successes(r["eval"]["interceptor_guard"]) / 2 for r in league]
+    own = [_successes(r["eval"]["self_play"]) / 2 for r in league]
+    assert all(g < o for g, o in zip(guard, own, strict=True))
+    assert f"`interceptor_guard` ({min(guard):.1f}-{max(guard):.1f}%)" in text
+    assert f"their own defenders ({min(own):.1f}-{max(own):.1f}%)" in text
+    for name, quoted in (("self_play_pfsp", 78.25), ("self_play_pfsp_long", 73.125),
+                         ("self_play_pfsp --marl agent_id=true", 72.75)):
+        best = [max(_successes(r) for r in run["defence"].values()) / 2
+                for run in search[name]]
+        assert np.mean(best) == pytest.approx(quoted)
+    assert "from 78.25% (`self_play_pfsp`) to 73.1% with twice the budget and to 72.75% with agent ids" in text

@@ -242,8 +242,8 @@ class SelfPlaySetting:
 
     | ``opponents`` | the other side's players in a half's drills |
     |---|---|
-    | ``"uniform"`` | one opponent for the whole half: its current networks with probability 1/2, else a checkpoint drawn uniformly from the pool |
-    | ``"pfsp"`` | one per drill, from the pool and the current networks, with probability proportional to ``q (1 - q) + pfsp_floor``, ``q`` the attackers' recent success in that pairing (prioritised fictitious self-play, Vinyals et al. 2019, "variance" weighting) |
+    | ``"uniform"`` | one opponent for the whole half: a checkpoint drawn uniformly from the pool with probability 1/2, else its current networks (or, with exploiters, its exploiter, evenly) |
+    | ``"pfsp"`` | one per drill, from the pool, the current networks (and the exploiter), with probability proportional to ``q (1 - q) + pfsp_floor``, ``q`` the attackers' recent success in that pairing (prioritised fictitious self-play, Vinyals et al. 2019, "variance" weighting) |
 
     Why ``"pfsp"`` exists (a reading of the uniform pool's collapse in some seeds, not
     shown; ``docs/reference_rl.md``): a side whose episodes all end the same way learns
@@ -260,7 +260,9 @@ class SelfPlaySetting:
     opponent (one more live candidate beside its current networks). An exploiter looks
     for what beats the other side now, so that side meets it. Its drills are taken from
     its half's main side (give ``marl.ppo`` more drills and steps to keep the main
-    sides' data); it is neither kept in the pool nor evaluated.
+    sides' data); it is neither kept in the pool nor evaluated. On development seeds
+    the exploiters helped the attackers and left the defenders where prioritised
+    self-play leaves them, pressing (``docs/reference_rl.md``).
     """
 
     marl: MarlSetting = field(default_factory=MarlSetting)
