@@ -484,8 +484,11 @@ def train_self_play(env: Any, setting: SelfPlaySetting, seed: int,
     their past checkpoints (fictitious self-play): the first half of the drills trains
     the attackers, the second half the defenders, and in each rollout the other side of
     each half is drawn from the pool and the current networks as ``setting.opponents``
-    says (:class:`Opponents`). ``setting.snapshots`` checkpoints are taken at even
-    intervals, the untrained networks first and the trained ones last.
+    says (:class:`Opponents`). With exploiters, the last ``setting.exploiter_drills()``
+    drills of each half train that half's exploiter against the other side's current
+    networks, and the exploiter is one more live opponent of the other side's half.
+    ``setting.snapshots`` checkpoints are taken at even intervals, the untrained
+    networks first and the trained ones last.
 
     Returns the attackers' and the defenders' checkpoints, and the learning curve (the
     attackers' success in every drill's episodes).
@@ -586,6 +589,7 @@ class Opponents:
             if rng.random() < 0.5:
                 side = pool[rng.integers(len(pool))]
             else:
+                # no draw for a lone live side: the draws stay those of before exploiters
                 side = live[rng.integers(len(live))] if len(live) > 1 else live[0]
             return [(side, self.drills)]
         candidates = self._candidates()

@@ -260,9 +260,9 @@ class SelfPlaySetting:
     opponent (one more live candidate beside its current networks). An exploiter looks
     for what beats the other side now, so that side meets it. Its drills are taken from
     its half's main side (give ``marl.ppo`` more drills and steps to keep the main
-    sides' data); it is neither kept in the pool nor evaluated. On development seeds
-    the exploiters helped the attackers and left the defenders where prioritised
-    self-play leaves them, pressing (``docs/reference_rl.md``).
+    sides' data); it is neither kept in the pool nor evaluated. On four development
+    seeds the defenders trained with exploiters still pressed, as prioritised
+    self-play's do (``docs/reference_rl.md``).
     """
 
     marl: MarlSetting = field(default_factory=MarlSetting)
