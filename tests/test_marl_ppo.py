@@ -84,7 +84,7 @@ def test_pfsp_draws_the_opponents_a_side_beats_some_of_the_time(marl):
     setting = SelfPlaySetting(opponents="pfsp", pfsp_floor=0.02, pfsp_decay=0.9)
     pool = ["even", "always beaten"]
     drills = np.arange(4, 10)
-    opp = marl.Opponents(setting, drills, pool, ["current"], np.random.default_rng(0))
+    opp = marl.opponents_for(setting, drills, pool, ["current"], np.random.default_rng(0))
     assert opp.weights() == pytest.approx(np.full(3, 1 / 3))  # every q starts at 1/2
     games, wins = np.zeros(12), np.zeros(12)
     games[drills] = 4
@@ -102,11 +102,31 @@ def test_pfsp_draws_the_opponents_a_side_beats_some_of_the_time(marl):
     assert drawn.min() > 0
 
 
-def test_uniform_opponents_keep_no_counts(marl):
-    opp = marl.Opponents(SelfPlaySetting(), np.arange(3), ["untrained"], ["current"],
-                         np.random.default_rng(0))
-    opp.record(np.ones(3), np.ones(3))
-    assert opp.games == [] and opp.wins == []
+def test_uniform_opponents_draw_the_same_whatever_they_recorded(marl):
+    """The uniform pool keeps no counts: the episodes it is told of change no draw."""
+    def draws(record: bool) -> list[str]:
+        opp = marl.opponents_for(SelfPlaySetting(), np.arange(3), ["untrained", "old"],
+                                 ["current"], np.random.default_rng(0))
+        out = []
+        for k in range(50):
+            if record:
+                opp.record(np.ones(3), np.full(3, k % 2))
+            out.append(opp.draw()[0][0])
+        return out
+    assert draws(True) == draws(False)
+    assert set(draws(False)) == {"untrained", "old", "current"}
+
+
+def test_every_named_way_of_drawing_opponents_has_its_kind(marl):
+    """Each ``SelfPlaySetting.opponents`` name the settings accept makes its own kind
+    of opponents, and no kind is left without a name."""
+    from ilpss.reference.settings import OPPONENT_SAMPLING
+    assert sorted(marl.OPPONENTS) == sorted(OPPONENT_SAMPLING)
+    kinds = {name: type(marl.opponents_for(SelfPlaySetting(opponents=name), np.arange(2),
+                                           ["untrained"], ["current"],
+                                           np.random.default_rng(0)))
+             for name in OPPONENT_SAMPLING}
+    assert len(set(kinds.values())) == len(kinds)
 
 
 def test_agent_ids_end_each_players_row(marl):
@@ -132,16 +152,16 @@ def test_an_exploiter_is_one_more_live_opponent(marl):
     a checkpoint half the time and each live one a quarter; prioritised self-play puts
     a new checkpoint before both live ones, at q = 1/2."""
     rng = np.random.default_rng(0)
-    opp = marl.Opponents(SelfPlaySetting(), np.arange(3), ["untrained"],
-                         ["current", "exploiter"], rng)
+    opp = marl.opponents_for(SelfPlaySetting(), np.arange(3), ["untrained"],
+                             ["current", "exploiter"], rng)
     drawn = [opp.draw()[0][0] for _ in range(4000)]
     share = {name: drawn.count(name) / len(drawn) for name in ("untrained", "current",
                                                                 "exploiter")}
     assert share == pytest.approx({"untrained": 0.5, "current": 0.25, "exploiter": 0.25},
                                   abs=0.03)
     pool = ["untrained"]
-    opp = marl.Opponents(SelfPlaySetting(opponents="pfsp"), np.arange(4), pool,
-                         ["current", "exploiter"], rng)
+    opp = marl.opponents_for(SelfPlaySetting(opponents="pfsp"), np.arange(4), pool,
+                             ["current", "exploiter"], rng)
     opp.drawn = np.array([0, 1, 2, 2])
     opp.weights()
     opp.record(np.ones(4), np.array([0.0, 1.0, 1.0, 1.0]))  # the exploiter always wins

@@ -235,3 +235,12 @@ def test_what_docs_say_of_self_plays_defenders_and_the_press_is_in_the_numbers()
                 for run in search[name]]
         assert np.mean(best) == pytest.approx(quoted)
     assert "from 78.25% (`self_play_pfsp`) to 73.1% with twice the budget and to 72.75% with agent ids" in text
+
+
+def test_every_way_of_drawing_self_plays_opponents_is_described():
+    """Each ``SelfPlaySetting.opponents`` name has its sentence on the page, naming it."""
+    from ilpss.reference.page import OPPONENTS_DRAWN
+    from ilpss.reference.settings import OPPONENT_SAMPLING, SelfPlaySetting
+    assert sorted(OPPONENTS_DRAWN) == sorted(OPPONENT_SAMPLING)
+    for name in OPPONENT_SAMPLING:
+        assert f'`opponents="{name}"`' in OPPONENTS_DRAWN[name](SelfPlaySetting(opponents=name))

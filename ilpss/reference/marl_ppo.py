@@ -484,7 +484,7 @@ def train_self_play(env: Any, setting: SelfPlaySetting, seed: int,
     their past checkpoints (fictitious self-play): the first half of the drills trains
     the attackers, the second half the defenders, and in each rollout the other side of
     each half is drawn from the pool and the current networks as ``setting.opponents``
-    says (:class:`Opponents`). With exploiters, the last ``setting.exploiter_drills()``
+    says (:func:`opponents_for`). With exploiters, the last ``setting.exploiter_drills()``
     drills of each half train that half's exploiter against the other side's current
     networks, and the exploiter is one more live opponent of the other side's half.
     ``setting.snapshots`` checkpoints are taken at even intervals, the untrained
@@ -516,8 +516,8 @@ def train_self_play(env: Any, setting: SelfPlaySetting, seed: int,
             exploits.append((other, drills))
     pool_a, pool_d = [_frozen(attack)], [_frozen(defend)]
     # the attackers' half meets defenders, the defenders' half attackers
-    halves = (Opponents(setting, np.arange(main), pool_d, live_d, rng),
-              Opponents(setting, np.arange(half, half + main), pool_a, live_a, rng))
+    halves = (opponents_for(setting, np.arange(main), pool_d, live_d, rng),
+              opponents_for(setting, np.arange(half, half + main), pool_a, live_a, rng))
     drills = _Drills(env, 1_000_000 * (seed + 1), marl)
     n_updates = -(-cfg.steps // (n * cfg.n_steps))
     # checkpoint k (1 .. snapshots - 2) after update ceil(k n_updates / (snapshots - 1)):
@@ -550,11 +550,40 @@ class Opponents:
     """Who plays the other side in one half of the self-play drills (``drills``): the
     checkpoints of ``pool`` (a list the training loop appends to) or the ``live``
     networks (the other side's current ones, then its exploiter's, if any), drawn at
-    each rollout as ``setting.opponents`` says.
+    each rollout. :func:`opponents_for` makes the kind ``setting.opponents`` names
+    (:data:`OPPONENTS`).
+    """
 
-    ``"uniform"``: one opponent for the half, a checkpoint drawn uniformly with
+    def __init__(self, setting: SelfPlaySetting, drills: np.ndarray, pool: list[Side],
+                 live: list[Side], rng: np.random.Generator) -> None:
+        self.setting, self.drills, self.pool, self.live, self.rng = (
+            setting, drills, pool, live, rng)
+
+    def draw(self) -> list[tuple[Side, np.ndarray]]:
+        """This rollout's opponents: ``(side, drills)``, each side playing in those drills."""
+        raise NotImplementedError
+
+    def record(self, games: np.ndarray, wins: np.ndarray) -> None:
+        """Count the rollout's episodes (``games``, ``wins``: per drill of the batch)."""
+
+
+class UniformOpponents(Opponents):
+    """``"uniform"``: one opponent for the half, a checkpoint drawn uniformly with
     probability 1/2, else live networks (the current ones, or with an exploiter either,
-    evenly). ``"pfsp"``: one per drill, candidate ``c`` drawn with probability
+    evenly). It keeps no counts."""
+
+    def draw(self) -> list[tuple[Side, np.ndarray]]:
+        pool, live, rng = self.pool, self.live, self.rng
+        if rng.random() < 0.5:
+            side = pool[rng.integers(len(pool))]
+        else:
+            # no draw for a lone live side: the draws stay those of before exploiters
+            side = live[rng.integers(len(live))] if len(live) > 1 else live[0]
+        return [(side, self.drills)]
+
+
+class PrioritisedOpponents(Opponents):
+    """``"pfsp"``: one opponent per drill, candidate ``c`` drawn with probability
     proportional to ``q_c (1 - q_c) + pfsp_floor``, where ``q_c`` is the attackers'
     success in the episodes of that pairing, each rollout's earlier counts kept at
     ``pfsp_decay`` (every candidate starts at one success in two episodes, ``q = 1/2``).
@@ -562,8 +591,7 @@ class Opponents:
 
     def __init__(self, setting: SelfPlaySetting, drills: np.ndarray, pool: list[Side],
                  live: list[Side], rng: np.random.Generator) -> None:
-        self.setting, self.drills, self.pool, self.live, self.rng = (
-            setting, drills, pool, live, rng)
+        super().__init__(setting, drills, pool, live, rng)
         self.games: list[float] = []
         self.wins: list[float] = []
         self.drawn = np.zeros(len(drills), np.int64)
@@ -576,36 +604,35 @@ class Opponents:
         return [*self.pool, *self.live]
 
     def weights(self) -> np.ndarray:
-        """``pfsp``: each candidate's probability (the pool's, then the live networks')."""
+        """Each candidate's probability (the pool's, then the live networks')."""
         self._candidates()
         q = np.asarray(self.wins) / np.asarray(self.games)
         w = q * (1.0 - q) + self.setting.pfsp_floor
         return w / w.sum()
 
     def draw(self) -> list[tuple[Side, np.ndarray]]:
-        """This rollout's opponents: ``(side, drills)``, each side playing in those drills."""
-        pool, live, rng = self.pool, self.live, self.rng
-        if self.setting.opponents == "uniform":
-            if rng.random() < 0.5:
-                side = pool[rng.integers(len(pool))]
-            else:
-                # no draw for a lone live side: the draws stay those of before exploiters
-                side = live[rng.integers(len(live))] if len(live) > 1 else live[0]
-            return [(side, self.drills)]
         candidates = self._candidates()
-        self.drawn = rng.choice(len(candidates), size=len(self.drills), p=self.weights())
+        self.drawn = self.rng.choice(len(candidates), size=len(self.drills), p=self.weights())
         return [(c, self.drills[self.drawn == k]) for k, c in enumerate(candidates)
                 if (self.drawn == k).any()]
 
     def record(self, games: np.ndarray, wins: np.ndarray) -> None:
-        """Count the rollout's episodes (``games``, ``wins``: per drill of the batch)."""
-        if self.setting.opponents == "uniform":
-            return
         keep = self.setting.pfsp_decay
         for k in range(len(self.games)):
             mine = self.drills[self.drawn == k]
             self.games[k] = keep * self.games[k] + games[mine].sum()
             self.wins[k] = keep * self.wins[k] + wins[mine].sum()
+
+
+OPPONENTS: dict[str, type[Opponents]] = {
+    "uniform": UniformOpponents, "pfsp": PrioritisedOpponents}
+"""Each ``SelfPlaySetting.opponents`` name's kind of :class:`Opponents`."""
+
+
+def opponents_for(setting: SelfPlaySetting, drills: np.ndarray, pool: list[Side],
+                  live: list[Side], rng: np.random.Generator) -> Opponents:
+    """The opponents of a half of the drills, of the kind ``setting.opponents`` names."""
+    return OPPONENTS[setting.opponents](setting, drills, pool, live, rng)
 
 
 def _scripted(plays: Sequence[tuple[Side, np.ndarray]], n: int) -> dict[str, Callable]:

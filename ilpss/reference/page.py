@@ -31,7 +31,7 @@ Statistics (``ilpss.metrics``):
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -563,13 +563,20 @@ def write_page(command: str, code: str, took: str, jobs: list[Job],
     return "\n".join(lines) + "\n"
 
 
+OPPONENTS_DRAWN: dict[str, Callable[[SelfPlaySetting], str]] = {
+    "pfsp": lambda s: (" Opponents drawn per drill by prioritised fictitious self-play "
+                       f"(`opponents=\"pfsp\"`, floor {s.pfsp_floor:g}, decay "
+                       f"{s.pfsp_decay:g})."),
+    "uniform": lambda s: (" Opponents drawn per rollout: the current networks or a "
+                          "checkpoint drawn uniformly (`opponents=\"uniform\"`)."),
+}
+"""What a self-play section says of how its opponents were drawn, per
+``SelfPlaySetting.opponents``."""
+
+
 def _described(setting: Any) -> str:
     if isinstance(setting, SelfPlaySetting):
-        drawn = (" Opponents drawn per drill by prioritised fictitious self-play "
-                 f"(`opponents=\"pfsp\"`, floor {setting.pfsp_floor:g}, decay "
-                 f"{setting.pfsp_decay:g})." if setting.opponents == "pfsp" else
-                 " Opponents drawn per rollout: the current networks or a checkpoint "
-                 "drawn uniformly (`opponents=\"uniform\"`).")
+        drawn = OPPONENTS_DRAWN[setting.opponents](setting)
         e = setting.exploiter_drills()
         if e:
             drawn += (f" A main exploiter per side in {e} of each half's "
