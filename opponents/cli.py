@@ -1,5 +1,8 @@
 """``soccer-drill-teams``: list the installed opponent teams with their descriptions.
 
+Every task's teams are listed (the drill's defenders, then keepaway's takers), or one
+task's with ``--task``; any team may be named in any environment.
+
 A plugin that cannot be used (it fails to import, is not callable, or declares an
 invalid id) is reported on standard error with its error, after the teams that
 work, and the exit status is then 1. Warnings (e.g. an id declared by two
@@ -15,6 +18,7 @@ from collections.abc import Sequence
 
 from soccer_drill import available_teams
 from soccer_drill.teams import PluginWarning, broken_teams, refresh
+from soccer_drill.teams.registry import TASK_TEAMS
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -24,11 +28,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         prog="soccer-drill-teams", description=summary,
         epilog=__doc__.split("\n\n", 1)[1].strip(),
     )
-    parser.parse_args(argv)
+    parser.add_argument("--task", choices=list(TASK_TEAMS), default=None,
+                        help="list only this task's teams (default: every task's)")
+    args = parser.parse_args(argv)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", PluginWarning)
         refresh()  # discover afresh, so discovery's warnings are seen here
-        teams = available_teams()
+        teams = available_teams(args.task)
         broken = broken_teams()
     width = max(map(len, teams), default=0)
     for team_id, description in teams.items():

@@ -193,19 +193,33 @@ class DrillConfig:
         check("DrillConfig.task", self.task, TASK)
         self._check_substeps()
         self._check_control_per_cycle()
+        defaulted = []  # the starts not given, so the task's
         for name, count in (("attacker_starts", self.attackers),
                             ("defender_starts", self.defenders)):
             if getattr(self, name) is None:
+                defaulted.append(name)
                 object.__setattr__(self, name, TASKS[self.task].starts(name, count, self.field_size))
-            inside = Real(0.0, self.field_size)
-            point = ListOf(inside, 2, 2, kinds=(list, tuple, np.ndarray))
-            check(f"DrillConfig.{name}", getattr(self, name),
-                  ListOf(point, count, count, kinds=(list, tuple, np.ndarray)),
-                  why=f"{_COUNTS[count]} (x, y) point{'s' * (count > 1)} inside the field, "
-                      f"one per {name.split('_')[0]}")
-            points = tuple((float(x), float(y)) for x, y in getattr(self, name))
-            object.__setattr__(self, name, points)
-        self._check_start_area()
+        try:
+            for name, count in (("attacker_starts", self.attackers),
+                                ("defender_starts", self.defenders)):
+                inside = Real(0.0, self.field_size)
+                point = ListOf(inside, 2, 2, kinds=(list, tuple, np.ndarray))
+                check(f"DrillConfig.{name}", getattr(self, name),
+                      ListOf(point, count, count, kinds=(list, tuple, np.ndarray)),
+                      why=f"{_COUNTS[count]} (x, y) point{'s' * (count > 1)} inside the "
+                          f"field, one per {name.split('_')[0]}")
+                points = tuple((float(x), float(y)) for x, y in getattr(self, name))
+                object.__setattr__(self, name, points)
+            self._check_start_area()
+        except ValueError as exc:
+            if not defaulted:
+                raise
+            raise ValueError(
+                f"{exc}. Not given, {' and '.join(defaulted)} are the {self.task}'s default "
+                f"starts for {self.attackers} attacker(s) and {self.defenders} defender(s) "
+                "(two players of a side keep the paper's points in a field of any size: "
+                "soccer_drill.tasks); give attacker_starts and defender_starts that fit "
+                f"field_size {self.field_size:g}") from None
 
     def _check_substeps(self) -> None:
         """Sub-steps short enough that no player can pass through a wall or another

@@ -110,6 +110,22 @@ def test_a_factory_that_returns_a_class_is_refused(team_registry):
         HolderEnv(opponent="returns_a_class")
 
 
+class ResetOnly:
+    """A team that forgot its ``act``."""
+
+    def reset(self, view, rng):
+        pass
+
+
+@pytest.mark.parametrize("kind", ["single", "holder", "agents"])
+def test_an_object_that_is_not_a_team_is_refused_naming_what_a_team_has(kind):
+    with pytest.raises(TypeError, match=r"opponent must be a team id or a Team instance, got "
+                                        r".*: a team instance has the methods reset\(view, "
+                                        r"rng\) and act\(view\), or batch\(n\) .*; its "
+                                        r"class ResetOnly has reset$"):
+        _make(kind, ResetOnly())
+
+
 @pytest.mark.parametrize("kind", ["single", "holder", "agents"])
 def test_parameters_with_a_team_instance_are_refused_by_every_environment(kind):
     with pytest.raises(ValueError, match=r"opponent_params given with a Team instance \(Plain\)"):

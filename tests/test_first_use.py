@@ -95,3 +95,39 @@ def test_episodes_after_warm_up_compile_nothing_new():
                           timeout=600)
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout.strip().splitlines()[-1]) == {}
+
+
+_EDGES = r"""
+import sys
+import numpy as np
+import soccer_drill
+from soccer_drill.vector import HolderVectorEnv, ParallelVectorEnv
+
+config = {"max_cycles": 1} if sys.argv[1] == "one cycle" else {"task": "keepaway", "attackers": 1}
+team = {} if sys.argv[1] == "one cycle" else {"opponent": "keepaway_takers"}
+for size in ({}, {"attackers": 3}) if sys.argv[1] == "one cycle" else ({},):
+    cfg = {**config, **size}  # the first environment of its size in this process
+    holder = soccer_drill.HolderEnv(config=cfg, **team)
+    holder.reset(seed=0)
+    holder.step(0)
+    par = soccer_drill.parallel_env(config=cfg, **team)
+    obs, _ = par.reset(seed=1)
+    while par.agents:
+        obs, *_ = par.step({a: int(np.flatnonzero(o["action_mask"])[0]) for a, o in obs.items()})
+    for vec in (HolderVectorEnv(num_envs=2, config=cfg, **team),
+                ParallelVectorEnv(num_envs=2, config=cfg, **team)):
+        vec.reset(seed=2)
+print("played")
+"""
+
+
+@pytest.mark.parametrize("case", ["one cycle", "one keeper"])
+def test_the_first_environment_of_an_edge_configuration_is_made_and_plays(case):
+    """A process's first environment of a size warms the rules up with its configuration:
+    with ``max_cycles=1`` the warm-up's two steps used to run past the episode's end
+    (``RuntimeError``), and keepaway with one keeper warmed the state of a taker as if a
+    keeper, writing past the end of its row (the process aborted)."""
+    done = subprocess.run([sys.executable, "-c", _EDGES, case], capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip().endswith("played")

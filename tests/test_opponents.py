@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 
+import soccer_drill
 from ilpss.experiments.calibrate import (
     Cell,
     calibrate,
@@ -97,8 +98,25 @@ def test_sampler_gives_distinct_reproducible_runnable_opponents():
 def test_cli_lists_every_team(capsys):
     assert list_teams([]) == 0
     out = capsys.readouterr().out
-    for team in (*PAPER_TEAMS, "chasers", "parametric"):
+    for team in (*PAPER_TEAMS, "chasers", "parametric", "keepaway_takers"):
         assert team in out
+    assert list_teams(["--task", "keepaway"]) == 0
+    assert capsys.readouterr().out.split()[0] == "keepaway_takers"
+
+
+def test_every_tasks_teams_are_listed_and_named_when_an_id_is_unknown():
+    """Keepaway's takers are teams like the drill's: listed by ``available_teams`` (every
+    task's, or one task's), and named by the error for an unknown id, as any
+    environment takes them."""
+    every = soccer_drill.available_teams()
+    assert {"keepaway_takers", "goal_guards"} <= set(every)
+    assert list(soccer_drill.available_teams("keepaway")) == ["keepaway_takers"]
+    assert "keepaway_takers" not in soccer_drill.available_teams("drill")
+    with pytest.raises(ValueError, match=r"task must be 'drill' or 'keepaway', got 'kept'"):
+        soccer_drill.available_teams("kept")
+    with pytest.raises(ValueError, match=r"unknown team 'keepaway_taker'.*goal_guards.*"
+                                         r"'keepaway': \['keepaway_takers'\]"):
+        soccer_drill.HolderEnv(config={"task": "keepaway"}, opponent="keepaway_taker")
 
 
 

@@ -319,7 +319,7 @@ def test_agents_that_ignore_the_masks_play_on_through_autoresets():
 def test_the_batched_agents_spaces_options_and_flags_as_parallel_env():
     with pytest.raises(KeyError, match="unknown agent 'bogus'"):
         ParallelVectorEnv(num_envs=2).observation_space("bogus")
-    with pytest.raises(ValueError, match=r"ParallelVectorEnv\.reset takes no options"):
+    with pytest.raises(ValueError, match=r"ParallelVectorEnv\.reset's options: unknown field"):
         ParallelVectorEnv(num_envs=2).reset(options={"reset_mask": np.ones(2, dtype=bool)})
     env = ParallelVectorEnv(num_envs=2, shared_spaces=np.True_)
     assert env.action_space("defender_0") == env.action_space("attacker_0")

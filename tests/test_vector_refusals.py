@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+import soccer_drill
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.vector import HolderVectorEnv, play_episodes
 from soccer_drill.vector.agents import ParallelVectorEnv
@@ -18,12 +19,30 @@ def test_reset_refuses_unknown_options_and_options_that_are_not_a_dict():
     with pytest.raises(ValueError, match=r"HolderVectorEnv.reset's options: unknown field\(s\) "
                                          r"\['reset_masks'\]; allowed: \['reset_mask'\]"):
         venv.reset(options={"reset_masks": mask})
-    with pytest.raises(TypeError, match=r"options must be a dict.*got list"):
+    with pytest.raises(TypeError, match=r"options must be None or a dict.*got list"):
         venv.reset(options=[1])
     with pytest.raises(ValueError, match=r"unknown field\(s\) \[1\]"):
         venv.reset(options={1: 2})
     venv.reset(options={})  # an empty dict: every drill, as None
     venv.reset(options={"reset_mask": mask})
+
+
+@pytest.mark.parametrize("make", [
+    lambda: soccer_drill.HolderEnv(), lambda: soccer_drill.parallel_env(),
+    lambda: soccer_drill.env(), lambda: HolderVectorEnv(num_envs=2),
+    lambda: ParallelVectorEnv(num_envs=2)], ids=["holder", "parallel", "aec", "holder vector",
+                                                 "parallel vector"])
+def test_every_environment_checks_reset_options_alike(make):
+    """``options`` is ``None`` or a dict of the keys an environment takes, in every
+    environment (a single environment takes none), and an empty dict always passes:
+    anything else is refused with what was given and what is allowed, not ignored."""
+    env = make()
+    with pytest.raises(TypeError, match=r"'s options must be None or a dict \(keys: .*\), got str"):
+        env.reset(seed=0, options="not a dict")
+    with pytest.raises(ValueError, match=r"'s options: unknown field\(s\) \['colour'\]"):
+        env.reset(seed=0, options={"colour": "red"})
+    env.reset(seed=0, options={})
+    env.reset(seed=0, options=None)
 
 
 def _returning(value):

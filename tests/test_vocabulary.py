@@ -188,7 +188,7 @@ HAND_WRITTEN_ALLOWED = {
     "soccer_drill/teams/kit.py::random": 1,
     "soccer_drill/teams/registry.py::team_parameters": 1,
     "soccer_drill/vector/agents.py::_commands": 2,
-    "soccer_drill/vector/holder.py::check_reset_options": 1,
+    "soccer_drill/envs/core.py::check_reset_options": 1,
     "soccer_drill/vector/holder.py::play_episodes": 1,
     "soccer_drill/vector/holder.py::_check_reset": 1,
     "soccer_drill/vector/holder.py::_check_actions": 1,

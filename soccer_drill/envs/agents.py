@@ -31,6 +31,7 @@ from soccer_drill.envs.core import (
     Observation,
     ObsType,
     action_list,
+    check_reset_options,
     make_config,
     masked_action,
     not_reset,
@@ -630,7 +631,9 @@ class raw_env(_DrillEnvBase, AECEnv):
         self.agents: list[str] = []
 
     def reset(self, seed: int | None = None, options: dict | None = None) -> None:
-        """Start an episode; ``seed`` reseeds the drill (see Seeding in the class docstring)."""
+        """Start an episode; ``seed`` reseeds the drill (see Seeding in the class docstring).
+        ``options``: ``None`` or an empty dict (it takes none)."""
+        check_reset_options(options, (), "raw_env.reset")
         with self._claim("reset"):
             self._begin_episode(seed)
             self.rewards = dict.fromkeys(self.agents, 0.0)
@@ -785,7 +788,9 @@ class parallel_env(_DrillEnvBase, ParallelEnv):
     def reset(
         self, seed: int | None = None, options: dict | None = None
     ) -> tuple[dict[str, Any], dict[str, dict]]:
-        """Start an episode; ``seed`` reseeds the drill (see Seeding in :class:`raw_env`)."""
+        """Start an episode; ``seed`` reseeds the drill (see Seeding in :class:`raw_env`).
+        ``options``: ``None`` or an empty dict (it takes none)."""
+        check_reset_options(options, (), "parallel_env.reset")
         with self._claim("reset"):
             self._begin_episode(seed)
             result = (

@@ -26,7 +26,15 @@ from soccer_drill.commands import (
     attacker_action_skills,
 )
 from soccer_drill.config import DrillConfig
-from soccer_drill.constraints import Bool, Integer, NoneOr, OneOf, checked, is_int
+from soccer_drill.constraints import (
+    Bool,
+    Integer,
+    NoneOr,
+    OneOf,
+    check_keys,
+    checked,
+    is_int,
+)
 from soccer_drill.drill.drills import BatchDrill
 from soccer_drill.drill.spaces import DRILLS_PER_SPACE, DrillSpace
 from soccer_drill.rules.arrays import Outcome, rule_parameters
@@ -312,6 +320,22 @@ SEED = NoneOr(Integer(0))
 """What a single environment's ``reset(seed=...)`` takes: ``None`` (continue the
 generator) or an integer >= 0, Python's or NumPy's (not a bool, a float or a list, which
 NumPy would take as a seed sequence)."""
+
+
+def check_reset_options(options: object, allowed: tuple[str, ...], where: str
+                        ) -> Mapping[str, Any]:
+    """``reset``'s ``options``, checked alike in every environment: ``None`` (none) or a
+    dict (or other mapping) whose keys are all in ``allowed``; anything else refused,
+    naming what was given and the keys ``where`` takes (an empty mapping always passes,
+    as wrappers may give one)."""
+    if options is None:
+        return {}
+    if not isinstance(options, Mapping):
+        keys = ", ".join(map(repr, allowed)) or "none"
+        raise TypeError(f"{where}'s options must be None or a dict (keys: {keys}), got "
+                        f"{type(options).__name__}")
+    check_keys(f"{where}'s options", options, allowed, required=())
+    return options
 
 
 def check_seed(seed: object, n: int) -> list[int | None] | None:

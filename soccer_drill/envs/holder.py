@@ -25,7 +25,14 @@ from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import Integer, checked
 from soccer_drill.drill.drills import BatchDrill
 from soccer_drill.drill.spaces import DrillSpace
-from soccer_drill.envs.core import SEED, BatchCore, Observation, make_config, not_reset
+from soccer_drill.envs.core import (
+    SEED,
+    BatchCore,
+    Observation,
+    check_reset_options,
+    make_config,
+    not_reset,
+)
 from soccer_drill.envs.pickling import Pickled
 from soccer_drill.rendering.scene import FrameStyle, Scene
 from soccer_drill.rendering.screen import RENDER_MODES, HeaderTexts, Screen, frames_per_second
@@ -552,8 +559,10 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start an episode; the observation is the 9 features of the attacker given the ball.
         ``seed``: ``None`` (continue the generator) or an integer >= 0, Python's or NumPy's,
-        as every environment of the drill takes it."""
+        as every environment of the drill takes it. ``options``: ``None`` or an empty dict
+        (it takes none)."""
         seed = checked("seed", seed, SEED)
+        check_reset_options(options, (), "HolderEnv.reset")
         loop = self.loop
         with self._claim("reset"):
             super().reset(seed=seed)

@@ -65,8 +65,10 @@ def _drill_rules(config: DrillConfig | None) -> None:
         batch.skill[:] = [int(Skill.HOLD)] + [int(Skill.GET_OPEN)] * (cfg.attackers - 1) + [
             int(Skill.INTERCEPT)] + [int(Skill.MOVE_TO)] * (cfg.defenders - 1)
         # The drills that step: the single environments' fixed (read-only) one, the vector
-        # environment's (writable) choice.
+        # environment's (writable) choice; each from a reset, as a one-cycle episode
+        # (max_cycles=1) ends at its first step.
         for active in (_read_only(np.ones(n, dtype=bool)), np.ones(n, dtype=bool)):
+            batch.reset(every, [np.random.default_rng(k) for k in range(n)])
             batch.step(active, [np.random.default_rng(k) for k in range(n)])
         params = rule_parameters(cfg)
         fixed = _read_only(every)  # the single environments' drill, a core's every drill

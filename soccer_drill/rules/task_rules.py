@@ -94,7 +94,11 @@ def _keepaway_rules(config: DrillConfig | None) -> None:
     out = np.empty((n, len(low)), np.float32)
     fixed = every.copy()
     fixed.flags.writeable = False
-    for rows, players in ((fixed, fixed), (every, every), (fixed, every)):
+    # the state is a keeper's: with one keeper, the second drill's is keeper 0 too
+    keepers = every % config.attackers
+    fixed_keepers = keepers.copy()
+    fixed_keepers.flags.writeable = False
+    for rows, players in ((fixed, fixed_keepers), (every, keepers), (fixed, keepers)):
         keepaway_states_of_drills(out, batch.state, rows, players, params, low, high)
     steps_supporting = np.zeros(n, dtype=[("s", np.int8, (config.attackers,))])["s"]
     for supporting in (steps_supporting, np.ones((n, config.attackers), dtype=np.int8)):

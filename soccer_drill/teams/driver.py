@@ -746,7 +746,11 @@ def resolve_team(
                 "registered team id with opponent_params"
             )
         return opponent, name, {}  # type: ignore[return-value]
-    raise TypeError(f"opponent must be a team id or a Team instance, got {short_repr(opponent)}")
+    has = [m for m in ("reset", "act", "batch") if callable(getattr(type(opponent), m, None))]
+    raise TypeError(
+        f"opponent must be a team id or a Team instance, got {short_repr(opponent)}: a team "
+        "instance has the methods reset(view, rng) and act(view), or batch(n) "
+        f"(soccer_drill.teams.Team); its class {name} has {' and '.join(has) or 'none of them'}")
 
 
 def _read_within(opponent: object, name: str, team_timeout: float | None) -> bool:

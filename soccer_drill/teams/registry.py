@@ -41,7 +41,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from soccer_drill.commands import Command
-from soccer_drill.constraints import Name, NoneOr, Real, checked
+from soccer_drill.constraints import Name, NoneOr, OneOf, Real, checked
 from soccer_drill.interruptions import delivered_by_signal, short_repr
 from soccer_drill.registry import PROJECT_DISTRIBUTION, PluginWarning, Registry
 from soccer_drill.state import DrillView
@@ -99,6 +99,8 @@ entry points of the group ``soccer_drill.keepaway_teams``."""
 TASK_TEAMS: dict[str, Registry] = {"drill": TEAMS, "keepaway": KEEPAWAY_TEAMS}
 """Each task's teams. An id is looked up in every task's registry (the drill's first), so
 any team can be named in any environment; :func:`team_ids` lists one task's."""
+_TASK = OneOf(tuple(TASK_TEAMS))
+"""What a ``task`` of :func:`team_ids` and :func:`available_teams` may be."""
 
 
 def _registry_of(team_id: object) -> Registry:
@@ -107,6 +109,18 @@ def _registry_of(team_id: object) -> Registry:
         if team_id in registry:
             return registry
     return TEAMS
+
+
+def _factory(team_id: str) -> Any:
+    """The factory of team ``team_id``, from whichever task's registry holds it; an
+    unknown id's ``ValueError`` lists every task's teams, since any may be named."""
+    registry = _registry_of(team_id)
+    try:
+        return registry.get(team_id)
+    except ValueError as exc:
+        others = {task: r.names() for task, r in TASK_TEAMS.items() if r is not registry}
+        raise ValueError(f"{exc}; and the teams of other tasks, which any environment "
+                         f"takes too: {others}") from None
 
 
 def check_team_timeout(team_timeout: object) -> float | None:
@@ -128,8 +142,10 @@ def team_parameters(params: object) -> dict[str, Any]:
 
 
 def refresh() -> None:
-    """Look for newly installed entry points (keeps explicit registrations)."""
-    TEAMS.refresh()
+    """Look for newly installed entry points of every task's teams (keeps explicit
+    registrations)."""
+    for registry in TASK_TEAMS.values():
+        registry.refresh()
 
 
 def register(team_id: str, factory: Callable[..., Team], *, overwrite: bool = False) -> None:
@@ -150,24 +166,26 @@ def register(team_id: str, factory: Callable[..., Team], *, overwrite: bool = Fa
 def team_ids(task: str = "drill") -> list[str]:
     """Ids of every known team of ``task`` (the drill's by default), sorted (without
     importing any plugin)."""
-    return TASK_TEAMS[task].names()
+    return TASK_TEAMS[checked("task", task, _TASK)].names()
 
 
 def describe(team_id: str) -> str:
     """First line of the team factory's docstring."""
-    factory = _registry_of(team_id).get(team_id)
+    factory = _factory(team_id)
     doc = (getattr(factory, "__doc__", None) or "").strip()
     return doc.splitlines()[0] if doc else ""
 
 
-def available_teams() -> dict[str, str]:
-    """``{team id: one-line description}`` of every team that can be built.
+def available_teams(task: str | None = None) -> dict[str, str]:
+    """``{team id: one-line description}`` of every team that can be built: of every
+    task (the drill's first, then keepaway's takers: :data:`TASK_TEAMS`), or of ``task``.
 
     A team whose plugin fails to load is left out with a :class:`PluginWarning`
     naming it and the error (:func:`broken_teams` lists them).
     """
     teams = {}
-    for team_id in team_ids():
+    tasks = list(TASK_TEAMS) if task is None else [checked("task", task, _TASK)]
+    for team_id in (name for t in tasks for name in team_ids(t)):
         try:
             teams[team_id] = describe(team_id)
         except TeamError as exc:
@@ -178,9 +196,10 @@ def available_teams() -> dict[str, str]:
 def broken_teams() -> dict[str, str]:
     """``{team id: what is wrong}`` for every declared team that cannot be built.
 
-    Imports every plugin not imported yet.
+    Imports every plugin not imported yet, of every task's teams.
     """
-    return TEAMS.broken()
+    return {name: problem for registry in TASK_TEAMS.values()
+            for name, problem in registry.broken().items()}
 
 
 def team_code(team_id: str) -> dict[str, str]:
@@ -196,7 +215,7 @@ def team_code(team_id: str) -> dict[str, str]:
     A key is left out when it cannot be known (a factory made at run time).
     """
     registry = _registry_of(team_id)
-    factory = registry.get(team_id)
+    factory = _factory(team_id)
     out = {"factory": f"{getattr(factory, '__module__', '?')}:{getattr(factory, '__qualname__', '?')}"}
     entry_point = registry.entry_point(team_id)
     dist = getattr(entry_point, "dist", None)
@@ -243,7 +262,7 @@ def make_team(team_id: str, **params: Any) -> Team:
         is not caught, see :mod:`soccer_drill.interruptions`), or built something that is
         not a team.
     """
-    factory = _registry_of(team_id).get(team_id)
+    factory = _factory(team_id)
     problem = _binding_problem(factory, params)
     if problem is not None:
         raise ValueError(f"bad parameters {short_repr(params)} for team {team_id!r}: {problem}")

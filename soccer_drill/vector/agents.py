@@ -26,6 +26,7 @@ from soccer_drill.envs.core import (
     Observation,
     ObsType,
     action_list,
+    check_reset_options,
     check_seed,
     make_config,
     masked_action,
@@ -267,8 +268,8 @@ class ParallelVectorEnv(Pickled):
         self, seed: int | Sequence[int | None] | None = None, options: dict | None = None
     ) -> tuple[dict[str, Any], dict[str, Any]]:
         """Start an episode in every drill (see Seeding)."""
-        if options:  # a reset of every drill: no option changes it (HolderVectorEnv has reset_mask)
-            raise ValueError(f"ParallelVectorEnv.reset takes no options, got {options!r}")
+        # a reset of every drill: no option changes it (HolderVectorEnv has reset_mask)
+        check_reset_options(options, (), "ParallelVectorEnv.reset")
         core = self._core
         seeds = check_seed(seed, self.num_envs)
 

@@ -20,12 +20,11 @@ from soccer_drill.constraints import (
     NoneOr,
     OneOf,
     check,
-    check_keys,
     checked,
     is_int,
 )
 from soccer_drill.drill.spaces import DRILLS_PER_SPACE
-from soccer_drill.envs.core import BatchCore, check_seed, make_config
+from soccer_drill.envs.core import BatchCore, check_reset_options, check_seed, make_config
 from soccer_drill.envs.holder import (
     DECISION_CYCLES,
     HolderLoop,
@@ -43,18 +42,6 @@ _RUNNING, _TIMEOUT = int(Outcome.RUNNING), int(Outcome.TIMEOUT)  # an enum looku
 _AUTORESET_MODES = OneOf((AutoresetMode.NEXT_STEP.value, AutoresetMode.SAME_STEP.value))
 RESET_OPTIONS = ("reset_mask",)
 """The keys ``HolderVectorEnv.reset``'s ``options`` may hold."""
-
-
-def check_reset_options(options: object) -> Mapping[str, Any]:
-    """``reset``'s ``options``: a dict (or other mapping) whose keys are all in
-    ``RESET_OPTIONS``; anything else refused, naming the key and the allowed ones."""
-    if not isinstance(options, Mapping):
-        raise TypeError(
-            f"options must be a dict (keys: {', '.join(map(repr, RESET_OPTIONS))}) or None, "
-            f"got {type(options).__name__}"
-        )
-    check_keys("HolderVectorEnv.reset's options", options, RESET_OPTIONS, required=())
-    return options
 
 
 def check_drill_indices(indices: object, n: int) -> list[int]:
@@ -328,7 +315,8 @@ class HolderVectorEnv(Pickled, VectorEnv):
                      options: dict[str, Any] | None) -> tuple[list[int | None] | None, np.ndarray]:
         """The seeds and the drills ``reset`` names (see Seeding), checked; nothing changes."""
         seeds = check_seed(seed, self.num_envs)
-        mask = None if options is None else check_reset_options(options).get("reset_mask")
+        mask = check_reset_options(options, RESET_OPTIONS, "HolderVectorEnv.reset").get(
+            "reset_mask")
         if mask is None:
             return seeds, self._all
         mask = np.asarray(mask)
