@@ -632,8 +632,9 @@ class raw_env(_DrillEnvBase, AECEnv):
 
     def reset(self, seed: int | None = None, options: dict | None = None) -> None:
         """Start an episode; ``seed`` reseeds the drill (see Seeding in the class docstring).
-        ``options``: ``None`` or an empty dict (it takes none)."""
-        check_reset_options(options, (), "raw_env.reset")
+        ``options``: ``None`` or a dict, whose keys it ignores (it takes none; PettingZoo's
+        API test passes some)."""
+        check_reset_options(options, None, "raw_env.reset")
         with self._claim("reset"):
             self._begin_episode(seed)
             self.rewards = dict.fromkeys(self.agents, 0.0)
@@ -789,8 +790,9 @@ class parallel_env(_DrillEnvBase, ParallelEnv):
         self, seed: int | None = None, options: dict | None = None
     ) -> tuple[dict[str, Any], dict[str, dict]]:
         """Start an episode; ``seed`` reseeds the drill (see Seeding in :class:`raw_env`).
-        ``options``: ``None`` or an empty dict (it takes none)."""
-        check_reset_options(options, (), "parallel_env.reset")
+        ``options``: ``None`` or a dict, whose keys it ignores (it takes none; PettingZoo's
+        API test passes some)."""
+        check_reset_options(options, None, "parallel_env.reset")
         with self._claim("reset"):
             self._begin_episode(seed)
             result = (

@@ -322,19 +322,21 @@ generator) or an integer >= 0, Python's or NumPy's (not a bool, a float or a lis
 NumPy would take as a seed sequence)."""
 
 
-def check_reset_options(options: object, allowed: tuple[str, ...], where: str
+def check_reset_options(options: object, allowed: tuple[str, ...] | None, where: str
                         ) -> Mapping[str, Any]:
     """``reset``'s ``options``, checked alike in every environment: ``None`` (none) or a
     dict (or other mapping) whose keys are all in ``allowed``; anything else refused,
     naming what was given and the keys ``where`` takes (an empty mapping always passes,
-    as wrappers may give one)."""
+    as wrappers may give one). ``allowed=None``: any keys, none read (PettingZoo's
+    environments, whose API test resets with ``options={"options": 1}``)."""
     if options is None:
         return {}
     if not isinstance(options, Mapping):
-        keys = ", ".join(map(repr, allowed)) or "none"
+        keys = "any, none read" if allowed is None else ", ".join(map(repr, allowed)) or "none"
         raise TypeError(f"{where}'s options must be None or a dict (keys: {keys}), got "
                         f"{type(options).__name__}")
-    check_keys(f"{where}'s options", options, allowed, required=())
+    if allowed is not None:
+        check_keys(f"{where}'s options", options, allowed, required=())
     return options
 
 
