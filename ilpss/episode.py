@@ -132,6 +132,10 @@ def check_env(env: Any, n_primitive: int, n_features: int) -> None:
     observations of shape ``(n_features,)`` (when it declares an observation shape)."""
     space = getattr(env, "action_space", None)
     n = getattr(space, "n", None)
+    if space is None:
+        raise ValueError(f"the environment has no action_space: give a Gymnasium "
+                         f"environment (action_space Discrete({n_primitive}), reset and step), "
+                         f"not {type(env).__name__} {env!r:.80}")
     if n is None or int(n) != n_primitive:
         raise ValueError(f"environment action space {space!r} is not Discrete({n_primitive})")
     shape = getattr(getattr(env, "observation_space", None), "shape", None)

@@ -62,10 +62,13 @@ from soccer_drill.constraints import (
     check,
     check_fields,
     check_keys,
+    checked,
     from_json,
 )
 
 CHECKPOINT_SCHEMA = "ilpss.lifelong/2"
+TRIAL = Integer(0)
+"""What :meth:`LifelongLearner.learn`'s ``trial`` may be (``None``: the next trial)."""
 
 
 LIFELONG_CONSTRAINTS = {
@@ -336,7 +339,7 @@ class LifelongLearner:
         episodes seeded apart from the learning episodes, which are the same as without
         them). ``task``, the task's name, is what the reuse's offer rule reads.
         """
-        index = self.n_trials if trial is None else trial
+        index = self.n_trials if trial is None else checked("trial", trial, TRIAL)
         learner_seed, env_seed, _, _ = trial_seeds(self.seed, index)
         learner = self.make_learner(learner_seed, with_options, task)
         start = self.config.reuse.start if with_options else Fresh()
@@ -469,11 +472,16 @@ class LifelongLearner:
         published by rewriting the small file ``<directory>/LATEST`` atomically, so a
         crash at any point leaves the previous checkpoint intact and current. Older
         checkpoints are removed once the new one is published.
+
+        A folder whose current checkpoint is another run's (another seed, configuration
+        or number of primitive actions, or trials that are not this learner's first ones)
+        is refused, and nothing in it changes: saving would delete or hide it.
         """
         root = Path(directory)
         root.mkdir(parents=True, exist_ok=True)
         # One writer at a time: a second process saving here gets a clear error.
         with locked_folder(root, "checkpoint folder"):
+            self._check_same_run(root)
             target = root / f"trial_{self.n_trials:04d}"
             building = root / f".building_{self.n_trials:04d}"
             for stale in _own_entries(root, _BUILDING_NAME):  # left by a crash: no one
@@ -519,6 +527,34 @@ class LifelongLearner:
                 if old.name < target.name:
                     shutil.rmtree(old, ignore_errors=True)
             return target
+
+    def _check_same_run(self, root: Path) -> None:
+        """Refuse to save over ``root``'s current checkpoint unless it is an earlier (or
+        the same) state of this run: its seed, configuration and primitive actions, and
+        its trials this learner's first ones, as they were saved."""
+        if not (root / "LATEST").exists():
+            return
+        try:
+            ckpt = latest_checkpoint(root)
+            state, _, _ = read_state(ckpt)
+        except (OSError, ValueError) as exc:
+            raise ValueError(
+                f"{root}: holds a checkpoint that cannot be read ({exc}); saving here would "
+                "replace it: save into another folder, or remove it first") from None
+        n = len(state["records"])
+        mine = json.loads(json.dumps({
+            "seed": self.seed, "n_primitive": self.n_primitive,
+            "config": self.config.to_dict(),
+            "records": [asdict(r) for r in self.records[:n]]}))
+        differs = [key for key in ("seed", "n_primitive", "config", "records")
+                   if state[key] != mine[key]]
+        if n > len(self.records):
+            differs.append(f"{n} trials there against this learner's {len(self.records)}")
+        if differs:
+            raise ValueError(
+                f"{root}: holds another run's checkpoint ({ckpt.name}; it differs from this "
+                f"learner in {', '.join(differs)}); saving here would delete or hide it: "
+                "save into another folder, or remove it first")
 
     @classmethod
     def load(

@@ -329,3 +329,41 @@ def test_the_prq_learner_example_runs():
     exec(compile(code, "PrqLearner example", "exec"), namespace)
     probabilities = namespace["learner"].selection_probabilities()
     assert probabilities.shape == (2,) and probabilities.sum() == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize(("call", "error", "message"), [
+    (lambda ll: ll.learn(_corridor(0), trial=-1), ValueError,
+     r"^trial must be an integer >= 0, got -1$"),
+    (lambda ll: ll.learn(_corridor(0), trial=1.5), ValueError,
+     r"^trial must be an integer >= 0, got 1\.5$"),
+    (lambda ll: ll.run_trial("chasers", "chasers"), ValueError,
+     r"the environment has no action_space: give a Gymnasium environment \(action_space "
+     r"Discrete\(3\), reset and step\), not str 'chasers'"),
+], ids=["negative trial", "fractional trial", "a team id for the environment"])
+def test_a_learners_arguments_are_named_when_refused(call, error, message):
+    """Before, NumPy's seeding said "expected non-negative integer" or "seed must be
+    integer", and a string for the environment was "action space None"."""
+    ll = _learner(_config(), 0)
+    with pytest.raises(error, match=message):
+        call(ll)
+    assert ll.n_trials == 0
+
+
+@pytest.mark.parametrize(("call", "message"), [
+    (lambda: metrics.holm([0.01, None]), r"p_values holds object values \(\[0\.01, None\]\); "
+                                         r"give numbers"),
+    (lambda: metrics.t_interval(["1", "2"]), r"values holds <U1 values"),
+    (lambda: metrics.compare([[0, 1], [0]], [[0, 1], [1, 0]], first=1, last=1,
+                             threshold=None, window=1),
+     r"transfer_curves: rows of different lengths"),
+    (lambda: metrics.compare(np.zeros((1, 20)), np.zeros((1, 20)), first=5, last=5,
+                             threshold=None, window=5),
+     r"^intervals over seeds need at least 2 seeds, got 1$"),
+], ids=["None among p-values", "text for values", "ragged curves", "one seed"])
+def test_the_statistics_refuse_what_is_not_numbers_naming_it(call, message):
+    """Before, ``None`` became a test left out of the family, text was parsed as numbers,
+    ragged curves gave NumPy's "inhomogeneous shape", and one seed under the t interval
+    was said to be too few for a bootstrap."""
+    with pytest.raises(ValueError, match=message):
+        call()
+    assert np.isnan(metrics.holm([0.01, float("nan")])[1])  # NaN still means "not made"

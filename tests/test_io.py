@@ -312,6 +312,33 @@ def _copy(src: Path, dst: Path) -> Path:
     return dst
 
 
+def test_a_save_over_another_runs_checkpoint_is_refused_and_leaves_it(checkpoints, tmp_path):
+    """A checkpoint folder holds one run: saving a learner of another seed or
+    configuration there is refused (before, it deleted the other run's checkpoint, or,
+    with fewer trials, hid it behind LATEST), while the same run saves on."""
+    from dataclasses import replace
+
+    from ilpss.lifelong import LifelongLearner
+
+    template, space, first, learner = checkpoints
+    root = _copy(template, tmp_path / "run")
+    other = LifelongLearner(learner.config, space, 3, seed=4)
+    longer = LifelongLearner(replace(learner.config, rollout_episodes=11), space, 3, seed=3)
+    for stranger, differs in ((other, r"seed, records"), (longer, r"config")):
+        with pytest.raises(ValueError, match=rf"holds another run's checkpoint \(trial_0001; it "
+                                             rf"differs from this learner in {differs}"):
+            stranger.save(root)
+        assert sorted(p.name for p in root.iterdir()) == ["LATEST", "trial_0001"]
+        assert _fingerprint(LifelongLearner.load(root, space)) == first
+    learner.save(root)  # the same run, a trial further
+    resumed = LifelongLearner.load(root, space)
+    resumed.save(root)  # and as loaded
+    assert _fingerprint(LifelongLearner.load(root, space)) == _fingerprint(learner)
+    (root / "trial_0002" / "state.json").write_text("{}")
+    with pytest.raises(ValueError, match=r"holds a checkpoint that cannot be read"):
+        learner.save(root)
+
+
 # One lifelong save writes 9 files here: policies 0-1, the library's kernels, policies 0-1
 # and record, the bags, state.json, then LATEST (which publishes the checkpoint).
 @pytest.mark.parametrize("nth_write", range(1, 10))

@@ -11,14 +11,38 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from soccer_drill.constraints import is_int, is_real
+from soccer_drill.interruptions import short_repr
 
 FloatArray = NDArray[np.float64]
 """The float64 arrays every metric takes and gives."""
 
 
+def _as_floats(values: ArrayLike, name: str) -> FloatArray:
+    """``values`` as a float64 array, if they are numbers (Python's or NumPy's, bools
+    included) in a regular shape: text, ``None`` and other objects, which NumPy would
+    parse or keep as objects, and rows of different lengths are refused by name."""
+    try:
+        arr = np.asarray(values)
+    except ValueError:  # NumPy's "inhomogeneous shape"
+        raise ValueError(f"{name}: rows of different lengths; give a regular array of "
+                         "numbers") from None
+    if arr.dtype == object and arr.size and arr.ndim >= 1:
+        try:  # rows of different lengths, given as objects
+            lengths = {len(row) for row in arr.reshape(-1)}
+        except TypeError:
+            lengths = set()
+        if len(lengths) > 1:
+            raise ValueError(f"{name}: rows of different lengths {sorted(lengths)}; give a "
+                             "regular array of numbers")
+    if arr.dtype.kind not in "biuf":
+        raise ValueError(f"{name} holds {arr.dtype} values ({short_repr(values)}); give "
+                         "numbers (Python's or NumPy's)")
+    return arr.astype(np.float64, copy=False)
+
+
 def _as_curve(curve: ArrayLike, name: str = "curve") -> FloatArray:
     """``curve`` as a finite, non-empty 1-D float64 array, or :class:`ValueError`."""
-    arr = np.asarray(curve, dtype=np.float64)
+    arr = _as_floats(curve, name)
     if arr.ndim != 1:
         raise ValueError(f"{name} must be 1-D (one reward per episode), got shape {arr.shape}")
     if arr.size == 0:
@@ -30,7 +54,7 @@ def _as_curve(curve: ArrayLike, name: str = "curve") -> FloatArray:
 
 def _as_curves(curves: ArrayLike, name: str = "curves") -> FloatArray:
     """``curves`` as a finite, non-empty ``(n_seeds, n_episodes)`` float64 array."""
-    arr = np.asarray(curves, dtype=np.float64)
+    arr = _as_floats(curves, name)
     if arr.ndim != 2:
         raise ValueError(f"{name} must have shape (n_seeds, n_episodes), got shape {arr.shape}")
     if arr.size == 0:

@@ -22,6 +22,7 @@ from ilpss.metrics._validation import (
     FloatArray,
     _as_curve,
     _as_curves,
+    _as_floats,
     _check_confidence,
     _check_real,
 )
@@ -118,7 +119,7 @@ INTERVALS = ("t", "percentile")
 def _as_samples(values: ArrayLike, name: str, min_n: int = 2) -> FloatArray:
     """``values`` as a finite float64 array of at least one dimension whose last axis
     (the seeds) holds at least ``min_n`` values."""
-    arr = np.asarray(values, dtype=np.float64)
+    arr = _as_floats(values, name)
     if arr.ndim == 0:
         raise ValueError(f"{name} must be an array of per-seed values, got a scalar")
     if arr.shape[-1] < min_n:
@@ -409,7 +410,7 @@ def holm(p_values: ArrayLike) -> FloatArray:
     ValueError
         Not 1-D, or a value outside ``[0, 1]``.
     """
-    p = np.asarray(p_values, dtype=np.float64)
+    p = _as_floats(p_values, "p_values")
     if p.ndim != 1:
         raise ValueError(f"p_values must be 1-D, got shape {p.shape}")
     known = ~np.isnan(p)
@@ -496,7 +497,7 @@ def _check_boot(n_boot: int, n_seeds: int, confidence: float) -> tuple[int, floa
     if not is_int(n_boot) or n_boot < 1:
         raise ValueError(f"n_boot must be a positive integer, got {n_boot!r}")
     if n_seeds < 2:
-        raise ValueError(f"a bootstrap over seeds needs at least 2 seeds, got {n_seeds}")
+        raise ValueError(f"intervals over seeds need at least 2 seeds, got {n_seeds}")
     return int(n_boot), _check_confidence(confidence)
 
 

@@ -295,6 +295,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _main(argv)
 
 
+FLAGS_OF_KINDS: dict[str, tuple[type, ...]] = {
+    "marl": (MarlSetting, SelfPlaySetting),
+    "timeout_reward": (HolderSetting, TransferSetting),
+    "timeout_bootstrap": (HolderSetting, TransferSetting),
+    "source_steps": (TransferSetting,), "target_episodes": (TransferSetting,),
+    "window": (TransferSetting,), "crossplay_episodes": (SelfPlaySetting,),
+}
+"""The flags that change some kinds of settings only, and those kinds: given with no
+such setting selected, a flag would change nothing, yet be recorded on the page."""
+
+
 def _check_flags(args: argparse.Namespace) -> dict[str, int]:
     """Refuse bad flags; the training seeds of each selected setting."""
     for flag in ("teams", "settings", "attacks"):
@@ -304,6 +315,13 @@ def _check_flags(args: argparse.Namespace) -> dict[str, int]:
     every, per = parse_seeds(args.seeds)
     if unselected := sorted(set(per) - set(args.settings)):
         raise ValueError(f"--seeds names {unselected}, which --settings does not select")
+    for flag, kinds in FLAGS_OF_KINDS.items():
+        given = getattr(args, flag) not in (None, False, [])
+        if given and not any(isinstance(SETTINGS[name], kinds) for name in args.settings):
+            takers = [name for name, s in SETTINGS.items() if isinstance(s, kinds)]
+            raise ValueError(f"--{flag.replace('_', '-')} changes only the settings "
+                             f"{takers}, and --settings selects none of them: "
+                             f"{args.settings}")
     seeds = {name: per.get(name, every) for name in args.settings}
     for flag, value in (("--seeds", every), *((f"--seeds {name}=N", n) for name, n in per.items()),
                         ("--eval", args.eval), ("--workers", args.workers)):
