@@ -18,7 +18,6 @@ from collections.abc import Sequence
 
 from soccer_drill import available_teams
 from soccer_drill.teams import PluginWarning, broken_teams, refresh
-from soccer_drill.teams.registry import TASK_TEAMS
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -28,13 +27,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         prog="soccer-drill-teams", description=summary,
         epilog=__doc__.split("\n\n", 1)[1].strip(),
     )
-    parser.add_argument("--task", choices=list(TASK_TEAMS), default=None,
-                        help="list only this task's teams (default: every task's)")
+    parser.add_argument("--task", default=None,
+                        help="list only this task's teams, e.g. keepaway (default: every "
+                             "task's)")
     args = parser.parse_args(argv)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", PluginWarning)
         refresh()  # discover afresh, so discovery's warnings are seen here
-        teams = available_teams(args.task)
+        try:
+            teams = available_teams(args.task)
+        except ValueError as exc:  # an unknown task: the message names the known ones
+            parser.error(str(exc))
         broken = broken_teams()
     width = max(map(len, teams), default=0)
     for team_id, description in teams.items():

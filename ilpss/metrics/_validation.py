@@ -6,12 +6,12 @@ Each raises :class:`ValueError` saying what was wrong and what is allowed.
 from __future__ import annotations
 
 import math
+import reprlib
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from soccer_drill.constraints import is_int, is_real
-from soccer_drill.interruptions import short_repr
 
 FloatArray = NDArray[np.float64]
 """The float64 arrays every metric takes and gives."""
@@ -35,7 +35,7 @@ def _as_floats(values: ArrayLike, name: str) -> FloatArray:
             raise ValueError(f"{name}: rows of different lengths {sorted(lengths)}; give a "
                              "regular array of numbers")
     if arr.dtype.kind not in "biuf":
-        raise ValueError(f"{name} holds {arr.dtype} values ({short_repr(values)}); give "
+        raise ValueError(f"{name} holds {arr.dtype} values ({reprlib.repr(values)}); give "
                          "numbers (Python's or NumPy's)")
     return arr.astype(np.float64, copy=False)
 
