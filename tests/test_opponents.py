@@ -102,6 +102,10 @@ def test_cli_lists_every_team(capsys):
         assert team in out
     assert list_teams(["--task", "keepaway"]) == 0
     assert capsys.readouterr().out.split()[0] == "keepaway_takers"
+    with pytest.raises(SystemExit) as refused:
+        list_teams(["--task", "kept"])
+    assert refused.value.code == 2
+    assert "task must be 'drill' or 'keepaway', got 'kept'" in capsys.readouterr().err
 
 
 def test_every_tasks_teams_are_listed_and_named_when_an_id_is_unknown():
