@@ -134,6 +134,9 @@ def build_settings(args: argparse.Namespace) -> dict[str, Any]:
     """The selected settings with the flags' changes, checked by the dataclasses."""
     ppo = parse_ppo(args.ppo)
     marl = parse_fields("--marl", args.marl, MARL_FIELDS)
+    # checked whichever settings are selected: a value no selected setting reads would
+    # otherwise pass unchecked onto the page's command line
+    dataclasses.replace(MarlSetting(), **marl)
     reward = RewardOption(args.timeout_reward)
 
     def holder(h: HolderSetting) -> HolderSetting:
@@ -295,17 +298,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _main(argv)
 
 
-FLAGS_OF_KINDS: dict[str, tuple[type, ...]] = {
-    "marl": (MarlSetting, SelfPlaySetting),
-    "timeout_reward": (HolderSetting, TransferSetting),
-    "timeout_bootstrap": (HolderSetting, TransferSetting),
-    "source_steps": (TransferSetting,), "target_episodes": (TransferSetting,),
-    "window": (TransferSetting,), "crossplay_episodes": (SelfPlaySetting,),
-}
-"""The flags that change some kinds of settings only, and those kinds: given with no
-such setting selected, a flag would change nothing, yet be recorded on the page."""
-
-
 def _check_flags(args: argparse.Namespace) -> dict[str, int]:
     """Refuse bad flags; the training seeds of each selected setting."""
     for flag in ("teams", "settings", "attacks"):
@@ -315,13 +307,6 @@ def _check_flags(args: argparse.Namespace) -> dict[str, int]:
     every, per = parse_seeds(args.seeds)
     if unselected := sorted(set(per) - set(args.settings)):
         raise ValueError(f"--seeds names {unselected}, which --settings does not select")
-    for flag, kinds in FLAGS_OF_KINDS.items():
-        given = getattr(args, flag) not in (None, False, [])
-        if given and not any(isinstance(SETTINGS[name], kinds) for name in args.settings):
-            takers = [name for name, s in SETTINGS.items() if isinstance(s, kinds)]
-            raise ValueError(f"--{flag.replace('_', '-')} changes only the settings "
-                             f"{takers}, and --settings selects none of them: "
-                             f"{args.settings}")
     seeds = {name: per.get(name, every) for name in args.settings}
     for flag, value in (("--seeds", every), *((f"--seeds {name}=N", n) for name, n in per.items()),
                         ("--eval", args.eval), ("--workers", args.workers)):
