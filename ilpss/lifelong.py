@@ -536,18 +536,19 @@ class LifelongLearner:
             return
         try:
             ckpt = latest_checkpoint(root)
-            state, _, _ = read_state(ckpt)
+            state, config, _ = read_state(ckpt)
         except (OSError, ValueError) as exc:
             raise ValueError(
                 f"{root}: holds a checkpoint that cannot be read ({exc}); saving here would "
                 "replace it: save into another folder, or remove it first") from None
         n = len(state["records"])
-        mine = json.loads(json.dumps({
-            "seed": self.seed, "n_primitive": self.n_primitive,
-            "config": self.config.to_dict(),
-            "records": [asdict(r) for r in self.records[:n]]}))
-        differs = [key for key in ("seed", "n_primitive", "config", "records")
-                   if state[key] != mine[key]]
+        # the records as saved (JSON), so that a loaded learner's compare equal
+        mine = json.loads(json.dumps({"seed": self.seed, "n_primitive": self.n_primitive,
+                                      "records": [asdict(r) for r in self.records[:n]]}))
+        same = {"seed": state["seed"] == mine["seed"],
+                "n_primitive": state["n_primitive"] == mine["n_primitive"],
+                "config": config == self.config, "records": state["records"] == mine["records"]}
+        differs = [key for key, equal in same.items() if not equal]
         if n > len(self.records):
             differs.append(f"{n} trials there against this learner's {len(self.records)}")
         if differs:
