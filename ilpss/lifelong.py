@@ -543,11 +543,10 @@ class LifelongLearner:
                 "replace it: save into another folder, or remove it first") from None
         n = len(state["records"])
         # the records as saved (JSON), so that a loaded learner's compare equal
-        mine = json.loads(json.dumps({"seed": self.seed, "n_primitive": self.n_primitive,
-                                      "records": [asdict(r) for r in self.records[:n]]}))
-        same = {"seed": state["seed"] == mine["seed"],
-                "n_primitive": state["n_primitive"] == mine["n_primitive"],
-                "config": config == self.config, "records": state["records"] == mine["records"]}
+        records = json.loads(json.dumps([asdict(r) for r in self.records[:n]]))
+        same = {"seed": state["seed"] == self.seed,
+                "n_primitive": state["n_primitive"] == self.n_primitive,
+                "config": config == self.config, "records": state["records"] == records}
         differs = [key for key, equal in same.items() if not equal]
         if n > len(self.records):
             differs.append(f"{n} trials there against this learner's {len(self.records)}")

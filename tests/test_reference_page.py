@@ -195,6 +195,16 @@ def _successes(rewards) -> int:
     return sum(r > 0 for r in rewards)
 
 
+def _press_successes() -> dict[str, int]:
+    """Each scripted attack's successes against ``interceptors_press`` (the kept rules)."""
+    press = {}
+    for path in (DOCS / "data" / "reference_rl_jobs").glob("rule-*.json"):
+        result = load_json_record(path, "ilpss.kept_job/2")["result"]
+        if result["team"] == "interceptors_press":
+            press[result["rule"]] = _successes(result["eval"])
+    return press
+
+
 def _from_the_press(runs, press: dict[str, int]) -> list[int]:
     """Per run, the most episodes by which any attack's successes against its trained
     defenders differ from that attack's against ``interceptors_press``."""
@@ -207,11 +217,7 @@ def test_what_docs_say_of_self_plays_defenders_and_the_press_is_in_the_numbers()
     what interceptors_press concedes (from the kept fixed rules and the pages' per-seed
     numbers), what the league's attackers score, and the search arms' means."""
     text = " ".join((DOCS / "reference_rl.md").read_text(encoding="utf-8").split())
-    press = {}
-    for path in (DOCS / "data" / "reference_rl_jobs").glob("rule-*.json"):
-        result = load_json_record(path, "ilpss.kept_job/2")["result"]
-        if result["team"] == "interceptors_press":
-            press[result["rule"]] = _successes(result["eval"])
+    press = _press_successes()
     assert len(press) == 9 and press["late_pass"] == 165  # 82.5% of 200
     pages = {section["name"]: section for name in ("results", "self_play")
              for section in load_summary(DOCS / f"reference_rl_{name}_seeds.json.gz")["sections"]}
@@ -281,11 +287,7 @@ def test_what_docs_say_of_twice_the_budget_is_in_its_page_numbers():
     n = only_long + only_pfsp
     mcnemar = 2 * sum(math.comb(n, k) for k in range(only_pfsp + 1)) / 2 ** n
     assert f"{mcnemar:.1e}" == "1.4e-04"
-    press = {}
-    for path in (DOCS / "data" / "reference_rl_jobs").glob("rule-*.json"):
-        result = load_json_record(path, "ilpss.kept_job/2")["result"]
-        if result["team"] == "interceptors_press":
-            press[result["rule"]] = _successes(result["eval"])
+    press = _press_successes()
     assert min(_from_the_press(long["runs"], press)) == 27  # episodes, on some attack
     text = " ".join((DOCS / "reference_rl.md").read_text(encoding="utf-8").split())
     readme = " ".join((DOCS.parent / "README.md").read_text(encoding="utf-8").split())

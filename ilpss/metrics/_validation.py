@@ -19,21 +19,14 @@ FloatArray = NDArray[np.float64]
 
 def _as_floats(values: ArrayLike, name: str) -> FloatArray:
     """``values`` as a float64 array, if they are numbers (Python's or NumPy's, bools
-    included) in a regular shape: text, ``None`` and other objects, which NumPy would
-    parse or keep as objects, and rows of different lengths are refused by name."""
+    included) in a regular shape: text, ``None`` and other objects (an array of objects
+    too), which NumPy would parse or keep, and rows of different lengths are refused by
+    name."""
     try:
         arr = np.asarray(values)
     except ValueError:  # NumPy's "inhomogeneous shape"
         raise ValueError(f"{name}: rows of different lengths; give a regular array of "
                          "numbers") from None
-    if arr.dtype == object and arr.size and arr.ndim >= 1:
-        try:  # rows of different lengths, given as objects
-            lengths = {len(row) for row in arr.reshape(-1)}
-        except TypeError:
-            lengths = set()
-        if len(lengths) > 1:
-            raise ValueError(f"{name}: rows of different lengths {sorted(lengths)}; give a "
-                             "regular array of numbers")
     if arr.dtype.kind not in "biuf":
         raise ValueError(f"{name} holds {arr.dtype} values ({reprlib.repr(values)}); give "
                          "numbers (Python's or NumPy's)")
