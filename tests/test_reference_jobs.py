@@ -14,7 +14,14 @@ import pytest
 from ilpss.experiments.kept_jobs import KeptJobs
 from ilpss.experiments.provenance import MixedCodeError, code_record
 from ilpss.reference import cli
-from ilpss.reference.jobs import LIBRARIES, Job, check_result, job_key, library_versions
+from ilpss.reference.jobs import (
+    LIBRARIES,
+    Job,
+    check_result,
+    job_key,
+    least_exploited,
+    library_versions,
+)
 from ilpss.reference.settings import SETTINGS, EvalSettings
 
 EV = EvalSettings(episodes=4)
@@ -100,6 +107,35 @@ def test_self_play_crossplay_and_fields_are_checked():
     for bad in ([[0, 6], [3, 1]], [[0, 5]], [[0, 5], [3, -1]], [[0, 5], [3, 1.5]]):
         with pytest.raises(ValueError, match="table of success counts"):
             check_result("r", key, {**result, "crossplay": bad})
+
+
+@pytest.mark.parametrize("crossplay, kept", [
+    # the last attackers beat the last defenders most, but an earlier pair holds up
+    # best against every trained opponent: attackers 2 (fewest 6), defenders 1 (most 7)
+    ([[0, 0, 0, 0], [9, 5, 7, 2], [9, 7, 6, 8], [9, 3, 9, 9]], (2, 1)),
+    # ties go to the later checkpoint; the untrained row and column count for nothing
+    ([[0, 0, 0], [0, 4, 4], [9, 4, 4]], (2, 2)),
+    ([[9, 9, 0], [0, 1, 5], [0, 5, 1]], (2, 2)),
+])
+def test_least_exploited_keeps_each_sides_sturdiest_trained_checkpoint(crossplay, kept):
+    assert least_exploited(crossplay) == kept
+
+
+def test_a_kept_self_play_result_names_the_checkpoints_its_rule_keeps():
+    s = dataclasses.replace(SETTINGS["self_play_pfsp_long_kept"], crossplay_episodes=9,
+                            snapshots=3)
+    s = dataclasses.replace(s, marl=dataclasses.replace(
+        s.marl, ppo=dataclasses.replace(s.marl.ppo, steps=3 * 8192)))
+    key = job_key(Job("self_play_pfsp_long_kept", s, 0, None, ("chasers",), EV, ("dribble",)))
+    ev = {"chasers": [-1.0] * 4, "self_play": [1.0] * 4}
+    result = {"curve": _curve(), "eval": ev, "untrained_eval": ev,
+              "defence": {"dribble": [0.5] * 4}, "untrained_defence": {"dribble": [0.5] * 4},
+              "crossplay": [[0, 0, 0], [9, 3, 8], [9, 5, 6]], "kept": [2, 1]}
+    check_result("r", key, result)
+    with pytest.raises(ValueError, match="not the checkpoints the 'least_exploited' rule"):
+        check_result("r", key, {**result, "kept": [2, 2]})
+    with pytest.raises(ValueError, match=r"missing: \['kept'\]"):
+        check_result("r", key, {k: v for k, v in result.items() if k != "kept"})
 
 
 def test_the_key_and_the_recorded_code_name_the_learners_library_versions(tmp_path):

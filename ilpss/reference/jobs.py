@@ -22,9 +22,11 @@ import importlib.metadata
 import math
 import sys
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
+
+import numpy as np
 
 from ilpss.experiments.drill_facts import (
     ATTACK_CODE,
@@ -169,21 +171,51 @@ def _run_marl(job: Job, s: MarlSetting) -> dict[str, Any]:
     return {"curve": curve, "eval": greedy, "stochastic": sampled}
 
 
+def _last(crossplay: Sequence[Sequence[int]]) -> tuple[int, int]:
+    return len(crossplay) - 1, len(crossplay) - 1
+
+
+def least_exploited(crossplay: Sequence[Sequence[int]]) -> tuple[int, int]:
+    """The attackers' and the defenders' least exploited trained checkpoints in the
+    cross-play table (``crossplay[i][j]``: attackers ``i``'s successes against defenders
+    ``j``; checkpoint 0, the untrained networks, neither kept nor counted as an
+    opponent): the attackers whose fewest successes against any trained defenders are
+    most, and the defenders that concede fewest to the attackers that beat them most.
+    Ties go to the later checkpoint."""
+    table = np.asarray(crossplay)[1:, 1:]
+    worst_attack = table.min(axis=1)  # each attackers' successes against their hardest
+    worst_defence = table.max(axis=0)  # each defenders' concessions to their hardest
+    last = len(table) - 1
+    return (1 + last - int(np.argmax(worst_attack[::-1])),
+            1 + last - int(np.argmin(worst_defence[::-1])))
+
+
+KEEP: dict[str, Callable[[Sequence[Sequence[int]]], tuple[int, int]]] = {
+    "last": _last, "least_exploited": least_exploited}
+"""Each ``SelfPlaySetting.keep`` rule: the cross-play table -> the indices of the
+attackers' and the defenders' checkpoints a job evaluates as trained."""
+
+
 def _run_self_play(job: Job, s: SelfPlaySetting) -> dict[str, Any]:
     from ilpss.reference import marl_ppo
     n, o, evaluate = job.evaluation.episodes, s.marl.obs_type, _evaluate(s.marl)
     pool_a, pool_d, curve = marl_ppo.train_self_play(
         _parallel(s.ppo.n_envs, o), s, job.seed, _progress(job, s.ppo.steps))
     out: dict[str, Any] = {"curve": curve}
-    for prefix, a, d in (("", pool_a[-1], pool_d[-1]), ("untrained_", pool_a[0], pool_d[0])):
+    m = s.crossplay_episodes
+    crossplay = [[sum(r > 0 for r in evaluate([a, d], _parallel(m, o), EVAL_SEED))
+                  for d in pool_d] for a in pool_a]
+    kept_a, kept_d = KEEP[s.keep](crossplay)
+    for prefix, a, d in (("", pool_a[kept_a], pool_d[kept_d]),
+                         ("untrained_", pool_a[0], pool_d[0])):
         out[f"{prefix}eval"] = {t: evaluate([a], _parallel(n, o, opponent=t), EVAL_SEED)
                                 for t in job.teams}
         out[f"{prefix}eval"][SELF_PLAY] = evaluate([a, d], _parallel(n, o), EVAL_SEED)
         out[f"{prefix}defence"] = {x: evaluate([d], _parallel(n, o, attack=x), EVAL_SEED)
                                    for x in job.attacks}
-    m = s.crossplay_episodes
-    out["crossplay"] = [[sum(r > 0 for r in evaluate([a, d], _parallel(m, o), EVAL_SEED))
-                         for d in pool_d] for a in pool_a]
+    out["crossplay"] = crossplay
+    if s.keep != "last":
+        out["kept"] = [kept_a, kept_d]
     return out
 
 
@@ -321,7 +353,8 @@ def check_result(where: str, key: Mapping[str, Any], result: Any) -> None:
         raise ValueError(f"{where}: unknown setting type {kind!r}")
     parts = {"curve", "crossplay"} | {f"{p}{x}" for p in ("", "untrained_")
                                       for x in ("eval", "defence")}
-    r = _fields(where, result, parts)
+    keep = setting.get("keep", "last")  # kept before the field: the last checkpoints
+    r = _fields(where, result, parts | ({"kept"} if keep != "last" else set()))
     _curve(f"{where}.curve", r["curve"], setting["marl"]["ppo"]["steps"])
     teams, attacks = [*key["teams"], SELF_PLAY], list(key["attacks"])
     for prefix in ("", "untrained_"):
@@ -331,3 +364,6 @@ def check_result(where: str, key: Mapping[str, Any], result: Any) -> None:
         _rewards_by_name(f"{where}.{prefix}defence", r[f"{prefix}defence"], attacks, n)
     _crossplay(f"{where}.crossplay", r["crossplay"], setting["snapshots"],
                setting["crossplay_episodes"])
+    if keep != "last" and r["kept"] != list(KEEP[keep](r["crossplay"])):
+        raise ValueError(f"{where}.kept is {r['kept']!r}, not the checkpoints the "
+                         f"{keep!r} rule keeps from the cross-play table")

@@ -225,6 +225,7 @@ class MarlSetting:
 
 
 OPPONENT_SAMPLING = ("uniform", "pfsp")
+KEEP_RULES = ("last", "least_exploited")
 """How self-play draws each half's opponents (:class:`SelfPlaySetting`)."""
 
 
@@ -263,6 +264,20 @@ class SelfPlaySetting:
     sides' data); it is neither kept in the pool nor evaluated. On four development
     seeds the defenders trained with exploiters still pressed, as prioritised
     self-play's do (``docs/reference_rl.md``).
+
+    ``keep`` is which checkpoints a job evaluates as the trained networks (training is
+    the same whatever it says):
+
+    | ``keep`` | the attackers kept | the defenders kept |
+    |---|---|---|
+    | ``"last"`` | the last checkpoint | the last checkpoint |
+    | ``"least_exploited"`` | the trained checkpoint whose fewest successes against any trained defenders' checkpoint are most | the trained checkpoint that concedes fewest successes to the trained attackers' checkpoint that beats it most |
+
+    ``"least_exploited"`` reads only the cross-play table (the checkpoints against each
+    other, untrained ones left out; ties go to the later checkpoint,
+    ``jobs.KEEP``), never the scripted teams: a side whose last networks
+    learnt a reply to its opponents' latest play that older opponents beat is kept at
+    an earlier, sturdier checkpoint.
     """
 
     marl: MarlSetting = field(default_factory=MarlSetting)
@@ -272,13 +287,14 @@ class SelfPlaySetting:
     pfsp_floor: float = 0.02
     pfsp_decay: float = 0.9
     exploiter_share: float = 0.0
+    keep: str = "last"
 
     def __post_init__(self) -> None:
         check_fields("SelfPlaySetting", self, {
             "snapshots": Integer(2, 50), "crossplay_episodes": Integer(1),
             "opponents": OneOf(OPPONENT_SAMPLING), "pfsp_floor": Real(0.0, 1.0, low_open=True),
             "pfsp_decay": Real(0.0, 1.0, high_open=True),
-            "exploiter_share": Real(0.0, 0.5, high_open=True)})
+            "exploiter_share": Real(0.0, 0.5, high_open=True), "keep": OneOf(KEEP_RULES)})
 
     def exploiter_drills(self) -> int:
         """Each half's drills for its exploiter: ``exploiter_share`` of the half, rounded,
@@ -326,6 +342,11 @@ SETTINGS: dict[str, HolderSetting | MarlSetting | SelfPlaySetting | TransferSett
     # each side's half of the drills gets the 2,000,000 steps of a one-side setting
     "self_play_pfsp_long": SelfPlaySetting(
         marl=MarlSetting(ppo=replace(_marl_ppo(), steps=4_000_000)), opponents="pfsp"),
+    # the same training as self_play_pfsp_long; each side kept at its least exploited
+    # checkpoint in cross-play
+    "self_play_pfsp_long_kept": SelfPlaySetting(
+        marl=MarlSetting(ppo=replace(_marl_ppo(), steps=4_000_000)), opponents="pfsp",
+        keep="least_exploited"),
     # the main sides keep self_play_pfsp's 32 drills a half and steps; exploiters add 8
     "self_play_league": SelfPlaySetting(
         marl=MarlSetting(ppo=replace(_marl_ppo(), n_envs=80, steps=2_500_000)),
