@@ -174,6 +174,11 @@ def test_the_self_play_seed_table_compares_each_seed_with_its_untrained_networks
     # attackers: (100% + 25%) / 2 against (0% + 50%) / 2, better on one team of two;
     # defenders: the best attack scores 75% against 100% untrained
     assert lines[-1] == "| 7 | 62.5% (25.0%) | 1 of 2 | 75.0% (100.0%) | yes |"
+    # a keep rule's run names the checkpoints it evaluated as trained
+    kept = {**run, "crossplay": [[0] * 6] * 6, "kept": [2, 5]}
+    lines = self_play_seed_table({"runs": [kept]})
+    assert lines[-1] == "| 7 | 62.5% (25.0%) | 1 of 2 | 75.0% (100.0%) | yes | 2, 5 |"
+    assert "the last is 5" in lines[0]
 
 
 def test_the_self_play_search_tables_are_its_committed_numbers():

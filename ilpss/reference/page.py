@@ -116,8 +116,9 @@ def _run(job: Job, result: dict[str, Any], kind: str) -> dict[str, Any]:
     for part in ("eval", "stochastic", "untrained_eval", "defence", "untrained_defence"):
         if part in result:
             run[part] = {k: _r(v) for k, v in result[part].items()}
-    if "crossplay" in result:
-        run["crossplay"] = result["crossplay"]
+    for part in ("crossplay", "kept"):
+        if part in result:
+            run[part] = result[part]
     return run
 
 
@@ -390,12 +391,16 @@ def _self_play_tables(section: dict[str, Any], summary: dict[str, Any]) -> list[
 def self_play_seed_table(section: dict[str, Any]) -> list[str]:
     """Self-play seed by seed: its attackers against the scripted teams and its defenders
     against the scripted attacks, each beside the same networks untrained (greedy)."""
+    kept = "kept" in section["runs"][0]
     lines = ["Seed by seed: the attackers' mean success over the scripted teams, the teams "
              "on which they score more than untrained, the best scripted attack's success "
-             "against the defenders, and whether it is lower than against them untrained.", "",
+             "against the defenders, and whether it is lower than against them untrained"
+             + ("; the checkpoints kept as trained (attackers, defenders; the last is "
+                f"{len(section['runs'][0]['crossplay']) - 1})." if kept else "."), "",
              "| seed | attackers: mean success, trained (untrained) | teams better | "
-             "defenders: best attack's success, trained (untrained) | defenders better |",
-             "|---|---|---|---|---|"]
+             "defenders: best attack's success, trained (untrained) | defenders better |"
+             + (" checkpoints kept |" if kept else ""),
+             "|---|---|---|---|---|" + ("---|" if kept else "")]
     for r in section["runs"]:
         teams = [t for t in r["eval"] if t != SELF_PLAY]
         trained = [_success(r["eval"][t]) for t in teams]
@@ -405,7 +410,8 @@ def self_play_seed_table(section: dict[str, Any]) -> list[str]:
         lines.append(f"| {r['seed']} | {_pct(float(np.mean(trained)))} "
                      f"({_pct(float(np.mean(before)))}) | {better} of {len(teams)} | "
                      f"{_pct(best)} ({_pct(best_before)}) | "
-                     f"{'yes' if best < best_before else 'no'} |")
+                     f"{'yes' if best < best_before else 'no'} |"
+                     + (f" {r['kept'][0]}, {r['kept'][1]} |" if kept else ""))
     return lines
 
 
