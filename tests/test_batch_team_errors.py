@@ -256,11 +256,12 @@ def test_each_copy_is_held_to_the_bound_though_the_copies_together_stay_within_t
 
 class Vandal:
     """A batched team that writes where it should not: the view's arrays (made writeable
-    again) and the drills it is given."""
+    again) and, in the drills that reset part-way, the drills it is given."""
 
     def reset(self, view, drills, rng):
-        drills.flags.writeable = True  # possible on a copy of its own, or on the env's array
-        drills[...] = 0
+        if len(drills) < view.n:
+            drills.flags.writeable = True  # possible on a copy of its own
+            drills[...] = 0
 
     def act(self, view, drills):
         pos = view.pos
@@ -282,6 +283,55 @@ def test_a_batched_team_cannot_write_into_the_drills_it_is_shown():
     assert not np.any(np.all(ball == (1.0, 1.0), axis=1))  # the drills kept their own balls
     assert np.abs(ball - before).max() < 5.0  # and moved them as the drill does
     env.step(np.zeros(3, dtype=np.int64))  # the drills' own indices were not changed
+
+
+class Writer:
+    """A batched team that makes one of the arrays every drill shares writeable and
+    writes into it: the drills' indices, the rule parameters or the ball's table."""
+
+    def __init__(self, target):
+        self.target = target
+
+    def batch(self, n):
+        return self
+
+    def reset(self, view, drills, rng):
+        array = {"drills": drills, "params": view.params, "table": view.table}[self.target]
+        array.flags.writeable = True
+        if self.target == "params":
+            array[0]["defender_speed"] *= 0.1
+        else:
+            array[...] = 0
+
+    def act(self, view, drills):
+        m = len(drills)
+        return BatchCommands(np.full((m, 2), int(Skill.INTERCEPT)), np.zeros((m, 2, 2)),
+                             np.ones((m, 2)))
+
+
+def _chasers_episodes():
+    env, out = HolderEnv(opponent="chasers"), []
+    for seed in range(3):
+        env.reset(seed=seed)
+        while True:
+            _, _, terminated, truncated, info = env.step(2)
+            if terminated or truncated:
+                out.append((info["outcome"], info["cycles"]))
+                break
+    return out
+
+
+@pytest.mark.parametrize("target", ["drills", "params", "table"])
+def test_the_arrays_every_drill_shares_cannot_be_made_writeable_by_a_team(target):
+    # before, a team could set them writeable again and write: the rule parameters and the
+    # ball's table are shared by every drill of a configuration in the process (a new
+    # env's chasers then lost every episode), the drills' indices by every later cycle
+    before = _chasers_episodes()
+    for env in (HolderVectorEnv(num_envs=3, opponent=Writer(target)),
+                HolderEnv(opponent=Writer(target))):
+        with pytest.raises(TeamError, match="cannot set WRITEABLE flag"):
+            env.reset(seed=0)
+    assert _chasers_episodes() == before
 
 
 def test_batch_random_refuses_indices_that_are_not_distinct_drills():

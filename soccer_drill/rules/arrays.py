@@ -141,6 +141,16 @@ def records(n: int, dtype: np.dtype) -> np.ndarray:
     return np.zeros(n, dtype=dtype)
 
 
+def immutable(array: np.ndarray) -> np.ndarray:
+    """``array``'s values in an array that nothing can write to: its memory is a
+    ``bytes`` object, so neither it nor its ``base`` can be made writeable again (a
+    read-only flag alone can be set back by whoever holds the array that owns the
+    memory). Shared arrays handed to team code are made so."""
+    out = np.frombuffer(array.tobytes(), dtype=array.dtype).reshape(array.shape)
+    assert not out.flags.writeable
+    return out
+
+
 @functools.lru_cache(maxsize=64)
 def rule_parameters(cfg: DrillConfig) -> np.ndarray:
     """The numbers of ``cfg`` the rules read: one :data:`PARAMETERS` record, read-only
@@ -174,8 +184,7 @@ def rule_parameters(cfg: DrillConfig) -> np.ndarray:
     }
     for name, value in values.items():
         params[0][name] = value
-    params.flags.writeable = False
-    return params
+    return immutable(params)  # one array per configuration, shared by every drill
 
 
 @functools.lru_cache(maxsize=64)
@@ -184,9 +193,7 @@ def roll_table(cfg: DrillConfig) -> np.ndarray:
     times; per unit of initial speed, the distance travelled by then; and the speed
     there times the time to the next point."""
     times, travels, slowing, _ = roll_tuples(cfg.ball_damping, cfg.cycle_seconds)
-    table = np.array([times, travels, slowing])
-    table.flags.writeable = False
-    return table
+    return immutable(np.array([times, travels, slowing]))
 
 
 def roll_tuples(

@@ -29,6 +29,7 @@ from soccer_drill.commands import BALL_SKILLS, SCRIPTED_SKILLS, Command, Skill
 from soccer_drill.config import DrillConfig
 from soccer_drill.constraints import Integer, ListOf, checked, is_int, is_real
 from soccer_drill.interruptions import MAX_ITEMS, delivered_by_signal, short_repr
+from soccer_drill.rules.arrays import immutable
 from soccer_drill.rules.compiled import compiled, typed, warms
 from soccer_drill.rules.first_use import warm_up
 from soccer_drill.teams.kit import BatchCommands, BatchRandom, BatchTeam, BatchView
@@ -457,8 +458,7 @@ class TeamDriver:
         self.rng = BatchRandom(batch.n)
         self.failure: str | None = None
         """The error of the team's last failed call, until every drill is reset."""
-        self._every = np.arange(batch.n)
-        self._every.flags.writeable = False
+        self._every = immutable(np.arange(batch.n))  # handed to the team every cycle
         _DRIVERS.add(self)
 
     def __setstate__(self, state: dict[str, Any]) -> None:
@@ -466,7 +466,7 @@ class TeamDriver:
         # Read-only again, as the original's (copy.deepcopy and pickle make arrays
         # writable): a writable array is another type to a compiled team, which would be
         # compiled anew inside the copy's first time-bounded call.
-        self._every.flags.writeable = False
+        self._every = immutable(self._every)
 
     def _check_size(self, counts: object) -> None:
         """The drill's number of defenders, among those the team says it plays (its
@@ -578,8 +578,8 @@ class TeamDriver:
                        not self.single)
 
     def _shown(self, drills: np.ndarray) -> np.ndarray:
-        """``drills`` as the team is handed them: read-only, its own copy (a view could be
-        made writeable again)."""
+        """``drills`` as the team is handed them: read-only, and never the driver's own
+        (every drill's is :func:`immutable`, the others a copy)."""
         if len(drills) == self._batch.n:
             return self._every
         shown = drills.copy()

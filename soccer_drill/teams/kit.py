@@ -80,8 +80,10 @@ class _DrillOfBatch:
 class BatchView(ReadOnlyView):
     """A read-only window on every drill of a batch, handed to teams.
 
-    Each array is a read-only copy of the batch's state, taken when it is read (a team
-    that writes to it, even after setting it writeable, changes only its copy).
+    Each array of the batch's state is a read-only copy, taken when it is read (a team
+    that writes to it, even after setting it writeable, changes only its copy); the
+    arrays every drill shares (:attr:`params`, :attr:`table`) cannot be made writeable
+    (:func:`~soccer_drill.rules.arrays.immutable`).
     :meth:`drill` is one drill's :class:`~soccer_drill.state.DrillView`.
     """
 
