@@ -674,3 +674,57 @@ def test_a_team_in_a_namespace_package_is_identified_by_its_source(install):
         assert "source_sha256" in before, before
         source.write_text(source.read_text() + "\n# changed\n")
         assert teams.team_code(team_id)["source_sha256"] != before["source_sha256"]
+
+
+def _keepaway_cycles():
+    """Cycles of a few keepaway episodes against the default takers (the keepers hold)."""
+    import gymnasium as gym
+
+    env, out = gym.make("soccer_drill/Keepaway3v2-v0"), []
+    for seed in range(3):
+        env.reset(seed=seed)
+        while True:
+            _, _, terminated, truncated, info = env.step(0)
+            if terminated or truncated:
+                out.append(info["cycles"])
+                break
+    return out
+
+
+def test_a_registration_cannot_take_the_id_of_another_tasks_built_in_team(team_registry):
+    # before, register("keepaway_takers", ...) was accepted (the drill's registry does not
+    # hold it) and, looked up first, replaced keepaway's default takers everywhere
+    before = _keepaway_cycles()
+    with pytest.raises(ValueError, match="'keepaway_takers' is already one of the keepaway "
+                                         "task's teams; this project's own teams keep"):
+        soccer_drill.register("keepaway_takers", lambda: None)
+    with pytest.raises(ValueError, match="own teams keep their ids"):
+        soccer_drill.register("keepaway_takers", lambda: None, overwrite=True)
+    assert _keepaway_cycles() == before
+
+
+def test_a_plugin_declaring_another_tasks_built_in_id_is_ignored_for_it(install):
+    before = _keepaway_cycles()
+    install("hijack-teams", {"plugin_hijack": _GOOD_TEAM}, "keepaway_takers = plugin_hijack:Wall")
+    with pytest.warns(PluginWarning, match="'keepaway_takers' is one of this project's own"):
+        listed = soccer_drill.available_teams()
+    assert listed["keepaway_takers"].startswith("Keepaway's hand-coded takers")
+    assert _keepaway_cycles() == before
+
+
+def test_a_teams_description_is_its_first_sentence_as_plain_text(team_registry):
+    class Wrapped:
+        """A :class:`~soccer_drill.teams.Team` whose ``first`` sentence goes on
+        to the next line. A second sentence.
+
+        More."""
+
+        def reset(self, view, rng):
+            pass
+
+        def act(self, view):
+            return {}
+
+    soccer_drill.register("wrapped", Wrapped)
+    assert soccer_drill.available_teams()["wrapped"] == (
+        "A Team whose first sentence goes on to the next line.")

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import hashlib
 import inspect
+import re
 import sys
 import warnings
 from collections.abc import Callable, Mapping
@@ -103,12 +104,31 @@ _TASK = OneOf(tuple(TASK_TEAMS))
 """What a ``task`` of :func:`team_ids` and :func:`available_teams` may be."""
 
 
+def _built_in(registry: Registry, team_id: object) -> bool:
+    """Whether ``registry`` holds ``team_id`` as one of this project's own teams."""
+    dist = getattr(registry.entry_point(team_id), "dist", None)  # type: ignore[arg-type]
+    return getattr(dist, "name", None) == BUILT_IN_DISTRIBUTION
+
+
 def _registry_of(team_id: object) -> Registry:
-    """The registry holding ``team_id`` (the drill's if none does: its error names it)."""
-    for registry in TASK_TEAMS.values():
-        if team_id in registry:
-            return registry
-    return TEAMS
+    """The registry holding ``team_id``: the one where it is this project's own team, if
+    any (a plugin of another task's group cannot take a built-in id), else the first
+    that holds it (the drill's if none does: its error names it)."""
+    holders = [r for r in TASK_TEAMS.values() if team_id in r]
+    if len(holders) > 1:
+        built_in = [r for r in holders if _built_in(r, team_id)]
+        if built_in:
+            if team_id not in _SHADOWED:
+                _SHADOWED.add(team_id)  # type: ignore[arg-type]
+                warnings.warn(f"team id {team_id!r} is one of this project's own teams; a "
+                              "plugin or registration that declares it for another task is "
+                              "ignored for it", PluginWarning, stacklevel=3)
+            return built_in[0]
+    return holders[0] if holders else TEAMS
+
+
+_SHADOWED: set[str] = set()
+"""Built-in ids already warned of as declared again for another task."""
 
 
 def _factory(team_id: str) -> Any:
@@ -146,6 +166,7 @@ def refresh() -> None:
     registrations)."""
     for registry in TASK_TEAMS.values():
         registry.refresh()
+    _SHADOWED.clear()
 
 
 def register(team_id: str, factory: Callable[..., Team], *, overwrite: bool = False) -> None:
@@ -160,6 +181,13 @@ def register(team_id: str, factory: Callable[..., Team], *, overwrite: bool = Fa
     TypeError
         ``factory`` is not callable.
     """
+    for task, registry in TASK_TEAMS.items():
+        if registry is not TEAMS and team_id in registry and (
+                not overwrite or _built_in(registry, team_id)):
+            raise ValueError(
+                f"team {team_id!r} is already one of the {task} task's teams"
+                + ("; this project's own teams keep their ids" if _built_in(registry, team_id)
+                   else "; pass overwrite=True to play yours under that id instead"))
     TEAMS.register(team_id, factory, overwrite=overwrite)
 
 
@@ -170,10 +198,14 @@ def team_ids(task: str = "drill") -> list[str]:
 
 
 def describe(team_id: str) -> str:
-    """First line of the team factory's docstring."""
+    """The first sentence of the team factory's docstring, as plain text (a sentence
+    that goes on to the next line is not cut; Sphinx's roles and literals unmarked)."""
     factory = _factory(team_id)
-    doc = (getattr(factory, "__doc__", None) or "").strip()
-    return doc.splitlines()[0] if doc else ""
+    doc = inspect.cleandoc(getattr(factory, "__doc__", None) or "")
+    paragraph = " ".join(doc.split("\n\n")[0].split())
+    sentence = re.split(r"(?<=[.!?])\s", paragraph, maxsplit=1)[0]
+    sentence = re.sub(r":\w+:`~?(?:[\w.]*\.)?([^`.]+)`", r"\1", sentence)
+    return sentence.replace("``", "")
 
 
 def available_teams(task: str | None = None) -> dict[str, str]:

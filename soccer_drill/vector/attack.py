@@ -86,8 +86,9 @@ class HolderRuleAttack:
             self.rule[i] = int(rng.integers(len(self.policies))) if len(self.policies) > 1 else 0
 
     def decide(self, drills: np.ndarray, features: np.ndarray) -> np.ndarray:
-        """The action (0 HOLD, 1 PASS, 2 DRIBBLE) of the holder of each of ``drills``, whose
-        9 features are the rows of ``features``."""
+        """The action of the holder of each of ``drills`` (an index of the holder's actions
+        at the drill's size: 0 HOLD, 1 PASS, 2 DRIBBLE in the 2v2 drill), whose holder
+        features (the paper's 9 in the 2v2 drill) are the rows of ``features``."""
         out = np.zeros(len(drills), dtype=np.int64)
         for k, i in enumerate(drills.tolist()):
             out[k] = self.policies[self.rule[i]](features[k], self.generators[i])
