@@ -131,3 +131,31 @@ def test_the_first_environment_of_an_edge_configuration_is_made_and_plays(case):
                           text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.strip().endswith("played")
+
+
+@pytest.mark.skipif(not COMPILED, reason="warm-ups run only with the compiled rules")
+@pytest.mark.parametrize("module, raised", [("my_plugin.teams", False), ("opponents.mine", True)])
+def test_a_plugins_failing_warm_up_is_its_own_failure(module, raised):
+    # before, one plugin's failing @warms function made every environment of the process
+    # fail (chasers' too) with the plugin's raw exception
+    from soccer_drill.envs.holder import HolderEnv
+    from soccer_drill.registry import PluginWarning
+    from soccer_drill.rules import compiled
+
+    def broken(config):
+        raise IndexError("a typo in a warm-up")
+
+    broken.__module__ = module
+    compiled.warms(broken)
+    try:
+        if raised:  # this project's own warm-up failing is a defect, raised
+            with pytest.raises(IndexError, match="a typo"):
+                HolderEnv(opponent="chasers")
+        else:
+            with pytest.warns(PluginWarning, match=rf"warm-up {module}:.*broken .*failed and "
+                                                   r"is skipped: IndexError"):
+                env = HolderEnv(opponent="chasers")
+            env.reset(seed=0)
+            env.step(0)
+    finally:
+        compiled._warmers.remove(broken)

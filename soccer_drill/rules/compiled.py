@@ -33,7 +33,8 @@ from typing import Any, ClassVar, TypeVar
 
 import numpy as np
 
-from soccer_drill.interruptions import SignalsDeferred
+from soccer_drill.interruptions import SignalsDeferred, short_repr
+from soccer_drill.registry import PluginWarning
 
 try:
     import numba
@@ -215,8 +216,30 @@ def warm_up(config: Any = None) -> None:
     for warmer in list(_warmers):
         if (warmer, size) not in _warmed:
             with SignalsDeferred():
-                warmer(config)
+                _warm(warmer, config)
                 _warmed.add((warmer, size))
+
+
+_OWN_PACKAGES = ("soccer_drill", "opponents")
+"""The packages whose warm-ups are this project's: their failure is a defect, raised."""
+
+
+def _warm(warmer: Callable[[Any], None], config: Any) -> None:
+    """``warmer(config)``. A plugin's warm-up that fails is its own failure: it warns
+    (:class:`~soccer_drill.registry.PluginWarning`, naming the warm-up and the error) and
+    is skipped, so that every other team's environment is still made (its team's code is
+    then compiled at its first use)."""
+    try:
+        warmer(config)
+    except Exception as exc:
+        module = getattr(warmer, "__module__", None) or "?"
+        if module.split(".")[0] in _OWN_PACKAGES:
+            raise
+        warnings.warn(
+            f"the warm-up {module}:{getattr(warmer, '__qualname__', '?')} (registered with "
+            f"@warms) failed and is skipped: {short_repr(exc)}; its compiled code compiles "
+            "at its first use instead, which may fall inside its team's time bound",
+            PluginWarning, stacklevel=4)
 
 
 _SPLIT = 134217729.0  # 2**27 + 1: Dekker's split of a double into two halves
