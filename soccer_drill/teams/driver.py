@@ -502,8 +502,9 @@ class TeamDriver:
         return batched
 
     def _copy(self, opponent: str | Team, params: dict[str, Any], drill: int) -> Team:
-        """One more copy of the team, for drill ``drill``: its factory's for an id, else
-        ``copy.deepcopy``, the team's code, inside its bound."""
+        """One more copy of the team, for drill ``drill``: its factory's for an id (not
+        bounded, as building the team never is: a team may load what it needs when made),
+        else ``copy.deepcopy``, the team's code, inside its bound."""
         if isinstance(opponent, str):
             return make_team(opponent, **params)
         return self.call("copy.deepcopy()", f" for drill {drill}", self._deepcopy)
