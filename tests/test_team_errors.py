@@ -344,3 +344,24 @@ def test_a_team_stepping_its_own_environment_is_told_so_not_about_threads(kind):
         for _ in range(3):
             _cycle(env, kind)
     assert "another thread" not in str(err.value)
+
+
+def _raises(players):
+    raise ArithmeticError("a team's bug")
+
+
+def test_after_a_team_error_a_refused_aec_step_changes_nothing():
+    # before, the refused step had already written the action's report into infos
+    env = _make("aec", _Acting(_raises))
+    env.reset(seed=0)
+    _cycle(env, "aec")  # cycle 0
+    with pytest.raises(TeamError, match="a team's bug"):
+        _cycle(env, "aec")  # the team fails when cycle 1 is played
+    agent = env.agent_selection
+    infos, rewards = {a: dict(i) for a, i in env.infos.items()}, dict(env.rewards)
+    masked = int(np.flatnonzero(env.action_mask() == 0)[0])  # would be replaced and reported
+    with pytest.raises(TeamError, match="call reset"):
+        env.step(masked)
+    assert env.infos == infos and env.rewards == rewards and env.agent_selection == agent
+    env.reset(seed=0)
+    _cycle(env, "aec")

@@ -700,6 +700,7 @@ class raw_env(_DrillEnvBase, AECEnv):
         agent = self.agent_selection
         if not self.agents:
             raise RuntimeError("step() called after the episode ended; call reset()")
+        self._core.check_usable()  # refused before the action changes anything
         if self.terminations[agent] or self.truncations[agent]:
             if action is not None:
                 raise ValueError(
