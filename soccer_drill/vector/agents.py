@@ -180,6 +180,7 @@ class ParallelVectorEnv(Pickled):
         if attack is not None and opponent is not None:
             raise ValueError("give a scripted attack or a scripted opponent team, not both: "
                              f"got attack={attack!r} and opponent={opponent!r}")
+        attack_name = attack if isinstance(attack, str) else type(attack).__name__
         attack = None if attack is None else make_attack(attack)
         shared_spaces = resolve_shared_spaces(
             shared_spaces, opponent if attack is None else attack)
@@ -195,7 +196,8 @@ class ParallelVectorEnv(Pickled):
             n, opponent, opponent_params, self.config, team_timeout, attack is not None,
             drills_per_space, attack,
         )
-        self._attack = None if attack is None else ScriptedAttack(attack, self._core)
+        self._attack = None if attack is None else ScriptedAttack(attack, self._core,
+                                                                  name=attack_name)
         cfg = self.config
         attackers, names = cfg.attackers, cfg.player_names
         self._attackers, self._actions = attackers, AttackerActions(attackers)

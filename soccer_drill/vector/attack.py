@@ -42,6 +42,7 @@ import numpy as np
 from soccer_drill.constraints import Constraint, ListOf, Name, OneOf, check, checked
 from soccer_drill.envs.core import BatchCore
 from soccer_drill.envs.holder import HolderLoop, check_holder_action
+from soccer_drill.interruptions import delivered_by_signal, short_repr
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.registry import Registry
 
@@ -107,12 +108,32 @@ class ScriptedAttack:
         The drills, with the support behaviour (``support=True``).
     decision_cycles
         The cycles a HOLD or DRIBBLE lasts.
+    name
+        The attack in errors (its id, or its class's name; default: the class's name).
+        What its ``decide`` raises, or an action out of range, is said naming it, the
+        cycle and the drills deciding.
     """
 
     def __init__(self, attack: Any, core: BatchCore,
-                 decision_cycles: int = DECISION_CYCLES) -> None:
+                 decision_cycles: int = DECISION_CYCLES, name: str | None = None) -> None:
         self.attack = attack
+        self.name = type(attack).__name__ if name is None else name
         self.loop = HolderLoop(core, decision_cycles)
+
+    def _decide(self, drills: np.ndarray, features: np.ndarray) -> np.ndarray:
+        cycle = int(self.loop.core.batch.cycle[drills[0]])
+        where = f"at cycle {cycle} of drills {drills.tolist()}"
+        try:
+            actions = np.asarray(self.attack.decide(drills, features))
+        except Exception as exc:
+            if delivered_by_signal(exc):
+                raise
+            raise RuntimeError(f"attack {self.name!r} raised in decide() {where}: "
+                               f"{short_repr(exc)}") from exc
+        if actions.shape != drills.shape:
+            raise ValueError(f"attack {self.name!r}: decide() {where} returned shape "
+                             f"{actions.shape}, expected one action per drill {drills.shape}")
+        return actions
 
     def restart(self, drills: np.ndarray) -> None:
         """A new episode in each of ``drills`` (the core's reset, which seeds the attack)."""
@@ -126,19 +147,16 @@ class ScriptedAttack:
         deciding = np.flatnonzero(active & ~loop.running)
         if len(deciding):
             features = loop.observe(batch.state, deciding, batch.holder[deciding])
-            actions = np.asarray(self.attack.decide(deciding, features))
-            if actions.shape != deciding.shape:
-                raise ValueError(f"attack {self.attack!r}: decide() returned shape "
-                                 f"{actions.shape}, expected one action per drill "
-                                 f"{deciding.shape}")
+            actions = self._decide(deciding, features)
             checked = np.zeros(len(deciding), dtype=np.int64)
             for k, (i, action) in enumerate(zip(deciding.tolist(), actions.tolist(),
                                                 strict=True)):
                 try:
                     checked[k] = check_holder_action(action, self.loop.attackers)
                 except ValueError as error:
-                    raise ValueError(f"drill {i}: attack {self.attack!r} decided "
-                                     f"{action!r}; {error}") from None
+                    raise ValueError(f"drill {i}: attack {self.name!r} decided "
+                                     f"{action!r} at cycle {int(batch.cycle[i])}; "
+                                     f"{error}") from None
             loop.begin(deciding, checked)
         loop.cycle()
 
