@@ -203,9 +203,11 @@ class WithBatch(Plain):
 
 
 @pytest.mark.parametrize(("skill", "message"), [
-    ("5", r"skill must be an array of integers \(Skill values\), got dtype <U1"),
-    (0.5, r"skill must be an array of integers \(Skill values\), got dtype float64"),
-    (True, r"skill must be an array of integers \(Skill values\), got dtype bool"),
+    # the cycle and the drills said too (before, a dtype's error named neither)
+    ("5", r"skill must be an array of integers \(Skill values\), got dtype <U1 at cycle 0 "
+          r"of drills 0, 1"),
+    (0.5, r"skill must be an array of integers \(Skill values\), got dtype float64 at cycle 0"),
+    (True, r"skill must be an array of integers \(Skill values\), got dtype bool at cycle 0"),
     (np.uint64(2**63 + 5), r"drill 0, player 'defender_0', cycle 0: skill 9223372036854775813 is "
                            r"not allowed for a scripted defender"),
 ])

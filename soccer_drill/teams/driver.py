@@ -143,7 +143,7 @@ def check_commands(commands: object, cycle: np.ndarray, drills: np.ndarray, cycl
     if not isinstance(commands, BatchCommands):
         raise TeamError(
             f"team {team!r}: act() must return BatchCommands(skill, target, speed), "
-            f"got {type(commands).__name__}"
+            f"got {type(commands).__name__}{_Calling(drills if named else None, cycles):}"
         )
     m, d = len(drills), len(players)
     arrays = []
@@ -159,18 +159,17 @@ def check_commands(commands: object, cycle: np.ndarray, drills: np.ndarray, cycl
                 if delivered_by_signal(exc):
                     raise
                 raise TeamError(f"team {team!r}: commands' {name} is not a numeric array: "
-                                f"{exc}") from exc
+                                f"{exc}{_Calling(drills if named else None, cycles):}") from exc
             if array.dtype.kind not in kinds:  # no strings, bools or objects
                 raise TeamError(f"team {team!r}: commands' {name} must be an array of {what}, "
-                                f"got dtype {array.dtype}")
+                                f"got dtype {array.dtype}{_Calling(drills if named else None, cycles):}")
             # As int64, a value out of the int64 range wraps to a negative one, refused
             # all the same.
             array = np.array(array, dtype=dtype)
         if array.shape != shape:
             raise TeamError(
                 f"team {team!r}: commands' {name} must have shape {shape} (one row per "
-                f"drill acting, one column per player), got {array.shape}"
-                f"{_Calling(drills if named else None, cycles):}"
+                f"drill acting, one column per player), got {array.shape}{_Calling(drills if named else None, cycles):}"
             )
         arrays.append(array)
     skill, target, speed = arrays
