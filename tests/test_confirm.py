@@ -94,7 +94,7 @@ def test_a_plan_is_checked_when_read(tmp_path):
 
 
 def test_the_confirmatory_command_runs_the_plan_and_adjusts_across_the_whole_family(
-        tmp_path):
+        tmp_path, capsys):
     path = tmp_path / "plan.json"
     path.write_text(json.dumps(PLAN))
     assert main([str(path), "--runs", str(tmp_path / "runs"), "--quiet"]) == 0
@@ -111,6 +111,25 @@ def test_the_confirmatory_command_runs_the_plan_and_adjusts_across_the_whole_fam
     assert (tmp_path / "again.md").read_text() == page
     adjusted = [float(row.split("|")[5]) for row in rows]
     assert all(0.0 <= p <= 1.0 or math.isnan(p) for p in adjusted)
+    # before, --out and --data were written wherever they pointed: over the run's
+    # configuration, the per-seed numbers read back, or the plan itself
+    runs = tmp_path / "runs"
+    plan_copy = tmp_path / "myplan.json"
+    plan_copy.write_text(path.read_text())
+    kept = {f: f.read_bytes() for f in [plan_copy, *runs.rglob("*.json"), *runs.rglob("*.gz")]}
+    for argv, said in (
+            (["--out", str(runs / "protocol_a" / "config.json")], "its name ends in '.md'"),
+            (["--out", str(runs / "protocol_a" / "page.md")], "inside the run folder"),
+            (["--data", str(tmp_path / "myplan")], "the command reads that file"),
+            (["--data", str(runs / "protocol_a" / "config")], "inside the run folder")):
+        with pytest.raises(SystemExit):
+            main([str(plan_copy), "--runs", str(runs), "--analyse-only", "--quiet", *argv])
+        assert said in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main([str(plan_copy), "--from-data", str(runs / "seed_data"), "--out",
+              str(runs / "seed_data.json")])
+    assert "its name ends in '.md'" in capsys.readouterr().err
+    assert {f: f.read_bytes() for f in kept} == kept
 
 
 @pytest.mark.parametrize(("raised", "status", "said"), [

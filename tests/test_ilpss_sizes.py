@@ -263,3 +263,20 @@ def test_the_larger_drills_page_is_made_from_its_kept_numbers(tmp_path, capsys) 
     with pytest.raises(SystemExit):
         main(["--runs", str(runs), "--docs", str(docs), "--finished", "--seeds", "3"])
     assert "its run has another configuration than these flags give" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("runs", ["a_file", "docs"])
+def test_the_larger_drill_command_refuses_a_bad_runs_folder_in_one_line_making_nothing(
+        tmp_path, monkeypatch, capsys, runs) -> None:
+    # before, a --runs that is a file (or the --docs folder) ended in a traceback, after
+    # --docs and its subfolders had been made
+    from ilpss.experiments import larger_drill
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "a_file").write_text("x")
+    with pytest.raises(SystemExit):
+        larger_drill.main(["--runs", runs, "--docs", "docs", "--seeds", "2", "--episodes", "4",
+                           "--rollouts", "2"])
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and "error: --" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]

@@ -42,13 +42,14 @@ from ilpss._io import FolderInUseError, atomic_write_bytes, json_differences
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.drill_facts import TEAM_ERROR, drill_exception
 from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
+from ilpss.experiments.outputs import check_out_file
 from ilpss.experiments.plan import PRIMARY, Plan, Qualify, TestSpec
 from ilpss.experiments.power import PowerReport, plan_power, power_lines
 from ilpss.experiments.provenance import check_one_code, code_line
 from ilpss.experiments.report_stats import threshold_for, windows
 from ilpss.experiments.report_text import interval_text
 from ilpss.experiments.run import JobError, run_experiment
-from ilpss.experiments.seed_data import SeedData, seed_ranges
+from ilpss.experiments.seed_data import SeedData, data_paths, seed_ranges
 
 __all__ = ["analyse", "main", "pick"]
 
@@ -239,6 +240,16 @@ def _p(p: float) -> str:
 
 
 # ---------------------------------------------------------------------- command
+def _outside(path: Path, folders: dict[str, Path], flag: str) -> Path:
+    """``path``, unless it is inside one of the protocols' run ``folders`` (whose files
+    the runs and their resumption read)."""
+    for folder in folders.values():
+        if path.resolve().is_relative_to(folder.resolve()):
+            raise ValueError(f"{flag} {path}: inside the run folder {folder}, whose files "
+                             "the runs keep; write outside it")
+    return path
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run (or resume) the plan's protocols and write the confirmatory page."""
     with stopped_in_one_line("ilpss-confirm"):  # Ctrl-C or SIGTERM: one line, 130 or 143
@@ -281,12 +292,19 @@ def _main(argv: Sequence[str] | None) -> int:
                           f"{plan.required_power:.0%}: " + "; ".join(weak) +
                           " (--force runs it anyway)\n")
         if args.from_data is not None:
+            out = check_out_file(args.out or args.from_data + ".md", "--out", ".md",
+                                 [args.plan, *data_paths(args.from_data)])
             data = SeedData.read(args.from_data)
-            out = Path(args.out) if args.out else Path(args.from_data + ".md")
         else:
             runs = Path(args.runs)
             folders = {protocol: runs / f"protocol_{protocol.lower()}"
                        for protocol in plan.protocols}
+            # every output checked before any run: none may be the plan or a run's file
+            out = _outside(check_out_file(args.out or runs / "confirm.md", "--out", ".md",
+                                          [args.plan]), folders, "--out")
+            stem = args.data if args.data else runs / "seed_data"
+            for path in data_paths(stem):
+                _outside(check_out_file(path, "--data", inputs=[args.plan]), folders, "--data")
             if not args.analyse_only:
                 stop_on_sigterm()
                 for protocol, folder in folders.items():
@@ -294,8 +312,7 @@ def _main(argv: Sequence[str] | None) -> int:
                                    allow_mixed_code=args.allow_mixed_code)
             data = SeedData.from_runs(folders)
             check_data(plan, data)
-            data.write(args.data if args.data else runs / "seed_data")
-            out = Path(args.out) if args.out else runs / "confirm.md"
+            data.write(stem)
         tests = analyse(plan, data, allow_mixed_code=args.allow_mixed_code)
         atomic_write_bytes(out, ("\n".join(page(plan, tests, data, power)) + "\n").encode())
     except (ValueError, KeyError, OSError, FolderInUseError, StorageError, JobError,

@@ -294,7 +294,7 @@ def _checked_inputs(p: argparse.ArgumentParser, args: argparse.Namespace
         check_utf8(args)
         check_fields("", args, {f"--{name}": c for name, c in FLAG_CONSTRAINTS.items()},
                      get=lambda a, flag: getattr(a, flag[2:]))
-        out = check_out_file(args.out)
+        out = check_out_file(args.out, suffix=".md")
         lc = LearnerConfig(alpha=args.alpha, method=args.method,
                            initial_value=args.initial_value, trace_decay=args.trace_decay,
                            tile_widths=TILE_WIDTHS)
@@ -414,7 +414,7 @@ def _write_page(out: Path, lines: list[str]) -> None:
 def _from_data(p: argparse.ArgumentParser, args: argparse.Namespace) -> int:
     try:
         check_utf8(args)
-        out = check_out_file(args.out)
+        out = check_out_file(args.out, suffix=".md", inputs=[args.from_data])
         numbers = load_numbers(Path(args.from_data))
     except FileNotFoundError:
         p.error(f"--from-data {args.from_data}: no such file")

@@ -118,12 +118,17 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _main(argv: Sequence[str] | None) -> int:
     p = parser()
     args = p.parse_args(argv)
-    try:  # every output and the configuration checked before any work
+    running = not (args.from_data or args.finished)
+    try:  # every output and the configuration checked before any work, or any folder made
         check_utf8(args)
+        cfg = larger_drill_config(args)
+        if running and Path(args.docs).resolve() == Path(args.runs).resolve():
+            raise ValueError(f"--docs and --runs name the same folder ({args.runs}): the page "
+                             "goes in one, the run's files in another")
+        runs = check_out_dir(args.runs, "--runs") if running else None
         docs = check_out_dir(args.docs, "--docs", run_folder=False)
         for sub in ("figures", "data"):
             check_out_dir(docs / sub, "--docs", run_folder=False)
-        cfg = larger_drill_config(args)
         if args.from_data:
             data = SeedData.read(args.from_data)
         elif args.finished:
@@ -132,9 +137,9 @@ def _main(argv: Sequence[str] | None) -> int:
         p.error(str(exc))
     except OSError as exc:
         p.error(f"{exc.filename or args.runs}: {exc.strerror or exc}")
-    if not (args.from_data or args.finished):
+    if runs is not None:
         stop_on_sigterm()
-        folder = RunFolder(check_out_dir(args.runs, "--runs"))
+        folder = RunFolder(runs)
         try:
             run_timed(cfg, folder, progress=not args.quiet)
             data = SeedData.from_runs({"A": folder.root})

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import os
 import re
+from collections.abc import Sequence
 from pathlib import Path
 
 from soccer_drill.files import TEMPORARY
@@ -72,20 +73,33 @@ def check_out_dir(out_dir: str | os.PathLike[str], flag: str = "--out",
     return out
 
 
-def check_out_file(path: str | os.PathLike[str], flag: str = "--out") -> Path:
+def check_out_file(path: str | os.PathLike[str], flag: str = "--out", suffix: str = "",
+                   inputs: Sequence[str | os.PathLike[str]] = ()) -> Path:
     """An output file's path, its folder created if needed; a clear error if a file
     cannot be written there.
+
+    ``suffix``: the ending the file must have (``".md"`` for a page, so that no data or
+    configuration file is ever replaced by one); ``inputs``: files the command reads,
+    which the output must not be.
 
     Raises
     ------
     ValueError
-        Naming ``flag``: an empty path, an existing folder (or a path ending in ``/``), a
-        folder that is a file or cannot be created, or a place that is not writable.
+        Naming ``flag``: an empty path, another ending than ``suffix``, one of
+        ``inputs``, an existing folder (or a path ending in ``/``), a folder that is a
+        file or cannot be created, or a place that is not writable.
     """
     text = os.fspath(path)
     if not text.strip():
         raise ValueError(f"{flag}: the output file must be a path, got {text!r}")
     out = Path(text)
+    if suffix and not out.name.endswith(suffix):
+        raise ValueError(f"{flag} {text}: the file written is a page and its name ends in "
+                         f"{suffix!r} (a page never replaces a data or configuration file)")
+    for given in inputs:
+        if out.resolve() == Path(given).resolve():
+            raise ValueError(f"{flag} {text}: the command reads that file ({os.fspath(given)}); "
+                             "write to another")
     if text.endswith(("/", os.sep)) or out.is_dir():
         raise ValueError(f"{flag} {text}: a folder, where the output file belongs; name the "
                          "file (e.g. docs/learning.md)")

@@ -143,7 +143,7 @@ class SeedData:
     def write(self, stem: str | os.PathLike[str]) -> tuple[Path, Path]:
         """Write ``<stem>.csv.gz`` and ``<stem>.json`` (each atomically, the table first);
         return their paths."""
-        table, manifest = _paths(stem)
+        table, manifest = data_paths(stem)
         payload = _gzip(self._csv())
         atomic_write_bytes(table, payload)
         record = {
@@ -162,7 +162,7 @@ class SeedData:
     def read(cls, stem: str | os.PathLike[str]) -> SeedData:
         """The numbers written by :meth:`write` at ``stem`` (the table and its manifest,
         both checked: ``ValueError`` naming the file and what is wrong)."""
-        table, manifest = _paths(stem)
+        table, manifest = data_paths(stem)
         record = load_json_record(manifest, SCHEMA)
         payload = read_regular(table, MAX_CSV_BYTES, "a table of per-seed numbers")
         if hashlib.sha256(payload).hexdigest() != record.get("table_sha256"):
@@ -215,7 +215,8 @@ TIMING = {**WALL_TIME_FIELDS, "executor": NoneOr(WALL_TIME_FIELDS["executor"])}
 _JOB_FIELDS = ("seed", "stream", "stream_index", "tasks", "first_target", "code")
 
 
-def _paths(stem: str | os.PathLike[str]) -> tuple[Path, Path]:
+def data_paths(stem: str | os.PathLike[str]) -> tuple[Path, Path]:
+    """The two files of the per-seed numbers ``stem`` names: the table and the manifest."""
     stem = Path(stem)
     return stem.with_name(stem.name + ".csv.gz"), stem.with_name(stem.name + ".json")
 

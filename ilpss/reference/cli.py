@@ -340,7 +340,7 @@ def _checked(p: argparse.ArgumentParser, args: argparse.Namespace
         check_utf8(args)
         seeds = _check_flags(args)
         settings = build_settings(args)
-        out = check_out_file(args.out)
+        out = check_out_file(args.out, suffix=".md")
         keep = check_out_dir(args.keep, "--keep", run_folder=False)
         import gymnasium as gym
 
