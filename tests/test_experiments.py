@@ -113,6 +113,20 @@ def test_cli_set_overrides_lifelong_and_learner_fields() -> None:
     assert cfg.lifelong.learner.tile_widths == ExperimentConfig().lifelong.learner.tile_widths
 
 
+@pytest.mark.parametrize("episodes", ["-5", "0"])
+def test_the_commands_say_the_episodes_an_experiment_allows(tmp_path, capsys, episodes) -> None:
+    # before, -5 was refused as LifelongConfig's "in [0, 1,000,000]", and 0 then refused
+    from ilpss.experiments import demo
+    from ilpss.experiments.cli import main
+
+    for command, argv in ((main, ["--protocol", "A", "--seeds", "1"]), (demo.main, [])):
+        with pytest.raises(SystemExit):
+            command([*argv, "--episodes", episodes, "--out", str(tmp_path / "run")])
+        assert (f"--episodes must be an integer in [1, 1,000,000], got {episodes}"
+                in capsys.readouterr().err)
+    assert not (tmp_path / "run").exists()
+
+
 def test_cli_refuses_a_run_it_could_not_report_before_it_starts(tmp_path, capsys) -> None:
     from ilpss.experiments.cli import main
 

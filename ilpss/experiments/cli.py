@@ -25,13 +25,14 @@ from pathlib import Path
 
 from ilpss._io import FolderInUseError
 from ilpss.experiments.checkpoints import StorageError
-from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.config import TRAIN_EPISODES, ExperimentConfig
 from ilpss.experiments.drill_facts import TEAM_ERROR, drill_exception, scenario_names
 from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.methods import METHODS
 from ilpss.experiments.outputs import check_utf8, unwritten_report
 from ilpss.experiments.protocols import PROTOCOLS
 from ilpss.experiments.run import JobError, read_config, run_experiment
+from soccer_drill.constraints import check
 
 
 def build_config(args: argparse.Namespace) -> ExperimentConfig:
@@ -61,6 +62,8 @@ def build_config(args: argparse.Namespace) -> ExperimentConfig:
     methods = changes.get("methods", cfg.methods)
     if args.no_report and "baseline" not in changes and cfg.baseline not in methods:
         changes["baseline"] = None  # an ablation run, compared by ilpss-compare
+    if args.episodes is not None:  # said as the flag, with what an experiment allows
+        check("--episodes", args.episodes, TRAIN_EPISODES)
     lifelong: dict = {field: getattr(args, flag) for flag, field in
                       (("episodes", "train_episodes"), ("rollouts", "rollout_episodes"))
                       if getattr(args, flag) is not None}
@@ -105,8 +108,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--methods", nargs="+", choices=METHODS.names())
     p.add_argument("--baseline", metavar="METHOD",
                    help="the method every other is compared with (default scratch: learning "
-                   "anew); 'none' for a run without a report (implied by --no-report when "
-                   "--methods leaves the baseline out)")
+                   "anew); 'none' for a run without one, which is not reported: give it with "
+                   "--no-report (which implies it when --methods leaves the baseline out)")
     p.add_argument("--featured", metavar="METHOD",
                    help="the method whose kernels and GIF the report shows (default: the "
                    "first with ILPSS's kernels)")

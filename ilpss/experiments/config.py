@@ -66,6 +66,11 @@ environment and sampler are names looked up in their registries, the scenario am
 drill's)."""
 
 
+TRAIN_EPISODES = Integer(1, LIFELONG_CONSTRAINTS["train_episodes"].high)
+"""An experiment's learning episodes per task: at least one (its reports are learning
+curves), whereas a lifelong learner also allows trials without learning."""
+
+
 @dataclass(frozen=True)
 class ExperimentConfig:
     """Everything that defines a run of a protocol.
@@ -175,7 +180,7 @@ class ExperimentConfig:
         # LifelongConfig allows 0 (trials without learning), but an experiment reports
         # learning curves: without an episode it would run every job, then fail.
         check("ExperimentConfig.lifelong.train_episodes", self.lifelong.train_episodes,
-              Integer(1, LIFELONG_CONSTRAINTS["train_episodes"].high))
+              TRAIN_EPISODES)
         for role in ("baseline", "featured"):
             name = getattr(self, role)
             if name is not None and name not in self.methods:

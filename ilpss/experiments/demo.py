@@ -26,7 +26,7 @@ import gymnasium as gym
 
 from ilpss._io import FolderInUseError, atomic_write_bytes
 from ilpss.experiments.checkpoints import StorageError
-from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.config import TRAIN_EPISODES, ExperimentConfig
 from ilpss.experiments.drill_facts import (
     PANEL,
     SIDE_BY_SIDE,
@@ -52,6 +52,7 @@ from ilpss.lifelong import LifelongLearner, trial_seeds
 from ilpss.options import OptionLibrary
 from ilpss.policy import FrozenPolicy
 from ilpss.smdp import LearnerConfig, SmdpLearner
+from soccer_drill.constraints import check
 
 RECOMMENDED = "whole_policies_ft_bounded_cut"
 """The method the README recommends (``docs/results.md`` and ``docs/discussion.md`` say
@@ -91,6 +92,7 @@ def _main(argv: Sequence[str] | None) -> int:
     command = "ilpss-demo " + shlex.join(sys.argv[1:] if argv is None else list(argv))
     try:  # the output folder, the configuration and the method shown, before any work
         check_utf8(args)
+        check("--episodes", args.episodes, TRAIN_EPISODES)
         check_out_dir(args.out)
         cfg = ExperimentConfig(protocol="A", n_seeds=args.seeds, workers=args.workers,
                                methods=demo_methods(), featured="ilpss").with_overrides(
