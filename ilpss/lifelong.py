@@ -478,6 +478,9 @@ class LifelongLearner:
         is refused, and nothing in it changes: saving would delete or hide it.
         """
         root = Path(directory)
+        if root.exists() and not root.is_dir():
+            raise ValueError(f"{root}: exists and is not a folder; a checkpoint is a folder "
+                             "(give a new or empty one, or one this run saved to)")
         root.mkdir(parents=True, exist_ok=True)
         # One writer at a time: a second process saving here gets a clear error.
         with locked_folder(root, "checkpoint folder"):

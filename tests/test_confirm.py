@@ -87,7 +87,10 @@ def test_a_plan_is_checked_when_read(tmp_path):
                          ({"comparisons": [["finetune", "finetune"]]}, "two different"),
                          ({"comparisons": [["finetune"]]}, "pairs"),
                          ({"extra": 1}, "unknown field"),
-                         ({"margin": 5}, "margin")]:
+                         ({"margin": 5}, "margin"),
+                         # before, one seed was read and run, and the analysis then failed
+                         ({"protocols": {"A": {**PLAN["protocols"]["A"], "n_seeds": 1}}},
+                          r"protocols.A: n_seeds must be an integer >= 2")]:
         path.write_text(json.dumps({**PLAN, **change}))
         with pytest.raises((ValueError, KeyError), match=said):
             Plan.read(path)

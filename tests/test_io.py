@@ -339,6 +339,16 @@ def test_a_save_over_another_runs_checkpoint_is_refused_and_leaves_it(checkpoint
         learner.save(root)
 
 
+def test_a_save_to_a_file_is_refused_saying_a_checkpoint_is_a_folder(checkpoints, tmp_path):
+    # before, a bare FileExistsError from mkdir
+    learner = checkpoints[3]
+    path = tmp_path / "notes.py"
+    path.write_text("kept")
+    with pytest.raises(ValueError, match="exists and is not a folder; a checkpoint is a folder"):
+        learner.save(path)
+    assert path.read_text() == "kept"
+
+
 # One lifelong save writes 9 files here: policies 0-1, the library's kernels, policies 0-1
 # and record, the bags, state.json, then LATEST (which publishes the checkpoint).
 @pytest.mark.parametrize("nth_write", range(1, 10))

@@ -258,6 +258,10 @@ class _Mirrored:
         return self.outcome.adjusted
 
 
+PLAN_SEEDS = Integer(2)
+"""A plan protocol's seeds: its tests are intervals over seeds, which need two."""
+
+
 @dataclass(frozen=True)
 class ProtocolRun:
     """One protocol of a plan: the fields of its ``ExperimentConfig`` and its methods."""
@@ -479,6 +483,8 @@ def _runs(protocols: Any, methods: tuple[str, ...] | None,
         try:
             cfg = run.config()
             cfg.streams(cfg.first_seed)  # the protocol's own checks, before any run
+            # the tests are intervals over seeds: with one, the run would end unanalysed
+            check("n_seeds", cfg.n_seeds, PLAN_SEEDS)
         except (ValueError, TypeError) as exc:
             raise ValueError(f"{where}: {exc}") from exc
         runs[name] = run
