@@ -10,6 +10,13 @@ nearest other keeper. Keepaway has no dribble.
 | ``hand_coded`` | keepaway's hand-coded keeper (Stone, Sutton and Kuhlmann 2005): hold while no taker is within :data:`HOLD_DISTANCE` m; else score holding :data:`HOLD_SCORE` and each keeper ``i`` ``DIST_WEIGHT * min_dist(Ki, T) + min_ang(Ki, K1, T)`` (its nearest taker's distance, metres, and its passing lane, degrees), and take the highest (holding on ties) |
 | ``random`` | uniform over the actions |
 | ``hold`` | always hold |
+
+Called as ``policy(obs, rng)``, a policy reads the numbers of keepers and takers from the
+observation's length, which keepaway's own sizes (fewer takers than keepers: 3v2, 4v3)
+fix; at a size with as many takers as keepers or more, a length can be another size's
+(2v4's 13 values are also 3v2's), so take a policy made for the size with
+:func:`keeper_policy` (``keeper_policy("hand_coded", keepers=2, takers=4)``), which
+reads the observation as that size's and refuses one of another length.
 """
 
 from __future__ import annotations
@@ -17,6 +24,8 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+
+from soccer_drill.constraints import Integer, OneOf, check
 
 HOLD = 0
 HOLD_DISTANCE = 5.0
@@ -43,7 +52,10 @@ def keepaway_layout(obs: np.ndarray) -> tuple[int, int]:
 
 def hand_coded(obs: np.ndarray, rng: np.random.Generator) -> int:
     """Keepaway's hand-coded keeper (the module's table)."""
-    k, t = keepaway_layout(obs)
+    return _hand_coded(obs, rng, *keepaway_layout(obs))
+
+
+def _hand_coded(obs: np.ndarray, rng: np.random.Generator, k: int, t: int) -> int:
     if obs[k] > HOLD_DISTANCE:  # dist(K1, T1): the nearest taker
         return HOLD
     near = obs[2 * k + 2 * t - 1: 3 * k + 2 * t - 2]
@@ -58,12 +70,42 @@ def hand_coded(obs: np.ndarray, rng: np.random.Generator) -> int:
 
 def random_keeper(obs: np.ndarray, rng: np.random.Generator) -> int:
     """Uniformly random among ``HOLD`` and the passes."""
-    return int(rng.integers(keepaway_layout(obs)[0]))
+    return _random_keeper(obs, rng, *keepaway_layout(obs))
+
+
+def _random_keeper(obs: np.ndarray, rng: np.random.Generator, k: int, t: int) -> int:
+    return int(rng.integers(k))
 
 
 def always_hold(obs: np.ndarray, rng: np.random.Generator) -> int:
     """Always hold the ball."""
     return HOLD
+
+
+def _always_hold(obs: np.ndarray, rng: np.random.Generator, k: int, t: int) -> int:
+    return HOLD
+
+
+_AT_SIZE = {"hand_coded": _hand_coded, "random": _random_keeper, "hold": _always_hold}
+
+
+def keeper_policy(name: str, keepers: int, takers: int) -> KeeperPolicy:
+    """The policy ``name`` of :data:`KEEPER_POLICIES` for keepaway with ``keepers``
+    keepers (2 to 4) and ``takers`` takers (1 to 4), of any size: it reads the
+    observation as that size's, and refuses one of another length (``ValueError``)."""
+    check("name", name, OneOf(tuple(_AT_SIZE)))
+    check("keepers", keepers, Integer(2, 4))
+    check("takers", takers, Integer(1, 4))
+    rule, size = _AT_SIZE[name], 4 * keepers + 2 * takers - 3
+
+    def policy(obs: np.ndarray, rng: np.random.Generator) -> int:
+        if len(obs) != size:
+            raise ValueError(f"{len(obs)} values are not the state variables of keepaway "
+                             f"{keepers}v{takers} ({size})")
+        return rule(obs, rng, keepers, takers)
+
+    policy.__name__ = policy.__qualname__ = f"{name}_{keepers}v{takers}"
+    return policy
 
 
 KEEPER_POLICIES: dict[str, KeeperPolicy] = {

@@ -11,7 +11,12 @@ import pytest
 from opponents.takers import plan_into
 from soccer_drill import DrillConfig, Skill
 from soccer_drill.drill.drills import BatchDrill
-from soccer_drill.keepaway_policies import KEEPER_POLICIES, hand_coded, keepaway_layout
+from soccer_drill.keepaway_policies import (
+    KEEPER_POLICIES,
+    hand_coded,
+    keeper_policy,
+    keepaway_layout,
+)
 from soccer_drill.rules.arrays import Outcome, rule_parameters
 from soccer_drill.rules.keepaway import keepaway_bounds, keepaway_state_into, state_size
 from soccer_drill.scenarios import holder_env, holder_vector_env, scenario
@@ -169,3 +174,30 @@ def test_the_keepaway_page_is_written_from_kept_per_seed_records(tmp_path):
     before = [r.stat().st_mtime_ns for r in records]
     keepaway.main(args)  # a rerun reads the kept records
     assert [r.stat().st_mtime_ns for r in records] == before
+
+
+@pytest.mark.parametrize(("keepers", "takers"), [(2, 3), (2, 4), (3, 3), (3, 4), (3, 2), (4, 3)])
+def test_a_keeper_policy_made_for_a_size_reads_that_sizes_observation(keepers, takers):
+    # before, the policies read the size from the observation's length alone: at 2v4 (13
+    # values, as 3v2) they read it as 3v2, and at 2v3 or 3v3 they chose passes that the
+    # environment does not have
+    from soccer_drill import HolderEnv
+
+    env = HolderEnv(config=DrillConfig(task="keepaway", attackers=keepers, defenders=takers))
+    for name in KEEPER_POLICIES:
+        policy, rng = keeper_policy(name, keepers, takers), np.random.default_rng(0)
+        for seed in range(2):
+            obs, _ = env.reset(seed=seed)
+            while True:
+                action = policy(obs, rng)
+                assert env.action_space.contains(action)
+                obs, _, terminated, truncated, _ = env.step(action)
+                if terminated or truncated:
+                    break
+    if takers < keepers:  # keepaway's own sizes: the same decisions as read from the length
+        rng = np.random.default_rng(1)
+        for _ in range(50):
+            obs = env.observation_space.sample()
+            assert keeper_policy("hand_coded", keepers, takers)(obs, rng) == hand_coded(obs, rng)
+    with pytest.raises(ValueError, match=r"not the state variables of keepaway 3v2 \(13\)"):
+        keeper_policy("hold", 3, 2)(np.zeros(19), np.random.default_rng(0))
