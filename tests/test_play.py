@@ -251,7 +251,9 @@ def test_the_window_lists_every_pass_of_a_larger_drill(window, monkeypatch):
             in titles[-1])
 
 
-@pytest.mark.parametrize("size", [(3, 2), (2, 3), (1, 1), (4, 2)])
+# 1v2 and 2v1: the holder's or the players' features are the paper's 9 and the other's
+# not, where the lookup by name failed
+@pytest.mark.parametrize("size", [(3, 2), (2, 3), (1, 1), (4, 2), (1, 2), (2, 1)])
 def test_the_scripted_mates_decide_on_the_holders_features_at_any_size(size):
     # What a mate hands its attack is what the holder's SMDP would observe.
     config = soccer_drill.DrillConfig(attackers=size[0], defenders=size[1])

@@ -79,6 +79,11 @@ def feature_names(mates: int, opponents: int) -> tuple[str, ...]:
     module's table): ``FEATURE_NAMES`` for one teammate and two opponents."""
     if (mates, opponents) == (1, 2):
         return FEATURE_NAMES
+    return _slot_names(mates, opponents)
+
+
+def _slot_names(mates: int, opponents: int) -> tuple[str, ...]:
+    """The features' names by slot, whatever the size (the paper's 9 named as any other)."""
     ranks = range(1, mates + 1)
     return (*(f"dist_mate_{k}" for k in ranks),
             *(f"dist_opp_{k}" for k in range(1, opponents + 1)),
@@ -105,8 +110,8 @@ def holder_feature_indices(cfg: DrillConfig) -> np.ndarray:
     player's multi-agent features of ``cfg``'s drill, which have room for the larger team:
     ``agent_features[holder_feature_indices(cfg)]`` is the holder's view (the identity
     when the attackers are the larger team, as in the 2v2 drill)."""
-    agent = feature_names(*feature_slots(cfg))
-    return np.array([agent.index(name) for name in feature_names(*feature_slots(cfg, True))],
+    agent = _slot_names(*feature_slots(cfg))  # by slot: the paper's names are for 2v2 only
+    return np.array([agent.index(name) for name in _slot_names(*feature_slots(cfg, True))],
                     dtype=np.int64)
 
 
