@@ -104,6 +104,13 @@ class DrillConfig:
     bool or a non-number raises ``ValueError`` naming the field and the interval. NumPy
     numbers are accepted and stored as Python ``float``/``int``; the start points
     are stored as tuples of floats.
+
+    ``field_size`` may be 10 to 1000 m, but the default starts (not given:
+    :mod:`soccer_drill.tasks`) must fit in it: a side of two players keeps the paper's
+    points, which need a field of at least 32.5 m with two attackers and 23 m with two
+    defenders (13.5 m for the other sizes' starts with three or four attackers); a
+    smaller field needs ``attacker_starts`` and ``defender_starts`` of its
+    own (the error says so).
     """
 
     field_size: float = _limited(35.0, Real(10.0, 1000.0))

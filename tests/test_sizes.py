@@ -262,3 +262,19 @@ def test_plain_int_actions_give_the_same_episode_as_numpy_ones(attackers: int,
         runs.append(seen)
     assert runs[0] == runs[1]
     assert any(r >= 0 for step in runs[0] for r in step[0])  # passes to a teammate by rank
+
+
+def test_the_smallest_fields_the_default_starts_fit_are_the_ones_documented():
+    from soccer_drill import DrillConfig
+
+    def fits(a, d, size):
+        try:
+            DrillConfig(attackers=a, defenders=d, field_size=size)
+        except ValueError:
+            return False
+        return True
+
+    for a in range(1, 5):
+        for d in range(1, 5):
+            least = 32.5 if a == 2 else 23.0 if d == 2 else 13.5 if a > 2 else 10.0
+            assert fits(a, d, least) and (least == 10.0 or not fits(a, d, least - 0.5)), (a, d)
