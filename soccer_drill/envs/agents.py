@@ -481,7 +481,7 @@ class raw_env(_DrillEnvBase, AECEnv):
     | ``obs_type`` | ``Box`` | what it holds |
     |--------------|---------|---------------|
     | ``"features"`` (default) | ``(9,)`` | the paper's 9 features from the agent's point of view (table in :mod:`soccer_drill.rules.features`): distances and passing and dribbling lanes; no ball, no possession |
-    | ``"kinematic"`` | ``(26,)`` | self's position and velocity; mate's, opponents' and the ball's relative to self; flags: self, mate or an opponent holds the ball, the ball is loose, self is an attacker, self may not take the ball back yet |
+    | ``"kinematic"`` | ``(26,)`` | self's position and velocity; mate's, opponents' and the ball's relative to self (a relative velocity clipped at the larger of the ball's and a player's top speed: :func:`~soccer_drill.rules.features.kinematic_bounds`); flags: self, mate or an opponent holds the ball, the ball is loose, self is an attacker, self may not take the ball back yet |
     | ``"full"`` | ``(36,)`` | ``"kinematic"``, then the 9 features, then the time left (``1 - cycle / max_cycles``) |
 
     Which one to learn from (MAPPO on the attackers, development seed 1000, 1,000,000

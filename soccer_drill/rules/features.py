@@ -241,7 +241,14 @@ KINEMATIC_SIZE = 26
 
 
 def kinematic_bounds(cfg: DrillConfig) -> tuple[np.ndarray, np.ndarray]:
-    """Bounds of the egocentric kinematic observation (see :func:`kinematics_into`)."""
+    """Bounds of the egocentric kinematic observation (see :func:`kinematics_into`).
+
+    A relative velocity's bound is the larger of the ball's top speed and a player's,
+    not their sum: while the ball flies at nearly its top speed against a player running
+    the other way, its velocity relative to that player is clipped (up to about 31 m/s
+    read as 25 with the defaults, about 1% of the multi-agent observations of random
+    play). The recorded episodes and the reference runs were made with these bounds, so
+    they stay; ``state()`` holds every velocity unclipped."""
     span = cfg.field_size + 2 * cfg.wall_margin
     top_speed = max(cfg.attacker_speed, cfg.defender_speed)
     pos_hi, vel_hi = span, max(cfg.ball_max_speed, top_speed)
