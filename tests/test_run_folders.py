@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 import sys
@@ -387,3 +388,18 @@ run_experiment(cfg, sys.argv[1], progress=False)
     assert resumed == straight
     assert (job / "result.json").read_bytes() == (
         tmp_path / "straight" / "seed_000" / "stream_00" / "result.json").read_bytes()
+
+
+def test_another_runs_folder_is_refused_as_the_checkpoint_storage(tmp_path):
+    # before, its checkpoints were mixed with this run's (and owner.json written into
+    # it), or refused with the advice to delete the other run's checkpoints
+    from ilpss.experiments.run import run_experiment
+
+    first = tmp_path / "first"
+    run_experiment(_tiny(), first, progress=False)
+    before = sorted(p.relative_to(first).as_posix() for p in first.rglob("*"))
+    with pytest.raises(ValueError, match=r"another run's folder \(it holds config.json\) given "
+                                         r"as this run's checkpoint storage"):
+        run_experiment(dataclasses.replace(_tiny(), storage=str(first)), tmp_path / "second",
+                       progress=False)
+    assert sorted(p.relative_to(first).as_posix() for p in first.rglob("*")) == before

@@ -246,7 +246,8 @@ def _restore(
     damaged (a file truncated, edited or gone): each message says how to go on."""
     where = f"{store.location}/{key}" if is_uri(store.location) else os.fspath(
         Path(store.location) / key)
-    hint = "delete that folder to run this method of the job again"
+    hint = ("delete that folder to run this method of the job again, unless it is "
+            "another run's (a storage shared by two runs: give this one a storage of its own)")
     try:
         learner = store.restore(key, space)
     except ValueError as exc:  # a resume reads it the same way every time: say what helps

@@ -375,6 +375,10 @@ def _storage(cfg: ExperimentConfig, out: Path) -> Iterator[tuple[CheckpointStore
     store = open_store(location)
     try:
         if isinstance(store, LocalStore) and location != os.fspath(out.resolve()):
+            if (store.root / "config.json").is_file():  # checkpoints and owner.json there
+                raise ValueError(f"{location}: another run's folder (it holds config.json) "
+                                 "given as this run's checkpoint storage; give a folder of "
+                                 "its own, or leave --storage out (the run folder)")
             try:
                 store.root.mkdir(parents=True, exist_ok=True)
             except OSError as exc:
