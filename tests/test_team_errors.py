@@ -365,3 +365,26 @@ def test_after_a_team_error_a_refused_aec_step_changes_nothing():
     assert env.infos == infos and env.rewards == rewards and env.agent_selection == agent
     env.reset(seed=0)
     _cycle(env, "aec")
+
+
+def test_an_environment_whose_team_cannot_be_copied_names_the_team(team_registry):
+    # before, copy.deepcopy of the environment raised copy's bare TypeError about the lock
+    import copy
+
+    class Locked:
+        def __init__(self):
+            self.lock = threading.Lock()
+
+        def reset(self, view, rng):
+            self.players = view.players
+
+        def act(self, view):
+            return dict.fromkeys(self.players, Command(Skill.INTERCEPT))
+
+    team_registry.register("locked", Locked)
+    env = soccer_drill.HolderEnv(opponent="locked")
+    env.reset(seed=0)
+    with pytest.raises(TypeError, match=r"team 'locked' cannot be copied, so neither can the "
+                                        r"environment it plays in: TypeError\("):
+        copy.deepcopy(env)
+    env.step(0)  # the environment itself plays on

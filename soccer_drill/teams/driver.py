@@ -460,6 +460,24 @@ class TeamDriver:
         self._every = immutable(np.arange(batch.n))  # handed to the team every cycle
         _DRIVERS.add(self)
 
+    def __deepcopy__(self, memo: dict[int, Any]) -> TeamDriver:
+        """A copy of the driver and its team (an environment's ``copy.deepcopy``); a team
+        that cannot be copied is named, with what to do, instead of a bare error of
+        ``copy`` about one of its attributes."""
+        copied = type(self).__new__(type(self))
+        memo[id(self)] = copied
+        try:
+            state = copy.deepcopy(self.__dict__, memo)
+        except Exception as exc:
+            if delivered_by_signal(exc):
+                raise
+            raise TypeError(
+                f"team {self.name!r} cannot be copied, so neither can the environment it "
+                f"plays in: {short_repr(exc)}; give the team what "
+                "copy.deepcopy can copy (or __deepcopy__), or make a new environment") from exc
+        copied.__setstate__(state)
+        return copied
+
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         # Read-only again, as the original's (copy.deepcopy and pickle make arrays
