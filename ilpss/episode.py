@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from ilpss.tiles import box_bounds
 from soccer_drill.constraints import is_int
 
 __all__ = [
@@ -127,9 +128,13 @@ def options_used(
 
 
 # ------------------------------------------------------------ the environment contract
-def check_env(env: Any, n_primitive: int, n_features: int) -> None:
+def check_env(env: Any, n_primitive: int, n_features: int,
+              bounds: tuple[np.ndarray, np.ndarray] | None = None) -> None:
     """Refuse an environment whose spaces are not ``Discrete(n_primitive)`` actions and
-    observations of shape ``(n_features,)`` (when it declares an observation shape)."""
+    observations of shape ``(n_features,)`` (when it declares an observation shape), or,
+    given the ``bounds`` a tile coder was made for, a bounded observation space with
+    other bounds (another field or speeds: its observations would be clipped to the
+    learner's ranges without a word)."""
     space = getattr(env, "action_space", None)
     n = getattr(space, "n", None)
     if space is None:
@@ -144,6 +149,20 @@ def check_env(env: Any, n_primitive: int, n_features: int) -> None:
             f"environment observations have shape {shape}, the tile coder expects "
             f"({n_features},)"
         )
+    if bounds is None:
+        return
+    try:
+        low, high = box_bounds(env.observation_space)
+    except ValueError:  # not a bounded box: nothing to compare
+        return
+    differ = np.flatnonzero((low != bounds[0]) | (high != bounds[1]))
+    if differ.size:
+        i = int(differ[0])
+        raise ValueError(
+            f"environment observation bounds differ from those the learner's tile coder was "
+            f"made for ({differ.size} feature(s); feature {i}: the environment's "
+            f"[{low[i]:g}, {high[i]:g}], the learner's [{bounds[0][i]:g}, {bounds[1][i]:g}]); "
+            "make the learner on this environment's observation space")
 
 
 def observation(obs: Any, n_features: int) -> np.ndarray:

@@ -44,7 +44,7 @@ from ilpss._io import (
     sha256_file,
 )
 from ilpss._schema import FLOAT, ArchiveSchema, Field
-from ilpss.episode import EpisodeResult, options_used
+from ilpss.episode import EpisodeResult, check_env, options_used
 from ilpss.kernels import KERNEL_CONSTRAINTS, SharedKernelModel, UniformKernel
 from ilpss.options import OptionLibrary, OptionSettings
 from ilpss.policy import FrozenPolicy
@@ -340,6 +340,8 @@ class LifelongLearner:
         them). ``task``, the task's name, is what the reuse's offer rule reads.
         """
         index = self.n_trials if trial is None else checked("trial", trial, TRIAL)
+        check_env(env, self.n_primitive, self.tile_coder.n_features,
+                  (self.tile_coder.low, self.tile_coder.high))
         learner_seed, env_seed, _, _ = trial_seeds(self.seed, index)
         learner = self.make_learner(learner_seed, with_options, task)
         start = self.config.reuse.start if with_options else Fresh()

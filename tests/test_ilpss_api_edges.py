@@ -367,3 +367,19 @@ def test_the_statistics_refuse_what_is_not_numbers_naming_it(call, message):
     with pytest.raises(ValueError, match=message):
         call()
     assert np.isnan(metrics.holm([0.01, float("nan")])[1])  # NaN still means "not made"
+
+
+def test_a_trial_on_an_environment_with_other_observation_bounds_is_refused():
+    # before, a learner made on the 2v2 drill's space ran on a 60 m field's drill (same
+    # shape, bounds 88 against 53) and its tile coder clipped the observations silently
+    from soccer_drill import DrillConfig, HolderEnv
+
+    env = HolderEnv(opponent="chasers")
+    learner = LifelongLearner(LifelongConfig(train_episodes=1, rollout_episodes=1),
+                              env.observation_space, 3, seed=0)
+    wider = HolderEnv(opponent="chasers", config=DrillConfig(field_size=60))
+    with pytest.raises(ValueError, match=r"observation bounds differ from those the learner's "
+                                         r"tile coder was made for \(7 feature\(s\); feature 0"):
+        learner.run_trial(wider, "chasers")
+    assert learner.n_trials == 0
+    learner.run_trial(env, "chasers")

@@ -122,14 +122,15 @@ def test_an_experiment_without_learning_episodes_is_refused_before_any_job(
     out = tmp_path / "run"
     code, err = _experiment(["--seeds", "1", "--methods", "scratch", "--episodes", "0",
                              "--out", str(out)], capsys)
-    assert code == 2 and said in err and not (out / "config.json").exists()
+    flag = "--episodes must be an integer in [1, 1,000,000], got 0"  # said as the flag
+    assert code == 2 and flag in err and not (out / "config.json").exists()
     config = tmp_path / "c.json"
     config.write_text(json.dumps({"methods": ["scratch"], "lifelong": {"train_episodes": 0}}))
     code, err = _experiment(["--config", str(config), "--out", str(out)], capsys)
     assert code == 2 and said in err and not (out / "config.json").exists()
     with pytest.raises(SystemExit) as exit_info:
         demo.main(["--episodes", "0", "--out", str(out)])
-    assert exit_info.value.code == 2 and said in capsys.readouterr().err
+    assert exit_info.value.code == 2 and flag in capsys.readouterr().err
     assert not (out / "config.json").exists()
 
 
