@@ -388,3 +388,15 @@ def test_a_config_file_with_a_repeated_key_is_refused_naming_the_key_and_file(
     _fail_if_run(monkeypatch)
     code, err = _experiment(["--config", str(config), "--out", str(tmp_path / "run")], capsys)
     assert code == 2 and f"{config}: not valid JSON (the key 'n_seeds' appears" in err
+
+
+def test_seeds_past_the_largest_and_a_setting_given_twice_are_refused(tmp_path, capsys):
+    # before, --first-seed 4294967295 --seeds 2 ran a seed past the documented largest, and
+    # a repeated --set kept its last value silently
+    out = tmp_path / "run"
+    for argv, said in ((["--first-seed", "4294967295", "--seeds", "2"],
+                        "the seeds 4294967295 .. 4294967296 go past 4,294,967,295"),
+                       (["--set", "n_kernels=2", "--set", "n_kernels=3"],
+                        "--set n_kernels is given twice")):
+        code, err = _experiment([*argv, "--out", str(out)], capsys)
+        assert code == 2 and said in err and not out.exists()

@@ -67,8 +67,12 @@ def build_config(args: argparse.Namespace) -> ExperimentConfig:
     lifelong: dict = {field: getattr(args, flag) for flag, field in
                       (("episodes", "train_episodes"), ("rollouts", "rollout_episodes"))
                       if getattr(args, flag) is not None}
+    given: set[str] = set()
     for item in args.set or ():
         key, value = _setting(item)
+        if key in given:  # as a JSON object's repeated key: which one was meant?
+            raise ValueError(f"--set {key} is given twice; give each setting once")
+        given.add(key)
         *path, name = key.split(".")  # learner.alpha, library.discount, n_kernels
         target = lifelong
         for part in path:

@@ -158,6 +158,12 @@ class ExperimentConfig:
                 object.__setattr__(self, name, tuple(getattr(self, name)))
         PROTOCOLS.check("ExperimentConfig.protocol", self.protocol)
         check_fields("ExperimentConfig", self, EXPERIMENT_CONSTRAINTS)
+        last = self.first_seed + self.n_seeds - 1  # every seed within the bound, not the first
+        if last > EXPERIMENT_CONSTRAINTS["first_seed"].high:
+            raise ValueError(
+                f"ExperimentConfig: the seeds {self.first_seed} .. {last} go past "
+                f"{EXPERIMENT_CONSTRAINTS['first_seed'].high:,}, the largest seed; lower "
+                "first_seed or n_seeds")
         self._take_scenario()
         for method in self.methods:
             METHODS.check("ExperimentConfig.methods", method)
