@@ -93,6 +93,26 @@ def test_different_options_per_drill_are_refused_at_the_reset():
         env.reset()
 
 
+def test_a_reset_mask_in_the_options_is_refused_since_sb3_resets_every_drill():
+    # before, reset() reset the masked drills only, and VecMonitor counted the others' new
+    env = HolderSB3VecEnv(4, opponent=TEAM)
+    env.reset()
+    env.set_options({"reset_mask": np.array([True, False, False, False])})
+    with pytest.raises(ValueError, match="its options take no reset_mask"):
+        env.reset()
+
+
+def test_decision_cycles_set_through_set_attr_changes_the_decisions():
+    # before, the attribute was set and the loop kept its own value: no effect, no error
+    env = HolderSB3VecEnv(4, opponent=TEAM)
+    env.set_attr("decision_cycles", 1)
+    env.seed(0)
+    env.reset()
+    _, _, _, infos = env.step(np.zeros(4, dtype=np.int64))  # HOLD
+    assert env.get_attr("decision_cycles") == [1] * 4
+    assert [info["duration"] for info in infos] == [1] * 4
+
+
 def test_step_wait_without_step_async_is_refused():
     env = HolderSB3VecEnv(2, opponent=TEAM)
     env.reset()

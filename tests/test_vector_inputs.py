@@ -79,7 +79,14 @@ def test_a_masked_reset_seeds_its_drills_as_a_full_reset_and_ignores_the_others_
         cycles = venv.step(np.full(4, 2))[4]["cycles"]
     obs, info = venv.reset(seed=np.int64(5), options={"reset_mask": MASK})
     np.testing.assert_array_equal(obs[MASK], full[MASK])
-    np.testing.assert_array_equal(info["cycles"], np.where(MASK, 0, cycles))  # the others go on
+    # the infos are the reset drills' only, as Gymnasium's SyncVectorEnv gives them (before,
+    # every drill's was marked, the others' with their running counts)
+    for key in ("cycles", "duration", "outcome", "holder"):
+        np.testing.assert_array_equal(info[f"_{key}"], MASK)
+    np.testing.assert_array_equal(info["cycles"], 0)
+    assert list(info["holder"][~MASK]) == [None, None]
+    after = venv.step(np.full(4, 2))[4]["cycles"]  # the others went on
+    np.testing.assert_array_equal(after[~MASK], cycles[~MASK] + 4)
     # A list has one entry per drill; those of the drills not reset may be anything valid.
     obs, _ = venv.reset(seed=[5, 99, None, 8], options={"reset_mask": MASK})
     np.testing.assert_array_equal(obs[MASK], full[MASK])
@@ -145,3 +152,13 @@ def test_the_batched_agents_take_integer_actions_only_as_parallel_env():
             venv.step({**good, "attacker_1": bad})
     np.testing.assert_array_equal(venv._core.batch.cycle, cycles)  # no drill moved
     venv.step(good)
+
+
+def test_a_holder_envs_decision_cycles_set_after_it_is_made_is_the_one_played():
+    # before, setting the attribute changed nothing: the loop kept the value it was made with
+    env = HolderEnv(opponent="chasers")
+    env.decision_cycles = 2
+    env.reset(seed=0)
+    assert env.step(0)[4]["duration"] == 2
+    with pytest.raises(ValueError, match=r"decision_cycles must be an integer in \[1, 50\]"):
+        env.decision_cycles = 0

@@ -509,9 +509,10 @@ class raw_env(_DrillEnvBase, AECEnv):
 
     ## Global state
 
-    ``state()`` returns the whole drill, 29 float32 values in ``state_space``
-    (positions and velocities of the four players and the ball in field coordinates,
-    holder and passer flags, elapsed fraction of ``max_cycles``; layout in
+    ``state()`` returns the whole drill, ``6 p + 5`` float32 values with ``p`` players
+    (29 in the 2v2 drill) in ``state_space`` (positions and velocities of the players and
+    the ball in field coordinates, holder and passer flags, elapsed fraction of
+    ``max_cycles``; layout in
     :func:`soccer_drill.rules.features.global_state_into`), for centralised critics.
 
     ## Rewards

@@ -112,6 +112,21 @@ STEP = step_record(2)
 """One drill's holder step in the 2v2 drill (:func:`step_record`)."""
 
 
+def _get_decision_cycles(env: Any) -> int:
+    return env.loop.decision_cycles
+
+
+def _set_decision_cycles(env: Any, value: int) -> None:
+    env.loop.decision_cycles = checked("decision_cycles", value, DECISION_CYCLES)
+
+
+DECISION_CYCLES_OF_LOOP = property(
+    _get_decision_cycles, _set_decision_cycles,
+    doc="Cycles a HOLD or DRIBBLE lasts: the holder loop's; setting it (``set_attr`` too) "
+        "changes the decisions that follow (a curriculum), checked as the argument is.")
+"""An environment's ``decision_cycles``: its holder loop's, read and set."""
+
+
 @compiled
 def _begin(steps, state, drills, actions, decision_cycles):
     """The holders of ``drills`` take ``actions``: their drills run again. Action 0 is
@@ -473,6 +488,7 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
     """
 
     metadata: ClassVar[dict] = {"render_modes": list(RENDER_MODES), "render_fps": 10}
+    decision_cycles = DECISION_CYCLES_OF_LOOP
 
     def __init__(
         self,
@@ -496,7 +512,6 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
         self.render_mode = render_mode
         core = BatchCore(1, opponent, opponent_params, self.config, team_timeout, True, None)
         self.loop = HolderLoop(core, decision_cycles)
-        self.decision_cycles = decision_cycles
         self.action_names = self.loop.action_names
         """The names of the actions, in index order (``HOLD, PASS, DRIBBLE``: 2v2)."""
         self.observation_space = self.loop.observe.box

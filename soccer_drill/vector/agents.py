@@ -75,8 +75,9 @@ class ParallelVectorEnv(Pickled):
     as ``parallel_env``'s) and ``action_space(agent)`` are one drill's spaces. With
     shared spaces (as ``parallel_env``'s, the default with no opponent) every agent has the same spaces, and
     one more value ends every observation: 1 for an attacker, 0 for a defender.
-    ``state()`` is every drill's :func:`~soccer_drill.rules.features.global_state_into` (29 values,
-    the layout of ``parallel_env``'s ``state()``): ``(num_envs, 29)`` float32 in
+    ``state()`` is every drill's :func:`~soccer_drill.rules.features.global_state_into` (``6 p + 5``
+    values with ``p`` players: 29 in the 2v2 drill, the layout of ``parallel_env``'s
+    ``state()``): ``(num_envs, 6 p + 5)`` float32 in
     ``state_space`` batched (``state_space`` is one drill's ``Box``).
 
     ## Calls
@@ -84,7 +85,7 @@ class ParallelVectorEnv(Pickled):
     | call | returns |
     |---|---|
     | ``reset(seed=None)`` | ``(observations, infos)`` |
-    | ``state()`` | ``(num_envs, 29)`` float32: every drill's global state |
+    | ``state()`` | ``(num_envs, 6 p + 5)`` float32 (``p`` players: 29 in the 2v2 drill): every drill's global state |
     | ``render()`` | with ``render_mode="rgb_array"``: a tuple of ``num_envs`` frames ``(H, W, 3)`` uint8, one per drill (as ``SyncVectorEnv.render``); else ``None`` |
     | ``step(actions)`` | ``(observations, rewards, terminations, truncations, infos)`` |
     | ``action_masks()`` | ``{agent: (num_envs, n) int8}``, 1 = legal now |
@@ -422,7 +423,8 @@ class ParallelVectorEnv(Pickled):
             self._attack.restart(drills)
 
     def state(self) -> np.ndarray:
-        """Every drill's global state: ``(num_envs, 29)`` float32 (see the class docstring)."""
+        """Every drill's global state: ``(num_envs, 6 p + 5)`` float32 with ``p`` players, 29
+        in the 2v2 drill (see the class docstring)."""
         if not self._has_reset:
             raise RuntimeError("state() called before reset(); call reset() first")
         return self._state(self._core.batch.state, self._core.every, self._core.every)

@@ -27,6 +27,7 @@ from soccer_drill.drill.spaces import DRILLS_PER_SPACE
 from soccer_drill.envs.core import BatchCore, check_reset_options, check_seed, make_config
 from soccer_drill.envs.holder import (
     DECISION_CYCLES,
+    DECISION_CYCLES_OF_LOOP,
     HolderLoop,
     holder_action_refused,
 )
@@ -59,6 +60,22 @@ def _first_non_integer(actions: np.ndarray) -> int:
     """The index of the first entry of ``actions`` that is not an integer (0 if every entry
     is one: then the dtype itself is wrong, e.g. an object array of ints)."""
     return next((i for i, x in enumerate(actions.tolist()) if not is_int(x)), 0)
+
+
+def _only(infos: dict[str, Any], drills: np.ndarray, n: int) -> dict[str, Any]:
+    """``infos`` (of every drill) kept for ``drills`` only, as Gymnasium batches the infos
+    of some sub-environments: ``_key`` true for them, the others' values 0 or ``None``."""
+    chosen = np.zeros(n, dtype=bool)
+    chosen[drills] = True
+    out: dict[str, Any] = {}
+    for key, values in infos.items():
+        if key.startswith("_"):
+            out[key] = chosen.copy()
+        elif values.dtype.kind in "biuf":
+            out[key] = np.where(chosen, values, np.zeros_like(values))
+        else:
+            out[key] = np.where(chosen, values, None).astype(object)
+    return out
 
 
 class HolderVectorEnv(Pickled, VectorEnv):
@@ -223,6 +240,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
     | ``render_mode`` | ``None`` | ``None`` or ``"rgb_array"``: ``render()`` returns a tuple of ``num_envs`` frames ``(H, W, 3)`` uint8, one per drill, as ``SyncVectorEnv.render`` does (a window or a video of every cycle: a single ``HolderEnv``); ``metadata["render_fps"]`` is ``HolderEnv``'s, ``1 / cycle_seconds`` |
     """
 
+    decision_cycles = DECISION_CYCLES_OF_LOOP
     metadata: ClassVar[dict] = {
         "render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.NEXT_STEP,
     }
@@ -254,7 +272,6 @@ class HolderVectorEnv(Pickled, VectorEnv):
         self._same_step = self.autoreset_mode == AutoresetMode.SAME_STEP
         self.num_envs = n
         self.batch_size = int(batch_size)
-        self.decision_cycles = decision_cycles
         self.config = make_config(config, max_cycles)
         # HolderEnv's frame rate, which Gymnasium's vector HumanRendering and RecordVideo read
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode,
@@ -307,7 +324,10 @@ class HolderVectorEnv(Pickled, VectorEnv):
             self._reset(seeds, drills)
             self._ready[drills] = False
             rows = self._all
-            return self._observe(rows), self._infos(rows, np.zeros(self.num_envs, dtype=np.int64))
+            infos = self._infos(rows, np.zeros(self.num_envs, dtype=np.int64))
+            if len(drills) < self.num_envs:  # infos of the drills reset only
+                infos = _only(infos, drills, self.num_envs)
+            return self._observe(rows), infos
 
         return self._core.changing("HolderVectorEnv.reset()", reset, len(drills) == self.num_envs)
 

@@ -121,6 +121,11 @@ class HolderSB3VecEnv(VecEnv):
                 "HolderSB3VecEnv resets its drills together, so they take one options dict; "
                 f"set_options() was given different ones: {self._options!r}"
             )
+        if first and "reset_mask" in first:  # SB3's reset() starts every drill
+            raise ValueError(
+                "HolderSB3VecEnv's reset() starts every drill, as SB3's VecEnv.reset does, "
+                "so its options take no reset_mask (set_options was given one); the batch "
+                "resets a drill on its own when its episode ends")
         return dict(first) or None
 
     def close(self) -> None:
