@@ -821,11 +821,6 @@ def _check_library(learner: LifelongLearner, ckpt: Path) -> None:
         if policy.tile_coder != mine.tile_coder or policy.option_ids != mine.option_ids or \
                 not np.array_equal(policy.weights, mine.weights):
             raise ValueError(f"{where}: its policy {i} is not the checkpoint's policy_{i}.npz")
-    kernels = getattr(lib.kernel_model, "n_components", None)
-    if kernels is not None and kernels != learner.config.n_kernels:  # the model's own count
-        raise ValueError(
-            f"{ckpt / 'library'}: a kernel model of {kernels} kernels, where the checkpoint's "
-            f"configuration says n_kernels={learner.config.n_kernels}")
     last = learner.records[-1]
     if last.library_size != len(lib):
         raise ValueError(
