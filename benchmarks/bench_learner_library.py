@@ -54,7 +54,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_learner import DRILL_ID, TimedEnv, _cpu_name, collect_states, keepaway_coder, make_env
 
 from ilpss.kernels import SharedKernelModel
-from ilpss.lifelong import LearnerConfig
 from ilpss.options import OptionLibrary, OptionSettings
 from ilpss.policy import FrozenPolicy
 from ilpss.smdp import KEEPAWAY, SmdpLearner
@@ -155,7 +154,7 @@ class CpuTimedEnv(TimedEnv):
 
 
 def make_learner(library: OptionLibrary | None, coder: TileCoder, seed: int) -> SmdpLearner:
-    return SmdpLearner(N_PRIMITIVE, coder, library, LearnerConfig(), config=KEEPAWAY, seed=seed)
+    return SmdpLearner(N_PRIMITIVE, coder, library, config=KEEPAWAY, seed=seed)
 
 
 def run_learner(env: TimedEnv, learner: SmdpLearner, n: int) -> tuple[float, float]:

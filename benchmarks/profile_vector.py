@@ -28,6 +28,7 @@ import soccer_drill.drill.spaces as physics_module
 import soccer_drill.envs.core as core_module
 import soccer_drill.envs.holder as loop_module
 import soccer_drill.rules.cycle as cycle_module
+import soccer_drill.rules.support as support_module
 import soccer_drill.teams.driver as teams_module
 import soccer_drill.vector.agents as agents_module
 
@@ -47,7 +48,7 @@ COMPONENTS = (
     ("    tackles", drills_module.BatchDrill, "_tackle"),
     ("    rewards", drills_module.BatchDrill, "_rewards"),
     ("  team (batched act, its bound and checks)", teams_module.TeamDriver, "act"),
-    ("  support players' commands (holder)", core_module.BatchCore, "support_commands"),
+    ("  support players' commands (holder)", support_module.SupportDraws, "commands"),
     ("  observations and masks (agents)", agents_module.ParallelVectorEnv, "_observations"),
     ("  action checks (agents)", agents_module.ParallelVectorEnv, "_commands"),
     ("  resets", core_module.BatchCore, "reset"),

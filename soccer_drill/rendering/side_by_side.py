@@ -2,7 +2,7 @@
 
 Command line::
 
-    soccer-drill-side-by-side --team goal_guards --policy pass_first --policy dribble_first \\
+    soccer-drill-side-by-side --team goal_guards --policy pass_first --policy dribble \\
         [--seeds 0 1] [--fps 10] -o side_by_side.gif
 
 Each panel plays every seed in turn on its own environment, one frame per cycle; a panel
