@@ -14,8 +14,8 @@ from soccer_drill.drill.drills import BatchDrill
 from soccer_drill.keepaway_policies import (
     KEEPER_POLICIES,
     hand_coded,
-    keeper_policy,
     keepaway_layout,
+    keeper_policy,
 )
 from soccer_drill.rules.arrays import Outcome, rule_parameters
 from soccer_drill.rules.keepaway import keepaway_bounds, keepaway_state_into, state_size
