@@ -93,6 +93,9 @@ def check_out_file(path: str | os.PathLike[str], flag: str = "--out", suffix: st
     if not text.strip():
         raise ValueError(f"{flag}: the output file must be a path, got {text!r}")
     out = Path(text)
+    if text.endswith(("/", os.sep)) or out.is_dir():
+        raise ValueError(f"{flag} {text}: a folder, where the output file belongs; name the "
+                         "file (e.g. docs/learning.md)")
     if suffix and not out.name.endswith(suffix):
         raise ValueError(f"{flag} {text}: the file written is a page and its name ends in "
                          f"{suffix!r} (a page never replaces a data or configuration file)")
@@ -100,9 +103,6 @@ def check_out_file(path: str | os.PathLike[str], flag: str = "--out", suffix: st
         if out.resolve() == Path(given).resolve():
             raise ValueError(f"{flag} {text}: the command reads that file ({os.fspath(given)}); "
                              "write to another")
-    if text.endswith(("/", os.sep)) or out.is_dir():
-        raise ValueError(f"{flag} {text}: a folder, where the output file belongs; name the "
-                         "file (e.g. docs/learning.md)")
     parent = out.parent
     if parent.exists() and not parent.is_dir():
         raise ValueError(f"{flag} {text}: {parent} is a file, not a folder")

@@ -181,10 +181,8 @@ class ParallelVectorEnv(Pickled):
         if attack is not None and opponent is not None:
             raise ValueError("give a scripted attack or a scripted opponent team, not both: "
                              f"got attack={attack!r} and opponent={opponent!r}")
-        attack_name = attack if isinstance(attack, str) else type(attack).__name__
-        attack = None if attack is None else make_attack(attack)
-        shared_spaces = resolve_shared_spaces(
-            shared_spaces, opponent if attack is None else attack)
+        scripted = None if attack is None else make_attack(attack)
+        shared_spaces = resolve_shared_spaces(shared_spaces, opponent if attack is None else scripted)
         self.render_mode = check_render_mode(render_mode, type(self).__name__)
         self.illegal_action = checked("illegal_action", illegal_action, ILLEGAL_ACTION)
         self.config = make_config(config, max_cycles)
@@ -195,10 +193,10 @@ class ParallelVectorEnv(Pickled):
             check_frames_fit(n, self.config)
         self._core = BatchCore(
             n, opponent, opponent_params, self.config, team_timeout, attack is not None,
-            drills_per_space, attack,
+            drills_per_space, scripted,
         )
-        self._attack = None if attack is None else ScriptedAttack(attack, self._core,
-                                                                  name=attack_name)
+        self._attack = None if scripted is None else ScriptedAttack(
+            scripted, self._core, name=attack if isinstance(attack, str) else None)
         cfg = self.config
         attackers, names = cfg.attackers, cfg.player_names
         self._attackers, self._actions = attackers, AttackerActions(attackers)
