@@ -59,8 +59,9 @@ def test_tiny_run_writes_resumes_is_deterministic_and_recomputes_a_changed_setti
     for module in ("torch", "stable_baselines3", "sb3_contrib"):
         pytest.importorskip(module)
     # every setting: 2 seeds x (ppo, maskable_ppo, mappo, ippo on chasers; defenders;
-    # self_play, self_play_pfsp, self_play_pfsp_long, self_play_league; transfer)
-    assert _run(capsys, tmp_path, "a") == (20, 0)
+    # self_play, self_play_pfsp, self_play_pfsp_long, self_play_pfsp_long_kept,
+    # self_play_league; transfer)
+    assert _run(capsys, tmp_path, "a") == (22, 0)
     page = (tmp_path / "a.md").read_text(encoding="utf-8")
     for name in cli.SETTINGS:
         assert f"## `{name}`" in page
@@ -73,7 +74,7 @@ def test_tiny_run_writes_resumes_is_deterministic_and_recomputes_a_changed_setti
     assert "prioritised fictitious self-play" in page and "Opponents drawn per rollout" in page
     assert "A main exploiter per side in 1 of each half's 2 drills" in page
     first = _records(tmp_path / "a")
-    assert len(first) == 20
+    assert len(first) == 22
     # the rules against chasers, goal_guards (the transfer row's target) and, for the
     # defenders' bar, the paper's teams
     assert len(list((tmp_path / "a").glob("rule-*.json"))) == 5 * 9
@@ -86,7 +87,7 @@ def test_tiny_run_writes_resumes_is_deterministic_and_recomputes_a_changed_setti
     assert not check_summary_tables(summary, page)
 
     # a rerun computes nothing and leaves every record as it was
-    assert _run(capsys, tmp_path, "a") == (0, 20)
+    assert _run(capsys, tmp_path, "a") == (0, 22)
     assert _records(tmp_path / "a") == first
 
     # the same seeds in another folder: the same numbers (wall times aside)
@@ -103,7 +104,7 @@ def test_tiny_run_writes_resumes_is_deterministic_and_recomputes_a_changed_setti
     # a changed setting is computed again, and the old results stay as they were
     assert _run(capsys, tmp_path, "a", "--settings", "ppo", "--timeout-reward", "-1.5") == (2, 0)
     now = _records(tmp_path / "a")
-    assert len(now) == 22 and all(now[name] == first[name] for name in first)
+    assert len(now) == 24 and all(now[name] == first[name] for name in first)
     changed = [r for name, r in now.items() if name not in first]
     assert all(r["key"]["setting"]["reward"]["timeout_reward"] == -1.5 for r in changed)
     assert "--timeout-reward -1.5" in (tmp_path / "a.md").read_text(encoding="utf-8")
