@@ -89,34 +89,27 @@ class _Wrong:
         return np.full(len(drills), 3)
 
 
-def test_an_attack_deciding_an_action_out_of_range_is_refused_naming_the_drill():
-    env = ParallelVectorEnv(2, attack=_Wrong())
-    env.reset(seed=0)
-    with pytest.raises(ValueError, match=r"drill 0: attack '_Wrong' decided 3 at cycle 0; "
-                                         r"action must be"):
-        env.step({a: np.zeros(2, dtype=np.int64) for a in env.agents})
-
-
 class _Failing(_Wrong):
     def decide(self, drills, features):
         return 1 // 0
 
 
-def test_an_attack_that_raises_is_named_with_the_cycle_and_drills():
-    # before, decide()'s exception passed through bare, naming nothing; an out-of-range
-    # action named the attack by its repr, not its id
+# before, decide()'s exception passed through bare, naming nothing, and an out-of-range
+# action named the attack by its repr, not its id
+@pytest.mark.parametrize(("attack", "error", "said"), [
+    (_Wrong(), ValueError, r"drill 0: attack '_Wrong' decided 3 at cycle 0; action must be"),
+    ("wrong_one", ValueError, r"drill 0: attack 'wrong_one' decided 3 at cycle 0"),
+    (_Failing(), RuntimeError, r"attack '_Failing' raised in decide\(\) at cycle 0 of drills "
+                               r"\[0, 1\]: ZeroDivisionError"),
+])
+def test_an_attacks_bad_decision_or_failure_names_it_the_cycle_and_drills(attack, error, said):
     from soccer_drill.vector.attack import ATTACKS
 
-    env = ParallelVectorEnv(2, attack=_Failing())
-    env.reset(seed=0)
-    with pytest.raises(RuntimeError, match=r"attack '_Failing' raised in decide\(\) at cycle 0 "
-                                           r"of drills \[0, 1\]: ZeroDivisionError"):
-        env.step({a: np.zeros(2, dtype=np.int64) for a in env.agents})
     with ATTACKS.isolated():
         ATTACKS.register("wrong_one", _Wrong)
-        env = ParallelVectorEnv(2, attack="wrong_one")
+        env = ParallelVectorEnv(2, attack=attack)
         env.reset(seed=0)
-        with pytest.raises(ValueError, match=r"attack 'wrong_one' decided 3"):
+        with pytest.raises(error, match=said):
             env.step({a: np.zeros(2, dtype=np.int64) for a in env.agents})
 
 

@@ -182,11 +182,13 @@ def register(team_id: str, factory: Callable[..., Team], *, overwrite: bool = Fa
         ``factory`` is not callable.
     """
     for task, registry in TASK_TEAMS.items():
-        if registry is not TEAMS and team_id in registry and (
-                not overwrite or _built_in(registry, team_id)):
+        if registry is TEAMS or team_id not in registry:
+            continue
+        built_in = _built_in(registry, team_id)
+        if built_in or not overwrite:
             raise ValueError(
                 f"team {team_id!r} is already one of the {task} task's teams"
-                + ("; this project's own teams keep their ids" if _built_in(registry, team_id)
+                + ("; this project's own teams keep their ids" if built_in
                    else "; pass overwrite=True to play yours under that id instead"))
     TEAMS.register(team_id, factory, overwrite=overwrite)
 
