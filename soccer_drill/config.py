@@ -89,6 +89,7 @@ def fewest_substeps(top_speed: float, cycle_seconds: float, player_radius: float
 
 
 _COUNTS = ("no", "one", "two", "three", "four")
+_STARTS = ("attacker_starts", "defender_starts")
 @dataclass(frozen=True)
 class DrillConfig:
     """Every number of the drill, in SI units (metres, seconds, m/s).
@@ -207,26 +208,58 @@ class DrillConfig:
                 defaulted.append(name)
                 object.__setattr__(self, name, TASKS[self.task].starts(name, count, self.field_size))
         try:
-            for name, count in (("attacker_starts", self.attackers),
-                                ("defender_starts", self.defenders)):
-                inside = Real(0.0, self.field_size)
-                point = ListOf(inside, 2, 2, kinds=(list, tuple, np.ndarray))
-                check(f"DrillConfig.{name}", getattr(self, name),
-                      ListOf(point, count, count, kinds=(list, tuple, np.ndarray)),
-                      why=f"{_COUNTS[count]} (x, y) point{'s' * (count > 1)} inside the "
-                          f"field, one per {name.split('_')[0]}")
-                points = tuple((float(x), float(y)) for x, y in getattr(self, name))
-                object.__setattr__(self, name, points)
-            self._check_start_area()
+            self._check_starts(self.field_size, {n: getattr(self, n) for n in _STARTS})
         except ValueError as exc:
             if not defaulted:
                 raise
-            raise ValueError(
-                f"{exc}. Not given, {' and '.join(defaulted)} are the {self.task}'s default "
-                f"starts for {self.attackers} attacker(s) and {self.defenders} defender(s) "
-                "(two players of a side keep the paper's points in a field of any size: "
-                "soccer_drill.tasks); give attacker_starts and defender_starts that fit "
-                f"field_size {self.field_size:g}") from None
+            raise ValueError(self._default_starts_refused(defaulted, exc)) from None
+        for name in _STARTS:
+            points = tuple((float(x), float(y)) for x, y in getattr(self, name))
+            object.__setattr__(self, name, points)
+
+    def _check_starts(self, size: float, starts: dict[str, Any]) -> None:
+        """``starts`` (by field name) inside a field of ``size``, with room for the jitter
+        and the ball (:meth:`_check_start_area`); ``ValueError`` naming the first that is not."""
+        for name, count in zip(_STARTS, (self.attackers, self.defenders), strict=True):
+            point = ListOf(Real(0.0, size), 2, 2, kinds=(list, tuple, np.ndarray))
+            check(f"DrillConfig.{name}", starts[name],
+                  ListOf(point, count, count, kinds=(list, tuple, np.ndarray)),
+                  why=f"{_COUNTS[count]} (x, y) point{'s' * (count > 1)} inside the "
+                      f"field, one per {name.split('_')[0]}")
+        self._check_start_area(size, starts)
+
+    def _default_starts_refused(self, defaulted: list[str], exc: ValueError) -> str:
+        """Why the task's default starts do not fit this field: the smallest field_size
+        they fit (to 0.1 m, the other fields as given), then the check's own words."""
+        task, given = TASKS[self.task], {n: getattr(self, n) for n in _STARTS}
+
+        def fits(size: float) -> bool:
+            starts = {n: (task.starts(n, c, size) if n in defaulted else given[n])
+                      for n, c in zip(_STARTS, (self.attackers, self.defenders), strict=True)}
+            try:
+                self._check_starts(size, starts)
+            except ValueError:
+                return False
+            return True
+
+        low, high = self.field_size, 1000.0  # field_size's own bound: 1000 m
+        if not fits(high):
+            need = "no field_size up to 1000 m fits them with these settings"
+        else:
+            while high - low > 0.01:  # fitting grows with the field: bisect
+                low, high = ((low + high) / 2, high) if not fits((low + high) / 2) else (
+                    low, (low + high) / 2)
+            tenths = math.ceil(low * 10)  # the smallest size in tenths of a metre that fits
+            while not fits(tenths / 10):
+                tenths += 1
+            need = f"they need field_size >= {tenths / 10:g}"
+        return (f"DrillConfig: field_size {self.field_size:g} is too small for the "
+                f"{self.task}'s default starts ({' and '.join(defaulted)} not given) of "
+                f"{self.attackers} attacker(s) and {self.defenders} defender(s): {need} "
+                f"(start_jitter {self.start_jitter:g}; two players of a side keep the paper's "
+                "points in a field of any size: soccer_drill.tasks); give a larger "
+                "field_size, or attacker_starts and defender_starts that fit. The check "
+                f"said: {exc}")
 
     def _check_substeps(self) -> None:
         """Sub-steps short enough that no player can pass through a wall or another
@@ -281,14 +314,14 @@ class DrillConfig:
             "control_radius larger"
         )
 
-    def _check_start_area(self) -> None:
+    def _check_start_area(self, size: float, starts: dict[str, Any]) -> None:
         """Every jittered start inside the walls, and the ball given to an attacker
         (``ball_offset`` below it) inside the field, above the goal line: an episode
         starts in play."""
-        j, size = self.start_jitter, self.field_size
+        j = self.start_jitter
         reach = self.wall_margin - self.player_radius  # a player's centre, past the field
-        for name in ("attacker_starts", "defender_starts"):
-            for x, y in getattr(self, name):
+        for name in _STARTS:
+            for x, y in starts[name]:
                 if not all(-reach <= c - j and c + j <= size + reach for c in (x, y)):
                     raise ValueError(
                         f"DrillConfig: start_jitter {j:g} can put the player starting at "

@@ -91,10 +91,11 @@ _AT_SIZE = {"hand_coded": _hand_coded, "random": _random_keeper, "hold": _always
 
 def keeper_policy(name: str, keepers: int, takers: int) -> KeeperPolicy:
     """The policy ``name`` of :data:`KEEPER_POLICIES` for keepaway with ``keepers``
-    keepers (2 to 4) and ``takers`` takers (1 to 4), of any size: it reads the
-    observation as that size's, and refuses one of another length (``ValueError``)."""
+    keepers and ``takers`` takers (1 to 4 each, as the drill takes them; a lone keeper
+    has no pass, so every policy holds), of any size: it reads the observation as that
+    size's, and refuses one of another length (``ValueError``)."""
     check("name", name, OneOf(tuple(_AT_SIZE)))
-    check("keepers", keepers, Integer(2, 4))
+    check("keepers", keepers, Integer(1, 4))
     check("takers", takers, Integer(1, 4))
     rule, size = _AT_SIZE[name], 4 * keepers + 2 * takers - 3
 

@@ -379,3 +379,24 @@ def test_a_ctrl_c_while_a_space_is_built_or_freed_never_crashes_the_process():
     done = subprocess.run([sys.executable, "-c", _RESETS_CUT_SHORT], capture_output=True,
                           text=True, timeout=600)
     assert done.returncode == 0 and "survived" in done.stdout, done.stderr[-2000:]
+
+
+@pytest.mark.parametrize("n", [1, N])
+def test_the_error_after_an_interruption_says_a_reset_each_environment_takes(n):
+    # before, every environment's error asked for a reset "of every drill: no
+    # reset_mask", also the single drill's and ParallelVectorEnv's, which take no mask
+    env = ParallelVectorEnv(n, opponent=Copies())
+    env.reset(seed=0)
+    _CtrlC.left = 3
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            for _ in range(5):
+                env.step({a: np.zeros(n, dtype=int) for a in env.agents})
+    finally:
+        _CtrlC.left = -1
+    with pytest.raises(RuntimeError) as refused:
+        env.step({a: np.zeros(n, dtype=int) for a in env.agents})
+    said = str(refused.value)
+    assert "reset_mask" not in said
+    assert ("call reset() to start it again" in said) == (n == 1)
+    assert ("call reset() of every drill" in said) == (n > 1)

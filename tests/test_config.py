@@ -103,15 +103,17 @@ def test_default_starts_that_do_not_fit_the_field_say_they_were_not_given():
     """Two players of a side keep the paper's points in a field of any size: a smaller
     field that leaves them outside says the starts were the defaults, and what to give;
     starts that were given get no such note."""
-    with pytest.raises(ValueError, match=r"attacker_starts must be .* in \[0, 20\].*Not "
-                                         r"given, attacker_starts and defender_starts are the "
-                                         r"drill's default starts .* give attacker_starts and "
-                                         r"defender_starts that fit field_size 20$"):
+    with pytest.raises(ValueError, match=r"field_size 20 is too small for the drill's "
+                                         r"default starts \(attacker_starts and "
+                                         r"defender_starts not given\).* give a larger "
+                                         r"field_size, or attacker_starts and defender_starts "
+                                         r"that fit\. The check said: DrillConfig\."
+                                         r"attacker_starts must be .* in \[0, 20\]"):
         DrillConfig(field_size=20)
     with pytest.raises(ValueError) as given:
         DrillConfig(field_size=20, attacker_starts=((4.0, 31.0), (5.0, 5.0)),
                     defender_starts=((5.0, 9.0), (10.0, 9.0)))
-    assert "Not given" not in str(given.value)
+    assert "not given" not in str(given.value)
     config = DrillConfig(field_size=20, attacker_starts=((4.0, 16.0), (16.0, 16.0)),
                          defender_starts=((7.0, 5.0), (13.0, 5.0)))
     assert config.attacker_starts == ((4.0, 16.0), (16.0, 16.0))

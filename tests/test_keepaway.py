@@ -201,3 +201,17 @@ def test_a_keeper_policy_made_for_a_size_reads_that_sizes_observation(keepers, t
             assert keeper_policy("hand_coded", keepers, takers)(obs, rng) == hand_coded(obs, rng)
     with pytest.raises(ValueError, match=r"not the state variables of keepaway 3v2 \(13\)"):
         keeper_policy("hold", 3, 2)(np.zeros(19), np.random.default_rng(0))
+
+
+def test_the_keeper_policies_play_a_lone_keeper_by_holding():
+    # before, keeper_policy refused one keeper, a keepaway size the drill makes
+    from soccer_drill import HolderEnv
+
+    env = HolderEnv(config=DrillConfig(task="keepaway", attackers=1, defenders=2))
+    assert env.action_names == ("HOLD",)
+    for name in KEEPER_POLICIES:
+        policy, rng = keeper_policy(name, 1, 2), np.random.default_rng(0)
+        obs, _ = env.reset(seed=0)
+        assert policy(obs, rng) == 0
+    with pytest.raises(ValueError, match=r"keepers must be an integer in \[1, 4\], got 0"):
+        keeper_policy("hold", 0, 2)

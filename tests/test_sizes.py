@@ -278,3 +278,40 @@ def test_the_smallest_fields_the_default_starts_fit_are_the_ones_documented():
         for d in range(1, 5):
             least = 32.5 if a == 2 else 23.0 if d == 2 else 13.5 if a > 2 else 10.0
             assert fits(a, d, least) and (least == 10.0 or not fits(a, d, least - 0.5)), (a, d)
+
+
+@pytest.mark.parametrize(("kwargs", "least"), [
+    ({"field_size": 30.0}, "32.5"), ({"field_size": 20.0, "attackers": 3}, "23"),
+    ({"field_size": 30.0, "start_jitter": 0.0}, "31")])
+def test_default_starts_that_do_not_fit_say_the_smallest_field_they_fit(kwargs, least):
+    # before, the error opened on attacker_starts, a field the user had not given, and
+    # never said how large a field the default starts need
+    from soccer_drill import DrillConfig
+
+    with pytest.raises(ValueError) as refused:
+        DrillConfig(**kwargs)
+    said = str(refused.value)
+    assert said.startswith(f"DrillConfig: field_size {kwargs['field_size']:g} is too small")
+    assert f"they need field_size >= {least} " in said
+    DrillConfig(**{**kwargs, "field_size": float(least)})
+    with pytest.raises(ValueError):
+        DrillConfig(**{**kwargs, "field_size": float(least) - 0.1})
+
+
+def test_the_docstrings_give_the_spaces_of_every_size():
+    # before, state() said "a 29-value vector", shared_spaces "5 actions" and
+    # HolderVectorEnv's table Box(9,) and MultiDiscrete([3] * N), the 2v2 drill's only
+    import soccer_drill
+
+    config = DrillConfig(attackers=3, defenders=2)
+    env = soccer_drill.parallel_env(config=config, shared_spaces=True)
+    env.reset(seed=0)
+    assert "``6 p + 5`` float32 values" in type(env).state.__doc__
+    assert env.state().shape == (6 * 5 + 5,)
+    assert "``A + 3`` actions (5 in the 2v2 drill)" in soccer_drill.raw_env.__doc__
+    assert env.action_space("defender_0").n == 3 + 3
+    vec = HolderVectorEnv(2, config=config)
+    doc = HolderVectorEnv.__doc__
+    assert "``Box(4 (A - 1) + D + 3,)``" in doc and "``MultiDiscrete([n] * N)``" in doc
+    assert vec.single_observation_space.shape == (4 * 2 + 2 + 3,)
+    assert list(vec.action_space.nvec) == [3 + 1] * 2

@@ -350,3 +350,54 @@ def test_success_rates_agree_with_the_single_environment():
     """A small version of ``python -m ilpss.experiments.agreement`` (500 episodes, every rule and team)."""
     cells = agreement(120, ["interceptors_cover", "goal_guards"], ["pass_first", "late_pass"], drills=40)
     assert all(c.agrees for c in cells), cells
+
+
+@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
+def test_max_episode_steps_truncates_as_timelimit_truncates_the_single_env(mode):
+    # before, gym.make_vec(..., vectorization_mode="vector_entry_point",
+    # max_episode_steps=n) raised TypeError: the batched env had no step limit
+    def make(how, **kwargs):
+        return gym.make_vec("soccer_drill/Holder-v0", num_envs=3, vectorization_mode=how,
+                            max_episode_steps=3, **kwargs)
+
+    batched = make("vector_entry_point", autoreset_mode=mode)
+    assert batched.unwrapped.max_episode_steps == 3
+    sync = make("sync", vector_kwargs={"autoreset_mode": mode})
+    assert np.array_equal(batched.reset(seed=5)[0], sync.reset(seed=5)[0])
+    rng, cut = np.random.default_rng(0), 0
+    for _ in range(60):
+        actions = rng.integers(3, size=3)
+        got, want = batched.step(actions), sync.step(actions)
+        for mine, theirs in zip(got[:4], want[:4], strict=True):
+            assert np.array_equal(mine, theirs)
+        if mode == AutoresetMode.SAME_STEP and "_final_obs" in want[4]:
+            assert np.array_equal(got[4]["_final_obs"], want[4]["_final_obs"])
+        cut += int(np.count_nonzero(got[3] & ~got[2]))  # cut short: no timeout in 3 steps
+    assert cut > 10  # the limit cut episodes short
+    with pytest.raises(ValueError, match="max_episode_steps must be None or an integer >= 1"):
+        HolderVectorEnv(2, max_episode_steps=0)
+    with pytest.raises(ValueError, match="play_episodes plays whole episodes"):
+        play_episodes(batched.unwrapped, HOLDER_POLICIES["hold"], [0])
+
+
+def test_a_step_after_play_episodes_says_play_episodes_played_the_drills():
+    # before, it said step() was called before reset(), after a reset had been made
+    env = HolderVectorEnv(2)
+    env.reset(seed=0)
+    play_episodes(env, HOLDER_POLICIES["pass_first"], [1, 2])
+    with pytest.raises(RuntimeError, match=r"step\(\) called after play_episodes\(\) played "
+                                           r"the drills; call reset\(\) first"):
+        env.step(np.zeros(2, dtype=int))
+    env.reset(seed=0)
+    env.step(np.zeros(2, dtype=int))
+
+
+def test_the_defenders_reward_is_never_a_negative_zero():
+    # before, the defenders got -0.0 on each drill's autoreset step and while it ran
+    env = ParallelVectorEnv(4)  # both sides agents
+    env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    for _ in range(150):
+        _, rewards, *_ = env.step({a: rng.integers(5, size=4) for a in env.agents})
+        for r in rewards.values():
+            assert not np.any((r == 0) & np.signbit(r))

@@ -345,7 +345,8 @@ class _DrillEnvBase(HeaderTexts, Pickled):
         return {"outcome": OUTCOME_NAMES[code], "cycles": int(self._batch.cycle[0])}
 
     def state(self) -> np.ndarray:
-        """The whole drill as a 29-value vector (layout in the class docstring), for critics."""
+        """The whole drill as ``6 p + 5`` float32 values with ``p`` players (29 in the 2v2
+        drill; layout in the class docstring), for critics."""
         self._require_reset("state")
         return self._state(self._batch.state, _ONE, _ONE)[0]
 
@@ -604,7 +605,7 @@ class raw_env(_DrillEnvBase, AECEnv):
     | ``illegal_action`` | ``"default"`` | ``"default"`` (replace a masked action by the role's default, reported in infos) or ``"raise"`` (a masked action is an error) |
     | ``team_timeout`` | ``1.0`` | seconds of CPU time each ``reset``/``act`` call of the scripted team may take before it is stopped with ``TeamError`` naming it (time spent waiting, e.g. on a loaded machine, is not counted); ``None``: no bound. See ``soccer_drill.teams.driver.TeamDriver`` |
     | ``obs_format`` | ``"dict"`` | ``"dict"`` (observation and mask together) or ``"flat"`` (a ``Box``; the mask in infos and ``action_mask()``) |
-    | ``shared_spaces`` | ``None`` | ``None``: identical spaces for every agent (``True`` with no opponent, ``False`` with one, whose attackers' spaces are identical anyway); ``True``: always a role flag and 5 actions; ``False``: per-role spaces (see Spaces shared or per role) |
+    | ``shared_spaces`` | ``None`` | ``None``: identical spaces for every agent (``True`` with no opponent, ``False`` with one, whose attackers' spaces are identical anyway); ``True``: always a role flag and ``A + 3`` actions (5 in the 2v2 drill); ``False``: per-role spaces (see Spaces shared or per role) |
 
     ``env(...)`` returns this class: the order and bounds checks of PettingZoo's
     standard wrappers are built in (cheaply), so no wrapper chain is added.

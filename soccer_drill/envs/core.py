@@ -271,11 +271,11 @@ class BatchCore:
         if self.team is not None:
             self.team.check_usable()
         if self.interrupted is not None:
-            raise RuntimeError(
-                f"{self.interrupted} stopped part-way, which may leave drills part-way "
-                "through a cycle or a reset; call reset() (of every drill: no reset_mask) to "
-                "start every drill again"
-            )
+            again = ("call reset() to start it again" if self.n == 1 else
+                     "call reset() of every drill to start them all again (a reset of some "
+                     "drills does not)")
+            raise RuntimeError(f"{self.interrupted} stopped part-way, which may leave drills "
+                               f"part-way through a cycle or a reset; {again}")
 
     def seed(self, seeds: Sequence[int | None] | None) -> None:
         """Reseed the drills: one seed (or ``None``: keep) per drill; ``None`` keeps every

@@ -402,7 +402,7 @@ class ParallelVectorEnv(Pickled):
             truncated = ended & (b.outcome == Outcome.TIMEOUT)
             terminated = ended & ~truncated
             self._autoreset = ended
-            rewards = {a: (reward.copy() if i < self._attackers else -reward)
+            rewards = {a: (reward.copy() if i < self._attackers else 0.0 - reward)  # never a -0.0
                        for a, i in self._index.items()}
             return (
                 self._observations(), rewards,

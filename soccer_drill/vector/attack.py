@@ -13,6 +13,29 @@ seeds)`` and ``decide(drills, features) -> actions``::
 ``ParallelVectorEnv(attack="early_pass")`` plays one: the attackers are scripted and the
 defenders are the agents, in a drill of any size (``config``).
 
+The built-in attacks play the drill's holder rules on the drill's holder features, so
+keepaway (``DrillConfig(task="keepaway")``), whose holder observes keepaway's state
+variables and has no dribble, refuses them; give it an attack object, for instance its
+hand-coded keeper (:func:`~soccer_drill.keepaway_policies.keeper_policy`)::
+
+    class HandCodedKeepers:
+        def __init__(self, keepers, takers):
+            self.policy = keeper_policy("hand_coded", keepers, takers)
+            self.rngs = {}  # each drill's generator, renewed at its resets
+
+        def reset(self, drills, seeds):
+            self.rngs.update((i, np.random.default_rng(s)) for i, s in zip(drills.tolist(), seeds))
+
+        def decide(self, drills, features):
+            return np.array([self.policy(f, self.rngs[i])
+                             for i, f in zip(drills.tolist(), features)])
+
+    ParallelVectorEnv(num_envs=8, config={"task": "keepaway", "attackers": 3,
+                      "defenders": 2, "field_size": 20.0}, attack=HandCodedKeepers(3, 2))
+
+An action the holder of the task does not have (a DRIBBLE in keepaway, an index past
+the passes) is refused naming the attack, the drill and the cycle.
+
 | id | the holder's rule (:mod:`soccer_drill.policies`) |
 |---|---|
 | ``late_pass``, ``early_pass``, ``shield_pass``, ``keepaway``, ``lane``, ``pass_first``, ``dribble``, ``hold``, ``random`` | that rule, in every episode |
@@ -41,7 +64,7 @@ import numpy as np
 
 from soccer_drill.constraints import Constraint, ListOf, Name, OneOf, check, checked
 from soccer_drill.envs.core import BatchCore
-from soccer_drill.envs.holder import HolderLoop, check_holder_action
+from soccer_drill.envs.holder import HolderLoop
 from soccer_drill.interruptions import delivered_by_signal, short_repr
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.registry import Registry
@@ -118,6 +141,14 @@ class ScriptedAttack:
                  decision_cycles: int = DECISION_CYCLES, name: str | None = None) -> None:
         self.attack = attack
         self.name = type(attack).__name__ if name is None else name
+        task = core.config.task
+        if isinstance(attack, HolderRuleAttack) and task != "drill":
+            raise ValueError(
+                f"attack {self.name!r} plays the drill's fixed holder rules, which read the "
+                f"drill's holder features; {task}'s holder has observations and actions of "
+                f"its own: give {task} an attack object of your own (reset and decide; "
+                "soccer_drill.vector.attack's docstring shows one playing keepaway's "
+                "hand-coded keeper)")
         self.loop = HolderLoop(core, decision_cycles)
 
     def _decide(self, drills: np.ndarray, features: np.ndarray) -> np.ndarray:
@@ -152,7 +183,7 @@ class ScriptedAttack:
             for k, (i, action) in enumerate(zip(deciding.tolist(), actions.tolist(),
                                                 strict=True)):
                 try:
-                    checked[k] = check_holder_action(action, self.loop.attackers)
+                    checked[k] = self.loop.check_action(action)  # the task's actions
                 except ValueError as error:
                     raise ValueError(f"drill {i}: attack {self.name!r} decided "
                                      f"{action!r} at cycle {int(batch.cycle[i])}; "

@@ -95,16 +95,21 @@ class HolderVectorEnv(Pickled, VectorEnv):
 
     | space | value |
     |---|---|
-    | ``single_action_space`` | ``Discrete(3)``: 0 HOLD, 1 PASS, 2 DRIBBLE (``Discrete(A + 1)`` with ``A`` attackers: ``HolderEnv``'s, :attr:`action_names`) |
-    | ``action_space`` | ``MultiDiscrete([3] * N)``: one action per drill |
-    | ``single_observation_space`` | ``Box(9,)`` float32, the holder's 9 features |
-    | ``observation_space`` | ``Box((N, 9))`` float32 |
+    | ``single_action_space`` | ``HolderEnv``'s (:attr:`action_names`): ``Discrete(3)``, 0 HOLD, 1 PASS, 2 DRIBBLE in the 2v2 drill; ``Discrete(A + 1)`` with ``A`` attackers; keepaway's ``Discrete(A)`` |
+    | ``action_space`` | ``MultiDiscrete([n] * N)``, ``n`` the single space's actions: one action per drill |
+    | ``single_observation_space`` | ``HolderEnv``'s: ``Box(9,)`` float32, the holder's 9 features in the 2v2 drill; ``Box(4 (A - 1) + D + 3,)`` with ``A`` attackers and ``D`` defenders; keepaway's ``Box(4 A + 2 D - 3,)`` |
+    | ``observation_space`` | ``Box((N, m))`` float32, ``m`` the single space's length |
 
     ## Rewards and episode end
 
     As ``HolderEnv``, per drill: in the drill zero until the episode ends, then the
     attackers' reward; in keepaway the seconds each step lasted (``duration *
     cycle_seconds``), nothing more at the end; ``terminated`` on success, interception or out, ``truncated`` on timeout.
+    With ``max_episode_steps`` a drill's episode is also truncated at its
+    ``max_episode_steps``-th step, as Gymnasium's ``TimeLimit`` truncates ``HolderEnv``'s
+    (``gym.make(id, max_episode_steps=n)``; ``gym.make_vec`` passes it here; ``truncated``
+    also where that step ended the episode): the info's outcome of a drill cut short stays
+    ``None`` (the drill did not end), and it autoresets as any ended episode.
 
     ## Autoreset
 
@@ -232,6 +237,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
     | ``opponent_params`` | ``None`` | keyword parameters of the team factory (with a team id; refused with an instance) |
     | ``max_cycles`` | ``None`` | overrides ``config.max_cycles`` |
     | ``config`` | ``None`` | a ``DrillConfig`` or a dict of its fields |
+    | ``max_episode_steps`` | ``None`` | ``None`` or an integer >= 1: each episode truncated at that step (Rewards and episode end); :func:`play_episodes`, which plays whole episodes, refuses such an environment |
     | ``decision_cycles`` | ``4`` | cycles a HOLD or DRIBBLE lasts (an integer in [1, 50]) |
     | ``team_timeout`` | ``1.0`` | CPU seconds one batched team call may take (a team without a batched ``act``: each drill's copy, each call) |
     | ``autoreset_mode`` | ``NEXT_STEP`` | see Autoreset |
@@ -258,8 +264,11 @@ class HolderVectorEnv(Pickled, VectorEnv):
         drills_per_space: int = DRILLS_PER_SPACE,
         render_mode: str | None = None,
         batch_size: int | None = None,
+        max_episode_steps: int | None = None,
     ) -> None:
         n = check_num_envs(num_envs)
+        self.max_episode_steps = checked("max_episode_steps", max_episode_steps,
+                                         NoneOr(Integer(1)))
         # None: every drill at once; the number of drills is only known here.
         batch_size = checked("batch_size", batch_size, NoneOr(Integer(1, n))) or n
         drills_per_space = checked("drills_per_space", drills_per_space, Integer(1))
@@ -292,6 +301,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
         self._all = core.every
         self._has_reset = False
         self._autoreset = np.zeros(n, dtype=bool)
+        self._episode_steps = np.zeros(n, dtype=np.int64)  # each drill's steps this episode
         self._ready = np.zeros(n, dtype=bool)  # its step is over, its result not yet received
         self._ready_at = np.zeros(n, dtype=np.int64)  # since when (recv's cycles)
         self._recv_cycles = 0
@@ -346,7 +356,9 @@ class HolderVectorEnv(Pickled, VectorEnv):
                 "with at least one True"
             )
         if not self._has_reset or self.loop.handed_to is not None:
-            raise RuntimeError("reset() with a reset_mask before the first full reset()")
+            raise RuntimeError("reset() with a reset_mask before the first full reset()"
+                               + ("" if self.loop.handed_to is None else
+                                  f" after {self.loop.handed_to} played the drills"))
         return seeds, np.flatnonzero(mask)
 
     def _reset(self, seeds: list[int | None] | None, drills: np.ndarray) -> None:
@@ -366,6 +378,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
         """A new episode in each of ``drills``, its step counted from there."""
         self.loop.restart(drills)
         self._autoreset[drills] = False
+        self._episode_steps[drills] = 0
 
     # ------------------------------------------------------------------- step
     def _check_actions(self, actions: object, drills: np.ndarray) -> np.ndarray:
@@ -398,8 +411,11 @@ class HolderVectorEnv(Pickled, VectorEnv):
     def _check_usable(self, call: str) -> None:
         """The drills' errors, or ``RuntimeError`` before a reset (or after
         :func:`play_episodes` took the drills)."""
-        if not self._has_reset or self.loop.handed_to is not None:
+        if not self._has_reset:
             raise RuntimeError(f"{call}() called before reset(); call reset() first")
+        if self.loop.handed_to is not None:
+            raise RuntimeError(f"{call}() called after {self.loop.handed_to} played the "
+                               "drills; call reset() first")
         self._core.check_usable()
 
     def step(
@@ -530,6 +546,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
             self._make_ready(resetting)
             stepping = ~np.isin(drills, resetting)
             drills, actions = drills[stepping], actions[stepping]
+        self._episode_steps[drills] += 1
         self.loop.begin(drills, actions)
 
     def _make_ready(self, drills: np.ndarray) -> None:
@@ -576,6 +593,9 @@ class HolderVectorEnv(Pickled, VectorEnv):
         rewards = loop.rewards(rows, durations)
         truncated = outcome == _TIMEOUT  # ended too
         terminated = ended & ~truncated
+        if self.max_episode_steps is not None:  # as TimeLimit: truncated at the limit,
+            truncated |= self._episode_steps[rows] >= self.max_episode_steps  # ended or not
+            ended = ended | truncated
         infos = self._infos(rows, durations, outcome)
         if self._same_step and np.count_nonzero(ended):
             done = np.flatnonzero(ended)
@@ -651,6 +671,14 @@ class HolderVectorEnv(Pickled, VectorEnv):
 HolderRule = Callable[[np.ndarray, np.random.Generator], int]
 
 
+def _check_whole_episodes(env: HolderVectorEnv) -> None:
+    """``ValueError`` if ``env`` cuts episodes short (``max_episode_steps``)."""
+    if env.max_episode_steps is not None:
+        raise ValueError(f"play_episodes plays whole episodes, and this environment truncates "
+                         f"them at max_episode_steps={env.max_episode_steps}: give it one "
+                         "made without max_episode_steps")
+
+
 def play_episodes(
     env: HolderVectorEnv, policy: HolderRule | Sequence[HolderRule], seeds: Sequence[int],
 ) -> list[tuple[float, str]]:
@@ -682,6 +710,7 @@ keepaway the total reward is the episode's length in seconds).
         raise ValueError(
             f"policy must be a holder rule or a sequence of {len(seeds)} rules (one per seed)"
         )
+    _check_whole_episodes(env)
     loop = env.loop
     loop.handed_to = "play_episodes()"
     core, b, n = loop.core, loop.core.batch, env.num_envs
