@@ -84,6 +84,14 @@ LEARNING_CURVES: dict[str, str] = {
 """Where a scenario's learning curves are measured (the others: not yet)."""
 
 
+def _best(best: str, tied: list[str]) -> str:
+    """The best rule's cell, naming the rules that score exactly as well (the best is
+    then one of them, by the rules' order: no distinction)."""
+    if not tied:
+        return f"`{best}`"
+    return f"`{best}` (tied with " + ", ".join(f"`{r}`" for r in tied) + ")"
+
+
 def page(outcomes: dict[str, dict[str, list[str]]], first_seed: int,
          lengths: dict[str, dict[str, list[float]]] | None = None) -> str:
     """The page's text from the kept outcomes (the drill's scenarios) and lengths
@@ -100,7 +108,7 @@ def page(outcomes: dict[str, dict[str, list[str]]], first_seed: int,
         f"holder rule of `soccer_drill.policies` played the same {episodes} episodes (seeds",
         f"{first_seed}..{first_seed + episodes - 1}) against the scenario's default team; the best",
         "rule has the highest success rate, given with its 95% Wilson interval (unadjusted for",
-        "the comparison of the rules). In a keepaway scenario the rules are the keeper",
+        "the comparison of the rules; rules with the same rate are named as tied with it). In a keepaway scenario the rules are the keeper",
         "policies of `soccer_drill.keepaway_policies` on the same seeds, and the best keeps the",
         "ball longest: its mean episode length in seconds, with a 95% normal interval over the",
         "episodes (unadjusted); `docs/keepaway.md` has the learned keeper.",
@@ -115,6 +123,7 @@ def page(outcomes: dict[str, dict[str, list[str]]], first_seed: int,
             best = max(means, key=lambda rule: (means[rule][0], rule == "random"))
             mean, low, high = means[best]
             score, random_score = f"{mean:.1f} s [{low:.1f}, {high:.1f}]", f"{means['random'][0]:.1f} s"
+            tied = [r for r in means if r != best and means[r][0] == mean]
         else:
             by_rule = outcomes[name]
             rates = {rule: sum(o == "success" for o in by_rule[rule]) / len(by_rule[rule])
@@ -123,10 +132,11 @@ def page(outcomes: dict[str, dict[str, list[str]]], first_seed: int,
             low, high = wilson(round(rates[best] * episodes), episodes)
             score = f"{rates[best]:.0%} [{low:.0%}, {high:.0%}]"
             random_score = f"{rates['random']:.0%}"
+            tied = [r for r in rates if r != best and rates[r] == rates[best]]
         curve = LEARNING_CURVES.get(name, "not yet measured")
         lines.append(
             f"| `{name}` | {s.attackers}v{s.defenders} | {s.task} | `{s.gym_id}` | `{s.opponent}` "
-            f"| `{best}` | {score} | {random_score} | {curve} |")
+            f"| {_best(best, tied)} | {score} | {random_score} | {curve} |")
     lines += ["", "Success rate of every fixed rule:", "",
               "| scenario | " + " | ".join(HOLDER_POLICIES) + " |",
               "|---|" + "---:|" * len(HOLDER_POLICIES)]

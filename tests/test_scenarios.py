@@ -142,3 +142,16 @@ def test_the_scenarios_table_refuses_bad_arguments_as_usage_errors(tmp_path, cap
     err = capsys.readouterr().err
     assert re.search(r"python -m soccer_drill.scenarios_table: error: " + said, err), err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
+
+
+def test_rules_that_score_alike_are_named_as_tied_with_the_best() -> None:
+    # before, a rule tied with others on every episode was called the best alone
+    from soccer_drill import scenarios_table
+
+    docs = Path(__file__).resolve().parents[1] / "docs"
+    record = scenarios_table.read_kept(docs / "data" / "scenarios_fixed_rules.json")
+    outcomes = {name: dict(rules) for name, rules in record["outcomes"].items()}
+    outcomes["drill_3v2"]["late_pass"] = outcomes["drill_3v2"]["lane"]
+    page = scenarios_table.page(outcomes, record["first_seed"], record["lengths"])
+    assert "| `lane` (tied with `late_pass`) | 82% [77%, 86%] |" in page
+    assert "| `late_pass` | 80% [75%, 84%] |" in page  # drill_2v2: no tie
