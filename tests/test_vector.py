@@ -401,3 +401,16 @@ def test_the_defenders_reward_is_never_a_negative_zero():
         _, rewards, *_ = env.step({a: rng.integers(5, size=4) for a in env.agents})
         for r in rewards.values():
             assert not np.any((r == 0) & np.signbit(r))
+
+
+def test_reset_with_an_integer_seed_seeds_np_random_as_gymnasiums_vector_envs():
+    # before, np_random was seeded at random whatever reset was given
+    env = HolderVectorEnv(2)
+    env.reset(seed=7)
+    assert env.np_random_seed == 7
+    first = env.np_random.random()
+    env.async_reset(seed=7)
+    assert env.np_random_seed == 7 and env.np_random.random() == first
+    env.recv()
+    env.reset(seed=[1, 2])  # one seed per drill: np_random goes on
+    assert env.np_random_seed == 7

@@ -10,6 +10,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 from gymnasium import spaces
+from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
@@ -331,7 +332,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
         seeds, drills = self._check_reset(seed, options)
 
         def reset() -> tuple[np.ndarray, dict[str, Any]]:
-            self._reset(seeds, drills)
+            self._reset(seeds, drills, seed)
             self._ready[drills] = False
             rows = self._all
             infos = self._infos(rows, np.zeros(self.num_envs, dtype=np.int64))
@@ -361,9 +362,14 @@ class HolderVectorEnv(Pickled, VectorEnv):
                                   f" after {self.loop.handed_to} played the drills"))
         return seeds, np.flatnonzero(mask)
 
-    def _reset(self, seeds: list[int | None] | None, drills: np.ndarray) -> None:
+    def _reset(self, seeds: list[int | None] | None, drills: np.ndarray,
+               seed: object = None) -> None:
         """Reset ``drills`` (every drill if they are ``self._all``) with ``seeds`` (one per
-        drill of the batch, those of other drills ignored); they then wait for an action."""
+        drill of the batch, those of other drills ignored); they then wait for an action.
+        An integer ``seed`` (what ``reset`` was given) also seeds :attr:`np_random`, as
+        Gymnasium's ``VectorEnv.reset`` does."""
+        if is_int(seed):
+            self._np_random, self._np_random_seed = seeding.np_random(int(seed))
         core = self._core
         if seeds is not None:  # one entry per drill: those of drills not reset are ignored
             chosen = np.zeros(self.num_envs, dtype=bool)
@@ -452,7 +458,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
         seeds, drills = self._check_reset(seed, options)
 
         def reset() -> None:
-            self._reset(seeds, drills)
+            self._reset(seeds, drills, seed)
             self._make_ready(drills)
 
         self._core.changing("HolderVectorEnv.async_reset()", reset,
