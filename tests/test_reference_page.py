@@ -25,7 +25,7 @@ from ilpss.reference.page import (
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 SHIPPED = {"reference_rl_results": "attackers", "reference_rl_holder": "holder",
            "reference_rl_transfer": "transfer", "reference_rl_self_play": "self_play",
-           "reference_rl_self_play_long": "self_play"}
+           "reference_rl_self_play_long": "self_play", "reference_rl_self_play_kept": "self_play"}
 """Each shipped page, by name, and a kind of section it must hold."""
 
 
@@ -141,7 +141,7 @@ def test_the_committed_kept_jobs_are_the_runs_behind_the_pages():
                sorted((DOCS / "data" / "reference_rl_jobs").glob("reference-*.json"))]
     kept = {(r["key"]["name"], r["key"]["team"], r["key"]["seed"]): r["result"] for r in records}
     for name in ("reference_rl_results", "reference_rl_transfer", "reference_rl_self_play",
-                 "reference_rl_self_play_long"):
+                 "reference_rl_self_play_long", "reference_rl_self_play_kept"):
         for section in load_summary(DOCS / f"{name}_seeds.json.gz")["sections"]:
             for run in section["runs"]:
                 team = run.get("team", section.get("target"))
@@ -303,3 +303,55 @@ def test_what_docs_say_of_twice_the_budget_is_in_its_page_numbers():
         assert claim in text, claim
     assert ("with twice the budget the defenders beat their untrained networks in 19 of 20 "
             "seeds") in readme
+
+
+def test_what_docs_say_of_the_keep_rule_is_in_its_page_numbers():
+    """The 20-seed run of ``self_play_pfsp_long_kept`` beside ``self_play_pfsp_long`` (the
+    same training, seed by seed; only the checkpoints evaluated differ), as
+    reference_rl.md quotes it."""
+    (kept,) = load_summary(DOCS / "reference_rl_self_play_kept_seeds.json.gz")["sections"]
+    (long,) = load_summary(DOCS / "reference_rl_self_play_long_seeds.json.gz")["sections"]
+    runs = {r["seed"]: r for r in kept["runs"]}
+    paired = {r["seed"]: r for r in long["runs"]}
+    assert sorted(runs) == sorted(paired) == list(range(20))
+    from ilpss.reference.jobs import least_exploited
+
+    last = len(runs[0]["crossplay"]) - 1
+    kept_by_rule = {s: least_exploited(r["crossplay"]) for s, r in runs.items()}
+    jobs = [load_json_record(path, "ilpss.kept_job/2") for path in
+            (DOCS / "data" / "reference_rl_jobs").glob("reference-*.json")]
+    kept_jobs = {j["key"]["seed"]: j["result"]["kept"] for j in jobs
+                 if j["key"]["name"] == kept["name"]}
+    assert kept_jobs == {s: list(k) for s, k in kept_by_rule.items()}  # what the jobs kept
+    for seed, run in runs.items():  # the same training: the same cross-play, the same start
+        assert run["crossplay"] == paired[seed]["crossplay"], seed
+        assert run["untrained_defence"] == paired[seed]["untrained_defence"], seed
+        if kept_by_rule[seed][1] == last:  # the last defenders kept: the long run's evaluation
+            assert run["defence"] == paired[seed]["defence"], seed
+    failing = [s for s, r in runs.items() if not _beats_untrained(r)]
+    held, held_long = ({s for s, r in page.items() if _holds(r)} for page in (runs, paired))
+    earlier = [s for s in runs if kept_by_rule[s][1] != last]
+    best = {s: max(_successes(x) for x in r["defence"].values()) for s, r in runs.items()}
+    best_long = {s: max(_successes(x) for x in r["defence"].values())
+                 for s, r in paired.items()}
+    helped = [s for s in earlier if best[s] < best_long[s]]
+    hurt = [s for s in earlier if best[s] > best_long[s]]
+    attackers = sum(all(_successes(r["eval"][t]) > _successes(r["untrained_eval"][t])
+                        for t in r["eval"] if t != "self_play") for r in runs.values())
+    text = " ".join((DOCS / "reference_rl.md").read_text(encoding="utf-8").split())
+    claims = (
+        f"its defenders beat their untrained networks in **{20 - len(failing)} of 20** "
+        f"seeds (failing: {', '.join(map(str, failing))})",
+        f"hold the best scripted attack below 78.5% in **{len(held)} of 20** seeds "
+        f"(`self_play_pfsp_long`: {len(held_long)})",
+        f"an earlier defender checkpoint in {len(earlier)} seeds",
+        f"better in {len(helped)} of them ({', '.join(map(str, helped))}) and worse in "
+        f"{len(hurt)} ({', '.join(map(str, hurt))})",
+        f"its attackers beat their untrained networks against every team in "
+        f"**{attackers} of 20** seeds",
+    )
+    for claim in claims:
+        assert claim in text, claim
+    readme = " ".join((DOCS.parent / "README.md").read_text(encoding="utf-8").split())
+    assert (f"least exploited checkpoint in cross-play instead of the last leaves that seed as "
+            f"it is and holds in {len(held)} of 20") in readme
