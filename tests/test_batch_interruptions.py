@@ -180,16 +180,21 @@ def test_a_ctrl_c_in_play_episodes_asks_for_a_reset():
     _refuses_until_reset_then_plays_as_new(MODES["holder step"], env, Copies)
 
 
-def test_a_reset_of_some_drills_does_not_clear_an_interruption():
-    env = HolderVectorEnv(N, opponent=Copies())
-    env.reset(seed=0)
-    _CtrlC.left = 6
+def _interrupted(step: Callable, k: int) -> None:
+    """Steps until the user's Ctrl-C, which arrives at the team's ``k``-th call."""
+    _CtrlC.left = k
     try:
         with pytest.raises(KeyboardInterrupt):
             for _ in range(5):
-                env.step(np.zeros(N, dtype=int))
+                step()
     finally:
         _CtrlC.left = -1
+
+
+def test_a_reset_of_some_drills_does_not_clear_an_interruption():
+    env = HolderVectorEnv(N, opponent=Copies())
+    env.reset(seed=0)
+    _interrupted(lambda: env.step(np.zeros(N, dtype=int)), 6)
     env.reset(options={"reset_mask": np.array([True, False, True, False])})
     with pytest.raises(RuntimeError, match=r"without reset_mask.*" + RESET + "|" + RESET):
         env.step(np.zeros(N, dtype=int))
@@ -387,13 +392,7 @@ def test_the_error_after_an_interruption_says_a_reset_each_environment_takes(n):
     # reset_mask", also the single drill's and ParallelVectorEnv's, which take no mask
     env = ParallelVectorEnv(n, opponent=Copies())
     env.reset(seed=0)
-    _CtrlC.left = 3
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            for _ in range(5):
-                env.step({a: np.zeros(n, dtype=int) for a in env.agents})
-    finally:
-        _CtrlC.left = -1
+    _interrupted(lambda: env.step({a: np.zeros(n, dtype=int) for a in env.agents}), 3)
     with pytest.raises(RuntimeError) as refused:
         env.step({a: np.zeros(n, dtype=int) for a in env.agents})
     said = str(refused.value)
