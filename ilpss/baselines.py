@@ -79,6 +79,7 @@ from ilpss.episode import (
     check_env,
     observation,
     step_duration,
+    step_reward,
 )
 from ilpss.policy import FrozenPolicy, LinearPolicy, epsilon_greedy_choice, greedy_choice
 from ilpss.smdp import SMDP_CONSTRAINTS, LearnerConfig, SmdpLearner
@@ -348,7 +349,7 @@ class PrqLearner(EpisodicLearner):
             log.choose(action, explored)
             followed.append(follow)
             obs, reward, terminated, truncated, info = env.step(action)
-            reward = float(reward)
+            reward = step_reward(reward)
             d = step_duration(info)
             ended = bool(terminated or truncated)
             bootstrap_end = bool(truncated and not terminated and self.config.bootstrap_on_truncation)

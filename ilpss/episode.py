@@ -24,6 +24,7 @@ reward and duration (:meth:`~EpisodeLog.step`), every option run; it then makes 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
@@ -31,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from ilpss.tiles import box_bounds
-from soccer_drill.constraints import is_int
+from soccer_drill.constraints import Real, check, is_int
 
 __all__ = [
     "DecisionLimitError",
@@ -174,6 +175,22 @@ def observation(obs: Any, n_features: int) -> np.ndarray:
     if not np.isfinite(x).all():
         raise ValueError(f"observation contains NaN or infinite values: {x}")
     return x
+
+
+REWARD = Real()
+"""What an environment's step may return as its reward: a finite real number."""
+
+
+def step_reward(reward: Any) -> float:
+    """The reward one environment step returned, as a float: a finite real number
+    (Python's or NumPy's, or a 0-d array of one). Anything else is refused naming it, before
+    the learner uses it (a NaN would surface later as a diverged TD target)."""
+    if type(reward) is float and math.isfinite(reward):  # the common case
+        return reward
+    if isinstance(reward, np.ndarray) and reward.shape == ():
+        reward = reward.item()
+    check("the reward the environment's step returned", reward, REWARD)
+    return float(reward)
 
 
 def step_duration(info: dict[str, Any]) -> int:

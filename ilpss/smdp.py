@@ -87,6 +87,7 @@ from ilpss.episode import (
     check_env,
     observation,
     step_duration,
+    step_reward,
 )
 from ilpss.options import OptionLibrary
 from ilpss.policy import EPSILON, FrozenPolicy, LinearPolicy, epsilon_greedy_choice
@@ -659,7 +660,7 @@ class SmdpLearner(EpisodicLearner):
             else:
                 action = lib.act(option_id, s, self.rng, {self.tile_coder: active})  # type: ignore[union-attr]
             obs, reward, terminated, truncated, info = env.step(action)
-            reward = float(reward)
+            reward = step_reward(reward)
             d = step_duration(info)
             ended = bool(terminated or truncated)
             bootstrap_end = bool(truncated and not terminated and self.config.bootstrap_on_truncation)

@@ -254,3 +254,41 @@ def test_a_config_file_naming_where_checkpoints_go_needs_the_command_line_to_say
     cfg = build_config(parser().parse_args(["--out", "x", "--config", str(path),
                                             "--storage", elsewhere]))
     assert cfg.storage == elsewhere
+
+
+def test_a_bounded_method_is_refused_where_the_drills_returns_do_not_hold() -> None:
+    # before, the bounded methods clipped every target to the drill's [-1, 1] in any
+    # environment, whatever it paid, without a word
+    from ilpss.experiments.config import ExperimentConfig
+
+    for method in ("finetune_bounded", "whole_policies_ft_bounded_cut", "finetune_chained_bounded"):
+        with pytest.raises(ValueError, match=rf"'{method}' bounds its learner's values by the "
+                                             r"drill's episode returns \[-1, 1\], and env_id "
+                                             r"'CartPole-v1' is not one of the drill's"):
+            ExperimentConfig(env_id="CartPole-v1", methods=("scratch", method))
+    ExperimentConfig(env_id="CartPole-v1", methods=("scratch", "finetune"))
+    ExperimentConfig(methods=("scratch", "whole_policies_ft_bounded_cut"))  # the drill's own
+
+
+def test_a_run_of_another_environment_is_not_reported_on_the_drills_floor(tmp_path,
+                                                                          capsys) -> None:
+    # before, its report measured the curves from the drill's lowest reward (-1): wrong
+    # figures for rewards in [0, 1], and a failure after the whole run for rewards below -1
+    import json
+
+    from ilpss.experiments.cli import main
+    from ilpss.experiments.config import ExperimentConfig
+    from ilpss.experiments.report import write_report
+
+    cfg = ExperimentConfig(env_id="CartPole-v1", methods=("scratch", "finetune"))
+    with pytest.raises(ValueError, match=r"measure the curves from the drill's lowest "
+                                         r"episode reward \(-1\), and env_id 'CartPole-v1'"):
+        write_report(cfg, [], tmp_path / "report")
+    assert not (tmp_path / "report").exists()
+    config = tmp_path / "config.json"
+    config.write_text(json.dumps({"env_id": "CartPole-v1", "methods": ["scratch", "finetune"]}))
+    out = tmp_path / "run"
+    with pytest.raises(SystemExit) as exc:
+        main(["--config", str(config), "--seeds", "2", "--episodes", "1", "--out", str(out)])
+    assert exc.value.code == 2 and not out.exists()
+    assert "lowest episode reward as floor: add --no-report" in capsys.readouterr().err

@@ -383,3 +383,33 @@ def test_a_trial_on_an_environment_with_other_observation_bounds_is_refused():
         learner.run_trial(wider, "chasers")
     assert learner.n_trials == 0
     learner.run_trial(env, "chasers")
+
+
+@pytest.mark.parametrize("reward", [float("nan"), float("inf"), None, "1", np.array([1.0])])
+def test_a_reward_that_is_not_a_finite_number_is_refused_naming_it(reward):
+    # before, NaN and inf surfaced as a diverged TD target blamed on the step size, None and
+    # an array of one as float()'s bare TypeError, and the string "1" was taken as 1.0
+    class Paying(ZoneCorridor):
+        def step(self, action):
+            obs, _, terminated, truncated, info = super().step(action)
+            return obs, reward, terminated, truncated, info
+
+    env = Paying()
+    cfg = LearnerConfig(tile_widths=(0.5,))
+    learner = SmdpLearner(3, cfg.tile_coder(env.observation_space), config=cfg, seed=0)
+    with pytest.raises(ValueError, match=r"the reward the environment's step returned must "
+                                         r"be a finite number, got "):
+        learner.train(env, 1, seed=0)
+
+
+def test_numpy_and_zero_dimensional_rewards_are_taken_as_floats():
+    class Paying(ZoneCorridor):
+        def step(self, action):
+            obs, reward, terminated, truncated, info = super().step(action)
+            return obs, np.array(reward), terminated, truncated, info
+
+    cfg = LearnerConfig(tile_widths=(0.5,))
+    plain, wrapped = ZoneCorridor(), Paying()
+    curves = [SmdpLearner(3, cfg.tile_coder(e.observation_space), config=cfg, seed=0)
+              .train(e, 5, seed=0) for e in (plain, wrapped)]
+    assert [r.total_reward for r in curves[0]] == [r.total_reward for r in curves[1]]

@@ -167,9 +167,11 @@ def _main(argv: Sequence[str] | None) -> int:
         p.error(str(exc))
     if args.ray_address is not None and cfg.executor != "ray":
         p.error("--ray-address needs --executor ray")
-    if cfg.baseline is None and not args.no_report:  # its report would fail after the run
-        p.error("a run without a baseline (--baseline none) cannot be reported: add "
-                "--no-report, and compare it with another run's baseline by ilpss-compare")
+    if cfg.unreportable is not None and not args.no_report:  # it would fail after the run
+        p.error(("a run without a baseline (--baseline none) cannot be reported"
+                 if cfg.baseline is None else cfg.unreportable) + ": add --no-report"
+                + (", and compare it with another run's baseline by ilpss-compare"
+                   if cfg.baseline is None else ""))
     stop_on_sigterm()
     try:
         results = run_experiment(cfg, args.out, progress=not args.quiet,

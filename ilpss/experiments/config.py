@@ -210,6 +210,7 @@ class ExperimentConfig:
                 f"drill's), got {self.scenario!r}; choose scenario "
                 f"{protocol.scenarios[0]!r}, or protocol A, B or C")
         self._check_methods_play_scenario()
+        self._check_bounded_methods_know_the_returns()
 
     def _check_reuse_is_each_methods(self) -> None:
         """The way of reusing past policies is each method's own (``ilpss`` and its
@@ -276,6 +277,44 @@ class ExperimentConfig:
                     f"{options!r}, whose regions are made for {' and '.join(allowed)} only, "
                     f"and the scenario is {self.scenario!r}; leave it out, or play "
                     f"scenario {allowed[0]!r}")
+
+    def _check_bounded_methods_know_the_returns(self) -> None:
+        """Refuse a method that bounds its learner's values by the drill's returns (its own
+        ``value_bounds``, not the base learner's) in an environment whose returns this run
+        does not know: there it would clip every target to the drill's range silently."""
+        if self.drill is not None:
+            return
+        base = self.lifelong.learner.value_bounds
+        for name in self.methods:
+            method = METHODS.get(name)
+            bounds = (method.config(self.lifelong).learner.value_bounds
+                      if isinstance(method, LifelongMethod)
+                      else getattr(method, "value_bounds", None))
+            if bounds is not None and bounds != base:
+                raise ValueError(
+                    f"ExperimentConfig.methods: {name!r} bounds its learner's values by the "
+                    f"drill's episode returns [{bounds[0]:g}, {bounds[1]:g}], and env_id "
+                    f"{self.env_id!r} is not one of the drill's scenarios, whose returns "
+                    "this run does not know; leave it out (the methods without 'bounded' "
+                    "in their name learn with lifelong.learner.value_bounds, which may "
+                    "give your environment's range)")
+
+    @property
+    def unreportable(self) -> str | None:
+        """Why ``write_report`` cannot report this run (``None``: it can): it compares every
+        method with the baseline, and its transfer ratio and time to threshold measure the
+        curves from the drill's lowest episode reward."""
+        if self.baseline is None:
+            return ("a report compares every method with the run's baseline, and this run "
+                    "has none (ExperimentConfig.baseline is null): compare it with "
+                    "ilpss-compare instead")
+        if self.drill is None:
+            return (f"a report's transfer ratio and time to threshold measure the curves from "
+                    f"the drill's lowest episode reward (-1), and env_id {self.env_id!r} is "
+                    "not one of the drill's scenarios: its results are kept; compare them "
+                    "with ilpss.metrics.compare, giving your environment's lowest episode "
+                    "reward as floor")
+        return None
 
     @property
     def drill(self) -> drill_facts.HolderDrill | None:

@@ -43,6 +43,8 @@ def write_report(
     ``command`` is the command line written in the report; by default the current one
     when it is ``ilpss-experiment``, else "(from Python)".
     """
+    if cfg.unreportable is not None:
+        raise ValueError(cfg.unreportable)
     out = Path(out_dir)
     if command is None:
         command = "ilpss-experiment " + " ".join(shlex.quote(a) for a in sys.argv[1:]) \
@@ -58,10 +60,6 @@ def write_report(
         metrics_note(cfg.lifelong.train_episodes, out),
         "",
     ]
-    if cfg.baseline is None:
-        raise ValueError("a report compares every method with the run's baseline, and this "
-                         "run has none (ExperimentConfig.baseline is null): compare it with "
-                         "ilpss-compare instead")
     lines += report_body(cfg, results, out)
     lines += success_lines(results)
     path = out / "report.md"
