@@ -654,3 +654,66 @@ def test_a_ctrl_c_while_a_team_is_copied_still_stops_the_program():
 
     with pytest.raises(KeyboardInterrupt):
         HolderVectorEnv(num_envs=3, opponent=HostileCopy(ctrl_c))
+
+
+class _CountsInItself:
+    """A batched team whose ``batch(n)`` returns the team itself, its state per drill."""
+
+    def batch(self, n):
+        self.count = np.zeros(n, int)
+        return self
+
+    def reset(self, view, drills, rng):
+        self.count[drills] = 0
+
+    def act(self, view, drills):
+        self.count[drills] += 1
+        m, d = len(drills), len(view.players)
+        skill = np.where(self.count[drills] > 10, int(Skill.INTERCEPT), int(Skill.MARK))
+        return BatchCommands(skill[:, None].repeat(d, 1), np.zeros((m, d, 2)), np.ones((m, d)))
+
+
+def test_a_batched_form_given_to_two_environments_is_each_ones_own():
+    # before, a batch(n) that returned the team itself was shared by every environment
+    # given the instance: one environment's resets changed the other's episodes
+    def play(env, other=None):
+        env.reset(seed=1)
+        seen = []
+        for _ in range(6):
+            if other is not None:
+                other.reset(seed=2)
+            obs, _, terminated, truncated, _ = env.step(2)
+            seen.append(obs.tolist())
+            if terminated or truncated:
+                break
+        return seen
+
+    team = _CountsInItself()
+    shared = play(HolderEnv(opponent=team), HolderEnv(opponent=team))
+    assert shared == play(HolderEnv(opponent=_CountsInItself()))
+
+
+def test_pickling_an_environment_whose_team_cannot_be_pickled_names_the_team():
+    # before, pickle's bare "cannot pickle '_thread.lock' object"
+    import pickle
+
+    class Locked:
+        def __init__(self):
+            self.lock = threading.Lock()
+
+        def reset(self, view, rng):
+            self.players = view.players
+
+        def act(self, view):
+            return {p: Command(Skill.INTERCEPT) for p in self.players}
+
+    for env in (HolderEnv(opponent=Locked()), HolderVectorEnv(1, opponent=Locked())):
+        env.reset(seed=0)
+        with pytest.raises(TypeError, match=r"team 'Locked' cannot be pickled, so neither "
+                                            r"can the environment it plays in"):
+            pickle.dumps(env)
+    env = HolderVectorEnv(2, opponent=_CountsInItself())  # a picklable one plays on alike
+    env.reset(seed=0)
+    env.step(np.zeros(2, dtype=int))
+    copy = pickle.loads(pickle.dumps(env))
+    assert np.array_equal(env.step(np.ones(2, dtype=int))[0], copy.step(np.ones(2, dtype=int))[0])

@@ -18,6 +18,7 @@ import copy
 import gc
 import itertools
 import math
+import pickle
 import time
 import weakref
 from collections.abc import Callable, Mapping
@@ -452,6 +453,8 @@ class TeamDriver:
         batched = self.call("batch()", "", self._batched)
         if batched is None and not isinstance(opponent, str) and _played_elsewhere(team):
             team = self.team = self.call("copy.deepcopy()", "", self._own_copy)
+        elif batched is not None and _played_elsewhere(batched):  # batch() gave it again
+            batched = self.call("copy.deepcopy()", "", self._own_copy, batched)
         self.batched: BatchTeam | _Copies = batched if batched is not None else _Copies(
             [team] + [self._copy(opponent, params, i) for i in range(1, batch.n)], self)
         self.rng = BatchRandom(batch.n)
@@ -477,6 +480,23 @@ class TeamDriver:
                 "copy.deepcopy can copy (or __deepcopy__), or make a new environment") from exc
         copied.__setstate__(state)
         return copied
+
+    def __getstate__(self) -> dict[str, Any]:
+        """The driver's state for ``pickle``: a team that pickle cannot store is named,
+        with what to do, instead of a bare error of ``pickle`` about one of its attributes
+        (the team is pickled once more here to find out)."""
+        batched = self.batched
+        played = batched.teams if isinstance(batched, _Copies) else [batched]
+        try:
+            pickle.dumps((self.team, *played))  # not the copies' driver: this one
+        except Exception as exc:
+            if delivered_by_signal(exc):
+                raise
+            raise TypeError(
+                f"team {self.name!r} cannot be pickled, so neither can the environment it "
+                f"plays in: {short_repr(exc)}; give the team what pickle can store (or "
+                "__getstate__), or make a new environment") from exc
+        return self.__dict__
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
@@ -541,17 +561,19 @@ class TeamDriver:
                 "method, or register its factory and pass its id"
             ) from exc
 
-    def _own_copy(self) -> Team:
-        """A copy of the team instance, which another live environment plays already (the
-        instance itself if that environment was only waiting to be collected)."""
+    def _own_copy(self, shared: object = None) -> Any:
+        """A copy of the team instance, or of its batched form ``shared``, which another
+        live environment plays already (the object itself if that environment was only
+        waiting to be collected)."""
+        played = self.team if shared is None else shared
         try:
-            return copy.deepcopy(self.team)
+            return copy.deepcopy(played)
         except Exception as exc:  # not copyable: said, with what to do
             if delivered_by_signal(exc):
                 raise
             gc.collect()  # an environment dropped in a reference cycle plays nothing
-            if not _played_elsewhere(self.team):
-                return self.team
+            if not _played_elsewhere(played):
+                return played
             raise _NotCopied(
                 f"team {self.name!r}: this instance is played by another environment already, "
                 f"and copying it for this one failed ({type(exc).__name__}: "
@@ -723,10 +745,12 @@ _DRIVERS: weakref.WeakSet[TeamDriver] = weakref.WeakSet()
 
 
 def _played_elsewhere(team: object) -> bool:
-    """Whether a live driver plays ``team`` (the very instance): a team without a batched
-    form keeps its episode in its attributes, so two environments stepping one instance in
-    turn would mix their episodes; the later one plays a copy instead."""
-    return any(driver.team is team for driver in list(_DRIVERS))
+    """Whether a live driver plays ``team`` (the very instance, or a batched form): a team
+    keeps its episode in its attributes, so two environments stepping one instance in turn
+    would mix their episodes; the later one plays a copy instead (a ``batch(n)`` that
+    returns the team itself, or any object it gave another environment, included)."""
+    return any(driver.team is team or getattr(driver, "batched", None) is team
+               for driver in list(_DRIVERS))
 
 
 class _NotCopied(Exception):
