@@ -292,3 +292,19 @@ def test_a_run_of_another_environment_is_not_reported_on_the_drills_floor(tmp_pa
         main(["--config", str(config), "--seeds", "2", "--episodes", "1", "--out", str(out)])
     assert exc.value.code == 2 and not out.exists()
     assert "lowest episode reward as floor: add --no-report" in capsys.readouterr().err
+
+
+def test_from_dict_of_a_runs_config_json_says_how_to_read_one(tmp_path) -> None:
+    # before: "unknown ExperimentConfig field(s) ['code']", though --config takes the file
+    import json
+
+    from ilpss.experiments.config import ExperimentConfig
+    from ilpss.experiments.run import read_config
+
+    path = tmp_path / "config.json"
+    path.write_text(json.dumps({**ExperimentConfig().to_dict(), "code": {"version": "0"}}))
+    with pytest.raises(ValueError, match=r"'code' is not a field but a run's record of the "
+                                         r"code that ran it: read a run's config.json with "
+                                         r"ilpss.experiments.run.read_config"):
+        ExperimentConfig.from_dict(json.loads(path.read_text()))
+    assert read_config(path) == ExperimentConfig()

@@ -388,6 +388,11 @@ class ExperimentConfig:
                 (the message names the field and what it allows).
         """
         if isinstance(values, Mapping):
+            if "code" in values:  # a run's config.json records the code that ran it
+                raise ValueError(
+                    "ExperimentConfig: 'code' is not a field but a run's record of the code "
+                    "that ran it: read a run's config.json with ilpss.experiments.run."
+                    "read_config, or leave the key out")
             values = dict(values)
             defaults = cls()
             for name in ("lifelong", "prq"):
