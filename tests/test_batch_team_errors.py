@@ -693,26 +693,10 @@ def test_a_batched_form_given_to_two_environments_is_each_ones_own():
     assert shared == play(HolderEnv(opponent=_CountsInItself()))
 
 
-def test_pickling_an_environment_whose_team_cannot_be_pickled_names_the_team():
-    # before, pickle's bare "cannot pickle '_thread.lock' object"
+def test_an_environment_with_a_batched_form_of_the_team_itself_pickles_and_plays_on():
     import pickle
 
-    class Locked:
-        def __init__(self):
-            self.lock = threading.Lock()
-
-        def reset(self, view, rng):
-            self.players = view.players
-
-        def act(self, view):
-            return {p: Command(Skill.INTERCEPT) for p in self.players}
-
-    for env in (HolderEnv(opponent=Locked()), HolderVectorEnv(1, opponent=Locked())):
-        env.reset(seed=0)
-        with pytest.raises(TypeError, match=r"team 'Locked' cannot be pickled, so neither "
-                                            r"can the environment it plays in"):
-            pickle.dumps(env)
-    env = HolderVectorEnv(2, opponent=_CountsInItself())  # a picklable one plays on alike
+    env = HolderVectorEnv(2, opponent=_CountsInItself())
     env.reset(seed=0)
     env.step(np.zeros(2, dtype=int))
     copy = pickle.loads(pickle.dumps(env))

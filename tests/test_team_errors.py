@@ -367,24 +367,40 @@ def test_after_a_team_error_a_refused_aec_step_changes_nothing():
     _cycle(env, "aec")
 
 
+class _Locked:
+    """A team holding a lock: neither copy.deepcopy nor pickle can copy it."""
+
+    def __init__(self):
+        self.lock = threading.Lock()
+
+    def reset(self, view, rng):
+        self.players = view.players
+
+    def act(self, view):
+        return dict.fromkeys(self.players, Command(Skill.INTERCEPT))
+
+
 def test_an_environment_whose_team_cannot_be_copied_names_the_team(team_registry):
     # before, copy.deepcopy of the environment raised copy's bare TypeError about the lock
     import copy
 
-    class Locked:
-        def __init__(self):
-            self.lock = threading.Lock()
-
-        def reset(self, view, rng):
-            self.players = view.players
-
-        def act(self, view):
-            return dict.fromkeys(self.players, Command(Skill.INTERCEPT))
-
-    team_registry.register("locked", Locked)
+    team_registry.register("locked", _Locked)
     env = soccer_drill.HolderEnv(opponent="locked")
     env.reset(seed=0)
     with pytest.raises(TypeError, match=r"team 'locked' cannot be copied, so neither can the "
                                         r"environment it plays in: TypeError\("):
         copy.deepcopy(env)
     env.step(0)  # the environment itself plays on
+
+
+def test_pickling_an_environment_whose_team_cannot_be_pickled_names_the_team():
+    # before, pickle's bare "cannot pickle '_thread.lock' object"
+    import pickle
+
+    from soccer_drill.vector import HolderVectorEnv
+
+    for env in (soccer_drill.HolderEnv(opponent=_Locked()), HolderVectorEnv(1, opponent=_Locked())):
+        env.reset(seed=0)
+        with pytest.raises(TypeError, match=r"team '_Locked' cannot be pickled, so neither "
+                                            r"can the environment it plays in"):
+            pickle.dumps(env)
