@@ -640,9 +640,10 @@ def test_settings_that_would_diverge_are_refused_before_config_json(tmp_path, ca
     assert not (tmp_path / "run").exists()
 
 
-def test_learning_that_diverges_stops_at_once_naming_the_settings():
+def test_learning_that_diverges_stops_at_once_naming_the_settings(monkeypatch):
     from synthetic_smdp import ZoneCorridor
 
+    import ilpss.smdp
     from ilpss.smdp import SmdpLearner
     from ilpss.tiles import TileCoder
     from ilpss.traces import DivergedError
@@ -655,9 +656,19 @@ def test_learning_that_diverges_stops_at_once_naming_the_settings():
     env = Overflowing(cost=0.05, n_features=2)
     coder = TileCoder.from_space(env.observation_space, np.array([1.0, 0.5]), 4)
     learner = SmdpLearner(3, coder, None, config=KEEPAWAY, seed=0)
-    with pytest.raises(DivergedError, match=r"SMDP learning diverged in learning episode 1: a "
-                                            r"TD target of -?inf .*alpha=0.125"):
+    # an environment's reward that is not finite: refused at its step, naming it
+    with pytest.raises(ValueError, match=r"the reward the environment's step returned must be "
+                                         r"a finite number, got -?inf"):
         learner.train(env, 3, seed=0)
+
+    def overflowed(*args):  # values that left a float's range in an update
+        raise DivergedError("a TD target of inf (the action values are no longer finite)")
+
+    monkeypatch.setattr(ilpss.smdp, "td_update", overflowed)
+    learner = SmdpLearner(3, coder, None, config=KEEPAWAY, seed=0)
+    with pytest.raises(DivergedError, match=r"SMDP learning diverged in learning episode 1: a "
+                                            r"TD target of inf .*alpha=0.125"):
+        learner.train(ZoneCorridor(cost=0.05, n_features=2), 3, seed=0)
 
 
 def test_a_job_failing_for_its_settings_is_not_advised_to_run_again(tmp_path, capsys):
