@@ -319,15 +319,27 @@ class Registry:
             raise TypeError(f"{self.kind} {name!r} must be {self.calls} (a callable), got "
                             f"{short_repr(obj)}")
         with self._lock:
-            self._discover()
-            key = _look_alike(name)
-            other = next((n for n in self._entries if n != name and _look_alike(n) == key),
-                         None)
+            other = self.alike(name)
             if other is not None:
                 raise ValueError(f"{self.kind} {self.label} {name!r} {self._looks_like(other)}")
             if name in self._entries and not overwrite:
                 raise ValueError(f"{self.kind} {name!r} is already registered; pass overwrite=True")
             self._entries[name] = _Entry(obj=obj, loaded=True)
+
+    def alike(self, name: str) -> str | None:
+        """The registered name, other than ``name``, that ``name`` would be taken for (the
+        same but for case, or ``-`` against ``_``), or ``None``."""
+        key = _look_alike(name)
+        with self._lock:
+            self._discover()
+            return next((n for n in self._entries if n != name and _look_alike(n) == key),
+                        None)
+
+    def refused(self, name: str) -> bool:
+        """Whether a plugin declared ``name`` and it was refused (:meth:`get` says why)."""
+        with self._lock:
+            self._discover()
+            return name in self._refused
 
     def add(self, obj: Any, *, overwrite: bool = False) -> None:
         """Register ``obj``, an instance of :attr:`of`, under its ``name``."""

@@ -673,9 +673,30 @@ class _CountsInItself:
         return BatchCommands(skill[:, None].repeat(d, 1), np.zeros((m, d, 2)), np.ones((m, d)))
 
 
-def test_a_batched_form_given_to_two_environments_is_each_ones_own():
+class _CountsInTheTeam:
+    """A batched team whose ``batch(n)`` returns a new form each call, its state per drill
+    kept in the team."""
+
+    def batch(self, n):
+        self.count = np.zeros(n, int)
+        return _CountsInTheTeam.Form(self)
+
+    class Form:
+        def __init__(self, team):
+            self.team = team
+
+        def reset(self, view, drills, rng):
+            self.team.count[drills] = 0
+
+        def act(self, view, drills):
+            return _CountsInItself.act(self.team, view, drills)
+
+
+@pytest.mark.parametrize("kind", [_CountsInItself, _CountsInTheTeam])
+def test_a_batched_form_given_to_two_environments_is_each_ones_own(kind):
     # before, a batch(n) that returned the team itself was shared by every environment
-    # given the instance: one environment's resets changed the other's episodes
+    # given the instance, and a new form keeping its state in the team was too (the team
+    # was not copied): one environment's resets changed the other's episodes
     def play(env, other=None):
         env.reset(seed=1)
         seen = []
@@ -688,9 +709,41 @@ def test_a_batched_form_given_to_two_environments_is_each_ones_own():
                 break
         return seen
 
-    team = _CountsInItself()
+    team = kind()
     shared = play(HolderEnv(opponent=team), HolderEnv(opponent=team))
-    assert shared == play(HolderEnv(opponent=_CountsInItself()))
+    assert shared == play(HolderEnv(opponent=kind()))
+
+
+def test_a_factory_returning_one_instance_gives_each_drill_and_environment_a_copy(
+        team_registry):
+    # before, a registered factory that returned the same instance every time had it
+    # played by every drill of a vector environment and by every environment of the id
+    class GoesHome:  # heads back to where it started: its state is its episode's
+        def reset(self, view, rng):
+            a = view.config.attackers
+            self.home = {p: tuple(view.positions[a + k]) for k, p in enumerate(view.players)}
+
+        def act(self, view):
+            return {p: Command(Skill.MOVE_TO, t, 0.5) for p, t in self.home.items()}
+
+    the_one = GoesHome()
+    team_registry.register("the_one", lambda: the_one)
+    team_registry.register("fresh", GoesHome)
+    actions = np.array([2, 1, 2])
+
+    def episode_starts(env):
+        env.reset(seed=5)
+        return [env.step(actions)[0].tolist() for _ in range(4)]
+
+    assert episode_starts(HolderVectorEnv(3, opponent="the_one")) == episode_starts(
+        HolderVectorEnv(3, opponent="fresh"))
+    alone = HolderEnv(opponent="fresh")
+    first, second = HolderEnv(opponent="the_one"), HolderEnv(opponent="the_one")
+    for env in (alone, first, second):
+        env.reset(seed=3)
+    for _ in range(4):
+        second.reset(seed=4)  # the other environment's reset sets the one instance's home
+        assert first.step(2)[0].tolist() == alone.step(2)[0].tolist()
 
 
 def test_an_environment_with_a_batched_form_of_the_team_itself_pickles_and_plays_on():
@@ -701,3 +754,22 @@ def test_an_environment_with_a_batched_form_of_the_team_itself_pickles_and_plays
     env.step(np.zeros(2, dtype=int))
     copy = pickle.loads(pickle.dumps(env))
     assert np.array_equal(env.step(np.ones(2, dtype=int))[0], copy.step(np.ones(2, dtype=int))[0])
+
+
+def test_a_team_of_one_drill_with_a_batch_method_is_told_which_protocol_it_is_called_by():
+    # before, only "Mixed.reset() takes 3 positional arguments but 4 were given"
+    class Mixed:
+        def batch(self, n):
+            return self
+
+        def reset(self, view, rng):
+            pass
+
+        def act(self, view):
+            return {p: Command(Skill.INTERCEPT) for p in view.players}
+
+    env = HolderEnv(opponent=Mixed())
+    with pytest.raises(TeamError, match=r"takes 3 positional arguments.*; a team with batch\(n\) "
+                                        r"is played through what batch\(n\) returns, called as "
+                                        r"reset\(view, drills, rng\)"):
+        env.reset(seed=0)

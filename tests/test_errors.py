@@ -230,6 +230,16 @@ def _boom(players):
         (lambda p: dict.fromkeys(p, Command(Skill.DRIBBLE)), "not allowed for a scripted defender"),
         (lambda p: dict.fromkeys(p, "run"), "expected a Command, got 'run'"),
         (lambda p: dict.fromkeys(p, Command(Skill.MARK, speed=2.0)), r"speed must be in \(0, 1\]"),
+        # None for the first player: refused, not read as "the previous player's command"
+        # (there is none: its row was memory never written)
+        (lambda p: {p[0]: None, p[1]: Command(Skill.MARK)},
+         "player 'defender_0', cycle 0: expected a Command, got None"),
+        (lambda p: dict.fromkeys(p), "player 'defender_0', cycle 0: expected a Command, got None"),
+        # a set has no order to read x and y by ({30.0, 2.0} iterates as 2.0, 30.0)
+        (lambda p: dict.fromkeys(p, Command(Skill.MOVE_TO, {30.0, 2.0})),
+         r"not a set or a dict.*got \{2\.0, 30\.0\}"),
+        (lambda p: dict.fromkeys(p, Command(Skill.MOVE_TO, {"x": 3.0, "y": 4.0})),
+         "not a set or a dict"),
     ],
 )
 def test_misbehaving_team_is_named(act, message):

@@ -695,12 +695,38 @@ def test_a_registration_cannot_take_the_id_of_another_tasks_built_in_team(team_r
     # before, register("keepaway_takers", ...) was accepted (the drill's registry does not
     # hold it) and, looked up first, replaced keepaway's default takers everywhere
     before = _keepaway_cycles()
-    with pytest.raises(ValueError, match="'keepaway_takers' is already one of the keepaway "
-                                         "task's teams; this project's own teams keep"):
+    with pytest.raises(ValueError, match="'keepaway_takers' is one of the keepaway task's "
+                                         "teams, and this project's own teams keep"):
         soccer_drill.register("keepaway_takers", lambda: None)
     with pytest.raises(ValueError, match="own teams keep their ids"):
         soccer_drill.register("keepaway_takers", lambda: None, overwrite=True)
+    # nor one another task's team would be taken for (the drill's registry checks only
+    # its own look-alikes)
+    with pytest.raises(ValueError, match="'Keepaway-Takers' looks like the keepaway task's "
+                                         "team 'keepaway_takers'"):
+        soccer_drill.register("Keepaway-Takers", lambda: None)
     assert _keepaway_cycles() == before
+
+
+def test_a_registration_cannot_replace_the_drills_own_teams(team_registry):
+    # before, register("chasers", ..., overwrite=True) was accepted: results labelled
+    # "chasers" came from another team
+    with pytest.raises(ValueError, match="'chasers' is one of the drill task's teams, and "
+                                         "this project's own teams keep their ids"):
+        soccer_drill.register("chasers", lambda: None, overwrite=True)
+    assert type(soccer_drill.make_team("chasers")).__name__ == "Chasers"
+    soccer_drill.register("mine", _Idle)  # an id of its own: registered, and
+    soccer_drill.register("mine", _Idle, overwrite=True)  # replaced when asked
+
+
+def test_a_refused_plugin_of_another_task_is_named_with_why_when_asked_for(install):
+    # before, the id of a keepaway plugin refused as a look-alike was "unknown team"
+    with pytest.warns(PluginWarning, match="'keepaway-takers' .* is refused"):
+        install("alike-teams", {"plugin_alike": _GOOD_TEAM}, entry_points=(
+            "[soccer_drill.keepaway_teams]\nkeepaway-takers = plugin_alike:Wall\n"))
+    with pytest.raises(soccer_drill.TeamError, match=r"'keepaway-takers' .* is refused: it "
+                                                     "looks like the keepaway team"):
+        soccer_drill.make_team("keepaway-takers")
 
 
 def test_a_plugin_declaring_another_tasks_built_in_id_is_ignored_for_it(install):

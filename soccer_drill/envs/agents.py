@@ -547,7 +547,9 @@ class raw_env(_DrillEnvBase, AECEnv):
     ``reset(seed=s)`` makes the episode a function of ``s`` and the actions alone:
     observations, rewards, terminations, truncations and infos are bit-identical to
     those of a fresh environment's ``reset(seed=s)`` with the same actions, whatever
-    episodes ran before (the physics space is rebuilt on every reset), for every team.
+    episodes ran before (the physics space is rebuilt on every reset), for every team that
+    draws only from the generator it is given (a team drawing from ``np.random`` or
+    ``random`` makes its episodes depend on those too).
     ``reset()`` without a seed continues the environment's generator, so a sequence of
     episodes after one seeded reset is reproducible too. The scripted team and the
     support player draw from their own generators, seeded from the drill's at each

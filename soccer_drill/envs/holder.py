@@ -451,7 +451,9 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
     ``reset(seed=s)`` makes the episode a function of ``s`` and the actions alone:
     observations, rewards and infos are bit-identical to those of a fresh
     environment's ``reset(seed=s)`` with the same actions, whatever episodes ran before
-    (the physics space is rebuilt on every reset), for every team. ``reset()`` without a
+    (the physics space is rebuilt on every reset), for every team that
+    draws only from the generator it is given (a team drawing from ``np.random`` or
+    ``random`` makes its episodes depend on those too). ``reset()`` without a
     seed continues the generator. The team and the support player draw from their own
     generators, seeded from the drill's at each reset; rendering changes nothing.
 

@@ -21,7 +21,7 @@ import math
 import pickle
 import time
 import weakref
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Set
 from typing import Any
 
 import numpy as np
@@ -68,11 +68,15 @@ def skill_refused(skill: object) -> str:
 
 
 def _speed_refused(speed: object) -> str:
+    if not is_real(speed):  # a bool, a string, an array: say the type, not the range
+        return (f"speed must be a real number in (0, 1] (not a bool, a string or an "
+                f"array), got {short_repr(speed)} of type {type(speed).__name__}")
     return f"speed must be in (0, 1], got {short_repr(speed)}"
 
 
 def _target_refused(target: object) -> str:
-    return f"MOVE_TO needs a finite (x, y) target, got {short_repr(target)}"
+    return (f"MOVE_TO needs a finite (x, y) target: a pair such as a tuple, list or array "
+            f"(not a set or a dict, which have no x and y), got {short_repr(target)}")
 
 
 # Each array of BatchCommands: its name, shape for m drills, dtype kinds, their words, and
@@ -283,7 +287,7 @@ def _read(commands: object, players: tuple[str, ...]) -> BatchCommands:
     skill = np.empty((1, len(players)), dtype=np.int64)
     target = np.zeros((1, len(players), 2))
     speed = np.empty((1, len(players)))
-    previous = None
+    previous: object = _NOTHING_READ  # not None: a None is refused, never copied
     for k, player in enumerate(players):
         command = commands[player]
         if command is previous:  # one object for both players: read once, as it was
@@ -306,6 +310,9 @@ def _read(commands: object, players: tuple[str, ...]) -> BatchCommands:
     return BatchCommands(skill, target, speed)
 
 
+_NOTHING_READ = object()
+
+
 class _Refused(Exception):
     """What one drill's team returned is not commands: why, and for which player."""
 
@@ -315,7 +322,10 @@ class _Refused(Exception):
 
 
 def _point(target: object) -> tuple[float, float] | None:
-    """``target`` read once into a finite ``(x, y)`` pair of floats, or ``None``."""
+    """``target`` read once into a finite ``(x, y)`` pair of floats, or ``None`` (also
+    for a set or a mapping, whose two items have no order to read x and y by)."""
+    if isinstance(target, Set | Mapping):
+        return None
     try:
         x, y = target  # type: ignore[misc]
     except (TypeError, ValueError):  # not iterable, or not exactly two items
@@ -450,13 +460,15 @@ class TeamDriver:
         # property runs the team's code), as its methods are called.
         self._check_size(self.call("defender_counts", "", getattr, team, "defender_counts",
                                    None))
-        batched = self.call("batch()", "", self._batched)
-        if batched is None and not isinstance(opponent, str) and _played_elsewhere(team):
+        # An instance another environment plays (given again, or a factory's one instance)
+        # is copied before batch(), since a batched form may keep its state in the team.
+        if _played_elsewhere(team):
             team = self.team = self.call("copy.deepcopy()", "", self._own_copy)
-        elif batched is not None and _played_elsewhere(batched):  # batch() gave it again
+        batched = self.call("batch()", "", self._batched)
+        if batched is not None and _played_elsewhere(batched):  # batch() gave it again
             batched = self.call("copy.deepcopy()", "", self._own_copy, batched)
         self.batched: BatchTeam | _Copies = batched if batched is not None else _Copies(
-            [team] + [self._copy(opponent, params, i) for i in range(1, batch.n)], self)
+            self._per_drill(opponent, params), self)
         self.rng = BatchRandom(batch.n)
         self.failure: str | None = None
         """The error of the team's last failed call, until every drill is reset."""
@@ -538,6 +550,20 @@ class TeamDriver:
             )
         return batched
 
+    def _per_drill(self, opponent: str | Team, params: dict[str, Any]) -> list[Team]:
+        """One team instance per drill: the team, then :meth:`_copy`'s; an instance that
+        another drill or environment plays already (a factory that returns one instance
+        every time) copied, so that no two drills share one."""
+        teams = [self.team]
+        for i in range(1, self._batch.n):
+            made = self._copy(opponent, params, i)
+            in_use = any(made is t for t in teams)
+            if in_use or _played_elsewhere(made):
+                made = self.call("copy.deepcopy()", f" for drill {i}", self._own_copy, made,
+                                 in_use)
+            teams.append(made)
+        return teams
+
     def _copy(self, opponent: str | Team, params: dict[str, Any], drill: int) -> Team:
         """One more copy of the team, for drill ``drill``: its factory's for an id (not
         bounded, as building the team never is: a team may load what it needs when made),
@@ -561,10 +587,11 @@ class TeamDriver:
                 "method, or register its factory and pass its id"
             ) from exc
 
-    def _own_copy(self, shared: object = None) -> Any:
-        """A copy of the team instance, or of its batched form ``shared``, which another
-        live environment plays already (the object itself if that environment was only
-        waiting to be collected)."""
+    def _own_copy(self, shared: object = None, in_use: bool = False) -> Any:
+        """A copy of the team instance, or of ``shared`` (its batched form, or a per-drill
+        instance its factory gave again), which another live environment or drill plays
+        already (the object itself if that environment was only waiting to be collected;
+        never if another drill of this one plays it: ``in_use``)."""
         played = self.team if shared is None else shared
         try:
             return copy.deepcopy(played)
@@ -572,10 +599,11 @@ class TeamDriver:
             if delivered_by_signal(exc):
                 raise
             gc.collect()  # an environment dropped in a reference cycle plays nothing
-            if not _played_elsewhere(played):
+            if not (in_use or _played_elsewhere(played)):
                 return played
             raise _NotCopied(
-                f"team {self.name!r}: this instance is played by another environment already, "
+                f"team {self.name!r}: this instance is played by another environment (or "
+                "drill) already, "
                 f"and copying it for this one failed ({type(exc).__name__}: "
                 f"{short_repr(str(exc))}); pass each environment an instance of its own, or "
                 "register its factory and pass its id"
@@ -675,7 +703,19 @@ class TeamDriver:
             if delivered_by_signal(exc):
                 raise
             raise TeamError(f"{self._who()} raised in {call}{self._when(when)}: "
-                            f"{_what_happened(exc)}") from exc
+                            f"{_what_happened(exc)}{self._protocol_hint(call, exc)}") from exc
+
+    def _protocol_hint(self, call: str, exc: BaseException) -> str:
+        """For a batched form's ``reset``/``act`` called with arguments it does not take:
+        which protocol ``batch(n)`` chose (a team of one drill that also has a ``batch``
+        method is called as a batched team)."""
+        if (call not in ("reset()", "act()") or not isinstance(exc, TypeError)
+                or "argument" not in str(exc) or isinstance(getattr(self, "batched", None),
+                                                            _Copies | type(None))):
+            return ""
+        return ("; a team with batch(n) is played through what batch(n) returns, called as "
+                "reset(view, drills, rng) and act(view, drills) (a team of one drill, "
+                "reset(view, rng) and act(view), has no batch method)")
 
     def _when(self, when: object) -> object:
         """``when`` as words: the drills of an ``act()`` (an array) with their cycles."""

@@ -124,7 +124,10 @@ def _registry_of(team_id: object) -> Registry:
                               "plugin or registration that declares it for another task is "
                               "ignored for it", PluginWarning, stacklevel=3)
             return built_in[0]
-    return holders[0] if holders else TEAMS
+    if holders:
+        return holders[0]
+    # none holds it: the one that refused its plugin, if any, says why
+    return next((r for r in TASK_TEAMS.values() if r.refused(team_id)), TEAMS)
 
 
 _SHADOWED: set[str] = set()
@@ -176,20 +179,27 @@ def register(team_id: str, factory: Callable[..., Team], *, overwrite: bool = Fa
     ------
     ValueError
         ``team_id`` is not a valid id (at most 64 ASCII letters, digits, ``_`` or ``-``,
-        not starting with a digit), looks like the id of another team (the same but for
-        case, or ``-`` against ``_``), or is taken and ``overwrite`` is false.
+        not starting with a digit), looks like the id of another team of any task (the
+        same but for case, or ``-`` against ``_``), is one of this project's own teams'
+        (which keep their ids, ``overwrite`` or not), or is taken and ``overwrite`` is false.
     TypeError
         ``factory`` is not callable.
     """
     for task, registry in TASK_TEAMS.items():
-        if registry is TEAMS or team_id not in registry:
+        built_in = team_id in registry and _built_in(registry, team_id)
+        if built_in:  # so that results labelled with a built-in id come from its team
+            raise ValueError(f"team {team_id!r} is one of the {task} task's teams, and this "
+                             "project's own teams keep their ids; give yours an id of its own")
+        if registry is TEAMS:
             continue
-        built_in = _built_in(registry, team_id)
-        if built_in or not overwrite:
-            raise ValueError(
-                f"team {team_id!r} is already one of the {task} task's teams"
-                + ("; this project's own teams keep their ids" if built_in
-                   else "; pass overwrite=True to play yours under that id instead"))
+        other = registry.alike(team_id)  # the drill's own registry checks its look-alikes
+        if other is not None:
+            raise ValueError(f"team id {team_id!r} looks like the {task} task's team {other!r} "
+                             "(ids that differ only in case or in '-' against '_' are taken "
+                             "for each other); give yours an id of its own")
+        if team_id in registry and not overwrite:
+            raise ValueError(f"team {team_id!r} is already one of the {task} task's teams; "
+                             "pass overwrite=True to play yours under that id instead")
     TEAMS.register(team_id, factory, overwrite=overwrite)
 
 
