@@ -414,3 +414,36 @@ def test_reset_with_an_integer_seed_seeds_np_random_as_gymnasiums_vector_envs():
     env.recv()
     env.reset(seed=[1, 2])  # one seed per drill: np_random goes on
     assert env.np_random_seed == 7
+
+
+def test_call_get_attr_and_set_attr_give_what_sync_gives():
+    # before, HolderVectorEnv had none of them: a client moving from "sync" to the batched
+    # env lost set_attr("decision_cycles", ...) (a curriculum) with an AttributeError
+    def make(how):
+        env = gym.make_vec("soccer_drill/Holder-v0", num_envs=3, vectorization_mode=how,
+                           opponent="chasers")
+        env.reset(seed=4)
+        return env
+
+    batched, sync = make("vector_entry_point"), make("sync")
+    for name in ("decision_cycles", "action_names", "observation_space", "action_space"):
+        assert batched.get_attr(name) == sync.get_attr(name)
+    assert np.array_equal(np.stack(batched.call("action_masks")), np.stack(sync.call("action_masks")))
+    for env in (batched, sync):
+        env.set_attr("decision_cycles", 2)
+    assert batched.get_attr("decision_cycles") == (2, 2, 2)
+    for _ in range(3):  # the next decisions last 2 cycles in both
+        actions = np.array([0, 2, 0])
+        ours, theirs = batched.step(actions), sync.step(actions)
+        assert np.array_equal(ours[4]["duration"], theirs[4]["duration"])
+    batched.set_attr("decision_cycles", [3, 3, 3])  # equal values, one per drill
+    assert batched.unwrapped.decision_cycles == 3
+    with pytest.raises(ValueError, match=r"share one environment, so they take one value"):
+        batched.set_attr("decision_cycles", [2, 3, 3])
+    with pytest.raises(ValueError, match=r"2 values for 3 drills"):
+        batched.set_attr("decision_cycles", [2, 2])
+    with pytest.raises(ValueError, match=r"set_attr\('num_envs'\): set when the environment is made"):
+        batched.set_attr("num_envs", 4)
+    with pytest.raises(ValueError, match=r"call\('step'\): step\(\) acts on every drill at once"):
+        batched.call("step", np.zeros(3, dtype=int))
+    assert batched.unwrapped.call("render") == (None, None, None)  # no render mode

@@ -33,6 +33,7 @@ from soccer_drill.envs.holder import (
     holder_action_refused,
 )
 from soccer_drill.envs.pickling import Pickled
+from soccer_drill.interruptions import short_repr
 from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
 from soccer_drill.rendering.screen import frames_per_second
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
@@ -44,6 +45,24 @@ _RUNNING, _TIMEOUT = int(Outcome.RUNNING), int(Outcome.TIMEOUT)  # an enum looku
 _AUTORESET_MODES = OneOf((AutoresetMode.NEXT_STEP.value, AutoresetMode.SAME_STEP.value))
 RESET_OPTIONS = ("reset_mask",)
 """The keys ``HolderVectorEnv.reset``'s ``options`` may hold."""
+
+ROW_PER_DRILL = frozenset({"action_masks", "render"})
+"""Methods of ``HolderVectorEnv`` that return one row per drill (``render``: a frame, or
+``None`` for every drill): ``call`` gives each drill its own."""
+
+EVERY_DRILL = frozenset({
+    "reset", "close", "step", "step_async", "step_wait", "async_reset", "send", "recv",
+    "close_extras",
+})
+"""Methods of ``HolderVectorEnv`` that act on every drill at once, never called once per
+drill (``call`` refuses them: call them directly)."""
+
+FIXED_ATTRIBUTES = frozenset({"autoreset_mode", "batch_size", "num_envs"})
+"""Attributes set when the environment is made, which ``set_attr`` refuses."""
+
+_AS_ONE_DRILL = {"observation_space": "single_observation_space",
+                 "action_space": "single_action_space"}
+"""Attributes whose one drill's value is another attribute here (as ``call`` reads them)."""
 
 
 def check_drill_indices(indices: object, n: int) -> list[int]:
@@ -156,6 +175,18 @@ class HolderVectorEnv(Pickled, VectorEnv):
     array over drills (``"duration"``, ``"cycles"``: int; ``"outcome"``, ``"holder"``:
     object, ``None`` or a name) and a boolean mask ``"_<key>"`` of the drills that have it
     (all of them here).
+
+    ## Attributes by drill
+
+    ``call``, ``get_attr`` and ``set_attr`` take what ``SyncVectorEnv``'s take and give
+    one value per drill, so a client written for ``vectorization_mode="sync"`` runs on
+    this environment: ``set_attr("decision_cycles", 2)`` (a curriculum), ``get_attr``
+    of an attribute (every drill's, ``observation_space`` a single drill's),
+    ``call("action_masks")`` (each drill's row). The drills are one environment, so
+    ``set_attr`` takes one value, or equal values per drill; attributes set when the
+    environment is made (``num_envs``, ``batch_size``, ``autoreset_mode``) are refused,
+    and ``call`` refuses the methods that act on every drill at once (``step``,
+    ``reset``, ...: call them).
 
     ## Seeding
 
@@ -504,6 +535,46 @@ class HolderVectorEnv(Pickled, VectorEnv):
 
         return self._core.changing("HolderVectorEnv.recv()", recv)
 
+    # ------------------------------------------------- attributes by drill
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+        """What ``SyncVectorEnv.call`` gives: one value per drill, of attribute ``name``
+        (called with ``args`` if a method). The drills are one environment: a method of
+        :data:`ROW_PER_DRILL` gives each drill its row, another attribute is every
+        drill's (``observation_space`` and ``action_space`` a single drill's); a method of
+        :data:`EVERY_DRILL` is refused (it acts on every drill at once: call it)."""
+        if name in EVERY_DRILL:
+            raise ValueError(f"call({name!r}): {name}() acts on every drill at once, so it is "
+                             f"not called once per drill; call env.{name}() itself")
+        value = getattr(self, _AS_ONE_DRILL.get(name, name))
+        if callable(value):
+            value = value(*args, **kwargs)
+        if name in ROW_PER_DRILL:
+            return (None,) * self.num_envs if value is None else tuple(value)
+        return (value,) * self.num_envs
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        """Attribute ``name`` of each drill (:meth:`call`, as ``SyncVectorEnv.get_attr``)."""
+        return self.call(name)
+
+    def set_attr(self, name: str, values: Any) -> None:
+        """Set attribute ``name`` of the drills, as ``SyncVectorEnv.set_attr``: one value,
+        or a list or tuple of ``num_envs`` values, which must be equal since the drills
+        share it (``decision_cycles`` for a curriculum, for instance); those of
+        :data:`FIXED_ATTRIBUTES` are refused."""
+        if name in FIXED_ATTRIBUTES:
+            raise ValueError(f"set_attr({name!r}): set when the environment is made; make "
+                             f"another to change it (attributes refused: "
+                             f"{sorted(FIXED_ATTRIBUTES)})")
+        if isinstance(values, list | tuple):
+            if len(values) != self.num_envs:
+                raise ValueError(f"set_attr({name!r}): {len(values)} values for "
+                                 f"{self.num_envs} drills; give one value, or one per drill")
+            if any(not _same(v, values[0]) for v in values[1:]):
+                raise ValueError(f"set_attr({name!r}): the drills share one environment, so "
+                                 f"they take one value, got {short_repr(list(values))}")
+            values = values[0]
+        setattr(self, name, values)
+
     @property
     def batch_cycles(self) -> int:
         """The cycles the batch has run for ``step`` and ``recv`` (each moves every drill
@@ -672,6 +743,16 @@ class HolderVectorEnv(Pickled, VectorEnv):
         """Let go of the renderer, if any (no window, no worker)."""
         if self._renderer is not None:
             self._renderer.close()
+
+
+def _same(a: Any, b: Any) -> bool:
+    """Whether two values given for the drills are one value (arrays element by element)."""
+    if a is b:
+        return True
+    try:
+        return bool(np.all(a == b))
+    except (TypeError, ValueError):  # values that do not compare
+        return False
 
 
 HolderRule = Callable[[np.ndarray, np.random.Generator], int]

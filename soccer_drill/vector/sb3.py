@@ -40,25 +40,15 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import VecEnv
 
-from soccer_drill.vector.holder import HolderVectorEnv, check_drill_indices
+from soccer_drill.vector.holder import (
+    EVERY_DRILL,
+    FIXED_ATTRIBUTES,
+    ROW_PER_DRILL,
+    HolderVectorEnv,
+    check_drill_indices,
+)
 
 __all__ = ["HolderSB3VecEnv"]
-
-_ROW_PER_DRILL = frozenset({"action_masks"})
-"""Methods of ``HolderVectorEnv`` that return one row per drill: ``env_method`` gives each
-drill its own."""
-
-_EVERY_DRILL = frozenset({
-    "reset", "close", "step", "step_async", "step_wait", "async_reset", "send", "recv",
-    "render", "close_extras",
-})
-"""Methods of ``HolderVectorEnv`` that act on every drill at once: ``env_method`` calls them
-only for every drill, never for some (which ``DummyVecEnv`` would do)."""
-
-_FIXED_ATTRS = frozenset({"autoreset_mode", "batch_size", "num_envs"})
-"""Attributes this class sets itself: ``set_attr`` refuses them (SB3's conventions need them
-as they are)."""
-
 
 class HolderSB3VecEnv(VecEnv):
     """``num_envs`` holder drills in one ``HolderVectorEnv``, as an SB3 ``VecEnv`` (see the
@@ -145,10 +135,10 @@ class HolderSB3VecEnv(VecEnv):
         return [value for _ in self._get_indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: Any = None) -> None:
-        if attr_name in _FIXED_ATTRS:
+        if attr_name in FIXED_ATTRIBUTES:
             raise ValueError(
                 f"set_attr({attr_name!r}): HolderSB3VecEnv sets it itself (SB3 steps every drill "
-                f"and resets a drill within its step); attributes it refuses: {sorted(_FIXED_ATTRS)}"
+                f"and resets a drill within its step); attributes it refuses: {sorted(FIXED_ATTRIBUTES)}"
             )
         if sorted(self._get_indices(indices)) != list(range(self.num_envs)):
             raise ValueError(
@@ -162,14 +152,15 @@ class HolderSB3VecEnv(VecEnv):
         chosen = self._get_indices(indices)
         if not chosen:
             return []  # no drill: nothing is called, as DummyVecEnv
-        if method_name in _EVERY_DRILL and sorted(set(chosen)) != list(range(self.num_envs)):
+        if method_name in EVERY_DRILL and sorted(set(chosen)) != list(range(self.num_envs)):
             raise ValueError(
                 f"env_method({method_name!r}) acts on every drill of the shared batch at once: "
                 f"call it for every drill (indices=None), not for {chosen}"
             )
+        if method_name in ROW_PER_DRILL:  # each drill its row (a frame, or None)
+            rows = self.venv.call(method_name, *method_args, **method_kwargs)
+            return [rows[i] for i in chosen]
         result = getattr(self.venv, method_name)(*method_args, **method_kwargs)
-        if method_name in _ROW_PER_DRILL:
-            return [result[i] for i in chosen]
         return [result for _ in chosen]
 
     def env_is_wrapped(self, wrapper_class: type, indices: Any = None) -> list[bool]:
