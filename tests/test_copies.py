@@ -315,7 +315,7 @@ def test_a_shared_team_instance_that_cannot_be_copied_is_refused_saying_why():
     team = _Homes()
     team.lock = threading.Lock()  # copy.deepcopy cannot copy a lock
     first = soccer_drill.HolderEnv(opponent=team)
-    with pytest.raises(TypeError, match="played by another environment already"):
+    with pytest.raises(TypeError, match=r"played by another environment \(or drill\) already"):
         soccer_drill.HolderEnv(opponent=team)
     first.reset(seed=0)
     del first  # gone: the next environment plays the instance itself, as the first did

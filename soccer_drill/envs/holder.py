@@ -108,6 +108,7 @@ def step_record(attackers: int) -> np.dtype:
 
 
 _HOLD, _PASS, _DRIBBLE = int(Skill.HOLD), int(Skill.PASS), int(Skill.DRIBBLE)  # as stored
+_RUNNING, _TIMEOUT = int(Outcome.RUNNING), int(Outcome.TIMEOUT)  # an enum lookup costs ~1 us
 STEP = step_record(2)
 """One drill's holder step in the 2v2 drill (:func:`step_record`)."""
 
@@ -268,10 +269,13 @@ class HolderLoop:
         self.action = steps["action"]
         self._supporting = steps["supporting"]
         self._bound: tuple | None = None  # the cycle's rules bound to the arrays (cycle())
+        self._results_bound: tuple | None = None  # results() of every drill, bound
+        self._begin_bound: tuple | None = None  # begin() of every drill, bound
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
-        for name in ("running", "decider", "start", "action", "_supporting", "_bound"):
+        for name in ("running", "decider", "start", "action", "_supporting", "_bound",
+                     "_results_bound", "_begin_bound"):
             del state[name]
         return state
 
@@ -291,7 +295,17 @@ class HolderLoop:
     def begin(self, drills: np.ndarray, actions: np.ndarray) -> None:
         """The holders of ``drills`` (int64, ascending) take ``actions`` (int64, checked:
         indices of :attr:`action_names`): their drills' steps run."""
-        _begin(self.steps, self.core.batch.state, drills, actions, self.decision_cycles)
+        if drills is not self.core.every:
+            _begin(self.steps, self.core.batch.state, drills, actions, self.decision_cycles)
+            return
+        bound = self._begin_bound  # every drill: bound to one array of actions (bind)
+        if bound is None or bound[0] != self.decision_cycles:
+            chosen = np.empty(self.core.n, np.int64)
+            bound = self._begin_bound = (self.decision_cycles, chosen, bind(
+                _begin, self.steps, self.core.batch.state, drills, chosen,
+                self.decision_cycles))
+        bound[1][:] = actions
+        bound[2]()
 
     def cycle(self, drills: np.ndarray | None = None) -> int:
         """One cycle of every drill whose step runs (``drills``: their indices, if the
@@ -317,21 +331,57 @@ class HolderLoop:
         """``action`` as an index of :attr:`action_names` (:func:`check_holder_action`)."""
         return check_holder_action(action, self.attackers, self.action_names)
 
-    def rewards(self, rows: np.ndarray, durations: np.ndarray) -> np.ndarray:
-        """The reward of the steps of drills ``rows`` that lasted ``durations`` cycles:
-        the attackers' reward where the episode ended, plus the task's pay per cycle
-        (keepaway's seconds; none in the drill, whose steps pay only at the end)."""
+    def results(self, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The steps of drills ``rows`` as they stand: the observations of their deciders
+        (:meth:`observe`), ``ints``, ``(5, len(rows))`` int64 whose rows are
+        :data:`RESULTS` (each a contiguous array), and the rewards, float64 (see
+        :func:`_step_results`); new arrays every call."""
         b = self.core.batch
-        rewards = np.where(b.outcome[rows] != _RUNNING, b.attacker_reward[rows], 0.0)
-        if self.cycle_reward:
-            rewards = rewards + self.cycle_reward * durations
-        return rewards
+        if rows is not self.core.every:
+            ints, rewards = np.empty((len(RESULTS), len(rows)), np.int64), np.empty(len(rows))
+            _step_results(ints, rewards, self.steps, b.state, b.attacker_reward, rows,
+                          self.cycle_reward)
+            return self.observe(b.state, rows, ints[0]), ints, rewards
+        bound = self._results_bound  # every drill: the same arrays each time (bind)
+        if bound is None:
+            ints, rewards = np.empty((len(RESULTS), b.n), np.int64), np.empty(b.n)
+            bound = self._results_bound = (ints, rewards, ints[0], bind(
+                _step_results, ints, rewards, self.steps, b.state, b.attacker_reward, rows,
+                self.cycle_reward))
+        ints, rewards, deciders, call = bound
+        call()
+        obs = self.observe.again(b.state, rows, deciders)  # the same arrays: bound too
+        return obs.copy(), ints.copy(), rewards.copy()
 
-    def deciders(self, rows: np.ndarray) -> np.ndarray:
-        """Whose observation each drill of ``rows`` returns: its holder, or at an end the
-        attacker who decided last, if the holder is not an attacker."""
-        holder = self.core.batch.holder[rows]
-        return np.where((holder >= 0) & (holder < self.attackers), holder, self.decider[rows])
+
+RESULTS = ("decider", "duration", "cycles", "outcome", "holder")
+"""The rows of :meth:`HolderLoop.results`' integers, in order."""
+
+
+@compiled
+def _step_results(ints, rewards, steps, state, attacker_reward, rows, cycle_reward):
+    """For each drill ``rows[r]``, its step as it stands, into column ``r``: whose
+    observation it returns (its holder, or at an end the attacker who decided last if
+    the holder is not an attacker), the cycles the step lasted, the drill's cycle, its
+    outcome code, its holder (-1 once the episode ended); and the step's reward, the
+    attackers' where the episode ended plus the task's pay per cycle (keepaway's
+    seconds; none in the drill, whose steps pay only at the end)."""
+    attackers = steps[0].supporting.shape[0]
+    for r in range(rows.shape[0]):
+        i = rows[r]
+        s, h = state[i], steps[i]
+        holder, code = s.holder, s.outcome
+        ints[0, r] = holder if 0 <= holder < attackers else h.decider
+        duration = s.cycle - h.start
+        ints[1, r] = duration
+        ints[2, r] = s.cycle
+        ints[3, r] = code
+        ended = code != _RUNNING
+        ints[4, r] = -1 if ended else holder
+        reward = attacker_reward[i] if ended else 0.0
+        if cycle_reward != 0.0:
+            reward = reward + cycle_reward * duration
+        rewards[r] = reward
 
 
 @warms
@@ -358,11 +408,13 @@ def _compile_loop(config: DrillConfig | None) -> None:
                         cfg.field_size)
         batch.step(steps["running"], rngs)
         _after_cycle(steps, batch.state)
+        for chosen in (drills, every):  # a vector env's results (every drill, or some)
+            _step_results(np.empty((len(RESULTS), n), np.int64), np.empty(n), steps,
+                          batch.state, batch.attacker_reward, chosen, cycle_reward(cfg))
 
 
 # ------------------------------------------------------------------ the environment
 _ONE = np.zeros(1, dtype=np.int64)
-_RUNNING, _TIMEOUT = int(Outcome.RUNNING), int(Outcome.TIMEOUT)  # an enum lookup costs ~1 us
 
 
 class HolderEnv(HeaderTexts, Pickled, gym.Env):

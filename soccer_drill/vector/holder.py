@@ -365,11 +365,10 @@ class HolderVectorEnv(Pickled, VectorEnv):
         def reset() -> tuple[np.ndarray, dict[str, Any]]:
             self._reset(seeds, drills, seed)
             self._ready[drills] = False
-            rows = self._all
-            infos = self._infos(rows, np.zeros(self.num_envs, dtype=np.int64))
+            obs, _, infos = self._results(self._all)
             if len(drills) < self.num_envs:  # infos of the drills reset only
                 infos = _only(infos, drills, self.num_envs)
-            return self._observe(rows), infos
+            return obs, infos
 
         return self._core.changing("HolderVectorEnv.reset()", reset, len(drills) == self.num_envs)
 
@@ -433,7 +432,8 @@ class HolderVectorEnv(Pickled, VectorEnv):
                 f"drill {int(drills[bad])}: {holder_action_refused(a[bad], self.loop.attackers, self.action_names)} (actions of dtype "
                 f"{a.dtype}; an integer dtype is needed)"
             )
-        bad = (a < 0) | (a >= len(self.action_names))
+        ints = a.astype(np.int64)
+        bad = ints.view(np.uint64) >= len(self.action_names)  # a negative one is huge so
         bad_rows = np.flatnonzero(bad) if np.count_nonzero(bad) else ()
         if len(bad_rows):
             bad_rows = bad_rows[~self._autoreset[drills[bad_rows]]]  # ignored: drills being reset
@@ -443,7 +443,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
                 f"drill {int(drills[i])}: {holder_action_refused(a[i], self.loop.attackers, self.action_names)}"
                 + (f" ({len(bad_rows)} drills had bad actions)" if len(bad_rows) > 1 else "")
             )
-        return a.astype(np.int64)
+        return ints
 
     def _check_usable(self, call: str) -> None:
         """The drills' errors, or ``RuntimeError`` before a reset (or after
@@ -623,7 +623,10 @@ class HolderVectorEnv(Pickled, VectorEnv):
             self._make_ready(resetting)
             stepping = ~np.isin(drills, resetting)
             drills, actions = drills[stepping], actions[stepping]
-        self._episode_steps[drills] += 1
+        if drills is self._all:  # every drill, in order: no gathering
+            self._episode_steps += 1
+        else:
+            self._episode_steps[drills] += 1
         self.loop.begin(drills, actions)
 
     def _make_ready(self, drills: np.ndarray) -> None:
@@ -645,7 +648,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
     def _recv(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Cycle until ``batch_size`` drills are done; their results (rows ascending,
         ``infos["_rows"]``), after the autoreset mode's handling of ended episodes."""
-        loop, b, want = self.loop, self._core.batch, self.batch_size
+        loop, want = self.loop, self.batch_size
         running, ready = loop.running, self._ready
         if want == self.num_envs:  # every drill's result: the drills run until none does
             rows = self._all
@@ -662,18 +665,17 @@ class HolderVectorEnv(Pickled, VectorEnv):
             rows = np.flatnonzero(ready)
             if len(rows) > want:  # those that waited longest, then the lowest index
                 rows = np.sort(rows[np.argsort(self._ready_at[rows], kind="stable")[:want]])
-        ready[rows] = False
-        obs = self._observe(rows, loop.deciders(rows))
-        outcome = b.outcome[rows]
+        if rows is self._all:
+            ready.fill(False)
+        else:
+            ready[rows] = False
+        obs, (rewards, outcome), infos = self._results(rows)
         ended = outcome != _RUNNING
-        durations = b.cycle[rows] - loop.start[rows]
-        rewards = loop.rewards(rows, durations)
         truncated = outcome == _TIMEOUT  # ended too
         terminated = ended & ~truncated
         if self.max_episode_steps is not None:  # as TimeLimit: truncated at the limit,
             truncated |= self._episode_steps[rows] >= self.max_episode_steps  # ended or not
             ended = ended | truncated
-        infos = self._infos(rows, durations, outcome)
         if self._same_step and np.count_nonzero(ended):
             done = np.flatnonzero(ended)
             final_obs = np.full(len(rows), None, dtype=object)
@@ -683,8 +685,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
             for k in [k for k in final_info if k.startswith("_")]:
                 final_info[k] = ended.copy()
             self._restart(rows[done])
-            obs[done] = self._observe(rows[done])
-            reset_infos = self._infos(rows[done], np.zeros(len(done), dtype=np.int64))
+            obs[done], _, reset_infos = self._results(rows[done])
             for k, v in reset_infos.items():
                 if not k.startswith("_"):
                     infos[k][done] = v
@@ -707,26 +708,20 @@ class HolderVectorEnv(Pickled, VectorEnv):
             self._recv_cycles += 1
 
     # ------------------------------------------------------------- results
-    def _observe(self, rows: np.ndarray, players: np.ndarray | None = None) -> np.ndarray:
-        """The 9 features of ``players`` (by default the holders) of drills ``rows``."""
-        b = self._core.batch
-        return self.loop.observe(b.state, rows, b.holder[rows] if players is None else players)
-
-    def _infos(self, rows: np.ndarray, duration: np.ndarray,
-               outcome: np.ndarray | None = None) -> dict[str, Any]:
-        """The infos of drills ``rows`` (``outcome``: their outcome codes, if the caller
-        has them)."""
-        b = self._core.batch
-        if outcome is None:
-            outcome = b.outcome[rows]
-        holder = np.where(outcome == _RUNNING, b.holder[rows], -1)
-        everyone = np.ones(len(rows), dtype=bool)
-        return {
-            "duration": duration.astype(np.int64), "_duration": everyone,
-            "cycles": b.cycle[rows], "_cycles": everyone.copy(),
-            "outcome": _OUTCOMES[outcome], "_outcome": everyone.copy(),
-            "holder": self._names[holder], "_holder": everyone.copy(),
+    def _results(self, rows: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray],
+                                                  dict[str, Any]]:
+        """Drills ``rows``' observations (of the holder, or at an end of the attacker who
+        decided last), their steps' rewards and outcome codes, and their infos, as they
+        stand (the holder loop's :meth:`~soccer_drill.envs.holder.HolderLoop.results`)."""
+        obs, (_, durations, cycles, outcome, holders), rewards = self.loop.results(rows)
+        everyone = np.ones((4, len(rows)), dtype=bool)  # each key's mask a row of its own
+        infos = {
+            "duration": durations, "_duration": everyone[0],
+            "cycles": cycles, "_cycles": everyone[1],
+            "outcome": _OUTCOMES[outcome], "_outcome": everyone[2],
+            "holder": self._names[holders], "_holder": everyone[3],
         }
+        return obs, (rewards, outcome), infos
 
     def action_masks(self) -> np.ndarray:
         """Which actions are legal in each drill now: all three, always (``(num_envs, 3)``
