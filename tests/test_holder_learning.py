@@ -303,3 +303,34 @@ def test_the_shipped_learning_page_is_what_its_numbers_give(tmp_path):
     assert holder_learning.main(["--from-data", str(docs / "learning_seeds.json.gz"),
                                  "--out", str(out)]) == 0
     assert out.read_text() == (docs / "learning.md").read_text()
+
+
+def test_numbers_written_over_the_page_are_refused_before_learning(tmp_path, monkeypatch, capsys):
+    # before, --data equal to --out was accepted: the page overwrote the numbers, and
+    # "page written to x.md, the numbers it is computed from to x.md" was printed
+    from ilpss.experiments import holder_learning
+    from ilpss.experiments.executor import LocalExecutor
+
+    monkeypatch.setattr(LocalExecutor, "map", lambda *a, **k: pytest.fail("it learnt"))
+    page = tmp_path / "learning.md"
+    with pytest.raises(SystemExit) as exit_info:
+        holder_learning.main(["--teams", "chasers", "--seeds", "2", "--episodes", "2", "--eval",
+                              "2", "--out", str(page), "--data", str(page)])
+    assert exit_info.value.code == 2
+    assert (f"--data {page}: the file written is numbers (gzip-compressed JSON) and its name "
+            "ends in '.json.gz'") in capsys.readouterr().err
+
+
+def test_region_use_refuses_a_page_over_a_runs_files_before_reading_it(tmp_path, capsys):
+    # before, --out run/config.json replaced the run's configuration with the page: the
+    # run could no longer be resumed or read
+    from ilpss.experiments import region_use
+
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.json").write_text("{}")
+    with pytest.raises(SystemExit) as exit_info:
+        region_use.main([str(run), "--out", str(run / "config.json")])
+    assert exit_info.value.code == 2
+    assert "its name ends in '.md'" in capsys.readouterr().err
+    assert (run / "config.json").read_text() == "{}"

@@ -186,6 +186,7 @@ def test_without_torch_the_flags_are_checked_and_the_missing_extra_named(argv, m
                          capture_output=True, text=True, check=False, cwd=tmp_path)
     assert "exit 2" in run.stdout, run.stderr[-2000:]
     assert message in run.stderr
+    assert not (tmp_path / "k").exists()  # no folder made for a run that cannot start
     setting = json.loads(json.dumps(cli.dataclasses.asdict(cli.SETTINGS["ppo"])))
     assert setting["ppo"]["gamma"] == 1.0 and setting["reward"]["timeout_reward"] is None
     assert setting["timeout_terminal"] is True
@@ -259,3 +260,19 @@ def test_the_first_seed_moves_every_settings_seeds():
                          first_seed=1000)
     seeds = {name: sorted(j.seed for j in jobs if j.name == name) for name in settings}
     assert seeds == {"mappo": [1000, 1001], "self_play": [1000, 1001, 1002]}
+
+
+@pytest.mark.integrations
+def test_numbers_or_figures_over_the_page_are_refused_before_training(tmp_path, capsys):
+    # before, --summary was never checked: the same path as --out lost the numbers to the
+    # page after hours of training
+    pytest.importorskip("sb3_contrib")
+    page = tmp_path / "p.md"
+    for flags, said in ((["--summary", str(page)], "its name ends in '.json.gz'"),
+                        (["--figures", str(page)], "exists and is not a folder")):
+        page.write_text("a page")
+        with pytest.raises(SystemExit) as exit_info:
+            cli.main(["--teams", "chasers", "--seeds", "2", "--keep", str(tmp_path / "k"),
+                      "--out", str(page), *flags])
+        assert exit_info.value.code == 2
+        assert said in capsys.readouterr().err

@@ -437,7 +437,7 @@ def _main(argv: Sequence[str] | None) -> int:
     out, lc, names, keep = _checked_inputs(p, args)
     try:
         data = check_out_file(args.data or out.with_name(f"{out.stem}_seeds.json.gz"),
-                              "--data")
+                              "--data", ".json.gz")
     except ValueError as exc:
         p.error(str(exc))
     stop_on_sigterm()

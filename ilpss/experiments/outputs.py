@@ -23,6 +23,10 @@ _JOB_FOLDER = re.compile(r"seed_\d{3,}")
 _RUN_FILES = frozenset({"config.json", "team_code.json"})
 
 
+_WRITTEN = {".md": "a page", ".json.gz": "numbers (gzip-compressed JSON)"}
+"""What a file of each ending that :func:`check_out_file` asks for holds, in its errors."""
+
+
 def _is_run_file(name: str) -> bool:
     """Whether a run wrote ``name``: its configuration, a job's folder, or the temporary
     of an atomic write (what a run killed while writing ``config.json`` leaves, and what
@@ -97,8 +101,10 @@ def check_out_file(path: str | os.PathLike[str], flag: str = "--out", suffix: st
         raise ValueError(f"{flag} {text}: a folder, where the output file belongs; name the "
                          "file (e.g. docs/learning.md)")
     if suffix and not out.name.endswith(suffix):
-        raise ValueError(f"{flag} {text}: the file written is a page and its name ends in "
-                         f"{suffix!r} (a page never replaces a data or configuration file)")
+        what = _WRITTEN.get(suffix, "of its kind")
+        raise ValueError(f"{flag} {text}: the file written is {what} and its name ends in "
+                         f"{suffix!r} (so that it never replaces a file of another kind: "
+                         "a page, data or a configuration)")
     for given in inputs:
         if out.resolve() == Path(given).resolve():
             raise ValueError(f"{flag} {text}: the command reads that file ({os.fspath(given)}); "

@@ -31,7 +31,8 @@ from ilpss._io import atomic_write_bytes, save_figure
 from ilpss.experiments import drill_facts
 from ilpss.experiments.checkpoints import checkpoint_store
 from ilpss.experiments.folder import RunFolder, checkpoint_key
-from ilpss.experiments.protocols import make_env
+from ilpss.experiments.outputs import check_out_file
+from ilpss.experiments.protocols import Stream, make_env
 from ilpss.experiments.run import read_config
 from ilpss.lifelong import LifelongLearner
 from ilpss.smdp import SmdpLearner
@@ -51,6 +52,8 @@ class RegionUse:
     above_source: str
     counts: dict[tuple[bool, str], int]
     """``{(below, actor): decisions}``; actor: a past task's name, or :data:`OWN`."""
+    split: str = "the split's feature"
+    """The holder's feature the target's region splits by (``dist_goal``, ``lateral``)."""
 
     def shares(self, below: bool) -> tuple[int, float, float, float]:
         """On one side: decisions, and the shares run by the right source (the one the
@@ -104,23 +107,24 @@ def region_use(folder: Path, methods: Sequence[str] | None, n_seeds: int,
         raise ValueError(f"{folder}: no finished seed")
     out: dict[str, list[RegionUse]] = {}
     store = checkpoint_store(cfg, folder)
+    names = drill_facts.drill_object(drill_facts.FEATURE_NAMES)(1, 2)  # the 2v2 drill's
     try:
         for method in methods or cfg.methods:
             for seed in seeds:
                 stream = cfg.streams(seed)[0]
-                several = len(stream.tasks) - stream.first_target > 1
-                for t in range(stream.first_target, len(stream.tasks)):
+                for t, trial, branch in target_trials(stream):
                     task = stream.tasks[t]
                     known = composition(task.name)
                     if known is None:
                         continue
                     env = make_env(cfg.env_id, task)
-                    key = checkpoint_key(seed, 0, method, t if several else None)
+                    key = checkpoint_key(seed, 0, method, branch)
                     learner = store.restore(key, env.observation_space)
-                    if learner is None or learner.n_trials <= t:
+                    if learner is None or learner.n_trials <= trial:
                         env.close()
                         continue  # not a lifelong method, or its checkpoint is not kept
-                    use = target_use(learner, t, env, range(episodes), known)
+                    use = replace(target_use(learner, trial, env, range(episodes), known),
+                                  split=names[known[0]])
                     env.close()
                     out.setdefault(method, []).append(use)
     finally:
@@ -129,6 +133,34 @@ def region_use(folder: Path, methods: Sequence[str] | None, n_seeds: int,
         raise ValueError(f"{folder}: no kept target checkpoint of a region-composed target "
                          f"for the methods {list(methods or cfg.methods)}")
     return out
+
+
+def target_trials(stream: Stream) -> list[tuple[int, int, int | None]]:
+    """Each target of ``stream``: its index in the stream, its trial in the learner its
+    checkpoint holds (after the sources only, where every target starts from them: its
+    branch holds them and it), and its branch's index for
+    :func:`~ilpss.experiments.folder.checkpoint_key` (``None``: one target)."""
+    targets = range(stream.first_target, len(stream.tasks))
+    several = len(targets) > 1
+    return [(t, stream.first_target if stream.shared_start else t, t if several else None)
+            for t in targets]
+
+
+def _rows(uses: dict[str, list[RegionUse]]) -> list[tuple[str, str, bool, list[RegionUse]]]:
+    """The page's and the figure's rows: per method, per feature its targets split by
+    (targets split by distance to goal and by side are not pooled), above then below."""
+    rows = []
+    for method, found in uses.items():
+        for split in dict.fromkeys(u.split for u in found):
+            same = [u for u in found if u.split == split]
+            rows += [(method, split, below, same) for below in (False, True)]
+    return rows
+
+
+def _side(split: str, below: bool) -> str:
+    """A side of the split in words: which feature, above or at-or-below the target's
+    threshold."""
+    return f"`{split}` {'at or below' if below else 'above'} the threshold"
 
 
 def _pooled(uses: Sequence[RegionUse], below: bool) -> tuple[int, float, float, float]:
@@ -151,12 +183,10 @@ def page(uses: dict[str, list[RegionUse]], command: str, figure: str | None) -> 
              "seeds.", "",
              "| method | side | decisions | right source | other sources | own primitives |",
              "|---|---|---:|---:|---:|---:|"]
-    for method, found in uses.items():
-        for below, side in ((False, "far side (above the threshold)"),
-                            (True, "near side (at or below it)")):
-            n, *parts = _pooled(found, below)
-            cells = " | ".join("-" if n == 0 else f"{v:.0%}" for v in parts)
-            lines.append(f"| `{method}` | {side} | {n} | {cells} |")
+    for method, split, below, found in _rows(uses):
+        n, *parts = _pooled(found, below)
+        cells = " | ".join("-" if n == 0 else f"{v:.0%}" for v in parts)
+        lines.append(f"| `{method}` | {_side(split, below)} | {n} | {cells} |")
     if figure:
         lines += ["", f"![who runs where]({figure})"]
     return "\n".join(lines) + "\n"
@@ -172,7 +202,7 @@ _PARTS = (("right source", "tab:green"), ("other sources", "tab:red"),
 
 
 def bars_figure(uses: dict[str, list[RegionUse]]):
-    """Horizontal stacked bars, one per method and side (far, near), read top to bottom
+    """Horizontal stacked bars, one per method, split feature and side, read top to bottom
     in the page's order: the share of the side's decisions made by the right source's
     option, another source's and the target's own primitives. The method names sit on
     the axis at full length, one row each, so none runs into another."""
@@ -180,10 +210,9 @@ def bars_figure(uses: dict[str, list[RegionUse]]):
     from matplotlib.figure import Figure
 
     labels, bars = [], []
-    for method, found in uses.items():
-        for below, side in ((False, "far side"), (True, "near side")):
-            labels.append(f"{method}, {side}")
-            bars.append(_pooled(found, below)[1:])
+    for method, split, below, found in _rows(uses):
+        labels.append(f"{method}, {_side(split, below).replace('`', '')}")
+        bars.append(_pooled(found, below)[1:])
     values = np.nan_to_num(np.array(bars, dtype=float))
     fig = Figure(figsize=(8.0, 1.6 + 0.32 * len(labels)), layout="constrained")
     FigureCanvasAgg(fig)
@@ -214,7 +243,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.seeds < 1 or args.episodes < 1:
         p.error("--seeds and --episodes must be at least 1")
-    out = Path(args.out) if args.out else Path(args.run) / "region_use.md"
+    try:  # the page a .md (never a run's config.json), checked before the work
+        out = check_out_file(args.out or Path(args.run) / "region_use.md", "--out", ".md")
+    except ValueError as exc:
+        p.error(str(exc))
     try:
         uses = region_use(Path(args.run), args.methods, args.seeds, args.episodes)
         figure = plot(uses, out.with_suffix(".png"))

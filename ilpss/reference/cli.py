@@ -335,12 +335,27 @@ def _learning_page(args: argparse.Namespace) -> Path | None:
 
 
 def _checked(p: argparse.ArgumentParser, args: argparse.Namespace
-             ) -> tuple[dict[str, int], dict[str, Any], Path, Path]:
+             ) -> tuple[dict[str, int], dict[str, Any], Path, Path, Path, Path]:
+    """The seeds, settings and outputs (page, kept jobs, per-seed numbers, figures),
+    every one checked before any is made, and torch found."""
     try:
         check_utf8(args)
         seeds = _check_flags(args)
         settings = build_settings(args)
+    except ValueError as exc:
+        p.error(str(exc))
+    try:
+        import sb3_contrib  # noqa: F401
+        import torch  # noqa: F401
+    except ImportError as exc:  # before any folder is made
+        p.error(f"{exc}: the reference runs need torch, Stable-Baselines3 and sb3-contrib: "
+                "pip install -e '.[integrations]'")
+    try:
         out = check_out_file(args.out, suffix=".md")
+        summary = check_out_file(args.summary or out.with_name(f"{out.stem}_seeds.json.gz"),
+                                 "--summary", ".json.gz")
+        figures = check_out_dir(args.figures or out.parent / "figures", "--figures",
+                                run_folder=False)
         keep = check_out_dir(args.keep, "--keep", run_folder=False)
         import gymnasium as gym
 
@@ -351,13 +366,7 @@ def _checked(p: argparse.ArgumentParser, args: argparse.Namespace
             check_ray_address(args.ray_address)
     except (ValueError, drill_exception(TEAM_ERROR)) as exc:
         p.error(str(exc))
-    try:
-        import sb3_contrib  # noqa: F401
-        import torch  # noqa: F401
-    except ImportError as exc:
-        p.error(f"{exc}: the reference runs need torch, Stable-Baselines3 and sb3-contrib: "
-                "pip install -e '.[integrations]'")
-    return seeds, settings, out, keep
+    return seeds, settings, out, keep, summary, figures
 
 
 def _rule_teams(jobs: list[Job]) -> list[str]:
@@ -372,9 +381,7 @@ def _rule_teams(jobs: list[Job]) -> list[str]:
 def _main(argv: Sequence[str] | None) -> int:
     p = parser()
     args = p.parse_args(argv)
-    seeds, settings, out, keep = _checked(p, args)
-    figures = Path(args.figures) if args.figures else out.parent / "figures"
-    summary_path = Path(args.summary) if args.summary else out.with_name(f"{out.stem}_seeds.json.gz")
+    seeds, settings, out, keep, summary_path, figures = _checked(p, args)
     ev = EvalSettings(episodes=args.eval)
     jobs = make_jobs(settings, args.teams, seeds, ev, args.attacks, args.first_seed)
     names = sorted(drill_object(HOLDER_RULES))
