@@ -114,10 +114,16 @@ def write_digested_json(path: str | os.PathLike[str], record: dict[str, Any],
 def read_digested_json(path: str | os.PathLike[str],
                        schema_version: int | None = None) -> dict[str, Any]:
     """The record of a file :func:`write_digested_json` wrote, ``ValueError`` naming the
-    file if its digest does not match (or, given ``schema_version``, its version differs)."""
-    kept = json.loads(Path(path).read_text())
-    record = kept["record"]
-    if hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest() != kept.get("sha256"):
+    file if it is not one (not UTF-8 JSON, no record or digest), if its digest does not
+    match, or, given ``schema_version``, if its version differs."""
+    try:
+        kept = json.loads(Path(path).read_bytes().decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"{path}: not the JSON of a kept record ({exc})") from None
+    record = kept.get("record") if isinstance(kept, dict) else None
+    if not isinstance(record, dict) or not isinstance(kept.get("sha256"), str):
+        raise ValueError(f"{path}: not a kept record (an object with 'record' and 'sha256')")
+    if hashlib.sha256(json.dumps(record, sort_keys=True).encode()).hexdigest() != kept["sha256"]:
         raise ValueError(f"{path}: its sha256 does not match its record (changed by hand?)")
     if schema_version is not None and record.get("schema_version") != schema_version:
         raise ValueError(f"{path}: schema version {record.get('schema_version')!r}, this code "

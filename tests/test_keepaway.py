@@ -4,6 +4,7 @@ fixed keepers."""
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,6 +25,7 @@ from soccer_drill.state import DrillState
 from soccer_drill.vector.holder import play_episodes
 
 KEEPAWAY_3V2 = scenario("keepaway_3v2").config()
+DOCS = Path(__file__).resolve().parents[1] / "docs"
 
 
 def _one_cycle(cfg: DrillConfig, pos, vel, holder: int) -> int:
@@ -174,6 +176,48 @@ def test_the_keepaway_page_is_written_from_kept_per_seed_records(tmp_path):
     before = [r.stat().st_mtime_ns for r in records]
     keepaway.main(args)  # a rerun reads the kept records
     assert [r.stat().st_mtime_ns for r in records] == before
+    # a kept seed changed by hand is refused, naming it (before, read as it was)
+    records[0].write_text(records[0].read_text().replace('"seed": 1000', '"seed": 7'))
+    with pytest.raises(SystemExit) as exit_info:
+        keepaway.main(args)
+    assert exit_info.value.code == 1
+
+
+def test_one_seed_is_refused_before_the_kept_numbers_are_touched(tmp_path, capsys):
+    # before, --seeds 0 learnt, replaced the kept 10-seed numbers with one seed's, then
+    # failed making the page (which needs two seeds): the numbers were lost
+    import shutil
+
+    from ilpss.experiments import keepaway
+
+    (tmp_path / "data").mkdir()
+    shutil.copy(DOCS / "data" / "keepaway_3v2.json", tmp_path / "data")
+    before = (tmp_path / "data" / "keepaway_3v2.json").read_bytes()
+    for seeds, said in (("0", "at least 2 seeds"), ("x-3", "got 'x-3'")):
+        with pytest.raises(SystemExit) as exit_info:
+            keepaway.main(["--seeds", seeds, "--episodes", "2", "--runs", str(tmp_path / "r"),
+                           "--out", str(tmp_path)])
+        assert exit_info.value.code == 2 and said in capsys.readouterr().err
+    assert (tmp_path / "data" / "keepaway_3v2.json").read_bytes() == before
+    assert not (tmp_path / "r").exists()
+
+
+def test_damaged_kept_numbers_are_one_line_naming_the_file(tmp_path, capsys):
+    # before, a truncated or edited file ended in a JSONDecodeError or ValueError traceback
+    from ilpss.experiments import keepaway
+
+    (tmp_path / "data").mkdir()
+    kept = tmp_path / "data" / "keepaway_3v2.json"
+    whole = (DOCS / "data" / "keepaway_3v2.json").read_text()
+    for damaged, said in ((whole[:300], "not the JSON of a kept record"),
+                          (whole.replace("3.7", "3.8", 1), "its sha256 does not match"),
+                          ("[1]", "not a kept record")):
+        kept.write_text(damaged)
+        with pytest.raises(SystemExit) as exit_info:
+            keepaway.main(["--from-data", str(tmp_path)])
+        err = capsys.readouterr().err
+        assert exit_info.value.code == 1 and str(kept) in err and said in err
+        assert "Traceback" not in err
 
 
 @pytest.mark.parametrize(("keepers", "takers"), [(2, 3), (2, 4), (3, 3), (3, 4), (3, 2), (4, 3)])

@@ -4,7 +4,6 @@ episodes."""
 
 from __future__ import annotations
 
-import json
 import shutil
 from pathlib import Path
 
@@ -44,4 +43,11 @@ def test_a_small_run_keeps_its_records_and_writes_the_page(tmp_path) -> None:
     before = [r.stat().st_mtime_ns for r in records]
     learning_curves.main(args)  # a rerun reads the kept records
     assert [r.stat().st_mtime_ns for r in records] == before
-    assert json.loads(records[0].read_text())["schema_version"] == learning_curves.SCHEMA_VERSION
+    assert read_digested_json(records[0])["schema_version"] == learning_curves.SEED_SCHEMA
+    # a kept seed changed by hand is refused, naming it and what to do (before, read as
+    # it was, without a digest)
+    text = records[0].read_text()
+    records[0].write_text(text.replace('"seed": 1000', '"seed": 7'))
+    with pytest.raises(SystemExit) as exit_info:
+        learning_curves.main(args)
+    assert exit_info.value.code == 1

@@ -32,12 +32,15 @@ import gymnasium as gym
 import numpy as np
 
 from ilpss.experiments import drill_facts
+from ilpss.experiments.outputs import kept_seed_record, seed_range, written_or_exit
 from ilpss.metrics.inference import t_interval
 from ilpss.smdp import KEEPAWAY, LearnerConfig, SmdpLearner
 from ilpss.tiles import KEEPAWAY_ANGLE_WIDTH, KEEPAWAY_DISTANCE_WIDTH
 from soccer_drill.files import atomic_write_text, read_digested_json, write_digested_json
 
 SCHEMA_VERSION = 1
+SEED_SCHEMA = 2
+"""The schema of a seed's record under ``--runs`` (2: digested, checked when read)."""
 """The version of the kept records' and the page data's layout."""
 EVAL_BASE = 500_000
 """Evaluation episodes' seeds start here (training episodes' seeds are far below)."""
@@ -108,19 +111,13 @@ def _record_path(runs: Path, scenario: str, seed: int, episodes: int, eval_episo
 def run_seed(runs: Path, scenario: str, seed: int, episodes: int, eval_episodes: int,
              config: LearnerConfig = LEARNER) -> dict[str, Any]:
     """Seed ``seed``'s record, read if kept, else computed and kept (atomically)."""
-    path = _record_path(runs, scenario, seed, episodes, eval_episodes, config)
-    if path.exists():
-        record = json.loads(path.read_text())
-        if record.get("schema_version") == SCHEMA_VERSION:
-            return record
-    learned = learn_and_evaluate(scenario, seed, episodes, eval_episodes, config)
-    record = {"schema_version": SCHEMA_VERSION, "scenario": scenario, "seed": seed,
-              "episodes": episodes, "eval_episodes": eval_episodes,
-              "learner": asdict(config), "learned": learned,
-              "fixed": fixed_policies(scenario, seed, eval_episodes)}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(path, json.dumps(record, sort_keys=True) + "\n")
-    return record
+    identity = {"scenario": scenario, "seed": seed, "episodes": episodes,
+                "eval_episodes": eval_episodes, "learner": asdict(config)}
+    return kept_seed_record(
+        _record_path(runs, scenario, seed, episodes, eval_episodes, config), SEED_SCHEMA,
+        identity, lambda: {"learned": learn_and_evaluate(scenario, seed, episodes,
+                                                         eval_episodes, config),
+                           "fixed": fixed_policies(scenario, seed, eval_episodes)})
 
 
 def per_seed(records: list[dict[str, Any]]) -> dict[str, list[float]]:
@@ -257,13 +254,17 @@ def _changes(changes: dict[str, Any]) -> str:
 def write_outputs(out: Path, results: dict[str, dict[str, Any]]) -> None:
     """Each scenario's per-seed numbers (JSON: schema version, digest), then the page
     from every scenario kept in ``<out>/data`` (a scenario not run now keeps its
-    section)."""
+    section). The page is made first, so numbers it cannot be made from never replace
+    the kept ones."""
+    kept = read_results(out / "data")
+    text = page({s: results.get(s) or kept[s] for s in drill_facts.KEEPAWAY_ENV_IDS
+                 if s in results or s in kept})
     for scenario, result in results.items():
         write_digested_json(out / "data" / f"{scenario}.json",
                             {"schema_version": SCHEMA_VERSION, "scenario": scenario,
                              "unit": "seconds (mean evaluation episode length per seed)",
                              **result}, indent=1)
-    write_page(out)
+    atomic_write_text(out / "keepaway.md", text)
 
 
 def read_results(data: Path) -> dict[str, dict[str, Any]]:
@@ -284,11 +285,6 @@ def write_page(out: Path) -> None:
     atomic_write_text(out / "keepaway.md", page(read_results(out / "data")))
 
 
-def _seeds(text: str) -> list[int]:
-    first, _, last = text.partition("-")
-    return list(range(int(first), int(last or first) + 1))
-
-
 def main(argv: list[str] | None = None) -> None:
     """Learn, evaluate and write the page (see the module docstring)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -304,22 +300,30 @@ def main(argv: list[str] | None = None) -> None:
                         help="run nothing: write DOCS/keepaway.md from DOCS/data")
     args = parser.parse_args(argv)
     if args.from_data is not None:
-        write_page(Path(args.from_data))
-        print(f"wrote {Path(args.from_data) / 'keepaway.md'}")
+        written_or_exit(parser, lambda: write_page(Path(args.from_data)),
+                 Path(args.from_data) / "keepaway.md")
         return
     changes = {}
-    for item in args.set:
-        field, _, value = item.partition("=")
-        changes[field] = json.loads(value)
-    config = learner_config(changes)
+    try:
+        for item in args.set:
+            field, _, value = item.partition("=")
+            changes[field] = json.loads(value)
+        config = learner_config(changes)
+        seeds = seed_range(args.seeds)
+    except (ValueError, TypeError) as exc:
+        parser.error(str(exc))
     if args.episodes < 1 or args.eval_episodes < 2:
         parser.error("--episodes must be at least 1 and --eval-episodes at least 2")
-    seeds, runs = _seeds(args.seeds), Path(args.runs)
+    runs = Path(args.runs)
     results = {}
     for scenario in args.scenario or ["keepaway_3v2"]:
         records = []
         for seed in seeds:
-            record = run_seed(runs, scenario, seed, args.episodes, args.eval_episodes, config)
+            try:
+                record = run_seed(runs, scenario, seed, args.episodes, args.eval_episodes,
+                                  config)
+            except ValueError as exc:  # a damaged kept seed: named, with what to do
+                parser.exit(1, f"{parser.prog}: error: {exc}\n")
             values = per_seed([record])
             print(scenario, seed, {a: round(v[0], 2) for a, v in values.items()}, flush=True)
             records.append(record)
@@ -330,8 +334,8 @@ def main(argv: list[str] | None = None) -> None:
             "curves": [r["learned"]["curve"] for r in records],
         }
     if args.out is not None:
-        write_outputs(Path(args.out), results)
-        print(f"wrote {Path(args.out) / 'keepaway.md'}")
+        written_or_exit(parser, lambda: write_outputs(Path(args.out), results),
+                 Path(args.out) / "keepaway.md")
 
 
 if __name__ == "__main__":

@@ -24,7 +24,6 @@ Seeds from 1000 are for development; the page's are from 0.
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -35,11 +34,14 @@ import numpy as np
 
 from ilpss.experiments import drill_facts
 from ilpss.experiments.config import ExperimentConfig
+from ilpss.experiments.outputs import kept_seed_record, seed_range, written_or_exit
 from ilpss.metrics.inference import t_interval
 from ilpss.smdp import SmdpLearner
 from soccer_drill.files import atomic_write_text, read_digested_json, write_digested_json
 
 SCHEMA_VERSION = 1
+SEED_SCHEMA = 2
+"""The schema of a seed's record under ``--runs`` (2: digested, checked when read)."""
 """The version of the kept records' and the page data's layout."""
 STEM = "learning_curve_"
 """Each scenario's per-seed numbers are ``<out>/data/learning_curve_<scenario>.json``."""
@@ -95,18 +97,12 @@ def _record_path(runs: Path, scenario: str, seed: int, episodes: int, every: int
 def run_seed(runs: Path, scenario: str, seed: int, episodes: int, every: int,
              eval_episodes: int) -> dict[str, Any]:
     """Seed ``seed``'s record, read if kept, else computed and kept (atomically)."""
-    path = _record_path(runs, scenario, seed, episodes, every, eval_episodes)
-    if path.exists():
-        record = json.loads(path.read_text())
-        if record.get("schema_version") == SCHEMA_VERSION:
-            return record
-    record = {"schema_version": SCHEMA_VERSION, "scenario": scenario, "seed": seed,
-              "episodes": episodes, "every": every, "eval_episodes": eval_episodes,
-              "learner": asdict(ExperimentConfig(scenario=scenario).lifelong.learner),
-              **learn_curve(scenario, seed, episodes, every, eval_episodes)}
-    path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(path, json.dumps(record, sort_keys=True) + "\n")
-    return record
+    identity = {"scenario": scenario, "seed": seed, "episodes": episodes, "every": every,
+                "eval_episodes": eval_episodes,
+                "learner": asdict(ExperimentConfig(scenario=scenario).lifelong.learner)}
+    return kept_seed_record(
+        _record_path(runs, scenario, seed, episodes, every, eval_episodes), SEED_SCHEMA,
+        identity, lambda: learn_curve(scenario, seed, episodes, every, eval_episodes))
 
 
 def result_of(records: list[dict[str, Any]], seeds: list[int], episodes: int, every: int,
@@ -234,13 +230,15 @@ def read_results(data: Path) -> dict[str, dict[str, Any]]:
 
 def write_outputs(out: Path, results: dict[str, dict[str, Any]]) -> None:
     """Each scenario's kept numbers, then the page from every scenario kept in
-    ``<out>/data`` (those not run now keep their sections)."""
+    ``<out>/data`` (those not run now keep their sections). The page is made first, so
+    numbers it cannot be made from never replace the kept ones."""
     data = out / "data"
+    text = page({**read_results(data), **results}, read_digested_json(data / FIXED_RULES))
     for scenario, result in results.items():
         write_digested_json(data / f"{STEM}{scenario}.json",
                     {"schema_version": SCHEMA_VERSION, "scenario": scenario,
                      "unit": "success (1) or not (0) per episode", "result": result})
-    write_page(out)
+    atomic_write_text(out / "learning_curves.md", text)
 
 
 def write_page(out: Path) -> None:
@@ -248,11 +246,6 @@ def write_page(out: Path) -> None:
     data = out / "data"
     atomic_write_text(out / "learning_curves.md",
                       page(read_results(data), read_digested_json(data / FIXED_RULES)))
-
-
-def _seeds(text: str) -> list[int]:
-    first, _, last = text.partition("-")
-    return list(range(int(first), int(last or first) + 1))
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -273,17 +266,25 @@ def main(argv: list[str] | None = None) -> None:
                         help="run nothing: write DOCS/learning_curves.md from DOCS/data")
     args = parser.parse_args(argv)
     if args.from_data is not None:
-        write_page(Path(args.from_data))
-        print(f"wrote {Path(args.from_data) / 'learning_curves.md'}")
+        written_or_exit(parser, lambda: write_page(Path(args.from_data)),
+                        Path(args.from_data) / "learning_curves.md")
         return
     if args.episodes < 1 or args.every < 1 or args.eval_episodes < 2:
         parser.error("--episodes and --every must be at least 1, --eval-episodes at least 2")
-    seeds, runs = _seeds(args.seeds), Path(args.runs)
+    try:
+        seeds = seed_range(args.seeds)
+    except ValueError as exc:
+        parser.error(str(exc))
+    runs = Path(args.runs)
     results = {}
     for scenario in args.scenario or ["drill_1v1"]:
         records = []
         for seed in seeds:
-            record = run_seed(runs, scenario, seed, args.episodes, args.every, args.eval_episodes)
+            try:
+                record = run_seed(runs, scenario, seed, args.episodes, args.every,
+                                  args.eval_episodes)
+            except ValueError as exc:  # a damaged kept seed: named, with what to do
+                parser.exit(1, f"{parser.prog}: error: {exc}\n")
             last = np.mean(record["evaluation_success"][-1])
             print(scenario, seed, f"greedy {last:.2f}", f"{record['cpu_seconds']:.0f} CPU-s",
                   flush=True)
@@ -291,8 +292,8 @@ def main(argv: list[str] | None = None) -> None:
         results[scenario] = result_of(records, seeds, args.episodes, args.every,
                                       args.eval_episodes)
     if args.out is not None:
-        write_outputs(Path(args.out), results)
-        print(f"wrote {Path(args.out) / 'learning_curves.md'}")
+        written_or_exit(parser, lambda: write_outputs(Path(args.out), results),
+                        Path(args.out) / "learning_curves.md")
 
 
 if __name__ == "__main__":

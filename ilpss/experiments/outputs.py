@@ -8,12 +8,14 @@ of ``ilpss`` checks its outputs with these functions before it computes anything
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
-from soccer_drill.files import TEMPORARY
+from soccer_drill.files import TEMPORARY, read_digested_json, write_digested_json
 
 __all__ = ["check_out_dir", "check_out_file"]
 
@@ -150,3 +152,67 @@ def check_utf8(args: argparse.Namespace) -> None:
                         f"--{dest.replace('_', '-')} {os.fsencode(item)!r}: not UTF-8; the "
                         "page written at the end names it in UTF-8, so give a name in UTF-8"
                     ) from None
+
+
+def kept_seed_record(path: Path, schema_version: int, identity: Mapping[str, Any],
+                     compute: Callable[[], dict[str, Any]]) -> dict[str, Any]:
+    """A seed's record kept at ``path`` (digested JSON, written atomically): read if kept,
+    else ``compute()`` merged into ``identity`` (what the record is of: its scenario,
+    seed, budget, ...) and kept, so that a rerun computes only what is missing.
+
+    Raises
+    ------
+    ValueError
+        Naming the file: it is damaged (not a kept record, its digest does not match), or
+        it is of another schema or of something else than ``identity`` says; deleting it
+        computes that seed again.
+    """
+    identity = json.loads(json.dumps(identity))  # as a record reads back (tuples as lists)
+    if path.exists():
+        try:
+            record = read_digested_json(path, schema_version)
+            other = {k: record.get(k) for k, v in identity.items() if record.get(k) != v}
+            if other:
+                raise ValueError(f"{path}: the record of {other}, where {dict(identity)} "
+                                 "belongs")
+        except (ValueError, OSError) as exc:
+            raise ValueError(f"{exc}; delete it to compute that seed again") from None
+        return record
+    record = {"schema_version": schema_version, **identity, **compute()}
+    record = json.loads(json.dumps(record))  # as read back: lists, not tuples
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_digested_json(path, record)
+    return record
+
+
+def seed_range(text: str, smallest: int = 2) -> list[int]:
+    """``--seeds first-last`` (inclusive; or one seed ``n``) as seeds, at least
+    ``smallest`` of them (a page's intervals need two), each ``>= 0``.
+
+    Raises
+    ------
+    ValueError
+        Naming the flag, what was given and what is allowed.
+    """
+    first, _, last = text.partition("-")
+    allowed = (f"--seeds: first-last of integers >= 0, at least {smallest} seeds (e.g. 0-9; "
+               "the seed is the unit of every interval)")
+    try:
+        seeds = list(range(int(first), int(last or first) + 1))
+    except ValueError:
+        raise ValueError(f"{allowed}, got {text!r}") from None
+    if int(first) < 0 or len(seeds) < smallest:
+        raise ValueError(f"{allowed}, got {text!r}")
+    return seeds
+
+
+def written_or_exit(parser: argparse.ArgumentParser, write: Callable[[], None],
+                    page_path: Path) -> None:
+    """``write()``, then say what was written; a kept file that cannot be read, or a page
+    that cannot be written, ends the command with one line naming it (exit 1; whatever
+    was kept before stays)."""
+    try:
+        write()
+    except (ValueError, OSError) as exc:
+        parser.exit(1, f"{parser.prog}: error: {exc}\n")
+    print(f"wrote {page_path}")
