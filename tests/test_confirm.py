@@ -5,12 +5,15 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import pytest
 
 from ilpss.experiments.confirm import Comparison, main, pick
 from ilpss.experiments.plan import PRIMARY, Plan
 from ilpss.metrics import MetricEstimate
+
+DOCS = Path(__file__).resolve().parents[1] / "docs"
 
 PLAN = {
     "methods": ["scratch", "finetune", "finetune_bounded", "whole_policies_ft_bounded_cut",
@@ -194,3 +197,24 @@ def test_the_committed_sharp_test_plan_can_be_decided():
     tests = [_test(p, m, a, *LEVEL) for p in plan.protocols for m, a in plan.comparisons]
     chosen, _ = pick(plan, tests)
     assert chosen == plan.fallback
+
+
+def test_runs_are_bound_to_the_plan_they_were_made_for(tmp_path):
+    # before, a plan edited after its runs (a margin of -1000 instead of 0) was analysed
+    # over them with --analyse-only, and nothing said the plan had changed
+    from ilpss.experiments.confirm import PLAN_RECORD, bind_plan, plan_digest
+
+    plan = json.loads((DOCS / "decisive_test.json").read_text())
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(plan))
+    runs = tmp_path / "runs"
+    bind_plan(runs, path)  # the first time: recorded
+    assert (runs / PLAN_RECORD).is_file()
+    path.write_text(json.dumps(plan, indent=4))  # the same plan, laid out otherwise
+    bind_plan(runs, path)
+    assert plan_digest(path) == plan_digest(DOCS / "decisive_test.json")
+    edited = {**plan, "title": plan["title"] + " (edited)"}
+    path.write_text(json.dumps(edited))
+    with pytest.raises(ValueError, match=r"not the plan the runs in .* were made for .* "
+                                         r"it differs: title: "):
+        bind_plan(runs, path)

@@ -99,7 +99,7 @@ def test_the_learning_curves_page_is_what_its_committed_numbers_give(tmp_path):
         assert f"## `{scenario}`" in made
 
 
-def test_a_changed_number_is_refused_by_its_digest(tmp_path):
+def test_a_changed_number_is_refused_by_its_digest(tmp_path, capsys):
     import json
     import shutil
 
@@ -110,8 +110,9 @@ def test_a_changed_number_is_refused_by_its_digest(tmp_path):
     kept = json.loads(path.read_text())
     kept["record"]["per_seed"]["learned"][0] += 1.0
     path.write_text(json.dumps(kept))
-    with pytest.raises(ValueError, match="sha256 does not match"):
+    with pytest.raises(SystemExit) as exit_info:
         keepaway.main(["--from-data", str(tmp_path)])
+    assert exit_info.value.code == 1 and "sha256 does not match" in capsys.readouterr().err
 
 
 def test_the_discussions_table_of_the_decisive_run_is_its_pages():

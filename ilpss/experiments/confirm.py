@@ -23,12 +23,17 @@ the committed copy is what the page in ``docs/`` is recomputed from) and writes 
 ``--analyse-only`` runs nothing; like every analysis it refuses run folders whose
 configuration is not the plan's or whose planned seeds are not all finished, and the page
 says which seeds it used. The results must come from one code
-(:mod:`~ilpss.experiments.provenance`).
+(:mod:`~ilpss.experiments.provenance`). The folder of runs records the plan it is made
+for (``<runs>/plan.json``, at its first use), so a plan edited after its runs is refused
+rather than analysed as if committed before them; the page names the plan by its
+file and the SHA-256 of its canonical JSON.
 """
 
 from __future__ import annotations
 
 import argparse
+import hashlib
+import json
 import math
 import zlib
 from collections.abc import Sequence
@@ -38,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from ilpss import metrics
-from ilpss._io import FolderInUseError, atomic_write_bytes, json_differences
+from ilpss._io import FolderInUseError, atomic_write_bytes, canonical_json, json_differences
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.drill_facts import TEAM_ERROR, drill_exception
 from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
@@ -50,6 +55,7 @@ from ilpss.experiments.report_stats import threshold_for, windows
 from ilpss.experiments.report_text import interval_text
 from ilpss.experiments.run import JobError, run_experiment
 from ilpss.experiments.seed_data import SeedData, data_paths, seed_ranges
+from soccer_drill.files import read_digested_json, write_digested_json
 
 __all__ = ["analyse", "main", "pick"]
 
@@ -240,6 +246,43 @@ def _p(p: float) -> str:
 
 
 # ---------------------------------------------------------------------- command
+PLAN_RECORD = "plan.json"
+"""The plan a folder of runs was made for (``<runs>/plan.json``: the plan and its digest)."""
+
+
+def plan_digest(plan_path: Path) -> str:
+    """The SHA-256 of the plan's JSON, canonical (keys sorted, no spaces): what the page
+    and the runs' record name it by."""
+    plan = json.loads(plan_path.read_bytes())
+    return hashlib.sha256(canonical_json(plan).encode()).hexdigest()
+
+
+def bind_plan(runs: Path, plan_path: Path) -> None:
+    """Record in ``runs`` the plan its runs are made for, the first time; refuse another
+    plan after (a plan edited after its runs, or another plan's, would be analysed as if
+    it had been committed before them).
+
+    Raises
+    ------
+    ValueError
+        The plan differs from the one recorded: where, and what to do.
+    """
+    plan = json.loads(plan_path.read_bytes())
+    record = runs / PLAN_RECORD
+    if not record.exists():
+        runs.mkdir(parents=True, exist_ok=True)
+        write_digested_json(record, {"schema_version": 1, "plan": plan,
+                                     "sha256": plan_digest(plan_path)})
+        return
+    kept = read_digested_json(record, 1)
+    if kept["plan"] != plan:
+        changes = "; ".join(json_differences(kept["plan"], plan)[:5])
+        raise ValueError(f"{plan_path}: not the plan the runs in {runs} were made for "
+                         f"({record}: sha256 {str(kept['sha256'])[:12]}...); it differs: "
+                         f"{changes} (a plan is fixed before its runs: give the plan they "
+                         "were made for, or another --runs folder)")
+
+
 def _outside(path: Path, folders: dict[str, Path], flag: str) -> Path:
     """``path``, unless it is inside one of the protocols' run ``folders`` (whose files
     the runs and their resumption read)."""
@@ -304,7 +347,9 @@ def _main(argv: Sequence[str] | None) -> int:
                                           [args.plan]), folders, "--out")
             stem = args.data if args.data else runs / "seed_data"
             for path in data_paths(stem):
-                _outside(check_out_file(path, "--data", inputs=[args.plan]), folders, "--data")
+                _outside(check_out_file(path, "--data", inputs=[args.plan, runs / PLAN_RECORD]),
+                         folders, "--data")
+            bind_plan(runs, Path(args.plan))
             if not args.analyse_only:
                 stop_on_sigterm()
                 for protocol, folder in folders.items():
@@ -314,7 +359,10 @@ def _main(argv: Sequence[str] | None) -> int:
             check_data(plan, data)
             data.write(stem)
         tests = analyse(plan, data, allow_mixed_code=args.allow_mixed_code)
-        atomic_write_bytes(out, ("\n".join(page(plan, tests, data, power)) + "\n").encode())
+        lines = page(plan, tests, data, power)
+        lines[1:1] = ["", f"Plan: `{Path(args.plan).name}` (sha256 of its canonical JSON "
+                          f"`{plan_digest(Path(args.plan))[:16]}`)."]
+        atomic_write_bytes(out, ("\n".join(lines) + "\n").encode())
     except (ValueError, KeyError, OSError, FolderInUseError, StorageError, JobError,
             drill_exception(TEAM_ERROR)) as exc:
         # a bad plan or file, a full disk, another run's folder, a failed job (the finished
