@@ -314,3 +314,23 @@ def test_a_plan_naming_where_checkpoints_are_written_is_refused():
     with pytest.raises(ValueError, match=r"protocols\.A\.storage: where checkpoints are "
                                          "written is not a plan's to say"):
         Plan.from_json(plan)
+
+
+@pytest.mark.parametrize(("change", "said"), [
+    (lambda job: job["methods"]["ilpss"]["curves"].update(
+        {t: [1000.0, *c[1:]] for t, c in job["methods"]["ilpss"]["curves"].items()}),
+     r"each a finite number in \[-1, 1\], got \[1000\.0"),
+    (lambda job: job.update(tasks=["zz"] * len(job["tasks"])), "tasks is "),
+    (lambda job: job["methods"]["ilpss"]["curves"].update(
+        {t: c[:3] for t, c in job["methods"]["ilpss"]["curves"].items()}), "must be a list of"),
+    (lambda job: job.update(seed=123456), "is not a job of its configuration"),
+])
+def test_kept_numbers_rewritten_with_their_digests_are_checked_as_a_runs(tmp_path, change, said):
+    # before, numbers whose digests were recomputed were read as they were: a reward of
+    # 1000 where the drill pays [-1, 1], another job's tasks, a curve of 3 episodes (an
+    # error about an inhomogeneous array, naming nothing) were all made into pages
+    data = SeedData.read(Path(__file__).resolve().parents[1] / "docs" / "data" / "larger_drill")
+    change(data.jobs["A"][0])
+    data.write(tmp_path / "changed")
+    with pytest.raises(ValueError, match=said):
+        SeedData.read(tmp_path / "changed")

@@ -160,12 +160,10 @@ def load_result(
     diffs = json_differences(result["config"], cfg.results_record(), "config")
     if diffs:
         raise ValueError(f"{path}: comes from another configuration ({'; '.join(diffs)}); {hint}")
-    tasks = [t.name for t in stream.tasks]
-    job = {"seed": seed, "stream": stream.name, "stream_index": stream_index, "tasks": tasks,
-           "first_target": stream.first_target}
-    for key, value in job.items():
-        if result[key] != value:
-            raise ValueError(f"{path}: {key} is {result[key]!r}, expected {value!r}; {hint}")
+    try:
+        check_job_fields(result, stream, seed, stream_index, str(path))
+    except ValueError as exc:
+        raise ValueError(f"{exc}; {hint}") from exc
     methods = result["methods"]
     if not isinstance(methods, dict) or set(methods) != set(cfg.methods):
         shown = sorted(methods) if isinstance(methods, dict) else methods
@@ -186,6 +184,18 @@ def load_result(
         except ValueError as exc:
             raise ValueError(f"{exc}; {hint}") from exc
     return result
+
+
+def check_job_fields(record: dict[str, Any], stream: Stream, seed: int, stream_index: int,
+                     where: str) -> None:
+    """The job ``record`` names (its seed, stream, tasks, first target) is job
+    ``(seed, stream_index)`` of its configuration, whose stream is ``stream``; else
+    ``ValueError`` naming ``where`` and the field."""
+    job = {"seed": seed, "stream": stream.name, "stream_index": stream_index,
+           "tasks": [t.name for t in stream.tasks], "first_target": stream.first_target}
+    for key, value in job.items():
+        if record[key] != value:
+            raise ValueError(f"{where}: {key} is {record[key]!r:.200}, expected {value!r}")
 
 
 def check_entry(method: str, values: Any, cfg: ExperimentConfig, stream: Stream,

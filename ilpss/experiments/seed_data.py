@@ -45,7 +45,7 @@ from ilpss.experiments.config import ExperimentConfig
 from ilpss.experiments.folder import WALL_TIME_FIELDS, RunFolder
 from ilpss.experiments.methods import METHODS
 from ilpss.experiments.provenance import check_code_field
-from ilpss.experiments.run import load_result, read_config, run_order
+from ilpss.experiments.run import check_entry, check_job_fields, load_result, read_config, run_order
 from soccer_drill.constraints import Integer, JsonObject, NoneOr, check, check_fields, check_keys
 
 __all__ = ["SeedData"]
@@ -191,6 +191,7 @@ class SeedData:
                         f"{table}: protocol {protocol}, seed {job['seed']}, stream "
                         f"{job['stream_index']} holds the methods {sorted(job['methods'])}; "
                         f"its run has {sorted(wanted)}")
+                _check_job(job, configs[protocol], f"{table}: protocol {protocol}")
         return cls(configs, jobs, times)
 
     def _csv(self) -> str:
@@ -260,8 +261,25 @@ def _wall_time(record: Any, where: str) -> dict[str, Any] | None:
 def _job(job: Any, where: str) -> dict[str, Any]:
     if not isinstance(job, dict) or set(job) != set(_JOB_FIELDS):
         raise ValueError(f"{where}: a job must hold exactly {list(_JOB_FIELDS)}")
+    for key in ("seed", "stream_index"):  # a job's key, before anything looks it up
+        check(f"{where}: a job's {key}", job[key], Integer(0))
     check_code_field(where, job["code"])
     return {**job, "methods": {}}
+
+
+def _check_job(job: dict[str, Any], cfg: ExperimentConfig, where: str) -> None:
+    """A job read back is one its configuration has (its seed, stream, tasks) and each
+    method's numbers are what a run checks when it keeps them (a curve per target of the
+    budget's length within the environment's reward range, each series per task)."""
+    seed, index = job["seed"], job["stream_index"]
+    streams = cfg.streams(seed) if seed in cfg.seeds else []
+    if index >= len(streams):
+        raise ValueError(f"{where}: seed {seed}, stream {index} is not a job of its "
+                         f"configuration (seeds {seed_ranges(list(cfg.seeds))})")
+    where = f"{where}, seed {seed}, stream {index}"
+    check_job_fields(job, streams[index], seed, index, where)
+    for method, entry in job["methods"].items():
+        check_entry(method, entry, cfg, streams[index], f"{where}: methods.{method}")
 
 
 def _rows(text: str, where: Path) -> list[list[str]]:
