@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import gzip
 import os
+import re
 import signal
 import sys
 from pathlib import Path
@@ -334,3 +335,30 @@ def test_region_use_refuses_a_page_over_a_runs_files_before_reading_it(tmp_path,
     assert exit_info.value.code == 2
     assert "its name ends in '.md'" in capsys.readouterr().err
     assert (run / "config.json").read_text() == "{}"
+
+
+@pytest.mark.parametrize(("change", "said"), [
+    (lambda n: n.pop("learnt"), r"missing field\(s\) \['learnt'\]|learnt"),
+    (lambda n: n.update(teams="chasers"), "teams"),
+    (lambda n: n["learnt"][0]["eval"].__setitem__(0, 1000.0), r"learnt\[0\]"),
+    (lambda n: n["learnt"].pop(), "has the seeds"),
+])
+def test_numbers_rewritten_with_their_digest_are_checked_as_a_runs(tmp_path, capsys, change,
+                                                                   said):
+    # before, only the schema and the digest were checked: a missing field or a team
+    # given as a string ended in a KeyError or ValueError traceback, a reward of 1000
+    # was made into a page
+    from ilpss.experiments import holder_learning
+
+    docs = Path(__file__).resolve().parents[1] / "docs"
+    numbers = holder_learning.load_gzip_record(
+        docs / "learning_seeds.json.gz", holder_learning.NUMBERS_SCHEMA,
+        holder_learning.MAX_NUMBERS_BYTES, "numbers")["numbers"]
+    change(numbers)
+    holder_learning.save_numbers(numbers, tmp_path / "changed.json.gz")
+    with pytest.raises(SystemExit) as exit_info:
+        holder_learning.main(["--from-data", str(tmp_path / "changed.json.gz"),
+                              "--out", str(tmp_path / "x.md")])
+    err = capsys.readouterr().err
+    assert exit_info.value.code == 2 and re.search(said, err) and "Traceback" not in err
+    assert not (tmp_path / "x.md").exists()

@@ -79,7 +79,17 @@ from ilpss.experiments.provenance import code_line
 from ilpss.lifelong import LIFELONG_CONSTRAINTS, LearnerConfig
 from ilpss.metrics import holm, improvement_test, t_interval, t_test_pvalue, wilson_interval
 from ilpss.smdp import SmdpLearner
-from soccer_drill.constraints import Integer, ListOf, Real, Text, check_fields, check_keys
+from soccer_drill.constraints import (
+    Integer,
+    JsonObject,
+    ListOf,
+    OneOf,
+    Real,
+    Text,
+    check,
+    check_fields,
+    check_keys,
+)
 
 EVAL_SEED = 10_000  # evaluation episodes use seeds EVAL_SEED + i, never seen in learning
 NUMBERS_SCHEMA = "ilpss.holder_learning_numbers/1"
@@ -402,9 +412,46 @@ def save_numbers(numbers: dict[str, Any], path: Path) -> None:
 
 def load_numbers(path: Path) -> dict[str, Any]:
     """The numbers written by :func:`save_numbers`; ``ValueError`` naming the file if they
-    are not (another schema, or changed after they were written)."""
-    return load_gzip_record(path, NUMBERS_SCHEMA, MAX_NUMBERS_BYTES,
-                            "holder-learning numbers")["numbers"]
+    are not (another schema, changed after they were written, or numbers no run gives:
+    :func:`check_numbers`)."""
+    numbers = load_gzip_record(path, NUMBERS_SCHEMA, MAX_NUMBERS_BYTES,
+                               "holder-learning numbers")["numbers"]
+    check_numbers(numbers, str(path))
+    return numbers
+
+
+_NUMBERS = {"command": Text(), "took": Text(), "code": Text(),
+            "learner": JsonObject("the learner's settings"), "teams": FLAG_CONSTRAINTS["teams"],
+            "episodes": FLAG_CONSTRAINTS["episodes"], "eval": FLAG_CONSTRAINTS["eval"],
+            "seeds": FLAG_CONSTRAINTS["seeds"], "learnt": ListOf(JsonObject("a seed's")),
+            "rules": ListOf(JsonObject("a rule's"))}
+"""The fields of the numbers a page is made from, as a run writes them."""
+
+
+def check_numbers(numbers: Any, where: str) -> None:
+    """The numbers are a run's: its fields (:data:`_NUMBERS`), a learnt row per team and
+    seed (a curve of ``episodes`` rewards and ``eval`` greedy ones) and a row per team and
+    rule (``eval`` rewards), every reward in the drill's [-1, 1]; else ``ValueError``
+    naming ``where`` and the field."""
+    check(f"{where}: the numbers", numbers, JsonObject("the numbers"))
+    check_keys(where, numbers, _NUMBERS)
+    check_fields(where, numbers, _NUMBERS, dict.get)
+    episodes, n_eval = numbers["episodes"], numbers["eval"]
+    learnt = {"team": OneOf(tuple(numbers["teams"])), "seed": Integer(0),
+              "curve": ListOf(Real(-1, 1), episodes, episodes),
+              "eval": ListOf(Real(-1, 1), n_eval, n_eval)}
+    rules = {"team": learnt["team"], "rule": Text(),
+             "eval": ListOf(Real(-1, 1), n_eval, n_eval)}
+    for name, rows, fields in (("learnt", numbers["learnt"], learnt),
+                               ("rules", numbers["rules"], rules)):
+        for k, row in enumerate(rows):
+            check_keys(f"{where}: {name}[{k}]", row, fields)
+            check_fields(f"{where}: {name}[{k}]", row, fields, dict.get)
+    for team in numbers["teams"]:
+        seeds = sorted(r["seed"] for r in numbers["learnt"] if r["team"] == team)
+        if len(seeds) != numbers["seeds"] or len(set(seeds)) != len(seeds):
+            raise ValueError(f"{where}: team {team!r} has the seeds {seeds}, where "
+                             f"{numbers['seeds']} distinct ones belong")
 
 
 def _write_page(out: Path, lines: list[str]) -> None:
