@@ -148,12 +148,14 @@ def test_a_resume_refuses_checkpoints_and_results_of_another_configuration(tmp_p
     (tmp_path / "config.json").unlink()
     # The result of the 0.125 run is not returned as the 0.5 run's.
     with pytest.raises(ValueError, match=r"result.json: comes from another configuration "
-                       r"\(config.lifelong.learner.alpha: 0.125 saved, 0.5 here\)"):
+                       r"than the run's \(config.lifelong.learner.alpha: 0.125 saved, 0.5 "
+                       r"here, saved in the result against the run's\); if the run's "
+                       r"config.json or its settings were changed since, put them back"):
         run_experiment(_alpha(0.5), tmp_path, progress=False)
     # Nor is its checkpoint continued.
     (tmp_path / "config.json").unlink()
     (tmp_path / "seed_000" / "stream_00" / "result.json").unlink()
-    with pytest.raises(JobError, match=r"seed 0, stream 0: ValueError: .*scratch: the checkpoint comes from another run "
+    with pytest.raises(JobError, match=r"seed 0, stream 0: CheckpointRefused: .*scratch: the checkpoint comes from another run "
                        r"\(experiment.lifelong.learner.alpha: 0.125 saved, 0.5 here\)"):
         run_experiment(_alpha(0.5), tmp_path, progress=False)
     # The folder's own configuration still resumes.
@@ -179,10 +181,15 @@ def test_a_damaged_checkpoint_at_a_resume_says_how_to_go_on_and_deleting_it_does
     for damage in (lambda: (checkpoint / "policy_0.npz").write_bytes(b"PK"),
                    lambda: (checkpoint / "policy_0.npz").unlink()):
         damage()
-        with pytest.raises(JobError, match=r"seed 0, stream 0: ValueError: .*scratch: the "
-                           r"checkpoint cannot be resumed: .*policy_0.npz: .*; delete that "
-                           r"folder to run this method of the job again"):
+        with pytest.raises(JobError, match=r"seed 0, stream 0: CheckpointRefused: .*scratch: "
+                           r"the checkpoint cannot be resumed: .*policy_0.npz: .*; delete that "
+                           r"folder to run this method of the job again") as failed:
             run_experiment(_tiny(), tmp_path, progress=False)
+        # the advice after the list: that folder deleted first (before: "run the same
+        # command again", which fails the same way)
+        assert str(failed.value).endswith("do what its message says (delete that folder), "
+                                          "then run the same command again to run only the "
+                                          "failed one(s)")
     shutil.rmtree(job / "scratch")
     run_experiment(_tiny(), tmp_path, progress=False)
     assert (job / "result.json").read_bytes() == kept
@@ -323,7 +330,7 @@ def test_a_resume_refuses_rewards_the_environment_cannot_pay(tmp_path):
     del record["sha256"]
     record["records"][0]["rewards"][0] = -9.0  # with a valid digest
     state.write_bytes(_io.json_record_bytes(record))
-    with pytest.raises(JobError, match=r"ValueError: .*records\[0\].rewards lie outside the environment's "
+    with pytest.raises(JobError, match=r"CheckpointRefused: .*records\[0\].rewards lie outside the environment's "
                        r"range \[-1, 1\]"):
         run_experiment(_tiny(), tmp_path, progress=False)
 

@@ -151,7 +151,7 @@ def test_a_crash_after_the_first_target_resumes_without_relearning_the_sources(
     branch = job / "ilpss" / "target_03"
     shutil.rmtree(branch)
     shutil.copytree(job / "ilpss" / "target_02", branch)
-    with pytest.raises(JobError, match=r"ValueError: .*target_03: the checkpoint comes from another run "
+    with pytest.raises(JobError, match=r"CheckpointRefused: .*target_03: the checkpoint comes from another run "
                                          r"\(target: 2 saved, 3 here\)"):
         run_experiment(cfg, out, progress=False)
 

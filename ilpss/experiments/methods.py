@@ -236,6 +236,11 @@ def run_lifelong(
     return learner, records
 
 
+class CheckpointRefused(ValueError):
+    """A kept checkpoint a job cannot resume (damaged, another run's, of another job),
+    refused the same way at every resume: its message says which folder to delete."""
+
+
 def _restore(
     store: CheckpointStore, key: str, space: Any, provenance: dict, reward_range: tuple,
     trials: range,
@@ -251,23 +256,23 @@ def _restore(
     try:
         learner = store.restore(key, space)
     except ValueError as exc:  # a resume reads it the same way every time: say what helps
-        raise ValueError(f"{where}: the checkpoint cannot be resumed: {exc}; {hint}") from exc
+        raise CheckpointRefused(f"{where}: the checkpoint cannot be resumed: {exc}; {hint}") from exc
     if learner is None:
         return None
     if learner.provenance is None:
-        raise ValueError(f"{where}: the checkpoint records no provenance; {hint}")
+        raise CheckpointRefused(f"{where}: the checkpoint records no provenance; {hint}")
     diffs = json_differences(learner.provenance, provenance)
     if diffs:
-        raise ValueError(
+        raise CheckpointRefused(
             f"{where}: the checkpoint comes from another run ({'; '.join(diffs)}); {hint}"
         )
     if learner.n_trials not in trials:
-        raise ValueError(f"{where}: the checkpoint holds {learner.n_trials} trials, this job "
+        raise CheckpointRefused(f"{where}: the checkpoint holds {learner.n_trials} trials, this job "
                          f"checkpoints {trials.start} to {trials.stop - 1} there; {hint}")
     low, high = reward_range
     for i, record in enumerate(learner.records):
         if not all(low <= r <= high for r in record.rewards):
-            raise ValueError(
+            raise CheckpointRefused(
                 f"{where}: records[{i}].rewards lie outside the environment's range "
                 f"[{low:g}, {high:g}]; {hint}"
             )

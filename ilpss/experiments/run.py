@@ -51,7 +51,13 @@ from ilpss.experiments.executor import (
     make_executor,
 )
 from ilpss.experiments.folder import RunFolder, checkpoint_key
-from ilpss.experiments.methods import METHODS, Job, LifelongMethod, lifelong_entry
+from ilpss.experiments.methods import (
+    METHODS,
+    CheckpointRefused,
+    Job,
+    LifelongMethod,
+    lifelong_entry,
+)
 from ilpss.experiments.outputs import check_out_dir
 from ilpss.experiments.protocols import Stream, make_env
 from ilpss.experiments.provenance import check_code_field, check_same_code, code_record
@@ -158,8 +164,12 @@ def load_result(
     if code is not None:
         check_same_code(result["code"], str(path), allow=allow_mixed_code, current=code)
     diffs = json_differences(result["config"], cfg.results_record(), "config")
-    if diffs:
-        raise ValueError(f"{path}: comes from another configuration ({'; '.join(diffs)}); {hint}")
+    if diffs:  # the result or the run's configuration changed: deleting the one may lose work
+        raise ValueError(f"{path}: comes from another configuration than the run's "
+                         f"({'; '.join(diffs)}, saved in the result against the run's); if "
+                         "the run's config.json or its settings were changed since, put them "
+                         f"back (the finished results were made with the saved ones), else "
+                         f"{hint}")
     try:
         check_job_fields(result, stream, seed, stream_index, str(path))
     except ValueError as exc:
@@ -364,6 +374,11 @@ class JobError(RuntimeError):
                       "overran its time bound on a loaded machine), and this folder refuses "
                       "a team whose code changed since its jobs played it (team_code.json): "
                       "fix the team, then run the command with a new run folder")
+        elif all(isinstance(exc, CheckpointRefused) for exc in self.failures.values()):
+            # A kept checkpoint that cannot be resumed is refused the same way every time.
+            advice = ("each names a kept checkpoint that cannot be resumed: do what its "
+                      "message says (delete that folder), then run the same command again "
+                      "to run only the failed one(s)")
         else:
             advice = "run the same command again to run only the failed one(s)"
         super().__init__(
