@@ -218,3 +218,13 @@ def test_runs_are_bound_to_the_plan_they_were_made_for(tmp_path):
     with pytest.raises(ValueError, match=r"not the plan the runs in .* were made for .* "
                                          r"it differs: title: "):
         bind_plan(runs, path)
+
+
+def test_analysing_runs_that_are_not_there_makes_no_folder(tmp_path, capsys):
+    # before, --analyse-only with a mistyped --runs made that folder (and its parents)
+    with pytest.raises(SystemExit) as exit_info:
+        main([str(DOCS / "decisive_test.json"), "--runs", str(tmp_path / "typo" / "deep"),
+              "--analyse-only", "--force"])
+    assert exit_info.value.code == 1
+    assert "no such folder of runs to analyse" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

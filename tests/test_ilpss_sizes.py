@@ -280,3 +280,14 @@ def test_the_larger_drill_command_refuses_a_bad_runs_folder_in_one_line_making_n
     err = capsys.readouterr().err
     assert "Traceback" not in err and "error: --" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file"]
+
+
+def test_numbers_that_cannot_be_read_make_no_folder(tmp_path, monkeypatch, capsys) -> None:
+    # before, --from-data nosuch made the --docs folder and its subfolders, then failed
+    from ilpss.experiments import larger_drill
+
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit):
+        larger_drill.main(["--from-data", "nosuch", "--docs", "docs"])
+    assert "Traceback" not in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

@@ -340,6 +340,9 @@ def _main(argv: Sequence[str] | None) -> int:
             data = SeedData.read(args.from_data)
         else:
             runs = Path(args.runs)
+            if args.analyse_only and not runs.is_dir():  # nothing to analyse: make nothing
+                raise ValueError(f"--runs {runs}: no such folder of runs to analyse "
+                                 "(--analyse-only runs nothing)")
             folders = {protocol: runs / f"protocol_{protocol.lower()}"
                        for protocol in plan.protocols}
             # every output checked before any run: none may be the plan or a run's file

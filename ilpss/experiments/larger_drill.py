@@ -125,14 +125,14 @@ def _main(argv: Sequence[str] | None) -> int:
         if running and Path(args.docs).resolve() == Path(args.runs).resolve():
             raise ValueError(f"--docs and --runs name the same folder ({args.runs}): the page "
                              "goes in one, the run's files in another")
+        if args.from_data:  # read first: numbers that cannot be read make no folder
+            data = SeedData.read(args.from_data)
+        elif args.finished:
+            data = _finished(cfg, Path(args.runs))
         runs = check_out_dir(args.runs, "--runs") if running else None
         docs = check_out_dir(args.docs, "--docs", run_folder=False)
         for sub in ("figures", "data"):
             check_out_dir(docs / sub, "--docs", run_folder=False)
-        if args.from_data:
-            data = SeedData.read(args.from_data)
-        elif args.finished:
-            data = _finished(cfg, Path(args.runs))
     except ValueError as exc:
         p.error(str(exc))
     except OSError as exc:
