@@ -21,7 +21,7 @@ import argparse
 import math
 from pathlib import Path
 
-from soccer_drill.constraints import Integer, checked
+from soccer_drill.constraints import Integer, JsonObject, check_fields, check_keys, checked
 from soccer_drill.files import (
     atomic_write_text,
     check_output_file,
@@ -155,10 +155,18 @@ def page(outcomes: dict[str, dict[str, list[str]]], first_seed: int,
     return "\n".join(lines) + "\n"
 
 
+_KEPT_FIELDS = {"schema_version": Integer(SCHEMA_VERSION, SCHEMA_VERSION),
+                "first_seed": Integer(0), "outcomes": JsonObject("outcomes by scenario"),
+                "lengths": JsonObject("episode lengths by scenario")}
+
+
 def read_kept(path: Path) -> dict:
     """The kept outcomes and lengths (``docs/data/scenarios_fixed_rules.json``), their
-    digest and schema version checked."""
-    return read_digested_json(path, SCHEMA_VERSION)
+    digest, schema version and fields checked (``ValueError`` naming the file)."""
+    record = read_digested_json(path, SCHEMA_VERSION)
+    check_keys(str(path), record, _KEPT_FIELDS)
+    check_fields(str(path), record, _KEPT_FIELDS, dict.get)
+    return record
 
 
 def main(argv: list[str] | None = None) -> None:

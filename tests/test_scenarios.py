@@ -155,3 +155,26 @@ def test_rules_that_score_alike_are_named_as_tied_with_the_best() -> None:
     page = scenarios_table.page(outcomes, record["first_seed"], record["lengths"])
     assert "| `lane` (tied with `late_pass`) | 82% [77%, 86%] |" in page
     assert "| `late_pass` | 80% [75%, 84%] |" in page  # drill_2v2: no tie
+
+
+@pytest.mark.parametrize(("change", "said"), [
+    (lambda r: r.pop("lengths"), r"missing field\(s\) \['lengths'\]"),
+    (lambda r: r.update(first_seed="0"), "first_seed"),
+])
+def test_kept_outcomes_rewritten_with_their_digest_are_refused_in_one_line(tmp_path, capsys,
+                                                                           change, said):
+    # before, a field missing from numbers whose digest was recomputed ended in a KeyError
+    # traceback
+    import re
+
+    from soccer_drill import scenarios_table
+    from soccer_drill.files import read_digested_json, write_digested_json
+
+    docs = Path(__file__).resolve().parents[1] / "docs"
+    record = read_digested_json(docs / "data" / "scenarios_fixed_rules.json")
+    change(record)
+    write_digested_json(tmp_path / "data" / "scenarios_fixed_rules.json", record)
+    with pytest.raises(SystemExit) as stopped:
+        scenarios_table.main(["--from-data", "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert stopped.value.code == 2 and re.search(said, err) and "Traceback" not in err
