@@ -640,6 +640,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     except drill_exception(drill_facts.TEAM_ERROR) as exc:  # a team that fails: its error in one line, not a traceback
         print(f"soccer-drill-calibrate: error: {exc}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:  # Ctrl-C: one line and the shell's status for SIGINT
+        kept = ("" if args.no_gifs else
+                f"the GIFs already written in {out_dir / 'gifs'} are kept; ")
+        print(f"soccer-drill-calibrate: stopped by Ctrl-C (SIGINT); {kept}"
+              f"{out_dir / 'opponents.md'} is not written", file=sys.stderr)
+        return 130
     gifs = {team: (f"gifs/{team}.gif", rule, seed, outcome)
             for team, (rule, seed, outcome) in made.items()}
     seconds = time.perf_counter() - start
@@ -662,8 +668,10 @@ def _parser() -> argparse.ArgumentParser:
         "--teams", nargs="+", default=list(TEAMS), metavar="ID",
         help=f"team ids to calibrate (default: {' '.join(TEAMS)})",
     )
-    parser.add_argument("--episodes", type=int, default=500, help="episodes per cell")
-    parser.add_argument("--workers", type=int, default=2, help="worker processes")
+    parser.add_argument("--episodes", type=int, default=500,
+                        help="episodes per cell, at least 2 (default %(default)s)")
+    parser.add_argument("--workers", type=int, default=2,
+                        help="worker processes (default %(default)s; 1: in this process)")
     parser.add_argument(
         "--out", default=DEFAULT_OUT,
         help=f"folder for opponents.md and gifs/ (default: {DEFAULT_OUT})",
@@ -671,9 +679,11 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--no-gifs", action="store_true", help="write no GIFs")
     parser.add_argument(
         "--sampled", type=int, default=0,
-        help="also tabulate this many members of the parametric family (seed 0)",
+        help="also tabulate this many members of the parametric family (seed 0; default "
+        "%(default)s: none)",
     )
-    parser.add_argument("--sampled-episodes", type=int, default=100, help="episodes per family cell")
+    parser.add_argument("--sampled-episodes", type=int, default=100,
+                        help="episodes per family cell, at least 2 (default %(default)s)")
     parser.add_argument(
         "--drills", type=int, default=DEFAULT_DRILLS,
         help=f"episodes of a cell played at once in the batched drill (default {DEFAULT_DRILLS}; "

@@ -29,7 +29,7 @@ from ilpss.experiments.config import TRAIN_EPISODES, ExperimentConfig
 from ilpss.experiments.drill_facts import TEAM_ERROR, drill_exception, scenario_names
 from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.methods import METHODS
-from ilpss.experiments.outputs import check_utf8, unwritten_report
+from ilpss.experiments.outputs import check_utf8, description, unwritten_report
 from ilpss.experiments.protocols import PROTOCOLS
 from ilpss.experiments.run import JobError, read_config, run_experiment
 from soccer_drill.constraints import check
@@ -59,6 +59,9 @@ def build_config(args: argparse.Namespace) -> ExperimentConfig:
     for role in ("baseline", "featured"):
         if changes.get(role) == "none":
             changes[role] = None
+    repeated = [m for i, m in enumerate(args.methods or ()) if m in args.methods[:i]]
+    if repeated:  # said as the flag: which method, and that each is given once
+        raise ValueError(f"--methods: {repeated[0]!r} is given twice; name each method once")
     methods = changes.get("methods", cfg.methods)
     if args.no_report and "baseline" not in changes and cfg.baseline not in methods:
         changes["baseline"] = None  # an ablation run, compared by ilpss-compare
@@ -73,6 +76,10 @@ def build_config(args: argparse.Namespace) -> ExperimentConfig:
         if key in given:  # as a JSON object's repeated key: which one was meant?
             raise ValueError(f"--set {key} is given twice; give each setting once")
         given.add(key)
+        flag = {"train_episodes": "--episodes", "rollout_episodes": "--rollouts"}.get(key)
+        if flag is not None and key in lifelong:  # which of the two was meant?
+            raise ValueError(f"{flag} {lifelong[key]} and --set {item} both set {key}; give "
+                             "one of them")
         *path, name = key.split(".")  # learner.alpha, library.discount, n_kernels
         target = lifelong
         for part in path:
@@ -99,17 +106,24 @@ def _setting(item: str) -> tuple[str, object]:
 def parser() -> argparse.ArgumentParser:
     """The command-line parser of ``ilpss-experiment``."""
     p = argparse.ArgumentParser(
-        prog="ilpss-experiment", description=__doc__.splitlines()[0],
+        prog="ilpss-experiment", description=description(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__,
     )
-    p.add_argument("--protocol", choices=PROTOCOLS.names())
+    p.add_argument("--protocol", choices=PROTOCOLS.names(),
+                   help="the protocol run (default A, or --config's)")
     p.add_argument("--config", help="a config.json to start from (e.g. to resume a run)")
     p.add_argument("--seeds", type=int, help="number of seeds (default 30)")
-    p.add_argument("--first-seed", type=int)
-    p.add_argument("--episodes", type=int, help="learning episodes per task (default 300)")
-    p.add_argument("--rollouts", type=int, help="greedy rollouts per trial (default 50)")
-    p.add_argument("--stream-length", type=int, help="protocol C: opponents in the stream")
-    p.add_argument("--methods", nargs="+", choices=METHODS.names())
+    p.add_argument("--first-seed", type=int,
+                   help="the first seed; the run uses --seeds seeds from it (default 0)")
+    p.add_argument("--episodes", type=int, help="learning episodes per task (default 300; "
+                   "not with --set train_episodes)")
+    p.add_argument("--rollouts", type=int, help="greedy rollouts per trial (default 50; not "
+                   "with --set rollout_episodes)")
+    p.add_argument("--stream-length", type=int,
+                   help="protocol C: opponents in the stream (default 20)")
+    p.add_argument("--methods", nargs="+", choices=METHODS.names(), metavar="METHOD",
+                   help="the methods run, each once (default: ExperimentConfig's, or --config's); one of "
+                   f"{', '.join(METHODS.names())}")
     p.add_argument("--baseline", metavar="METHOD",
                    help="the method every other is compared with (default scratch: learning "
                    "anew); 'none' for a run without one, which is not reported: give it with "
@@ -132,7 +146,9 @@ def parser() -> argparse.ArgumentParser:
                    "--set library.continuation_exponent=0.5")
     p.add_argument("--workers", type=int,
                    help="parallel jobs (default 2); on a Ray cluster, the most in flight")
-    p.add_argument("--executor", choices=["local", "ray"])
+    p.add_argument("--executor", choices=["local", "ray"],
+                   help="where the jobs run: local (default), worker processes of this "
+                   "machine; ray, a Ray cluster's (see --ray-address)")
     p.add_argument("--ray-address", metavar="ADDRESS",
                    help="with --executor ray: join the running cluster at ADDRESS (default: "
                    "RAY_ADDRESS if set, else start a local Ray instance)")

@@ -228,8 +228,13 @@ def _table(estimates: dict[str, dict[str, metrics.MetricEstimate]],
             interval_text(est[m.name], m.fmt),
             *([f"{adjusted[label, m.name]:.2g}"] if m.name in tested else []))]
         cells.append(f"{reached}/{n}")
-        lines.append(f"| {label} | " + " | ".join(cells) + f" | {used[label]:.1f} |")
+        lines.append(f"| {_cell(label)} | " + " | ".join(cells) + f" | {used[label]:.1f} |")
     return lines
+
+
+def _cell(text: str) -> str:
+    """``text`` as one markdown table cell: its ``|`` escaped, which would end the cell."""
+    return text.replace("|", "\\|")
 
 
 def _best_lines(estimates: dict[str, dict[str, metrics.MetricEstimate]],

@@ -47,7 +47,7 @@ from ilpss._io import FolderInUseError, atomic_write_bytes, canonical_json, json
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.drill_facts import TEAM_ERROR, drill_exception
 from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
-from ilpss.experiments.outputs import check_out_file
+from ilpss.experiments.outputs import check_out_file, description
 from ilpss.experiments.plan import PRIMARY, Plan, Qualify, TestSpec
 from ilpss.experiments.power import PowerReport, plan_power, power_lines
 from ilpss.experiments.provenance import check_one_code, code_line
@@ -300,7 +300,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _main(argv: Sequence[str] | None) -> int:
-    p = argparse.ArgumentParser(prog="ilpss-confirm", description=__doc__.splitlines()[0],
+    p = argparse.ArgumentParser(prog="ilpss-confirm", description=description(__doc__),
                                 formatter_class=argparse.RawDescriptionHelpFormatter,
                                 epilog=__doc__)
     p.add_argument("plan", help="the plan (JSON), committed before the run")

@@ -84,20 +84,25 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 def _main(argv: Sequence[str] | None) -> int:
     parser = argparse.ArgumentParser(prog="ilpss-demo", description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=6)
-    parser.add_argument("--episodes", type=int, default=300)
-    parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--out", default="results/demo")
+    parser.add_argument("--seeds", type=int, default=6,
+                        help="seeds: independent runs of the whole protocol (default %(default)s)")
+    parser.add_argument("--episodes", type=int, default=300,
+                        help="learning episodes per team (default %(default)s)")
+    parser.add_argument("--workers", type=int, default=2,
+                        help="parallel jobs, worker processes (default %(default)s)")
+    parser.add_argument("--out", default="results/demo",
+                        help="the run folder: report.md, the kernels picture, the GIFs and the "
+                        "results, resumed if it holds this run (default %(default)s)")
     args = parser.parse_args(argv)
     command = "ilpss-demo " + shlex.join(sys.argv[1:] if argv is None else list(argv))
-    try:  # the output folder, the configuration and the method shown, before any work
+    try:  # the configuration, the method shown and the output folder, before any work
         check_utf8(args)
         check("--episodes", args.episodes, TRAIN_EPISODES)
-        check_out_dir(args.out)
         cfg = ExperimentConfig(protocol="A", n_seeds=args.seeds, workers=args.workers,
                                methods=demo_methods(), featured="ilpss").with_overrides(
             lifelong={"train_episodes": args.episodes, "rollout_episodes": 30})
         check_showable(RECOMMENDED)
+        check_out_dir(args.out)  # last: it creates the folder
     except ValueError as exc:
         parser.error(str(exc))
     stop_on_sigterm()

@@ -40,7 +40,7 @@ from ilpss.experiments.drill_facts import (
 from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.folder import RunFolder
 from ilpss.experiments.methods import METHODS
-from ilpss.experiments.outputs import check_out_dir, check_utf8
+from ilpss.experiments.outputs import check_out_dir, check_utf8, description
 from ilpss.experiments.provenance import code_line
 from ilpss.experiments.report_figures import plot_comparison
 from ilpss.experiments.report_stats import collect, compare_to_baseline, target_curves
@@ -71,7 +71,7 @@ STEM = "larger_drill"
 def parser() -> argparse.ArgumentParser:
     """The command-line parser of ``ilpss-larger-drill``."""
     p = argparse.ArgumentParser(
-        prog="ilpss-larger-drill", description=__doc__.splitlines()[0],
+        prog="ilpss-larger-drill", description=description(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     p.add_argument("--runs", default="results/larger_drill",
                    help="the run folder (default: results/larger_drill)")

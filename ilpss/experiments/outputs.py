@@ -216,3 +216,10 @@ def written_or_exit(parser: argparse.ArgumentParser, write: Callable[[], None],
     except (ValueError, OSError) as exc:
         parser.exit(1, f"{parser.prog}: error: {exc}\n")
     print(f"wrote {page_path}")
+
+
+def description(doc: str | None) -> str:
+    """A command's ``--help`` description from its module's docstring: the first
+    paragraph, whole (a sentence over two lines is not cut), without reST's literal
+    markup (double backticks)."""
+    return " ".join((doc or "").split("\n\n")[0].split()).replace("``", "")

@@ -41,14 +41,22 @@ from scipy import stats
 
 from ilpss import metrics
 from ilpss._io import atomic_write_bytes, read_json
+from ilpss.experiments.outputs import description
 from ilpss.experiments.plan import Pilot, Plan, Qualify, TestSpec
 from ilpss.experiments.seed_data import SeedData
-from soccer_drill.constraints import JsonObject, check, check_keys
+from soccer_drill.constraints import Integer, JsonObject, check, check_keys, checked
 
 __all__: list[str] = []  # a command (ilpss-power); its entry point names main
 
 SIMULATIONS = 20_000
 TARGET = 0.8
+MAX_SIMULATIONS = 1_000_000
+MAX_DRAWS = 20_000_000
+"""The most simulated seeds of one test (simulated runs x its protocol's seeds): its draws
+are held at once, 8 bytes each (160 MB)."""
+SIMS = Integer(1, MAX_SIMULATIONS)
+SEEDS = Integer(2)
+"""Seeds of a protocol simulated: a t test over paired differences needs at least 2."""
 
 
 @dataclass(frozen=True)
@@ -294,7 +302,51 @@ def _with_pilots(values: dict[str, Any], pilots: Mapping[str, Pilot]) -> dict[st
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Print a plan's power; exit 1 if a candidate is below the plan's required power."""
-    p = argparse.ArgumentParser(prog="ilpss-power", description=__doc__.splitlines()[0],
+    p = _parser()
+    args = p.parse_args(argv)
+    try:
+        sims = checked("--sims", args.sims, SIMS)
+        plan = _read_plan(Path(args.plan))
+    except ValueError as exc:
+        p.error(str(exc))
+    except OSError as exc:
+        p.exit(1, f"{p.prog}: error: {exc}\n")
+    try:
+        seeds = _seed_counts(args.seeds, plan, sims)
+    except ValueError as exc:
+        p.error(str(exc))
+    if args.write and (not (args.pilot or args.pilot_runs or args.pilot_data)
+                       or plan.form < 2):
+        p.error("--write needs --pilot-runs, --pilot-data or --pilot and a plan of the "
+                "current form")
+    try:
+        pilots = read_pilots(Path(args.pilot)) if args.pilot else None
+        if args.pilot_runs or args.pilot_data:
+            runs = [SeedData.from_runs({protocol: Path(folder)}, require_all=False)
+                    for protocol, folder in _pairs(args.pilot_runs, "--pilot-runs")]
+            runs += [SeedData.read(stem) for stem in args.pilot_data]
+            pilots = pilot_figures(plan, runs)
+        report = plan_power(plan, pilots, seeds, sims=sims)
+        print("\n".join(power_lines(plan, report, pilots)))
+        if args.write:
+            assert pilots is not None
+            values = read_json(Path(args.plan))
+            text = json.dumps(_with_pilots(values, pilots), indent=2) + "\n"
+            atomic_write_bytes(Path(args.plan), text.encode())
+            print(f"pilot figures written into {args.plan}")
+    except (ValueError, KeyError, OSError) as exc:
+        p.exit(1, f"{p.prog}: error: {exc}\n")
+    weak = report.below(plan.required_power)
+    if weak:
+        print(f"below the required {plan.required_power:.0%}: {'; '.join(weak)}")
+        return 1
+    return 0
+
+
+def _parser() -> argparse.ArgumentParser:
+    """The command-line parser of ``ilpss-power``."""
+    p = argparse.ArgumentParser(prog="ilpss-power",
+                                description=description(__doc__),
                                 formatter_class=argparse.RawDescriptionHelpFormatter,
                                 epilog=__doc__)
     p.add_argument("plan", help="the plan (JSON)")
@@ -311,38 +363,46 @@ def main(argv: Sequence[str] | None = None) -> int:
                         "\"pilots\": {TEST: {\"effect\": E, \"sd\": S, \"seeds\": N}}} "
                         "(a first-form plan names its tests \"P: METHOD - AGAINST\")")
     p.add_argument("--seeds", nargs="+", default=[], metavar="PROTOCOL=N",
-                   help="simulate N seeds in PROTOCOL instead of the plan's")
+                   help="simulate N seeds in PROTOCOL (one of the plan's protocols) instead "
+                        "of the plan's; N at least 2, as a t test needs")
     p.add_argument("--write", action="store_true",
                    help="write the pilot figures of --pilot-runs into the plan")
     p.add_argument("--sims", type=int, default=SIMULATIONS,
-                   help=f"simulated runs (default {SIMULATIONS:,})")
-    args = p.parse_args(argv)
+                   help=f"simulated runs, from 1 to {MAX_SIMULATIONS:,} (default "
+                        f"{SIMULATIONS:,}); with the most seeds of a protocol, at most "
+                        f"{MAX_DRAWS:,} draws per test, held in memory at once")
+    return p
+
+
+def _read_plan(path: Path) -> Plan:
+    """The plan in ``path``; an error names the file once (:func:`read_json`'s own errors
+    name it already)."""
+    values = read_json(path)
     try:
-        plan = Plan.read(Path(args.plan))
-        pilots = read_pilots(Path(args.pilot)) if args.pilot else None
-        if args.pilot_runs or args.pilot_data:
-            runs = [SeedData.from_runs({protocol: Path(folder)}, require_all=False)
-                    for protocol, folder in _pairs(args.pilot_runs, "--pilot-runs")]
-            runs += [SeedData.read(stem) for stem in args.pilot_data]
-            pilots = pilot_figures(plan, runs)
-        seeds = {k: int(v) for k, v in _pairs(args.seeds, "--seeds")}
-        report = plan_power(plan, pilots, seeds, sims=args.sims)
-        print("\n".join(power_lines(plan, report, pilots)))
-        if args.write:
-            if pilots is None or plan.form < 2:
-                p.error("--write needs --pilot-runs or --pilot-data and a plan of the "
-                        "current form")
-            values = read_json(Path(args.plan))
-            text = json.dumps(_with_pilots(values, pilots), indent=2) + "\n"
-            atomic_write_bytes(Path(args.plan), text.encode())
-            print(f"pilot figures written into {args.plan}")
-    except (ValueError, KeyError, OSError) as exc:
-        p.exit(1, f"{p.prog}: error: {exc}\n")
-    weak = report.below(plan.required_power)
-    if weak:
-        print(f"below the required {plan.required_power:.0%}: {'; '.join(weak)}")
-        return 1
-    return 0
+        return Plan.from_json(values)
+    except (ValueError, TypeError, KeyError) as exc:
+        raise ValueError(f"{path}: {exc}") from exc
+
+
+def _seed_counts(items: Sequence[str], plan: Plan, sims: int) -> dict[str, int]:
+    """``--seeds PROTOCOL=N`` as ``{protocol: N}``, each checked against ``plan``, and the
+    draws of ``sims`` runs at the most seeds checked against :data:`MAX_DRAWS`."""
+    seeds: dict[str, int] = {}
+    for key, value in _pairs(items, "--seeds"):
+        if key not in plan.protocols:
+            raise ValueError(f"--seeds {key}={value}: the plan has no protocol {key!r}; its "
+                             f"protocols: {', '.join(plan.protocols)}")
+        number = int(value) if value.lstrip("-").isdigit() else value
+        seeds[key] = checked(f"--seeds {key}", number, SEEDS,
+                             why="a t test over paired seeds needs at least 2")
+    counts = {p: plan.config(p).n_seeds for p in plan.protocols} | seeds
+    protocol = max(counts, key=counts.__getitem__)
+    if sims * counts[protocol] > MAX_DRAWS:
+        raise ValueError(
+            f"--sims {sims:,} x {counts[protocol]:,} seeds (protocol {protocol}) is "
+            f"{sims * counts[protocol]:,} draws per test, more than the {MAX_DRAWS:,} held "
+            "in memory at once; give fewer --sims or --seeds")
+    return seeds
 
 
 def _pairs(items: Sequence[str], flag: str) -> list[tuple[str, str]]:

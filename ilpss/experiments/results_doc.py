@@ -41,7 +41,7 @@ from ilpss.experiments.drill_facts import (
 )
 from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.folder import RunFolder
-from ilpss.experiments.outputs import check_out_dir, check_utf8, unwritten_report
+from ilpss.experiments.outputs import check_out_dir, check_utf8, description, unwritten_report
 from ilpss.experiments.protocols import PROTOCOLS as PROTOCOLS_REGISTRY
 from ilpss.experiments.provenance import code_line, code_record
 from ilpss.experiments.report import write_report
@@ -70,7 +70,7 @@ DEFAULT_RUNS, DEFAULT_DOCS = "results", "docs"
 def parser() -> argparse.ArgumentParser:
     """The command-line parser of ``ilpss-results``."""
     p = argparse.ArgumentParser(
-        prog="ilpss-results", description=__doc__.splitlines()[0],
+        prog="ilpss-results", description=description(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__,
     )
     p.add_argument("--runs", default=DEFAULT_RUNS,
@@ -119,14 +119,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 def _main(argv: Sequence[str] | None) -> int:
     p = parser()
     args = p.parse_args(argv)
-    try:  # every output and every configuration checked before any work
+    try:  # every input, output and configuration checked before any work or folder
         check_utf8(args)
+        chosen = {protocol: protocol_config(protocol, args) for protocol in args.protocols}
+        kept = _results_data(args.from_data) if args.from_data else None
         runs = check_out_dir(args.runs, "--runs", run_folder=False)
         docs = check_out_dir(args.docs, "--docs", run_folder=False)
         for sub in ("figures", "results", "data"):
             check_out_dir(docs / sub, "--docs", run_folder=False)
-        chosen = {protocol: protocol_config(protocol, args) for protocol in args.protocols}
-        kept = SeedData.read(args.from_data) if args.from_data else None
     except ValueError as exc:
         p.error(str(exc))
     if kept is not None:
@@ -145,6 +145,32 @@ def _main(argv: Sequence[str] | None) -> int:
         p.exit(1, f"{p.prog}: error: {exc}\n")
     folders = {protocol: runs / f"protocol_{protocol.lower()}" for protocol in data.configs}
     return _write_page(p, args, data, folders, docs, runs)
+
+
+def _results_data(stem: str) -> SeedData:
+    """The per-seed numbers ``stem`` of ``--from-data``, refused (``ValueError``) if they
+    cannot be read or are another experiment's: the results page's are protocols of
+    :data:`PAGE`, each with the page's methods in the paper's drill."""
+    try:
+        data = SeedData.read(stem)
+    except OSError as exc:
+        raise ValueError(f"--from-data {stem}: {exc.strerror or exc}"
+                         f"{f' ({exc.filename})' if exc.filename else ''}") from None
+    expected = "protocols A, R, B and C of ilpss-results, as <docs>/data/results holds them"
+    other = [protocol for protocol in data.configs if protocol not in PAGE]
+    if other:
+        raise ValueError(f"--from-data {stem}: another experiment's data: it holds protocol(s) "
+                         f"{', '.join(other)}, which ilpss-results does not run; expected "
+                         f"{expected}")
+    default = ExperimentConfig()
+    for protocol, cfg in data.configs.items():
+        methods = tuple(PAGE[protocol].get("methods", default.methods))
+        if tuple(cfg.methods) != methods or cfg.scenario != default.scenario:
+            raise ValueError(
+                f"--from-data {stem}: another experiment's data: its protocol {protocol} runs "
+                f"{', '.join(cfg.methods)} in {cfg.scenario}, where ilpss-results runs "
+                f"{', '.join(methods)} in {default.scenario}; expected {expected}")
+    return data
 
 
 def _run(p: argparse.ArgumentParser, args: argparse.Namespace,
@@ -354,9 +380,10 @@ def header(cfg: ExperimentConfig, timing: dict[str, Any] | None, command: str | 
     """A protocol's title, what it does, its command, configuration and wall time."""
     protocol = PROTOCOLS_REGISTRY.get(cfg.protocol)
     lc = cfg.lifelong
-    budget = (f"{cfg.n_seeds} seeds, {lc.train_episodes} learning episodes per opponent, "
-              f"{lc.rollout_episodes} greedy rollouts per trial for the traces, "
-              f"{lc.n_kernels} kernels.")
+    budget = (f"{_count(cfg.n_seeds, 'seed')}, "
+              f"{_count(lc.train_episodes, 'learning episode')} per opponent, "
+              f"{_count(lc.rollout_episodes, 'greedy rollout')} per trial for the traces, "
+              f"{_count(lc.n_kernels, 'kernel')}.")
     shown = f"`{command}`" if command else "not expressible as an `ilpss-results` command"
     return [
         f"## Protocol {protocol.name}: {protocol.title}", "", protocol.describe(cfg),
@@ -366,6 +393,11 @@ def header(cfg: ExperimentConfig, timing: dict[str, Any] | None, command: str | 
         f"- Configuration: [`results/{config_name}`](results/{config_name})",
         f"- Wall time: {wall_time(timing)}", "",
     ]
+
+
+def _count(n: int, noun: str) -> str:
+    """``n`` and ``noun``, plural unless ``n`` is 1 ("1 seed", "30 seeds")."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 if __name__ == "__main__":

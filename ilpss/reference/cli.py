@@ -336,18 +336,25 @@ def _learning_page(args: argparse.Namespace) -> Path | None:
 
 def _checked(p: argparse.ArgumentParser, args: argparse.Namespace
              ) -> tuple[dict[str, int], dict[str, Any], Path, Path, Path, Path]:
-    """The seeds, settings and outputs (page, kept jobs, per-seed numbers, figures),
-    every one checked before any is made, and torch found."""
+    """The seeds, settings, teams and outputs (page, kept jobs, per-seed numbers,
+    figures), every one checked, and torch found, before any folder is made."""
     try:
         check_utf8(args)
         seeds = _check_flags(args)
         settings = build_settings(args)
-    except ValueError as exc:
+        import gymnasium as gym
+
+        from ilpss.experiments.drill_facts import ENV_ID
+        for team in args.teams:  # an unknown team: the drill's error, naming the known ones
+            gym.make(ENV_ID, opponent=team, disable_env_checker=True).close()
+        if args.executor == "ray":
+            check_ray_address(args.ray_address)
+    except (ValueError, drill_exception(TEAM_ERROR)) as exc:
         p.error(str(exc))
     try:
         import sb3_contrib  # noqa: F401
         import torch  # noqa: F401
-    except ImportError as exc:  # before any folder is made
+    except ImportError as exc:
         p.error(f"{exc}: the reference runs need torch, Stable-Baselines3 and sb3-contrib: "
                 "pip install -e '.[integrations]'")
     try:
@@ -357,14 +364,7 @@ def _checked(p: argparse.ArgumentParser, args: argparse.Namespace
         figures = check_out_dir(args.figures or out.parent / "figures", "--figures",
                                 run_folder=False)
         keep = check_out_dir(args.keep, "--keep", run_folder=False)
-        import gymnasium as gym
-
-        from ilpss.experiments.drill_facts import ENV_ID
-        for team in args.teams:  # an unknown team: the drill's error, naming the known ones
-            gym.make(ENV_ID, opponent=team, disable_env_checker=True).close()
-        if args.executor == "ray":
-            check_ray_address(args.ray_address)
-    except (ValueError, drill_exception(TEAM_ERROR)) as exc:
+    except ValueError as exc:
         p.error(str(exc))
     return seeds, settings, out, keep, summary, figures
 

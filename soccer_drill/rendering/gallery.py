@@ -8,19 +8,21 @@ Writes ``<docs>/gifs/<team>.gif`` for each team of :data:`GALLERY` (the holder r
 seed ``docs/opponents.md`` shows it with) and ``<docs>/gifs/side_by_side.gif``, the
 README's leading picture (:data:`LEADING`: two rules on the same seed against the paper's
 held-out team). With ``--notebooks`` it also executes ``notebooks/*.ipynb`` in place and
-keeps their outputs (figures and GIFs inline; needs the ``test`` extra's nbclient).
+keeps their outputs (figures and GIFs inline; needs the ``test`` extra's nbclient). Every
+path is checked, and the notebooks' folder and packages, before any GIF is written.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.files import check_output_file
-from soccer_drill.rendering.gif import write_episode_gif
+from soccer_drill.rendering.gif import check_writable_file, stopped_by_ctrl_c, write_episode_gif
 from soccer_drill.rendering.side_by_side import policy_panel, write_side_by_side
 from soccer_drill.teams.registry import TeamError
 
@@ -47,6 +49,7 @@ def write_gallery(docs: Path) -> dict[str, str]:
     gifs = docs / "gifs"
     for name in (*(f"{team}.gif" for team in GALLERY), "side_by_side.gif"):
         check_output_file(gifs / name)
+    check_writable_file(gifs / "side_by_side.gif")
     written = {}
     for team, (rule, seed) in GALLERY.items():
         info = write_episode_gif(gifs / f"{team}.gif", team, seed, rule)
@@ -65,6 +68,19 @@ def without_warnings(notebook) -> None:
         if cell.cell_type == "code":
             cell.outputs = [o for o in cell.outputs
                             if not (o.output_type == "stream" and o.get("name") == "stderr")]
+
+
+def check_notebooks(folder: Path) -> None:
+    """``ValueError`` unless ``folder`` holds every notebook of :data:`NOTEBOOKS` and the
+    packages that execute them are installed: said before any GIF is written."""
+    missing = [name for name in NOTEBOOKS if not (folder / name).is_file()]
+    if missing:
+        raise ValueError(f"--notebooks {str(folder)!r}: no {', '.join(missing)} there; give "
+                         f"the folder holding {', '.join(NOTEBOOKS)} (default notebooks)")
+    absent = [m for m in ("nbformat", "nbclient") if importlib.util.find_spec(m) is None]
+    if absent:
+        raise ValueError(f"--notebooks needs {' and '.join(absent)} (the test extra: pip "
+                         "install -e '.[test]')")
 
 
 def run_notebooks(folder: Path, timeout: float = 900) -> list[Path]:
@@ -92,13 +108,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="soccer-drill-gallery",
                                      description=__doc__.splitlines()[0])
     parser.add_argument("--docs", type=Path, default=Path("docs"),
-                        help="the documentation folder (its gifs/ is written)")
+                        help="the documentation folder, which exists (its gifs/ is written; "
+                        "default %(default)s)")
     parser.add_argument("--notebooks", type=Path, nargs="?", const=Path("notebooks"),
                         default=None, help="also execute the notebooks of this folder "
                         "(default notebooks/) and keep their outputs")
     args = parser.parse_args(argv)
     if not args.docs.is_dir():
         parser.error(f"--docs must name an existing folder, got {str(args.docs)!r}")
+    try:
+        if args.notebooks is not None:
+            check_notebooks(args.notebooks)
+    except ValueError as exc:
+        parser.error(str(exc))
+    with stopped_by_ctrl_c(parser.prog, f"the GIFs written in {args.docs / 'gifs'} so far "
+                           "are kept (each whole), and the notebooks executed so far"):
+        return _write(parser, args)
+
+
+def _write(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+    """The gallery's GIFs, then the notebooks asked for; 1 on a failing write or team."""
     try:
         written = write_gallery(args.docs)
     except ValueError as exc:  # a path that cannot be written, found before any episode

@@ -5,17 +5,20 @@ Command line::
     soccer-drill-gif --team chasers --seed 0 --policy pass_first -o episode.gif
 
 One frame per 0.1 s cycle, played at true speed (``--fps`` defaults to the
-environment's ``render_fps``). The output path, the team and ``--fps`` are checked
-before the episode is played.
+environment's ``render_fps``). The output path (its folder must take a new file), the
+team and ``--fps`` are checked before the episode is played. Ctrl-C stops the command
+with one line and status 130, the shell's for ``SIGINT``.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import io
 import os
 import sys
-from collections.abc import Callable, Sequence
+import tempfile
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -103,6 +106,40 @@ def save_gif(frames: Sequence[np.ndarray], path: str | os.PathLike, fps: float =
     return path
 
 
+def check_writable_file(path: str | os.PathLike) -> Path:
+    """``path`` checked by :func:`check_output_file`, and its folder (the nearest one that
+    exists) shown to take a new file by creating and removing one: a folder the
+    permissions call writable may still refuse files (``/proc``, a read-only mount).
+    ``ValueError`` naming the folder otherwise."""
+    out = check_output_file(path)
+    folder = out.parent
+    while not folder.exists():
+        folder = folder.parent
+    try:
+        fd, probe = tempfile.mkstemp(prefix=f".{out.name}.", suffix=".probe", dir=folder)
+    except OSError as exc:
+        raise ValueError(f"cannot write {os.fspath(path)!r}: the folder {str(folder)!r} "
+                         f"takes no new file ({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(probe)
+    return out
+
+
+EXIT_CTRL_C = 130
+"""The status of a command stopped by Ctrl-C: the shell's for ``SIGINT`` (128 + 2)."""
+
+
+@contextlib.contextmanager
+def stopped_by_ctrl_c(prog: str, kept: str) -> Iterator[None]:
+    """Around a command's work: Ctrl-C ends it with one line on stderr (``kept`` says
+    what of its output is kept) and :data:`EXIT_CTRL_C`, not a traceback."""
+    try:
+        yield
+    except KeyboardInterrupt:
+        print(f"{prog}: stopped by Ctrl-C (SIGINT); {kept}", file=sys.stderr)
+        raise SystemExit(EXIT_CTRL_C) from None
+
+
 def record_episode(
     env: HolderEnv,
     policy: HolderPolicy | Callable[[np.ndarray, np.random.Generator], int],
@@ -135,10 +172,10 @@ def write_episode_gif(
 ) -> dict:
     """Play one holder episode against ``team`` and write it to ``path``; return its info.
 
-    ``fps=None`` plays it at true speed (the environment's ``render_fps``). The path and
-    ``fps`` are checked before the episode is played.
+    ``fps=None`` plays it at true speed (the environment's ``render_fps``). The path (by
+    :func:`check_writable_file`) and ``fps`` are checked before the episode is played.
     """
-    check_output_file(path)
+    check_writable_file(path)
     holder_policy = get_policy(policy) if isinstance(policy, str) else policy
     env = HolderEnv(opponent=team, **env_kwargs)
     env.policy_name = policy_label(policy)
@@ -187,13 +224,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Command-line entry point ``soccer-drill-gif``."""
     parser = argparse.ArgumentParser(prog="soccer-drill-gif", description=__doc__.splitlines()[0])
     parser.add_argument("--team", default="chasers", choices=team_ids(), metavar="TEAM",
-                        help="opponent team id (soccer-drill-teams lists them)")
-    parser.add_argument("--seed", type=seed_argument, default=0)
-    parser.add_argument("--policy", default="pass_first", choices=sorted(HOLDER_POLICIES))
+                        help="opponent team id (soccer-drill-teams lists them; default "
+                        "%(default)s)")
+    parser.add_argument("--seed", type=seed_argument, default=0,
+                        help="the episode's seed, an integer >= 0: the same seed plays the "
+                        "same episode (default %(default)s)")
+    parser.add_argument("--policy", default="pass_first", choices=sorted(HOLDER_POLICIES),
+                        help="the fixed holder rule deciding for the attackers (default "
+                        "%(default)s)")
     parser.add_argument("--fps", type=fps_argument, default=None,
                         help=f"frames per second in [{FPS_RANGE[0]}, {FPS_RANGE[1]}] "
                         "(default: true speed, one frame per 0.1 s cycle)")
-    parser.add_argument("-o", "--output", default="episode.gif", help="the GIF file to write")
+    parser.add_argument("-o", "--output", default="episode.gif",
+                        help="the .gif file to write (default %(default)s)")
     args = parser.parse_args(argv)
     try:
         check_output_file(args.output)
@@ -202,7 +245,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     if Path(args.output).suffix.lower() != ".gif":  # the bytes written are a GIF's
         parser.error(f"-o/--output must name a .gif file, got {args.output!r}")
     try:
-        info = write_episode_gif(args.output, args.team, args.seed, args.policy, args.fps)
+        check_writable_file(args.output)
+    except ValueError as exc:
+        parser.error(str(exc))
+    try:
+        with stopped_by_ctrl_c(parser.prog, f"{args.output} is not written"):
+            info = write_episode_gif(args.output, args.team, args.seed, args.policy, args.fps)
     except (OSError, TeamError) as exc:  # a full disk, a failing team: said in one line
         print(f"{parser.prog}: error: {exc}", file=sys.stderr)
         return 1

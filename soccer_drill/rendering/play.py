@@ -37,6 +37,11 @@ action mask: a ball action off the ball, an off-ball action holding it) is refus
 message naming the legal keys, and the drill goes on waiting. The window's title names whom
 you play and the keys; its header, the legal keys now.
 
+The command needs a display: with none (on Linux neither ``DISPLAY`` nor ``WAYLAND_DISPLAY``
+set, or SDL's video driver ``dummy`` or ``offscreen``, which show no window) it says so and
+exits with status 1 instead of waiting for keys no one can press. Ctrl-C stops it with one
+line and status 130.
+
 The score (episodes won, their number, the total reward) is kept over the episodes, shown
 in the header and printed after each episode. Episode ``k`` is played on seed ``seed + k``,
 so a session can be replayed against the same starts: the same seed and the same keys give
@@ -66,6 +71,8 @@ NEXT_KEYS = frozenset({pygame.K_SPACE, pygame.K_RETURN})
 QUIT_KEYS = frozenset({pygame.K_ESCAPE, pygame.K_q})
 NEXT = "Space: next episode, Esc: stop"
 EPISODES = NoneOr(Integer(1))
+HEADLESS_DRIVERS = frozenset({"dummy", "offscreen"})
+"""SDL video drivers that show no window: keys cannot be pressed in one."""
 
 
 @dataclass
@@ -125,13 +132,20 @@ def play(setup: PlaySetup | str = "goal_guards", episodes: int | None = None, se
     in a window until ``episodes`` are over (``None``: until you stop); return the score.
     ``keys``: pygame key codes pressed in turn whenever the session waits for one (a
     scripted session, e.g. headless under SDL's dummy video driver), ``Esc`` once they
-    run out."""
+    run out. Without ``keys``, ``ValueError`` if no window can be shown here (no display,
+    or a driver that shows none): the session would wait for keys no one can press."""
     if isinstance(setup, str):
         setup = PlaySetup(team=setup)
     episodes = checked("episodes", episodes, EPISODES)
     script = None if keys is None else iter(keys)
     control = CONTROLS[setup.control](setup)
     env = control.env
+    if script is None:  # someone must press the keys, in a window they can see
+        try:
+            _check_display()
+        except ValueError:
+            env.close()
+            raise
     score = Score()
     try:
         while episodes is None or score.episodes < episodes:
@@ -160,6 +174,34 @@ def play(setup: PlaySetup | str = "goal_guards", episodes: int | None = None, se
     finally:
         env.close()
     return score
+
+
+def no_display() -> str | None:
+    """Why no window can be shown here, or ``None``: SDL's video driver set to one that
+    shows none, or on Linux with SDL's driver left to choose, no X11 or Wayland display
+    (SDL would fall back to its ``offscreen`` driver)."""
+    driver = os.environ.get("SDL_VIDEODRIVER", "").strip().lower()
+    if driver in HEADLESS_DRIVERS:
+        return f"SDL_VIDEODRIVER={driver} shows no window"
+    if not driver and sys.platform.startswith("linux") and not (
+            os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        return "no display: neither DISPLAY nor WAYLAND_DISPLAY is set"
+    return None
+
+
+def _check_display() -> None:
+    """``ValueError`` if no window can be shown (:func:`no_display`, or SDL's driver once
+    started is one that shows none): the drill would wait for keys no one can press."""
+    why = no_display()
+    if why is None:
+        pygame.display.init()
+        driver = pygame.display.get_driver()
+        if driver in HEADLESS_DRIVERS:
+            pygame.display.quit()
+            why = f"SDL found no display and chose its {driver} driver, which shows no window"
+    if why is not None:
+        raise ValueError(f"{why}; soccer-drill-play needs a display to show the drill and "
+                         "read your keys (run it in a desktop session, or with ssh -X)")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -197,10 +239,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         setup = PlaySetup(team=args.team, control=args.control, scenario=args.scenario,
                           player=args.player,
                           attack=args.attack, decision_cycles=args.decision_cycles)
+        checked("--episodes", args.episodes, EPISODES)
         score = play(setup, args.episodes, args.seed)
     except (TeamError, ValueError, pygame.error) as exc:
         print(f"{parser.prog}: error: {exc}", file=sys.stderr)
         return 1
+    except KeyboardInterrupt:  # one line and the shell's status for SIGINT
+        print(f"{parser.prog}: stopped by Ctrl-C (SIGINT); the finished episodes' results "
+              "are printed above", file=sys.stderr)
+        return 130
     print(f"final {score}")
     return 0
 

@@ -30,7 +30,15 @@ from soccer_drill.constraints import ListOf, Text, checked
 from soccer_drill.envs.holder import HolderEnv
 from soccer_drill.files import check_output_file
 from soccer_drill.policies import HOLDER_POLICIES, get_policy
-from soccer_drill.rendering.gif import FPS_RANGE, check_fps, fps_argument, save_gif, seed_argument
+from soccer_drill.rendering.gif import (
+    FPS_RANGE,
+    check_fps,
+    check_writable_file,
+    fps_argument,
+    save_gif,
+    seed_argument,
+    stopped_by_ctrl_c,
+)
 from soccer_drill.teams.registry import TeamError, team_ids
 
 LINGER = 8
@@ -127,11 +135,15 @@ def write_side_by_side(path: str | os.PathLike, panels: Sequence[Panel],
                        make_env: Callable[[], gym.Env], seeds: Sequence[int],
                        fps: float = 10) -> Path:
     """Play every seed with every panel and write the panels side by side to ``path``
-    (``.gif``, or ``.mp4`` with moviepy); the path and ``fps`` are checked before any
-    episode is played."""
+    (``.gif``, or ``.mp4`` with moviepy); the path (by
+    :func:`~soccer_drill.rendering.gif.check_writable_file`), ``fps`` and, for an MP4, its
+    writer are checked before any episode is played."""
     path = check_output_file(path)
     if path.suffix.lower() not in SUFFIXES:
         raise ValueError(f"path must end in one of {SUFFIXES}, got {str(path)!r}")
+    if path.suffix.lower() == ".mp4":
+        _mp4_writer()
+    path = check_writable_file(path)
     fps = check_fps(fps)
     checked("panel labels", [p.label for p in panels], ListOf(Text(), min_len=2))
     if not seeds:
@@ -144,15 +156,21 @@ def write_side_by_side(path: str | os.PathLike, panels: Sequence[Panel],
     return save_gif(frames, path, fps)
 
 
-def _write_mp4(frames: Sequence[np.ndarray], path: Path, fps: float) -> Path:
-    """Every frame into an H.264 MP4 (imageio-ffmpeg, which the video extra's moviepy
-    brings; moviepy's own writer drops a clip's last frame). H.264's usual pixel format
-    needs even sides: frames with an odd one get a dark row or column more."""
+def _mp4_writer() -> Any:
+    """The module writing MP4s (imageio-ffmpeg), else ``ValueError`` saying how to get it."""
     try:
         import imageio_ffmpeg
     except ImportError:
         raise ValueError("an MP4 needs the video extra, moviepy and imageio-ffmpeg (pip "
                          "install -e '.[video]'); write a .gif instead") from None
+    return imageio_ffmpeg
+
+
+def _write_mp4(frames: Sequence[np.ndarray], path: Path, fps: float) -> Path:
+    """Every frame into an H.264 MP4 (imageio-ffmpeg, which the video extra's moviepy
+    brings; moviepy's own writer drops a clip's last frame). H.264's usual pixel format
+    needs even sides: frames with an odd one get a dark row or column more."""
+    imageio_ffmpeg = _mp4_writer()
     height, width = frames[0].shape[:2]
     if height % 2 or width % 2:
         pad = ((0, height % 2), (0, width % 2), (0, 0))
@@ -180,15 +198,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="soccer-drill-side-by-side",
                                      description=__doc__.splitlines()[0])
     parser.add_argument("--team", default="goal_guards", choices=team_ids(), metavar="TEAM",
-                        help="the defending team (soccer-drill-teams lists them)")
+                        help="the defending team (soccer-drill-teams lists them; default "
+                        "%(default)s)")
     parser.add_argument("--policy", action="append", choices=sorted(HOLDER_POLICIES),
                         help="a holder policy, one panel each (at least two)")
     parser.add_argument("--seeds", type=seed_argument, nargs="+", default=[0],
-                        help="the episode seeds every panel plays, in turn")
+                        help="the episode seeds every panel plays, in turn (default 0)")
     parser.add_argument("--fps", type=fps_argument, default=10,
-                        help=f"frames per second in [{FPS_RANGE[0]}, {FPS_RANGE[1]}]")
+                        help=f"frames per second in [{FPS_RANGE[0]}, {FPS_RANGE[1]}] "
+                        "(default %(default)s, true speed)")
     parser.add_argument("-o", "--output", default="side_by_side.gif",
-                        help="the .gif (or .mp4, with moviepy) to write")
+                        help="the .gif (or .mp4, with moviepy) to write (default "
+                        "%(default)s)")
     args = parser.parse_args(argv)
     if not args.policy or len(args.policy) < 2:
         parser.error("name at least two policies (--policy A --policy B)")
@@ -196,12 +217,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         check_output_file(args.output)
         if Path(args.output).suffix.lower() not in SUFFIXES:
             raise ValueError(f"-o/--output must end in one of {SUFFIXES}, got {args.output!r}")
+        check_writable_file(args.output)
     except ValueError as exc:
         parser.error(str(exc))
     try:
-        write_side_by_side(args.output, [policy_panel(p) for p in args.policy],
-                           lambda: HolderEnv(opponent=args.team, render_mode="rgb_array_list"),
-                           args.seeds, args.fps)
+        with stopped_by_ctrl_c(parser.prog, f"{args.output} is not written"):
+            write_side_by_side(args.output, [policy_panel(p) for p in args.policy],
+                               lambda: HolderEnv(opponent=args.team,
+                                                 render_mode="rgb_array_list"),
+                               args.seeds, args.fps)
     except (OSError, TeamError, ValueError) as exc:
         print(f"{parser.prog}: error: {exc}", file=sys.stderr)
         return 1
