@@ -316,3 +316,21 @@ def test_ctrl_c_stops_play_in_one_line(monkeypatch, capsys):
     assert play.main([]) == 130
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "stopped by Ctrl-C" in err
+
+
+def test_confirm_names_a_plan_that_is_not_json_once(tmp_path, capsys):
+    # before, "episode.gif: episode.gif: not valid JSON"
+    from ilpss.experiments import confirm
+
+    plan = tmp_path / "episode.gif"
+    plan.write_bytes(b"GIF89a")
+    with pytest.raises(SystemExit):
+        confirm.main([str(plan), "--runs", str(tmp_path / "r")])
+    err = capsys.readouterr().err
+    assert err.count(str(plan)) == 1 and "not valid JSON" in err
+
+
+def test_counts_in_report_titles_are_singular_for_one():
+    from ilpss.experiments.report_text import counted
+
+    assert [counted(n, "seed") for n in (0, 1, 2)] == ["0 seeds", "1 seed", "2 seeds"]

@@ -327,8 +327,9 @@ class Plan:
     @classmethod
     def read(cls, path: Path) -> Plan:
         """The plan in ``path``, checked whole (errors name the file)."""
+        values = read_json(path)  # its errors name the file already
         try:
-            return cls.from_json(read_json(path))
+            return cls.from_json(values)
         except (ValueError, TypeError, KeyError) as exc:
             raise ValueError(f"{path}: {exc}") from exc
 

@@ -29,7 +29,7 @@ from ilpss.experiments.report_bodies import (
     protocol_a_sections,
     target_sections,
 )
-from ilpss.experiments.report_text import metrics_note, success_lines
+from ilpss.experiments.report_text import counted, metrics_note, success_lines
 
 __all__ = ["REPORT_BODIES", "register_report_body", "write_report"]
 
@@ -50,8 +50,8 @@ def write_report(
         command = "ilpss-experiment " + " ".join(shlex.quote(a) for a in sys.argv[1:]) \
             if Path(sys.argv[0]).name == "ilpss-experiment" else "(from Python)"
     lines = [
-        f"# Protocol {cfg.protocol}: {cfg.n_seeds} seeds, "
-        f"{cfg.lifelong.train_episodes} learning episodes per opponent",
+        f"# Protocol {cfg.protocol}: {counted(cfg.n_seeds, 'seed')}, "
+        f"{counted(cfg.lifelong.train_episodes, 'learning episode')} per opponent",
         "",
         f"Command: `{command}`; configuration: [`config.json`](config.json).",
         "",

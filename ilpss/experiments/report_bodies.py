@@ -41,6 +41,7 @@ from ilpss.experiments.report_stats import (
 )
 from ilpss.experiments.report_text import (
     ENDPOINT_LABELS,
+    counted,
     dip_lines,
     headline_table,
     label,
@@ -76,7 +77,7 @@ def pooled_lines(curve_sets: Sequence[dict[str, np.ndarray]], baseline: str, epi
         *pairwise_lines(pool(curve_sets), baseline, family=METHOD_PAIRS_FAMILY),
         "Paired probability of improvement: the share of seeds on which the method's pooled "
         "value beats the baseline's (ties count one half), with a two-sided sign test and "
-        f"a Wilcoxon signed-rank test over the {n_seeds} seeds (descriptive):", "",
+        f"a Wilcoxon signed-rank test over the {counted(n_seeds, 'seed')} (descriptive):", "",
     ]
     for method, tests in seed_improvements(curve_sets, baseline).items():
         cells = []
@@ -91,7 +92,7 @@ def pooled_lines(curve_sets: Sequence[dict[str, np.ndarray]], baseline: str, epi
     scores = run_scores(curve_sets, baseline)
     n_runs = len(next(iter(next(iter(scores.values())).values())))
     plot_score_profiles(scores, figure, title=f"Score distributions over {n_runs} runs "
-                        f"({n_seeds} seeds x {len(curve_sets)}), against the baseline")
+                        f"({counted(n_seeds, 'seed')} x {len(curve_sets)}), against the baseline")
     lines += ["", f"![score distributions]({figure_link})", "",
               f"Score distributions over the {n_runs} runs (one per seed and comparison): "
               "for each value on the x axis, the share of runs whose score is larger. A curve "

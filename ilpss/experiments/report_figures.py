@@ -22,7 +22,7 @@ from ilpss.experiments.report_stats import (
     target_curves,
     windows,
 )
-from ilpss.experiments.report_text import ENDPOINT_LABELS, label
+from ilpss.experiments.report_text import ENDPOINT_LABELS, counted, label
 from ilpss.plots import curve_style, legend_below, plot_learning_curves
 
 
@@ -74,7 +74,8 @@ def plot_held_out_panels(
     for ax in axes[::ncols]:
         ax.set_ylabel(f"reward (trailing mean over {window})")
     n_seeds = len(next(iter(curves.values())))
-    fig.suptitle(f"Learning against each held-out team ({n_seeds} seeds)", fontsize=11)
+    fig.suptitle(f"Learning against each held-out team ({counted(n_seeds, 'seed')})",
+                 fontsize=11)
     legend_below(fig, list(handles.values()), [label(m) for m in handles], most_columns=4)
     return save_figure(fig, path, dpi=110)
 

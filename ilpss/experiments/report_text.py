@@ -41,6 +41,11 @@ from ilpss.experiments.report_stats import (
 )
 
 
+def counted(n: int, noun: str) -> str:
+    """``n`` and ``noun``, plural unless ``n`` is 1 ("1 seed", "30 seeds")."""
+    return f"{n} {noun}{'' if n == 1 else 's'}"
+
+
 def label(method: str) -> str:
     """How reports call a method: its registered label, else its name."""
     return METHODS.get(method).label if method in METHODS else method

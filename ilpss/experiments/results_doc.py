@@ -45,7 +45,7 @@ from ilpss.experiments.outputs import check_out_dir, check_utf8, description, un
 from ilpss.experiments.protocols import PROTOCOLS as PROTOCOLS_REGISTRY
 from ilpss.experiments.provenance import code_line, code_record
 from ilpss.experiments.report import write_report
-from ilpss.experiments.report_text import doc_reference, label, metrics_note
+from ilpss.experiments.report_text import counted, doc_reference, label, metrics_note
 from ilpss.experiments.run import JobError, load_result, read_config, run_experiment
 from ilpss.experiments.sections import page_section
 from ilpss.experiments.seed_data import SeedData
@@ -380,10 +380,10 @@ def header(cfg: ExperimentConfig, timing: dict[str, Any] | None, command: str | 
     """A protocol's title, what it does, its command, configuration and wall time."""
     protocol = PROTOCOLS_REGISTRY.get(cfg.protocol)
     lc = cfg.lifelong
-    budget = (f"{_count(cfg.n_seeds, 'seed')}, "
-              f"{_count(lc.train_episodes, 'learning episode')} per opponent, "
-              f"{_count(lc.rollout_episodes, 'greedy rollout')} per trial for the traces, "
-              f"{_count(lc.n_kernels, 'kernel')}.")
+    budget = (f"{counted(cfg.n_seeds, 'seed')}, "
+              f"{counted(lc.train_episodes, 'learning episode')} per opponent, "
+              f"{counted(lc.rollout_episodes, 'greedy rollout')} per trial for the traces, "
+              f"{counted(lc.n_kernels, 'kernel')}.")
     shown = f"`{command}`" if command else "not expressible as an `ilpss-results` command"
     return [
         f"## Protocol {protocol.name}: {protocol.title}", "", protocol.describe(cfg),
@@ -393,11 +393,6 @@ def header(cfg: ExperimentConfig, timing: dict[str, Any] | None, command: str | 
         f"- Configuration: [`results/{config_name}`](results/{config_name})",
         f"- Wall time: {wall_time(timing)}", "",
     ]
-
-
-def _count(n: int, noun: str) -> str:
-    """``n`` and ``noun``, plural unless ``n`` is 1 ("1 seed", "30 seeds")."""
-    return f"{n} {noun}{'' if n == 1 else 's'}"
 
 
 if __name__ == "__main__":

@@ -42,6 +42,7 @@ from ilpss.experiments.report_text import (
     ENDPOINT_LABELS,
     comparison_head,
     comparison_row,
+    counted,
     dip_lines,
     headline_table,
     interval_text,
@@ -97,7 +98,7 @@ def section_a(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Pa
     estimates = stream_estimates(table, cfg.baseline)[stream]
     if comparable(curves, cfg.baseline):
         lines += ["### Verdicts", "", *verdict_lines(estimates, cfg.lifelong.train_episodes), "",
-                  *headline_table(estimates, f"{cfg.n_seeds} seeds"), "",
+                  *headline_table(estimates, counted(cfg.n_seeds, "seed")), "",
                   *dip_lines(curves, cfg.baseline),
                   *pairwise_lines(curves, cfg.baseline, family=METHOD_PAIRS_FAMILY)]
     else:
@@ -279,8 +280,8 @@ def section_b(cfg: ExperimentConfig, results: list[dict], folder: Path, docs: Pa
         for stream in table:
             lines.append(comparison_row(stream, per_stream[stream][method]))
         lines.append("")
-    lines.append(f"Unadjusted 95% intervals over the {cfg.n_seeds} seeds of each of the {n} "
-                 "streams; the pooled rows are the verdicts above.")
+    lines.append(f"Unadjusted 95% intervals over the {counted(cfg.n_seeds, 'seed')} of each of "
+                 f"the {counted(n, 'stream')}; the pooled rows are the verdicts above.")
     per_stream_curves = {i: target_curves(methods) for i, methods in enumerate(table.values())}
     return [*lines, "", *per_target_dips(per_stream_curves, list(table), cfg.baseline)]
 
