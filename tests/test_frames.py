@@ -167,3 +167,28 @@ def test_gymnasiums_vector_rendering_wrappers_take_the_batched_drills_frame_rate
     HumanRendering(envs)  # refused without render_fps (drawing needs opencv, not a test extra)
     agents = ParallelVectorEnv(num_envs=2, config=config)
     assert agents.metadata["render_fps"] == soccer_drill.parallel_env(config=config).metadata["render_fps"]
+
+
+def test_a_long_header_is_fitted_to_the_frame(monkeypatch):
+    # before, a long policy label ran off the frame ("... values bounded, trac")
+    drawn = []
+    original = draw.Renderer._text
+
+    def text(self, words, at, font=None, *args, **kwargs):
+        width = original(self, words, at, font, *args, **kwargs)
+        drawn.append((words, at[0] + width))
+        return width
+
+    monkeypatch.setattr(draw.Renderer, "_text", text)
+    env = soccer_drill.HolderEnv(opponent="goal_guards", render_mode="rgb_array")
+    env.reset(seed=0)
+    env.policy_name = ("whole past policies, ILPSS-FT's settings, values bounded, tracing "
+                       "the options it learnt, greedy")
+    frame = env.render()
+    header = [(words, right) for words, right in drawn if words.startswith("team ")]
+    assert header and header[-1][0].endswith("...") and "policy whole past" in header[-1][0]
+    assert all(right <= frame.shape[1] - 8 for _, right in drawn)
+    env.policy_name = "pass_first"  # a short one is drawn whole, as before
+    drawn.clear()
+    env.render()
+    assert any(words == "team goal_guards   policy pass_first" for words, _ in drawn)

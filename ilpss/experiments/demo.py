@@ -205,7 +205,8 @@ def agent_lines(cfg: ExperimentConfig, folder: RunFolder) -> list[str]:
                             label=f"{label(RECOMMENDED)}, greedy")
     which = (f"the first success among environment seeds 0-{GIF_EPISODES - 1} (seed "
              f"{shown['seed']}; {len(wins)} of {GIF_EPISODES} succeed)" if wins else
-             f"no episode of environment seeds 0-{GIF_EPISODES - 1} succeeds: seed 0")
+             f"environment seed 0 (none of environment seeds 0-{GIF_EPISODES - 1} "
+             "succeeds)")
     options = ", ".join(str(o) for o in gif["options"]) or "none"
     # Learning anew's first learning episode on the target, exactly as it was played.
     assert cfg.baseline is not None  # the demo's configuration has learning anew
@@ -242,8 +243,9 @@ def agent_lines(cfg: ExperimentConfig, folder: RunFolder) -> list[str]:
             f"- Right: learning anew's first learning episode against `{held_out}` (seed "
             f"{seed}, the first point of its curve): {fresh['outcome']}, reward "
             f"{fresh['reward']:+.2f}.",
-            "- Under the field: the action and, when one runs, the option (its kernel and "
-            "the task its policy was learnt on).", ""]
+            "- Under the field of these two (not of the side-by-side one): the action and, "
+            "when one runs, the option (its kernel and the task its policy was learnt on).",
+            ""]
 
 
 if __name__ == "__main__":

@@ -238,12 +238,27 @@ class Renderer:
             words.append(f"policy {scene.policy}")
         if scene.score:
             words.append(scene.score)
-        self._text("   ".join(words) or "soccer drill", (8, 5))
+        width = self.size[0] - 16
+        title, face = self._fitted("   ".join(words) or "soccer drill", width, self._font)
+        self._text(title, (8, 5), face)
         left = max(0, cfg.max_cycles - state.cycle) * cfg.cycle_seconds
         line = f"cycle {state.cycle}/{cfg.max_cycles}   {left:.1f} s left"
         if scene.caption:
             line += f"   {scene.caption}"
-        self._text(line, (8, 26), self._small)
+        text, _ = self._fitted(line, width, self._small)
+        self._text(text, (8, 26), self._small)
+
+    def _fitted(self, text: str, width: int, font: pygame.font.Font
+                ) -> tuple[str, pygame.font.Font]:
+        """``text`` and a font that draw it within ``width`` pixels: ``font``, else the
+        small one, else the small one with the text cut short and ``...`` (a long team or
+        policy name runs off the frame otherwise)."""
+        for face in dict.fromkeys((font, self._small)):
+            if face.size(text)[0] <= width:
+                return text, face
+        while text and self._small.size(text + "...")[0] > width:
+            text = text[:-1]
+        return text.rstrip() + "...", self._small
 
     def _legend(self) -> None:
         s, y = self._surface, self.size[1] - LEGEND
