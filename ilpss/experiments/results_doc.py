@@ -123,7 +123,9 @@ def _main(argv: Sequence[str] | None) -> int:
         check_utf8(args)
         chosen = {protocol: protocol_config(protocol, args) for protocol in args.protocols}
         kept = _results_data(args.from_data) if args.from_data else None
-        runs = check_out_dir(args.runs, "--runs", run_folder=False)
+        # the page from kept numbers runs nothing: no folder of runs is made for it
+        runs = Path(args.runs) if kept is not None else check_out_dir(
+            args.runs, "--runs", run_folder=False)
         docs = check_out_dir(args.docs, "--docs", run_folder=False)
         for sub in ("figures", "results", "data"):
             check_out_dir(docs / sub, "--docs", run_folder=False)
