@@ -375,3 +375,12 @@ def test_every_drills_observation_lies_in_its_observation_space():
             for row in range(3):
                 one = {key: array[row] for key, array in value.items()}
                 assert space.contains(one), (agent, one)
+
+
+def test_the_batched_agents_count_their_agents_as_parallel_env_does():
+    # before, ParallelVectorEnv had none of PettingZoo's num_agents and max_num_agents
+    batched, single = ParallelVectorEnv(2), soccer_drill.parallel_env()
+    single.reset(seed=0)
+    batched.reset(seed=0)
+    assert (batched.num_agents, batched.max_num_agents) == (single.num_agents,
+                                                            single.max_num_agents) == (4, 4)

@@ -248,6 +248,16 @@ class ParallelVectorEnv(Pickled):
         and ``pickle`` give (the single environments' ``copy.copy`` does the same)."""
         return copy.deepcopy(self)
 
+    @property
+    def num_agents(self) -> int:
+        """How many agents act in every drill (PettingZoo's ``ParallelEnv.num_agents``)."""
+        return len(self.agents)
+
+    @property
+    def max_num_agents(self) -> int:
+        """How many agents there can be (PettingZoo's ``max_num_agents``)."""
+        return len(self.possible_agents)
+
     def observation_space(self, agent: str) -> spaces.Dict:
         """One drill's observation space of ``agent``: ``Dict`` of ``"observation"`` (the
         features ``Box``) and ``"action_mask"``, as ``parallel_env``'s and as every
