@@ -205,3 +205,16 @@ def test_an_exploiter_share_outside_its_range_is_refused(share):
     from ilpss.reference.settings import SelfPlaySetting
     with pytest.raises(ValueError, match=r"exploiter_share must be .*got"):
         SelfPlaySetting(exploiter_share=share)
+
+
+def test_progress_past_the_budget_leaves_no_negative_time(capsys):
+    # before, a job whose last rollout passed its budget printed "about -0.0 min of
+    # training left"
+    from ilpss.reference.jobs import _progress
+
+    job = cli.make_jobs({"ppo": cli.SETTINGS["ppo"]}, ["chasers"], {"ppo": 1},
+                        cli.EvalSettings(episodes=10))[0]
+    report = _progress(job, 1)
+    report(20_480, 20_000)
+    line = capsys.readouterr().err
+    assert "20,000 of 20,000 steps" in line and "about 0.0 min of training left" in line

@@ -164,3 +164,30 @@ def test_a_copy_is_independent_and_continues_every_drill_bit_for_bit(how):
     assert duplicate.venv is not original.venv
     copied = _played(duplicate, 2)
     assert _played(original, 2) == copied  # not moved by the copy's steps
+
+
+def test_timeout_terminal_reports_the_drills_timeout_as_an_end_not_a_cut():
+    # before, the adapter always reported the timeout (which pays -1) as a truncation,
+    # which SB3 bootstraps, and had no way to say otherwise
+    def timeouts(**kwargs):
+        venv = HolderSB3VecEnv(num_envs=4, opponent="goal_guards", **kwargs)
+        venv.seed(0)
+        venv.reset()
+        seen = []
+        for _ in range(300):  # always HOLD: the episodes time out
+            _, rewards, dones, infos = venv.step(np.zeros(4, dtype=np.int64))
+            seen += [(float(rewards[i]), infos[i]["outcome"], infos[i]["TimeLimit.truncated"])
+                     for i in np.flatnonzero(dones)]
+        return [s for s in seen if s[1] == "timeout"]
+
+    assert timeouts() and all(cut for _, _, cut in timeouts())
+    ended = timeouts(timeout_terminal=True)
+    assert ended and all(r == -1.0 and not cut for r, _, cut in ended)
+    cut = HolderSB3VecEnv(num_envs=2, opponent="goal_guards", timeout_terminal=True,
+                          max_episode_steps=2)
+    cut.reset()
+    _, _, dones, infos = cut.step(np.zeros(2, dtype=np.int64))
+    _, _, dones, infos = cut.step(np.zeros(2, dtype=np.int64))
+    assert dones.all() and all(i["TimeLimit.truncated"] for i in infos)  # a cut stays one
+    with pytest.raises(ValueError, match="timeout_terminal"):
+        HolderSB3VecEnv(num_envs=2, timeout_terminal="yes")

@@ -130,7 +130,7 @@ def _progress(job: Job, total: int) -> Callable[[int, int], None]:
             return
         shown[0] = tenth
         took = time.perf_counter() - start
-        left = took * (budget - done) / done
+        left = took * max(budget - done, 0) / done  # whole rollouts may pass the budget
         print(f"  {job.label}: {min(done, budget):,} of {budget:,} steps in {took / 60:.1f} "
               f"min, about {left / 60:.1f} min of training left", file=sys.stderr, flush=True)
 

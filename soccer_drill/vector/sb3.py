@@ -25,9 +25,18 @@ SB3's own vector wrappers (``VecMonitor``, ``VecNormalize``, ``VecFrameStack``) 
 as any ``VecEnv``; ``Monitor`` wraps a single env, so episode statistics come from
 ``VecMonitor`` here.
 
-Arguments: ``num_envs`` and every other keyword argument of ``HolderVectorEnv``
-(``opponent``, ``opponent_params``, ``config``, ``drills_per_space``, ...), except
-``autoreset_mode`` and ``batch_size`` (SB3 steps every drill and resets within the step).
+Arguments: ``num_envs``, ``timeout_terminal`` and every other keyword argument of
+``HolderVectorEnv`` (``opponent``, ``opponent_params``, ``config``, ``drills_per_space``,
+...), except ``autoreset_mode`` and ``batch_size`` (SB3 steps every drill and resets
+within the step).
+
+**The drill's timeout.** The drill ends an episode at its timeout paying -1 (a failure, as
+an interception is) and reports it as a truncation, as Gymnasium's ``HolderEnv`` does; SB3
+then adds the value of the last state to that -1 (a bootstrap, right for an episode cut
+short, not for one that ended), and PPO against ``chasers`` learnt nothing in 3 of 3 seeds
+so (``docs/reference_rl.md``). ``timeout_terminal=True`` reports the timeout as the end
+it is (``TimeLimit.truncated`` false: no bootstrap); a cut by ``max_episode_steps`` stays
+a truncation. The default, ``False``, gives what ``DummyVecEnv`` of ``HolderEnv`` gives.
 """
 
 from __future__ import annotations
@@ -40,6 +49,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env import VecEnv
 
+from soccer_drill.constraints import Bool, checked
 from soccer_drill.vector.holder import (
     EVERY_DRILL,
     FIXED_ATTRIBUTES,
@@ -54,7 +64,9 @@ class HolderSB3VecEnv(VecEnv):
     """``num_envs`` holder drills in one ``HolderVectorEnv``, as an SB3 ``VecEnv`` (see the
     module docstring)."""
 
-    def __init__(self, num_envs: int = 1, **kwargs: Any) -> None:
+    def __init__(self, num_envs: int = 1, *, timeout_terminal: bool = False,
+                 **kwargs: Any) -> None:
+        self.timeout_terminal = checked("timeout_terminal", timeout_terminal, Bool())
         fixed = sorted({"autoreset_mode", "batch_size"} & set(kwargs))
         if fixed:
             raise ValueError(
@@ -99,7 +111,10 @@ class HolderSB3VecEnv(VecEnv):
                 out[i] = final[i]
                 out[i]["terminal_observation"] = infos["final_obs"][i]
         for i, info in enumerate(out):
-            info["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+            cut = truncated[i] and not terminated[i]
+            if cut and self.timeout_terminal and info.get("outcome") == "timeout":
+                cut = False  # the drill's timeout, which pays -1, as the end it is
+            info["TimeLimit.truncated"] = bool(cut)
         return obs, rewards.astype(np.float32), dones, out
 
     def _shared_options(self) -> dict[str, Any] | None:
