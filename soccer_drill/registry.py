@@ -320,11 +320,34 @@ class Registry:
                             f"{short_repr(obj)}")
         with self._lock:
             other = self.alike(name)
+            if other is not None and self._a_plugins(other):  # the registration wins
+                self._set_aside(other, f"it looks like {name!r}, registered in this process")
+                other = None
             if other is not None:
                 raise ValueError(f"{self.kind} {self.label} {name!r} {self._looks_like(other)}")
-            if name in self._entries and not overwrite:
+            if name in self._entries and self._a_plugins(name):
+                self._set_aside(name, "this process registers that name itself")
+            elif name in self._entries and not overwrite:
                 raise ValueError(f"{self.kind} {name!r} is already registered; pass overwrite=True")
             self._entries[name] = _Entry(obj=obj, loaded=True)
+
+    def _a_plugins(self, name: str) -> bool:
+        """Whether ``name`` is another distribution's declaration, not used yet: an
+        in-process registration (this project's own at import, or a user's) takes its
+        name, as a registration made before the plugins were read would have (call it
+        holding the lock)."""
+        entry = self._entries[name]
+        return (entry.entry_point is not None and not entry.loaded
+                and _normalised(entry.distribution) != self.own_distribution)
+
+    def _set_aside(self, name: str, why: str) -> None:
+        """Refuse another distribution's declaration of ``name`` (:meth:`get` and
+        :meth:`broken` say ``why``), with a :class:`PluginWarning` naming it."""
+        entry = self._entries.pop(name)
+        note = (f"{self.kind} {_shown(name)} of {_origin(entry.entry_point, entry.distribution)} "
+                f"is refused: {why}; give it {_article(self.label)} {self.label} of its own")
+        self._refused[name] = note
+        warnings.warn(note, PluginWarning, stacklevel=4)
 
     def alike(self, name: str) -> str | None:
         """The registered name, other than ``name``, that ``name`` would be taken for (the

@@ -4,6 +4,7 @@ a registry's module knows every name that importing the whole project registers 
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -71,3 +72,29 @@ print(json.dumps([[r.name, r.model_name, r.offer is not None] for r in reuses]))
     assert _run(code) == [["oracle_regions_finetune", "RegionKernels", False],
                           ["true_regions_finetune", "RegionKernels", True],
                           ["assigned_regions_finetune", "RegionKernels", True]]
+
+
+def test_a_plugin_declaring_the_projects_own_names_is_refused_not_fatal(tmp_path):
+    # before, a plugin declaring "scratch" (a method), "Kernels" (like the reuse
+    # "kernels") or "A" (a protocol) stopped ilpss from importing: the project's own
+    # registration at import met the plugin's declaration and raised
+    info = tmp_path / "clash-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: clash\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text(
+        "[ilpss.methods]\nscratch = clash_mod:M\n[ilpss.reuses]\nKernels = clash_mod:R\n"
+        "[ilpss.protocols]\nA = clash_mod:P\n")
+    code = ("import warnings; warnings.simplefilter('always')\n"
+            "from ilpss.experiments.methods import METHODS\n"
+            "from ilpss.experiments.protocols import PROTOCOLS\n"
+            "from ilpss.reuse import REUSES\n"
+            "print(type(METHODS.get('scratch')).__name__, 'kernels' in REUSES.names(),"
+            " 'Kernels' in REUSES.names(), PROTOCOLS.get('A').name)\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env={**os.environ, "PYTHONPATH": os.pathsep.join(
+                             [str(tmp_path), *sys.path])}, check=False)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.split() == ["LifelongMethod", "True", "False", "A"]
+    for said in ("method 'scratch' of distribution 'clash'", "reuse 'Kernels' of distribution "
+                 "'clash'", "protocol 'A' of distribution 'clash'"):
+        assert said in run.stderr and "is refused" in run.stderr
