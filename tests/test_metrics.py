@@ -340,6 +340,9 @@ def test_compare_validation():
         compare(good[:1], good[:1], **kw)
     with pytest.raises(ValueError, match="window"):
         compare(good, good, **{**kw, "window": 7})
+    # before, any truthy warmup ("no", 1) switched the time-to-threshold definition
+    with pytest.raises(ValueError, match="warmup must be true or false, got 'no'"):
+        compare(good, good, **{**kw, "warmup": "no"})
     with pytest.raises(ValueError, match="first"):
         compare(good, good, **{**kw, "first": 7})
     with pytest.raises(ValueError, match="floor"):

@@ -69,6 +69,7 @@ from ilpss.metrics.inference import (
     wilson_interval,
 )
 from ilpss.metrics.survival import km_median, median_interval, threshold_times
+from soccer_drill.constraints import Bool, checked
 
 SIGN_FLIP_RESAMPLES = 20_000
 """Random sign assignments of the sign-flip p beside a report's t p (beyond 16 seeds; up to
@@ -525,5 +526,6 @@ def _paired_inputs(
     if threshold is not None:
         threshold = _check_real(threshold, "threshold")
     window = _check_count(window, "window", n_eps)
+    warmup = checked("warmup", warmup, Bool())  # "no" is truthy: a slip, not a choice
     return (Paired(t, b, first=first, last=last, threshold=threshold, window=window,
                    floor=floor, warmup=warmup), n_boot, confidence)
