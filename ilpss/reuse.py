@@ -327,6 +327,21 @@ class Reuse:
     start: StartRule = Fresh()
     offer: OfferRule | None = None
 
+    def __post_init__(self) -> None:
+        # Checked when the reuse is made: a wrong part failed only inside every job,
+        # after its sources had trained.
+        parts = (("regions", self.regions, ("fit", "load"), "a Regions (fit, load, model_name) "
+                  "or None", True),
+                 ("start", self.start, ("start",), "a StartRule (start)", False),
+                 ("offer", self.offer, ("offer",), "an OfferRule (offer) or None", True))
+        for field_name, part, methods, what, optional in parts:
+            if part is None and optional:
+                continue
+            named = field_name != "regions" or isinstance(getattr(part, "model_name", None), str)
+            if not (named and all(callable(getattr(part, m, None)) for m in methods)):
+                raise TypeError(f"reuse {self.name!r}: {field_name} is {what}, not "
+                                f"{type(part).__name__} {part!r:.60}")
+
     @property
     def offers_options(self) -> bool:
         """Whether a new task's learner is offered options."""

@@ -439,3 +439,29 @@ def test_every_setting_is_declared_once_and_reaches_its_user() -> None:
     for _ in range(2):
         learner.run_trial(env, "corridor")
     assert learner.library is not None and learner.library.settings is settings
+
+
+@pytest.mark.parametrize(("make", "said"), [
+    (lambda: __import__("ilpss.reuse").reuse.Reuse("r1", "kernels"),
+     "reuse 'r1': regions is a Regions"),
+    (lambda: __import__("ilpss.reuse").reuse.Reuse("r2", None, start=3),
+     "reuse 'r2': start is a StartRule"),
+    (lambda: __import__("ilpss.reuse").reuse.Reuse("r3", None, offer=5),
+     "reuse 'r3': offer is an OfferRule"),
+    (lambda: LifelongMethod("m1", "x", {"n_kernels": 1}), "method 'm1': changes is a function"),
+    (lambda: LifelongMethod("m2", 5), "method 'm2': label"),
+])
+def test_a_reuse_or_method_made_wrong_is_refused_when_made(make, said):
+    # before, each was accepted and failed inside every job, after its sources had
+    # trained ("'str' object has no attribute 'fit'", "'dict' object is not callable")
+    with pytest.raises((TypeError, ValueError), match=said):
+        make()
+
+
+def test_a_methods_changes_naming_no_field_say_which_method():
+    # before, "LifelongConfig.__init__() got an unexpected keyword argument", no method named
+    from ilpss.lifelong import LifelongConfig
+
+    method = LifelongMethod("m3", "x", lambda base: {"no_such_field": 1})
+    with pytest.raises(ValueError, match=r"method 'm3': its changes name \['no_such_field'\]"):
+        method.config(LifelongConfig())

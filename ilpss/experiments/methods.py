@@ -23,7 +23,7 @@ from __future__ import annotations
 import copy
 import os
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -53,7 +53,7 @@ from ilpss.smdp import EpisodeResult, SmdpLearner
 from ilpss.statewise import StatewiseStart
 from ilpss.tiles import TileCoder
 from ilpss.transfer import map_policy
-from soccer_drill.constraints import Constraint, Integer, Real
+from soccer_drill.constraints import Constraint, Integer, Real, Text, check
 from soccer_drill.registry import Registry
 
 __all__ = [
@@ -156,9 +156,22 @@ class LifelongMethod(Method):
     ablates: tuple[str, str] | None = None
     series: Mapping[str, Constraint] = field(default_factory=lambda: dict(LIFELONG_SERIES))
 
+    def __post_init__(self) -> None:
+        # Checked when the method is made: a wrong field failed only inside every job.
+        check(f"method {self.name!r}: label", self.label, Text())
+        if not callable(self.changes):
+            raise TypeError(f"method {self.name!r}: changes is a function of the base "
+                            f"LifelongConfig giving the fields it replaces, not "
+                            f"{type(self.changes).__name__} {self.changes!r:.60}")
+
     def config(self, base: LifelongConfig) -> LifelongConfig:
         """This method's lifelong configuration."""
-        return replace(base, **self.changes(base))
+        changes = self.changes(base)
+        unknown = sorted(set(changes) - {f.name for f in fields(base)})
+        if unknown:
+            raise ValueError(f"method {self.name!r}: its changes name {unknown}, not fields of "
+                             f"LifelongConfig ({sorted(f.name for f in fields(base))})")
+        return replace(base, **changes)
 
     def run(self, job: Job) -> dict[str, Any]:
         learner, records = run_lifelong(job, self.name, self.config(job.cfg.lifelong))
