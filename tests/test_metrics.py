@@ -14,6 +14,7 @@ from ilpss.metrics import (
     asymptotic_gain,
     asymptotic_performance,
     compare,
+    episodes_below,
     fieller_interval,
     format_metrics_markdown,
     holm,
@@ -21,6 +22,7 @@ from ilpss.metrics import (
     jumpstart,
     kaplan_meier,
     km_median,
+    largest_dip,
     mean_curve_band,
     median_interval,
     percentile_bootstrap_interval,
@@ -821,3 +823,20 @@ def test_the_gain_over_the_first_episodes_reads_only_those_episodes():
         assert est[f"total_reward_gain_first_{k}"].value == pytest.approx(by_hand)
         assert est_later[f"total_reward_gain_first_{k}"].value == pytest.approx(by_hand)
     assert est_later["total_reward_gain"].value != pytest.approx(est["total_reward_gain"].value)
+
+
+@pytest.mark.parametrize(("call", "said"), [
+    (lambda: smooth(["0", "1", "2"], 2), "curve holds"),
+    (lambda: smooth([[0, 1], [2]], 1), "rows of different lengths"),
+    (lambda: largest_dip(["0", "1", "0"], 1), "curves holds"),
+    (lambda: largest_dip(3.0, 1), "one curve or rows of curves"),
+    (lambda: largest_dip([], 1), "not empty"),
+    (lambda: episodes_below([[0, 0, 0]], [[1, 1, 1]], 1, margin=float("nan")), "margin"),
+    (lambda: episodes_below([[0, 0, 0]], [[1, 1, 1]], 1, margin="x"), "margin"),
+    (lambda: kaplan_meier(["1", "2"], [True, False]), "times holds"),
+])
+def test_every_metric_checks_its_inputs_as_the_others_do(call, said):
+    # before, these parsed text as numbers, passed a NaN margin as no margin, or ended in
+    # NumPy's IndexError and "inhomogeneous shape" errors
+    with pytest.raises(ValueError, match=said):
+        call()

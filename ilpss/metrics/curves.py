@@ -31,6 +31,7 @@ from ilpss.metrics._validation import (
     FloatArray,
     _as_curve,
     _as_curves,
+    _as_floats,
     _check_count,
     _check_floor,
     _check_real,
@@ -75,7 +76,7 @@ def smooth(
     ValueError
         Empty or non-finite input, ``ndim`` not 1 or 2, or ``window`` not in ``[1, n]``.
     """
-    arr = np.asarray(curve, dtype=np.float64)
+    arr = _as_floats(curve, "curve")  # text, objects and ragged rows refused by name
     if arr.ndim == 1:
         arr = _as_curve(arr)
     elif arr.ndim == 2:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ilpss.metrics._validation import FloatArray, _check_count
+from ilpss.metrics._validation import FloatArray, _as_floats, _check_count, _check_real
 from ilpss.metrics.curves import smooth
 
 
@@ -20,7 +20,10 @@ def largest_dip(curves: ArrayLike, window: int) -> FloatArray:
     A learner that starts high and then collapses before it recovers (a head start
     handed over too early) has a large dip even when its total reward is good.
     """
-    arr = np.asarray(curves, dtype=np.float64)
+    arr = _as_floats(curves, "curves")
+    if arr.ndim not in (1, 2) or arr.shape[-1] == 0:
+        raise ValueError(f"curves must be one curve or rows of curves, not empty, got shape "
+                         f"{arr.shape}")
     m = smooth(arr, _check_count(window, "window", arr.shape[-1]), edges="valid")
     return np.max(np.maximum.accumulate(m, axis=-1) - m, axis=-1)
 
@@ -35,7 +38,8 @@ def episodes_below(curves: ArrayLike, baseline: ArrayLike, window: int,
     """Per row, the episodes (from the first full window on) at which the trailing mean
     over ``window`` episodes of ``curves`` lies more than ``margin`` below that of the
     paired ``baseline`` row: how long a method does worse than learning anew."""
-    t, b = np.asarray(curves, dtype=np.float64), np.asarray(baseline, dtype=np.float64)
+    t, b = _as_floats(curves, "curves"), _as_floats(baseline, "baseline")
+    margin = _check_real(margin, "margin")
     if t.shape != b.shape:
         raise ValueError(f"curves and baseline must have the same shape, got {t.shape} and "
                          f"{b.shape}")

@@ -16,6 +16,7 @@ from scipy import stats
 from ilpss.metrics._validation import (
     FloatArray,
     _as_curves,
+    _as_floats,
     _check_confidence,
     _check_count,
     _check_real,
@@ -71,7 +72,7 @@ def threshold_times(
 
 
 def _as_censored(times: ArrayLike, reached: ArrayLike) -> tuple[FloatArray, NDArray[np.bool_]]:
-    t = np.asarray(times, dtype=np.float64)
+    t = _as_floats(times, "times")  # text and objects refused by name, not parsed
     r = np.asarray(reached)
     if t.ndim != 1 or t.size == 0:
         raise ValueError(f"times must be a non-empty 1-D array, got shape {t.shape}")
