@@ -22,7 +22,7 @@ def largest_dip(curves: ArrayLike, window: int) -> FloatArray:
     """
     arr = _as_floats(curves, "curves")
     if arr.ndim not in (1, 2) or arr.shape[-1] == 0:
-        raise ValueError(f"curves must be one curve or rows of curves, not empty, got shape "
+        raise ValueError(f"curves: give one curve or rows of curves, not empty; got shape "
                          f"{arr.shape}")
     m = smooth(arr, _check_count(window, "window", arr.shape[-1]), edges="valid")
     return np.max(np.maximum.accumulate(m, axis=-1) - m, axis=-1)
