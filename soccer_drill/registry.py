@@ -308,7 +308,10 @@ class Registry:
         ------
         ValueError
             ``name`` is not valid, looks like a registered name (the same but for case or
-            ``-`` against ``_``), or is taken and ``overwrite`` is false.
+            ``-`` against ``_``), or is taken and ``overwrite`` is false. Another
+            distribution's declaration not used yet neither blocks nor is overwritten: it
+            is refused with a :class:`PluginWarning` naming it, and the registration
+            takes the name.
         TypeError
             The registry holds callables and ``obj`` is not one.
         """

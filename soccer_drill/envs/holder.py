@@ -570,8 +570,8 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
         """The names of the actions, in index order (``HOLD, PASS, DRIBBLE``: 2v2)."""
         self.observation_space = self.loop.observe.box
         self.action_space = spaces.Discrete(len(self.action_names))
-        # Whose observation, for one drill (writable, as loop.deciders returns them: the
-        # compiled observation's types).
+        # Whose observation, for one drill (writable and contiguous, as the loop's results
+        # give the batched env's deciders: the compiled observation's types).
         self._players = tuple(np.full(1, i, dtype=np.int64) for i in range(self.config.players))
         self._busy_init()
         self._has_reset = False
@@ -668,7 +668,7 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
             if not running:
                 break
         code, cycle, holder = int(batch.outcome[0]), int(batch.cycle[0]), int(batch.holder[0])
-        # loop.deciders(_ONE), for one drill without array work
+        # the decider of HolderLoop.results, for one drill without array work
         decider = holder if 0 <= holder < loop.attackers else int(loop.decider[0])
         obs = loop.observe(batch.state, _ONE, self._players[decider])[0]
         info = {
