@@ -554,14 +554,15 @@ class TeamDriver:
         """One team instance per drill: the team, then :meth:`_copy`'s; an instance that
         another drill or environment plays already (a factory that returns one instance
         every time) copied, so that no two drills share one."""
-        teams = [self.team]
+        teams, taken = [self.team], {id(self.team)}
         for i in range(1, self._batch.n):
             made = self._copy(opponent, params, i)
-            in_use = any(made is t for t in teams)
+            in_use = id(made) in taken  # the instances kept in teams: their ids stay theirs
             if in_use or _played_elsewhere(made):
                 made = self.call("copy.deepcopy()", f" for drill {i}", self._own_copy, made,
                                  in_use)
             teams.append(made)
+            taken.add(id(made))
         return teams
 
     def _copy(self, opponent: str | Team, params: dict[str, Any], drill: int) -> Team:
