@@ -148,11 +148,13 @@ def features_into(out, pos, player, params, low, high, mates, opponents):
     count = teammates_by_distance(pos, player, attackers, rank, mdist)
     # Opponents' distances, ascending, and the dribbling lane.
     odist = np.empty(4)
+    oda = np.empty(4)  # the opponents' distances in index order, read again per teammate
     n_opp = 0
     dribble = 180.0
     for j in range(o0, o1):
         ax, ay = pos[j, 0] - sx, pos[j, 1] - sy
         da = hypot(ax, ay)
+        oda[j - o0] = da
         ga = _angle(-ay / da) if da >= 1e-9 else 180.0
         dribble = ga if n_opp == 0 or ga < dribble else dribble
         k = n_opp
@@ -177,7 +179,7 @@ def features_into(out, pos, player, params, low, high, mates, opponents):
         mate_opp, lane = 0.0, 180.0
         for o in range(o0, o1):
             ax, ay = pos[o, 0] - sx, pos[o, 1] - sy
-            da = hypot(ax, ay)
+            da = oda[o - o0]
             ma = hypot(ax - ux, ay - uy)
             pa = 180.0
             if da >= 1e-9 and dm >= 1e-9:
