@@ -38,6 +38,34 @@ def test_flat_aec_observation_is_the_box_and_the_mask_is_in_infos(opponent):
     assert turns > 20 and info["outcome"] in {"success", "interception", "out", "timeout"}
 
 
+@pytest.mark.parametrize("scenario", ["drill_1v1", "drill_2v2"])
+def test_flat_aec_masks_in_the_last_infos_are_those_after_the_last_cycle(scenario):
+    """The cycle that ends an episode may move the ball (an interception, a tackle): the
+    infos' masks then are the new holder's, as ``action_mask`` and ``parallel_env`` say,
+    so PettingZoo's conversion of the AEC form gives the parallel form's infos."""
+    from pettingzoo.utils.conversions import aec_to_parallel
+
+    from soccer_drill import scenarios
+
+    native = scenarios.parallel_env(scenario, obs_format="flat", opponent="chasers")
+    converted = aec_to_parallel(scenarios.env(scenario, obs_format="flat", opponent="chasers"))
+    rng = np.random.default_rng(1)
+    moved = 0
+    for episode in range(30):
+        _, infos = native.reset(seed=episode)
+        converted.reset(seed=episode)
+        while native.agents:
+            before = {a: infos[a]["action_mask"] for a in native.agents}
+            actions = {a: _legal(before[a], rng) for a in native.agents}
+            _, _, _, _, infos = native.step(actions)
+            _, _, _, _, converted_infos = converted.step(actions)
+            for a in actions:
+                np.testing.assert_array_equal(converted_infos[a]["action_mask"],
+                                              infos[a]["action_mask"])
+        moved += any(not np.array_equal(before[a], infos[a]["action_mask"]) for a in before)
+    assert moved  # some episode's last cycle moved the ball
+
+
 def test_flat_parallel_masks_follow_possession():
     flat = soccer_drill.parallel_env(obs_format="flat")
     nested = soccer_drill.parallel_env()

@@ -745,12 +745,11 @@ class raw_env(_DrillEnvBase, AECEnv):
                 # The only cycle with rewards: before it they are all zero, so clearing
                 # and accumulating them on every step would change nothing.
                 self._accumulate_rewards()
-            else:
-                if self._paid:
-                    self._accumulate_rewards()
-                if self._flat:  # masks change with possession
-                    for name in self.agents:
-                        self.infos[name]["action_mask"] = self._mask(self._index[name])
+            elif self._paid:
+                self._accumulate_rewards()
+            if self._flat:  # masks change with possession (also in the cycle that ends it)
+                for name in self.agents:
+                    self.infos[name]["action_mask"] = self._mask(self._index[name])
             if self._screen.each_cycle:
                 self._after_cycle()
         self.agent_selection = self._next_agent[agent]
