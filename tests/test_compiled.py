@@ -125,3 +125,92 @@ def test_a_fresh_process_compiles_the_rules_before_a_teams_time_bound(tmp_path):
     )
     assert done.returncode == 0 and done.stdout.strip() == "played", done.stderr[-2000:]
     assert any(tmp_path.rglob("*.nbi"))  # it did compile into the empty cache
+
+
+_RECORD_RULES = '''
+import sys
+import numpy as np
+from soccer_drill.rules.compiled import compiled
+
+@compiled
+def inner(rec):
+    total = 0.0
+    for k in range(rec[0].a.shape[0]):
+        total += rec[0].a[k]
+    return total
+
+@compiled
+def outer(rec):
+    return inner(rec)
+
+DTYPES = {"two": np.dtype([("a", np.float64, (2,))]),
+          "three": np.dtype([("a", np.float64, (3,)), ("b", np.int64)])}
+for name in sys.argv[1:]:
+    outer(np.zeros(1, DTYPES[name]))
+for result in outer.overloads.values():
+    print(result.fndesc.mangled_name)
+'''
+
+
+@pytest.mark.skipif(not COMPILED, reason="the rules are not compiled in this process")
+def test_code_compiled_in_two_processes_for_different_records_has_different_names(tmp_path):
+    """numba names compiled code by a counter that starts alike in every process, and a
+    process that holds code for two layouts of records under one name runs one for the
+    other. The first process compiles for one layout (into the disk cache), the second
+    for another, then loads the first's: every piece of code it holds has a name of its own."""
+    (tmp_path / "records_rules.py").write_text(_RECORD_RULES)
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache"),
+           "PYTHONPATH": os.pathsep.join([str(tmp_path), *sys.path])}
+
+    def names(*layouts: str) -> list[str]:
+        done = subprocess.run([sys.executable, str(tmp_path / "records_rules.py"), *layouts],
+                              capture_output=True, text=True, timeout=300, env=env,
+                              check=False)
+        assert done.returncode == 0, done.stderr[-2000:]
+        return done.stdout.split()
+
+    first = names("two")
+    second = names("three", "two")
+    assert len(first) == 1 and first[0] in second  # the first's code, loaded from the cache
+    assert len(second) == 2 and len(set(second)) == 2
+
+
+_SIZES_IN_TURN = '''
+import sys
+import numpy as np
+import soccer_drill
+from soccer_drill import keepaway_policies
+
+for size in sys.argv[1:]:
+    keepers, takers = map(int, size.split("v"))
+    env = soccer_drill.HolderEnv(config={"task": "keepaway", "attackers": keepers,
+                                         "defenders": takers})
+    policy = keepaway_policies.keeper_policy("hand_coded", keepers, takers)
+    obs, _ = env.reset(seed=1)
+    start = np.array(env.drill_state.pos)
+    rng = np.random.default_rng(1)
+    for _ in range(3):
+        obs, *_ = env.step(policy(obs, rng))
+    print(size, float(np.abs(np.array(env.drill_state.pos) - start).max()))
+'''
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not COMPILED, reason="the rules are not compiled in this process")
+def test_a_drill_size_loaded_from_the_cache_beside_another_compiled_anew_plays(tmp_path):
+    """One process compiles keepaway 3v2 into an empty cache; the next compiles 2v1, then
+    loads 3v2 and then 2v1 again: every drill plays (before: in 3v2 nobody moved,
+    or the process crashed)."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path)}
+
+    def play(*sizes: str) -> dict[str, float]:
+        done = subprocess.run([sys.executable, "-c", _SIZES_IN_TURN, *sizes],
+                              capture_output=True, text=True, timeout=600, env=env,
+                              check=False)
+        assert done.returncode == 0, done.stderr[-2000:]
+        return {size: float(moved) for size, moved in
+                (line.split() for line in done.stdout.splitlines())}
+
+    assert play("3v2")["3v2"] > 0.5
+    moved = play("2v1", "3v2")
+    assert moved["2v1"] > 0.5 and moved["3v2"] > 0.5, moved

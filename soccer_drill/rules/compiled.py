@@ -24,7 +24,9 @@ from __future__ import annotations
 import functools
 import hashlib
 import inspect
+import itertools
 import math
+import secrets
 import sys
 import warnings
 from collections.abc import Callable
@@ -151,7 +153,19 @@ def rule_sources_digest(function: Callable[..., Any]) -> str:
 
 
 if COMPILED:
+    from numba.core.bytecode import FunctionIdentity
     from numba.core.caching import CompileResultCacheImpl, FunctionCache
+
+    # numba names a compiled function's machine code by its qualified name, a number
+    # from a counter that starts at 1 in every process, and its arguments' types (an
+    # array of records by a number that is also counted per process), and code loaded
+    # from the disk cache keeps the names the process that compiled it gave it. Two
+    # processes that compiled the rules for different drill sizes gave different code the
+    # same names, and a process that then held both (one loaded, one compiled or loaded)
+    # ran one in place of the other: players that never moved, or a crash (numba issue
+    # 10486). Each process's counter starts at a random multiple of 2**16, so no two
+    # processes' names meet (unless two of 2**48 starts are equal).
+    FunctionIdentity._unique_ids = itertools.count(secrets.randbits(48) << 16)
 
     class _StampedLocators:
         """Stamps a numba cache locator's source stamp with :func:`rule_sources_digest`."""
