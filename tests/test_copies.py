@@ -203,6 +203,26 @@ def test_a_copy_of_a_batched_environment_continues_bit_for_bit_and_on_its_own(ki
     assert _batched_steps(original, 7, 30) == copied
 
 
+@pytest.mark.parametrize("how", list(COPIES))
+@pytest.mark.parametrize("kind", [HolderVectorEnv, ParallelVectorEnv])
+def test_a_batched_environment_that_has_drawn_copies_and_draws_on_its_own(kind, how):
+    """The renderer's pygame fonts and surfaces are not copied (before: "cannot pickle
+    'pygame.font.Font' object" once a frame had been drawn); the copy draws anew, the
+    same frames as the original."""
+    original = kind(num_envs=2, opponent="goal_guards", render_mode="rgb_array")
+    original.reset(seed=3)
+    _batched_steps(original, 4, 2)
+    original.render()
+    duplicate = COPIES[how](original)
+    for a, b in zip(original.render(), duplicate.render(), strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert _batched_steps(duplicate, 7, 5) == _batched_steps(original, 7, 5)
+    for a, b in zip(original.render(), duplicate.render(), strict=True):
+        np.testing.assert_array_equal(a, b)
+    duplicate.close()
+    original.close()
+
+
 @pytest.mark.parametrize("how", ["deepcopy", "pickle"])
 def test_a_copy_of_one_batched_drill_late_in_a_crowded_episode_continues_bit_for_bit(how):
     # One drill is in the single drill's own space, which a copy replays (the class

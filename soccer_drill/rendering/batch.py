@@ -48,6 +48,11 @@ class BatchRenderer:
         self._renderer = None
         self._trails: list = []
 
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["_renderer"] = None  # pygame's surfaces and fonts are not copied: drawn anew
+        return state
+
     def frames(self, batch: object, has_reset: bool) -> tuple[np.ndarray, ...]:
         """One ``(H, W, 3)`` uint8 frame per drill, in drill order (``has_reset``: the
         environment has been reset, else there is nothing to draw yet)."""
