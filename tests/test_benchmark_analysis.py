@@ -49,3 +49,22 @@ def test_the_safety_checks_of_bench_env_are_measured():
     costs = load_benchmark("bench_env").team_check_costs(number=20, repeat=2)
     assert set(costs) == {"bound", "commands", "action"}
     assert costs["commands"] > 0.0 and costs["action"] > 0.0
+
+
+def test_keepaway_endings_counts_a_ball_too_fast_for_a_keeper_it_reached():
+    from soccer_drill.state import DrillState
+
+    through = load_benchmark("keepaway_endings").through_keeper
+    still = ((0.0, 0.0),) * 3
+
+    def state(ball_at, ball_vel, passer=-1):
+        return DrillState(pos=((5.0, 5.0), (10.0, 10.0), ball_at),
+                          vel=((0.0, 0.0), (-3.0, 0.0), ball_vel), holder=-1, cycle=3,
+                          passer=passer)
+
+    assert through([state((10.5, 10.0), (7.0, 0.0))], 2, 1.0, 9.0)  # 10 m/s against keeper 1
+    assert not through([state((10.5, 10.0), (5.0, 0.0))], 2, 1.0, 9.0)  # 8 m/s: controlled
+    assert not through([state((12.0, 10.0), (20.0, 0.0))], 2, 1.0, 9.0)  # 2 m away
+    assert not through([state((10.5, 10.0), (7.0, 0.0), passer=1)], 2, 1.0, 9.0)  # its passer
+    assert not through([DrillState(pos=((0.0, 0.0),) * 3, vel=still, holder=0, cycle=0)],
+                       2, 1.0, 9.0)

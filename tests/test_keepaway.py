@@ -171,6 +171,8 @@ def test_the_keepaway_page_is_written_from_kept_per_seed_records(tmp_path):
     assert all(len(v) == 2 and min(v) > 0 for v in record["per_seed"].values())
     page = (tmp_path / "keepaway.md").read_text()
     assert "--set initial_value=10.0" in page and "| hand_coded |" in page
+    # the command the page gives is the one run (before: --runs results/keepaway --out docs)
+    assert f"--runs {tmp_path / 'runs'} " in page and page.count(f"--out {tmp_path}\n") == 1
     records = sorted((tmp_path / "runs").rglob("seed_*.json"))
     assert len(records) == 2
     before = [r.stat().st_mtime_ns for r in records]

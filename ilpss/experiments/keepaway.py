@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import shlex
 import time
 from dataclasses import asdict, replace
 from pathlib import Path
@@ -41,6 +42,11 @@ from soccer_drill.files import atomic_write_text, read_digested_json, write_dige
 SCHEMA_VERSION = 1
 SEED_SCHEMA = 2
 """The schema of a seed's record under ``--runs`` (2: digested, checked when read)."""
+
+DEFAULT_RUNS = "results/keepaway"
+"""Where the seeds' records are kept unless ``--runs`` says; a page's command names the
+folders its numbers were made with (these and ``--out docs`` for numbers that do not
+record them)."""
 """The version of the kept records' and the page data's layout."""
 EVAL_BASE = 500_000
 """Evaluation episodes' seeds start here (training episodes' seeds are far below)."""
@@ -154,7 +160,9 @@ def page(results: dict[str, dict[str, Any]]) -> str:
         "(hold while no taker is within 5 m, else the best of holding, scored 90, and passing",
         "to keeper i, scored 4 x its nearest taker's distance + its passing lane's angle);",
         "**random**; **hold** (always). Every arm of a seed plays the same evaluation",
-        "episodes; a seed's value is their mean length. Intervals are 95% Student t",
+        "episodes (the same seeds: the fixed arms play them in the batched drill, whose",
+        "episodes are the single drill's until contacts meet at once in a shared physics",
+        "space, `HolderVectorEnv`'s Copies); a seed's value is their mean length. Intervals are 95% Student t",
         "intervals over seeds (the seed is the unit), **unadjusted** for the comparisons",
         "made; the differences are paired by seed.",
         "",
@@ -172,10 +180,10 @@ def page(results: dict[str, dict[str, Any]]) -> str:
             "```bash",
             f"python -m ilpss.experiments.keepaway --scenario {scenario} --seeds "
             f"{seeds[0]}-{seeds[-1]} --episodes {meta['episodes']} --eval-episodes "
-            f"{meta['eval_episodes']} --runs results/keepaway"
-            + "".join(f" --set {k}={json.dumps(v)}" for k, v in
+            f"{meta['eval_episodes']} --runs {shlex.quote(meta.get('runs', DEFAULT_RUNS))}"
+            + "".join(f" --set {shlex.quote(f'{k}={json.dumps(v)}')}" for k, v in
                       sorted((meta.get("learner_changes") or {}).items()))
-            + " --out docs",
+            + f" --out {shlex.quote(meta.get('out', 'docs'))}",
             "```",
             "",
             "| arm | mean episode length (s) | 95% t interval over seeds (unadjusted) |",
@@ -241,7 +249,15 @@ NOTES = [
     "  the takers' keeper \"with the ball\" is the keeper nearest it.",
     "- One learner decides for whichever keeper holds the ball (RoboCup keepaway has one",
     "  learner per keeper).",
-    "- Episodes are truncated at 60 s.",
+    "- A pass often runs through the keeper it reaches: the keeper that reaches a loose ball",
+    "  first runs at it, so it meets the pass (aimed to arrive at 4 m/s where that keeper",
+    "  would be) sooner and faster than the 9 m/s, relative to it, at which a keeper",
+    "  controls the ball, and the ball rolls on, often out of the region. With the",
+    "  hand-coded keepers, 200 episodes each (`python benchmarks/keepaway_endings.py`): at",
+    "  3v2, 191 end with the ball out after a pass (185 of them after it came within 1 m of",
+    "  a keeper too fast to control) and 6 with a taker winning it; at 4v3, 53 (47) and",
+    "  135. The fixed keepers' lengths, and what a learner gains over them, reflect this.",
+    "- Episodes are truncated at 60 s: an arm whose episodes reach it has a truncated mean.",
     "",
 ]
 """The page's notes: how the learner was set, and the differences from RoboCup keepaway."""
@@ -292,7 +308,7 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--seeds", default="0-9", help="first-last (inclusive)")
     parser.add_argument("--episodes", type=int, default=1500)
     parser.add_argument("--eval-episodes", type=int, default=100)
-    parser.add_argument("--runs", default="results/keepaway")
+    parser.add_argument("--runs", default=DEFAULT_RUNS)
     parser.add_argument("--out", default=None, help="write keepaway.md and data/ here")
     parser.add_argument("--set", action="append", default=[], metavar="FIELD=VALUE",
                         help="a LearnerConfig field over keepaway's learner (JSON value)")
@@ -329,7 +345,8 @@ def main(argv: list[str] | None = None) -> None:
             records.append(record)
         results[scenario] = {
             "meta": {"seeds": seeds, "episodes": args.episodes,
-                     "eval_episodes": args.eval_episodes, "learner_changes": changes},
+                     "eval_episodes": args.eval_episodes, "learner_changes": changes,
+                     "runs": args.runs, "out": args.out},
             "per_seed": per_seed(records),
             "curves": [r["learned"]["curve"] for r in records],
         }
