@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
+import soccer_drill
 from soccer_drill import Command, Skill
 from soccer_drill.policies import HOLDER_POLICIES
 from soccer_drill.teams.kit import BatchCommands
@@ -158,6 +159,62 @@ def test_a_ctrl_c_while_the_team_computes_asks_for_a_reset_which_brings_every_dr
     mode, team, k
 ):
     mode = MODES[mode]
+    env = mode.make(team())
+    _CtrlC.left = k
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            mode.play(env, 0, 40)
+    finally:
+        _CtrlC.left = -1
+    _refuses_until_reset_then_plays_as_new(mode, env, team)
+
+
+def _holder_round(env, rng):
+    out = env.step(int(rng.integers(3)))
+    return (out, env.reset(seed=int(rng.integers(1 << 30)))) if out[2] or out[3] else out
+
+
+def _parallel_round(env, rng):
+    out = env.step({a: int(rng.choice(np.flatnonzero(env.action_mask(a)))) for a in env.agents})
+    return out if env.agents else (out, env.reset(seed=int(rng.integers(1 << 30))))
+
+
+def _aec_round(env, rng):
+    """Every agent's turn once (a cycle), or the turns left in the episode."""
+    seen = []
+    for _ in env.possible_agents:
+        seen.append(env.last())
+        done = seen[-1][2] or seen[-1][3]
+        env.step(None if done else int(rng.choice(np.flatnonzero(env.action_mask()))))
+        if not env.agents:
+            env.reset(seed=int(rng.integers(1 << 30)))
+            break
+    return seen
+
+
+SINGLE = {
+    "HolderEnv": Mode(
+        make=lambda team: soccer_drill.HolderEnv(opponent=team),
+        reset=lambda env, seed: env.reset(seed=seed), round=_holder_round,
+        calls=lambda env: [lambda: env.step(0)]),
+    "parallel_env": Mode(
+        make=lambda team: soccer_drill.parallel_env(opponent=team),
+        reset=lambda env, seed: env.reset(seed=seed), round=_parallel_round,
+        calls=lambda env: [lambda: env.step(dict.fromkeys(env.possible_agents, 0))]),
+    "raw_env": Mode(
+        make=lambda team: soccer_drill.env(opponent=team),
+        reset=lambda env, seed: env.reset(seed=seed), round=_aec_round,
+        calls=lambda env: [lambda: env.step(0)]),
+}
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 5, 9, 17, 30])
+@pytest.mark.parametrize("team", [Copies, Batched])
+@pytest.mark.parametrize("mode", list(SINGLE))
+def test_a_ctrl_c_in_a_single_environments_reset_or_step_asks_for_a_reset(mode, team, k):
+    """As in the batched environments: before, the next step carried on from a drill
+    half reset (the new start, the old episode's cycle) or a cycle half run."""
+    mode = SINGLE[mode]
     env = mode.make(team())
     _CtrlC.left = k
     try:

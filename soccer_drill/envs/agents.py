@@ -4,8 +4,8 @@
 from __future__ import annotations
 
 import copy
-from collections.abc import Mapping
-from typing import Any, Literal
+from collections.abc import Callable, Mapping
+from typing import Any, Literal, TypeVar
 
 import numpy as np
 from gymnasium import spaces
@@ -62,6 +62,7 @@ _RUNNING = int(Outcome.RUNNING)  # read once: an enum member's lookup costs abou
 _ROLE_FLAG = (np.zeros(1, dtype=np.float32), np.ones(1, dtype=np.float32))  # defender, attacker
 _ONE = np.zeros(1, dtype=np.int64)  # the single environment's one drill
 _ACTIVE = np.ones(1, dtype=bool)
+_T = TypeVar("_T")
 for _array in (_ONE, _ACTIVE):
     _array.flags.writeable = False
 # The same masks as tuples of bools, for checking an action (indexing a tuple is cheaper).
@@ -257,15 +258,23 @@ class _DrillEnvBase(HeaderTexts, Pickled):
     def _flat_observation(self, agent: str) -> np.ndarray:
         return self._features(self._index[agent])
 
-    def _begin_episode(self, seed: int | None) -> None:
-        """Reseed (``None``: continue the generator) and reset the drill; every agent is live.
+    def _begin_episode(self, seed: int | None, start: Callable[[], _T]) -> _T:
+        """Reseed (``None``: continue the generator) and reset the drill; every agent is
+        live; then ``start()``, the API's own start of an episode, whose result it returns.
         A seed that is not ``None`` or an integer >= 0 is refused before anything changes
-        (NumPy would take a list as a seed sequence, and word a bad one in its own terms)."""
+        (NumPy would take a list as a seed sequence, and word a bad one in its own terms);
+        a reset stopped part-way (a Ctrl-C) leaves the environment asking for another
+        (:meth:`~soccer_drill.envs.core.BatchCore.changing`)."""
         seed = checked("seed", seed, SEED)
-        self._core.seed(None if seed is None else [seed])
-        self._core.reset(_ONE)
-        self.agents = self.possible_agents[:]
-        self._has_reset = True
+
+        def begin() -> _T:
+            self._core.seed(None if seed is None else [seed])
+            self._core.reset(_ONE)
+            self.agents = self.possible_agents[:]
+            self._has_reset = True
+            return start()
+
+        return self._core.changing(f"{type(self).__name__}.reset()", begin, every_drill=True)
 
     def _require_reset(self, method: str) -> None:
         if not self._has_reset:
@@ -593,6 +602,12 @@ class raw_env(_DrillEnvBase, AECEnv):
     physics engine is not thread-safe). Separate environments in separate threads are
     fine.
 
+    A ``step`` or ``reset`` stopped part-way (a Ctrl-C, a team's error) may leave the
+    drill part-way through a cycle or a reset: every later ``step`` then raises
+    ``RuntimeError`` naming that call and saying to call ``reset()``, which brings the
+    drill back as in a new environment. A call refused while its arguments are checked
+    changes nothing.
+
     ## Arguments
 
     | argument | default | meaning |
@@ -640,21 +655,24 @@ class raw_env(_DrillEnvBase, AECEnv):
         API test passes some)."""
         check_reset_options(options, None, "raw_env.reset")
         with self._claim("reset"):
-            self._begin_episode(seed)
-            self.rewards = dict.fromkeys(self.agents, 0.0)
-            self._cumulative_rewards = dict.fromkeys(self.agents, 0.0)
-            self.terminations = dict.fromkeys(self.agents, False)
-            self.truncations = dict.fromkeys(self.agents, False)
-            self.infos = {agent: self._step_info(agent, None) for agent in self.agents}
-            self._reported: set[str] = set()  # agents whose info reports a replaced action
-            # The turn order (PettingZoo's AgentSelector, as a lookup): every live agent
-            # in order, the cycle advancing after the last.
-            order = self.agents
-            self._next_agent = dict(zip(order, order[1:] + order[:1], strict=True))
-            self._last_agent = order[-1]
-            self.agent_selection = order[0]
+            self._begin_episode(seed, self._first_turn)
         if self._screen.each_cycle:
             self._screen.start(self._batch.state_of(0))
+
+    def _first_turn(self) -> None:
+        """The new episode's rewards, ends and infos, and the first agent's turn."""
+        self.rewards = dict.fromkeys(self.agents, 0.0)
+        self._cumulative_rewards = dict.fromkeys(self.agents, 0.0)
+        self.terminations = dict.fromkeys(self.agents, False)
+        self.truncations = dict.fromkeys(self.agents, False)
+        self.infos = {agent: self._step_info(agent, None) for agent in self.agents}
+        self._reported: set[str] = set()  # agents whose info reports a replaced action
+        # The turn order (PettingZoo's AgentSelector, as a lookup): every live agent
+        # in order, the cycle advancing after the last.
+        order = self.agents
+        self._next_agent = dict(zip(order, order[1:] + order[:1], strict=True))
+        self._last_agent = order[-1]
+        self.agent_selection = order[0]
 
     def agent_iter(self, max_iter: int = 2**63) -> AECIterable:
         """The agents in turn until every one is done (or ``max_iter`` turns), as
@@ -725,34 +743,38 @@ class raw_env(_DrillEnvBase, AECEnv):
         if self._paid:  # a step pays only when it ends a cycle (keepaway's seconds)
             self._clear_rewards()
         if agent == self._last_agent:
-            self._core.advance(_ACTIVE, _ONE)
-            if self._paid:  # keepaway: every cycle pays its seconds, the takers lose them
-                for name in self.agents:
-                    self.rewards[name] = (self._paid if self._index[name] < self._attackers
-                                          else -self._paid)
-            if self._batch.outcome[0] != _RUNNING:
-                reward = float(self._batch.attacker_reward[0])
-                if self._paid:
-                    reward += self._paid
-                info = self._outcome_info()
-                done = info["outcome"] != "timeout"
-                for name in self.agents:
-                    self.rewards[name] = (reward if self._index[name] < self._attackers
-                                          else -reward)
-                    self.terminations[name] = done
-                    self.truncations[name] = not done
-                    self.infos[name] = {**self.infos[name], **info}
-                # The only cycle with rewards: before it they are all zero, so clearing
-                # and accumulating them on every step would change nothing.
-                self._accumulate_rewards()
-            elif self._paid:
-                self._accumulate_rewards()
-            if self._flat:  # masks change with possession (also in the cycle that ends it)
-                for name in self.agents:
-                    self.infos[name]["action_mask"] = self._mask(self._index[name])
+            self._core.changing("raw_env.step()", self._end_cycle)
             if self._screen.each_cycle:
                 self._after_cycle()
         self.agent_selection = self._next_agent[agent]
+
+    def _end_cycle(self) -> None:
+        """The cycle every agent has acted in: run, and its rewards, ends and infos set."""
+        self._core.advance(_ACTIVE, _ONE)
+        if self._paid:  # keepaway: every cycle pays its seconds, the takers lose them
+            for name in self.agents:
+                self.rewards[name] = (self._paid if self._index[name] < self._attackers
+                                      else -self._paid)
+        if self._batch.outcome[0] != _RUNNING:
+            reward = float(self._batch.attacker_reward[0])
+            if self._paid:
+                reward += self._paid
+            info = self._outcome_info()
+            done = info["outcome"] != "timeout"
+            for name in self.agents:
+                self.rewards[name] = (reward if self._index[name] < self._attackers
+                                      else -reward)
+                self.terminations[name] = done
+                self.truncations[name] = not done
+                self.infos[name] = {**self.infos[name], **info}
+            # The only cycle with rewards: before it they are all zero, so clearing
+            # and accumulating them on every step would change nothing.
+            self._accumulate_rewards()
+        elif self._paid:
+            self._accumulate_rewards()
+        if self._flat:  # masks change with possession (also in the cycle that ends it)
+            for name in self.agents:
+                self.infos[name]["action_mask"] = self._mask(self._index[name])
 
 
 def env(**kwargs: Any) -> raw_env:
@@ -798,11 +820,10 @@ class parallel_env(_DrillEnvBase, ParallelEnv):
         API test passes some)."""
         check_reset_options(options, None, "parallel_env.reset")
         with self._claim("reset"):
-            self._begin_episode(seed)
-            result = (
+            result = self._begin_episode(seed, lambda: (
                 {a: self._observation(a) for a in self.agents},
                 {a: self._step_info(a, None) for a in self.agents},
-            )
+            ))
         if self._screen.each_cycle:
             self._screen.start(self._batch.state_of(0))
         return result
@@ -818,6 +839,7 @@ class parallel_env(_DrillEnvBase, ParallelEnv):
     def _step(self, actions: Mapping[str, int]):
         if not self._has_reset:
             raise not_reset("step")
+        self._core.check_usable()  # a call stopped part-way, or the team's error
         if not self.agents:
             raise RuntimeError("step() called after the episode ended; call reset()")
         if not (type(actions) is dict or isinstance(actions, Mapping)) or (
@@ -851,6 +873,10 @@ class parallel_env(_DrillEnvBase, ParallelEnv):
             self._command(agent, i, action)
             if self.replaced is not None:
                 replaced[agent], self.replaced = self.replaced, None
+        return self._core.changing("parallel_env.step()", lambda: self._cycle(replaced))
+
+    def _cycle(self, replaced: dict[str, tuple[int, int]]):
+        """The cycle of the actions set: run, and what ``step`` returns."""
         self._core.advance(_ACTIVE, _ONE)
         agents = self.agents
         obs = self._every_observation()

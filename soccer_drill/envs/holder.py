@@ -527,6 +527,12 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
     that starts while another thread is inside one raises ``RuntimeError``. Separate
     environments in separate threads are fine.
 
+    A ``step`` or ``reset`` stopped part-way (a Ctrl-C, a team's error) may leave the
+    drill part-way through a cycle or a reset: every later ``step`` then raises
+    ``RuntimeError`` naming that call and saying to call ``reset()``, which brings the
+    drill back as in a new environment. A call refused while its arguments are checked
+    changes nothing.
+
     ## Arguments
 
     | argument | default | meaning |
@@ -632,20 +638,24 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
         (it takes none)."""
         seed = checked("seed", seed, SEED)
         check_reset_options(options, (), "HolderEnv.reset")
-        loop = self.loop
         with self._claim("reset"):
-            super().reset(seed=seed)
-            loop.core.seed(None if seed is None else [seed])
-            loop.restart(_ONE)
-            self._has_reset = True
-            batch = loop.core.batch
-            holder = int(batch.holder[0])
-            if self._screen.each_cycle:
-                self._screen.start(batch.state_of(0))
-            return loop.observe(batch.state, _ONE, self._players[holder])[0], {
-                "duration": 0, "cycles": 0, "outcome": None,
-                "holder": self.config.player_names[holder],
-            }
+            return self.loop.core.changing("HolderEnv.reset()", lambda: self._reset(seed),
+                                           every_drill=True)
+
+    def _reset(self, seed: int | None) -> tuple[np.ndarray, dict[str, Any]]:
+        loop = self.loop
+        super().reset(seed=seed)
+        loop.core.seed(None if seed is None else [seed])
+        loop.restart(_ONE)
+        self._has_reset = True
+        batch = loop.core.batch
+        holder = int(batch.holder[0])
+        if self._screen.each_cycle:
+            self._screen.start(batch.state_of(0))
+        return loop.observe(batch.state, _ONE, self._players[holder])[0], {
+            "duration": 0, "cycles": 0, "outcome": None,
+            "holder": self.config.player_names[holder],
+        }
 
     def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         """Apply the holder's action and run to its next decision or the end (see the class docstring)."""
@@ -657,9 +667,17 @@ class HolderEnv(HeaderTexts, Pickled, gym.Env):
             raise not_reset("step")
         loop = self.loop
         batch = loop.core.batch
+        loop.core.check_usable()  # a call stopped part-way, or the team's error
         if batch.outcome[0] != _RUNNING:
             raise RuntimeError("step() called after the episode ended; call reset()")
-        loop.begin(_ONE, np.array((loop.check_action(action),)))
+        chosen = np.array((loop.check_action(action),))
+        return loop.core.changing("HolderEnv.step()", lambda: self._run(chosen))
+
+    def _run(self, chosen: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """The checked action ``chosen`` run to the holder's next decision or the end."""
+        loop = self.loop
+        batch = loop.core.batch
+        loop.begin(_ONE, chosen)
         screen = self._screen
         while True:
             running = loop.cycle(_ONE)
