@@ -207,6 +207,8 @@ class DrillConfig:
             if getattr(self, name) is None:
                 defaulted.append(name)
                 object.__setattr__(self, name, TASKS[self.task].starts(name, count, self.field_size))
+        for name in [n for n in _STARTS if n not in defaulted]:  # given: their own error
+            self._check_start_points(self.field_size, name, getattr(self, name))
         try:
             self._check_starts(self.field_size, {n: getattr(self, n) for n in _STARTS})
         except ValueError as exc:
@@ -220,13 +222,19 @@ class DrillConfig:
     def _check_starts(self, size: float, starts: dict[str, Any]) -> None:
         """``starts`` (by field name) inside a field of ``size``, with room for the jitter
         and the ball (:meth:`_check_start_area`); ``ValueError`` naming the first that is not."""
-        for name, count in zip(_STARTS, (self.attackers, self.defenders), strict=True):
-            point = ListOf(Real(0.0, size), 2, 2, kinds=(list, tuple, np.ndarray))
-            check(f"DrillConfig.{name}", starts[name],
-                  ListOf(point, count, count, kinds=(list, tuple, np.ndarray)),
-                  why=f"{_COUNTS[count]} (x, y) point{'s' * (count > 1)} inside the "
-                      f"field, one per {name.split('_')[0]}")
+        for name in _STARTS:
+            self._check_start_points(size, name, starts[name])
         self._check_start_area(size, starts)
+
+    def _check_start_points(self, size: float, name: str, points: object) -> None:
+        """``points``, the starts ``name``: one ``(x, y)`` per player of its side, inside
+        a field of ``size``."""
+        count = self.attackers if name == "attacker_starts" else self.defenders
+        point = ListOf(Real(0.0, size), 2, 2, kinds=(list, tuple, np.ndarray))
+        check(f"DrillConfig.{name}", points,
+              ListOf(point, count, count, kinds=(list, tuple, np.ndarray)),
+              why=f"{_COUNTS[count]} (x, y) point{'s' * (count > 1)} inside the "
+                  f"field, one per {name.split('_')[0]}")
 
     def _default_starts_refused(self, defaulted: list[str], exc: ValueError) -> str:
         """Why the task's default starts do not fit this field: the smallest field_size

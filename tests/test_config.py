@@ -119,6 +119,19 @@ def test_default_starts_that_do_not_fit_the_field_say_they_were_not_given():
     assert config.attacker_starts == ((4.0, 16.0), (16.0, 16.0))
 
 
+@pytest.mark.parametrize("starts", [((5.0, 5.0), (10.0, 10.0)),  # two for three keepers
+                                    ((25.0, 5.0), (10.0, 10.0), (5.0, 5.0))])  # one outside
+def test_starts_given_wrong_beside_default_ones_are_named_not_the_field(starts):
+    """Before, the error opened with the field being too small for the default starts
+    of the other side, and named the starts given only at its end."""
+    with pytest.raises(ValueError) as refused:
+        DrillConfig(task="keepaway", attackers=3, defenders=2, field_size=20,
+                    attacker_starts=starts)
+    said = str(refused.value)
+    assert said.startswith("DrillConfig.attacker_starts must be a list of 3 values")
+    assert "too small" not in said and "default starts" not in said
+
+
 @pytest.mark.parametrize(("values", "message"), [
     ({"start_jitter": 10.0}, r"start_jitter 10 can put the player starting at \(4, 31\) "
                              r"\(attacker_starts\) outside the walls"),
