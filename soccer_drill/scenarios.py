@@ -24,7 +24,7 @@ scripted team unless ``opponent`` is given.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -121,9 +121,33 @@ def _register() -> None:
 
     for s in SCENARIOS.values():
         if s.gym_id not in gymnasium.registry:
-            gymnasium.register(id=s.gym_id, entry_point="soccer_drill.scenarios:holder_env",
-                               kwargs={"name": s.name},
-                               vector_entry_point="soccer_drill.scenarios:holder_vector_env")
+            gymnasium.register(id=s.gym_id, entry_point=f"soccer_drill.scenarios:_make_{s.name}",
+                               vector_entry_point=f"soccer_drill.scenarios:_make_vec_{s.name}")
+
+
+def _id_entry_points(s: Scenario) -> tuple[Callable[..., Any], Callable[..., Any]]:
+    """The entry points of ``s``'s Gymnasium id (:func:`holder_env` and
+    :func:`holder_vector_env` of its name), which refuse ``name``: an id makes its own
+    scenario (before, ``gymnasium.make(id, name=...)`` made another under the id)."""
+    def refuse_name(kwargs: dict[str, Any]) -> None:
+        if "name" in kwargs:
+            raise TypeError(f"{s.gym_id} makes the scenario {s.name!r}; it takes no name "
+                            f"(got {kwargs['name']!r}): make the id of the scenario wanted "
+                            f"({', '.join(x.gym_id for x in SCENARIOS.values())})")
+
+    def make(**kwargs: Any) -> HolderEnv:
+        refuse_name(kwargs)
+        return holder_env(s.name, **kwargs)
+
+    def make_vec(num_envs: int = 1, **kwargs: Any):
+        refuse_name(kwargs)
+        return holder_vector_env(s.name, num_envs, **kwargs)
+
+    return make, make_vec
+
+
+for _s in SCENARIOS.values():  # the module's attributes the ids' entry points name
+    globals()[f"_make_{_s.name}"], globals()[f"_make_vec_{_s.name}"] = _id_entry_points(_s)
 
 
 def holder_vector_env(name: str = "drill_2v2", num_envs: int = 1, **kwargs: Any):

@@ -69,6 +69,24 @@ def test_the_paper_drill_is_the_default_holder_env() -> None:
     assert np.array_equal(a.reset(seed=4)[0], b.reset(seed=4)[0])
 
 
+def test_a_scenarios_id_makes_its_own_scenario_and_refuses_another_name() -> None:
+    """Before, ``gym.make("soccer_drill/Holder1v1-v0", name="drill_3v3")`` made a 3v3 drill
+    whose spec still said Holder1v1-v0 (the id kept its scenario in an argument)."""
+    with pytest.raises(TypeError, match=r"Holder1v1-v0 makes the scenario 'drill_1v1'; it "
+                                        r"takes no name \(got 'drill_3v3'\)"):
+        gym.make("soccer_drill/Holder1v1-v0", name="drill_3v3")
+    with pytest.raises(TypeError, match="makes the scenario 'keepaway_3v2'"):
+        gym.make_vec("soccer_drill/Keepaway3v2-v0", num_envs=2,
+                     vectorization_mode="vector_entry_point", name="drill_2v2")
+    env = gym.make("soccer_drill/Keepaway3v2-v0", config={"max_cycles": 50})
+    again = gym.make(gym.spec("soccer_drill/Keepaway3v2-v0").from_json(env.spec.to_json()))
+    assert again.unwrapped.config == env.unwrapped.config
+    assert again.unwrapped.config.task == "keepaway" and again.unwrapped.config.max_cycles == 50
+    batched = gym.make_vec("soccer_drill/Holder3v2-v0", num_envs=2,
+                           vectorization_mode="vector_entry_point")
+    assert batched.config.attackers == 3
+
+
 def test_an_unknown_scenario_is_refused_naming_the_known_ones() -> None:
     with pytest.raises(ValueError, match=r"scenario must be one of .*'drill_3v2'"):
         scenarios.parallel_env("drill_9v9")
