@@ -184,3 +184,61 @@ def test_two_threads_building_their_first_team_at_once_both_get_it(run):
                           capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr[-2000:]
     assert done.stdout.strip() == "['Chasers', 'Chasers'] []"
+
+
+_INSIDE, _GO = threading.Event(), threading.Event()
+
+
+class _Waiting:
+    """A team whose ``act`` waits, in the thread stepping, until it is let go (its
+    copies, one per drill, share the two events)."""
+
+    inside, go = _INSIDE, _GO
+
+    def reset(self, view, rng):
+        self.players = view.players
+
+    def act(self, view):
+        self.inside.set()
+        self.go.wait(10)
+        return {p: soccer_drill.Command(soccer_drill.Skill.INTERCEPT) for p in self.players}
+
+
+@pytest.mark.parametrize("kind", ["holder", "parallel"])
+def test_a_batched_environment_refuses_a_second_thread_while_one_steps_it(kind):
+    """Before, the batched environments took no lock: a second thread's reset() ran in the
+    middle of the first thread's step, which then finished its cycle on drills just reset."""
+    from soccer_drill.vector import HolderVectorEnv
+    from soccer_drill.vector.agents import ParallelVectorEnv
+
+    team = _Waiting()
+    if kind == "holder":
+        env = HolderVectorEnv(num_envs=2, opponent=team)
+        calls = {"reset": lambda: env.reset(seed=1), "step": lambda: env.step(np.zeros(2, int)),
+                 "send": lambda: env.send(np.zeros(2, int)), "recv": env.recv,
+                 "async_reset": lambda: env.async_reset(seed=1)}
+        step = calls["step"]
+    else:
+        env = ParallelVectorEnv(num_envs=2, opponent=team)
+        step = lambda: env.step({a: np.zeros(2, int) for a in env.agents})  # noqa: E731
+        calls = {"reset": lambda: env.reset(seed=1), "step": step}
+    env.reset(seed=0)
+    team.go.set()
+    step()
+    before = env.state() if kind == "parallel" else env.loop.core.batch.pos.copy()
+    team.go.clear()
+    team.inside.clear()
+    stepping = threading.Thread(target=step)
+    stepping.start()
+    assert team.inside.wait(10)
+    try:
+        for name, call in calls.items():
+            with pytest.raises(RuntimeError, match=rf"\.{name}\(\) called from thread .* two "
+                                                   "threads at once"):
+                call()
+    finally:
+        team.go.set()
+        stepping.join(10)
+    after = env.state() if kind == "parallel" else env.loop.core.batch.pos
+    assert not np.array_equal(before, after)  # the first thread's step ran on
+    step()  # and the environment is usable

@@ -391,12 +391,15 @@ def concurrent_use(env: object, method: str) -> RuntimeError:
     )
 
 
+_CALLS = ("step", "reset", "async_reset", "send", "recv")  # the calls that hold the lock
+
+
 def _inside_own_call(env: object) -> bool:
     """Whether this thread is inside a ``step`` or ``reset`` of ``env`` besides the call
     that was refused (read only then, so it costs a step nothing)."""
     calls, frame = 0, sys._getframe(1)
     while frame is not None:
-        if frame.f_code.co_name in ("step", "reset") and frame.f_locals.get("self") is env:
+        if frame.f_code.co_name in _CALLS and frame.f_locals.get("self") is env:
             calls += 1  # the refused call is one of them
         frame = frame.f_back
     return calls >= 2

@@ -17,11 +17,14 @@ from __future__ import annotations
 import functools
 import hashlib
 import threading
+from collections.abc import Callable
 from importlib import metadata
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from soccer_drill.registry import PROJECT_DISTRIBUTION
+
+_R = TypeVar("_R")
 
 _VERSION_KEY = "_made_by"
 
@@ -59,6 +62,19 @@ def _restore(cls: type, made_by: str) -> Any:
     if made_by != code_version():
         raise _refused(cls, made_by)
     return cls.__new__(cls)
+
+
+def claimed(method: Callable[..., _R]) -> Callable[..., _R]:
+    """``method`` of a :class:`Pickled` environment run holding its lock
+    (:meth:`Pickled._claim`): a second thread's call, or a re-entrant one, is refused."""
+    name = method.__name__
+
+    @functools.wraps(method)
+    def run(self: Pickled, *args: Any, **kwargs: Any) -> _R:
+        with self._claim(name):
+            return method(self, *args, **kwargs)
+
+    return run
 
 
 class Pickled:

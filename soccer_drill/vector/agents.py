@@ -34,7 +34,7 @@ from soccer_drill.envs.core import (
     out_of_range,
     resolve_shared_spaces,
 )
-from soccer_drill.envs.pickling import Pickled
+from soccer_drill.envs.pickling import Pickled, claimed
 from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
 from soccer_drill.rendering.screen import frames_per_second
 from soccer_drill.rules.arrays import OUTCOME_NAMES, Outcome
@@ -275,6 +275,7 @@ class ParallelVectorEnv(Pickled):
             raise KeyError(f"unknown agent {agent!r}; the agents are {self.possible_agents}")
 
     # -------------------------------------------------------------- episodes
+    @claimed
     def reset(
         self, seed: int | Sequence[int | None] | None = None, options: dict | None = None
     ) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -388,6 +389,7 @@ class ParallelVectorEnv(Pickled):
                 b.receiver[:, i] = ranked_teammates(b.pos, i, attackers, table.ranks[chosen])
         return illegal, taken
 
+    @claimed
     def step(self, actions: Mapping[str, Any]):
         """One cycle of every drill (drills ended at the last step are reset instead)."""
         if not self._has_reset:

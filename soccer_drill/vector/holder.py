@@ -32,7 +32,7 @@ from soccer_drill.envs.holder import (
     HolderLoop,
     holder_action_refused,
 )
-from soccer_drill.envs.pickling import Pickled
+from soccer_drill.envs.pickling import Pickled, claimed
 from soccer_drill.interruptions import short_repr
 from soccer_drill.rendering.batch import BatchRenderer, check_render_mode
 from soccer_drill.rendering.screen import frames_per_second
@@ -259,6 +259,9 @@ class HolderVectorEnv(Pickled, VectorEnv):
     every drill back as in a new environment. A call stopped before its work began (its
     arguments being checked) changed nothing. A Ctrl-C while pymunk builds or frees a
     space waits for its end (it could crash the process at a later garbage collection).
+    One environment is used by one thread at a time: a ``reset``, ``step``, ``send``,
+    ``recv`` or ``async_reset`` that starts while another thread is inside one raises
+    ``RuntimeError`` (as ``ParallelVectorEnv``'s ``reset`` and ``step`` do).
 
     ## Arguments
 
@@ -353,6 +356,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
         return copy.deepcopy(self)
 
     # ------------------------------------------------------------------ reset
+    @claimed
     def reset(
         self,
         *,
@@ -455,6 +459,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
                                "drills; call reset() first")
         self._core.check_usable()
 
+    @claimed
     def step(
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
@@ -477,6 +482,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
         return self._core.changing("HolderVectorEnv.step()", step)
 
     # ---------------------------------------------------------- asynchronous
+    @claimed
     def async_reset(
         self,
         *,
@@ -495,6 +501,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
         self._core.changing("HolderVectorEnv.async_reset()", reset,
                             len(drills) == self.num_envs)
 
+    @claimed
     def send(self, actions: Any, env_id: Any = None) -> None:
         """The holders of drills ``env_id`` (all drills if ``None``) take ``actions`` (one
         per drill of ``env_id``, in its order); their drills run when ``recv()`` is called.
@@ -512,6 +519,7 @@ class HolderVectorEnv(Pickled, VectorEnv):
         order = np.argsort(drills, kind="stable")
         self._core.changing("HolderVectorEnv.send()", lambda: self._send(a[order], drills[order]))
 
+    @claimed
     def recv(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """The results of the first ``batch_size`` drills whose step is over.
 
