@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import types
 import warnings
 from functools import partial
@@ -95,6 +96,27 @@ def test_metadata_and_spaces_are_stable():
         assert env.observation_space(agent) is env.observation_space(agent)
         assert env.action_space(agent) is env.action_space(agent)
     assert soccer_drill.env(opponent="chasers").possible_agents == ["attacker_0", "attacker_1"]
+
+
+@pytest.mark.parametrize("make", [soccer_drill.env, soccer_drill.parallel_env])
+def test_the_space_dicts_pettingzoo_declares_are_read_only_views_of_the_spaces(make):
+    """PettingZoo's base classes declare ``observation_spaces`` and ``action_spaces``;
+    before, reading them raised AttributeError (older clients, and PettingZoo's own
+    conversions' deprecated attributes, read them)."""
+    from pettingzoo.utils.conversions import aec_to_parallel
+
+    env = make(opponent="goal_guards")
+    for agent in env.possible_agents:
+        assert env.observation_spaces[agent] is env.observation_space(agent)
+        assert env.action_spaces[agent] is env.action_space(agent)
+    assert set(env.observation_spaces) == set(env.possible_agents) == set(env.action_spaces)
+    with pytest.raises(TypeError):
+        env.action_spaces["attacker_0"] = None
+    copy.deepcopy(env).reset(seed=0)
+    if make is soccer_drill.env:
+        with pytest.warns(UserWarning, match="deprecated"):
+            converted = aec_to_parallel(env).observation_spaces
+        assert converted == dict(env.observation_spaces)
 
 
 def test_agents_empty_at_episode_end():

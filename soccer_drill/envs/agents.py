@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Callable, Mapping
+from types import MappingProxyType
 from typing import Any, Literal, TypeVar
 
 import numpy as np
@@ -179,6 +180,18 @@ class _DrillEnvBase(HeaderTexts, Pickled):
     def __copy__(self):
         """An independent copy continuing the episode (see Copies in :class:`raw_env`)."""
         return copy.deepcopy(self)
+
+    @property
+    def observation_spaces(self) -> Mapping[str, spaces.Space]:
+        """Every agent's observation space by agent, read-only: the attribute PettingZoo's
+        base classes declare, for clients that read it rather than call
+        :meth:`observation_space`."""
+        return MappingProxyType(self._observation_spaces)
+
+    @property
+    def action_spaces(self) -> Mapping[str, spaces.Space]:
+        """Every agent's action space by agent, read-only (as :attr:`observation_spaces`)."""
+        return MappingProxyType(self._action_spaces)
 
     def observation_space(self, agent: str) -> spaces.Space:
         """The agent's observation space (see the class docstring); the same object every call."""
