@@ -353,5 +353,5 @@ def test_what_docs_say_of_the_keep_rule_is_in_its_page_numbers():
     for claim in claims:
         assert claim in text, claim
     readme = " ".join((DOCS.parent / "README.md").read_text(encoding="utf-8").split())
-    assert (f"least exploited checkpoint in cross-play instead of the last leaves that seed as "
-            f"it is and holds in {len(held)} of 20") in readme
+    assert (f"least exploited checkpoint in cross-play instead of the last leaves seed "
+            f"{', '.join(map(str, failing))} as it is and holds in {len(held)} of 20") in readme
