@@ -87,3 +87,68 @@ def test_a_pickle_that_records_no_version_is_refused_naming_this_one(kind):
 def test_the_version_names_the_distribution_and_the_source():
     assert code_version().startswith("soccer_drill ")
     assert "(source " in code_version() and code_version() == code_version()
+
+
+_WARMED_TEAM = '''
+import os
+from soccer_drill.teams import Command, Skill, warms
+
+WARMED = []
+
+
+@warms
+def _warm(config):  # what a team's compiled code registers, to compile before its bound
+    WARMED.append(config.defenders)
+
+
+class Warmed:
+    def reset(self, view, rng):
+        self.players = view.players
+
+    def act(self, view):
+        if not WARMED:
+            raise RuntimeError("act() before the warm-up")
+        return {p: Command(Skill.INTERCEPT) for p in self.players}
+'''
+
+_LOAD_AND_STEP = '''
+import pickle, sys
+import numpy as np
+for env in pickle.load(open(sys.argv[1], "rb")):
+    if hasattr(env, "num_envs"):
+        env.step(np.zeros(env.num_envs, dtype=np.int64))
+    else:
+        env.step(0)
+import warmed_team
+print("warmed", len(warmed_team.WARMED) > 0)
+'''
+
+
+@pytest.mark.parametrize("kind", ["holder", "holder vector"])
+def test_a_pickle_loaded_in_a_new_process_runs_the_teams_warm_ups_before_it_plays(
+        kind, tmp_path):
+    """A worker or a resumed checkpoint loads an environment in a new process: the warm-ups
+    the team's module registered (``warms``) run before its first bounded call, as when
+    an environment is made (before, they did not, and a team compiling there was timed out)."""
+    import os
+    import subprocess
+    import sys
+
+    (tmp_path / "warmed_team.py").write_text(_WARMED_TEAM)
+    sys.path.insert(0, str(tmp_path))
+    try:
+        import warmed_team
+
+        maker = {"holder": soccer_drill.HolderEnv, "holder vector":
+                 lambda opponent: HolderVectorEnv(num_envs=2, opponent=opponent)}[kind]
+        env = maker(opponent=warmed_team.Warmed())
+        env.reset(seed=0)
+        (tmp_path / "env.pkl").write_bytes(pickle.dumps([env]))
+    finally:
+        sys.path.remove(str(tmp_path))
+        sys.modules.pop("warmed_team", None)
+    done = subprocess.run(
+        [sys.executable, "-c", _LOAD_AND_STEP, str(tmp_path / "env.pkl")], capture_output=True,
+        text=True, timeout=600, check=False,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), *sys.path])})
+    assert done.returncode == 0 and done.stdout.split() == ["warmed", "True"], done.stderr[-2000:]

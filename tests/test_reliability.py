@@ -215,7 +215,9 @@ def test_a_team_stuck_computing_in_act_is_stopped_named_and_the_env_recovers(
     assert re.fullmatch(
         rf"team '_Hanging' exceeded its time bound of {timeout:g} s of CPU time in act\(\) "
         r"at cycle 2 \(stopped after 0\.\d\d s of CPU time, \d+\.\d\d s in all\); fix the "
-        r"team or pass a larger team_timeout", str(err.value))
+        r"team or pass a larger team_timeout; a team whose call compiles code \(numba's, at "
+        r"its first call\) registers that compile with soccer_drill\.teams\.warms, which runs "
+        r"it before any bounded call", str(err.value))
     assert err.value.__cause__ is None  # the internal interruption is not chained
     # The previous handler is back and no timer is left armed.
     assert signal.getsignal(signal.SIGPROF) is sentinel_prof_handler

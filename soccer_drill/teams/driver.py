@@ -392,6 +392,12 @@ class _Copies:
         return out
 
 
+_COMPILING = ("; a team whose call compiles code (numba's, at its first call) registers "
+              "that compile with soccer_drill.teams.warms, which runs it before any bounded "
+              "call")
+"""The end of a time bound's error: the usual reason a team that runs fast is stopped."""
+
+
 class TeamDriver:
     """The scripted team of ``n`` drills: batched if the team offers it, else one copy per
     drill (see the module docstring).
@@ -516,6 +522,10 @@ class TeamDriver:
         # writable): a writable array is another type to a compiled team, which would be
         # compiled anew inside the copy's first time-bounded call.
         self._every = immutable(self._every)
+        # A copy loaded in another process (a worker, a resumed checkpoint) compiles, or
+        # loads, the rules and the team's registered warm-ups now, as a new driver does,
+        # not inside the team's first bounded call (the team's module is imported by now).
+        warm_up(self._batch.config)
 
     def _check_size(self, counts: object) -> None:
         """The drill's number of defenders, among those the team says it plays (its
@@ -739,12 +749,12 @@ class TeamDriver:
             return TeamError(
                 f"{self._who(copy_drill)} exceeded its time bound of {self.team_timeout:g} s "
                 f"of CPU time in {call}{when} (stopped after {exc.cpu:.2f} s of CPU time); "
-                "fix the team or pass a larger team_timeout")
+                f"fix the team or pass a larger team_timeout{_COMPILING}")
         return TeamError(
             f"{self._who()} exceeded its time bound of {self.team_timeout:g} s of "
             f"CPU time in {call}{when} (stopped after {exc.cpu:.2f} s of CPU time, "
             f"{time.perf_counter() - start:.2f} s in all); fix the team or pass a larger "
-            "team_timeout"
+            f"team_timeout{_COMPILING}"
         )
 
     def copy_raised(self, drill: int, call: str, when: str, exc: BaseException) -> TeamError:
