@@ -214,3 +214,22 @@ def test_a_drill_size_loaded_from_the_cache_beside_another_compiled_anew_plays(t
     assert play("3v2")["3v2"] > 0.5
     moved = play("2v1", "3v2")
     assert moved["2v1"] > 0.5 and moved["3v2"] > 0.5, moved
+
+
+@pytest.mark.skipif(not COMPILED, reason="the rules are not compiled in this process")
+@pytest.mark.parametrize("source", ["<string>", "/nonexistent/ipykernel_0/123.py"])
+def test_a_compiled_function_with_no_source_file_compiles_without_a_warning(source):
+    """A team's function defined in a notebook's cell (IPython names a file that is not
+    there), by exec or by python -c: compiled in memory, with no warning about the drill's
+    rules (before: FileNotFoundError when decorated, or a warning about a minute's compile
+    and NUMBA_CACHE_DIR)."""
+    import warnings
+
+    from soccer_drill.rules.compiled import compiled
+
+    namespace = {"compiled": compiled}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        exec(compile("@compiled\ndef twice(x):\n    return 2.0 * x\n", source, "exec"),
+             namespace)
+        assert namespace["twice"](np.float64(3.0)) == 6.0

@@ -112,9 +112,14 @@ def _disk_cache(function: Callable[..., Any]) -> Any:
     stamped with its own file would run old rules after another module changed. numba
     looks for a directory in ``NUMBA_CACHE_DIR``, then the package's ``__pycache__``,
     then the user's cache directory (``~/.cache/numba``); a read-only install with a
-    read-only home has none, and compiles every rule anew in each process.
+    read-only home has none, and compiles every rule anew in each process. A function with
+    no source file (defined in a notebook's cell, by ``exec`` or ``python -c``) has no
+    cache, and no warning: numba keeps code by its file.
     """
     global _warned_no_cache
+    source = inspect.getsourcefile(function) or ""
+    if not Path(source).is_file():  # a notebook's cell, exec, python -c: no file to cache by
+        return None
     try:
         return _StampedCache(function)
     except RuntimeError as exc:  # numba: "cannot cache function ...: no locator available"
