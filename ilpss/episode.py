@@ -266,7 +266,8 @@ class EpisodeLog:
 
     def result(self) -> EpisodeResult:
         """The episode's :class:`EpisodeResult` (after its last step)."""
-        assert self._last is not None, "an episode has at least one step"
+        if self._last is None:  # not an assert: python -O would drop the check
+            raise RuntimeError("an episode has at least one step: call step() before result()")
         obs, info, terminated, truncated = self._last
         outcome = info.get("outcome")
         if outcome is not None:

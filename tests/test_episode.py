@@ -72,6 +72,19 @@ def test_the_contract_functions() -> None:
             step_duration({"duration": bad})
 
 
+def test_a_result_before_any_step_is_refused_also_under_python_o() -> None:
+    """Before, an assert: python -O dropped it, and the caller got an unrelated TypeError."""
+    import subprocess
+    import sys
+
+    with pytest.raises(RuntimeError, match="an episode has at least one step"):
+        EpisodeLog(0.9, 9, 10).result()
+    done = subprocess.run([sys.executable, "-O", "-c", "from ilpss.episode import EpisodeLog\n"
+                           "EpisodeLog(0.9, 9, 10).result()"], capture_output=True, text=True,
+                          timeout=300, check=False)
+    assert "RuntimeError: an episode has at least one step" in done.stderr
+
+
 def test_the_log_makes_the_episode_result() -> None:
     log = EpisodeLog(gamma=0.5, n_features=1, max_decisions=2)
     for s, r, d in ((0.0, 1.0, 2), (1.0, -0.5, 1)):

@@ -177,7 +177,7 @@ except SystemExit as exc:
 @pytest.mark.parametrize("argv, message", [
     (["--seeds", "0"], "--seeds must be at least 1"),
     (["--first-seed", "-1"], "--first-seed must be an integer >= 0, got -1"),
-    (["--teams", "chasers", "--seeds", "1"], "pip install -e '.[integrations]'"),
+    (["--teams", "chasers", "--seeds", "1"], "pip install 'soccer-drill-ilpss[integrations]'"),
 ])
 def test_without_torch_the_flags_are_checked_and_the_missing_extra_named(argv, message,
                                                                           tmp_path):

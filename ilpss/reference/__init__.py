@@ -1,7 +1,7 @@
 """Reference deep-RL results for the drill: PPO and masked PPO beside the fixed rules and
 the tile-coded learners, by one command (``soccer-drill-reference``).
 
-Needs torch, Stable-Baselines3 and sb3-contrib (``pip install -e ".[integrations]"``);
+Needs torch, Stable-Baselines3 and sb3-contrib (``pip install 'soccer-drill-ilpss[integrations]'``);
 nothing else in the project imports this package. Its modules, one concern each:
 
 ==========================  =========================================================

@@ -33,7 +33,7 @@ reward, ``--timeout-bootstrap`` SB3's treatment of the drill's timeout (see
 :class:`~ilpss.reference.settings.HolderSetting`); each is recorded in every result and
 shown in the page's command.
 
-Needs ``pip install -e ".[integrations]"`` (torch); the parser and the checks of the flags
+Needs ``pip install 'soccer-drill-ilpss[integrations]'`` (torch); the parser and the checks of the flags
 run without it.
 """
 
@@ -359,7 +359,7 @@ def _checked(p: argparse.ArgumentParser, args: argparse.Namespace
         import torch  # noqa: F401
     except ImportError as exc:
         p.error(f"{exc}: the reference runs need torch, Stable-Baselines3 and sb3-contrib: "
-                "pip install -e '.[integrations]'")
+                "pip install 'soccer-drill-ilpss[integrations]'")
     try:
         out = check_out_file(args.out, suffix=".md")
         summary = check_out_file(args.summary or out.with_name(f"{out.stem}_seeds.json.gz"),

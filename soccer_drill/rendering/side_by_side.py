@@ -162,7 +162,7 @@ def _mp4_writer() -> Any:
         import imageio_ffmpeg
     except ImportError:
         raise ValueError("an MP4 needs the video extra, moviepy and imageio-ffmpeg (pip "
-                         "install -e '.[video]'); write a .gif instead") from None
+                         "install 'soccer-drill-ilpss[video]'); write a .gif instead") from None
     return imageio_ffmpeg
 
 

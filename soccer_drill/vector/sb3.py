@@ -1,7 +1,7 @@
 """The batched holder as a Stable-Baselines3 ``VecEnv``: many drills in one process for SB3.
 
 Needs ``stable-baselines3`` (and so torch), which ``soccer_drill`` does not depend on:
-import this module only where SB3 is installed (``pip install -e ".[integrations]"``).
+import this module only where SB3 is installed (``pip install 'soccer-drill-ilpss[integrations]'``).
 
 SB3's ``VecEnv`` predates Gymnasium 1.x's vector API, so SB3 cannot take
 :class:`~soccer_drill.vector.HolderVectorEnv` as it is. :class:`HolderSB3VecEnv` runs one
