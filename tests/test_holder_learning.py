@@ -316,10 +316,19 @@ def test_numbers_written_over_the_page_are_refused_before_learning(tmp_path, mon
     page = tmp_path / "learning.md"
     with pytest.raises(SystemExit) as exit_info:
         holder_learning.main(["--teams", "chasers", "--seeds", "2", "--episodes", "2", "--eval",
-                              "2", "--out", str(page), "--data", str(page)])
+                              "2", "--out", str(page), "--data", str(page),
+                              "--keep", str(tmp_path / "keep")])
     assert exit_info.value.code == 2
     assert (f"--data {page}: the file written is numbers (gzip-compressed JSON) and its name "
             "ends in '.json.gz'") in capsys.readouterr().err
+    assert not (tmp_path / "keep").exists()  # before, the keep folder was made first
+
+
+def test_a_success_rate_interval_stays_within_0_and_1():
+    # before, a t interval over few seeds near 0 or 1 read e.g. 37.5% [-439.0%, 514.0%]
+    learnt = np.array([[1.0, -1.0, -1.0, -1.0], [1.0, 1.0, 1.0, -1.0]])
+    mean, low, high = compare_to_rule(learnt, np.full(4, -1.0))["learnt_success_ci"]
+    assert mean == 0.5 and low == 0.0 and high == 1.0
 
 
 def test_region_use_refuses_a_page_over_a_runs_files_before_reading_it(tmp_path, capsys):

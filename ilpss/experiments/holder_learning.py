@@ -230,9 +230,16 @@ def compare_to_rule(learnt: np.ndarray, rule: np.ndarray) -> dict[str, Any]:
         "improvement": improvement_test(diff),
         "learnt_ci": t_interval(learnt.mean(axis=1)),
         "rule_ci": t_interval(rule),
-        "learnt_success_ci": t_interval((learnt > 0).mean(axis=1)),
+        "learnt_success_ci": _within_shares(t_interval((learnt > 0).mean(axis=1))),
         "rule_success": (wins / rule.size, *wilson_interval(wins, rule.size)),
     }
+
+
+def _within_shares(interval: tuple[float, float, float]) -> tuple[float, float, float]:
+    """A success rate's t interval clipped to 0-1, the values a share can take (few seeds
+    near 0 or 1 reach past them)."""
+    mean, low, high = interval
+    return mean, max(float(low), 0.0), min(float(high), 1.0)
 
 
 def command(p: argparse.ArgumentParser, args: argparse.Namespace) -> str:
@@ -297,9 +304,10 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _checked_inputs(p: argparse.ArgumentParser, args: argparse.Namespace
-                    ) -> tuple[Path, LearnerConfig, list[str], Path]:
-    """The page's path, the learner, the rules' names and the keep folder, or the parser's
-    error (before hours of learning, not after)."""
+                    ) -> tuple[Path, LearnerConfig, list[str], Path, Path]:
+    """The page's path, the learner, the rules' names, the keep folder and the numbers'
+    file, or the parser's error (before hours of learning, not after; and the keep folder
+    made only once everything else passed)."""
     try:
         check_utf8(args)
         check_fields("", args, {f"--{name}": c for name, c in FLAG_CONSTRAINTS.items()},
@@ -311,12 +319,14 @@ def _checked_inputs(p: argparse.ArgumentParser, args: argparse.Namespace
         for team in args.teams:  # an unknown team: the drill's error, naming the known ones
             gym.make(ENV_ID, opponent=team, disable_env_checker=True).close()
         names = sorted(_rules(args.rules))
+        data = check_out_file(args.data or out.with_name(f"{out.stem}_seeds.json.gz"),
+                              "--data", ".json.gz")
         keep = check_out_dir(args.keep, "--keep", run_folder=False)
     except (ValueError, drill_exception(TEAM_ERROR)) as exc:  # TeamError: a broken plugin
         p.error(str(exc))
     except (ImportError, AttributeError) as exc:
         p.error(f"--rules {args.rules}: {exc}")
-    return out, lc, names, keep
+    return out, lc, names, keep, data
 
 
 def _header(numbers: dict[str, Any]) -> list[str]:
@@ -345,7 +355,7 @@ def _header(numbers: dict[str, Any]) -> list[str]:
         "its episodes (t interval; Wilson for the success rate). The evaluation episodes "
         "are the same for every seed and rule, so the comparison is conditional on them.",
         "",
-        "| team | learnt: mean reward [95% CI] | learnt: success [95% CI] | best fixed rule | "
+        "| team | learnt: mean reward [95% CI] | learnt: success [95% CI, within 0-100%] | best fixed rule | "
         "rule: mean reward [95% CI] | rule: success [95% CI] | learnt - rule [95% CI] | "
         "seeds ahead (sign test p) | p (Holm) | learnt better? |",
         "|---|---|---|---|---|---|---|---|---|---|",
@@ -481,12 +491,7 @@ def _main(argv: Sequence[str] | None) -> int:
     args = p.parse_args(argv)
     if args.from_data is not None:
         return _from_data(p, args)
-    out, lc, names, keep = _checked_inputs(p, args)
-    try:
-        data = check_out_file(args.data or out.with_name(f"{out.stem}_seeds.json.gz"),
-                              "--data", ".json.gz")
-    except ValueError as exc:
-        p.error(str(exc))
+    out, lc, names, keep, data = _checked_inputs(p, args)
     stop_on_sigterm()
     start = time.perf_counter()
     pool = LocalExecutor(args.workers)
