@@ -334,3 +334,22 @@ def test_counts_in_report_titles_are_singular_for_one():
     from ilpss.experiments.report_text import counted
 
     assert [counted(n, "seed") for n in (0, 1, 2)] == ["0 seeds", "1 seed", "2 seeds"]
+
+
+def test_the_ray_executor_without_ray_is_a_usage_error_before_any_folder(
+        tmp_path, monkeypatch, capsys):
+    """Before, ilpss-experiment made the run folder and its files, then failed with a
+    two-part ImportError traceback."""
+    import sys
+
+    from ilpss.experiments import cli
+
+    monkeypatch.setitem(sys.modules, "ray", None)  # as if Ray were not installed
+    out = tmp_path / "run"
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(["--protocol", "A", "--seeds", "1", "--episodes", "2", "--rollouts", "1",
+                  "--methods", "scratch", "--executor", "ray", "--out", str(out)])
+    assert exit_info.value.code == 2
+    assert ("--executor ray needs Ray, which is not installed here: pip install "
+            "'soccer-drill-ilpss[ray]'") in capsys.readouterr().err
+    assert not out.exists()

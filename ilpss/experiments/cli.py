@@ -27,7 +27,7 @@ from ilpss._io import FolderInUseError
 from ilpss.experiments.checkpoints import StorageError
 from ilpss.experiments.config import TRAIN_EPISODES, ExperimentConfig
 from ilpss.experiments.drill_facts import TEAM_ERROR, drill_exception, scenario_names
-from ilpss.experiments.executor import stop_on_sigterm, stopped_in_one_line
+from ilpss.experiments.executor import check_executor, stop_on_sigterm, stopped_in_one_line
 from ilpss.experiments.methods import METHODS
 from ilpss.experiments.outputs import check_utf8, description, unwritten_report
 from ilpss.experiments.protocols import PROTOCOLS
@@ -177,6 +177,7 @@ def _main(argv: Sequence[str] | None) -> int:
         if not args.no_report:
             check_utf8(args)
         cfg = build_config(args)
+        check_executor(cfg.executor)
     except OSError as exc:
         p.error(f"--config {args.config}: {exc.strerror or exc}")
     except (ValueError, TypeError) as exc:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import functools
+import importlib.util
 import multiprocessing
 import os
 import signal
@@ -333,6 +334,15 @@ def check_ray_address(address: str | None, timeout: float = 5.0) -> None:
             f"Ray address {address}: no cluster answers there ({exc.strerror or exc}); start "
             "one (ray start --head) or check the address"
         ) from None
+
+
+def check_executor(kind: str) -> None:
+    """``kind`` usable in this process (``"ray"`` needs Ray installed); else
+    ``ValueError`` saying how to get it: for a command to refuse before it makes its folder."""
+    check("executor", kind, EXECUTOR)
+    if kind == "ray" and importlib.util.find_spec("ray") is None:
+        raise ValueError("--executor ray needs Ray, which is not installed here: pip install "
+                         "'soccer-drill-ilpss[ray]'")
 
 
 def make_executor(kind: str, workers: int, progress: bool = True,

@@ -59,6 +59,7 @@ from ilpss.experiments.drill_facts import (
 )
 from ilpss.experiments.executor import (
     EXECUTOR,
+    check_executor,
     check_ray_address,
     make_executor,
     stop_on_sigterm,
@@ -361,6 +362,7 @@ def _checked(p: argparse.ArgumentParser, args: argparse.Namespace
         p.error(f"{exc}: the reference runs need torch, Stable-Baselines3 and sb3-contrib: "
                 "pip install 'soccer-drill-ilpss[integrations]'")
     try:
+        check_executor(args.executor)
         out = check_out_file(args.out, suffix=".md")
         summary = check_out_file(args.summary or out.with_name(f"{out.stem}_seeds.json.gz"),
                                  "--summary", ".json.gz")
