@@ -261,3 +261,16 @@ def test_the_matched_comparisons_quoted_are_the_results_pages(pair, methods):
         assert f"{exact} on {protocol}" in text, (protocol, exact)
         quoted += 1
     assert quoted == 4
+
+
+def test_the_source_distribution_holds_what_its_tests_read():
+    """Before, the sdist held tests/test_*.py alone (setuptools' default): not conftest.py,
+    the helper modules, tests/data, nor the docs, benchmarks and notebooks the tests read,
+    so its test suite could not be collected."""
+    rules = [line.split() for line in (ROOT / "MANIFEST.in").read_text().splitlines()
+             if line.strip() and not line.startswith("#")]
+    grafted = {words[1] for words in rules if words[0] == "graft"}
+    assert {"tests", "docs", "benchmarks", "notebooks"} <= grafted
+    read = {path.split("/")[0] for path in
+            ("docs/data", "benchmarks/bench_env.py", "notebooks", "tests/conftest.py")}
+    assert read <= grafted and ["include", "Makefile"] in rules
