@@ -73,7 +73,8 @@ def _git_commit(source: Path) -> str | None:
     work tree (an installed copy inside some other repository's tree is not its code)."""
     try:
         out = subprocess.run(["git", "-C", str(source), "rev-parse", "--show-toplevel", "HEAD"],
-                             capture_output=True, text=True, timeout=10, check=False)
+                             capture_output=True, text=True, encoding="utf-8", timeout=10,
+                             check=False)
     except (OSError, subprocess.SubprocessError):
         return None
     lines = out.stdout.split()

@@ -17,15 +17,15 @@ def available_memory() -> int | None:
     and what its cgroup's limit leaves (``None`` where neither can be read)."""
     found = []
     try:
-        with open("/proc/meminfo") as meminfo:
+        with open("/proc/meminfo", encoding="ascii") as meminfo:
             for line in meminfo:
                 if line.startswith("MemAvailable:"):
                     found.append(int(line.split()[1]) * 1024)
     except (OSError, ValueError, IndexError):
         pass
     try:
-        with open("/sys/fs/cgroup/memory.max") as limit, \
-                open("/sys/fs/cgroup/memory.current") as current:
+        with open("/sys/fs/cgroup/memory.max", encoding="ascii") as limit, \
+                open("/sys/fs/cgroup/memory.current", encoding="ascii") as current:
             text = limit.read().strip()
             if text != "max":
                 found.append(max(0, int(text) - int(current.read().strip())))
