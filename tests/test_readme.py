@@ -271,6 +271,4 @@ def test_the_source_distribution_holds_what_its_tests_read():
              if line.strip() and not line.startswith("#")]
     grafted = {words[1] for words in rules if words[0] == "graft"}
     assert {"tests", "docs", "benchmarks", "notebooks"} <= grafted
-    read = {path.split("/")[0] for path in
-            ("docs/data", "benchmarks/bench_env.py", "notebooks", "tests/conftest.py")}
-    assert read <= grafted and ["include", "Makefile"] in rules
+    assert ["include", "Makefile"] in rules
