@@ -26,11 +26,12 @@ loops, with the paper's teams (``interceptors_cover`` here; ``--team`` another):
 For the holder loops the cost per decision (one holder's action, what an agent pays per
 ``step`` of one drill) is printed beside the cost per drill-cycle.
 
-``--against DIR`` measures another checkout of the project (e.g. ``git worktree add
-/tmp/before main``) in the same run: each round runs one block of every loop of each
-tree, in subprocesses taking turns (this file's loops, on ``DIR``'s ``soccer_drill``),
-every ratio against the floor measured in its own process in that round; the table has
-both trees' medians over rounds.
+Each round runs one block of every loop in a subprocess of its own, whose loops start
+afresh (seed 0). ``--against DIR`` measures another checkout of the project (e.g. ``git
+worktree add /tmp/before main``) in the same run: each round runs one such subprocess per
+tree (this file's loops, on ``DIR``'s ``soccer_drill``), the trees going first in turn
+(the second reads a few per cent slower), every ratio against the floor measured in its
+own process in that round; the table has both trees' medians over rounds.
 
 Then each batched loop's cost per cycle split into a fixed part and a part per drill (a
 line through its costs at the sizes from 2 to ``--fit-max``), and the size from which it
@@ -243,11 +244,10 @@ def profile(n: int, team: str, cycles: int) -> list[tuple[str, float]]:
     stats = pstats.Stats(prof).stats  # type: ignore[attr-defined]
     groups = {
         "physics (pymunk spaces, batched reads/writes)": ("drill/spaces.py", "cycle"),
-        "team (batched act and its checks)": ("teams/batch.py", "act"),
-        "the drill's cycle (BatchDrill.step: skills, ball, physics, possession)": (
+        "team (batched act and its checks)": ("teams/driver.py", "act"),
+        "the drill's cycle (BatchDrill.step: skills, ball, physics, possession; the "
+        "compiled rules, which cProfile does not see apart, inside it)": (
             "drill/drills.py", "step"),
-        "rules before the physics (compiled)": ("rules/cycle.py", "before_physics_of_drills"),
-        "rules after the physics (compiled)": ("rules/cycle.py", "after_physics_of_drills"),
         "observations and masks": ("vector/agents.py", "_observations"),
         "action checks": ("vector/agents.py", "_commands"),
         "whole step": ("vector/agents.py", "step"),
@@ -304,8 +304,9 @@ def main() -> None:
     here = str(Path(__file__).resolve().parents[1])
     trees = {"this": here} if args.against is None else {"before": args.against, "after": here}
     runs: dict[str, dict | None] = dict.fromkeys(trees)
-    for _ in range(args.rounds):
-        for label, tree in trees.items():
+    for k in range(args.rounds):
+        # the trees take turns going first: the one run second reads a few per cent slower
+        for label, tree in (list(trees.items()) if k % 2 == 0 else reversed(trees.items())):
             runs[label] = _merge(runs[label], _worker(tree, args))
     done = {k: v for k, v in runs.items() if v is not None}
     print(f"python {platform.python_version()}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}; "
