@@ -90,7 +90,6 @@ def test_the_version_names_the_distribution_and_the_source():
 
 
 _WARMED_TEAM = '''
-import os
 from soccer_drill.teams import Command, Skill, warms
 
 WARMED = []

@@ -40,14 +40,13 @@ from ilpss.tiles import KEEPAWAY_ANGLE_WIDTH, KEEPAWAY_DISTANCE_WIDTH
 from soccer_drill.files import atomic_write_text, read_digested_json, write_digested_json
 
 SCHEMA_VERSION = 1
+"""The version of the kept records' and the page data's layout."""
 SEED_SCHEMA = 2
 """The schema of a seed's record under ``--runs`` (2: digested, checked when read)."""
-
 DEFAULT_RUNS = "results/keepaway"
 """Where the seeds' records are kept unless ``--runs`` says; a page's command names the
 folders its numbers were made with (these and ``--out docs`` for numbers that do not
 record them)."""
-"""The version of the kept records' and the page data's layout."""
 EVAL_BASE = 500_000
 """Evaluation episodes' seeds start here (training episodes' seeds are far below)."""
 LEARNER = replace(KEEPAWAY, epsilon=0.01)

@@ -395,8 +395,8 @@ _CALLS = ("step", "reset", "async_reset", "send", "recv")  # the calls that hold
 
 
 def _inside_own_call(env: object) -> bool:
-    """Whether this thread is inside a ``step`` or ``reset`` of ``env`` besides the call
-    that was refused (read only then, so it costs a step nothing)."""
+    """Whether this thread is inside a call of ``env`` that holds its lock (:data:`_CALLS`)
+    besides the call that was refused (read only then, so it costs a step nothing)."""
     calls, frame = 0, sys._getframe(1)
     while frame is not None:
         if frame.f_code.co_name in _CALLS and frame.f_locals.get("self") is env:
